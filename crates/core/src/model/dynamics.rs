@@ -1,0 +1,249 @@
+//! Rigid-body dynamics `M(q) qdd + C(q, qd) qd + G(q) = B tau`, generic over the scalar type.
+//!
+//! State `x = [q, qd]` (2n), input `u = tau` = torques of joints 2..n (n - 1), `B = [0; I]`. Angles as in
+//! [`super::kinematics`]. The mass matrix is built in absolute angles, where it has the closed form
+//! `M_abs[j][k] = d_jk cos(th_j - th_k)`, and mapped to relative angles by `M = S^T M_abs S` with `S` the
+//! lower-triangular matrix of ones (`th = S q`). Units: N m for torques, rad/s^2 for accelerations.
+
+use super::Robot;
+use crate::math::{c, Scalar};
+
+/// Reusable buffers for the dynamics of one robot and one scalar type (allocated once; no allocation
+/// per call).
+#[derive(Debug, Clone)]
+pub struct Scratch<T> {
+    n: usize,
+    s: Vec<T>,
+    co: Vec<T>,
+    thd: Vec<T>,
+    mabs: Vec<T>,
+    hab: Vec<T>,
+    /// Mass matrix (relative angles), row-major n x n; after `forward_dynamics` its lower triangle holds
+    /// the Cholesky factor.
+    m: Vec<T>,
+    h: Vec<T>,
+}
+
+impl<T: Scalar> Scratch<T> {
+    /// Buffers for an n-link robot.
+    pub fn new(n: usize) -> Self {
+        let z = T::zero();
+        Scratch {
+            n,
+            s: vec![z; n],
+            co: vec![z; n],
+            thd: vec![z; n],
+            mabs: vec![z; n * n],
+            hab: vec![z; n],
+            m: vec![z; n * n],
+            h: vec![z; n],
+        }
+    }
+}
+
+impl Robot {
+    /// Fill `ws.s`, `ws.co` (sin/cos of absolute angles) and `ws.m` (mass matrix in relative angles).
+    fn fill_mass<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T]) {
+        let n = self.n;
+        debug_assert_eq!(ws.n, n, "scratch built for another robot");
+        let mut th = T::zero();
+        for i in 0..n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            ws.s[i] = s;
+            ws.co[i] = co;
+        }
+        for j in 0..n {
+            ws.mabs[j * n + j] = c(self.d[j * n + j]);
+            for k in j + 1..n {
+                let v = (ws.co[j] * ws.co[k] + ws.s[j] * ws.s[k]) * self.d[j * n + k];
+                ws.mabs[j * n + k] = v;
+                ws.mabs[k * n + j] = v;
+            }
+        }
+        // M = S^T Mabs S: suffix sums over columns, then over rows.
+        for i in 0..n {
+            let mut acc = T::zero();
+            for m in (0..n).rev() {
+                acc += ws.mabs[i * n + m];
+                ws.mabs[i * n + m] = acc;
+            }
+        }
+        for m in 0..n {
+            let mut acc = T::zero();
+            for l in (0..n).rev() {
+                acc += ws.mabs[l * n + m];
+                ws.m[l * n + m] = acc;
+            }
+        }
+    }
+
+    /// Fill `ws.h` = C(q, qd) qd + G(q) in relative angles (needs `fill_mass` first for sin/cos).
+    fn fill_bias<T: Scalar>(
+        &self,
+        ws: &mut Scratch<T>,
+        qd: &[T],
+        with_velocity: bool,
+        with_gravity: bool,
+    ) {
+        let n = self.n;
+        let mut acc = T::zero();
+        for i in 0..n {
+            acc += qd[i];
+            ws.thd[i] = acc;
+        }
+        for j in 0..n {
+            let mut v = T::zero();
+            if with_velocity {
+                for k in 0..n {
+                    if k != j {
+                        // sin(th_j - th_k)
+                        let sjk = ws.s[j] * ws.co[k] - ws.co[j] * ws.s[k];
+                        v += sjk * ws.thd[k] * ws.thd[k] * self.d[j * n + k];
+                    }
+                }
+            }
+            if with_gravity {
+                v += ws.co[j] * self.gcoef[j];
+            }
+            ws.hab[j] = v;
+        }
+        let mut acc = T::zero();
+        for l in (0..n).rev() {
+            acc += ws.hab[l];
+            ws.h[l] = acc;
+        }
+    }
+
+    /// Mass matrix M(q), row-major n x n.
+    pub fn mass_matrix_into<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], m: &mut [T]) {
+        self.fill_mass(ws, q);
+        m[..self.n * self.n].copy_from_slice(&ws.m);
+    }
+
+    /// Coriolis and centrifugal forces C(q, qd) qd (n).
+    pub fn coriolis_into<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], qd: &[T], out: &mut [T]) {
+        self.fill_mass(ws, q);
+        self.fill_bias(ws, qd, true, false);
+        out[..self.n].copy_from_slice(&ws.h);
+    }
+
+    /// Gravity forces G(q) = dV/dq (n).
+    pub fn gravity_into<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], out: &mut [T]) {
+        self.fill_mass(ws, q);
+        self.fill_bias(ws, q, false, true);
+        out[..self.n].copy_from_slice(&ws.h);
+    }
+
+    /// Forward dynamics: `qdd = M^-1 (B tau - C qd - G)`.
+    pub fn forward_dynamics_into<T: Scalar>(
+        &self,
+        ws: &mut Scratch<T>,
+        q: &[T],
+        qd: &[T],
+        tau: &[T],
+        qdd: &mut [T],
+    ) {
+        let n = self.n;
+        self.fill_mass(ws, q);
+        self.fill_bias(ws, qd, true, true);
+        qdd[0] = -ws.h[0];
+        for i in 1..n {
+            qdd[i] = tau[i - 1] - ws.h[i];
+        }
+        cholesky_solve_in_place(&mut ws.m, n, &mut qdd[..n]);
+    }
+
+    /// Inverse dynamics: the generalised forces `M qdd + C qd + G` (n). For a motion the robot can make,
+    /// entry 0 (the passive grip joint) is zero and entries 1.. are the torques tau.
+    pub fn inverse_dynamics_into<T: Scalar>(
+        &self,
+        ws: &mut Scratch<T>,
+        q: &[T],
+        qd: &[T],
+        qdd: &[T],
+        out: &mut [T],
+    ) {
+        let n = self.n;
+        self.fill_mass(ws, q);
+        self.fill_bias(ws, qd, true, true);
+        for i in 0..n {
+            let mut v = ws.h[i];
+            for j in 0..n {
+                v += ws.m[i * n + j] * qdd[j];
+            }
+            out[i] = v;
+        }
+    }
+
+    /// Kinetic energy `1/2 qd^T M(q) qd`, J.
+    pub fn kinetic_energy<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], qd: &[T]) -> T {
+        let n = self.n;
+        self.fill_mass(ws, q);
+        let mut e = T::zero();
+        for i in 0..n {
+            for j in 0..n {
+                e += ws.m[i * n + j] * qd[i] * qd[j];
+            }
+        }
+        e * 0.5
+    }
+
+    /// Total mechanical energy (kinetic + potential), J.
+    pub fn energy(&self, q: &[f64], qd: &[f64]) -> f64 {
+        let mut ws = Scratch::new(self.n);
+        self.kinetic_energy(&mut ws, q, qd) + self.potential_energy(q)
+    }
+
+    /// Forward dynamics in plain f64 (allocates a scratch; use
+    /// [`Robot::forward_dynamics_into`] in loops).
+    pub fn forward_dynamics(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Vec<f64> {
+        let mut ws = Scratch::new(self.n);
+        let mut qdd = vec![0.0; self.n];
+        self.forward_dynamics_into(&mut ws, q, qd, tau, &mut qdd);
+        qdd
+    }
+
+    /// Mass matrix in plain f64, row-major (allocates).
+    pub fn mass_matrix(&self, q: &[f64]) -> Vec<f64> {
+        let mut ws = Scratch::new(self.n);
+        let mut m = vec![0.0; self.n * self.n];
+        self.mass_matrix_into(&mut ws, q, &mut m);
+        m
+    }
+}
+
+/// Solve `A x = b` for symmetric positive definite `A` (row-major n x n) by Cholesky; `A`'s lower
+/// triangle is overwritten by the factor and `b` by the solution.
+pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        let inv = d.recip();
+        for i in j + 1..n {
+            let mut v = a[i * n + j];
+            for k in 0..j {
+                v -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = v * inv;
+        }
+    }
+    for i in 0..n {
+        let mut v = b[i];
+        for k in 0..i {
+            v -= a[i * n + k] * b[k];
+        }
+        b[i] = v / a[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut v = b[i];
+        for k in i + 1..n {
+            v -= a[k * n + i] * b[k];
+        }
+        b[i] = v / a[i * n + i];
+    }
+}

@@ -1,0 +1,128 @@
+//! Forward kinematics of the planar chain, generic over the scalar type.
+//!
+//! Angles: `q[0]` is the absolute angle of link 1 from the +x axis (counter-clockwise positive);
+//! `q[i]` (i >= 1) is the angle of link i+1 relative to link i. The absolute angle of link i is
+//! `th_i = q_0 + ... + q_i`. Joint 1 sits at the grip point, the origin of the body frame; joint i+1 is
+//! the distal end of link i; the end effector (EE) is the distal end of link n. Lengths in m.
+
+use super::Robot;
+use crate::math::{c, Scalar};
+
+/// A 2-D point or vector `[x, y]`.
+pub type P2<T> = [T; 2];
+
+impl Robot {
+    /// Absolute link angles `th` from relative joint angles `q`.
+    pub fn absolute_angles<T: Scalar>(&self, q: &[T], th: &mut [T]) {
+        let mut acc = T::zero();
+        for i in 0..self.n {
+            acc += q[i];
+            th[i] = acc;
+        }
+    }
+
+    /// Joint positions: `out[0]` is the grip (origin), `out[i]` the distal end of link i, `out[n]` the EE.
+    /// `out` must hold n + 1 points.
+    pub fn joint_positions<T: Scalar>(&self, q: &[T], out: &mut [P2<T>]) {
+        let mut th = T::zero();
+        let mut p = [T::zero(), T::zero()];
+        out[0] = p;
+        for i in 0..self.n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            p = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+            out[i + 1] = p;
+        }
+    }
+
+    /// End-effector position.
+    pub fn ee_position<T: Scalar>(&self, q: &[T]) -> P2<T> {
+        let mut th = T::zero();
+        let mut p = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            p = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+        }
+        p
+    }
+
+    /// End-effector velocity `J(q) qd`.
+    pub fn ee_velocity<T: Scalar>(&self, q: &[T], qd: &[T]) -> P2<T> {
+        let (mut th, mut thd) = (T::zero(), T::zero());
+        let mut v = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            thd += qd[i];
+            let (s, co) = th.sin_cos();
+            v = [v[0] - s * thd * self.len[i], v[1] + co * thd * self.len[i]];
+        }
+        v
+    }
+
+    /// Centre-of-mass positions of the links (`out` holds n points).
+    pub fn com_positions<T: Scalar>(&self, q: &[T], out: &mut [P2<T>]) {
+        let mut th = T::zero();
+        let mut p = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            out[i] = [p[0] + co * self.com[i], p[1] + s * self.com[i]];
+            p = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+        }
+    }
+
+    /// EE Jacobian `J = d ee / d q`, 2 x n, written row-major into `jac` (length 2n).
+    pub fn ee_jacobian(&self, q: &[f64], jac: &mut [f64]) {
+        let n = self.n;
+        let mut th = [0.0; super::MAX_LINKS];
+        self.absolute_angles(q, &mut th[..n]);
+        let (mut sx, mut sy) = (0.0, 0.0);
+        for l in (0..n).rev() {
+            let (s, co) = th[l].sin_cos();
+            sx -= self.len[l] * s;
+            sy += self.len[l] * co;
+            jac[l] = sx;
+            jac[n + l] = sy;
+        }
+    }
+
+    /// `Jdot(q, qd) qd`: the EE acceleration when qdd = 0.
+    pub fn ee_jdot_qd<T: Scalar>(&self, q: &[T], qd: &[T]) -> P2<T> {
+        let (mut th, mut thd) = (T::zero(), T::zero());
+        let mut a = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            thd += qd[i];
+            let (s, co) = th.sin_cos();
+            let w2 = thd * thd * self.len[i];
+            a = [a[0] - co * w2, a[1] - s * w2];
+        }
+        a
+    }
+
+    /// Links as segments `(start, end)`: link i runs from joint i to joint i+1 (`out` holds n segments).
+    pub fn link_segments<T: Scalar>(&self, q: &[T], out: &mut [(P2<T>, P2<T>)]) {
+        let mut th = T::zero();
+        let mut p = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            let e = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+            out[i] = (p, e);
+            p = e;
+        }
+    }
+
+    /// Potential energy `V(q) = sum_i m_i g y_ci`, J (zero at the height of the grip).
+    pub fn potential_energy<T: Scalar>(&self, q: &[T]) -> T {
+        let mut th = T::zero();
+        let mut v = T::zero();
+        for i in 0..self.n {
+            th += q[i];
+            // gcoef[i] = g (m_i com_i + L_i * distal mass)
+            v += th.sin() * c::<T>(self.gcoef[i]);
+        }
+        v
+    }
+}

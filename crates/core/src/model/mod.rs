@@ -1,0 +1,11 @@
+//! The robot model: parameters, kinematics, dynamics and their exact derivatives.
+
+mod derivatives;
+mod dynamics;
+mod kinematics;
+mod params;
+
+pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
+pub use dynamics::{cholesky_solve_in_place, Scratch};
+pub use kinematics::P2;
+pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS};
