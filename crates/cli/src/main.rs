@@ -1,1 +1,57 @@
-fn main() {}
+//! `brachia`: the command-line interface, a thin layer over the library.
+//!
+//! Exit codes: 0 success; 1 a solver did not converge (its report is still written); 2 bad input
+//! (nothing is written).
+
+mod io;
+mod simulate;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Plan and track energy-optimal swings of underactuated brachiation robots.
+#[derive(Parser)]
+#[command(name = "brachia", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Simulate the passive chain (zero torque) with the RK4 model plant.
+    Simulate(simulate::Args),
+}
+
+/// An error of a command: bad input (exit 2) or a failure after the inputs were accepted (exit 1).
+#[derive(Debug)]
+pub enum CliError {
+    /// Invalid or missing input: exit code 2, nothing written.
+    Input(String),
+    /// A computation did not succeed: exit code 1.
+    Failed(String),
+}
+
+impl From<brachia::Error> for CliError {
+    fn from(e: brachia::Error) -> Self {
+        CliError::Input(e.to_string())
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Simulate(a) => simulate::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::Input(msg)) => {
+            eprintln!("error: {msg}");
+            ExitCode::from(2)
+        }
+        Err(CliError::Failed(msg)) => {
+            eprintln!("error: {msg}");
+            ExitCode::from(1)
+        }
+    }
+}

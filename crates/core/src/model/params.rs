@@ -233,6 +233,14 @@ impl Robot {
         Self::from_params(p, &path.display().to_string())
     }
 
+    /// The paper's robot (Table I), from the bundled `params/paper.toml`.
+    pub fn paper() -> Self {
+        let text = include_str!("../../../../params/paper.toml");
+        let p =
+            RobotParams::from_toml_str(text, "params/paper.toml").expect("bundled params parse");
+        Self::from_params(p, "params/paper.toml").expect("bundled params are valid")
+    }
+
     /// Number of actuated joints (n - 1).
     pub fn nu(&self) -> usize {
         self.n - 1

@@ -1,0 +1,188 @@
+//! Planner settings: swing time, knot spacing, transcription, weights, bounds.
+//!
+//! Units: s, rad, rad/s, N m. Weights are the diagonals of the paper's Q1 (on qd, n values) and R1 (on tau,
+//! n - 1 values).
+
+use crate::error::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// How the dynamics are imposed between knots (paper eq. 6 and better rules).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Transcription {
+    /// Paper eq. (6) with the `qd dt` term the paper dropped:
+    /// `q+ = q + qd h + qdd h^2 / 2`, `qd+ = qd + qdd h`; torque held over the interval.
+    Euler,
+    /// Trapezoidal rule on `[qd, qdd]`; torque linear between knots.
+    Trapezoidal,
+    /// Hermite-Simpson (separated form: midpoint states and torques are variables); torque quadratic.
+    #[default]
+    HermiteSimpson,
+}
+
+/// The swing time T.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SwingTime {
+    /// A fixed time in seconds.
+    Seconds(f64),
+    /// `"auto"`: T = 2 T_freefall (see [`crate::planning::freefall_time`]).
+    Auto(AutoTag),
+}
+
+/// The literal `"auto"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AutoTag {
+    /// T = 2 T_freefall.
+    Auto,
+}
+
+impl Default for SwingTime {
+    fn default() -> Self {
+        SwingTime::Auto(AutoTag::Auto)
+    }
+}
+
+/// Box bounds on the knot variables (paper eq. 10). Torque limits come from the robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Bounds {
+    /// Range of q1 (absolute angle of link 1), rad. Default [-pi, 0]: link 1 stays below the bar.
+    pub q1: [f64; 2],
+    /// Largest |q_i| of the relative joints 2..n, rad. Default 2.9 (links may fold but not pass through
+    /// each other).
+    pub q_rel_max: f64,
+    /// Largest |qd_i| of every joint, rad/s. Default 15.
+    pub qd_max: f64,
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds {
+            q1: [-std::f64::consts::PI, 0.0],
+            q_rel_max: 2.9,
+            qd_max: 15.0,
+        }
+    }
+}
+
+/// Everything the planner needs besides the robot and the task.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlannerSettings {
+    /// Swing time: `"auto"` (2 T_freefall) or seconds.
+    pub swing_time: SwingTime,
+    /// Knot spacing, s (default 0.01); the number of intervals is `round(T / knot_dt)`.
+    pub knot_dt: f64,
+    /// Collocation rule.
+    pub transcription: Transcription,
+    /// Diagonal of Q1, the weight on joint velocities (n values; empty = 0.01 each).
+    pub q1_diag: Vec<f64>,
+    /// Diagonal of R1, the weight on torques (n - 1 values; empty = 1 each).
+    pub r1_diag: Vec<f64>,
+    /// Box bounds.
+    pub bounds: Bounds,
+    /// Extra clearance kept from obstacles and between non-adjacent links, m (default 0.01).
+    pub obstacle_margin: f64,
+    /// Avoid obstacles (default true; false plans as if they were absent).
+    pub avoid_obstacles: bool,
+    /// Keep non-adjacent links apart (default true).
+    pub self_collision: bool,
+    /// Period of the resampled output trajectory, s (default 0.001).
+    pub output_dt: f64,
+}
+
+impl Default for PlannerSettings {
+    fn default() -> Self {
+        PlannerSettings {
+            swing_time: SwingTime::default(),
+            knot_dt: 0.01,
+            transcription: Transcription::default(),
+            q1_diag: vec![],
+            r1_diag: vec![],
+            bounds: Bounds::default(),
+            obstacle_margin: 0.01,
+            avoid_obstacles: true,
+            self_collision: true,
+            output_dt: 0.001,
+        }
+    }
+}
+
+impl PlannerSettings {
+    /// Check values for an n-link robot; `src` names the origin in messages.
+    pub fn validate(&self, n: usize, src: &str) -> Result<()> {
+        let pos = |field: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(src, field, v, "must be a finite number > 0"))
+            }
+        };
+        if let SwingTime::Seconds(t) = self.swing_time {
+            pos("swing_time", t)?;
+        }
+        pos("knot_dt", self.knot_dt)?;
+        pos("output_dt", self.output_dt)?;
+        pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
+        pos("bounds.qd_max", self.bounds.qd_max)?;
+        let [lo, hi] = self.bounds.q1;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(Error::invalid(
+                src,
+                "bounds.q1",
+                format!("[{lo}, {hi}]"),
+                "need lo < hi",
+            ));
+        }
+        if !(self.obstacle_margin.is_finite() && self.obstacle_margin >= 0.0) {
+            return Err(Error::invalid(
+                src,
+                "obstacle_margin",
+                self.obstacle_margin,
+                "must be >= 0",
+            ));
+        }
+        for (name, v, len) in [
+            ("q1_diag", &self.q1_diag, n),
+            ("r1_diag", &self.r1_diag, n - 1),
+        ] {
+            if !v.is_empty() && v.len() != len {
+                return Err(Error::invalid(
+                    src,
+                    name,
+                    format!("{v:?}"),
+                    format!("needs {len} values (or none for the default)"),
+                ));
+            }
+            if let Some(x) = v.iter().find(|x| !x.is_finite() || **x < 0.0) {
+                return Err(Error::invalid(
+                    src,
+                    name,
+                    x,
+                    "weights must be finite and >= 0",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Q1 diagonal with defaults filled in.
+    pub fn q1(&self, n: usize) -> Vec<f64> {
+        if self.q1_diag.is_empty() {
+            vec![0.01; n]
+        } else {
+            self.q1_diag.clone()
+        }
+    }
+
+    /// R1 diagonal with defaults filled in.
+    pub fn r1(&self, n: usize) -> Vec<f64> {
+        if self.r1_diag.is_empty() {
+            vec![1.0; n - 1]
+        } else {
+            self.r1_diag.clone()
+        }
+    }
+}
