@@ -4,6 +4,7 @@
 //! (nothing is written).
 
 mod io;
+mod plan;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -21,6 +22,8 @@ struct Cli {
 enum Command {
     /// Simulate the passive chain (zero torque) with the RK4 model plant.
     Simulate(simulate::Args),
+    /// Plan an energy-optimal swing for a scenario (direct collocation).
+    Plan(plan::Args),
 }
 
 /// An error of a command: bad input (exit 2) or a failure after the inputs were accepted (exit 1).
@@ -42,6 +45,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
+        Command::Plan(a) => plan::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -72,39 +72,44 @@ impl Trajectory {
         self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
     }
 
-    /// Resample at a fixed period `dt` from `t[0]` to the last sample (inclusive, rounded to the
-    /// nearest multiple of `dt`): q by cubic Hermite interpolation with slopes qd, qd by cubic Hermite
-    /// interpolation with slopes `qdd` (the knot accelerations, row-major `len x n`), tau linearly. The
-    /// result passes through every knot and agrees with the knot velocities.
+    /// Cubic Hermite interpolation at time `t` (clamped to the ends): q with slopes qd, qd with slopes
+    /// `qdd` (knot accelerations, row-major `len x n`), tau linearly. Writes `q`, `qd` (n) and `tau` (n-1).
+    /// At a sample time it returns that sample exactly.
+    pub fn hermite_at(&self, qdd: &[f64], t: f64, q: &mut [f64], qd: &mut [f64], tau: &mut [f64]) {
+        let (n, m) = (self.n, self.n - 1);
+        let last = self.len() - 1;
+        let t = t.clamp(self.t[0], self.t[last]);
+        let seg = (self.t.partition_point(|&s| s <= t).max(1) - 1).min(last.saturating_sub(1));
+        let (ta, tb) = (self.t[seg], self.t[seg + 1]);
+        let h = tb - ta;
+        let r = ((t - ta) / h).clamp(0.0, 1.0);
+        let (h00, h10, h01, h11) = hermite_basis(r);
+        for i in 0..n {
+            let (qa, qb) = (self.q[seg * n + i], self.q[(seg + 1) * n + i]);
+            let (va, vb) = (self.qd[seg * n + i], self.qd[(seg + 1) * n + i]);
+            let (aa, ab) = (qdd[seg * n + i], qdd[(seg + 1) * n + i]);
+            q[i] = h00 * qa + h10 * h * va + h01 * qb + h11 * h * vb;
+            qd[i] = h00 * va + h10 * h * aa + h01 * vb + h11 * h * ab;
+        }
+        for j in 0..m {
+            let (ua, ub) = (self.tau[seg * m + j], self.tau[(seg + 1) * m + j]);
+            tau[j] = ua + r * (ub - ua);
+        }
+    }
+
+    /// Resample at a fixed period `dt` from `t[0]` for `round(duration / dt)` periods with
+    /// [`Trajectory::hermite_at`] (times past the last sample are clamped to it). The result passes
+    /// through every knot and agrees with the knot velocities.
     pub fn resample_hermite(&self, qdd: &[f64], dt: f64) -> Trajectory {
         let n = self.n;
-        let m = n - 1;
         let t0 = self.t[0];
         let steps = (self.duration() / dt).round() as usize;
         let mut out = Trajectory::new(n);
-        let (mut q, mut qd, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
-        let mut seg = 0;
+        let (mut q, mut qd, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; n - 1]);
         for s in 0..=steps {
-            let t = (t0 + s as f64 * dt).min(*self.t.last().unwrap());
-            while seg + 2 < self.len() && t > self.t[seg + 1] {
-                seg += 1;
-            }
-            let (ta, tb) = (self.t[seg], self.t[seg + 1]);
-            let h = tb - ta;
-            let r = ((t - ta) / h).clamp(0.0, 1.0);
-            let (h00, h10, h01, h11) = hermite_basis(r);
-            for i in 0..n {
-                let (qa, qb) = (self.q[seg * n + i], self.q[(seg + 1) * n + i]);
-                let (va, vb) = (self.qd[seg * n + i], self.qd[(seg + 1) * n + i]);
-                let (aa, ab) = (qdd[seg * n + i], qdd[(seg + 1) * n + i]);
-                q[i] = h00 * qa + h10 * h * va + h01 * qb + h11 * h * vb;
-                qd[i] = h00 * va + h10 * h * aa + h01 * vb + h11 * h * ab;
-            }
-            for j in 0..m {
-                let (ua, ub) = (self.tau[seg * m + j], self.tau[(seg + 1) * m + j]);
-                tau[j] = ua + r * (ub - ua);
-            }
-            out.push(t0 + s as f64 * dt, &q, &qd, &tau);
+            let t = t0 + s as f64 * dt;
+            self.hermite_at(qdd, t, &mut q, &mut qd, &mut tau);
+            out.push(t, &q, &qd, &tau);
         }
         out
     }

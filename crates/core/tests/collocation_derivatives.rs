@@ -1,11 +1,34 @@
 //! The collocation NLP's exact Jacobian and Hessian against finite differences, for every transcription.
 
 use brachia::fdcheck::{assert_hessian, assert_jacobian};
+use brachia::model::DynamicsFn;
 use brachia::planning::nlp::SparseNlp;
-use brachia::planning::{CollocationNlp, Layout, Transcription};
+use brachia::planning::{CollocationNlp, EeTerminalFn, Layout, NoPath, Transcription};
 use brachia::Robot;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+type SwingNlp<'a> = CollocationNlp<DynamicsFn<'a>, EeTerminalFn<'a>, NoPath>;
+
+fn swing_nlp<'a>(
+    robot: &'a Robot,
+    layout: Layout,
+    target: [f64; 2],
+    nv: usize,
+    x: &[f64],
+    w: (&[f64], &[f64]),
+) -> SwingNlp<'a> {
+    CollocationNlp::new(
+        DynamicsFn { robot },
+        EeTerminalFn { robot },
+        layout,
+        vec![target[0], target[1], 0.0, 0.0],
+        (vec![-1e3; nv], vec![1e3; nv]),
+        x.to_vec(),
+        w,
+        None,
+    )
+}
 
 fn dense_from_triplets(
     rows: &[usize],
@@ -34,20 +57,11 @@ fn jacobian_and_hessian_match_finite_differences() {
         Transcription::Trapezoidal,
         Transcription::HermiteSimpson,
     ] {
-        let layout = Layout::new(4, 3, 0.3, tr);
+        let layout = Layout::new(4, 3, 3, 0.3, tr);
         let nv = layout.n_vars();
         let x: Vec<f64> = (0..nv).map(|_| rng.gen_range(-1.5..1.5)).collect();
-        let bounds = (vec![-10.0; nv], vec![10.0; nv]);
         let (q1, r1) = (vec![0.3, 0.2, 0.1, 0.4], vec![1.0, 2.0, 0.5]);
-        let mut nlp: CollocationNlp = CollocationNlp::new(
-            &robot,
-            layout,
-            [0.8, 0.0],
-            bounds,
-            x.clone(),
-            (&q1, &r1),
-            None,
-        );
+        let mut nlp = swing_nlp(&robot, layout, [0.8, 0.0], nv, &x, (&q1, &r1));
         let m = nlp.n_cons();
         let (jr, jc) = nlp.jacobian_structure();
         let mut jv = vec![0.0; jr.len()];
@@ -56,15 +70,7 @@ fn jacobian_and_hessian_match_finite_differences() {
         // no duplicate entries in the structure
         let mut seen = std::collections::HashSet::new();
         assert!(jr.iter().zip(&jc).all(|e| seen.insert(e)));
-        let mut nlp2: CollocationNlp = CollocationNlp::new(
-            &robot,
-            layout,
-            [0.8, 0.0],
-            (vec![-10.0; nv], vec![10.0; nv]),
-            x.clone(),
-            (&q1, &r1),
-            None,
-        );
+        let mut nlp2 = swing_nlp(&robot, layout, [0.8, 0.0], nv, &x, (&q1, &r1));
         assert_jacobian(
             &format!("{tr:?} constraint Jacobian"),
             |x, g| nlp2.constraints(x, g),
@@ -84,15 +90,7 @@ fn jacobian_and_hessian_match_finite_differences() {
         let mut hv = vec![0.0; hr.len()];
         nlp.hessian_values(&x, sigma, &lam, &mut hv);
         let hess = dense_from_triplets(&hr, &hc, &hv, nv, nv, true);
-        let mut nlp3: CollocationNlp = CollocationNlp::new(
-            &robot,
-            layout,
-            [0.8, 0.0],
-            (vec![-10.0; nv], vec![10.0; nv]),
-            x.clone(),
-            (&q1, &r1),
-            None,
-        );
+        let mut nlp3 = swing_nlp(&robot, layout, [0.8, 0.0], nv, &x, (&q1, &r1));
         let (r3, c3) = nlp3.jacobian_structure();
         let grad_lag = |x: &[f64], g: &mut [f64]| {
             nlp3.gradient(x, g);
@@ -123,7 +121,7 @@ fn defects_vanish_on_an_exact_polynomial_motion() {
     // qd = q'(t) (they do not involve qdd), evaluated through the NLP's constraint function.
     let robot = Robot::paper();
     for tr in [Transcription::Trapezoidal, Transcription::HermiteSimpson] {
-        let layout = Layout::new(4, 4, 0.4, tr);
+        let layout = Layout::new(4, 3, 4, 0.4, tr);
         let nv = layout.n_vars();
         let mut x = vec![0.0; nv];
         let (a, b) = (0.7, -1.3);
@@ -140,15 +138,7 @@ fn defects_vanish_on_an_exact_polynomial_motion() {
                 x[layout.var(p, 4 + i)] = qd;
             }
         }
-        let mut nlp: CollocationNlp = CollocationNlp::new(
-            &robot,
-            layout,
-            [0.0, 0.0],
-            (vec![-1e3; nv], vec![1e3; nv]),
-            x.clone(),
-            (&[0.0; 4], &[1.0; 3]),
-            None,
-        );
+        let mut nlp = swing_nlp(&robot, layout, [0.0, 0.0], nv, &x, (&[0.0; 4], &[1.0; 3]));
         let mut g = vec![0.0; nlp.n_cons()];
         nlp.constraints(&x, &mut g);
         let rows_per_interval = nlp.n_defects() / layout.intervals;

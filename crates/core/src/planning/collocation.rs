@@ -16,53 +16,36 @@ use super::nlp::SparseNlp;
 use super::settings::Transcription;
 use crate::ad::{Diff, LocalFn};
 use crate::math::Scalar;
-use crate::model::{DynamicsFn, Robot};
+use crate::model::Robot;
 use std::collections::HashMap;
 
-/// EE position as a [`LocalFn`]: `q (n) -> [x, y]`.
+/// The swing's terminal constraint as a [`LocalFn`]: `[q, qd] (2n) -> [ee_x, ee_y, ee_vx, ee_vy]`
+/// (paper eqs. 8-9: final EE position on the bar, final EE velocity `J qd` zero).
 #[derive(Debug, Clone, Copy)]
-pub struct EeFn<'a> {
+pub struct EeTerminalFn<'a> {
     /// The robot.
     pub robot: &'a Robot,
 }
 
-impl LocalFn for EeFn<'_> {
-    type Scratch<T: Scalar> = ();
-    fn n_in(&self) -> usize {
-        self.robot.n
-    }
-    fn n_out(&self) -> usize {
-        2
-    }
-    fn scratch<T: Scalar>(&self) {}
-    fn eval<T: Scalar>(&self, _: &mut (), z: &[T], out: &mut [T]) {
-        out.copy_from_slice(&self.robot.ee_position(z));
-    }
-}
-
-/// EE velocity `J(q) qd` as a [`LocalFn`]: `[q, qd] (2n) -> [vx, vy]`.
-#[derive(Debug, Clone, Copy)]
-pub struct EeVelFn<'a> {
-    /// The robot.
-    pub robot: &'a Robot,
-}
-
-impl LocalFn for EeVelFn<'_> {
+impl LocalFn for EeTerminalFn<'_> {
     type Scratch<T: Scalar> = ();
     fn n_in(&self) -> usize {
         2 * self.robot.n
     }
     fn n_out(&self) -> usize {
-        2
+        4
     }
     fn scratch<T: Scalar>(&self) {}
     fn eval<T: Scalar>(&self, _: &mut (), z: &[T], out: &mut [T]) {
         let n = self.robot.n;
-        out.copy_from_slice(&self.robot.ee_velocity(&z[..n], &z[n..]));
+        let (q, qd) = z.split_at(n);
+        let p = self.robot.ee_position(q);
+        let v = self.robot.ee_velocity(q, qd);
+        out.copy_from_slice(&[p[0], p[1], v[0], v[1]]);
     }
     fn hessian_entry_is_zero(&self, i: usize, j: usize) -> bool {
         let n = self.robot.n;
-        i >= n && j >= n // linear in qd
+        i >= n && j >= n // position is independent of qd, velocity linear in it
     }
 }
 
@@ -85,9 +68,11 @@ impl LocalFn for NoPath {
 /// Where the variables of the transcription live.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Layout {
-    /// Links.
+    /// Degrees of freedom (links) n.
     pub n: usize,
-    /// Variables per point, 3n - 1.
+    /// Inputs per point (n - 1 for the robot).
+    pub nu: usize,
+    /// Variables per point, 2n + nu.
     pub nz: usize,
     /// Intervals N.
     pub intervals: usize,
@@ -101,14 +86,21 @@ pub struct Layout {
 
 impl Layout {
     /// Layout for `intervals` intervals over `t_final` seconds.
-    pub fn new(n: usize, intervals: usize, t_final: f64, transcription: Transcription) -> Self {
+    pub fn new(
+        n: usize,
+        nu: usize,
+        intervals: usize,
+        t_final: f64,
+        transcription: Transcription,
+    ) -> Self {
         let points = match transcription {
             Transcription::HermiteSimpson => 2 * intervals + 1,
             _ => intervals + 1,
         };
         Layout {
             n,
-            nz: 3 * n - 1,
+            nu,
+            nz: 2 * n + nu,
             intervals,
             points,
             h: t_final / intervals as f64,
@@ -258,24 +250,24 @@ pub fn defect_rows(l: &Layout) -> Vec<Row> {
     rows
 }
 
-/// The swing problem as a sparse NLP. Built by [`crate::planning::plan`]; public for tests and for users
-/// who drive their own solver.
-pub struct CollocationNlp<'a, P: LocalFn = NoPath> {
-    robot: &'a Robot,
+/// A trajectory-optimisation problem as a sparse NLP: second-order dynamics `qdd = D(q, qd, u)` imposed
+/// by the layout's transcription, a terminal constraint `T(q_N, qd_N) = target` and path constraints
+/// `P(q_p) >= 0`. Built by [`crate::planning::plan`] for the swing (D = the robot's forward dynamics,
+/// T = [`EeTerminalFn`], P = capsule clearances); public so that other systems (tests with known answers,
+/// future grip-switching phases) use the very same transcription.
+pub struct CollocationNlp<D: LocalFn, T: LocalFn, P: LocalFn = NoPath> {
     /// Variable layout.
     pub layout: Layout,
     rows: Vec<Row>,
-    target: [f64; 2],
+    target: Vec<f64>,
     cost_w: Vec<f64>,
     x_l: Vec<f64>,
     x_u: Vec<f64>,
     x0: Vec<f64>,
-    dynf: DynamicsFn<'a>,
-    ddiff: Diff<DynamicsFn<'a>>,
-    eef: EeFn<'a>,
-    eediff: Diff<EeFn<'a>>,
-    eevf: EeVelFn<'a>,
-    eevdiff: Diff<EeVelFn<'a>>,
+    dynf: D,
+    ddiff: Diff<D>,
+    term: T,
+    tdiff: Diff<T>,
     path: Option<(P, Diff<P>)>,
     n_path: usize,
     // caches keyed by x
@@ -316,39 +308,47 @@ impl Pattern {
     }
 }
 
-impl<'a, P: LocalFn> CollocationNlp<'a, P> {
-    /// Build the NLP. `x_l`, `x_u` are the variable bounds (fixed start and final torque included),
-    /// `x0` the initial guess, `q1`/`r1` the cost weights, `path` the optional clearance function of q.
+impl<D: LocalFn, T: LocalFn, P: LocalFn> CollocationNlp<D, T, P> {
+    /// Build the NLP. `dynamics` maps `[q, qd, u]` to `qdd`; `terminal` maps `[q, qd]` of the last point
+    /// to values that must equal `target`; `x_l`, `x_u` are the variable bounds (fixed start and final
+    /// input included), `x0` the initial guess, `q1`/`r1` the cost weights on qd and u (cost: the
+    /// transcription's quadrature of `||qd||^2_Q1 + ||u||^2_R1`), `path` the optional constraint on q.
     pub fn new(
-        robot: &'a Robot,
+        dynamics: D,
+        terminal: T,
         layout: Layout,
-        target: [f64; 2],
+        target: Vec<f64>,
         (x_l, x_u): (Vec<f64>, Vec<f64>),
         x0: Vec<f64>,
         (q1, r1): (&[f64], &[f64]),
         path: Option<P>,
     ) -> Self {
         let (n, nz) = (layout.n, layout.nz);
+        assert_eq!(dynamics.n_in(), nz, "dynamics inputs must be [q, qd, u]");
+        assert_eq!(dynamics.n_out(), n, "dynamics outputs must be qdd");
+        assert_eq!(terminal.n_in(), 2 * n, "terminal inputs must be [q, qd]");
+        assert_eq!(
+            terminal.n_out(),
+            target.len(),
+            "one target per terminal output"
+        );
+        let nt = target.len();
         let mut cost_w = vec![0.0; layout.n_vars()];
         for p in 0..layout.points {
             let w = layout.quadrature_weight(p);
             for i in 0..n {
                 cost_w[layout.var(p, n + i)] = w * q1[i];
             }
-            for j in 0..n - 1 {
+            for j in 0..layout.nu {
                 cost_w[layout.var(p, 2 * n + j)] = w * r1[j];
             }
         }
-        let dynf = DynamicsFn { robot };
-        let eef = EeFn { robot };
-        let eevf = EeVelFn { robot };
         let n_path = path.as_ref().map_or(0, |p| p.n_out());
         let path = path.map(|p| {
             let d = Diff::new(&p);
             (p, d)
         });
         let mut s = CollocationNlp {
-            robot,
             rows: defect_rows(&layout),
             layout,
             target,
@@ -356,12 +356,10 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
             x_l,
             x_u,
             x0,
-            ddiff: Diff::new(&dynf),
-            dynf,
-            eediff: Diff::new(&eef),
-            eef,
-            eevdiff: Diff::new(&eevf),
-            eevf,
+            ddiff: Diff::new(&dynamics),
+            dynf: dynamics,
+            tdiff: Diff::new(&terminal),
+            term: terminal,
             path,
             n_path,
             cache_x: vec![],
@@ -370,8 +368,8 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
             qdd_jac: vec![0.0; layout.points * n * nz],
             omega: vec![0.0; layout.points * n],
             hbuf: vec![0.0; 4 * nz * nz],
-            vbuf: vec![0.0; 2 * n.max(n_path)],
-            jbuf: vec![0.0; 2 * n * n.max(n_path).max(2)],
+            vbuf: vec![0.0; n_path.max(nt).max(1)],
+            jbuf: vec![0.0; 2 * n * n_path.max(nt).max(1)],
             jac_pattern: Pattern::default(),
             hess_pattern: Pattern::default(),
         };
@@ -396,9 +394,14 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
         self.n_path
     }
 
+    /// Number of terminal rows (they follow the defects).
+    pub fn n_terminal(&self) -> usize {
+        self.target.len()
+    }
+
     /// First row of the path constraints.
     pub fn path_row0(&self) -> usize {
-        self.rows.len() + 4
+        self.rows.len() + self.target.len()
     }
 
     /// qdd at every point for `x` (row-major points x n).
@@ -448,27 +451,21 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
         let r0 = self.rows.len();
         let pl = self.last_point();
         let zl = &x[pl * nz..pl * nz + 2 * n];
-        self.eediff.jacobian(
-            &self.eef,
-            &zl[..n],
-            &mut self.vbuf[..2],
-            &mut self.jbuf[..2 * n],
+        let nt = self.target.len();
+        self.tdiff.jacobian(
+            &self.term,
+            zl,
+            &mut self.vbuf[..nt],
+            &mut self.jbuf[..nt * 2 * n],
         );
-        for r in 0..2 {
-            for j in 0..n {
-                emit(r0 + r, pl * nz + j, self.jbuf[r * n + j]);
-            }
-        }
-        self.eevdiff
-            .jacobian(&self.eevf, zl, &mut self.vbuf[..2], &mut self.jbuf[..4 * n]);
-        for r in 0..2 {
+        for r in 0..nt {
             for j in 0..2 * n {
-                emit(r0 + 2 + r, pl * nz + j, self.jbuf[r * 2 * n + j]);
+                emit(r0 + r, pl * nz + j, self.jbuf[r * 2 * n + j]);
             }
         }
         if let Some((pf, pd)) = &mut self.path {
             let np = self.n_path;
-            let r0 = r0 + 4;
+            let r0 = r0 + nt;
             for p in 1..self.layout.points {
                 let q = &x[p * nz..p * nz + n];
                 pd.jacobian(pf, q, &mut self.vbuf[..np], &mut self.jbuf[..np * n]);
@@ -516,27 +513,20 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
         let r0 = self.rows.len();
         let pl = self.last_point();
         let zl = &x[pl * nz..pl * nz + 2 * n];
-        let h = &mut self.hbuf[..n * n];
-        self.eediff
-            .hessian_weighted(&self.eef, &zl[..n], &lambda[r0..r0 + 2], h);
-        for a in 0..n {
-            for b in 0..=a {
-                emit(pl * nz + a, pl * nz + b, h[a * n + b]);
-            }
-        }
+        let nt = self.target.len();
         let h = &mut self.hbuf[..4 * n * n];
-        self.eevdiff
-            .hessian_weighted(&self.eevf, zl, &lambda[r0 + 2..r0 + 4], h);
+        self.tdiff
+            .hessian_weighted(&self.term, zl, &lambda[r0..r0 + nt], h);
         for a in 0..2 * n {
             for b in 0..=a {
-                if !self.eevf.hessian_entry_is_zero(a, b) {
+                if !self.term.hessian_entry_is_zero(a, b) {
                     emit(pl * nz + a, pl * nz + b, h[a * 2 * n + b]);
                 }
             }
         }
         if let Some((pf, pd)) = &mut self.path {
             let np = self.n_path;
-            let r0 = r0 + 4;
+            let r0 = r0 + nt;
             let h = &mut self.hbuf[..n * n];
             for p in 1..self.layout.points {
                 let q = &x[p * nz..p * nz + n];
@@ -552,25 +542,24 @@ impl<'a, P: LocalFn> CollocationNlp<'a, P> {
     }
 }
 
-impl<P: LocalFn> SparseNlp for CollocationNlp<'_, P> {
+impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
     fn n_vars(&self) -> usize {
         self.layout.n_vars()
     }
     fn n_cons(&self) -> usize {
-        self.rows.len() + 4 + (self.layout.points - 1) * self.n_path
+        self.rows.len() + self.target.len() + (self.layout.points - 1) * self.n_path
     }
     fn bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]) {
         x_l.copy_from_slice(&self.x_l);
         x_u.copy_from_slice(&self.x_u);
         let r0 = self.rows.len();
+        let nt = self.target.len();
         g_l[..r0].fill(0.0);
         g_u[..r0].fill(0.0);
-        g_l[r0..r0 + 2].copy_from_slice(&self.target);
-        g_u[r0..r0 + 2].copy_from_slice(&self.target);
-        g_l[r0 + 2..r0 + 4].fill(0.0);
-        g_u[r0 + 2..r0 + 4].fill(0.0);
-        g_l[r0 + 4..].fill(0.0);
-        g_u[r0 + 4..].fill(f64::INFINITY);
+        g_l[r0..r0 + nt].copy_from_slice(&self.target);
+        g_u[r0..r0 + nt].copy_from_slice(&self.target);
+        g_l[r0 + nt..].fill(0.0);
+        g_u[r0 + nt..].fill(f64::INFINITY);
     }
     fn initial_guess(&self, x: &mut [f64]) {
         x.copy_from_slice(&self.x0);
@@ -599,13 +588,13 @@ impl<P: LocalFn> SparseNlp for CollocationNlp<'_, P> {
         let r0 = self.rows.len();
         let pl = self.last_point();
         let zl = &x[pl * nz..pl * nz + 2 * n];
-        g[r0..r0 + 2].copy_from_slice(&self.robot.ee_position(&zl[..n]));
-        g[r0 + 2..r0 + 4].copy_from_slice(&self.robot.ee_velocity(&zl[..n], &zl[n..]));
+        let nt = self.target.len();
+        self.tdiff.value(&self.term, zl, &mut g[r0..r0 + nt]);
         if let Some((pf, pd)) = &mut self.path {
             let np = self.n_path;
             for p in 1..self.layout.points {
                 let q = &x[p * nz..p * nz + n];
-                let r = r0 + 4 + (p - 1) * np;
+                let r = r0 + nt + (p - 1) * np;
                 pd.value(pf, q, &mut g[r..r + np]);
             }
         }

@@ -1,0 +1,625 @@
+//! The swing planner: task checks, swing time, initial guess, solve, resampling and the report.
+//!
+//! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs (q1 absolute from +x, the rest relative).
+
+use super::collocation::{CollocationNlp, EeTerminalFn, Layout};
+use super::nlp::{solve, MuStrategy, NlpSettings, SolveStatus};
+use super::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::ad::LocalFn;
+use crate::error::{Error, Result};
+use crate::model::{Circle, ClearanceFn, DynamicsFn, Robot};
+use crate::sim::{ModelPlant, Plant};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+
+/// What to plan: where the robot starts, which bar it must reach, what is in the way.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SwingTask {
+    /// Start joint angles (n), rad.
+    pub q0: Vec<f64>,
+    /// Start joint velocities (n), rad/s; empty = at rest.
+    #[serde(default)]
+    pub qd0: Vec<f64>,
+    /// Target bar position in the grip frame, m.
+    pub target: [f64; 2],
+    /// Circular obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<Circle>,
+}
+
+/// The clearance constraints the planner imposes: the exact surface distance, not its square,
+/// `g = sqrt(d^2 + eps^2) - (r_a + r_b + margin) >= 0` for every row of a [`ClearanceFn`] (the paper's
+/// eq. (12) compares a squared distance with a length; the issue asks for `d >= R`). The squared form
+/// `d^2 - R^2` has a vanishing gradient when a link passes through an obstacle's centre (`grad d^2 =
+/// 2 d grad d`), which stalls the solver's restoration phase on initial guesses that cut through an
+/// obstacle; `sqrt(d^2 + eps^2)` keeps a unit-size gradient everywhere and differs from `d` by less
+/// than `eps^2 / (2 d)` (1e-12 / (2 d) m with eps = 1e-6) where it matters.
+#[derive(Debug, Clone)]
+pub struct DistanceClearanceFn<'a> {
+    inner: ClearanceFn<'a>,
+    thresholds: Vec<f64>,
+}
+
+/// Smoothing of the distance at d = 0, m.
+const DIST_EPS: f64 = 1e-6;
+
+impl<'a> DistanceClearanceFn<'a> {
+    /// Wrap `inner` (its rows, order and margin).
+    pub fn new(inner: ClearanceFn<'a>) -> Self {
+        let thresholds = inner
+            .pairs()
+            .into_iter()
+            .map(|p| inner.threshold(p))
+            .collect();
+        DistanceClearanceFn { inner, thresholds }
+    }
+}
+
+impl LocalFn for DistanceClearanceFn<'_> {
+    type Scratch<T: crate::math::Scalar> = <ClearanceFn<'static> as LocalFn>::Scratch<T>;
+    fn n_in(&self) -> usize {
+        self.inner.n_in()
+    }
+    fn n_out(&self) -> usize {
+        self.thresholds.len()
+    }
+    fn scratch<T: crate::math::Scalar>(&self) -> Self::Scratch<T> {
+        self.inner.scratch()
+    }
+    fn eval<T: crate::math::Scalar>(&self, ws: &mut Self::Scratch<T>, z: &[T], out: &mut [T]) {
+        self.inner.eval(ws, z, out);
+        for (o, r) in out.iter_mut().zip(&self.thresholds) {
+            *o = (*o + (r * r + DIST_EPS * DIST_EPS)).sqrt() - *r;
+        }
+    }
+    fn hessian_entry_is_zero(&self, i: usize, j: usize) -> bool {
+        self.inner.hessian_entry_is_zero(i, j)
+    }
+}
+
+/// Largest violation per kind of constraint at the solution.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Violations {
+    /// Collocation defects (rad, rad/s).
+    pub dynamics: f64,
+    /// Final EE position, m.
+    pub ee_position: f64,
+    /// Final EE velocity, m/s.
+    pub ee_velocity: f64,
+    /// Clearance constraints (distance below the required clearance), m.
+    pub clearance: f64,
+    /// Variable bounds.
+    pub bounds: f64,
+}
+
+/// A planned swing and how it was found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Solver outcome.
+    pub status: SolveStatus,
+    /// Iterations of the NLP solver (summed over attempts).
+    pub iterations: usize,
+    /// Solver attempts: 1, or 2 when the first did not converge and was retried with the adaptive
+    /// barrier strategy.
+    pub attempts: usize,
+    /// Wall-clock time of the solve, s.
+    pub solve_time_s: f64,
+    /// Objective value (the transcription's quadrature of ||qd||^2_Q1 + ||tau||^2_R1).
+    pub objective: f64,
+    /// Swing time T, s.
+    pub swing_time_s: f64,
+    /// T_freefall when the swing time was `auto`, s.
+    pub freefall_time_s: Option<f64>,
+    /// The layout (intervals, points, h).
+    pub layout: Layout,
+    /// The collocation points (knots, and midpoints for Hermite-Simpson).
+    pub points: Trajectory,
+    /// Accelerations at the points, row-major `points x n`.
+    pub points_qdd: Vec<f64>,
+    /// The swing resampled at `output_dt` (cubic Hermite through the points).
+    pub trajectory: Trajectory,
+    /// Paper eq. (18): signed work of the actuated joints over the 1 ms trajectory, J.
+    pub energy_j: f64,
+    /// Positive work of the actuated joints, J.
+    pub positive_work_j: f64,
+    /// EE position at the final knot, m.
+    pub ee_final: [f64; 2],
+    /// Largest constraint violations by kind.
+    pub violations: Violations,
+    /// EE distance from the target after replaying the planned torques open loop on the RK4 model, m.
+    pub replay_ee_error_m: f64,
+    /// Smallest surface distance to an obstacle (or between non-adjacent links) over the resampled
+    /// trajectory, m; `None` without obstacles.
+    pub min_obstacle_clearance_m: Option<f64>,
+}
+
+impl Plan {
+    /// True when the solver converged.
+    pub fn converged(&self) -> bool {
+        self.status.is_converged()
+    }
+}
+
+/// Time for the robot, released at rest from `q0` with every joint locked (one rigid compound pendulum
+/// about the grip), until its EE first reaches the x coordinate `x_mid`. Errors when it never does within
+/// 20 s.
+pub fn freefall_time(robot: &Robot, q0: &[f64], x_mid: f64) -> Result<f64> {
+    let n = robot.n;
+    let m11 = robot.mass_matrix(q0)[0]; // inertia of the locked chain about the grip
+    let mut ws = crate::model::Scratch::new(n);
+    let mut g = vec![0.0; n];
+    let mut q = q0.to_vec();
+    let side = (robot.ee_position(&q)[0] - x_mid).signum();
+    if side == 0.0 {
+        return Ok(0.0);
+    }
+    let acc = |q1: f64, q: &mut Vec<f64>, ws: &mut crate::model::Scratch<f64>, g: &mut Vec<f64>| {
+        q[0] = q1;
+        robot.gravity_into(ws, q, g);
+        -g[0] / m11
+    };
+    let (dt, mut t, mut th, mut w) = (1e-4, 0.0, q0[0], 0.0);
+    let mut prev = robot.ee_position(&q)[0] - x_mid;
+    while t < 20.0 {
+        // RK4 on (th, w)
+        let k1 = (w, acc(th, &mut q, &mut ws, &mut g));
+        let k2 = (
+            w + 0.5 * dt * k1.1,
+            acc(th + 0.5 * dt * k1.0, &mut q, &mut ws, &mut g),
+        );
+        let k3 = (
+            w + 0.5 * dt * k2.1,
+            acc(th + 0.5 * dt * k2.0, &mut q, &mut ws, &mut g),
+        );
+        let k4 = (w + dt * k3.1, acc(th + dt * k3.0, &mut q, &mut ws, &mut g));
+        th += dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
+        w += dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
+        t += dt;
+        q[0] = th;
+        let d = robot.ee_position(&q)[0] - x_mid;
+        if d.signum() != side {
+            return Ok(t - dt * d / (d - prev)); // linear interpolation of the crossing
+        }
+        prev = d;
+    }
+    Err(Error::InfeasibleTask(format!(
+        "the robot released with locked joints never reaches x = {x_mid:.3} m within 20 s"
+    )))
+}
+
+/// Wrap an angle to (-pi, pi].
+fn wrap(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let mut v = a % tau;
+    if v <= -std::f64::consts::PI {
+        v += tau;
+    } else if v > std::f64::consts::PI {
+        v -= tau;
+    }
+    v
+}
+
+/// The start pose mirrored about the vertical through the grip (absolute angles th -> pi - th).
+pub fn mirrored_pose(q0: &[f64]) -> Vec<f64> {
+    let n = q0.len();
+    let mut th = 0.0;
+    let abs: Vec<f64> = q0
+        .iter()
+        .map(|qi| {
+            th += qi;
+            std::f64::consts::PI - th
+        })
+        .collect();
+    (0..n)
+        .map(|i| wrap(if i == 0 { abs[0] } else { abs[i] - abs[i - 1] }))
+        .collect()
+}
+
+/// Inverse kinematics by damped least squares with a null-space pull towards `seed`; `None` when it
+/// does not reach `target` to 1e-9 m.
+pub fn ik_from_seed(robot: &Robot, seed: &[f64], target: [f64; 2]) -> Option<Vec<f64>> {
+    let n = robot.n;
+    let mut q = seed.to_vec();
+    let mut jac = vec![0.0; 2 * n];
+    // 300 iterations with a null-space pull towards the seed, then pure Gauss-Newton to polish (the pull
+    // leaves a second-order residual).
+    for it in 0..400 {
+        let pull = if it < 300 { 0.1 } else { 0.0 };
+        let ee = robot.ee_position(&q);
+        let e = [target[0] - ee[0], target[1] - ee[1]];
+        robot.ee_jacobian(&q, &mut jac);
+        // A = J J^T + lambda^2 I (2 x 2)
+        let lam2 = 1e-6;
+        let a00: f64 = (0..n).map(|j| jac[j] * jac[j]).sum::<f64>() + lam2;
+        let a01: f64 = (0..n).map(|j| jac[j] * jac[n + j]).sum();
+        let a11: f64 = (0..n).map(|j| jac[n + j] * jac[n + j]).sum::<f64>() + lam2;
+        let det = a00 * a11 - a01 * a01;
+        let solve2 = |b: [f64; 2]| {
+            [
+                (a11 * b[0] - a01 * b[1]) / det,
+                (a00 * b[1] - a01 * b[0]) / det,
+            ]
+        };
+        let y = solve2(e);
+        // null-space step towards the seed: (I - J^T A^-1 J) (seed - q)
+        let d: Vec<f64> = (0..n).map(|j| seed[j] - q[j]).collect();
+        let jd = [
+            (0..n).map(|j| jac[j] * d[j]).sum::<f64>(),
+            (0..n).map(|j| jac[n + j] * d[j]).sum::<f64>(),
+        ];
+        let yd = solve2(jd);
+        for j in 0..n {
+            let task = jac[j] * y[0] + jac[n + j] * y[1];
+            let null = d[j] - (jac[j] * yd[0] + jac[n + j] * yd[1]);
+            q[j] += task + pull * null;
+        }
+        if it >= 300 && (e[0] * e[0] + e[1] * e[1]).sqrt() < 1e-12 {
+            break;
+        }
+    }
+    let ee = robot.ee_position(&q);
+    let err = ((ee[0] - target[0]).powi(2) + (ee[1] - target[1]).powi(2)).sqrt();
+    (err < 1e-9 && q.iter().all(|v| v.is_finite())).then_some(q)
+}
+
+/// Variable bounds for the layout (start state fixed, final torque zero).
+fn variable_bounds(
+    robot: &Robot,
+    layout: &Layout,
+    settings: &PlannerSettings,
+    q0: &[f64],
+    qd0: &[f64],
+) -> (Vec<f64>, Vec<f64>) {
+    let (n, nv) = (robot.n, layout.n_vars());
+    let b = &settings.bounds;
+    let (mut lo, mut hi) = (vec![0.0; nv], vec![0.0; nv]);
+    for p in 0..layout.points {
+        for i in 0..n {
+            let (l, h) = if i == 0 {
+                (b.q1[0], b.q1[1])
+            } else {
+                (-b.q_rel_max, b.q_rel_max)
+            };
+            lo[layout.var(p, i)] = l;
+            hi[layout.var(p, i)] = h;
+            lo[layout.var(p, n + i)] = -b.qd_max;
+            hi[layout.var(p, n + i)] = b.qd_max;
+        }
+        for j in 0..n - 1 {
+            lo[layout.var(p, 2 * n + j)] = robot.tau_min[j];
+            hi[layout.var(p, 2 * n + j)] = robot.tau_max[j];
+        }
+    }
+    for i in 0..n {
+        lo[layout.var(0, i)] = q0[i];
+        hi[layout.var(0, i)] = q0[i];
+        lo[layout.var(0, n + i)] = qd0[i];
+        hi[layout.var(0, n + i)] = qd0[i];
+    }
+    let last = layout.points - 1;
+    for j in 0..n - 1 {
+        lo[layout.var(last, 2 * n + j)] = 0.0;
+        hi[layout.var(last, 2 * n + j)] = 0.0;
+    }
+    (lo, hi)
+}
+
+/// Check the task before any solving; returns (qd0, clearance function if obstacles are avoided).
+fn check_task(robot: &Robot, task: &SwingTask, settings: &PlannerSettings) -> Result<Vec<f64>> {
+    let n = robot.n;
+    let src = "task";
+    if task.q0.len() != n {
+        return Err(Error::invalid(
+            src,
+            "q0",
+            format!("{:?}", task.q0),
+            format!("needs {n} values"),
+        ));
+    }
+    let qd0 = if task.qd0.is_empty() {
+        vec![0.0; n]
+    } else {
+        task.qd0.clone()
+    };
+    if qd0.len() != n {
+        return Err(Error::invalid(
+            src,
+            "qd0",
+            format!("{:?}", task.qd0),
+            format!("needs {n} values"),
+        ));
+    }
+    for (name, v) in [("q0", &task.q0), ("qd0", &qd0)] {
+        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+            return Err(Error::invalid(src, name, x, "must be finite"));
+        }
+    }
+    if !(task.target[0].is_finite() && task.target[1].is_finite()) {
+        return Err(Error::invalid(
+            src,
+            "target",
+            format!("{:?}", task.target),
+            "must be finite",
+        ));
+    }
+    let b = &settings.bounds;
+    if task.q0[0] < b.q1[0] || task.q0[0] > b.q1[1] {
+        return Err(Error::invalid(
+            src,
+            "q0[0]",
+            task.q0[0],
+            format!("outside bounds.q1 = [{}, {}]", b.q1[0], b.q1[1]),
+        ));
+    }
+    for i in 1..n {
+        if task.q0[i].abs() > b.q_rel_max {
+            return Err(Error::invalid(
+                src,
+                format!("q0[{i}]"),
+                task.q0[i],
+                "outside bounds.q_rel_max",
+            ));
+        }
+    }
+    let dist = task.target[0].hypot(task.target[1]);
+    if dist > robot.reach() - 1e-6 {
+        return Err(Error::InfeasibleTask(format!(
+            "target ({:.3}, {:.3}) is {dist:.3} m from the grip; the robot reaches at most {:.3} m",
+            task.target[0],
+            task.target[1],
+            robot.reach()
+        )));
+    }
+    for (i, o) in task.obstacles.iter().enumerate() {
+        o.validate(src, &format!("obstacles[{i}]"))?;
+    }
+    if settings.avoid_obstacles && !task.obstacles.is_empty() {
+        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+        let c = cf.min_clearance(&task.q0);
+        if c < 0.0 {
+            return Err(Error::InfeasibleTask(format!(
+                "the start pose overlaps an obstacle (surface distance {c:.4} m)"
+            )));
+        }
+        for (i, o) in task.obstacles.iter().enumerate() {
+            let d = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]);
+            if d < o.radius {
+                return Err(Error::InfeasibleTask(format!(
+                    "the target lies inside obstacle {i}"
+                )));
+            }
+        }
+    }
+    Ok(qd0)
+}
+
+/// Pick the target pose for the initial guess: IK seeded by the mirrored start pose and variants,
+/// keeping poses inside the bounds, preferring obstacle-free ones, then the one closest to its seed.
+fn target_pose(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    cf: Option<&ClearanceFn>,
+) -> Result<Vec<f64>> {
+    let n = robot.n;
+    let m = mirrored_pose(&task.q0);
+    let flipped: Vec<f64> = m
+        .iter()
+        .enumerate()
+        .map(|(i, v)| if i == 0 { *v } else { -v })
+        .collect();
+    let mut straight = vec![0.0; n];
+    straight[0] = task.target[1].atan2(task.target[0]);
+    let b = &settings.bounds;
+    let mut best: Option<(bool, f64, Vec<f64>)> = None;
+    for seed in [m, flipped, task.q0.clone(), straight] {
+        let Some(q) = ik_from_seed(robot, &seed, task.target) else {
+            continue;
+        };
+        let q: Vec<f64> = q.iter().map(|v| wrap(*v)).collect();
+        let inside =
+            q[0] >= b.q1[0] && q[0] <= b.q1[1] && q[1..].iter().all(|v| v.abs() <= b.q_rel_max);
+        if !inside {
+            continue;
+        }
+        let free = cf.is_none_or(|c| c.min_clearance(&q) >= 0.0);
+        let dist: f64 = q.iter().zip(&seed).map(|(a, s)| (a - s).powi(2)).sum();
+        let better = match &best {
+            None => true,
+            Some((bf, bd, _)) => (free && !bf) || (free == *bf && dist < *bd),
+        };
+        if better {
+            best = Some((free, dist, q));
+        }
+    }
+    best.map(|b| b.2).ok_or_else(|| {
+        Error::InfeasibleTask(format!(
+            "no joint configuration within the bounds reaches the target ({:.3}, {:.3})",
+            task.target[0], task.target[1]
+        ))
+    })
+}
+
+/// Plan an energy-optimal swing. Bad input and impossible tasks are errors (nothing is solved); a solve
+/// that does not converge is a [`Plan`] whose `status` says so.
+pub fn plan(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+) -> Result<Plan> {
+    settings.validate(robot.n, "planner")?;
+    nlp.validate()?;
+    let n = robot.n;
+    let qd0 = check_task(robot, task, settings)?;
+    let start_ee = robot.ee_position(&task.q0);
+    let (t_final, freefall) = match settings.swing_time {
+        SwingTime::Seconds(t) => (t, None),
+        SwingTime::Auto(_) => {
+            let tf = freefall_time(robot, &task.q0, 0.5 * (start_ee[0] + task.target[0]))?;
+            (2.0 * tf, Some(tf))
+        }
+    };
+    let intervals = ((t_final / settings.knot_dt).round() as usize).max(2);
+    let layout = Layout::new(n, n - 1, intervals, t_final, settings.transcription);
+    let obstacles: &[Circle] = if settings.avoid_obstacles {
+        &task.obstacles
+    } else {
+        &[]
+    };
+    let path = if obstacles.is_empty() && !settings.self_collision {
+        None
+    } else {
+        Some(DistanceClearanceFn::new(
+            ClearanceFn::new(robot, obstacles, settings.obstacle_margin)?
+                .with_self_collision(settings.self_collision),
+        ))
+    };
+    let q_t = target_pose(robot, task, settings, path.as_ref().map(|p| &p.inner))?;
+
+    // initial guess: smooth-step from q0 to the target pose, zero torque
+    let mut x0 = vec![0.0; layout.n_vars()];
+    for p in 0..layout.points {
+        let r = layout.time(p) / t_final;
+        let s = r * r * (3.0 - 2.0 * r);
+        let sd = 6.0 * r * (1.0 - r) / t_final;
+        for i in 0..n {
+            x0[layout.var(p, i)] = task.q0[i] + s * (q_t[i] - task.q0[i]);
+            x0[layout.var(p, n + i)] = sd * (q_t[i] - task.q0[i]);
+        }
+    }
+    for i in 0..n {
+        x0[layout.var(0, n + i)] = qd0[i];
+    }
+    let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);
+    let (q1, r1) = (settings.q1(n), settings.r1(n));
+    let target = vec![task.target[0], task.target[1], 0.0, 0.0];
+    let mut problem = CollocationNlp::new(
+        DynamicsFn { robot },
+        EeTerminalFn { robot },
+        layout,
+        target,
+        bounds.clone(),
+        x0,
+        (&q1, &r1),
+        path,
+    );
+    let mut sol = solve(&mut problem, nlp);
+    let mut attempts = 1;
+    if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+        // A second attempt with the adaptive barrier update, which recovers from initial guesses that
+        // cut through obstacles (measured on the paper's obstacle scenario; docs/planner.md).
+        let retry = NlpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..nlp.clone()
+        };
+        let second = solve(&mut problem, &retry);
+        attempts = 2;
+        if second.status.is_converged()
+            || second.max_constraint_violation < sol.max_constraint_violation
+        {
+            let total = sol.solve_time_s + second.solve_time_s;
+            let iters = sol.iterations + second.iterations;
+            sol = second;
+            sol.solve_time_s = total;
+            sol.iterations = iters;
+        }
+    }
+    let x = if sol.x.len() == layout.n_vars() {
+        sol.x.clone()
+    } else {
+        problem_guess(&problem)
+    };
+
+    // collocation points and their accelerations
+    let mut points = Trajectory::new(n);
+    let nz = layout.nz;
+    for p in 0..layout.points {
+        let z = &x[p * nz..(p + 1) * nz];
+        points.push(layout.time(p), &z[..n], &z[n..2 * n], &z[2 * n..]);
+    }
+    let points_qdd = problem.accelerations(&x).to_vec();
+    let trajectory = points.resample_hermite(&points_qdd, settings.output_dt);
+    let (energy_j, positive_work_j) = trajectory.work();
+    let ql = points.q(layout.points - 1);
+    let ee_final = robot.ee_position(ql);
+
+    // violations by kind
+    let mut g = vec![0.0; crate::planning::nlp::SparseNlp::n_cons(&problem)];
+    crate::planning::nlp::SparseNlp::constraints(&mut problem, &x, &mut g);
+    let nd = problem.n_defects();
+    let maxabs = |s: &[f64]| s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let violations = Violations {
+        dynamics: maxabs(&g[..nd]),
+        ee_position: (g[nd] - task.target[0]).hypot(g[nd + 1] - task.target[1]),
+        ee_velocity: g[nd + 2].hypot(g[nd + 3]),
+        clearance: g[problem.path_row0()..]
+            .iter()
+            .fold(0.0f64, |m, v| m.max(-v)),
+        bounds: x
+            .iter()
+            .zip(bounds.0.iter().zip(&bounds.1))
+            .fold(0.0f64, |m, (v, (lo, hi))| m.max(lo - v).max(v - hi)),
+    };
+    let replay_ee_error_m = replay_error(robot, &trajectory, task.target, settings.transcription);
+    let min_obstacle_clearance_m = if task.obstacles.is_empty() {
+        None
+    } else {
+        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+        Some(
+            (0..trajectory.len())
+                .map(|k| cf.min_clearance(trajectory.q(k)))
+                .fold(f64::INFINITY, f64::min),
+        )
+    };
+    Ok(Plan {
+        status: sol.status,
+        iterations: sol.iterations,
+        attempts,
+        solve_time_s: sol.solve_time_s,
+        objective: sol.objective,
+        swing_time_s: t_final,
+        freefall_time_s: freefall,
+        layout,
+        points,
+        points_qdd,
+        trajectory,
+        energy_j,
+        positive_work_j,
+        ee_final,
+        violations,
+        replay_ee_error_m,
+        min_obstacle_clearance_m,
+    })
+}
+
+fn problem_guess(p: &dyn crate::planning::nlp::SparseNlp) -> Vec<f64> {
+    let mut x = vec![0.0; p.n_vars()];
+    p.initial_guess(&mut x);
+    x
+}
+
+/// Replay the planned torques open loop on the RK4 model (0.1 ms steps, torque linearly interpolated
+/// from the resampled trajectory) and return the final EE distance from `target`, m.
+pub fn replay_error(robot: &Robot, traj: &Trajectory, target: [f64; 2], _tr: Transcription) -> f64 {
+    let n = robot.n;
+    let x0 = [traj.q(0), traj.qd(0)].concat();
+    let mut plant = ModelPlant::new(robot.clone(), &x0);
+    let sub = 10;
+    let mut tau = vec![0.0; n - 1];
+    for k in 0..traj.len() - 1 {
+        let h = (traj.t[k + 1] - traj.t[k]) / sub as f64;
+        for s in 0..sub {
+            let r = (s as f64 + 0.5) / sub as f64;
+            for j in 0..n - 1 {
+                tau[j] = traj.tau(k)[j] + r * (traj.tau(k + 1)[j] - traj.tau(k)[j]);
+            }
+            plant.step(&tau, h);
+        }
+    }
+    let mut x = vec![0.0; 2 * n];
+    plant.state(&mut x);
+    let ee = robot.ee_position(&x[..n]);
+    (ee[0] - target[0]).hypot(ee[1] - target[1])
+}

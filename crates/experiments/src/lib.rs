@@ -1,0 +1,33 @@
+//! # brachia-experiments
+//!
+//! Declarative experiments: a scenario file (robot, task, planner, solver, and later controller and plant
+//! settings) goes into a deterministic runner that fills a run folder (resolved inputs, CSVs, a
+//! machine-readable report). The CLI is a thin layer over these functions.
+//!
+//! Conventions as in `brachia`: SI units; q1 absolute from +x, q2..qn relative; `x = [q, qd]`; torques of
+//! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
+
+pub mod plan_run;
+pub mod run_folder;
+pub mod scenario;
+
+pub use plan_run::{plan_report, run_plan, PlanRun};
+pub use run_folder::RunFolder;
+pub use scenario::Scenario;
+
+/// Errors of the experiment layer.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExpError {
+    /// Invalid input (a scenario, parameters or a task): nothing was computed or written.
+    #[error(transparent)]
+    Input(#[from] brachia::Error),
+    /// Writing the run folder failed.
+    #[error("{path}: {source}")]
+    Write {
+        /// The file or folder.
+        path: std::path::PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
