@@ -85,6 +85,7 @@ impl Axes<'_> {
             .y_labels(6)
             .bold_line_style(RGBColor(222, 222, 222))
             .light_line_style(RGBColor(242, 242, 242))
+            .max_light_lines(4)
             .draw()
             .msg()?;
         // the mesh would draw the y label unrotated with ab_glyph: draw it rotated ourselves
