@@ -32,6 +32,7 @@ pub fn plan_report(ls: &LoadedScenario, p: &Plan) -> Value {
         "iterations": p.iterations,
         "attempts": p.attempts,
         "solve_time_s": p.solve_time_s,
+        "callback_time_s": p.callback_timings,
         "objective": p.objective,
         "energy_j": p.energy_j,
         "positive_work_j": p.positive_work_j,

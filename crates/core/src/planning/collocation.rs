@@ -18,6 +18,7 @@ use crate::ad::{Diff, LocalFn};
 use crate::math::Scalar;
 use crate::model::Robot;
 use std::collections::HashMap;
+use std::time::Instant;
 
 /// The swing's terminal constraint as a [`LocalFn`]: `[q, qd] (2n) -> [ee_x, ee_y, ee_vx, ee_vy]`
 /// (paper eqs. 8-9: final EE position on the bar, final EE velocity `J qd` zero).
@@ -281,6 +282,30 @@ pub struct CollocationNlp<D: LocalFn, T: LocalFn, P: LocalFn = NoPath> {
     jbuf: Vec<f64>,
     jac_pattern: Pattern,
     hess_pattern: Pattern,
+    /// Wall time spent in the callbacks, for profiling.
+    pub timings: CallbackTimings,
+}
+
+/// Wall time spent in each kind of callback of a [`CollocationNlp`], s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct CallbackTimings {
+    /// Objective and gradient.
+    pub objective_s: f64,
+    /// Constraint values (including the qdd evaluations they trigger).
+    pub constraints_s: f64,
+    /// Constraint Jacobian (including the AD Jacobians of qdd).
+    pub jacobian_s: f64,
+    /// Hessian of the Lagrangian (AD Hessians and assembly).
+    pub hessian_s: f64,
+    /// Number of Hessian evaluations.
+    pub hessian_calls: usize,
+}
+
+impl CallbackTimings {
+    /// Total callback time, s.
+    pub fn total_s(&self) -> f64 {
+        self.objective_s + self.constraints_s + self.jacobian_s + self.hessian_s
+    }
 }
 
 /// A fixed sparsity pattern and the slot of every emitted entry.
@@ -372,6 +397,7 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> CollocationNlp<D, T, P> {
             jbuf: vec![0.0; 2 * n * n_path.max(nt).max(1)],
             jac_pattern: Pattern::default(),
             hess_pattern: Pattern::default(),
+            timings: CallbackTimings::default(),
         };
         let x0 = s.x0.clone();
         let mut entries = Vec::new();
@@ -381,6 +407,7 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> CollocationNlp<D, T, P> {
         let lam = vec![1.0; s.n_cons()];
         s.hess_walk(&x0, 1.0, &lam, &mut |r, c, _| entries.push((r, c)));
         s.hess_pattern = Pattern::from_entries(&entries);
+        s.timings = CallbackTimings::default();
         s
     }
 
@@ -565,14 +592,20 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
         x.copy_from_slice(&self.x0);
     }
     fn objective(&mut self, x: &[f64]) -> f64 {
-        x.iter().zip(&self.cost_w).map(|(v, w)| w * v * v).sum()
+        let t = Instant::now();
+        let f = x.iter().zip(&self.cost_w).map(|(v, w)| w * v * v).sum();
+        self.timings.objective_s += t.elapsed().as_secs_f64();
+        f
     }
     fn gradient(&mut self, x: &[f64], grad: &mut [f64]) {
+        let t = Instant::now();
         for ((g, v), w) in grad.iter_mut().zip(x).zip(&self.cost_w) {
             *g = 2.0 * w * v;
         }
+        self.timings.objective_s += t.elapsed().as_secs_f64();
     }
     fn constraints(&mut self, x: &[f64], g: &mut [f64]) {
+        let t0 = Instant::now();
         self.ensure(x, 1);
         let (n, nz) = (self.layout.n, self.layout.nz);
         for (r, row) in self.rows.iter().enumerate() {
@@ -598,11 +631,13 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
                 pd.value(pf, q, &mut g[r..r + np]);
             }
         }
+        self.timings.constraints_s += t0.elapsed().as_secs_f64();
     }
     fn jacobian_structure(&self) -> (Vec<usize>, Vec<usize>) {
         (self.jac_pattern.rows.clone(), self.jac_pattern.cols.clone())
     }
     fn jacobian_values(&mut self, x: &[f64], vals: &mut [f64]) {
+        let t0 = Instant::now();
         vals.fill(0.0);
         let slots = std::mem::take(&mut self.jac_pattern.slots);
         let mut k = 0;
@@ -611,6 +646,7 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
             k += 1;
         });
         self.jac_pattern.slots = slots;
+        self.timings.jacobian_s += t0.elapsed().as_secs_f64();
     }
     fn hessian_structure(&self) -> (Vec<usize>, Vec<usize>) {
         (
@@ -619,6 +655,7 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
         )
     }
     fn hessian_values(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]) {
+        let t0 = Instant::now();
         vals.fill(0.0);
         let slots = std::mem::take(&mut self.hess_pattern.slots);
         let mut k = 0;
@@ -627,5 +664,7 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> SparseNlp for CollocationNlp<D, T, P> {
             k += 1;
         });
         self.hess_pattern.slots = slots;
+        self.timings.hessian_s += t0.elapsed().as_secs_f64();
+        self.timings.hessian_calls += 1;
     }
 }

@@ -6,7 +6,7 @@ pub mod collocation;
 pub mod nlp;
 pub mod settings;
 
-pub use collocation::{CollocationNlp, EeTerminalFn, Layout, NoPath};
+pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
 pub mod planner;
 

@@ -105,6 +105,9 @@ pub struct Plan {
     pub attempts: usize,
     /// Wall-clock time of the solve, s.
     pub solve_time_s: f64,
+    /// Time spent in the problem's callbacks (derivatives and assembly); the rest of `solve_time_s` is
+    /// the solver's own work (linear algebra, line search).
+    pub callback_timings: crate::planning::collocation::CallbackTimings,
     /// Objective value (the transcription's quadrature of ||qd||^2_Q1 + ||tau||^2_R1).
     pub objective: f64,
     /// Swing time T, s.
@@ -526,6 +529,7 @@ pub fn plan(
             sol.iterations = iters;
         }
     }
+    let callback_timings = problem.timings;
     let x = if sol.x.len() == layout.n_vars() {
         sol.x.clone()
     } else {
@@ -577,6 +581,7 @@ pub fn plan(
         status: sol.status,
         iterations: sol.iterations,
         attempts,
+        callback_timings,
         solve_time_s: sol.solve_time_s,
         objective: sol.objective,
         swing_time_s: t_final,

@@ -1,0 +1,157 @@
+//! `brachia plan` as a user runs it: the run folder contract, exit codes 0 / 1 / 2.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn brachia() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_brachia"));
+    c.current_dir(root());
+    c
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn plan_writes_the_run_folder_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    for key in [
+        "status",
+        "converged",
+        "iterations",
+        "solve_time_s",
+        "objective",
+        "energy_j",
+        "positive_work_j",
+        "max_violation",
+        "ee_final",
+        "swing_time_s",
+        "knots",
+        "transcription",
+        "replay_ee_error_m",
+        "min_obstacle_clearance_m",
+    ] {
+        assert!(r.get(key).is_some(), "report.json lacks {key}");
+    }
+    assert_eq!(r["converged"], true);
+    assert!(r["min_obstacle_clearance_m"].is_null());
+    let ee = r["ee_final"].as_array().unwrap();
+    assert!((ee[0].as_f64().unwrap() - 0.8).abs() < 1e-3 && ee[1].as_f64().unwrap().abs() < 1e-3);
+    let traj = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    assert!(traj.starts_with("t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y\n"));
+    let rows = traj.lines().count() - 1;
+    let t = r["swing_time_s"].as_f64().unwrap();
+    assert_eq!(
+        rows,
+        (t / 1e-3).round() as usize + 1,
+        "1 ms rows over the swing"
+    );
+    assert!(std::fs::read_to_string(out.join("knots.csv"))
+        .unwrap()
+        .contains("is_midpoint"));
+    let resolved = std::fs::read_to_string(out.join("scenario.toml")).unwrap();
+    assert!(
+        resolved.contains("swing_time = 2.") && resolved.contains("r1_diag"),
+        "{resolved}"
+    );
+}
+
+#[test]
+fn non_convergence_writes_the_report_and_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
+        .unwrap()
+        .replace(
+            "params = \"../params/paper.toml\"",
+            &format!("params = {:?}", root().join("params/paper.toml")),
+        )
+        .replace("backend = \"pounce\"", "backend = \"pounce\"\nmax_iter = 2");
+    let sc = dir.path().join("short.toml");
+    std::fs::write(&sc, text).unwrap();
+    let out = dir.path().join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario"])
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("did not converge"));
+    let r = report(&out);
+    assert_eq!(r["converged"], false);
+    assert_eq!(r["status"], "max_iterations");
+}
+
+#[test]
+fn bad_scenarios_exit_2_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
+        .unwrap()
+        .replace(
+            "params = \"../params/paper.toml\"",
+            &format!("params = {:?}", root().join("params/paper.toml")),
+        );
+    let cases = [
+        (
+            base.replace("target = [0.8, 0.0]", "target = [3.0, 0.0]"),
+            "reaches at most",
+        ),
+        (base.replace("knot_dt = 0.01", "knot_dt = -0.01"), "knot_dt"),
+        (
+            base.replace(
+                "transcription = \"hermite-simpson\"",
+                "transcription = \"rk45\"",
+            ),
+            "transcription",
+        ),
+        (
+            base.replace("q0 = [-2.35, 0.0, -1.55, 0.0]", "q0 = [-2.35, 0.0]"),
+            "task.q0",
+        ),
+        (
+            base.replace(
+                "[task]",
+                "[task]\nobstacles = [{ center = [-0.5, -0.5], radius = 0.1 }]",
+            ),
+            "overlaps",
+        ),
+    ];
+    for (k, (text, needle)) in cases.iter().enumerate() {
+        let sc = dir.path().join(format!("bad{k}.toml"));
+        std::fs::write(&sc, text).unwrap();
+        let out = dir.path().join(format!("out{k}"));
+        let o = brachia()
+            .args(["plan", "--scenario"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "case {k}: {err}");
+        assert!(
+            err.contains(needle),
+            "case {k}: {err:?} should mention {needle:?}"
+        );
+        assert!(!out.exists(), "case {k}: nothing may be written");
+    }
+}
