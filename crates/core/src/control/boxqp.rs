@@ -320,17 +320,13 @@ impl BoxQp {
         let m = self.n_max;
         let nf = self.nf;
         // Solve L w = H_{F,i}.
+        let hrow = &h[i * n..(i + 1) * n];
         for p in 0..nf {
-            let mut v = h[self.free[p] * n + i];
-            for k in 0..p {
-                v -= self.l[p * m + k] * self.work[k];
-            }
+            // H is symmetric: read row i (contiguous) instead of column i.
+            let v = hrow[self.free[p]] - dot(&self.l[p * m..p * m + p], &self.work[..p]);
             self.work[p] = v / self.l[p * m + p];
         }
-        let mut d = h[i * n + i];
-        for k in 0..nf {
-            d -= self.work[k] * self.work[k];
-        }
+        let d = hrow[i] - dot(&self.work[..nf], &self.work[..nf]);
         // Relative pivot test: a pivot this small means H_FF is singular to working precision.
         if d.is_nan() || d <= 1e-14 * h[i * n + i].abs() || !d.is_finite() {
             return false;
@@ -384,11 +380,7 @@ impl BoxQp {
         let m = self.n_max;
         let nf = self.nf;
         for p in 0..nf {
-            let mut v = self.rhs[p];
-            let row = &self.l[p * m..p * m + p];
-            for k in 0..p {
-                v -= row[k] * self.sol[k];
-            }
+            let v = self.rhs[p] - dot(&self.l[p * m..p * m + p], &self.sol[..p]);
             self.sol[p] = v / self.l[p * m + p];
         }
         for p in (0..nf).rev() {
@@ -399,6 +391,27 @@ impl BoxQp {
             self.sol[p] = v / self.l[p * m + p];
         }
     }
+}
+
+/// Dot product with four independent accumulators (lets the compiler vectorise; no bounds checks).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let len = a.len().min(b.len());
+    let (a, b) = (&a[..len], &b[..len]);
+    let mut acc = [0.0; 4];
+    let mut ca = a.chunks_exact(4);
+    let mut cb = b.chunks_exact(4);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+        acc[2] += x[2] * y[2];
+        acc[3] += x[3] * y[3];
+    }
+    let mut s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        s += x * y;
+    }
+    s
 }
 
 /// Largest violation of the KKT conditions of the box QP at `u` (for tests and diagnostics):

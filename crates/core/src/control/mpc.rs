@@ -757,13 +757,15 @@ impl<'a> Mpc<'a> {
             // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
             mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
             let qt = &self.qt[(j - 1) * nx * nx..j * nx * nx];
+            // P is symmetric: compute the upper triangle and mirror it.
             for i in 0..nx {
-                for c in 0..nx {
+                for c in i..nx {
                     let mut v = qt[i * nx + c];
                     for k in 0..nx {
                         v += ad[k * nx + i] * self.ptmp[k * nx + c];
                     }
                     self.p[i * nx + c] = v;
+                    self.p[c * nx + i] = v;
                 }
             }
             let e = &self.e[(j - 1) * nx..j * nx];
