@@ -292,19 +292,13 @@ mod tests {
 
     // ---------- independent brute force ----------
 
-    /// `min_{t in [0,1]} |p - a - t (b - a)|^2` by dense sampling then repeated zooming of the grid
-    /// around the best sample (the objective is convex in t, so zooming cannot lose the minimum).
-    fn brute_ps<const N: usize>(p: [f64; N], a: [f64; N], b: [f64; N]) -> f64 {
-        let f = |t: f64| {
-            (0..N)
-                .map(|k| (p[k] - a[k] - t * (b[k] - a[k])).powi(2))
-                .sum::<f64>()
-        };
+    /// Minimise a convex function of one variable on `[0, 1]` by a grid and repeated zooming: for a
+    /// convex function the minimiser lies within one grid step of the best sample, so zooming to
+    /// +-2 steps never loses it.
+    fn zoom_min(f: impl Fn(f64) -> f64, m: usize, rounds: usize) -> f64 {
         let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-        let mut best = f64::INFINITY;
-        for _ in 0..12 {
-            let m = 200;
-            let mut tb = lo;
+        let (mut best, mut tb) = (f64::INFINITY, 0.0);
+        for _ in 0..rounds {
             for i in 0..=m {
                 let t = lo + (hi - lo) * i as f64 / m as f64;
                 let v = f(t);
@@ -320,37 +314,23 @@ mod tests {
         best
     }
 
-    /// `min_{s,t in [0,1]^2}` of the segment-segment objective by a dense 2-D grid then zooming.
+    /// `min_{t in [0,1]} |p - a - t (b - a)|^2` by [`zoom_min`].
+    fn brute_ps<const N: usize>(p: [f64; N], a: [f64; N], b: [f64; N]) -> f64 {
+        zoom_min(
+            |t| {
+                (0..N)
+                    .map(|k| (p[k] - a[k] - t * (b[k] - a[k])).powi(2))
+                    .sum::<f64>()
+            },
+            40,
+            24,
+        )
+    }
+
+    /// `min_{s,t in [0,1]^2}` of the segment-segment objective as nested 1-D minimisations: the partial
+    /// minimum over t of a jointly convex function is convex in s, so [`zoom_min`] applies to both.
     fn brute_ss<const N: usize>(a0: [f64; N], a1: [f64; N], b0: [f64; N], b1: [f64; N]) -> f64 {
-        let f = |s: f64, t: f64| {
-            (0..N)
-                .map(|k| (a0[k] + s * (a1[k] - a0[k]) - b0[k] - t * (b1[k] - b0[k])).powi(2))
-                .sum::<f64>()
-        };
-        let (mut slo, mut shi, mut tlo, mut thi) = (0.0_f64, 1.0_f64, 0.0_f64, 1.0_f64);
-        let mut best = f64::INFINITY;
-        for _ in 0..14 {
-            let m = 60;
-            let (mut sb, mut tb) = (slo, tlo);
-            for i in 0..=m {
-                let s = slo + (shi - slo) * i as f64 / m as f64;
-                for j in 0..=m {
-                    let t = tlo + (thi - tlo) * j as f64 / m as f64;
-                    let v = f(s, t);
-                    if v < best {
-                        best = v;
-                        sb = s;
-                        tb = t;
-                    }
-                }
-            }
-            let (hs, ht) = ((shi - slo) / m as f64, (thi - tlo) / m as f64);
-            slo = (sb - 3.0 * hs).max(0.0);
-            shi = (sb + 3.0 * hs).min(1.0);
-            tlo = (tb - 3.0 * ht).max(0.0);
-            thi = (tb + 3.0 * ht).min(1.0);
-        }
-        best
+        zoom_min(|s| brute_ps(lerp(a0, a1, s), b0, b1), 40, 24)
     }
 
     fn rp<const N: usize>(rng: &mut ChaCha8Rng) -> [f64; N] {
@@ -536,11 +516,12 @@ mod tests {
             0.25
         );
         // X crossing
-        let r = segment_segment_closest([-1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [1.0, -1.0]);
+        let r: SegmentSegmentClosest<f64> =
+            segment_segment_closest([-1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [1.0, -1.0]);
         assert_eq!(r.piece, SegmentSegmentPiece::Interior);
         assert!(r.dist2.abs() < 1e-30 && (r.s - 0.5).abs() < 1e-15 && (r.t - 0.5).abs() < 1e-15);
         // skew lines in 3-D: x-axis vs the line y = 1 along z
-        let r = segment_segment_closest(
+        let r: SegmentSegmentClosest<f64> = segment_segment_closest(
             [-1.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],
             [0.0, 1.0, -1.0],

@@ -21,6 +21,7 @@
 //! - [`fdcheck`]: the single finite-difference helper every derivative test uses.
 
 pub mod ad;
+pub mod control;
 pub mod error;
 pub mod fdcheck;
 pub mod geometry;

@@ -82,7 +82,9 @@ impl NlpProblem for Adapter<'_> {
         lambda: &[f64],
         vals: &mut [f64],
     ) -> bool {
-        self.eval.borrow_mut().hessian(x, obj_factor, lambda, vals)
+        self.eval
+            .borrow_mut()
+            .hessian(x, obj_factor, lambda, vals)
     }
 }
 

@@ -285,7 +285,8 @@ pub struct NlpSolution {
     pub backend_status: String,
 }
 
-/// A Jacobian or Hessian sparsity pattern with duplicates merged.
+/// A Jacobian or Hessian sparsity pattern with duplicates merged (and, for the Hessian, every
+/// diagonal entry present).
 #[derive(Debug, Clone)]
 pub(crate) struct Pattern {
     /// Unique rows, 0-based.
@@ -344,6 +345,23 @@ impl Pattern {
             }
             map.push(slot);
         }
+        if lower {
+            // Every diagonal entry is made structural (zero-valued when the user has none): the
+            // backends add their inertia-correcting shifts on the diagonal, and ripopt's faer
+            // LDL^T cannot place a shift where the pattern has no entry (observed: a
+            // `NumericalError` at iteration 0 on the double integrator, whose states have no
+            // Hessian entries).
+            let mut has_diag = vec![false; n_rows];
+            for (&r, &c) in ur.iter().zip(&uc) {
+                if r == c {
+                    has_diag[r] = true;
+                }
+            }
+            for (i, _) in has_diag.iter().enumerate().filter(|(_, &d)| !d) {
+                ur.push(i);
+                uc.push(i);
+            }
+        }
         let map = (ur.len() != raw_nnz).then_some(map);
         Ok(Pattern {
             rows: ur,
@@ -358,7 +376,7 @@ impl Pattern {
         self.rows.len()
     }
 
-    /// Sum the user's values `raw` (raw_nnz) into `out` (nnz).
+    /// Sum the user's values `raw` (raw_nnz) into `out` (nnz; added diagonal entries get 0).
     fn merge(&self, raw: &[f64], out: &mut [f64]) {
         match &self.map {
             None => out.copy_from_slice(raw),
@@ -610,8 +628,7 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         .filter(|x| x.len() == prep.n)
         .unwrap_or_else(|| prep.x0.clone());
     let vec_or_zeros = |v: Option<Vec<f64>>, len: usize| {
-        v.filter(|v| v.len() == len)
-            .unwrap_or_else(|| vec![0.0; len])
+        v.filter(|v| v.len() == len).unwrap_or_else(|| vec![0.0; len])
     };
     // Re-evaluate f and g at the returned point: one definition of the objective and of the
     // violation for both backends.
@@ -650,6 +667,17 @@ mod tests {
         let mut out = [0.0; 3];
         p.merge(&[1.0, 2.0, 10.0, 3.0], &mut out);
         assert_eq!(out, [11.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn hessian_pattern_gets_a_structural_diagonal() {
+        // 3 x 3 lower triangle with only (2, 0) and (1, 1): (0, 0) and (2, 2) are added as zeros.
+        let p = Pattern::new("H", vec![2, 1], vec![0, 1], 3, 3, true).unwrap();
+        assert_eq!(p.rows, vec![2, 1, 0, 2]);
+        assert_eq!(p.cols, vec![0, 1, 0, 2]);
+        let mut out = [f64::NAN; 4];
+        p.merge(&[5.0, 7.0], &mut out);
+        assert_eq!(out, [5.0, 7.0, 0.0, 0.0]);
     }
 
     #[test]

@@ -6,8 +6,10 @@
 //! keeps the logs.
 
 mod model_plant;
+mod runner;
 
 pub use model_plant::ModelPlant;
+pub use runner::{run_closed_loop, ClosedLoopLog, RunSettings, RunSummary};
 
 /// Something a controller can drive: a simulator of the model, a physics engine, a wrapper adding noise.
 pub trait Plant {

@@ -1,0 +1,88 @@
+//! A whole MPC control step (linearise + discretise + condense + QP) on the states of a closed-loop
+//! run from a perturbed start (4 links, default settings: horizon 20, dt_mpc 20 ms, ZOH). Criterion
+//! reports the mean per call over the sequence; a manual pass prints the median and p99 of single calls.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use brachia::control::{Discretization, Linearization, Mpc, MpcSettings};
+use brachia::sim::{Controller, ModelPlant, Plant};
+use common::*;
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use std::time::Instant;
+
+fn states(robot: &brachia::Robot, tr: &brachia::trajectory::Trajectory) -> Vec<(f64, Vec<f64>)> {
+    let mut x0 = start_state();
+    x0[1] += 0.1;
+    x0[2] -= 0.1;
+    let mut plant = ModelPlant::new(robot.clone(), &x0);
+    let mut mpc = Mpc::new(robot, tr, MpcSettings::default()).unwrap();
+    let (mut x, mut tau) = (vec![0.0; 8], vec![0.0; 3]);
+    let mut out = Vec::new();
+    for _ in 0..1500 {
+        plant.state(&mut x);
+        out.push((plant.time(), x.clone()));
+        mpc.control(plant.time(), &x, &mut tau);
+        plant.step(&tau, 1e-3);
+    }
+    out
+}
+
+fn bench(c: &mut Criterion) {
+    let robot = paper_robot(5.0);
+    let tr = model_reference(&robot, &start_state(), 1.5);
+    let xs = states(&robot, &tr);
+    let variants = [
+        ("mpc_step default (zoh, measured)", MpcSettings::default()),
+        (
+            "mpc_step euler",
+            MpcSettings {
+                discretization: Discretization::Euler,
+                ..MpcSettings::default()
+            },
+        ),
+        (
+            "mpc_step ltv along reference",
+            MpcSettings {
+                linearization: Linearization::AlongReference,
+                ..MpcSettings::default()
+            },
+        ),
+    ];
+    for (name, settings) in variants {
+        let mut mpc = Mpc::new(&robot, &tr, settings).unwrap();
+        let mut tau = vec![0.0; 3];
+        // Manual percentiles over 3 passes of the run.
+        let mut us = Vec::with_capacity(3 * xs.len());
+        for _ in 0..3 {
+            mpc.reset();
+            for (t, x) in &xs {
+                let s = Instant::now();
+                mpc.control(*t, x, &mut tau);
+                us.push(s.elapsed().as_secs_f64() * 1e6);
+            }
+        }
+        us.sort_by(f64::total_cmp);
+        let p = |q: f64| us[((q * (us.len() - 1) as f64).round()) as usize];
+        eprintln!(
+            "{name}: single calls median {:.1} us, p99 {:.1} us, max {:.1} us",
+            p(0.5),
+            p(0.99),
+            us[us.len() - 1]
+        );
+        let mut k = 0;
+        mpc.reset();
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) % xs.len();
+                if k == 0 {
+                    mpc.reset();
+                }
+                black_box(mpc.control(xs[k].0, &xs[k].1, &mut tau))
+            })
+        });
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

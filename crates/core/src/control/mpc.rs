@@ -1,0 +1,873 @@
+//! Linear MPC tracker of the paper's Section IV (eqs. 14-17).
+//!
+//! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; `q[0]` absolute from +x, the rest relative),
+//! input `u = tau` = torques of joints 2..n (N m), EE output `y = [x_ee, y_ee]` (m), gravity along -y.
+//!
+//! Each control call at time `t` with measured state `x0`:
+//! 1. Linearise `xdot = f(x, u)` at `(x0, u_last)` (the torque applied at the previous call) with exact
+//!    AD (eq. 14), and the EE position at `q0` (eq. 16). With [`Linearization::AlongReference`] stages
+//!    k >= 1 are instead linearised at the reference `(x^d(t + k dt), tau^d(t + k dt))` (LTV).
+//! 2. Discretise over the MPC step `dt_mpc`: forward Euler (eq. 15) or the exact zero-order hold of the
+//!    affine system (matrix exponential), see [`Discretization`].
+//! 3. Condense the horizon: `X = Gamma U + xi`. The QP in `U = [u_0; ...; u_{N-1}]` is
+//!    `min 1/2 U^T H U + g^T U, tau_min <= u_k <= tau_max`, where (halving eq. 17)
+//!    `H = Gamma^T Qt Gamma + R`, `Qt_k = Q_k + C_k^T W_k C_k`. H is built in O(N^2) block products
+//!    from the backward recursion `P_N = Qt_N, P_k = Qt_k + A_k^T P_{k+1} A_k`:
+//!    `H_ij = Gamma_{j+1,i}^T P_{j+1} B_j` (i <= j), and g from `lambda_k = e_k + A_k^T lambda_{k+1}`.
+//! 4. Solve with [`BoxQp`] warm-started from the previous solution shifted by the elapsed time; apply
+//!    `u_0`.
+//!
+//! The cost is `sum_{k=1}^N |x_k - x^d_k|^2_Q + |y_k - y^d_k|^2_W + sum_{k=0}^{N-1} |u_k - u^r_k|^2_R`
+//! with `Q, W` multiplied by `terminal_factor` at k = N, and `u^r` either zero (the paper: absolute
+//! torque) or the planned torque ([`TorqueReference`]). All buffers are allocated in [`Mpc::new`]; a
+//! control step does not allocate.
+
+use super::boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
+use crate::error::{Error, Result};
+use crate::model::{LinearModel, Linearizer, Robot};
+use crate::sim::{ControlInfo, Controller};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+
+/// How the continuous linear model is turned into a discrete one over `dt_mpc`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Discretization {
+    /// Forward Euler, the paper's eq. 15: `Ad = I + dt A`, `Bd = dt B`, `Fd = dt F`.
+    Euler,
+    /// Exact zero-order hold of the affine system: `[Ad Bd Fd] = top rows of exp(dt [A B F; 0 0 0])`
+    /// (scaling and squaring with a degree-12 Taylor series).
+    Zoh,
+}
+
+/// What the torque penalty `|U - U_ref|^2_R` is measured from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TorqueReference {
+    /// `U_ref = 0`: penalise the absolute torque (the paper's eq. 17).
+    Zero,
+    /// `U_ref` = the planned torques of the reference: penalise deviations from the plan.
+    Planned,
+}
+
+/// Where the horizon is linearised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Linearization {
+    /// One model at the measured state and last applied torque for the whole horizon (the paper).
+    Measured,
+    /// Stage 0 at the measured state; stages k >= 1 at the reference `(x^d_k, tau^d_k)` (LTV; costs
+    /// N linearisations and discretisations per step).
+    AlongReference,
+}
+
+/// Where the affine terms of the prediction model come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Prediction {
+    /// The paper: `F` and `f` from the Taylor expansion at the linearisation point (eqs. 14, 16).
+    /// Over a long horizon the linear model drifts from the true motion and the MPC "corrects"
+    /// predicted errors that do not exist.
+    Model,
+    /// Error dynamics: keep `A, B, C` but choose the affine terms so that the reference is an exact
+    /// solution of the prediction model, `Fd_k = x^d_{k+1} - Ad_k x^d_k - Bd_k tau^d_k` and
+    /// `f_k = y^d_k - C_k x^d_k`. The prediction is then exact at the reference and the linear model
+    /// only propagates deviations from it.
+    ErrorDynamics,
+}
+
+/// Settings of the MPC (defaults are for the paper's 4-link robot: see `docs/mpc.md`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MpcSettings {
+    /// Prediction horizon N (steps). Default 20.
+    pub horizon: usize,
+    /// MPC step, s (the control period is set by the caller; default 0.02 s, so the horizon spans 0.4 s).
+    pub dt_mpc: f64,
+    /// Diagonal of the state weight Q2 (2n values: q then qd; 1/rad^2, s^2/rad^2). Default
+    /// `[100 x n, 1 x n]`.
+    pub q_diag: Vec<f64>,
+    /// Diagonal of the EE weight W (2 values, 1/m^2). Default `[2000, 2000]`.
+    pub w_diag: Vec<f64>,
+    /// Diagonal of the torque weight R2 (n - 1 values, 1/(N m)^2). Default `[0.01 x (n-1)]`.
+    pub r_diag: Vec<f64>,
+    /// Factor on Q2 and W at the last stage (>= 0). Default 5.
+    pub terminal_factor: f64,
+    /// Discretisation over `dt_mpc`. Default [`Discretization::Zoh`].
+    pub discretization: Discretization,
+    /// Torque penalty reference. Default [`TorqueReference::Planned`].
+    pub torque_reference: TorqueReference,
+    /// Linearisation points over the horizon. Default [`Linearization::Measured`].
+    pub linearization: Linearization,
+    /// Affine terms of the prediction model. Default [`Prediction::ErrorDynamics`].
+    pub prediction: Prediction,
+    /// Options of the QP solver.
+    pub qp: BoxQpSettings,
+}
+
+impl Default for MpcSettings {
+    fn default() -> Self {
+        Self::for_links(4)
+    }
+}
+
+impl MpcSettings {
+    /// Default settings sized for an n-link robot.
+    pub fn for_links(n: usize) -> Self {
+        let mut q_diag = vec![100.0; n];
+        q_diag.extend(std::iter::repeat_n(1.0, n));
+        MpcSettings {
+            horizon: 20,
+            dt_mpc: 0.02,
+            q_diag,
+            w_diag: vec![2000.0, 2000.0],
+            r_diag: vec![0.01; n.saturating_sub(1)],
+            terminal_factor: 5.0,
+            discretization: Discretization::Zoh,
+            torque_reference: TorqueReference::Planned,
+            linearization: Linearization::Measured,
+            prediction: Prediction::ErrorDynamics,
+            qp: BoxQpSettings::default(),
+        }
+    }
+
+    /// Check the values for an n-link robot.
+    pub fn validate(&self, n: usize) -> Result<()> {
+        let src = "MpcSettings";
+        if self.horizon == 0 {
+            return Err(Error::invalid(src, "horizon", self.horizon, "must be >= 1"));
+        }
+        if !(self.dt_mpc.is_finite() && self.dt_mpc > 0.0) {
+            return Err(Error::invalid(src, "dt_mpc", self.dt_mpc, "must be > 0"));
+        }
+        for (name, v, len) in [
+            ("q_diag", &self.q_diag, 2 * n),
+            ("w_diag", &self.w_diag, 2),
+            ("r_diag", &self.r_diag, n.saturating_sub(1)),
+        ] {
+            if v.len() != len {
+                return Err(Error::Dimension {
+                    what: format!("{src}.{name}"),
+                    expected: len,
+                    got: v.len(),
+                });
+            }
+            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+                return Err(Error::invalid(
+                    src,
+                    name,
+                    x,
+                    "weights must be finite and >= 0",
+                ));
+            }
+        }
+        if let Some(x) = self.r_diag.iter().find(|x| **x <= 0.0) {
+            return Err(Error::invalid(
+                src,
+                "r_diag",
+                x,
+                "must be > 0 (keeps the QP strictly convex)",
+            ));
+        }
+        if !(self.terminal_factor.is_finite() && self.terminal_factor >= 0.0) {
+            return Err(Error::invalid(
+                src,
+                "terminal_factor",
+                self.terminal_factor,
+                "must be finite and >= 0",
+            ));
+        }
+        self.qp.validate()
+    }
+}
+
+/// Matrix exponential workspace for the zero-order hold (allocated once).
+#[derive(Debug, Clone)]
+struct Expm {
+    m: usize,
+    a: Vec<f64>,
+    term: Vec<f64>,
+    sum: Vec<f64>,
+    tmp: Vec<f64>,
+}
+
+impl Expm {
+    fn new(m: usize) -> Self {
+        Expm {
+            m,
+            a: vec![0.0; m * m],
+            term: vec![0.0; m * m],
+            sum: vec![0.0; m * m],
+            tmp: vec![0.0; m * m],
+        }
+    }
+
+    /// `sum = exp(a)` (a: m x m row-major, overwritten).
+    fn compute(&mut self) {
+        let m = self.m;
+        // 1-norm for scaling.
+        let mut norm: f64 = 0.0;
+        for j in 0..m {
+            let s: f64 = (0..m).map(|i| self.a[i * m + j].abs()).sum();
+            norm = norm.max(s);
+        }
+        let mut s = 0u32;
+        if norm > 0.5 {
+            s = (norm / 0.5).log2().ceil() as u32;
+        }
+        let scale = 0.5f64.powi(s as i32);
+        for v in self.a.iter_mut() {
+            *v *= scale;
+        }
+        // Taylor series to degree 12 (error < 0.5^13/13! ~ 2e-14 relative for |a| <= 0.5).
+        self.sum.fill(0.0);
+        self.term.fill(0.0);
+        for i in 0..m {
+            self.sum[i * m + i] = 1.0;
+            self.term[i * m + i] = 1.0;
+        }
+        for k in 1..=12 {
+            matmul(&self.term, &self.a, &mut self.tmp, m);
+            let inv = 1.0 / k as f64;
+            for (t, &v) in self.term.iter_mut().zip(&self.tmp) {
+                *t = v * inv;
+            }
+            for (acc, &t) in self.sum.iter_mut().zip(&self.term) {
+                *acc += t;
+            }
+        }
+        for _ in 0..s {
+            matmul(&self.sum, &self.sum, &mut self.tmp, m);
+            std::mem::swap(&mut self.sum, &mut self.tmp);
+        }
+    }
+}
+
+/// `c = a b`, all m x m row-major.
+fn matmul(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
+    for i in 0..m {
+        let ci = &mut c[i * m..(i + 1) * m];
+        ci.fill(0.0);
+        for k in 0..m {
+            let aik = a[i * m + k];
+            if aik == 0.0 {
+                continue;
+            }
+            let bk = &b[k * m..(k + 1) * m];
+            for j in 0..m {
+                ci[j] += aik * bk[j];
+            }
+        }
+    }
+}
+
+/// Discrete affine model of one stage: `x_{k+1} = Ad x_k + Bd u_k + Fd`, `y_k = C x_k + fy`.
+#[derive(Debug, Clone, Copy)]
+pub struct StageModel<'m> {
+    /// 2n x 2n, row-major.
+    pub ad: &'m [f64],
+    /// 2n x (n-1), row-major.
+    pub bd: &'m [f64],
+    /// 2n.
+    pub fd: &'m [f64],
+    /// EE output Jacobian, 2 x 2n, row-major.
+    pub c: &'m [f64],
+    /// EE output offset, 2.
+    pub fy: &'m [f64],
+}
+
+/// The linear MPC controller; see the module docs. Borrows the robot and the reference.
+pub struct Mpc<'a> {
+    robot: &'a Robot,
+    reference: &'a Trajectory,
+    settings: MpcSettings,
+    lin: Linearizer<'a>,
+    lm: LinearModel,
+    expm: Expm,
+    /// Number of distinct stage models (1 for `Measured`, N for `AlongReference`).
+    n_models: usize,
+    ad: Vec<f64>,
+    bd: Vec<f64>,
+    /// Affine terms of the model slots.
+    fd_model: Vec<f64>,
+    /// Affine terms per stage k = 0..N-1 (N x nx).
+    fd: Vec<f64>,
+    /// Output offsets per stage k = 1..N (N x 2).
+    fy_stage: Vec<f64>,
+    /// Reference state at t.
+    xd0: Vec<f64>,
+    cy: Vec<f64>,
+    fy: Vec<f64>,
+    /// Reference states x^d_k, k = 1..N (N x 2n).
+    xref: Vec<f64>,
+    /// Reference EE y^d_k, k = 1..N (N x 2).
+    yref: Vec<f64>,
+    /// Planned torques at t + k dt, k = 0..N-1 (N x nu).
+    tauref: Vec<f64>,
+    /// Cost weights per stage k = 1..N: `Qt_k` (dense nx x nx), `e_k` (nx).
+    qt: Vec<f64>,
+    e: Vec<f64>,
+    /// Free response xi_k, k = 0..N ((N + 1) x nx).
+    xi: Vec<f64>,
+    /// Gamma blocks: LTI `Phi_d = A^d B` (N blocks), LTV `Gamma_{j+1,i}` (N x N blocks).
+    gam: Vec<f64>,
+    /// `P_{j+1} B_j` for j = 0..N-1 (N x nx x nu).
+    pb: Vec<f64>,
+    p: Vec<f64>,
+    ptmp: Vec<f64>,
+    lam: Vec<f64>,
+    lamtmp: Vec<f64>,
+    h: Vec<f64>,
+    g: Vec<f64>,
+    lb: Vec<f64>,
+    ub: Vec<f64>,
+    u: Vec<f64>,
+    u_prev: Vec<f64>,
+    t_prev: Option<f64>,
+    tau_last: Vec<f64>,
+    xbuf: Vec<f64>,
+    qp: BoxQp,
+    last_qp: Option<BoxQpInfo>,
+}
+
+impl<'a> Mpc<'a> {
+    /// An MPC tracking `reference` (states and planned torques, any sampling; usually 1 ms) for `robot`.
+    pub fn new(robot: &'a Robot, reference: &'a Trajectory, settings: MpcSettings) -> Result<Self> {
+        let n = robot.n;
+        settings.validate(n)?;
+        if reference.n != n {
+            return Err(Error::Dimension {
+                what: "reference links".into(),
+                expected: n,
+                got: reference.n,
+            });
+        }
+        if reference.is_empty() {
+            return Err(Error::invalid(
+                "reference",
+                "len",
+                0,
+                "the reference needs at least one sample",
+            ));
+        }
+        let (nx, nu, hn) = (2 * n, n - 1, settings.horizon);
+        let nu_all = hn * nu;
+        let n_models = match settings.linearization {
+            Linearization::Measured => 1,
+            Linearization::AlongReference => hn,
+        };
+        let n_gam = match settings.linearization {
+            Linearization::Measured => hn,
+            Linearization::AlongReference => hn * hn,
+        };
+        let mut lb = vec![0.0; nu_all];
+        let mut ub = vec![0.0; nu_all];
+        for k in 0..hn {
+            lb[k * nu..(k + 1) * nu].copy_from_slice(&robot.tau_min);
+            ub[k * nu..(k + 1) * nu].copy_from_slice(&robot.tau_max);
+        }
+        let mut qp = BoxQp::new(nu_all);
+        qp.settings = settings.qp;
+        Ok(Mpc {
+            robot,
+            reference,
+            lin: Linearizer::new(robot),
+            lm: LinearModel::zeros(n),
+            expm: Expm::new(nx + nu + 1),
+            n_models,
+            ad: vec![0.0; n_models * nx * nx],
+            bd: vec![0.0; n_models * nx * nu],
+            fd_model: vec![0.0; n_models * nx],
+            fd: vec![0.0; hn * nx],
+            fy_stage: vec![0.0; hn * 2],
+            xd0: vec![0.0; nx],
+            cy: vec![0.0; n_models * 2 * nx],
+            fy: vec![0.0; n_models * 2],
+            xref: vec![0.0; hn * nx],
+            yref: vec![0.0; hn * 2],
+            tauref: vec![0.0; hn * nu],
+            qt: vec![0.0; hn * nx * nx],
+            e: vec![0.0; hn * nx],
+            xi: vec![0.0; (hn + 1) * nx],
+            gam: vec![0.0; n_gam * nx * nu],
+            pb: vec![0.0; hn * nx * nu],
+            p: vec![0.0; nx * nx],
+            ptmp: vec![0.0; nx * nx],
+            lam: vec![0.0; nx],
+            lamtmp: vec![0.0; nx],
+            h: vec![0.0; nu_all * nu_all],
+            g: vec![0.0; nu_all],
+            lb,
+            ub,
+            u: vec![0.0; nu_all],
+            u_prev: vec![0.0; nu_all],
+            t_prev: None,
+            tau_last: vec![0.0; nu],
+            xbuf: vec![0.0; nx],
+            qp,
+            settings,
+            last_qp: None,
+        })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &MpcSettings {
+        &self.settings
+    }
+
+    /// Forget the previous solution and the last applied torque (next call starts cold, linearising
+    /// at the planned torque).
+    pub fn reset(&mut self) {
+        self.t_prev = None;
+    }
+
+    /// Diagnostics of the last QP solve (None before the first call).
+    pub fn last_qp_info(&self) -> Option<BoxQpInfo> {
+        self.last_qp
+    }
+
+    /// The condensed QP of the last call: `(H (Nnu x Nnu row-major), g, lb, ub)`.
+    pub fn qp_data(&self) -> (&[f64], &[f64], &[f64], &[f64]) {
+        (&self.h, &self.g, &self.lb, &self.ub)
+    }
+
+    /// The whole input sequence `U` (N x nu) found at the last call, N m.
+    pub fn solution(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// Discrete model used at the last call: dynamics of stage k (`x_k -> x_{k+1}`, k = 0..N-1) and the
+    /// output model of `x_k` (k = 1..N; k = 0 gives the linearisation at the measured state).
+    pub fn stage_model(&self, k: usize) -> StageModel<'_> {
+        let n = self.robot.n;
+        let (nx, nu) = (2 * n, n - 1);
+        let m = k.min(self.n_models - 1);
+        StageModel {
+            ad: &self.ad[m * nx * nx..(m + 1) * nx * nx],
+            bd: &self.bd[m * nx * nu..(m + 1) * nx * nu],
+            fd: &self.fd[k.min(self.settings.horizon - 1) * nx..][..nx],
+            c: &self.cy[m * 2 * nx..(m + 1) * 2 * nx],
+            fy: if k == 0 {
+                &self.fy[..2]
+            } else {
+                &self.fy_stage[2 * (k.min(self.settings.horizon) - 1)..][..2]
+            },
+        }
+    }
+
+    /// The output model used for stage k = 1..N (the linearisation at the measured state for
+    /// `Measured`, at the reference x^d_k for `AlongReference`).
+    fn out_model_index(&self, k: usize) -> usize {
+        match self.settings.linearization {
+            Linearization::Measured => 0,
+            Linearization::AlongReference => k.min(self.n_models - 1),
+        }
+    }
+
+    /// References used at the last call: `(x^d_k for k = 1..N (N x 2n), y^d_k (N x 2), planned
+    /// torques at k = 0..N-1 (N x nu))`.
+    pub fn reference_window(&self) -> (&[f64], &[f64], &[f64]) {
+        (&self.xref, &self.yref, &self.tauref)
+    }
+
+    /// Planned torque at time t (linear interpolation, held past the ends), written into `out`.
+    fn tau_at(&self, t: f64, out: &mut [f64]) {
+        let tr = self.reference;
+        let nu = tr.n - 1;
+        let (k, r) = tr.locate(t);
+        let k1 = (k + 1).min(tr.len() - 1);
+        for j in 0..nu {
+            let a = tr.tau[k * nu + j];
+            let b = tr.tau[k1 * nu + j];
+            out[j] = a + r * (b - a);
+        }
+    }
+
+    /// Linearise at `(x, u)` and discretise into model slot `m`.
+    fn build_model(&mut self, m: usize, x_is_buf: bool, x0: &[f64], u: &[f64]) {
+        let n = self.robot.n;
+        let (nx, nu) = (2 * n, n - 1);
+        let dt = self.settings.dt_mpc;
+        if x_is_buf {
+            self.lin.linearize_into(&self.xbuf, u, &mut self.lm);
+        } else {
+            self.lin.linearize_into(x0, u, &mut self.lm);
+        }
+        let ad = &mut self.ad[m * nx * nx..(m + 1) * nx * nx];
+        let bd = &mut self.bd[m * nx * nu..(m + 1) * nx * nu];
+        let fd = &mut self.fd_model[m * nx..(m + 1) * nx];
+        match self.settings.discretization {
+            Discretization::Euler => {
+                for i in 0..nx {
+                    for j in 0..nx {
+                        ad[i * nx + j] =
+                            dt * self.lm.a[i * nx + j] + if i == j { 1.0 } else { 0.0 };
+                    }
+                    for j in 0..nu {
+                        bd[i * nu + j] = dt * self.lm.b[i * nu + j];
+                    }
+                    fd[i] = dt * self.lm.f[i];
+                }
+            }
+            Discretization::Zoh => {
+                let me = nx + nu + 1;
+                let ea = &mut self.expm.a;
+                ea.fill(0.0);
+                for i in 0..nx {
+                    for j in 0..nx {
+                        ea[i * me + j] = dt * self.lm.a[i * nx + j];
+                    }
+                    for j in 0..nu {
+                        ea[i * me + nx + j] = dt * self.lm.b[i * nu + j];
+                    }
+                    ea[i * me + nx + nu] = dt * self.lm.f[i];
+                }
+                self.expm.compute();
+                let s = &self.expm.sum;
+                for i in 0..nx {
+                    ad[i * nx..(i + 1) * nx].copy_from_slice(&s[i * me..i * me + nx]);
+                    bd[i * nu..(i + 1) * nu].copy_from_slice(&s[i * me + nx..i * me + nx + nu]);
+                    fd[i] = s[i * me + nx + nu];
+                }
+            }
+        }
+        self.cy[m * 2 * nx..(m + 1) * 2 * nx].copy_from_slice(&self.lm.c);
+        self.fy[m * 2..(m + 1) * 2].copy_from_slice(&self.lm.fy);
+    }
+
+    /// One MPC step: returns the QP diagnostics; the first input is `self.u[..nu]`.
+    fn step(&mut self, t: f64, x0: &[f64]) -> BoxQpInfo {
+        let n = self.robot.n;
+        let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
+        let dt = self.settings.dt_mpc;
+        let nall = hn * nu;
+
+        // References.
+        for k in 0..hn {
+            let tk = t + (k + 1) as f64 * dt;
+            self.reference
+                .state_at(tk, &mut self.xref[k * nx..(k + 1) * nx]);
+            let ee = self.robot.ee_position(&self.xref[k * nx..k * nx + n]);
+            self.yref[2 * k] = ee[0];
+            self.yref[2 * k + 1] = ee[1];
+            let mut tmp = [0.0; crate::model::MAX_LINKS];
+            self.tau_at(t + k as f64 * dt, &mut tmp[..nu]);
+            self.tauref[k * nu..(k + 1) * nu].copy_from_slice(&tmp[..nu]);
+        }
+
+        // Warm start: previous solution shifted by the elapsed time (linear interpolation).
+        match self.t_prev {
+            None => {
+                self.tau_last.copy_from_slice(&self.tauref[..nu]);
+                self.u.copy_from_slice(&self.tauref);
+            }
+            Some(tp) => {
+                let s = ((t - tp) / dt).max(0.0);
+                for k in 0..hn {
+                    let pos = k as f64 + s;
+                    let k0 = (pos.floor() as usize).min(hn - 1);
+                    let k1 = (k0 + 1).min(hn - 1);
+                    let r = (pos - k0 as f64).clamp(0.0, 1.0);
+                    for j in 0..nu {
+                        let a = self.u_prev[k0 * nu + j];
+                        let b = self.u_prev[k1 * nu + j];
+                        self.u[k * nu + j] = a + r * (b - a);
+                    }
+                }
+            }
+        }
+
+        // Models.
+        let tau_last = {
+            let mut tmp = [0.0; crate::model::MAX_LINKS];
+            tmp[..nu].copy_from_slice(&self.tau_last);
+            tmp
+        };
+        self.build_model(0, false, x0, &tau_last[..nu]);
+        for k in 1..self.n_models {
+            self.xbuf.copy_from_slice(&self.xref[(k - 1) * nx..k * nx]);
+            let mut tmp = [0.0; crate::model::MAX_LINKS];
+            tmp[..nu].copy_from_slice(&self.tauref[k * nu..(k + 1) * nu]);
+            self.build_model(k, true, x0, &tmp[..nu]);
+        }
+
+        // Per-stage affine terms.
+        self.reference.state_at(t, &mut self.xd0);
+        for k in 0..hn {
+            let m = k.min(self.n_models - 1);
+            let fdk = &mut self.fd[k * nx..(k + 1) * nx];
+            match self.settings.prediction {
+                Prediction::Model => {
+                    fdk.copy_from_slice(&self.fd_model[m * nx..(m + 1) * nx]);
+                }
+                Prediction::ErrorDynamics => {
+                    let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
+                    let bd = &self.bd[m * nx * nu..(m + 1) * nx * nu];
+                    let xa = if k == 0 {
+                        &self.xd0[..]
+                    } else {
+                        &self.xref[(k - 1) * nx..k * nx]
+                    };
+                    let xb = &self.xref[k * nx..(k + 1) * nx];
+                    let ua = &self.tauref[k * nu..(k + 1) * nu];
+                    for i in 0..nx {
+                        let mut v = xb[i];
+                        for j in 0..nx {
+                            v -= ad[i * nx + j] * xa[j];
+                        }
+                        for j in 0..nu {
+                            v -= bd[i * nu + j] * ua[j];
+                        }
+                        fdk[i] = v;
+                    }
+                }
+            }
+        }
+        for k in 1..=hn {
+            let mo = self.out_model_index(k);
+            let c = &self.cy[mo * 2 * nx..(mo + 1) * 2 * nx];
+            for r in 0..2 {
+                self.fy_stage[2 * (k - 1) + r] = match self.settings.prediction {
+                    Prediction::Model => self.fy[mo * 2 + r],
+                    Prediction::ErrorDynamics => {
+                        let xd = &self.xref[(k - 1) * nx..k * nx];
+                        let cx: f64 = (0..n).map(|j| c[r * nx + j] * xd[j]).sum();
+                        self.yref[2 * (k - 1) + r] - cx
+                    }
+                };
+            }
+        }
+
+        // Free response xi_0 = x0, xi_{k+1} = A_k xi_k + F_k.
+        self.xi[..nx].copy_from_slice(x0);
+        for k in 0..hn {
+            let m = k.min(self.n_models - 1);
+            let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
+            let fd = &self.fd[k * nx..(k + 1) * nx];
+            let (done, rest) = self.xi.split_at_mut((k + 1) * nx);
+            let xk = &done[k * nx..];
+            let xn = &mut rest[..nx];
+            for i in 0..nx {
+                let mut v = fd[i];
+                for j in 0..nx {
+                    v += ad[i * nx + j] * xk[j];
+                }
+                xn[i] = v;
+            }
+        }
+
+        // Stage weights Qt_k and gradients e_k, k = 1..N (stored at index k - 1).
+        let q = &self.settings.q_diag;
+        let w = &self.settings.w_diag;
+        for k in 1..=hn {
+            let fac = if k == hn {
+                self.settings.terminal_factor
+            } else {
+                1.0
+            };
+            let mo = self.out_model_index(k);
+            let c = &self.cy[mo * 2 * nx..(mo + 1) * 2 * nx];
+            let fy = &self.fy_stage[2 * (k - 1)..2 * k];
+            let qt = &mut self.qt[(k - 1) * nx * nx..k * nx * nx];
+            let xk = &self.xi[k * nx..(k + 1) * nx];
+            let xd = &self.xref[(k - 1) * nx..k * nx];
+            let yd = &self.yref[2 * (k - 1)..2 * k];
+            // C has zero velocity columns: C^T W C lives in the q-q block.
+            qt.fill(0.0);
+            for i in 0..nx {
+                qt[i * nx + i] = fac * q[i];
+            }
+            for i in 0..n {
+                for j in 0..n {
+                    qt[i * nx + j] += fac * (w[0] * c[i] * c[j] + w[1] * c[nx + i] * c[nx + j]);
+                }
+            }
+            // Output residual at the free response.
+            let mut ry = [0.0; 2];
+            for r in 0..2 {
+                let mut v = fy[r] - yd[r];
+                for j in 0..n {
+                    v += c[r * nx + j] * xk[j];
+                }
+                ry[r] = fac * w[r] * v;
+            }
+            let e = &mut self.e[(k - 1) * nx..k * nx];
+            for i in 0..nx {
+                e[i] = fac * q[i] * (xk[i] - xd[i]);
+            }
+            for i in 0..n {
+                e[i] += c[i] * ry[0] + c[nx + i] * ry[1];
+            }
+        }
+
+        // Gamma blocks.
+        match self.settings.linearization {
+            Linearization::Measured => {
+                // Phi_0 = B, Phi_d = A Phi_{d-1}.
+                let (ad, bd) = (&self.ad[..nx * nx], &self.bd[..nx * nu]);
+                self.gam[..nx * nu].copy_from_slice(bd);
+                for d in 1..hn {
+                    let (prev, cur) = self.gam.split_at_mut(d * nx * nu);
+                    let prev = &prev[(d - 1) * nx * nu..];
+                    mat_mul_rect(ad, prev, &mut cur[..nx * nu], nx, nx, nu);
+                }
+            }
+            Linearization::AlongReference => {
+                // Gamma_{j+1,i} at block (j, i): Gamma_{i+1,i} = B_i, Gamma_{j+1,i} = A_j Gamma_{j,i}.
+                let blk = nx * nu;
+                for i in 0..hn {
+                    let bi = &self.bd[i * blk..(i + 1) * blk];
+                    self.gam[(i * hn + i) * blk..(i * hn + i + 1) * blk].copy_from_slice(bi);
+                    for j in i + 1..hn {
+                        let (lo, hi) = self.gam.split_at_mut((j * hn + i) * blk);
+                        let prev = &lo[((j - 1) * hn + i) * blk..((j - 1) * hn + i + 1) * blk];
+                        let aj = &self.ad[j * nx * nx..(j + 1) * nx * nx];
+                        mat_mul_rect(aj, prev, &mut hi[..blk], nx, nx, nu);
+                    }
+                }
+            }
+        }
+
+        // Backward recursion: P_N = Qt_N; PB_j = P_{j+1} B_j; P_j = Qt_j + A_j^T P_{j+1} A_j.
+        // lambda_N = e_N; g_j = B_j^T lambda_{j+1} - R u^r_j; lambda_j = e_j + A_j^T lambda_{j+1}.
+        self.p
+            .copy_from_slice(&self.qt[(hn - 1) * nx * nx..hn * nx * nx]);
+        self.lam.copy_from_slice(&self.e[(hn - 1) * nx..hn * nx]);
+        let r = &self.settings.r_diag;
+        let planned = self.settings.torque_reference == TorqueReference::Planned;
+        for j in (0..hn).rev() {
+            let m = j.min(self.n_models - 1);
+            let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
+            let bd = &self.bd[m * nx * nu..(m + 1) * nx * nu];
+            let pb = &mut self.pb[j * nx * nu..(j + 1) * nx * nu];
+            mat_mul_rect(&self.p, bd, pb, nx, nx, nu);
+            for a in 0..nu {
+                let mut v: f64 = 0.0;
+                for i in 0..nx {
+                    v += bd[i * nu + a] * self.lam[i];
+                }
+                if planned {
+                    v -= r[a] * self.tauref[j * nu + a];
+                }
+                self.g[j * nu + a] = v;
+            }
+            if j == 0 {
+                break;
+            }
+            // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
+            mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
+            let qt = &self.qt[(j - 1) * nx * nx..j * nx * nx];
+            // P is symmetric: compute the upper triangle and mirror it.
+            for i in 0..nx {
+                for c in i..nx {
+                    let mut v = qt[i * nx + c];
+                    for k in 0..nx {
+                        v += ad[k * nx + i] * self.ptmp[k * nx + c];
+                    }
+                    self.p[i * nx + c] = v;
+                    self.p[c * nx + i] = v;
+                }
+            }
+            let e = &self.e[(j - 1) * nx..j * nx];
+            for i in 0..nx {
+                let mut v = e[i];
+                for k in 0..nx {
+                    v += ad[k * nx + i] * self.lam[k];
+                }
+                self.lamtmp[i] = v;
+            }
+            std::mem::swap(&mut self.lam, &mut self.lamtmp);
+        }
+
+        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored.
+        let blk = nx * nu;
+        for j in 0..hn {
+            let pb = &self.pb[j * blk..(j + 1) * blk];
+            for i in 0..=j {
+                let gm = match self.settings.linearization {
+                    Linearization::Measured => &self.gam[(j - i) * blk..(j - i + 1) * blk],
+                    Linearization::AlongReference => {
+                        &self.gam[(j * hn + i) * blk..(j * hn + i + 1) * blk]
+                    }
+                };
+                for a in 0..nu {
+                    for b in 0..nu {
+                        let mut v = 0.0;
+                        for k in 0..nx {
+                            v += gm[k * nu + a] * pb[k * nu + b];
+                        }
+                        let (row, col) = (i * nu + a, j * nu + b);
+                        self.h[row * nall + col] = v;
+                        self.h[col * nall + row] = v;
+                    }
+                }
+            }
+            for a in 0..nu {
+                let d = j * nu + a;
+                self.h[d * nall + d] += r[a];
+            }
+        }
+
+        let info = self
+            .qp
+            .solve(&self.h, &self.g, &self.lb, &self.ub, &mut self.u);
+        self.last_qp = Some(info);
+        info
+    }
+}
+
+/// `c = a b` with a: r x k, b: k x s, c: r x s, row-major.
+fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
+    for i in 0..r {
+        let ci = &mut c[i * s..(i + 1) * s];
+        ci.fill(0.0);
+        for l in 0..k {
+            let v = a[i * k + l];
+            if v == 0.0 {
+                continue;
+            }
+            let bl = &b[l * s..(l + 1) * s];
+            for j in 0..s {
+                ci[j] += v * bl[j];
+            }
+        }
+    }
+}
+
+impl Controller for Mpc<'_> {
+    /// One MPC step. A measured state of the wrong length or with NaNs yields the planned torque
+    /// (clamped) and 0 iterations; a QP that does not reach `Solved` still returns a feasible input
+    /// (see [`Mpc::last_qp_info`]).
+    fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
+        let n = self.robot.n;
+        let nu = n - 1;
+        if x.len() != 2 * n || tau.len() != nu || x.iter().any(|v| !v.is_finite()) {
+            let mut tmp = [0.0; crate::model::MAX_LINKS];
+            self.tau_at(t, &mut tmp[..nu]);
+            for (j, o) in tau.iter_mut().enumerate().take(nu) {
+                *o = tmp[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            }
+            self.last_qp = None;
+            return ControlInfo { iterations: 0 };
+        }
+        let info = self.step(t, x);
+        let ok = !matches!(
+            info.status,
+            BoxQpStatus::DimensionMismatch | BoxQpStatus::InvalidBounds
+        );
+        for j in 0..nu {
+            let v = if ok { self.u[j] } else { self.tauref[j] };
+            tau[j] = v.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+        }
+        self.tau_last.copy_from_slice(tau);
+        self.u_prev.copy_from_slice(&self.u);
+        self.t_prev = Some(t);
+        ControlInfo {
+            iterations: info.iterations,
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        "mpc"
+    }
+}
