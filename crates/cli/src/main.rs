@@ -6,6 +6,7 @@
 mod io;
 mod plan;
 mod simulate;
+mod track;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -24,6 +25,8 @@ enum Command {
     Simulate(simulate::Args),
     /// Plan an energy-optimal swing for a scenario (direct collocation).
     Plan(plan::Args),
+    /// Plan (or read a plan) and track it in closed loop at 1 kHz (MPC, PD or open loop).
+    Track(track::Args),
 }
 
 /// An error of a command: bad input (exit 2) or a failure after the inputs were accepted (exit 1).
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Plan(a) => plan::run(a),
+        Command::Track(a) => track::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

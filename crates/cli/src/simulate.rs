@@ -21,10 +21,10 @@ pub struct Args {
     #[arg(long, allow_hyphen_values = true)]
     qd0: Option<String>,
     /// Simulated time in s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     duration: f64,
     /// Output period in s (the integrator takes `substeps` RK4 steps per period).
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = 0.001, allow_negative_numbers = true)]
     dt: f64,
     /// RK4 steps per output period.
     #[arg(long, default_value_t = 1)]

@@ -10,10 +10,12 @@
 pub mod plan_run;
 pub mod run_folder;
 pub mod scenario;
+pub mod track_run;
 
 pub use plan_run::{plan_report, run_plan, PlanRun};
 pub use run_folder::RunFolder;
-pub use scenario::Scenario;
+pub use scenario::{ControllerKind, PlantKind, Scenario};
+pub use track_run::{read_plan_folder, run_track, TrackRun};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

@@ -18,6 +18,7 @@
 //! backend = "pounce"                    # pounce | ripopt
 //! ```
 
+use brachia::control::{MpcSettings, PdSettings};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia::{Error, Robot};
 use serde::{Deserialize, Serialize};
@@ -40,6 +41,96 @@ pub struct Scenario {
     /// NLP solver settings.
     #[serde(default)]
     pub solver: NlpSettings,
+    /// Closed-loop tracking settings (`brachia track`).
+    #[serde(default)]
+    pub tracking: TrackingSettings,
+    /// The plant the controller runs against.
+    #[serde(default)]
+    pub plant: PlantSettings,
+}
+
+/// Which controller tracks the plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ControllerKind {
+    /// Linear MPC (paper Section IV).
+    #[default]
+    Mpc,
+    /// PD on the actuated joints plus the planned torque.
+    Pd,
+    /// Replay of the planned torques.
+    OpenLoop,
+}
+
+/// Which plant the controller runs against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlantKind {
+    /// RK4 integration of the model.
+    #[default]
+    Model,
+    /// The rapier physics engine.
+    Rapier,
+}
+
+/// Closed-loop settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrackingSettings {
+    /// Controller. Default MPC.
+    pub controller: ControllerKind,
+    /// MPC settings.
+    pub mpc: MpcSettings,
+    /// PD baseline settings.
+    pub pd: PdSettings,
+    /// Time simulated after the end of the planned swing (the reference holds its final state), s.
+    /// Default 0.
+    pub hold_s: f64,
+    /// Control period, s. Default 0.001 (1 kHz).
+    pub control_dt: f64,
+    /// Sensor noise on q (rad) and qd (rad/s), standard deviations. Default 0.
+    pub noise_q_std: f64,
+    /// See `noise_q_std`.
+    pub noise_qd_std: f64,
+    /// Noise seed.
+    pub seed: u64,
+}
+
+impl Default for TrackingSettings {
+    fn default() -> Self {
+        TrackingSettings {
+            controller: ControllerKind::Mpc,
+            mpc: MpcSettings::default(),
+            pd: PdSettings::default(),
+            hold_s: 0.0,
+            control_dt: 0.001,
+            noise_q_std: 0.0,
+            noise_qd_std: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// Plant settings, including a deliberate mismatch between the planner's model and the plant.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlantSettings {
+    /// Plant kind. Default the RK4 model.
+    pub kind: PlantKind,
+    /// Factor on every link mass and inertia of the plant (1 = the planner's model). Default 1.
+    pub mass_scale: f64,
+    /// Integration sub-steps per control period. Default 1 (model) ; the rapier plant uses its own.
+    pub substeps: usize,
+}
+
+impl Default for PlantSettings {
+    fn default() -> Self {
+        PlantSettings {
+            kind: PlantKind::Model,
+            mass_scale: 1.0,
+            substeps: 1,
+        }
+    }
 }
 
 /// A scenario with its robot loaded and its paths resolved.
@@ -113,6 +204,73 @@ impl Scenario {
         }
         for (i, o) in sc.task.obstacles.iter().enumerate() {
             o.validate(&src, &format!("task.obstacles[{i}]"))?;
+        }
+        let rename = |e: Error, section: &str| match e {
+            Error::InvalidValue {
+                field,
+                value,
+                reason,
+                ..
+            } => Error::InvalidValue {
+                source_name: src.clone(),
+                field: format!("{section}.{field}"),
+                value,
+                reason,
+            },
+            Error::Dimension {
+                what,
+                expected,
+                got,
+            } => Error::invalid(
+                &src,
+                format!("{section}: {what}"),
+                format!("{got} values"),
+                format!("needs {expected}"),
+            ),
+            other => other,
+        };
+        sc.tracking
+            .mpc
+            .validate(n)
+            .map_err(|e| rename(e, "tracking.mpc"))?;
+        sc.tracking
+            .pd
+            .validate(n)
+            .map_err(|e| rename(e, "tracking.pd"))?;
+        let t = &sc.tracking;
+        for (field, v) in [
+            ("tracking.hold_s", t.hold_s),
+            ("tracking.noise_q_std", t.noise_q_std),
+            ("tracking.noise_qd_std", t.noise_qd_std),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::invalid(&src, field, v, "must be finite and >= 0"));
+            }
+        }
+        if !(t.control_dt.is_finite() && t.control_dt > 0.0 && t.control_dt <= 0.1) {
+            return Err(Error::invalid(
+                &src,
+                "tracking.control_dt",
+                t.control_dt,
+                "must be in (0, 0.1] s",
+            ));
+        }
+        let pl = &sc.plant;
+        if !(pl.mass_scale.is_finite() && pl.mass_scale > 0.0) {
+            return Err(Error::invalid(
+                &src,
+                "plant.mass_scale",
+                pl.mass_scale,
+                "must be > 0",
+            ));
+        }
+        if pl.substeps == 0 || pl.substeps > 1000 {
+            return Err(Error::invalid(
+                &src,
+                "plant.substeps",
+                pl.substeps,
+                "must be 1..=1000",
+            ));
         }
         Ok(LoadedScenario {
             scenario: sc,

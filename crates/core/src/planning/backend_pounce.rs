@@ -426,7 +426,8 @@ pub(crate) fn run(
     let (rep_tx, rep_rx) = channel::<Reply>();
     let abort = Arc::new(AtomicBool::new(false));
     let mut eval = Evaluator::new(nlp, prep);
-    let (thread_prep, thread_settings, thread_abort) = (prep.clone(), settings.clone(), abort.clone());
+    let (thread_prep, thread_settings, thread_abort) =
+        (prep.clone(), settings.clone(), abort.clone());
     let joined = std::thread::scope(|s| {
         let handle = std::thread::Builder::new()
             .name("brachia-pounce".into())

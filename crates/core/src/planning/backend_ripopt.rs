@@ -82,9 +82,7 @@ impl NlpProblem for Adapter<'_> {
         lambda: &[f64],
         vals: &mut [f64],
     ) -> bool {
-        self.eval
-            .borrow_mut()
-            .hessian(x, obj_factor, lambda, vals)
+        self.eval.borrow_mut().hessian(x, obj_factor, lambda, vals)
     }
 }
 

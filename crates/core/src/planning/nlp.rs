@@ -628,7 +628,8 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         .filter(|x| x.len() == prep.n)
         .unwrap_or_else(|| prep.x0.clone());
     let vec_or_zeros = |v: Option<Vec<f64>>, len: usize| {
-        v.filter(|v| v.len() == len).unwrap_or_else(|| vec![0.0; len])
+        v.filter(|v| v.len() == len)
+            .unwrap_or_else(|| vec![0.0; len])
     };
     // Re-evaluate f and g at the returned point: one definition of the objective and of the
     // violation for both backends.

@@ -1,0 +1,82 @@
+//! `brachia track`: plan (or read a plan) and track it in closed loop at 1 kHz.
+
+use crate::CliError;
+use brachia_experiments::{read_plan_folder, run_track, ControllerKind, PlantKind, Scenario};
+use std::path::PathBuf;
+
+/// Arguments of `brachia track`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML), e.g. scenarios/tracking.toml.
+    #[arg(long)]
+    scenario: PathBuf,
+    /// Output folder: closed_loop.csv, report.json and the plan under plan/.
+    #[arg(long)]
+    out: PathBuf,
+    /// Controller (default: the scenario's, else mpc).
+    #[arg(long, value_enum)]
+    controller: Option<ControllerArg>,
+    /// Plant (default: the scenario's, else model).
+    #[arg(long, value_enum)]
+    plant: Option<PlantArg>,
+    /// Track the plan in this folder (written by `brachia plan`) instead of planning.
+    #[arg(long)]
+    plan: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ControllerArg {
+    Mpc,
+    Pd,
+    OpenLoop,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum PlantArg {
+    Model,
+    Rapier,
+}
+
+/// Run the command.
+pub fn run(a: Args) -> Result<(), CliError> {
+    let ls = Scenario::load(&a.scenario)?;
+    let controller = match a.controller {
+        Some(ControllerArg::Mpc) => ControllerKind::Mpc,
+        Some(ControllerArg::Pd) => ControllerKind::Pd,
+        Some(ControllerArg::OpenLoop) => ControllerKind::OpenLoop,
+        None => ls.scenario.tracking.controller,
+    };
+    let plant = match a.plant {
+        Some(PlantArg::Model) => PlantKind::Model,
+        Some(PlantArg::Rapier) => PlantKind::Rapier,
+        None => ls.scenario.plant.kind,
+    };
+    let reference = match &a.plan {
+        Some(dir) => Some(read_plan_folder(dir, ls.robot.n)?),
+        None => None,
+    };
+    match run_track(&ls, controller, plant, reference)? {
+        Ok(run) => {
+            run.folder
+                .write(&a.out)
+                .map_err(|e| CliError::Input(e.to_string()))?;
+            let s = &run.summary;
+            eprintln!(
+                "track: EE final error {:.2e} m (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
+                s.ee_final_error_m, s.ee_error_max_m, s.joint_rms_error_rad, s.energy_j, s.control_step_us_p50
+            );
+            Ok(())
+        }
+        Err(plan_run) => {
+            plan_run
+                .folder
+                .write(&a.out.join("plan"))
+                .map_err(|e| CliError::Input(e.to_string()))?;
+            Err(CliError::Failed(format!(
+                "the planner did not converge (status {:?}); nothing was tracked; the plan's report is in {}",
+                plan_run.plan.status,
+                a.out.join("plan").display()
+            )))
+        }
+    }
+}

@@ -1,0 +1,130 @@
+//! `brachia track` as a user runs it: the tracking scenario on the model plant, the output contract, a
+//! plant-mass mismatch, and reading a plan folder.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn brachia() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_brachia"));
+    c.current_dir(root());
+    c
+}
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn mpc_tracks_the_paper_swing_on_the_model_plant() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("track");
+    let o = brachia()
+        .args(["track", "--scenario", "scenarios/tracking.toml", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    for key in [
+        "controller",
+        "plant",
+        "ee_final_error_m",
+        "ee_error_max_m",
+        "joint_rms_error_rad",
+        "energy_j",
+        "planned_energy_j",
+        "tau_min",
+        "tau_max",
+        "control_step_us_p50",
+        "control_step_us_p99",
+        "control_step_us_max",
+        "qp_iterations_mean",
+        "plan",
+    ] {
+        assert!(r.get(key).is_some(), "report.json lacks {key}");
+    }
+    assert_eq!(r["controller"], "mpc");
+    assert_eq!(r["plant"], "model");
+    let err = r["ee_final_error_m"].as_f64().unwrap();
+    assert!(err < 5e-3, "final EE error {err}");
+    let (e, ep) = (
+        r["energy_j"].as_f64().unwrap(),
+        r["planned_energy_j"].as_f64().unwrap(),
+    );
+    assert!(
+        (e - ep).abs() / ep.abs() < 0.02,
+        "executed {e} J vs planned {ep} J"
+    );
+    let csv = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
+    assert!(
+        csv.starts_with("t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y,ref_q1"),
+        "{}",
+        &csv[..100]
+    );
+    assert!(out.join("plan/trajectory.csv").exists() && out.join("plan/report.json").exists());
+
+    // track the same plan from its folder with the open-loop baseline
+    let out2 = dir.path().join("open");
+    let o = brachia()
+        .args([
+            "track",
+            "--scenario",
+            "scenarios/tracking.toml",
+            "--controller",
+            "open-loop",
+            "--plan",
+        ])
+        .arg(out.join("plan"))
+        .arg("--out")
+        .arg(&out2)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r2 = report(&out2);
+    assert_eq!(r2["controller"], "open-loop");
+    assert!(
+        r2["ee_final_error_m"].as_f64().unwrap() < 5e-3,
+        "open loop on the exact model replays the plan"
+    );
+}
+
+#[test]
+fn mpc_absorbs_ten_percent_heavier_links() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
+        .unwrap()
+        .replace(
+            "params = \"../params/paper.toml\"",
+            &format!("params = {:?}", root().join("params/paper.toml")),
+        )
+        + "\n[plant]\nmass_scale = 1.1\n";
+    let sc = dir.path().join("heavy.toml");
+    std::fs::write(&sc, text).unwrap();
+    let mut errs = vec![];
+    for ctrl in ["mpc", "pd", "open-loop"] {
+        let out = dir.path().join(ctrl);
+        let o = brachia()
+            .args(["track", "--controller", ctrl, "--scenario"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{ctrl}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        errs.push(report(&out)["ee_final_error_m"].as_f64().unwrap());
+    }
+    assert!(
+        errs[0] < 0.02,
+        "MPC final EE error with +10 % masses: {}",
+        errs[0]
+    );
+    assert!(errs[0] < errs[2], "MPC {errs:?} should beat open loop");
+}
