@@ -695,4 +695,63 @@ mod tests {
             assert!(ic.iterations > 0);
         }
     }
+
+    /// The MPC's own QPs, recorded from a closed-loop run on the model plant with torque limits tight
+    /// enough (1 N m) that bounds are active, against clarabel.
+    #[test]
+    fn agrees_with_clarabel_on_qps_recorded_from_a_closed_loop_run() {
+        use crate::control::{Mpc, MpcSettings};
+        use crate::sim::{Controller, ModelPlant, Plant};
+        use crate::trajectory::Trajectory;
+        let mut params = crate::Robot::paper().params.clone();
+        params.actuators.tau_min = vec![-1.0; 3];
+        params.actuators.tau_max = vec![1.0; 3];
+        let robot = crate::Robot::from_params(params, "test").unwrap();
+        // a feasible 1 ms reference: the model under smooth torques
+        let x0 = [-2.35, 0.0, -1.55, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut plant = ModelPlant::new(robot.clone(), &x0);
+        let mut reference = Trajectory::new(4);
+        let mut x = [0.0; 8];
+        for k in 0..=800 {
+            let t = k as f64 * 1e-3;
+            let tau = [
+                0.8 * (3.0 * t).sin(),
+                -0.6 * (2.0 * t).sin(),
+                0.5 * (4.0 * t).cos(),
+            ];
+            plant.state(&mut x);
+            reference.push(t, &x[..4], &x[4..], &tau);
+            plant.step(&tau, 1e-3);
+        }
+        // track it from a perturbed start and record every 25th QP
+        let mut mpc = Mpc::new(&robot, &reference, MpcSettings::default()).unwrap();
+        let mut plant =
+            ModelPlant::new(robot.clone(), &[-2.25, 0.1, -1.6, 0.05, 0.0, 0.0, 0.0, 0.0]);
+        let (mut tau, mut checked, mut active) = ([0.0; 3], 0, 0);
+        for k in 0..800 {
+            plant.state(&mut x);
+            mpc.control(k as f64 * 1e-3, &x, &mut tau);
+            if k % 25 == 0 {
+                let (h, g, lb, ub) = mpc.qp_data();
+                let u = mpc.solution();
+                let uc = clarabel_solve(h, g, lb, ub);
+                let du = u
+                    .iter()
+                    .zip(&uc)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                assert!(du < 1e-7, "step {k}: |u - u_clarabel| = {du:e}");
+                assert!(kkt_residual(h, g, lb, ub, u) < 1e-8);
+                active += u
+                    .iter()
+                    .zip(lb.iter().zip(ub))
+                    .filter(|(v, (l, h))| **v <= **l || **v >= **h)
+                    .count();
+                checked += 1;
+            }
+            plant.step(&tau, 1e-3);
+        }
+        assert_eq!(checked, 32);
+        assert!(active > 0, "the recorded QPs should include active bounds");
+    }
 }
