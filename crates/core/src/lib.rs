@@ -26,6 +26,7 @@ pub mod fdcheck;
 pub mod integrate;
 pub mod math;
 pub mod model;
+pub mod planning;
 
 pub use error::{Error, Result};
 pub use model::Robot;

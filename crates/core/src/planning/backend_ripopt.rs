@@ -1,0 +1,173 @@
+//! The ripopt 0.8 backend of [`super::nlp::solve`].
+//!
+//! ripopt's `NlpProblem` takes `&self` in its callbacks and has no `'static` bound, so the user's
+//! problem is borrowed directly (through a `RefCell`) and evaluated on the calling thread.
+//! Options set: `print_level`, `max_iter`, `tol`, `constr_viol_tol`, `acceptable_iter`,
+//! `max_wall_time`, `mu_strategy_adaptive`, `warm_start` (+ `warm_start_y/z_l/z_u` via
+//! `initial_multipliers`), `nlp_{lower,upper}_bound_inf = -+1e19`. Everything else keeps ripopt's
+//! defaults (its acceptable tolerance is fixed at 1e-6).
+//!
+//! **Linear solver: dense.** ripopt is built without its default `feral` feature, because feral 0.5
+//! (ripopt) and feral 0.22 (pounce) export the same `#[no_mangle]` C functions and any binary
+//! linking both fails with duplicate symbols. Its remaining sparse path (faer 0.20 `SparseLdl`)
+//! reports a constant block of zero pivots whatever the inertia shift (measured: `NumericalError`
+//! at iteration 0 on the double integrator for every N >= 25), so the seam sets
+//! `sparse_threshold = usize::MAX` and ripopt factors the KKT system densely (Bunch-Kaufman, exact
+//! inertia). That is correct at any size but costs O((n + m)^3) per factorization: fine for the
+//! cross-check problems (a few hundred unknowns), slow for a full-size transcription.
+
+use std::cell::RefCell;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use ripopt::{NlpProblem, SolveStatus as RipStatus, SolverOptions};
+
+use super::nlp::{
+    panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus,
+};
+
+struct Adapter<'a> {
+    prep: &'a Prepared,
+    eval: RefCell<Evaluator<'a>>,
+}
+
+impl NlpProblem for Adapter<'_> {
+    fn num_variables(&self) -> usize {
+        self.prep.n
+    }
+    fn num_constraints(&self) -> usize {
+        self.prep.m
+    }
+    fn bounds(&self, x_l: &mut [f64], x_u: &mut [f64]) {
+        x_l.copy_from_slice(&self.prep.x_l);
+        x_u.copy_from_slice(&self.prep.x_u);
+    }
+    fn constraint_bounds(&self, g_l: &mut [f64], g_u: &mut [f64]) {
+        g_l.copy_from_slice(&self.prep.g_l);
+        g_u.copy_from_slice(&self.prep.g_u);
+    }
+    fn initial_point(&self, x0: &mut [f64]) {
+        x0.copy_from_slice(&self.prep.x0);
+    }
+    fn initial_multipliers(&self, lam_g: &mut [f64], z_l: &mut [f64], z_u: &mut [f64]) -> bool {
+        match &self.prep.warm {
+            Some(w) => {
+                lam_g.copy_from_slice(&w.lambda);
+                z_l.copy_from_slice(&w.z_l);
+                z_u.copy_from_slice(&w.z_u);
+                true
+            }
+            None => false,
+        }
+    }
+    fn objective(&self, x: &[f64], _new_x: bool, obj: &mut f64) -> bool {
+        match self.eval.borrow_mut().objective(x) {
+            Some(f) => {
+                *obj = f;
+                true
+            }
+            None => false,
+        }
+    }
+    fn gradient(&self, x: &[f64], _new_x: bool, grad: &mut [f64]) -> bool {
+        self.eval.borrow_mut().gradient(x, grad)
+    }
+    fn constraints(&self, x: &[f64], _new_x: bool, g: &mut [f64]) -> bool {
+        self.eval.borrow_mut().constraints(x, g)
+    }
+    fn jacobian_structure(&self) -> (Vec<usize>, Vec<usize>) {
+        (self.prep.jac.rows.clone(), self.prep.jac.cols.clone())
+    }
+    fn jacobian_values(&self, x: &[f64], _new_x: bool, vals: &mut [f64]) -> bool {
+        self.eval.borrow_mut().jacobian(x, vals)
+    }
+    fn hessian_structure(&self) -> (Vec<usize>, Vec<usize>) {
+        (self.prep.hess.rows.clone(), self.prep.hess.cols.clone())
+    }
+    fn hessian_values(
+        &self,
+        x: &[f64],
+        _new_x: bool,
+        obj_factor: f64,
+        lambda: &[f64],
+        vals: &mut [f64],
+    ) -> bool {
+        self.eval.borrow_mut().hessian(x, obj_factor, lambda, vals)
+    }
+}
+
+/// ripopt options for `settings`.
+fn options(settings: &NlpSettings, prep: &Prepared) -> SolverOptions {
+    let mut o = SolverOptions {
+        print_level: settings.print_level,
+        max_iter: settings.max_iter,
+        tol: settings.tol,
+        constr_viol_tol: settings.constr_viol_tol,
+        acceptable_iter: settings.acceptable_iter,
+        max_wall_time: settings.max_wall_time_s.unwrap_or(0.0),
+        mu_strategy_adaptive: settings.mu_strategy == MuStrategy::Adaptive,
+        nlp_lower_bound_inf: -1e19,
+        nlp_upper_bound_inf: 1e19,
+        // Dense LDL^T for every size: see the module docs (the faer sparse path is broken).
+        sparse_threshold: usize::MAX,
+        ..SolverOptions::default()
+    };
+    if let Some(w) = &prep.warm {
+        o.warm_start = true;
+        o.warm_start_y = Some(w.lambda.clone());
+        o.warm_start_z_l = Some(w.z_l.clone());
+        o.warm_start_z_u = Some(w.z_u.clone());
+    }
+    o
+}
+
+fn map_status(s: RipStatus) -> SolveStatus {
+    match s {
+        RipStatus::Optimal => SolveStatus::Solved,
+        RipStatus::Acceptable => SolveStatus::SolvedToAcceptableLevel,
+        RipStatus::Infeasible | RipStatus::LocalInfeasibility => SolveStatus::LocallyInfeasible,
+        RipStatus::MaxIterations => SolveStatus::MaxIterations,
+        RipStatus::MaxTimeExceeded => SolveStatus::MaxWallTime,
+        RipStatus::NumericalError => SolveStatus::NumericalError,
+        RipStatus::DivergingIterates => SolveStatus::Diverging,
+        RipStatus::RestorationFailed => SolveStatus::RestorationFailed,
+        RipStatus::EvaluationError => SolveStatus::EvaluationError(
+            "a callback failed or returned a non-finite value at the current iterate".into(),
+        ),
+        RipStatus::StopAtTinyStep => SolveStatus::TinyStep,
+        RipStatus::UserRequestedStop => SolveStatus::Other("user requested stop".into()),
+        RipStatus::InternalError => SolveStatus::Other("ripopt internal error".into()),
+    }
+}
+
+/// Run ripopt on the prepared problem. Panics (in ripopt or in the callbacks) become a status.
+pub(crate) fn run(
+    nlp: &mut dyn super::nlp::SparseNlp,
+    prep: &Prepared,
+    settings: &NlpSettings,
+) -> BackendOutcome {
+    let opts = options(settings, prep);
+    let adapter = Adapter {
+        prep,
+        eval: RefCell::new(Evaluator::new(nlp, prep)),
+    };
+    match catch_unwind(AssertUnwindSafe(|| ripopt::solve(&adapter, &opts))) {
+        Ok(r) => BackendOutcome {
+            status: map_status(r.status),
+            backend_status: format!("{:?}", r.status),
+            x: Some(r.x),
+            lambda: Some(r.constraint_multipliers),
+            z_l: Some(r.bound_multipliers_lower),
+            z_u: Some(r.bound_multipliers_upper),
+            iterations: r.iterations,
+        },
+        Err(p) => BackendOutcome {
+            status: SolveStatus::Other(format!("ripopt panicked: {}", panic_text(&*p))),
+            backend_status: "panic".into(),
+            x: None,
+            lambda: None,
+            z_l: None,
+            z_u: None,
+            iterations: 0,
+        },
+    }
+}

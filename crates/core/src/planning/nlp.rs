@@ -1,0 +1,726 @@
+//! The sparse NLP seam: one problem trait, one settings struct, one [`solve`] function, two
+//! interior-point backends behind it (pounce-rs, the default, and ripopt, the cross-check).
+//!
+//! ## The problem
+//! ```text
+//! min_x  f(x)          x in R^n
+//! s.t.   g_l <= g(x) <= g_u     (m constraints; g_l[i] == g_u[i] is an equality)
+//!        x_l <= x    <= x_u
+//! ```
+//! Bounds may be infinite (`f64::INFINITY` / `f64::NEG_INFINITY`); they are passed to the backends
+//! as `+-2e19`, which both treat as "no bound" (their `nlp_*_bound_inf` is `+-1e19`).
+//!
+//! ## Sparse derivatives (all indices 0-based)
+//! - Jacobian of `g`: triplets `(rows[k], cols[k])`, `rows[k] < m`, `cols[k] < n`.
+//! - Hessian of the Lagrangian `L = obj_factor * f(x) + sum_i lambda_i g_i(x)`: triplets in the
+//!   **lower triangle** (`row >= col`), `row, col < n`.
+//! - **Duplicate triplets are allowed and summed** (by this module, before the backend sees them),
+//!   so a transcription may emit one entry per term. Upper-triangle Hessian entries are rejected
+//!   with [`SolveStatus::InvalidProblem`] (a full symmetric pattern would otherwise be double-counted).
+//! - Values are written in the order of the structure.
+//!
+//! ## Multiplier sign convention
+//! Both backends use `L = f + lambda^T g`: at a solution, `grad f + J^T lambda - z_l + z_u = 0`
+//! with `z_l, z_u >= 0` the bound multipliers.
+//!
+//! ## Failure handling
+//! [`solve`] never panics: invalid settings or structures, backend errors, backend panics, panics in
+//! the problem's callbacks and non-finite callback values all end up in [`NlpSolution::status`].
+//! A non-finite value (NaN, inf) from a callback is reported to the backend as an evaluation
+//! failure: during a line search the step is shortened; at the starting point the solve stops with
+//! [`SolveStatus::EvaluationError`].
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Magnitude the backends read as an infinite bound (both treat `|b| >= 1e19` as infinite).
+pub(crate) const BACKEND_INF: f64 = 2e19;
+
+/// A sparse nonlinear program with exact first and second derivatives.
+///
+/// Evaluation methods take `&mut self` so that implementations may cache shared work between
+/// calls at the same `x` (they are always called from the thread that called [`solve`]).
+/// Structure methods are called once per solve, before any evaluation.
+pub trait SparseNlp {
+    /// Number of variables n.
+    fn n_vars(&self) -> usize;
+    /// Number of constraints m.
+    fn n_cons(&self) -> usize;
+    /// Variable bounds `x_l, x_u` (n each) and constraint bounds `g_l, g_u` (m each).
+    /// Infinite values (`f64::INFINITY`, `f64::NEG_INFINITY`) mean "unbounded"; `g_l[i] == g_u[i]`
+    /// is an equality constraint. Buffers arrive filled with `-inf` / `+inf`.
+    fn bounds(&self, x_l: &mut [f64], x_u: &mut [f64], g_l: &mut [f64], g_u: &mut [f64]);
+    /// Initial primal point (n). The buffer arrives filled with zeros.
+    fn initial_guess(&self, x: &mut [f64]);
+    /// Objective f(x).
+    fn objective(&mut self, x: &[f64]) -> f64;
+    /// Objective gradient (n), dense.
+    fn gradient(&mut self, x: &[f64], grad: &mut [f64]);
+    /// Constraint values g(x) (m).
+    fn constraints(&mut self, x: &[f64], g: &mut [f64]);
+    /// Jacobian sparsity of g as `(rows, cols)` triplets; duplicates are summed.
+    fn jacobian_structure(&self) -> (Vec<usize>, Vec<usize>);
+    /// Jacobian values at `x`, in the order of [`SparseNlp::jacobian_structure`].
+    fn jacobian_values(&mut self, x: &[f64], vals: &mut [f64]);
+    /// Lower-triangle (`row >= col`) sparsity of the Hessian of the Lagrangian as `(rows, cols)`;
+    /// duplicates are summed.
+    fn hessian_structure(&self) -> (Vec<usize>, Vec<usize>);
+    /// Values of the lower triangle of `obj_factor * Hess f(x) + sum_i lambda[i] * Hess g_i(x)`
+    /// (lambda has m entries), in the order of [`SparseNlp::hessian_structure`].
+    fn hessian_values(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], vals: &mut [f64]);
+    /// Optional multipliers for a warm start (used only when [`NlpSettings::warm_start`] is set):
+    /// constraint multipliers `lambda` (m) and bound multipliers `z_l`, `z_u` (n, >= 0), as returned
+    /// in an earlier [`NlpSolution`]. Return `false` (the default) when none are available; the
+    /// solve is then started cold from [`SparseNlp::initial_guess`].
+    fn initial_multipliers(&self, _lambda: &mut [f64], _z_l: &mut [f64], _z_u: &mut [f64]) -> bool {
+        false
+    }
+}
+
+/// Which interior-point solver runs the NLP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// pounce-rs 0.14: a pure-Rust port of IPOPT (same options, same iteration path). Default.
+    #[default]
+    Pounce,
+    /// ripopt 0.8: an independent pure-Rust IPOPT-style solver, used as a cross-check.
+    Ripopt,
+}
+
+impl Backend {
+    /// Lowercase name as used in settings files (`"pounce"`, `"ripopt"`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Pounce => "pounce",
+            Backend::Ripopt => "ripopt",
+        }
+    }
+}
+
+/// Barrier-parameter update rule (IPOPT's `mu_strategy`; supported by both backends).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MuStrategy {
+    /// Fiacco-McCormick monotone decrease (IPOPT's default).
+    #[default]
+    Monotone,
+    /// Adaptive (quality-function / probing) update.
+    Adaptive,
+}
+
+/// Settings of one NLP solve. Plain data with [`Default`], serde and [`NlpSettings::validate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NlpSettings {
+    /// Solver backend. Default [`Backend::Pounce`].
+    pub backend: Backend,
+    /// Maximum number of interior-point iterations (0 allowed: evaluate the start only).
+    /// Default 500.
+    pub max_iter: usize,
+    /// Desired (scaled) overall optimality tolerance, IPOPT's `tol`. Default 1e-8.
+    pub tol: f64,
+    /// Desired absolute constraint-violation tolerance (unscaled), IPOPT's `constr_viol_tol`.
+    /// Default 1e-8. (ripopt's own default is 1e-4; this seam always sets it.)
+    pub constr_viol_tol: f64,
+    /// "Acceptable" optimality tolerance, IPOPT's `acceptable_tol`. Default 1e-6.
+    /// pounce honours it; ripopt has it fixed at 1e-6 and ignores this value.
+    pub acceptable_tol: f64,
+    /// Number of consecutive acceptable iterates that end the solve as
+    /// [`SolveStatus::SolvedToAcceptableLevel`]; 0 disables acceptable termination. Default 15.
+    /// Honoured by both backends.
+    pub acceptable_iter: usize,
+    /// Wall-clock budget in seconds; `None` = unlimited. Default `None`.
+    pub max_wall_time_s: Option<f64>,
+    /// Console verbosity of the backend, 0..=12 (0 = silent; 5 = one line per iteration).
+    /// Output goes to the backends' own streams (pounce: stdout, ripopt: stderr). Default 0.
+    pub print_level: u8,
+    /// Barrier-parameter strategy. Default [`MuStrategy::Monotone`].
+    pub mu_strategy: MuStrategy,
+    /// Warm start from [`SparseNlp::initial_guess`] and [`SparseNlp::initial_multipliers`]
+    /// (IPOPT's `warm_start_init_point`; ripopt's `warm_start`). Ignored when the problem has no
+    /// multipliers to offer. Default `false`.
+    pub warm_start: bool,
+}
+
+impl Default for NlpSettings {
+    fn default() -> Self {
+        NlpSettings {
+            backend: Backend::Pounce,
+            max_iter: 500,
+            tol: 1e-8,
+            constr_viol_tol: 1e-8,
+            acceptable_tol: 1e-6,
+            acceptable_iter: 15,
+            max_wall_time_s: None,
+            print_level: 0,
+            mu_strategy: MuStrategy::Monotone,
+            warm_start: false,
+        }
+    }
+}
+
+impl NlpSettings {
+    /// Check every field; the error names the offending field and value.
+    pub fn validate(&self) -> Result<()> {
+        let src = "<nlp settings>";
+        let positive = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(src, field, v, "must be finite and > 0"))
+            }
+        };
+        positive("tol", self.tol)?;
+        positive("constr_viol_tol", self.constr_viol_tol)?;
+        positive("acceptable_tol", self.acceptable_tol)?;
+        if let Some(t) = self.max_wall_time_s {
+            positive("max_wall_time_s", t)?;
+        }
+        if self.print_level > 12 {
+            return Err(Error::invalid(
+                src,
+                "print_level",
+                self.print_level,
+                "must be in 0..=12",
+            ));
+        }
+        if self.max_iter > i32::MAX as usize {
+            return Err(Error::invalid(
+                src,
+                "max_iter",
+                self.max_iter,
+                "must fit in an i32",
+            ));
+        }
+        if self.acceptable_iter > i32::MAX as usize {
+            return Err(Error::invalid(
+                src,
+                "acceptable_iter",
+                self.acceptable_iter,
+                "must fit in an i32",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Outcome of a solve. Only [`SolveStatus::Solved`] and [`SolveStatus::SolvedToAcceptableLevel`]
+/// count as converged; every other status still comes with the last iterate in [`NlpSolution`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[non_exhaustive]
+pub enum SolveStatus {
+    /// Converged to the desired tolerances.
+    Solved,
+    /// Converged to the relaxed "acceptable" tolerances.
+    SolvedToAcceptableLevel,
+    /// Iteration limit reached.
+    MaxIterations,
+    /// Wall-clock (or CPU) time budget exhausted.
+    MaxWallTime,
+    /// Converged to a point of locally minimal infeasibility: the constraints look infeasible.
+    LocallyInfeasible,
+    /// Iterates diverged (the problem may be unbounded).
+    Diverging,
+    /// The feasibility-restoration phase failed.
+    RestorationFailed,
+    /// The search direction became too small to make progress (often nearly optimal; check
+    /// [`NlpSolution::max_constraint_violation`]).
+    TinyStep,
+    /// Numerical trouble in the step computation (singular KKT system, ...).
+    NumericalError,
+    /// A callback failed or returned non-finite values where the solver could not recover; the text
+    /// says which.
+    EvaluationError(String),
+    /// The problem is malformed (sizes, index ranges, upper-triangle Hessian entries, too few
+    /// degrees of freedom, ...).
+    InvalidProblem(String),
+    /// The settings were rejected (by [`NlpSettings::validate`] or by the backend).
+    InvalidSettings(String),
+    /// Anything else the backend reported (including a backend panic), with its description.
+    Other(String),
+}
+
+impl SolveStatus {
+    /// `true` for [`SolveStatus::Solved`] and [`SolveStatus::SolvedToAcceptableLevel`].
+    pub fn is_converged(&self) -> bool {
+        matches!(
+            self,
+            SolveStatus::Solved | SolveStatus::SolvedToAcceptableLevel
+        )
+    }
+}
+
+/// Result of [`solve`]: the final (or last) iterate and diagnostics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NlpSolution {
+    /// How the solve ended.
+    pub status: SolveStatus,
+    /// Final primal iterate (n). When the backend stopped before producing one, the initial guess;
+    /// empty when the problem or the settings were rejected before the solve started.
+    pub x: Vec<f64>,
+    /// f(x) at [`NlpSolution::x`], re-evaluated by this module (NaN if the evaluation failed).
+    pub objective: f64,
+    /// Constraint multipliers (m), sign convention `L = f + lambda^T g`. Zeros when unavailable.
+    pub lambda: Vec<f64>,
+    /// Lower-bound multipliers (n, >= 0). Zeros when unavailable.
+    pub z_l: Vec<f64>,
+    /// Upper-bound multipliers (n, >= 0). Zeros when unavailable.
+    pub z_u: Vec<f64>,
+    /// Interior-point iterations performed.
+    pub iterations: usize,
+    /// Wall-clock time of the whole call, s (structure checks, solve, final re-evaluation).
+    pub solve_time_s: f64,
+    /// Largest violation at [`NlpSolution::x`] of the constraint bounds and the variable bounds
+    /// (absolute, unscaled; 0 when feasible; infinite if g(x) could not be evaluated).
+    pub max_constraint_violation: f64,
+    /// The backend that ran.
+    pub backend: Backend,
+    /// The backend's own status name (e.g. `Solve_Succeeded`, `Optimal`), for diagnostics.
+    pub backend_status: String,
+}
+
+/// A Jacobian or Hessian sparsity pattern with duplicates merged (and, for the Hessian, every
+/// diagonal entry present).
+#[derive(Debug, Clone)]
+pub(crate) struct Pattern {
+    /// Unique rows, 0-based.
+    pub rows: Vec<usize>,
+    /// Unique columns, 0-based.
+    pub cols: Vec<usize>,
+    /// For each user triplet, its position in the unique list; `None` when the user pattern has
+    /// no duplicates (identity map).
+    map: Option<Vec<usize>>,
+    /// Number of user triplets.
+    pub raw_nnz: usize,
+}
+
+impl Pattern {
+    /// Check the triplets and merge duplicates. `lower` requires `row >= col`.
+    pub fn new(
+        what: &str,
+        rows: Vec<usize>,
+        cols: Vec<usize>,
+        n_rows: usize,
+        n_cols: usize,
+        lower: bool,
+    ) -> std::result::Result<Pattern, String> {
+        if rows.len() != cols.len() {
+            return Err(format!(
+                "{what} structure: {} rows but {} columns",
+                rows.len(),
+                cols.len()
+            ));
+        }
+        if rows.len() > i32::MAX as usize {
+            return Err(format!("{what} structure: too many entries"));
+        }
+        for (k, (&r, &c)) in rows.iter().zip(&cols).enumerate() {
+            if r >= n_rows || c >= n_cols {
+                return Err(format!(
+                    "{what} structure entry {k}: ({r}, {c}) outside {n_rows} x {n_cols}"
+                ));
+            }
+            if lower && r < c {
+                return Err(format!(
+                    "{what} structure entry {k}: ({r}, {c}) is in the upper triangle (need row >= col)"
+                ));
+            }
+        }
+        let raw_nnz = rows.len();
+        let mut seen = std::collections::HashMap::with_capacity(raw_nnz);
+        let mut map = Vec::with_capacity(raw_nnz);
+        let (mut ur, mut uc) = (Vec::with_capacity(raw_nnz), Vec::with_capacity(raw_nnz));
+        for (&r, &c) in rows.iter().zip(&cols) {
+            let next = ur.len();
+            let slot = *seen.entry((r, c)).or_insert(next);
+            if slot == next {
+                ur.push(r);
+                uc.push(c);
+            }
+            map.push(slot);
+        }
+        if lower {
+            // Every diagonal entry is made structural (zero-valued when the user has none): the
+            // backends add their inertia-correcting shifts on the diagonal, and ripopt's faer
+            // LDL^T cannot place a shift where the pattern has no entry (observed: a
+            // `NumericalError` at iteration 0 on the double integrator, whose states have no
+            // Hessian entries).
+            let mut has_diag = vec![false; n_rows];
+            for (&r, &c) in ur.iter().zip(&uc) {
+                if r == c {
+                    has_diag[r] = true;
+                }
+            }
+            for (i, _) in has_diag.iter().enumerate().filter(|(_, &d)| !d) {
+                ur.push(i);
+                uc.push(i);
+            }
+        }
+        let map = (ur.len() != raw_nnz).then_some(map);
+        Ok(Pattern {
+            rows: ur,
+            cols: uc,
+            map,
+            raw_nnz,
+        })
+    }
+
+    /// Number of unique entries (what the backends see).
+    pub fn nnz(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Sum the user's values `raw` (raw_nnz) into `out` (nnz; added diagonal entries get 0).
+    fn merge(&self, raw: &[f64], out: &mut [f64]) {
+        match &self.map {
+            None => out.copy_from_slice(raw),
+            Some(map) => {
+                out.fill(0.0);
+                for (&k, &v) in map.iter().zip(raw) {
+                    out[k] += v;
+                }
+            }
+        }
+    }
+}
+
+/// Warm-start multipliers gathered from the problem.
+#[derive(Debug, Clone)]
+pub(crate) struct WarmStart {
+    pub lambda: Vec<f64>,
+    pub z_l: Vec<f64>,
+    pub z_u: Vec<f64>,
+}
+
+/// Everything about the problem that is fixed during a solve, gathered and checked up front.
+#[derive(Debug, Clone)]
+pub(crate) struct Prepared {
+    pub n: usize,
+    pub m: usize,
+    /// Bounds with infinities mapped to `+-BACKEND_INF`.
+    pub x_l: Vec<f64>,
+    pub x_u: Vec<f64>,
+    pub g_l: Vec<f64>,
+    pub g_u: Vec<f64>,
+    /// User bounds as given (for the violation measure).
+    raw_bounds: [Vec<f64>; 4],
+    pub x0: Vec<f64>,
+    pub warm: Option<WarmStart>,
+    pub jac: Pattern,
+    pub hess: Pattern,
+}
+
+fn to_backend_bound(b: f64) -> f64 {
+    b.clamp(-BACKEND_INF, BACKEND_INF)
+}
+
+impl Prepared {
+    fn new(nlp: &dyn SparseNlp, settings: &NlpSettings) -> std::result::Result<Prepared, String> {
+        let (n, m) = (nlp.n_vars(), nlp.n_cons());
+        if n == 0 {
+            return Err("the problem has no variables".into());
+        }
+        if n > i32::MAX as usize || m > i32::MAX as usize {
+            return Err(format!("too many variables or constraints ({n}, {m})"));
+        }
+        let (mut x_l, mut x_u) = (vec![f64::NEG_INFINITY; n], vec![f64::INFINITY; n]);
+        let (mut g_l, mut g_u) = (vec![f64::NEG_INFINITY; m], vec![f64::INFINITY; m]);
+        nlp.bounds(&mut x_l, &mut x_u, &mut g_l, &mut g_u);
+        for (what, lo, hi) in [("x", &x_l, &x_u), ("g", &g_l, &g_u)] {
+            for (i, (&l, &u)) in lo.iter().zip(hi.iter()).enumerate() {
+                if l.is_nan() || u.is_nan() || l > u || l == f64::INFINITY || u == f64::NEG_INFINITY
+                {
+                    return Err(format!("bounds of {what}[{i}]: [{l}, {u}] is empty or NaN"));
+                }
+            }
+        }
+        let mut x0 = vec![0.0; n];
+        nlp.initial_guess(&mut x0);
+        if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
+            return Err(format!("initial guess x[{i}] = {} is not finite", x0[i]));
+        }
+        let warm = if settings.warm_start {
+            let mut w = WarmStart {
+                lambda: vec![0.0; m],
+                z_l: vec![0.0; n],
+                z_u: vec![0.0; n],
+            };
+            let ok = nlp.initial_multipliers(&mut w.lambda, &mut w.z_l, &mut w.z_u);
+            let finite = w
+                .lambda
+                .iter()
+                .chain(&w.z_l)
+                .chain(&w.z_u)
+                .all(|v| v.is_finite());
+            (ok && finite).then_some(w)
+        } else {
+            None
+        };
+        let (jr, jc) = nlp.jacobian_structure();
+        let jac = Pattern::new("Jacobian", jr, jc, m, n, false)?;
+        let (hr, hc) = nlp.hessian_structure();
+        let hess = Pattern::new("Hessian", hr, hc, n, n, true)?;
+        let map = |v: &[f64]| v.iter().map(|&b| to_backend_bound(b)).collect::<Vec<_>>();
+        Ok(Prepared {
+            n,
+            m,
+            x_l: map(&x_l),
+            x_u: map(&x_u),
+            g_l: map(&g_l),
+            g_u: map(&g_u),
+            raw_bounds: [x_l, x_u, g_l, g_u],
+            x0,
+            warm,
+            jac,
+            hess,
+        })
+    }
+
+    /// Largest bound violation of x and of g(x) = `g`.
+    fn violation(&self, x: &[f64], g: &[f64]) -> f64 {
+        let [x_l, x_u, g_l, g_u] = &self.raw_bounds;
+        let viol = |v: &[f64], lo: &[f64], hi: &[f64]| {
+            v.iter()
+                .zip(lo.iter().zip(hi))
+                .map(|(&v, (&l, &u))| {
+                    if v.is_nan() {
+                        f64::INFINITY
+                    } else {
+                        (l - v).max(v - u).max(0.0)
+                    }
+                })
+                .fold(0.0, f64::max)
+        };
+        viol(x, x_l, x_u).max(viol(g, g_l, g_u))
+    }
+}
+
+/// Calls into the user's problem for the backends: merges duplicate triplets and turns non-finite
+/// values into evaluation failures (`false` / `None`).
+pub(crate) struct Evaluator<'a> {
+    nlp: &'a mut dyn SparseNlp,
+    prep: &'a Prepared,
+    jac_raw: Vec<f64>,
+    hess_raw: Vec<f64>,
+}
+
+fn all_finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+impl<'a> Evaluator<'a> {
+    pub fn new(nlp: &'a mut dyn SparseNlp, prep: &'a Prepared) -> Self {
+        Evaluator {
+            nlp,
+            prep,
+            jac_raw: vec![0.0; prep.jac.raw_nnz],
+            hess_raw: vec![0.0; prep.hess.raw_nnz],
+        }
+    }
+
+    /// f(x), or `None` if it is not finite.
+    pub fn objective(&mut self, x: &[f64]) -> Option<f64> {
+        let f = self.nlp.objective(x);
+        f.is_finite().then_some(f)
+    }
+
+    /// Gradient into `out` (n).
+    pub fn gradient(&mut self, x: &[f64], out: &mut [f64]) -> bool {
+        self.nlp.gradient(x, out);
+        all_finite(out)
+    }
+
+    /// g(x) into `out` (m).
+    pub fn constraints(&mut self, x: &[f64], out: &mut [f64]) -> bool {
+        self.nlp.constraints(x, out);
+        all_finite(out)
+    }
+
+    /// Merged Jacobian values into `out` (unique nnz).
+    pub fn jacobian(&mut self, x: &[f64], out: &mut [f64]) -> bool {
+        self.jac_raw.fill(0.0);
+        self.nlp.jacobian_values(x, &mut self.jac_raw);
+        self.prep.jac.merge(&self.jac_raw, out);
+        all_finite(out)
+    }
+
+    /// Merged Hessian-of-the-Lagrangian values into `out` (unique nnz).
+    pub fn hessian(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], out: &mut [f64]) -> bool {
+        self.hess_raw.fill(0.0);
+        self.nlp
+            .hessian_values(x, obj_factor, lambda, &mut self.hess_raw);
+        self.prep.hess.merge(&self.hess_raw, out);
+        all_finite(out)
+    }
+}
+
+/// What a backend hands back to [`solve`].
+#[derive(Debug, Clone)]
+pub(crate) struct BackendOutcome {
+    pub status: SolveStatus,
+    pub backend_status: String,
+    /// Final iterate, if the backend produced one.
+    pub x: Option<Vec<f64>>,
+    pub lambda: Option<Vec<f64>>,
+    pub z_l: Option<Vec<f64>>,
+    pub z_u: Option<Vec<f64>>,
+    pub iterations: usize,
+}
+
+/// Text of a caught panic payload.
+pub(crate) fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "non-string panic payload".to_string()
+    }
+}
+
+/// Solve `nlp` with the backend chosen in `settings`. Never panics: every failure is a
+/// [`SolveStatus`] (see the module docs). The callbacks of `nlp` run on the calling thread.
+pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
+    let start = Instant::now();
+    let backend = settings.backend;
+    let fail = |status: SolveStatus, x: Vec<f64>, lambda_len: usize| NlpSolution {
+        status,
+        objective: f64::NAN,
+        lambda: vec![0.0; lambda_len],
+        z_l: vec![0.0; x.len()],
+        z_u: vec![0.0; x.len()],
+        x,
+        iterations: 0,
+        solve_time_s: start.elapsed().as_secs_f64(),
+        max_constraint_violation: f64::INFINITY,
+        backend,
+        backend_status: String::new(),
+    };
+    if let Err(e) = settings.validate() {
+        return fail(SolveStatus::InvalidSettings(e.to_string()), Vec::new(), 0);
+    }
+    let prep = match catch_unwind(AssertUnwindSafe(|| Prepared::new(&*nlp, settings))) {
+        Ok(Ok(p)) => p,
+        Ok(Err(msg)) => return fail(SolveStatus::InvalidProblem(msg), Vec::new(), 0),
+        Err(p) => {
+            return fail(
+                SolveStatus::EvaluationError(format!(
+                    "panic while reading the problem: {}",
+                    panic_text(&*p)
+                )),
+                Vec::new(),
+                0,
+            )
+        }
+    };
+    let outcome = match backend {
+        Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
+        Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
+    };
+    let x = outcome
+        .x
+        .filter(|x| x.len() == prep.n)
+        .unwrap_or_else(|| prep.x0.clone());
+    let vec_or_zeros = |v: Option<Vec<f64>>, len: usize| {
+        v.filter(|v| v.len() == len)
+            .unwrap_or_else(|| vec![0.0; len])
+    };
+    // Re-evaluate f and g at the returned point: one definition of the objective and of the
+    // violation for both backends.
+    let (objective, viol) = catch_unwind(AssertUnwindSafe(|| {
+        let f = nlp.objective(&x);
+        let mut g = vec![0.0; prep.m];
+        nlp.constraints(&x, &mut g);
+        (f, prep.violation(&x, &g))
+    }))
+    .unwrap_or((f64::NAN, f64::INFINITY));
+    NlpSolution {
+        status: outcome.status,
+        lambda: vec_or_zeros(outcome.lambda, prep.m),
+        z_l: vec_or_zeros(outcome.z_l, prep.n),
+        z_u: vec_or_zeros(outcome.z_u, prep.n),
+        x,
+        objective,
+        iterations: outcome.iterations,
+        solve_time_s: start.elapsed().as_secs_f64(),
+        max_constraint_violation: viol,
+        backend,
+        backend_status: outcome.backend_status,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pattern_merges_duplicates_and_sums_values() {
+        let p = Pattern::new("J", vec![0, 1, 0, 1], vec![2, 0, 2, 1], 2, 3, false).unwrap();
+        assert_eq!(p.nnz(), 3);
+        assert_eq!(p.rows, vec![0, 1, 1]);
+        assert_eq!(p.cols, vec![2, 0, 1]);
+        let mut out = [0.0; 3];
+        p.merge(&[1.0, 2.0, 10.0, 3.0], &mut out);
+        assert_eq!(out, [11.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn hessian_pattern_gets_a_structural_diagonal() {
+        // 3 x 3 lower triangle with only (2, 0) and (1, 1): (0, 0) and (2, 2) are added as zeros.
+        let p = Pattern::new("H", vec![2, 1], vec![0, 1], 3, 3, true).unwrap();
+        assert_eq!(p.rows, vec![2, 1, 0, 2]);
+        assert_eq!(p.cols, vec![0, 1, 0, 2]);
+        let mut out = [f64::NAN; 4];
+        p.merge(&[5.0, 7.0], &mut out);
+        assert_eq!(out, [5.0, 7.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn pattern_rejects_upper_triangle_and_out_of_range() {
+        assert!(Pattern::new("H", vec![0], vec![1], 2, 2, true).is_err());
+        assert!(Pattern::new("J", vec![2], vec![0], 2, 2, false).is_err());
+        assert!(Pattern::new("J", vec![0, 1], vec![0], 2, 2, false).is_err());
+        assert!(Pattern::new("H", vec![1], vec![0], 2, 2, true).is_ok());
+    }
+
+    #[test]
+    fn settings_default_validate_and_round_trip() {
+        let s = NlpSettings::default();
+        s.validate().unwrap();
+        let text = toml::to_string(&s).unwrap();
+        let back: NlpSettings = toml::from_str(&text).unwrap();
+        assert_eq!(back, s);
+        let r: NlpSettings =
+            toml::from_str("backend = \"ripopt\"\nmu_strategy = \"adaptive\"").unwrap();
+        assert_eq!(r.backend, Backend::Ripopt);
+        assert_eq!(r.mu_strategy, MuStrategy::Adaptive);
+        assert_eq!(r.max_iter, 500);
+        assert!(toml::from_str::<NlpSettings>("backend = \"ipopt\"").is_err());
+        for bad in [
+            NlpSettings {
+                tol: 0.0,
+                ..s.clone()
+            },
+            NlpSettings {
+                constr_viol_tol: f64::NAN,
+                ..s.clone()
+            },
+            NlpSettings {
+                max_wall_time_s: Some(-1.0),
+                ..s.clone()
+            },
+            NlpSettings {
+                print_level: 13,
+                ..s.clone()
+            },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?} should be rejected");
+        }
+    }
+}
