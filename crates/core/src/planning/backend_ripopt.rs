@@ -6,6 +6,15 @@
 //! `max_wall_time`, `mu_strategy_adaptive`, `warm_start` (+ `warm_start_y/z_l/z_u` via
 //! `initial_multipliers`), `nlp_{lower,upper}_bound_inf = -+1e19`. Everything else keeps ripopt's
 //! defaults (its acceptable tolerance is fixed at 1e-6).
+//!
+//! **Linear solver: dense.** ripopt is built without its default `feral` feature, because feral 0.5
+//! (ripopt) and feral 0.22 (pounce) export the same `#[no_mangle]` C functions and any binary
+//! linking both fails with duplicate symbols. Its remaining sparse path (faer 0.20 `SparseLdl`)
+//! reports a constant block of zero pivots whatever the inertia shift (measured: `NumericalError`
+//! at iteration 0 on the double integrator for every N >= 25), so the seam sets
+//! `sparse_threshold = usize::MAX` and ripopt factors the KKT system densely (Bunch-Kaufman, exact
+//! inertia). That is correct at any size but costs O((n + m)^3) per factorization: fine for the
+//! cross-check problems (a few hundred unknowns), slow for a full-size transcription.
 
 use std::cell::RefCell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -98,6 +107,8 @@ fn options(settings: &NlpSettings, prep: &Prepared) -> SolverOptions {
         mu_strategy_adaptive: settings.mu_strategy == MuStrategy::Adaptive,
         nlp_lower_bound_inf: -1e19,
         nlp_upper_bound_inf: 1e19,
+        // Dense LDL^T for every size: see the module docs (the faer sparse path is broken).
+        sparse_threshold: usize::MAX,
         ..SolverOptions::default()
     };
     if let Some(w) = &prep.warm {

@@ -1,14 +1,17 @@
-//! Offline swing planning by direct collocation (paper Section III).
+//! Offline swing planning by direct collocation (paper Section III): the sparse NLP seam ([`nlp`]) with
+//! its two backends, the transcriptions ([`collocation`]), the settings and the planner.
+//!
+//! Conventions follow the crate docs (SI units; `x = [q, qd]`, `q[0]` absolute, the rest relative;
+//! `u = tau` of joints 2..n; gravity along -y).
 
 mod backend_pounce;
 mod backend_ripopt;
 pub mod collocation;
 pub mod nlp;
+pub mod planner;
 pub mod settings;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
-pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
-pub mod planner;
-
-pub use nlp::{solve, Backend, NlpSettings, NlpSolution, SolveStatus};
+pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use planner::{freefall_time, plan, Plan, SwingTask, Violations};
+pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
