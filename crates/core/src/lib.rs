@@ -23,6 +23,7 @@
 pub mod ad;
 pub mod error;
 pub mod fdcheck;
+pub mod geometry;
 pub mod integrate;
 pub mod math;
 pub mod model;

@@ -1,10 +1,12 @@
 //! The robot model: parameters, kinematics, dynamics and their exact derivatives.
 
+mod collision;
 mod derivatives;
 mod dynamics;
 mod kinematics;
 mod params;
 
+pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
 pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
 pub use dynamics::{cholesky_solve_in_place, Scratch};
 pub use kinematics::P2;
