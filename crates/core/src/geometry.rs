@@ -139,7 +139,8 @@ pub fn point_segment_closest<T: Scalar, const N: usize>(
     let w = sub(p, a);
     let l2 = dot(d, d);
     let l2r = re(l2);
-    if !(l2r > 0.0) {
+    // `l2r <= 0` or NaN: treat as a point (NaN propagates through the value)
+    if l2r.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return PointSegmentClosest {
             dist2: dot(w, w),
             t: T::zero(),

@@ -680,9 +680,15 @@ mod tests {
                 let w = [b0[0] - a0[0], b0[1] - a0[1]];
                 let s = (w[0] * d2[1] - w[1] * d2[0]) / cr;
                 let t = (w[0] * d1[1] - w[1] * d1[0]) / cr;
-                if !(ok(s) && ok(t) && ok(proj(a0, b0, b1)) && ok(proj(a1, b0, b1)))
-                    || !(ok(proj(b0, a0, a1)) && ok(proj(b1, a0, a1)))
-                {
+                let params = [
+                    s,
+                    t,
+                    proj(a0, b0, b1),
+                    proj(a1, b0, b1),
+                    proj(b0, a0, a1),
+                    proj(b1, a0, a1),
+                ];
+                if !params.into_iter().all(ok) {
                     return false;
                 }
             }
