@@ -1,0 +1,105 @@
+//! Obstacles of the rapier plant and the contact log.
+//!
+//! Positions in m in the world frame (grip point at the origin, y up), masses in kg, impulses in N s.
+
+use brachia::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// A fixed circle (a static disc the robot can hit but not move).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Circle {
+    /// Centre `[x, y]`, m.
+    pub center: [f64; 2],
+    /// Radius, m (> 0).
+    pub radius: f64,
+}
+
+/// A free dynamic ball the robot can knock away.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ball {
+    /// Initial centre `[x, y]`, m (the ball starts at rest).
+    pub center: [f64; 2],
+    /// Radius, m (> 0).
+    pub radius: f64,
+    /// Mass, kg (> 0); the inertia is that of a uniform disc.
+    pub mass: f64,
+    /// Restitution in [0, 1]; a contact uses the larger of the two colliders' restitutions.
+    pub restitution: f64,
+    /// Whether gravity acts on the ball (`false`: it floats until hit).
+    pub gravity: bool,
+}
+
+/// An obstacle of the plant's world.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Obstacle {
+    /// A fixed circle.
+    Circle(Circle),
+    /// A free dynamic ball.
+    Ball(Ball),
+}
+
+impl Obstacle {
+    /// Check every value; errors name the field as `obstacles[index].<field>`.
+    pub fn validate(&self, source_name: &str, index: usize) -> Result<()> {
+        let bad = |field: &str, value: f64, reason: &str| {
+            Err(Error::invalid(
+                source_name,
+                format!("obstacles[{index}].{field}"),
+                value,
+                reason,
+            ))
+        };
+        let (center, radius) = self.shape();
+        for (k, c) in center.iter().enumerate() {
+            if !c.is_finite() {
+                return bad(&format!("center[{k}]"), *c, "must be finite");
+            }
+        }
+        if !(radius.is_finite() && radius > 0.0) {
+            return bad("radius", radius, "must be a finite number > 0");
+        }
+        if let Obstacle::Ball(b) = self {
+            if !(b.mass.is_finite() && b.mass > 0.0) {
+                return bad("mass", b.mass, "must be a finite number > 0");
+            }
+            if !(0.0..=1.0).contains(&b.restitution) {
+                return bad("restitution", b.restitution, "must lie in [0, 1]");
+            }
+        }
+        Ok(())
+    }
+
+    /// Initial centre (m) and radius (m).
+    pub fn shape(&self) -> ([f64; 2], f64) {
+        match self {
+            Obstacle::Circle(c) => (c.center, c.radius),
+            Obstacle::Ball(b) => (b.center, b.radius),
+        }
+    }
+}
+
+/// What a link touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ContactBody {
+    /// The obstacle with this id (the order in which obstacles were added, from 0).
+    Obstacle(usize),
+    /// Another link, 0-based (only with `RapierSettings::self_contacts`; logged once per pair, on the
+    /// lower-indexed link).
+    Link(usize),
+}
+
+/// One contact of one control step: a link pushed on (or was pushed by) a body.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ContactEvent {
+    /// Plant time at the end of the control step in which the contact acted, s.
+    pub t: f64,
+    /// The link, 0-based (link 1 of the paper is 0).
+    pub link: usize,
+    /// The other body.
+    pub body: ContactBody,
+    /// Total normal contact impulse over the control step (summed over engine sub-steps), N s (> 0).
+    pub impulse: f64,
+}

@@ -1,0 +1,592 @@
+//! The rapier plant: the robot as a multibody chain in a rapier2d-f64 world, plus obstacles.
+//!
+//! Conventions: `x = [q, qd]` with `q[0]` the absolute angle of link 1 from +x and `q[i >= 1]`
+//! relative (rad, rad/s, continuous); `tau` = torques of joints 2..n (N m); gravity along -y; SI units.
+
+use crate::obstacle::{ContactBody, ContactEvent, Obstacle};
+use crate::settings::RapierSettings;
+use brachia::sim::Plant;
+use brachia::{Error, Result, Robot};
+use rapier2d_f64::prelude::*;
+
+/// Mass properties of one link as the engine holds them (to check they match the robot's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkMassProperties {
+    /// Mass, kg.
+    pub mass: f64,
+    /// Centre of mass in the link frame `[along the link, across]`, m (the frame's origin is the
+    /// proximal joint).
+    pub local_com: [f64; 2],
+    /// Planar inertia about the centre of mass, kg m^2.
+    pub inertia: f64,
+}
+
+/// One obstacle in the world.
+#[derive(Debug, Clone)]
+struct ObstacleEntry {
+    spec: Obstacle,
+    body: RigidBodyHandle,
+    collider: ColliderHandle,
+}
+
+/// The robot simulated by rapier2d-f64 (see the crate docs for the construction).
+///
+/// Implements [`Plant`]: `state` reads the multibody's joint coordinates and velocities, `step`
+/// applies the clamped torques as equal and opposite body torques and advances
+/// [`RapierSettings::substeps`] engine steps, `energy` sums the robot's kinetic and potential energy
+/// from the engine's body poses and velocities.
+pub struct RapierPlant {
+    robot: Robot,
+    settings: RapierSettings,
+    world: PhysicsWorld,
+    /// Link bodies, link 1 first.
+    links: Vec<RigidBodyHandle>,
+    /// Link colliders, link 1 first.
+    link_colliders: Vec<ColliderHandle>,
+    /// Multibody link ids of the robot's links.
+    mb_links: Vec<usize>,
+    /// A joint of the chain (the first), to reach the multibody.
+    joint: MultibodyJointHandle,
+    obstacles: Vec<ObstacleEntry>,
+    contacts: Vec<ContactEvent>,
+    /// Impulses accumulated over the current control step: (link, body, impulse).
+    pending: Vec<(usize, ContactBody, f64)>,
+    tau: Vec<f64>,
+    t: f64,
+}
+
+impl std::fmt::Debug for RapierPlant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RapierPlant")
+            .field("n_links", &self.robot.n)
+            .field("settings", &self.settings)
+            .field("t", &self.t)
+            .field("obstacles", &self.obstacles.len())
+            .field("contacts", &self.contacts.len())
+            .finish()
+    }
+}
+
+/// `w x r` for a planar angular velocity `w` (rad/s) and a vector `r`.
+fn cross(w: f64, r: [f64; 2]) -> [f64; 2] {
+    [-w * r[1], w * r[0]]
+}
+
+/// Distance from point `p` to the segment `a`-`b`.
+fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let ap = [p[0] - a[0], p[1] - a[1]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let s = if len2 > 0.0 {
+        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
+    (d[0] * d[0] + d[1] * d[1]).sqrt()
+}
+
+impl RapierPlant {
+    /// Build the world for `robot` starting at `x0 = [q, qd]` (2n values) at t = 0.
+    ///
+    /// Errors: `x0` of the wrong length ([`Error::Dimension`]) or not finite, invalid `settings`
+    /// ([`Error::InvalidValue`]).
+    pub fn new(robot: &Robot, x0: &[f64], settings: &RapierSettings) -> Result<Self> {
+        settings.validate("<rapier settings>")?;
+        let n = robot.n;
+        if x0.len() != 2 * n {
+            return Err(Error::Dimension {
+                what: "rapier plant initial state x0 = [q, qd]".into(),
+                expected: 2 * n,
+                got: x0.len(),
+            });
+        }
+        if let Some(i) = x0.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid(
+                "<x0>",
+                format!("x0[{i}]"),
+                x0[i],
+                "must be finite",
+            ));
+        }
+        let (q0, qd0) = x0.split_at(n);
+
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::new(0.0, -robot.gravity);
+        world.integration_parameters.dt = 1e-3 / settings.substeps as f64;
+
+        let root = world.insert_body(RigidBodyBuilder::fixed());
+        let mut links = Vec::with_capacity(n);
+        let mut link_colliders = Vec::with_capacity(n);
+        let mut joint = None;
+        for i in 0..n {
+            let (l, r) = (robot.len[i], robot.radius[i]);
+            let body = RigidBodyBuilder::dynamic()
+                .additional_mass_properties(MassProperties::new(
+                    Vector::new(robot.com[i], 0.0),
+                    robot.mass[i],
+                    robot.inertia[i],
+                ))
+                .linear_damping(0.0)
+                .angular_damping(0.0)
+                .can_sleep(false);
+            // capsule along the link from joint to joint; zero density so the colliders add no mass
+            let collider = ColliderBuilder::capsule_x(0.5 * l, r)
+                .translation(Vector::new(0.5 * l, 0.0))
+                .density(0.0)
+                .friction(settings.link_friction)
+                .restitution(settings.link_restitution)
+                .restitution_combine_rule(CoefficientCombineRule::Max);
+            let (h, c) = world.insert(body, collider);
+            let (parent, anchor1) = if i == 0 {
+                (root, Vector::ZERO)
+            } else {
+                (links[i - 1], Vector::new(robot.len[i - 1], 0.0))
+            };
+            let jh = world
+                .insert_multibody_joint(
+                    parent,
+                    h,
+                    RevoluteJointBuilder::new()
+                        .local_anchor1(anchor1)
+                        .local_anchor2(Vector::ZERO)
+                        .contacts_enabled(false),
+                )
+                .ok_or_else(|| {
+                    Error::InfeasibleTask(format!("rapier refused the multibody joint of link {i}"))
+                })?;
+            joint.get_or_insert(jh);
+            links.push(h);
+            link_colliders.push(c);
+        }
+        let joint = joint.ok_or_else(|| Error::InfeasibleTask("robot without links".into()))?;
+        // rapier folds the additional mass properties in during the next step only; do it now so the
+        // initial forward kinematics (and anything read before the first step) sees the exact values.
+        for &h in &links {
+            if let Some(rb) = world.bodies.get_mut(h) {
+                rb.recompute_mass_properties_from_colliders(&world.colliders);
+            }
+        }
+
+        let mb_links = {
+            let (mb, _) = world
+                .multibody_joints
+                .get_mut(joint)
+                .ok_or_else(|| Error::InfeasibleTask("rapier lost the multibody".into()))?;
+            // The first forward kinematics turns the fixed root into a 0-dof link (before it the root
+            // counts as a free body), so the dof vectors below have exactly n entries.
+            mb.forward_kinematics(&world.bodies, true);
+            mb.set_self_contacts_enabled(settings.self_contacts);
+            // rapier gives every revolute dof a damping of 0.1 by default: the robot has none.
+            mb.damping_mut().fill(0.0);
+            mb.armature_mut().fill(0.0);
+            mb.frictions_mut().fill(0.0);
+            let mut ids = Vec::with_capacity(n);
+            for &h in &links {
+                let id = mb
+                    .links()
+                    .find(|lk| lk.rigid_body_handle() == h)
+                    .map(|lk| lk.link_id())
+                    .ok_or_else(|| Error::InfeasibleTask("link missing from multibody".into()))?;
+                ids.push(id);
+            }
+            // Joint coordinates start at 0 (a straight chain along +x) whatever the body poses:
+            // displace them to q0, and set the relative joint velocities to qd0.
+            if mb.ndofs() != n {
+                return Err(Error::Dimension {
+                    what: "rapier multibody dofs".into(),
+                    expected: n,
+                    got: mb.ndofs(),
+                });
+            }
+            let assembly: Vec<usize> = ids
+                .iter()
+                .map(|&id| mb.link(id).map_or(usize::MAX, |lk| lk.assembly_id()))
+                .collect();
+            if let Some(&a) = assembly.iter().find(|&&a| a >= n) {
+                return Err(Error::Dimension {
+                    what: "rapier multibody assembly id".into(),
+                    expected: n,
+                    got: a,
+                });
+            }
+            let mut disp = vec![0.0; n];
+            for i in 0..n {
+                disp[assembly[i]] = q0[i];
+            }
+            mb.apply_displacements(&disp);
+            {
+                let mut v = mb.generalized_velocity_mut();
+                for i in 0..n {
+                    v[assembly[i]] = qd0[i];
+                }
+            }
+            mb.forward_kinematics(&world.bodies, true);
+            mb.update_rigid_bodies(&mut world.bodies, true);
+            ids
+        };
+
+        // The engine derives the body velocities from the joint velocities only during a step, and
+        // uses the bodies' current velocities for the Coriolis terms of that step: set them too.
+        let mut th = 0.0;
+        let mut w = 0.0;
+        let mut v = [0.0, 0.0];
+        for i in 0..n {
+            th += q0[i];
+            w += qd0[i];
+            let (s, c) = th.sin_cos();
+            let rc = [c * robot.com[i], s * robot.com[i]];
+            let wc = cross(w, rc);
+            if let Some(rb) = world.bodies.get_mut(links[i]) {
+                rb.set_linvel(Vector::new(v[0] + wc[0], v[1] + wc[1]), true);
+                rb.set_angvel(w, true);
+            }
+            let rl = [c * robot.len[i], s * robot.len[i]];
+            let wl = cross(w, rl);
+            v = [v[0] + wl[0], v[1] + wl[1]];
+        }
+
+        Ok(RapierPlant {
+            tau: vec![0.0; robot.nu()],
+            robot: robot.clone(),
+            settings: settings.clone(),
+            world,
+            links,
+            link_colliders,
+            mb_links,
+            joint,
+            obstacles: Vec::new(),
+            contacts: Vec::new(),
+            pending: Vec::new(),
+            t: 0.0,
+        })
+    }
+
+    /// The robot simulated.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &RapierSettings {
+        &self.settings
+    }
+
+    /// Add an obstacle; returns its id (0, 1, ... in the order added), used in [`ContactEvent`]s.
+    ///
+    /// Errors: invalid values ([`Error::InvalidValue`]); an obstacle overlapping the robot's capsules
+    /// in the current pose ([`Error::InfeasibleTask`]).
+    pub fn add_obstacle(&mut self, obstacle: &Obstacle) -> Result<usize> {
+        let id = self.obstacles.len();
+        obstacle.validate("<obstacle>", id)?;
+        let (center, radius) = obstacle.shape();
+        let mut x = vec![0.0; 2 * self.robot.n];
+        self.state(&mut x);
+        let mut segs = vec![([0.0; 2], [0.0; 2]); self.robot.n];
+        self.robot.link_segments(&x[..self.robot.n], &mut segs);
+        for (i, (a, b)) in segs.iter().enumerate() {
+            let d = point_segment_distance(center, *a, *b);
+            if d < radius + self.robot.radius[i] {
+                return Err(Error::InfeasibleTask(format!(
+                    "obstacle {id} (centre [{}, {}], radius {radius} m) overlaps link {} at the \
+                     current pose (distance {d:.4} m)",
+                    center[0],
+                    center[1],
+                    i + 1
+                )));
+            }
+        }
+        let c = Vector::new(center[0], center[1]);
+        let (body, collider) = match obstacle {
+            Obstacle::Circle(_) => self.world.insert(
+                RigidBodyBuilder::fixed().translation(c),
+                ColliderBuilder::ball(radius),
+            ),
+            Obstacle::Ball(b) => self.world.insert(
+                RigidBodyBuilder::dynamic()
+                    .translation(c)
+                    .gravity_scale(if b.gravity { 1.0 } else { 0.0 })
+                    .linear_damping(0.0)
+                    .angular_damping(0.0)
+                    .can_sleep(false),
+                ColliderBuilder::ball(radius)
+                    .mass(b.mass)
+                    .restitution(b.restitution)
+                    .restitution_combine_rule(CoefficientCombineRule::Max),
+            ),
+        };
+        self.obstacles.push(ObstacleEntry {
+            spec: obstacle.clone(),
+            body,
+            collider,
+        });
+        Ok(id)
+    }
+
+    /// The obstacles added, in id order.
+    pub fn obstacles(&self) -> impl Iterator<Item = &Obstacle> {
+        self.obstacles.iter().map(|o| &o.spec)
+    }
+
+    /// Current centre `[x, y]` (m) of obstacle `id`, `None` for an unknown id.
+    pub fn obstacle_position(&self, id: usize) -> Option<[f64; 2]> {
+        let o = self.obstacles.get(id)?;
+        let p = self.world.bodies.get(o.body)?.translation();
+        Some([p.x, p.y])
+    }
+
+    /// Current velocity `[vx, vy]` (m/s) of obstacle `id`, `None` for an unknown id.
+    pub fn obstacle_velocity(&self, id: usize) -> Option<[f64; 2]> {
+        let o = self.obstacles.get(id)?;
+        let v = self.world.bodies.get(o.body)?.linvel();
+        Some([v.x, v.y])
+    }
+
+    /// Centres `[x, y]` (m) of the free balls, in the order they were added (ball i of an
+    /// `obstacles.csv` with columns `t, ball_0_x, ball_0_y, ...`).
+    pub fn ball_positions(&self) -> Vec<[f64; 2]> {
+        (0..self.obstacles.len())
+            .filter(|&i| matches!(self.obstacles[i].spec, Obstacle::Ball(_)))
+            .filter_map(|i| self.obstacle_position(i))
+            .collect()
+    }
+
+    /// Header of an `obstacles.csv` for the balls: `t,ball_0_x,ball_0_y,...` (s, m).
+    pub fn ball_csv_header(&self) -> String {
+        let mut h = String::from("t");
+        for i in 0..self.ball_positions().len() {
+            h.push_str(&format!(",ball_{i}_x,ball_{i}_y"));
+        }
+        h
+    }
+
+    /// One row of that file at the current time.
+    pub fn ball_csv_row(&self) -> String {
+        let mut r = format!("{}", self.t);
+        for p in self.ball_positions() {
+            r.push_str(&format!(",{},{}", p[0], p[1]));
+        }
+        r
+    }
+
+    /// Every contact of a link so far, in time order (one event per link, body and control step).
+    pub fn contacts(&self) -> &[ContactEvent] {
+        &self.contacts
+    }
+
+    /// Time of the first logged contact, s (`None` if the robot has touched nothing).
+    pub fn first_contact_time(&self) -> Option<f64> {
+        self.contacts.first().map(|c| c.t)
+    }
+
+    /// The torques applied during the last step, after clamping, N m (n - 1 values).
+    pub fn applied_torques(&self) -> &[f64] {
+        &self.tau
+    }
+
+    /// The engine's joint damping per dof (zero: the trap of rapier's default 0.1 is handled).
+    pub fn engine_joint_damping(&self) -> Vec<f64> {
+        self.multibody()
+            .map(|mb| mb.damping().iter().copied().collect())
+            .unwrap_or_default()
+    }
+
+    /// The mass properties of each link as held by the engine.
+    pub fn link_mass_properties(&self) -> Vec<LinkMassProperties> {
+        self.links
+            .iter()
+            .filter_map(|&h| self.world.bodies.get(h))
+            .map(|rb| {
+                let mp = rb.mass_properties().local_mprops;
+                LinkMassProperties {
+                    mass: mp.mass(),
+                    local_com: [mp.local_com.x, mp.local_com.y],
+                    inertia: mp.principal_inertia(),
+                }
+            })
+            .collect()
+    }
+
+    /// Absolute link angles read from the engine's body rotations, wrapped to (-pi, pi], rad.
+    pub fn body_angles(&self) -> Vec<f64> {
+        self.links
+            .iter()
+            .filter_map(|&h| self.world.bodies.get(h))
+            .map(|rb| rb.rotation().angle())
+            .collect()
+    }
+
+    /// Absolute link angular velocities read from the engine's bodies, rad/s.
+    pub fn body_angular_velocities(&self) -> Vec<f64> {
+        self.links
+            .iter()
+            .filter_map(|&h| self.world.bodies.get(h))
+            .map(|rb| rb.angvel())
+            .collect()
+    }
+
+    fn multibody(&self) -> Option<&Multibody> {
+        self.world
+            .multibody_joints
+            .get(self.joint)
+            .map(|(mb, _)| mb)
+    }
+
+    /// Index of a link collider, if `c` is one.
+    fn link_of(&self, c: ColliderHandle) -> Option<usize> {
+        self.link_colliders.iter().position(|&h| h == c)
+    }
+
+    fn accumulate(&mut self, link: usize, body: ContactBody, impulse: f64) {
+        if let Some(e) = self.pending.iter_mut().find(|e| e.0 == link && e.1 == body) {
+            e.2 += impulse;
+        } else {
+            self.pending.push((link, body, impulse));
+        }
+    }
+
+    /// Read the contact impulses of the engine step just taken.
+    fn collect_contacts(&mut self) {
+        let mut found = Vec::new();
+        for (id, o) in self.obstacles.iter().enumerate() {
+            for pair in self.world.contact_pairs_with(o.collider) {
+                let other = if pair.collider1 == o.collider {
+                    pair.collider2
+                } else {
+                    pair.collider1
+                };
+                if let Some(link) = self.link_of(other) {
+                    let imp = pair.total_impulse_magnitude();
+                    if imp > 0.0 {
+                        found.push((link, ContactBody::Obstacle(id), imp));
+                    }
+                }
+            }
+        }
+        if self.settings.self_contacts {
+            for (i, &c) in self.link_colliders.iter().enumerate() {
+                for pair in self.world.contact_pairs_with(c) {
+                    let other = if pair.collider1 == c {
+                        pair.collider2
+                    } else {
+                        pair.collider1
+                    };
+                    if let Some(j) = self.link_of(other) {
+                        let imp = pair.total_impulse_magnitude();
+                        if j > i && imp > 0.0 {
+                            found.push((i, ContactBody::Link(j), imp));
+                        }
+                    }
+                }
+            }
+        }
+        for (link, body, imp) in found {
+            self.accumulate(link, body, imp);
+        }
+    }
+}
+
+impl Plant for RapierPlant {
+    fn n_links(&self) -> usize {
+        self.robot.n
+    }
+
+    fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// `[q, qd]` from the multibody's joint coordinates (continuous, never wrapped) and relative joint
+    /// velocities. The first joint is hinged to the fixed root at the origin with the root frame
+    /// aligned with the world, so its coordinate is the absolute angle of link 1.
+    fn state(&self, x: &mut [f64]) {
+        let n = self.robot.n;
+        let Some(mb) = self.multibody() else {
+            x.fill(f64::NAN);
+            return;
+        };
+        let v = mb.generalized_velocity();
+        for (i, &id) in self.mb_links.iter().enumerate() {
+            if let Some(lk) = mb.link(id) {
+                // 2-D revolute joint: the angular coordinate follows the two linear ones
+                x[i] = lk.joint().coords()[2];
+                x[n + i] = v[lk.assembly_id()];
+            }
+        }
+    }
+
+    /// Apply `tau` (clamped to the robot's limits; a missing or non-finite entry counts as 0) for
+    /// `dt` seconds as `substeps` engine steps of `dt / substeps`. A `dt` that is not a finite
+    /// positive number leaves the plant unchanged.
+    fn step(&mut self, tau: &[f64], dt: f64) {
+        if !(dt.is_finite() && dt > 0.0) {
+            return;
+        }
+        for j in 0..self.tau.len() {
+            let t = tau.get(j).copied().unwrap_or(0.0);
+            self.tau[j] = if t.is_finite() {
+                t.clamp(self.robot.tau_min[j], self.robot.tau_max[j])
+            } else {
+                0.0
+            };
+        }
+        // Joint j+2 (tau[j]) acts between link j (parent) and link j+1 (child): +tau on the child,
+        // -tau on the parent, which is a generalized force tau on q[j+1] only. User torques persist
+        // across engine steps until reset.
+        for &h in &self.links {
+            if let Some(rb) = self.world.bodies.get_mut(h) {
+                rb.reset_torques(false);
+            }
+        }
+        for j in 0..self.tau.len() {
+            let t = self.tau[j];
+            if let Some(rb) = self.world.bodies.get_mut(self.links[j + 1]) {
+                rb.add_torque(t, true);
+            }
+            if let Some(rb) = self.world.bodies.get_mut(self.links[j]) {
+                rb.add_torque(-t, true);
+            }
+        }
+        self.world.integration_parameters.dt = dt / self.settings.substeps as f64;
+        self.pending.clear();
+        for _ in 0..self.settings.substeps {
+            self.world.step();
+            self.collect_contacts();
+        }
+        self.t += dt;
+        let t = self.t;
+        self.contacts.extend(
+            self.pending
+                .drain(..)
+                .map(|(link, body, impulse)| ContactEvent {
+                    t,
+                    link,
+                    body,
+                    impulse,
+                }),
+        );
+    }
+
+    /// Kinetic plus potential energy of the links (obstacles excluded), J, from the engine's body
+    /// poses and velocities (`linvel` is the centre-of-mass velocity); potential zero at the grip height.
+    fn energy(&self) -> f64 {
+        let g = self.robot.gravity;
+        let mut e = 0.0;
+        for (i, &h) in self.links.iter().enumerate() {
+            let Some(rb) = self.world.bodies.get(h) else {
+                return f64::NAN;
+            };
+            // the body frame sits at the proximal joint; the centre of mass is `com` along the link
+            let y_com = rb.translation().y + rb.rotation().angle().sin() * self.robot.com[i];
+            let v = rb.linvel();
+            let w = rb.angvel();
+            e += 0.5 * self.robot.mass[i] * (v.x * v.x + v.y * v.y)
+                + 0.5 * self.robot.inertia[i] * w * w
+                + self.robot.mass[i] * g * y_com;
+        }
+        e
+    }
+
+    fn name(&self) -> &'static str {
+        "rapier"
+    }
+}
