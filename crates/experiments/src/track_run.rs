@@ -85,7 +85,7 @@ pub fn run_track(
         }
         PlantKind::Rapier => {
             return Err(Error::invalid(
-                &ls.path.display().to_string(),
+                ls.path.display().to_string(),
                 "plant.kind",
                 "rapier",
                 "the rapier plant is not available in this build",
@@ -123,8 +123,7 @@ pub fn run_track(
         "target": sc.task.target,
         "plan": plan_report,
     });
-    if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(&summary))
-    {
+    if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(summary)) {
         for (k, v) in s {
             m.insert(k, v);
         }

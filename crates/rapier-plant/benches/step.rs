@@ -1,35 +1,13 @@
 //! Cost of one 1 ms step of the rapier plant (paper's 4-link robot, passive swing from the paper's start
 //! pose, constant mid-range torques) for 1, 2 and 4 engine sub-steps.
 
-use brachia::model::{ActuatorParams, LinkParams, RobotParams};
 use brachia::sim::Plant;
 use brachia::Robot;
 use brachia_rapier::{RapierPlant, RapierSettings};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 
 fn paper_robot() -> Robot {
-    let mass = [0.35, 0.56, 0.56, 0.35];
-    let com = [0.2059, 0.1832, 0.1718, 0.1491];
-    let inertia = [0.98, 0.10, 0.10, 0.98];
-    let links = (0..4)
-        .map(|i| LinkParams {
-            length: 0.355,
-            mass: mass[i],
-            com: com[i],
-            inertia: inertia[i],
-            radius: 0.02,
-        })
-        .collect();
-    let params = RobotParams {
-        name: "paper".into(),
-        gravity: 9.81,
-        links,
-        actuators: ActuatorParams {
-            tau_min: vec![-5.0; 3],
-            tau_max: vec![5.0; 3],
-        },
-    };
-    Robot::from_params(params, "<bench>").expect("paper robot is valid")
+    Robot::paper()
 }
 
 fn bench_step(c: &mut Criterion) {

@@ -2,34 +2,12 @@
 //! and a smooth swing built from a closed-form pose sequence (no simulation).
 #![allow(dead_code)]
 
-use brachia::model::{ActuatorParams, LinkParams, RobotParams};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
 
 /// The paper's robot (Table I).
 pub fn paper_robot() -> Robot {
-    let mass = [0.35, 0.56, 0.56, 0.35];
-    let com = [0.2059, 0.1832, 0.1718, 0.1491];
-    let inertia = [0.98, 0.10, 0.10, 0.98];
-    let links = (0..4)
-        .map(|i| LinkParams {
-            length: 0.355,
-            mass: mass[i],
-            com: com[i],
-            inertia: inertia[i],
-            radius: 0.02,
-        })
-        .collect();
-    let params = RobotParams {
-        name: "paper".into(),
-        gravity: 9.81,
-        links,
-        actuators: ActuatorParams {
-            tau_min: vec![-5.0; 3],
-            tau_max: vec![5.0; 3],
-        },
-    };
-    Robot::from_params(params, "<test>").expect("valid paper robot")
+    Robot::paper()
 }
 
 /// Start and end poses of the synthetic swing (rad).
