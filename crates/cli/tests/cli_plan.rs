@@ -1,21 +1,8 @@
 //! `brachia plan` as a user runs it: the run folder contract, exit codes 0 / 1 / 2.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn brachia() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_brachia"));
-    c.current_dir(root());
-    c
-}
-
-fn report(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
-}
+use common::{brachia, report, root};
 
 #[test]
 fn plan_writes_the_run_folder_contract() {

@@ -1,22 +1,9 @@
 //! `brachia track` as a user runs it: the tracking scenario on the model plant, the output contract, a
 //! plant-mass mismatch, and reading a plan folder.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn brachia() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_brachia"));
-    c.current_dir(root());
-    c
-}
-
-fn report(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
-}
+use common::{brachia, report, root};
 
 #[test]
 fn mpc_tracks_the_paper_swing_on_the_model_plant() {
