@@ -10,7 +10,8 @@ pub struct Args {
     /// Scenario file (TOML), e.g. scenarios/tracking.toml.
     #[arg(long)]
     scenario: PathBuf,
-    /// Output folder: closed_loop.csv, report.json and the plan under plan/.
+    /// Output folder: closed_loop.csv, report.json and the plan under plan/ (rapier plant: also
+    /// contacts.csv and obstacles.csv).
     #[arg(long)]
     out: PathBuf,
     /// Controller (default: the scenario's, else mpc).
@@ -65,6 +66,15 @@ pub fn run(a: Args) -> Result<(), CliError> {
                 "track: EE final error {:.2e} m (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
                 s.ee_final_error_m, s.ee_error_max_m, s.joint_rms_error_rad, s.energy_j, s.control_step_us_p50
             );
+            if !run.world.obstacles.is_empty() {
+                match run.world.first_contact_s() {
+                    Some(t) => eprintln!(
+                        "track: first contact at {t:.3} s ({} contact events)",
+                        run.world.contacts.len()
+                    ),
+                    None => eprintln!("track: the robot touched no obstacle"),
+                }
+            }
             Ok(())
         }
         Err(plan_run) => {

@@ -116,3 +116,61 @@ fn mpc_absorbs_ten_percent_heavier_links() {
     );
     assert!(errs[0] < errs[2], "MPC {errs:?} should beat open loop");
 }
+
+#[test]
+fn robustness_on_rapier_writes_contacts_and_obstacle_tracks() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("robust");
+    let o = brachia()
+        .args([
+            "track",
+            "--plant",
+            "rapier",
+            "--scenario",
+            "scenarios/robustness.toml",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = report(&out);
+    assert_eq!(r["plant"], "rapier");
+    assert_eq!(r["plant_substeps"], 1);
+    let hit = r["first_contact_s"].as_f64().expect("first_contact_s");
+    assert!((0.5..=0.7).contains(&hit), "first contact {hit} s");
+    assert!(r["ee_final_error_m"].as_f64().unwrap() < 0.02);
+    let contacts = std::fs::read_to_string(out.join("contacts.csv")).unwrap();
+    let first: Vec<&str> = contacts.lines().nth(1).unwrap().split(',').collect();
+    assert_eq!(first.len(), 4);
+    assert_eq!(first[2], "obstacle_0");
+    let obstacles = std::fs::read_to_string(out.join("obstacles.csv")).unwrap();
+    assert!(obstacles.starts_with("t,obstacle_0_x,obstacle_0_y\n"));
+    let (start, end) = (
+        obstacles.lines().nth(1).unwrap(),
+        obstacles.lines().last().unwrap(),
+    );
+    assert_ne!(
+        start.split(',').nth(1),
+        end.split(',').nth(1),
+        "the ball never moved"
+    );
+
+    // the same scenario on the model plant is refused: it cannot simulate the ball
+    let o = brachia()
+        .args([
+            "track",
+            "--plant",
+            "model",
+            "--scenario",
+            "scenarios/robustness.toml",
+            "--out",
+        ])
+        .arg(dir.path().join("model"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("plant.obstacles"), "{err}");
+    assert!(!dir.path().join("model").exists());
+}

@@ -451,6 +451,14 @@ fn summary_and_csv_of_a_small_log() {
         .collect();
     assert_eq!(row.len(), 24);
     assert!((row[2] - 0.3).abs() < 1e-12 && (row[9] - 1.0).abs() < 1e-12);
+    // the executed motion as a trajectory: the same rows
+    let tr = log.trajectory();
+    assert_eq!(tr.len(), 3);
+    for k in 0..3 {
+        assert_eq!(tr.t[k], log.t[k]);
+        assert_eq!(tr.q(k), &qs[k][..]);
+        assert_eq!(tr.tau(k), &taus[k][..]);
+    }
 }
 
 /// Measurements for docs/mpc.md (run with `--ignored --nocapture`): tracking of MPC variants and

@@ -15,7 +15,7 @@ pub mod track_run;
 pub use plan_run::{plan_report, run_plan, PlanRun};
 pub use run_folder::RunFolder;
 pub use scenario::{ControllerKind, PlantKind, Scenario};
-pub use track_run::{read_plan_folder, run_track, TrackRun};
+pub use track_run::{read_plan_folder, run_track, PlantWorld, TrackRun};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

@@ -16,11 +16,19 @@
 //! avoid_obstacles = true
 //! [solver]                              # see brachia::planning::NlpSettings
 //! backend = "pounce"                    # pounce | ripopt
+//! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
+//! controller = "mpc"                    # mpc | pd | open-loop
+//! [plant]                               # see PlantSettings
+//! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
+//! substeps = 1
+//! obstacles = [{ kind = "ball", center = [-0.9, -0.56], radius = 0.05, mass = 0.4,
+//!                restitution = 0.3, gravity = false }]   # in the plant only: the planner never sees them
 //! ```
 
 use brachia::control::{MpcSettings, PdSettings};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia::{Error, Robot};
+use brachia_rapier::{Obstacle, RapierSettings};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -119,8 +127,30 @@ pub struct PlantSettings {
     pub kind: PlantKind,
     /// Factor on every link mass and inertia of the plant (1 = the planner's model). Default 1.
     pub mass_scale: f64,
-    /// Integration sub-steps per control period. Default 1 (model) ; the rapier plant uses its own.
+    /// Integration sub-steps per control period (RK4 steps for the model plant, engine steps for the
+    /// rapier plant). Default 1.
     pub substeps: usize,
+    /// Obstacles that exist only in the plant's world (the planner does not know them): fixed circles
+    /// (`kind = "circle"`) and free balls (`kind = "ball"`) the robot can knock away. Rapier plant only.
+    /// The task's obstacles (`[task] obstacles`) are always added to the rapier world as fixed circles
+    /// as well. Default none.
+    pub obstacles: Vec<Obstacle>,
+    /// Coulomb friction of the link capsules (rapier plant). Default 0.5.
+    pub link_friction: f64,
+    /// Restitution of the link capsules in [0, 1] (rapier plant). Default 0.
+    pub link_restitution: f64,
+}
+
+impl PlantSettings {
+    /// The rapier plant's settings.
+    pub fn rapier(&self) -> RapierSettings {
+        RapierSettings {
+            substeps: self.substeps,
+            link_friction: self.link_friction,
+            link_restitution: self.link_restitution,
+            ..RapierSettings::default()
+        }
+    }
 }
 
 impl Default for PlantSettings {
@@ -129,6 +159,9 @@ impl Default for PlantSettings {
             kind: PlantKind::Model,
             mass_scale: 1.0,
             substeps: 1,
+            obstacles: Vec::new(),
+            link_friction: RapierSettings::default().link_friction,
+            link_restitution: RapierSettings::default().link_restitution,
         }
     }
 }
@@ -271,6 +304,10 @@ impl Scenario {
                 pl.substeps,
                 "must be 1..=1000",
             ));
+        }
+        pl.rapier().validate(&src).map_err(|e| rename(e, "plant"))?;
+        for (i, o) in pl.obstacles.iter().enumerate() {
+            o.validate(&src, i).map_err(|e| rename(e, "plant"))?;
         }
         Ok(LoadedScenario {
             scenario: sc,

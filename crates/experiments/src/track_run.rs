@@ -1,8 +1,12 @@
 //! A tracking run: plan (or read a plan), run a controller against a plant in closed loop at 1 kHz, and
-//! fill the run folder (`closed_loop.csv`, `report.json`, and the plan's files under `plan/`).
+//! fill the run folder (`closed_loop.csv`, `report.json`, and the plan's files under `plan/`; on the rapier
+//! plant also `contacts.csv` and `obstacles.csv`).
 //!
-//! Units: s, m, rad, rad/s, N m, J. `closed_loop.csv` header: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,
-//! ref_q1..,ref_qd1..,ref_ee_x,ref_ee_y`.
+//! Units: s, m, rad, rad/s, N m, N s, J. `closed_loop.csv` header: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,
+//! ref_q1..,ref_qd1..,ref_ee_x,ref_ee_y`. `contacts.csv`: `t,link,body,impulse` (link 1..n as in the
+//! paper; body `obstacle_<id>` or `link_<j>`; the normal impulse over that control step, N s).
+//! `obstacles.csv`: `t,obstacle_0_x,obstacle_0_y,...` (obstacle ids: the task's obstacles first, then the
+//! plant's).
 
 use crate::plan_run::{run_plan, PlanRun};
 use crate::run_folder::RunFolder;
@@ -13,7 +17,9 @@ use brachia::sim::{
 };
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
+use brachia_rapier::{Circle, ContactBody, ContactEvent, Obstacle, RapierPlant};
 use serde_json::{json, Value};
+use std::fmt::Write as _;
 
 /// Outcome of [`run_track`].
 #[derive(Debug, Clone)]
@@ -26,8 +32,41 @@ pub struct TrackRun {
     pub log: ClosedLoopLog,
     /// Its summary.
     pub summary: RunSummary,
+    /// What happened in the plant's world (empty on the model plant).
+    pub world: PlantWorld,
     /// The run folder's files.
     pub folder: RunFolder,
+}
+
+/// The obstacles of the plant's world and what the robot did to them (rapier plant; empty otherwise).
+#[derive(Debug, Clone, Default)]
+pub struct PlantWorld {
+    /// The obstacles in id order: the task's obstacles (fixed circles) first, then the plant's.
+    pub obstacles: Vec<Obstacle>,
+    /// Every contact of a link, in time order.
+    pub contacts: Vec<ContactEvent>,
+    /// Obstacle centres over time, rows `[t, x_0, y_0, x_1, y_1, ...]` (s, m).
+    pub track: Vec<Vec<f64>>,
+}
+
+impl PlantWorld {
+    /// Time of the first contact, s.
+    pub fn first_contact_s(&self) -> Option<f64> {
+        self.contacts.first().map(|c| c.t)
+    }
+
+    /// `contacts.csv`: `t,link,body,impulse` (link 1..n; body `obstacle_<id>` or `link_<j>` with j 1..n).
+    pub fn contacts_csv(&self) -> String {
+        let mut s = String::from("t,link,body,impulse\n");
+        for c in &self.contacts {
+            let body = match c.body {
+                ContactBody::Obstacle(id) => format!("obstacle_{id}"),
+                ContactBody::Link(j) => format!("link_{}", j + 1),
+            };
+            let _ = writeln!(s, "{:.6},{},{body},{:.9}", c.t, c.link + 1, c.impulse);
+        }
+        s
+    }
 }
 
 /// Build the controller of `kind` for `reference`.
@@ -77,19 +116,47 @@ pub fn run_track(
     let sc = &ls.scenario;
     let probot = plant_robot(ls)?;
     let x0 = [reference.q(0), reference.qd(0)].concat();
-    let mut plant_box: Box<dyn Plant> = match plant {
+    let mut world = PlantWorld::default();
+    let mut rapier = None;
+    let mut model = None;
+    let plant_ref: &mut dyn Plant = match plant {
         PlantKind::Model => {
+            if !sc.plant.obstacles.is_empty() {
+                return Err(Error::invalid(
+                    ls.path.display().to_string(),
+                    "plant.obstacles",
+                    format!("{} obstacles", sc.plant.obstacles.len()),
+                    "the model plant simulates no contacts: run them on the rapier plant \
+                     (plant.kind = \"rapier\" or --plant rapier)",
+                ));
+            }
             let mut p = ModelPlant::new(probot, &x0);
             p.substeps = sc.plant.substeps;
-            Box::new(p)
+            model.insert(p)
         }
         PlantKind::Rapier => {
-            return Err(Error::invalid(
-                ls.path.display().to_string(),
-                "plant.kind",
-                "rapier",
-                "the rapier plant is not available in this build",
-            ))
+            let mut p = RapierPlant::new(&probot, &x0, &sc.plant.rapier())?;
+            let task_obstacles = sc.task.obstacles.iter().map(|c| {
+                Obstacle::Circle(Circle {
+                    center: c.center,
+                    radius: c.radius,
+                })
+            });
+            world.obstacles = task_obstacles
+                .chain(sc.plant.obstacles.iter().cloned())
+                .collect();
+            for o in &world.obstacles {
+                p.add_obstacle(o).map_err(|e| match e {
+                    Error::InfeasibleTask(m) => Error::invalid(
+                        ls.path.display().to_string(),
+                        "plant.obstacles",
+                        format!("{o:?}"),
+                        m,
+                    ),
+                    other => other,
+                })?;
+            }
+            rapier.insert(p)
         }
     };
     let mut ctrl = make_controller(controller, ls, &reference)?;
@@ -100,19 +167,21 @@ pub fn run_track(
         noise_qd_std: sc.tracking.noise_qd_std,
         seed: sc.tracking.seed,
     };
-    let log = run_closed_loop(
-        plant_box.as_mut(),
-        ctrl.as_mut(),
-        &reference,
-        &ls.robot,
-        &settings,
-    )?;
-    let (controller_name, plant_name) = (ctrl.name(), plant_box.name());
+    let log = run_closed_loop(plant_ref, ctrl.as_mut(), &reference, &ls.robot, &settings)?;
+    let (controller_name, plant_name) = (ctrl.name(), plant_ref.name());
     drop(ctrl);
+    if let Some(p) = &rapier {
+        world.contacts = p.contacts().to_vec();
+        world.track = p.obstacle_track().map(<[f64]>::to_vec).collect();
+    }
     let summary = log.summary();
     let (planned_energy, _) = reference.work();
     let mut folder = RunFolder::default();
     folder.add("closed_loop.csv", log.to_csv());
+    if let Some(p) = &rapier {
+        folder.add("contacts.csv", world.contacts_csv());
+        folder.add("obstacles.csv", p.obstacle_track_csv());
+    }
     let mut report = json!({
         "scenario": sc.name,
         "controller": controller_name,
@@ -121,6 +190,10 @@ pub fn run_track(
         "plant_substeps": sc.plant.substeps,
         "planned_energy_j": planned_energy,
         "target": sc.task.target,
+        "plant_obstacles": world.obstacles,
+        "first_contact_s": world.first_contact_s(),
+        "contact_events": world.contacts.len(),
+        "contact_impulse_ns": world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
         "plan": plan_report,
     });
     if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(summary)) {
@@ -141,6 +214,7 @@ pub fn run_track(
         reference,
         log,
         summary,
+        world,
         folder,
     }))
 }

@@ -51,6 +51,9 @@ pub struct RapierPlant {
     contacts: Vec<ContactEvent>,
     /// Impulses accumulated over the current control step: (link, body, impulse).
     pending: Vec<(usize, ContactBody, f64)>,
+    /// Obstacle centres over time, one row per control step from the first step on:
+    /// `[t, x_0, y_0, x_1, y_1, ...]` (s, m), obstacles in id order.
+    track: Vec<f64>,
     tau: Vec<f64>,
     t: f64,
 }
@@ -258,6 +261,7 @@ impl RapierPlant {
             obstacles: Vec::new(),
             contacts: Vec::new(),
             pending: Vec::new(),
+            track: Vec::new(),
             t: 0.0,
         })
     }
@@ -351,22 +355,41 @@ impl RapierPlant {
             .collect()
     }
 
-    /// Header of an `obstacles.csv` for the balls: `t,ball_0_x,ball_0_y,...` (s, m).
-    pub fn ball_csv_header(&self) -> String {
-        let mut h = String::from("t");
-        for i in 0..self.ball_positions().len() {
-            h.push_str(&format!(",ball_{i}_x,ball_{i}_y"));
-        }
-        h
+    /// Every obstacle's centre over time: one row `[t, x_0, y_0, x_1, y_1, ...]` (s, m; obstacles in id
+    /// order) at the start of the first step and after every step since. Empty before the first step or
+    /// without obstacles. An obstacle added after the first step starts a new row width, so add
+    /// obstacles before stepping.
+    pub fn obstacle_track(&self) -> impl Iterator<Item = &[f64]> {
+        self.track.chunks_exact(1 + 2 * self.obstacles.len())
     }
 
-    /// One row of that file at the current time.
-    pub fn ball_csv_row(&self) -> String {
-        let mut r = format!("{}", self.t);
-        for p in self.ball_positions() {
-            r.push_str(&format!(",{},{}", p[0], p[1]));
+    /// [`Self::obstacle_track`] as CSV text with the header `t,obstacle_0_x,obstacle_0_y,...` (s, m).
+    pub fn obstacle_track_csv(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::from("t");
+        for i in 0..self.obstacles.len() {
+            let _ = write!(s, ",obstacle_{i}_x,obstacle_{i}_y");
         }
-        r
+        s.push('\n');
+        for row in self.obstacle_track() {
+            let _ = write!(s, "{:.6}", row[0]);
+            for v in &row[1..] {
+                let _ = write!(s, ",{v:.9}");
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    fn record_obstacles(&mut self) {
+        if self.obstacles.is_empty() {
+            return;
+        }
+        self.track.push(self.t);
+        for id in 0..self.obstacles.len() {
+            let p = self.obstacle_position(id).unwrap_or([f64::NAN; 2]);
+            self.track.extend_from_slice(&p);
+        }
     }
 
     /// Every contact of a link so far, in time order (one event per link, body and control step).
@@ -546,6 +569,9 @@ impl Plant for RapierPlant {
                 rb.add_torque(-t, true);
             }
         }
+        if self.track.is_empty() {
+            self.record_obstacles();
+        }
         self.world.integration_parameters.dt = dt / self.settings.substeps as f64;
         self.pending.clear();
         for _ in 0..self.settings.substeps {
@@ -564,6 +590,7 @@ impl Plant for RapierPlant {
                     impulse,
                 }),
         );
+        self.record_obstacles();
     }
 
     /// Kinetic plus potential energy of the links (obstacles excluded), J, from the engine's body

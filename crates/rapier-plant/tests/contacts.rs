@@ -104,9 +104,17 @@ fn ball_in_the_path_is_hit_and_knocked_away() {
     let after = max_diff(&xs_free[steps - 1], &xs_hit[steps - 1]);
     assert!(after > 1e-2, "robot not perturbed: {after}");
 
-    // CSV helpers carry one ball
-    assert_eq!(hit.ball_csv_header(), "t,ball_0_x,ball_0_y");
-    assert_eq!(hit.ball_csv_row().split(',').count(), 3);
+    // the obstacle track: one row before the first step and one after each step, ending where the
+    // ball is now, starting where it was placed
+    let rows: Vec<&[f64]> = hit.obstacle_track().collect();
+    assert_eq!(rows.len(), steps + 1);
+    assert_eq!(rows[0], &[0.0, center[0], center[1]][..]);
+    assert_eq!(rows[steps][1..], p[..]);
+    assert!((rows[steps][0] - steps as f64 * DT).abs() < 1e-9);
+    let csv = hit.obstacle_track_csv();
+    assert!(csv.starts_with("t,obstacle_0_x,obstacle_0_y\n"));
+    assert_eq!(csv.lines().count(), steps + 2);
+    assert!(free.obstacle_track().next().is_none());
 }
 
 #[test]

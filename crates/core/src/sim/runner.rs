@@ -157,6 +157,18 @@ impl ClosedLoopLog {
         &self.tau[k * (self.n - 1)..(k + 1) * (self.n - 1)]
     }
 
+    /// The executed motion as a [`Trajectory`] (the measured `q`, `qd` and the applied `tau` of every
+    /// row), e.g. for stick diagrams and animations.
+    pub fn trajectory(&self) -> Trajectory {
+        let n = self.n;
+        let mut tr = Trajectory::new(n);
+        for k in 0..self.len() {
+            let x = self.x(k);
+            tr.push(self.t[k], &x[..n], &x[n..], self.tau(k));
+        }
+        tr
+    }
+
     /// Metrics of the run (all zero for an empty log).
     pub fn summary(&self) -> RunSummary {
         let rows = self.len();
