@@ -114,9 +114,7 @@ fn the_papers_ball_placement_is_never_hit() {
 #[test]
 fn plant_obstacles_on_the_model_plant_are_refused_with_the_field_named() {
     let ls = scenario("robustness.toml");
-    let err = run_track(&ls, ControllerKind::Mpc, PlantKind::Model, None)
-        .err()
-        .expect("refused");
+    let err = run_track(&ls, ControllerKind::Mpc, PlantKind::Model, None).expect_err("refused");
     let msg = err.to_string();
     assert!(
         msg.contains("plant.obstacles") && msg.contains("robustness.toml"),
