@@ -5,6 +5,7 @@
 
 mod io;
 mod plan;
+mod reproduce;
 mod simulate;
 mod track;
 
@@ -27,6 +28,8 @@ enum Command {
     Plan(plan::Args),
     /// Plan (or read a plan) and track it in closed loop at 1 kHz (MPC, PD or open loop).
     Track(track::Args),
+    /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
+    Reproduce(reproduce::Args),
 }
 
 /// An error of a command: bad input (exit 2) or a failure after the inputs were accepted (exit 1).
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Plan(a) => plan::run(a),
         Command::Track(a) => track::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

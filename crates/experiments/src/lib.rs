@@ -8,6 +8,7 @@
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
 pub mod plan_run;
+pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
 pub mod track_run;

@@ -58,6 +58,8 @@ impl Axes<'_> {
     }
 
     /// Build the chart on `area` and draw its grid, ticks and labels.
+    ///
+    /// Tick labels go through [`tick_value`] so a tick at zero never reads `-2.78e-17`.
     pub(crate) fn build<'b, DB: DrawingBackend>(
         &self,
         area: &'b DrawingArea<DB, Shift>,
@@ -73,14 +75,19 @@ impl Axes<'_> {
                 self.y_range.0..self.y_range.1,
             )
             .msg()?;
-        let fmt = |v: &f64| format_number(*v);
+        // a tick at zero can carry rounding noise (-2.78e-17): snap values far below the span to 0
+        let snap = |span: f64| move |v: &f64| format_number(tick_value(*v, span));
+        let (fx, fy) = (
+            snap(self.x_range.1 - self.x_range.0),
+            snap(self.y_range.1 - self.y_range.0),
+        );
         chart
             .configure_mesh()
             .x_desc(self.x_label)
             .label_style((FONT, TICK_SIZE))
             .axis_desc_style((FONT, LABEL_SIZE))
-            .x_label_formatter(&fmt)
-            .y_label_formatter(&fmt)
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
             .x_labels(8)
             .y_labels(6)
             .bold_line_style(RGBColor(222, 222, 222))
@@ -226,4 +233,28 @@ pub(crate) fn legend<DB: DrawingBackend>(
         area.draw_text(&e.label, &style, (x0 + sw + 4, y)).msg()?;
     }
     Ok(())
+}
+
+/// A tick value as it should be printed on an axis spanning `span`: values smaller than 1e-9 of the
+/// span are rounding noise around zero and print as 0.
+pub(crate) fn tick_value(v: f64, span: f64) -> f64 {
+    if v.abs() <= 1e-9 * span.abs() {
+        0.0
+    } else {
+        v
+    }
+}
+
+#[cfg(test)]
+mod tick_tests {
+    use super::tick_value;
+    use crate::format_number;
+
+    #[test]
+    fn zero_ticks_lose_their_rounding_noise() {
+        assert_eq!(format_number(tick_value(-2.78e-17, 0.2)), "0");
+        assert_eq!(format_number(tick_value(0.05, 0.2)), "0.05");
+        // a genuinely tiny axis keeps its values
+        assert_eq!(tick_value(1e-12, 1e-11), 1e-12);
+    }
 }

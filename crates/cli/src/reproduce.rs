@@ -1,0 +1,56 @@
+//! `brachia reproduce`: every experiment of the paper's Section V, figures, animations and a report.
+
+use crate::CliError;
+use brachia_experiments::reproduce::{reproduce, ReproduceOptions};
+use std::path::PathBuf;
+
+/// Arguments of `brachia reproduce`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Output folder: REPORT.md, summary.json, figures/ and one run folder per experiment.
+    #[arg(long, default_value = "out/reproduce")]
+    out: PathBuf,
+    /// A coarse parameter-study grid (the other experiments unchanged): what CI runs.
+    #[arg(long)]
+    quick: bool,
+    /// Folder of the scenario files (tracking.toml, obstacle.toml, obstacle-ignored.toml,
+    /// robustness.toml, robustness-paper.toml).
+    #[arg(long, default_value = "scenarios")]
+    scenarios: PathBuf,
+    /// Also write this results page (e.g. docs/results.md) with the figures copied beside it.
+    #[arg(long)]
+    results_page: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    no_progress: bool,
+}
+
+/// Run the command.
+pub fn run(a: Args) -> Result<(), CliError> {
+    let opts = ReproduceOptions {
+        scenarios: a.scenarios,
+        quick: a.quick,
+        progress: !a.no_progress,
+        results_page: a.results_page,
+    };
+    let rep = reproduce(&opts, &a.out).map_err(|e| match e {
+        brachia_experiments::ExpError::Input(e) => CliError::Input(e.to_string()),
+        other => CliError::Failed(other.to_string()),
+    })?;
+    eprintln!(
+        "reproduce: {} files in {} after {:.0} s; report {}",
+        rep.files.len(),
+        a.out.display(),
+        rep.wall_s,
+        a.out.join("REPORT.md").display()
+    );
+    if rep.failures.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::Failed(format!(
+            "{} experiment(s) did not succeed (see REPORT.md):\n  {}",
+            rep.failures.len(),
+            rep.failures.join("\n  ")
+        )))
+    }
+}

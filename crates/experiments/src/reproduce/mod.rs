@@ -1,0 +1,306 @@
+//! `brachia reproduce`: every experiment of the paper's Section V in one run, with figures, animations,
+//! a Markdown report that puts our numbers beside the paper's, and a machine-readable summary.
+//!
+//! Output folder layout (`DIR`):
+//! - `REPORT.md`, `summary.json`;
+//! - `figures/`: `fig3_*.png` .. `fig8_*.png` (each with an `.svg` beside it) and one GIF per swing;
+//! - one run folder per experiment (`parameter-study/`, `tracking/`, `tracking-model/`,
+//!   `obstacle/avoid/`, `obstacle/ignored/`, `robustness/{mpc,pd,open-loop}/`, `robustness-paper/`),
+//!   each with its resolved inputs, CSVs and `report.json`, as `brachia plan` / `brachia track` write them.
+//!
+//! Every file is written under a temporary name and renamed. An experiment whose solver does not converge
+//! is reported as such (its run folder is still written) and the others go on; [`Reproduction::failures`]
+//! lists them. Units: SI (s, m, rad, N m, J).
+
+mod figures;
+mod report;
+
+use crate::plan_run::{plan_report, run_plan, PlanRun};
+use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
+use crate::track_run::{run_track, TrackRun};
+use crate::ExpError;
+use figures::FigureDir;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+pub use report::PaperValues;
+
+/// What to run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReproduceOptions {
+    /// Folder holding the scenario files (`tracking.toml`, `obstacle.toml`, `obstacle-ignored.toml`,
+    /// `robustness.toml`, `robustness-paper.toml`). Default `scenarios`.
+    pub scenarios: PathBuf,
+    /// A coarse parameter-study grid that CI can afford (the other experiments are unchanged).
+    /// Default false.
+    pub quick: bool,
+    /// Show a progress bar for the parameter study (hidden anyway when stderr is not a terminal).
+    /// Default true.
+    pub progress: bool,
+    /// Also write the results page (e.g. `docs/results.md`) with the key figures copied into a folder
+    /// named after it (`docs/results/`). Default none.
+    pub results_page: Option<PathBuf>,
+}
+
+impl Default for ReproduceOptions {
+    fn default() -> Self {
+        ReproduceOptions {
+            scenarios: PathBuf::from("scenarios"),
+            quick: false,
+            progress: true,
+            results_page: None,
+        }
+    }
+}
+
+/// What a reproduction produced.
+#[derive(Debug, Clone)]
+pub struct Reproduction {
+    /// The contents of `summary.json`.
+    pub summary: Value,
+    /// Experiments that did not succeed (a solver that did not converge, a figure that failed), each with
+    /// the reason; empty when everything ran.
+    pub failures: Vec<String>,
+    /// Files written (figures, run folders' reports, REPORT.md, summary.json).
+    pub files: Vec<PathBuf>,
+    /// Wall time of the whole reproduction, s.
+    pub wall_s: f64,
+}
+
+/// The results of the tracking experiment (paper V-B).
+pub(crate) struct Tracking {
+    pub(crate) ls: LoadedScenario,
+    /// MPC on the rapier plant (the paper's Webots run).
+    pub(crate) rapier: TrackRun,
+    /// MPC on the RK4 model plant (the same plan).
+    pub(crate) model: TrackRun,
+}
+
+/// The results of the obstacle experiment (paper V-C).
+pub(crate) struct ObstacleRuns {
+    pub(crate) avoid: (LoadedScenario, PlanRun),
+    pub(crate) ignored: (LoadedScenario, PlanRun),
+}
+
+/// The results of the robustness experiment (paper V-D).
+pub(crate) struct Robustness {
+    pub(crate) ls: LoadedScenario,
+    /// MPC, PD, open loop on the rapier plant, the same plan.
+    pub(crate) runs: Vec<TrackRun>,
+    /// MPC with the paper's ball placement.
+    pub(crate) paper: Option<TrackRun>,
+}
+
+/// Everything the report reads.
+#[derive(Default)]
+pub(crate) struct Results {
+    pub(crate) tracking: Option<Tracking>,
+    pub(crate) obstacle: Option<ObstacleRuns>,
+    pub(crate) robustness: Option<Robustness>,
+    pub(crate) quick: bool,
+    pub(crate) wall_s: f64,
+}
+
+fn load(opts: &ReproduceOptions, name: &str) -> Result<LoadedScenario, ExpError> {
+    Ok(Scenario::load(&opts.scenarios.join(name))?)
+}
+
+fn write(folder: &crate::RunFolder, dir: &Path, files: &mut Vec<PathBuf>) -> Result<(), ExpError> {
+    folder.write(dir)?;
+    files.extend(folder.names().map(|n| dir.join(n)));
+    Ok(())
+}
+
+/// Plan `ls`, then track that plan with each `(controller, plant)`. `Err(plan)` if the plan did not
+/// converge.
+fn plan_and_track(
+    ls: &LoadedScenario,
+    runs: &[(ControllerKind, PlantKind)],
+) -> Result<Result<Vec<TrackRun>, Box<PlanRun>>, ExpError> {
+    let first = match run_track(ls, runs[0].0, runs[0].1, None)? {
+        Ok(r) => r,
+        Err(p) => return Ok(Err(p)),
+    };
+    let rep = first
+        .plan
+        .as_ref()
+        .map(|p| plan_report(ls, &p.plan))
+        .unwrap_or(Value::Null);
+    let mut out = vec![first];
+    for &(c, p) in &runs[1..] {
+        let reference = Some((out[0].reference.clone(), rep.clone()));
+        match run_track(ls, c, p, reference)? {
+            Ok(r) => out.push(r),
+            Err(p) => return Ok(Err(p)),
+        }
+    }
+    Ok(Ok(out))
+}
+
+/// A track run's folder; the plan's files go under `plan/` only for the run that planned.
+fn track_folder(run: &TrackRun) -> &crate::RunFolder {
+    &run.folder
+}
+
+/// Run every experiment, write `out`, and return the summary. Errors on bad input (a scenario that does
+/// not load) or when a file cannot be written; solver failures are collected in
+/// [`Reproduction::failures`] instead.
+pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, ExpError> {
+    let start = Instant::now();
+    // load every scenario first: bad input stops the run before anything is computed or written
+    let ls_track = load(opts, "tracking.toml")?;
+    let ls_avoid = load(opts, "obstacle.toml")?;
+    let ls_ignored = load(opts, "obstacle-ignored.toml")?;
+    let ls_robust = load(opts, "robustness.toml")?;
+    let ls_robust_paper = load(opts, "robustness-paper.toml")?;
+
+    let mut failures = Vec::new();
+    let mut files = Vec::new();
+    let mut res = Results {
+        quick: opts.quick,
+        ..Results::default()
+    };
+
+    // V-B: tracking, MPC on the physics engine and on the model
+    match plan_and_track(
+        &ls_track,
+        &[
+            (ControllerKind::Mpc, PlantKind::Rapier),
+            (ControllerKind::Mpc, PlantKind::Model),
+        ],
+    )? {
+        Ok(mut runs) => {
+            let model = runs.pop().expect("two runs");
+            let rapier = runs.pop().expect("two runs");
+            write(track_folder(&rapier), &out.join("tracking"), &mut files)?;
+            write(
+                track_folder(&model),
+                &out.join("tracking-model"),
+                &mut files,
+            )?;
+            res.tracking = Some(Tracking {
+                ls: ls_track.clone(),
+                rapier,
+                model,
+            });
+        }
+        Err(p) => {
+            write(&p.folder, &out.join("tracking/plan"), &mut files)?;
+            failures.push(format!(
+                "tracking: the planner did not converge ({:?})",
+                p.plan.status
+            ));
+        }
+    }
+
+    // V-C: obstacle avoidance, with and without
+    let avoid = run_plan(&ls_avoid)?;
+    let ignored = run_plan(&ls_ignored)?;
+    write(&avoid.folder, &out.join("obstacle/avoid"), &mut files)?;
+    write(&ignored.folder, &out.join("obstacle/ignored"), &mut files)?;
+    for (name, p) in [
+        ("obstacle (avoid)", &avoid),
+        ("obstacle (ignored)", &ignored),
+    ] {
+        if !p.plan.converged() {
+            failures.push(format!(
+                "{name}: the planner did not converge ({:?})",
+                p.plan.status
+            ));
+        }
+    }
+    res.obstacle = Some(ObstacleRuns {
+        avoid: (ls_avoid, avoid),
+        ignored: (ls_ignored, ignored),
+    });
+
+    // V-D: robustness, a ball on the path, MPC and the baselines on the physics engine
+    match plan_and_track(
+        &ls_robust,
+        &[
+            (ControllerKind::Mpc, PlantKind::Rapier),
+            (ControllerKind::Pd, PlantKind::Rapier),
+            (ControllerKind::OpenLoop, PlantKind::Rapier),
+        ],
+    )? {
+        Ok(runs) => {
+            for r in &runs {
+                write(
+                    track_folder(r),
+                    &out.join("robustness").join(&r.log.controller),
+                    &mut files,
+                )?;
+            }
+            let paper = match run_track(
+                &ls_robust_paper,
+                ControllerKind::Mpc,
+                PlantKind::Rapier,
+                None,
+            )? {
+                Ok(r) => {
+                    write(track_folder(&r), &out.join("robustness-paper"), &mut files)?;
+                    Some(r)
+                }
+                Err(p) => {
+                    write(&p.folder, &out.join("robustness-paper/plan"), &mut files)?;
+                    failures.push(format!(
+                        "robustness (paper placement): the planner did not converge ({:?})",
+                        p.plan.status
+                    ));
+                    None
+                }
+            };
+            res.robustness = Some(Robustness {
+                ls: ls_robust,
+                runs,
+                paper,
+            });
+        }
+        Err(p) => {
+            write(&p.folder, &out.join("robustness/mpc/plan"), &mut files)?;
+            failures.push(format!(
+                "robustness: the planner did not converge ({:?})",
+                p.plan.status
+            ));
+        }
+    }
+
+    // figures, animations, the report
+    let fig_dir = out.join("figures");
+    std::fs::create_dir_all(&fig_dir).map_err(|source| ExpError::Write {
+        path: fig_dir.clone(),
+        source,
+    })?;
+    let mut figs = FigureDir::new(&fig_dir);
+    let fig_failures = report::draw_figures(&res, &mut figs);
+    failures.extend(fig_failures);
+    files.extend(figs.written.iter().cloned());
+    res.wall_s = start.elapsed().as_secs_f64();
+    let summary = report::summary(&res, &failures);
+    let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
+    let md = report::markdown(&res, &summary, &failures, Path::new("figures"));
+    let mut top = crate::RunFolder::default();
+    top.add("summary.json", summary_text);
+    top.add("REPORT.md", md);
+    write(&top, out, &mut files)?;
+    if let Some(page) = &opts.results_page {
+        report::publish(&res, &summary, &failures, out, page)?;
+        files.push(page.clone());
+    }
+    Ok(Reproduction {
+        summary,
+        failures,
+        files,
+        wall_s: res.wall_s,
+    })
+}
+
+/// Keys of `summary.json` (stable names other tools read).
+pub(crate) fn summary_skeleton(res: &Results) -> Value {
+    json!({
+        "mode": if res.quick { "quick" } else { "full" },
+        "wall_time_s": res.wall_s,
+        "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+    })
+}

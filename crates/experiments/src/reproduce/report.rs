@@ -1,0 +1,645 @@
+//! The reproduction's report: figures, `summary.json` and `REPORT.md`, with the paper's numbers beside
+//! ours. Reads finished runs only.
+//!
+//! Units: SI (s, m, N m, J); times of the MPC in microseconds where the name says so.
+
+use super::figures::{self, FigureDir};
+use super::{summary_skeleton, Results};
+use crate::ExpError;
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The paper's reported values (Ji et al., Section V), for the comparison table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PaperValues {
+    /// Direct-collocation solve time bound, s ("within 200 ms", SNOPT, 10 ms knots).
+    pub plan_time_s: f64,
+    /// MPC solve time bound, s ("within 1 ms", Quadprog++).
+    pub mpc_time_s: f64,
+    /// Energy of the planned swing, J (V-B, eq. 18).
+    pub planned_energy_j: f64,
+    /// Energy of the MPC-tracked swing, J.
+    pub tracked_energy_j: f64,
+    /// Final EE error bound, m ("less than 0.02 m in both x and y").
+    pub ee_final_error_m: f64,
+    /// Torque range of the tracked swing, N m.
+    pub tau_range: [f64; 2],
+    /// Time of the robot-ball collision in V-D, s.
+    pub hit_time_s: f64,
+}
+
+impl PaperValues {
+    /// The values printed in the paper.
+    pub const PAPER: PaperValues = PaperValues {
+        plan_time_s: 0.2,
+        mpc_time_s: 1e-3,
+        planned_energy_j: 5.27,
+        tracked_energy_j: 5.31,
+        ee_final_error_m: 0.02,
+        tau_range: [-2.5, 4.0],
+        hit_time_s: 0.62,
+    };
+}
+
+/// Draw every figure and animation; returns the figures that failed (with the reason).
+pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
+    let mut failed = Vec::new();
+    let mut check = |what: &str, r: Result<(), brachia_plot::PlotError>| {
+        if let Err(e) = r {
+            failed.push(format!("figure {what}: {e}"));
+        }
+    };
+    if let Some(t) = &res.tracking {
+        let (robot, target) = (&t.ls.robot, t.ls.scenario.task.target);
+        check(
+            "fig5",
+            figures::joint_tracking(
+                figs,
+                "fig5_tracking_joints",
+                "Tracking (V-B): joints, desired (dashed) vs MPC on the rapier plant (solid)",
+                &t.rapier,
+            ),
+        );
+        check(
+            "fig6a",
+            figures::tracked_stick(
+                figs,
+                "fig6a_tracking_stick",
+                "Tracking (V-B): the swing under MPC on the rapier plant",
+                robot,
+                &t.rapier,
+                target,
+            ),
+        );
+        let runs = [
+            ("MPC, rapier plant", &t.rapier),
+            ("MPC, model plant", &t.model),
+        ];
+        check(
+            "fig6b",
+            figures::ee_path(
+                figs,
+                "fig6b_tracking_ee_path",
+                "Tracking (V-B): end-effector path",
+                &runs,
+                target,
+            ),
+        );
+        check(
+            "fig6c",
+            figures::ee_error(
+                figs,
+                "fig6c_tracking_ee_error",
+                "Tracking (V-B): end-effector error, tracked minus desired",
+                &runs,
+                None,
+            ),
+        );
+        check(
+            "tracking.gif",
+            figures::tracked_gif(
+                figs,
+                "tracking",
+                "Tracking (V-B), MPC on the rapier plant",
+                robot,
+                &t.rapier,
+                target,
+            ),
+        );
+    }
+    if let Some(o) = &res.obstacle {
+        for (ls, p, name, title) in [
+            (
+                &o.ignored.0,
+                &o.ignored.1,
+                "fig7a_obstacle_ignored",
+                "Obstacle (V-C): planned without avoidance",
+            ),
+            (
+                &o.avoid.0,
+                &o.avoid.1,
+                "fig7b_obstacle_avoided",
+                "Obstacle (V-C): planned with avoidance",
+            ),
+        ] {
+            let task = &ls.scenario.task;
+            check(
+                name,
+                figures::planned_stick(
+                    figs,
+                    name,
+                    title,
+                    &ls.robot,
+                    &p.plan.trajectory,
+                    task.target,
+                    &task.obstacles,
+                ),
+            );
+            let gif = name
+                .trim_start_matches("fig7a_")
+                .trim_start_matches("fig7b_");
+            check(
+                gif,
+                figures::planned_gif(figs, gif, title, &ls.robot, p, task.target, &task.obstacles),
+            );
+        }
+    }
+    if let Some(r) = &res.robustness {
+        let (robot, target) = (&r.ls.robot, r.ls.scenario.task.target);
+        let mpc = &r.runs[0];
+        check(
+            "fig8a",
+            figures::tracked_stick(
+                figs,
+                "fig8a_robustness_stick",
+                "Robustness (V-D): MPC on the rapier plant, a free 0.4 kg ball on the path",
+                robot,
+                mpc,
+                target,
+            ),
+        );
+        let runs: Vec<(&str, &crate::TrackRun)> = r
+            .runs
+            .iter()
+            .map(|x| (controller_label(&x.log.controller), x))
+            .collect();
+        check(
+            "fig8b",
+            figures::ee_error(
+                figs,
+                "fig8b_robustness_ee_error",
+                "Robustness (V-D): end-effector error after the hit",
+                &runs,
+                mpc.world.first_contact_s(),
+            ),
+        );
+        check(
+            "fig8c",
+            figures::joint_tracking(
+                figs,
+                "fig8c_robustness_joints",
+                "Robustness (V-D): joints, desired (dashed) vs MPC (solid)",
+                mpc,
+            ),
+        );
+        check(
+            "robustness.gif",
+            figures::tracked_gif(
+                figs,
+                "robustness",
+                "Robustness (V-D), MPC on the rapier plant",
+                robot,
+                mpc,
+                target,
+            ),
+        );
+        if let Some(p) = &r.paper {
+            check(
+                "fig8d",
+                figures::tracked_stick(
+                    figs,
+                    "fig8d_robustness_paper_ball",
+                    "Robustness (V-D) with the paper's ball at (-1.2, 0.2): never touched",
+                    robot,
+                    p,
+                    target,
+                ),
+            );
+        }
+    }
+    failed
+}
+
+fn controller_label(name: &str) -> &'static str {
+    match name {
+        "mpc" => "MPC",
+        "pd" => "PD + planned torque",
+        "open-loop" => "open loop",
+        _ => "controller",
+    }
+}
+
+/// `summary.json`: every number of the comparison table, by experiment.
+pub(crate) fn summary(res: &Results, failures: &[String]) -> Value {
+    let mut s = summary_skeleton(res);
+    let m = s.as_object_mut().expect("an object");
+    m.insert("failures".into(), json!(failures));
+    if let Some(t) = &res.tracking {
+        let plan = t.rapier.plan.as_ref().map(|p| &p.plan);
+        m.insert(
+            "tracking".into(),
+            json!({
+                "plan_solve_time_s": plan.map(|p| p.solve_time_s),
+                "plan_iterations": plan.map(|p| p.iterations),
+                "swing_time_s": plan.map(|p| p.swing_time_s),
+                "freefall_time_s": plan.and_then(|p| p.freefall_time_s),
+                "planned_energy_j": plan.map(|p| p.energy_j),
+                "rapier": track_summary(&t.rapier),
+                "model": track_summary(&t.model),
+            }),
+        );
+    }
+    if let Some(o) = &res.obstacle {
+        let one = |p: &crate::PlanRun| {
+            json!({
+                "converged": p.plan.converged(),
+                "status": p.plan.status,
+                "min_clearance_m": p.plan.min_obstacle_clearance_m,
+                "energy_j": p.plan.energy_j,
+                "solve_time_s": p.plan.solve_time_s,
+            })
+        };
+        m.insert(
+            "obstacle".into(),
+            json!({ "avoid": one(&o.avoid.1), "ignored": one(&o.ignored.1) }),
+        );
+    }
+    if let Some(r) = &res.robustness {
+        let mut runs = serde_json::Map::new();
+        for x in &r.runs {
+            runs.insert(x.log.controller.clone(), track_summary(x));
+        }
+        m.insert(
+            "robustness".into(),
+            json!({
+                "ball": r.ls.scenario.plant.obstacles,
+                "runs": runs,
+                "paper_placement": r.paper.as_ref().map(track_summary),
+            }),
+        );
+    }
+    s
+}
+
+fn track_summary(r: &crate::TrackRun) -> Value {
+    let s = &r.summary;
+    json!({
+        "controller": r.log.controller,
+        "plant": r.log.plant,
+        "ee_final_error_m": s.ee_final_error_m,
+        "ee_error_max_m": s.ee_error_max_m,
+        "joint_rms_error_rad": s.joint_rms_error_rad,
+        "energy_j": s.energy_j,
+        "tau_min": s.tau_min,
+        "tau_max": s.tau_max,
+        "control_step_us_p50": s.control_step_us_p50,
+        "control_step_us_p99": s.control_step_us_p99,
+        "control_step_us_max": s.control_step_us_max,
+        "first_contact_s": r.world.first_contact_s(),
+        "contact_events": r.world.contacts.len(),
+    })
+}
+
+/// Format a number for the table (`-` when absent).
+fn num(v: Option<f64>, digits: usize) -> String {
+    match v {
+        Some(x) if x.is_finite() => format!("{x:.digits$}"),
+        _ => "-".into(),
+    }
+}
+
+/// One row of the comparison table.
+struct Row {
+    quantity: String,
+    paper: String,
+    ours: String,
+    note: String,
+}
+
+fn rows(res: &Results) -> Vec<Row> {
+    let p = PaperValues::PAPER;
+    let mut out = Vec::new();
+    let mut row = |q: &str, pv: String, ours: String, note: &str| {
+        out.push(Row {
+            quantity: q.into(),
+            paper: pv,
+            ours,
+            note: note.into(),
+        })
+    };
+    if let Some(t) = &res.tracking {
+        let plan = t.rapier.plan.as_ref().map(|x| &x.plan);
+        let (sr, sm) = (&t.rapier.summary, &t.model.summary);
+        row(
+            "plan time (V-B swing)",
+            format!("<= {:.0} ms (SNOPT)", p.plan_time_s * 1e3),
+            format!(
+                "{} ms ({} iterations)",
+                num(plan.map(|x| x.solve_time_s * 1e3), 0),
+                plan.map_or(0, |x| x.iterations)
+            ),
+            "pounce-rs interior point with the exact sparse Hessian; Hermite-Simpson at 10 ms knots \
+             (447 collocation points, twice the paper's Euler mesh); see docs/benchmarks.md",
+        );
+        row(
+            "MPC time per 1 kHz step",
+            format!("<= {:.0} ms (Quadprog++)", p.mpc_time_s * 1e3),
+            format!(
+                "p50 {:.0} us, p99 {:.0} us, max {:.0} us",
+                sr.control_step_us_p50, sr.control_step_us_p99, sr.control_step_us_max
+            ),
+            "dense active-set box-QP, horizon and weights of docs/mpc.md; wall-clock on a shared 2-core machine",
+        );
+        row(
+            "planned energy (eq. 18)",
+            format!("{:.2} J", p.planned_energy_j),
+            format!("{} J", num(plan.map(|x| x.energy_j), 3)),
+            "the paper does not give Q1 and R1; ours are Q1 = 0.01 I, R1 = I (docs/interpretations.md), \
+             so the optimum differs",
+        );
+        row(
+            "tracked energy (eq. 18)",
+            format!("{:.2} J", p.tracked_energy_j),
+            format!(
+                "{:.3} J (rapier), {:.3} J (model)",
+                sr.energy_j, sm.energy_j
+            ),
+            "MPC on the physics engine and on the RK4 model",
+        );
+        row(
+            "final EE error",
+            format!("< {:.2} m", p.ee_final_error_m),
+            format!(
+                "{:.2e} m (rapier), {:.2e} m (model)",
+                sr.ee_final_error_m, sm.ee_final_error_m
+            ),
+            "distance to the planned EE position at T",
+        );
+        row(
+            "torque range (tracked)",
+            format!("[{}, {}] N m", p.tau_range[0], p.tau_range[1]),
+            format!("[{:.2}, {:.2}] N m", sr.tau_min, sr.tau_max),
+            "limits +-5 N m (Table I); our cost weights give a different optimum",
+        );
+        row(
+            "swing time T = 2 T_freefall (V-B)",
+            "about 2.2 s (Figs. 5-6)".into(),
+            format!("{} s", num(plan.map(|x| x.swing_time_s), 3)),
+            "T_freefall: the locked robot released at rest until its EE reaches the midpoint's x",
+        );
+    }
+    if let Some(o) = &res.obstacle {
+        row(
+            "obstacle (V-C): clearance without / with avoidance",
+            "contact / no contact (Fig. 7)".into(),
+            format!(
+                "{} m / {} m",
+                num(o.ignored.1.plan.min_obstacle_clearance_m, 3),
+                num(o.avoid.1.plan.min_obstacle_clearance_m, 3)
+            ),
+            "smallest surface distance between any link capsule and the obstacle over the 1 ms plan \
+             (negative = penetration)",
+        );
+    }
+    if let Some(r) = &res.robustness {
+        let mpc = &r.runs[0];
+        row(
+            "robustness (V-D): hit time",
+            format!("{:.2} s", p.hit_time_s),
+            format!("{} s", num(mpc.world.first_contact_s(), 3)),
+            "the paper's ball position (-1.2, 0.2) is never reached by the planned swing (0.28 m away; \
+             see below); our ball sits on the planned path",
+        );
+        let finals: Vec<String> = r
+            .runs
+            .iter()
+            .map(|x| {
+                format!(
+                    "{} {:.2e} m",
+                    controller_label(&x.log.controller),
+                    x.summary.ee_final_error_m
+                )
+            })
+            .collect();
+        row(
+            "robustness (V-D): final EE error",
+            "nearly zero (Fig. 8b)".into(),
+            finals.join(", "),
+            "rapier plant, the same plan for all three controllers",
+        );
+    }
+    out
+}
+
+fn table(res: &Results) -> String {
+    let mut s = String::from("| quantity | paper | brachia | note |\n|---|---|---|---|\n");
+    for r in rows(res) {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            r.quantity, r.paper, r.ours, r.note
+        );
+    }
+    s
+}
+
+fn image(s: &mut String, figs: &Path, name: &str, alt: &str) {
+    let _ = writeln!(
+        s,
+        "![{alt}]({})\n",
+        figs.join(format!("{name}.png")).display()
+    );
+}
+
+/// `REPORT.md`; `figs` is the figure folder relative to the report.
+pub(crate) fn markdown(
+    res: &Results,
+    _summary: &Value,
+    failures: &[String],
+    figs: &Path,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# brachia: reproduction of Ji et al., Section V\n\nGenerated by `brachia reproduce{}` in {:.0} s \
+         on {} cores. Every number below comes from the run folders beside this file; `summary.json` has \
+         them in machine-readable form.\n",
+        if res.quick { " --quick" } else { "" },
+        res.wall_s,
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    );
+    if failures.is_empty() {
+        s.push_str("Every experiment ran to completion.\n\n");
+    } else {
+        s.push_str("**Not everything succeeded:**\n\n");
+        for f in failures {
+            let _ = writeln!(s, "- {f}");
+        }
+        s.push('\n');
+    }
+    s.push_str("## The paper's numbers beside ours\n\n");
+    s.push_str(&table(res));
+    s.push('\n');
+    if let Some(t) = &res.tracking {
+        let _ = writeln!(
+            s,
+            "## B. Trajectory tracking (Figs. 5 and 6)\n\nStart at rest at q = {:?} (EE at ({:.3}, {:.3})), \
+             target ({}, {}). The plan is tracked by the MPC at 1 kHz on the rapier physics engine (the \
+             paper's Webots run) and on the RK4 model plant (`tracking/`, `tracking-model/`).\n",
+            t.ls.scenario.task.q0,
+            t.rapier.log.ee[0][0],
+            t.rapier.log.ee[0][1],
+            t.ls.scenario.task.target[0],
+            t.ls.scenario.task.target[1]
+        );
+        image(
+            &mut s,
+            figs,
+            "fig5_tracking_joints",
+            "Fig. 5: joint tracking",
+        );
+        image(
+            &mut s,
+            figs,
+            "fig6a_tracking_stick",
+            "Fig. 6a: stick diagram",
+        );
+        image(&mut s, figs, "fig6b_tracking_ee_path", "Fig. 6b: EE path");
+        image(&mut s, figs, "fig6c_tracking_ee_error", "Fig. 6b: EE error");
+    }
+    if let Some(o) = &res.obstacle {
+        let _ = writeln!(
+            s,
+            "## C. Obstacle avoidance (Fig. 7)\n\nA circle of radius 0.1 m at (0.55, -0.2), target (0.5, 0). \
+             Without avoidance the plan passes {} m from the obstacle's surface (negative: through it); with \
+             avoidance every link keeps at least {} m (the margin is {} m). Energy {} J without, {} J with \
+             avoidance (`obstacle/ignored/`, `obstacle/avoid/`).\n",
+            num(o.ignored.1.plan.min_obstacle_clearance_m, 3),
+            num(o.avoid.1.plan.min_obstacle_clearance_m, 3),
+            o.avoid.0.scenario.planner.obstacle_margin,
+            num(Some(o.ignored.1.plan.energy_j), 3),
+            num(Some(o.avoid.1.plan.energy_j), 3),
+        );
+        image(
+            &mut s,
+            figs,
+            "fig7a_obstacle_ignored",
+            "Fig. 7a: without avoidance",
+        );
+        image(
+            &mut s,
+            figs,
+            "fig7b_obstacle_avoided",
+            "Fig. 7b: with avoidance",
+        );
+    }
+    if let Some(r) = &res.robustness {
+        let mpc = &r.runs[0];
+        let ball = r.ls.scenario.plant.obstacles.first().map(|o| o.shape());
+        let _ = writeln!(
+            s,
+            "## D. Robustness (Fig. 8)\n\nThe tracking scenario with a free 0.4 kg ball (radius {} m, no gravity, \
+             restitution 0.3) at {} that the planner does not know, on the rapier plant. The first contact \
+             comes at {} s ({} contact events); the MPC ends {:.2e} m from the bar (largest EE error {:.2e} m). \
+             The same plan under the baselines: {}.\n",
+            num(ball.map(|b| b.1), 2),
+            ball.map_or("-".into(), |b| format!("({}, {})", b.0[0], b.0[1])),
+            num(mpc.world.first_contact_s(), 3),
+            mpc.world.contacts.len(),
+            mpc.summary.ee_final_error_m,
+            mpc.summary.ee_error_max_m,
+            r.runs[1..]
+                .iter()
+                .map(|x| format!(
+                    "{} ends {:.2e} m from the bar (largest error {:.2e} m)",
+                    controller_label(&x.log.controller),
+                    x.summary.ee_final_error_m,
+                    x.summary.ee_error_max_m
+                ))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+        if let Some(p) = &r.paper {
+            let _ = writeln!(
+                s,
+                "With the paper's placement, (-1.2, 0.2), the ball is {} (final EE error {:.2e} m): the planned \
+                 swing starts below the bar at (-1.01, -0.02) and moves down and forward, never within 0.28 m \
+                 of that point (`robustness-paper/`).\n",
+                if p.world.contacts.is_empty() { "never touched" } else { "touched" },
+                p.summary.ee_final_error_m
+            );
+        }
+        image(
+            &mut s,
+            figs,
+            "fig8a_robustness_stick",
+            "Fig. 8a: stick diagram with the ball",
+        );
+        image(
+            &mut s,
+            figs,
+            "fig8b_robustness_ee_error",
+            "Fig. 8b: EE error",
+        );
+        image(
+            &mut s,
+            figs,
+            "fig8c_robustness_joints",
+            "Fig. 8: joints after the hit",
+        );
+    }
+    s.push_str("## Animations\n\n");
+    for (name, what) in [
+        ("tracking", "tracking (V-B)"),
+        ("obstacle_ignored", "obstacle ignored (V-C)"),
+        ("obstacle_avoided", "obstacle avoided (V-C)"),
+        ("robustness", "robustness (V-D)"),
+    ] {
+        let _ = writeln!(
+            s,
+            "- [{what}]({})",
+            figs.join(format!("{name}.gif")).display()
+        );
+    }
+    s.push_str(
+        "\nEvery static figure has an SVG beside its PNG. Each run folder holds the resolved inputs \
+         (`scenario.toml`), the CSVs (1 ms) and a `report.json`.\n",
+    );
+    s
+}
+
+/// Write the results page (`page`, e.g. docs/results.md) with the key figures copied beside it into a
+/// folder named after the page (docs/results/).
+pub(crate) fn publish(
+    res: &Results,
+    summary: &Value,
+    failures: &[String],
+    out: &Path,
+    page: &Path,
+) -> Result<(), ExpError> {
+    let dir = page.with_extension("");
+    let rel = Path::new(dir.file_name().unwrap_or_default());
+    let werr = |path: &Path, source| ExpError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
+    let mut folder = crate::RunFolder::default();
+    let figs = out.join("figures");
+    if let Ok(entries) = std::fs::read_dir(&figs) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "png" || x == "gif") {
+                let data = std::fs::read(&p).map_err(|e| werr(&p, e))?;
+                folder.add(&e.file_name().to_string_lossy(), data);
+            }
+        }
+    }
+    folder.write(&dir)?;
+    let mut md = markdown(res, summary, failures, rel);
+    md = md.replacen(
+        "# brachia: reproduction of Ji et al., Section V",
+        "# Results\n\nThis page is generated by `brachia reproduce --results-page docs/results.md` from \
+         the latest full run; do not edit it by hand.\n\n## Reproduction of Ji et al., Section V",
+        1,
+    );
+    let mut top = crate::RunFolder::default();
+    let name = page
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .to_string();
+    top.add(&name, md);
+    top.write(page.parent().unwrap_or(Path::new(".")))
+}

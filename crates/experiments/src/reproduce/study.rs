@@ -1,0 +1,264 @@
+//! The parameter study's part of the reproduction (paper V-A, Figs. 3 and 4): the grid it runs, its
+//! figures, its rows of the comparison table and its section of the report.
+//!
+//! Units: s, m, J. r2 = L1 / (L1 + L2), the lower arm's share of an arm's length.
+
+use super::figures::FigureDir;
+use crate::parameter_study::{BaseParams, ParameterStudy, ParameterStudySettings};
+use crate::scenario::LoadedScenario;
+use brachia_plot::{heatmap, line_plot, stick_diagram, Heatmap, LinePlot, PlotError, Series, StickOptions};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The study the reproduction runs: the paper's 9 x 11 grid at 10 ms knots on the robot of the tracking
+/// scenario, or (`quick`) 3 r2 x 3 swing times at 40 ms knots with the trapezoidal rule.
+pub(crate) fn settings(tracking: &LoadedScenario, quick: bool) -> ParameterStudySettings {
+    let mut s = ParameterStudySettings {
+        base_params: BaseParams::File(tracking.scenario.params.clone()),
+        solver: tracking.scenario.solver.clone(),
+        ..ParameterStudySettings::default()
+    };
+    if quick {
+        s.r2 = vec![0.2, 0.5, 0.8];
+        s.offsets_s = vec![-0.5, 0.0, 0.5];
+        s.planner.knot_dt = 0.04;
+        s.planner.transcription = brachia::planning::Transcription::Trapezoidal;
+    }
+    s
+}
+
+/// Heat-map values in the plot's layout (`values[iy * xs.len() + ix]`, x = r2, y = offset).
+fn energy_grid(st: &ParameterStudy) -> Vec<Option<f64>> {
+    let (nx, ny) = (st.settings.r2.len(), st.settings.offsets_s.len());
+    let mut v = vec![None; nx * ny];
+    for ix in 0..nx {
+        for iy in 0..ny {
+            v[iy * nx + ix] = st.cell(ix, iy).energy_j;
+        }
+    }
+    v
+}
+
+/// Figs. 3 and 4: the energy heat map, energy against swing time per r2, T against r2, and the stick
+/// diagrams of a short and a long lower arm.
+pub(crate) fn draw_figures(st: &ParameterStudy, figs: &mut FigureDir) -> Vec<(String, Result<(), PlotError>)> {
+    let mut out = Vec::new();
+    out.push((
+        "fig3".to_string(),
+        heatmap(
+            figs.png("fig3_energy_heatmap"),
+            &Heatmap {
+                title: "Parameter study (V-A): energy of the optimal swing, eq. (18)".into(),
+                x_label: "r2 = L1 / (L1 + L2)".into(),
+                y_label: "swing time - 2 T_freefall (s)".into(),
+                xs: st.settings.r2.clone(),
+                ys: st.settings.offsets_s.clone(),
+                values: energy_grid(st),
+                colourbar_label: "energy (J)".into(),
+                size: None,
+            },
+        ),
+    ));
+    let curves: Vec<Series> = st
+        .rows
+        .iter()
+        .enumerate()
+        .filter_map(|(i, row)| {
+            let (x, y): (Vec<f64>, Vec<f64>) = (0..st.settings.offsets_s.len())
+                .filter_map(|j| {
+                    let c = st.cell(i, j);
+                    c.energy_j.map(|e| (c.swing_time_s, e))
+                })
+                .unzip();
+            (!x.is_empty()).then(|| Series::new(format!("r2 = {}", row.r2), x, y).colour(i))
+        })
+        .collect();
+    if !curves.is_empty() {
+        out.push((
+            "fig3b".to_string(),
+            line_plot(
+                figs.png("fig3b_energy_vs_swing_time"),
+                &LinePlot {
+                    title: "Parameter study (V-A): energy against swing time".into(),
+                    x_label: "swing time (s)".into(),
+                    y_label: "energy (J)".into(),
+                    series: curves,
+                    size: None,
+                },
+            ),
+        ));
+    }
+    let r2: Vec<f64> = st.rows.iter().map(|r| r.r2).collect();
+    out.push((
+        "fig4a".to_string(),
+        line_plot(
+            figs.png("fig4a_swing_time"),
+            &LinePlot {
+                title: "Parameter study (V-A): swing time T = 2 T_freefall".into(),
+                x_label: "r2 = L1 / (L1 + L2)".into(),
+                y_label: "time (s)".into(),
+                series: vec![
+                    Series::new("T = 2 T_freefall", r2.clone(), st.rows.iter().map(|r| r.swing_time_s).collect()).colour(0),
+                    Series::new("T_freefall", r2, st.rows.iter().map(|r| r.freefall_time_s).collect()).dashed().colour(1),
+                ],
+                size: None,
+            },
+        ),
+    ));
+    for s in &st.sticks {
+        let name = format!("fig4b_stick_r2_{:.1}", s.r2).replace('.', "_");
+        let title = format!(
+            "Parameter study (V-A): r2 = {}, T = {:.2} s, energy {}",
+            s.r2,
+            s.swing_time_s,
+            s.energy_j.map_or("- (not converged)".into(), |e| format!("{e:.2} J"))
+        );
+        out.push((
+            name.clone(),
+            stick_diagram(
+                figs.png(&name),
+                &s.robot,
+                &s.trajectory,
+                &StickOptions {
+                    title,
+                    every_s: 0.1,
+                    bars: vec![[0.0, 0.0], st.settings.start],
+                    target: Some(st.settings.target),
+                    ..StickOptions::default()
+                },
+            ),
+        ));
+    }
+    out
+}
+
+/// Whether `v` never decreases (and rises overall), ignoring absent values.
+fn increasing(v: &[Option<f64>]) -> Option<bool> {
+    let x: Vec<f64> = v.iter().flatten().copied().collect();
+    (x.len() >= 2).then(|| x.windows(2).all(|w| w[1] >= w[0]) && x[x.len() - 1] > x[0])
+}
+
+fn list(v: impl Iterator<Item = Option<f64>>, digits: usize) -> String {
+    v.map(|x| x.map_or("-".into(), |x| format!("{x:.digits$}")))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn verdict(b: Option<bool>) -> &'static str {
+    match b {
+        Some(true) => "holds",
+        Some(false) => "does not hold",
+        None => "not enough converged cells",
+    }
+}
+
+/// The trends of the paper's three conclusions, as rows `(quantity, paper, ours, note)`.
+pub(crate) fn trend_rows(st: &ParameterStudy) -> Vec<(String, String, String, String)> {
+    let rows = &st.rows;
+    let r2 = rows.iter().map(|r| format!("{}", r.r2)).collect::<Vec<_>>().join(", ");
+    let tf = increasing(&rows.iter().map(|r| Some(r.freefall_time_s)).collect::<Vec<_>>());
+    let e = increasing(&rows.iter().map(|r| r.energy_at_t_j).collect::<Vec<_>>());
+    let amin = increasing(&rows.iter().map(|r| r.argmin_swing_time_s).collect::<Vec<_>>());
+    let inside = rows.iter().filter(|r| r.argmin_at_edge == Some(false)).count();
+    vec![
+        (
+            "T_freefall grows with r2 (Fig. 4a)".into(),
+            "grows".into(),
+            format!("{}: {} s", verdict(tf), list(rows.iter().map(|r| Some(r.freefall_time_s)), 3)),
+            format!("r2 = {r2}"),
+        ),
+        (
+            "a shorter lower arm costs less energy (Fig. 3)".into(),
+            "lowest at r2 = 0.2, small difference to 0.5".into(),
+            format!("{}: E(T) = {} J", verdict(e), list(rows.iter().map(|r| r.energy_at_t_j), 2)),
+            "energy at T = 2 T_freefall per r2; masses, centres of mass and inertias scale with the lengths \
+             (docs/parameter-study.md)"
+                .into(),
+        ),
+        (
+            "the energy minimum over swing time lies within [T - 0.5, T + 0.5] s".into(),
+            "yes, for every r2".into(),
+            format!("inside the range (not at its edge) for {inside} of {} r2", rows.len()),
+            format!(
+                "argmin offsets from T: {} s",
+                list(rows.iter().map(|r| r.argmin_offset_s), 1)
+            ),
+        ),
+        (
+            "the minimum-energy swing time grows with r2".into(),
+            "grows".into(),
+            format!("{}: {} s", verdict(amin), list(rows.iter().map(|r| r.argmin_swing_time_s), 2)),
+            format!("{} of {} cells did not converge", st.failed_cells(), st.cells.len()),
+        ),
+    ]
+}
+
+/// The study's part of `summary.json`.
+pub(crate) fn summary(st: &ParameterStudy) -> Value {
+    json!({
+        "grid": [st.settings.r2.len(), st.settings.offsets_s.len()],
+        "knot_dt_s": st.settings.planner.knot_dt,
+        "transcription": st.settings.planner.transcription,
+        "failed_cells": st.failed_cells(),
+        "wall_time_s": st.wall_time_s,
+        "rows": st.rows,
+    })
+}
+
+/// The study's section of the report.
+pub(crate) fn markdown(st: &ParameterStudy, figs: &Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Each arm is {} m long (L1 + L2 = L3 + L4); r2 = L1 / (L1 + L2) from {} to {}; masses, centres of \
+         mass and inertias follow the lengths as documented in docs/parameter-study.md. Start at rest with \
+         straight arms and the EE at ({}, {}), q = [{}], target ({}, {}). {} x {} cells at {} s knots \
+         ({:?}), {} did not converge; {:.0} s of wall time on all cores (`parameter-study/`).\n",
+        st.settings.arm_length_m,
+        st.settings.r2.first().copied().unwrap_or(0.0),
+        st.settings.r2.last().copied().unwrap_or(0.0),
+        st.settings.start[0],
+        st.settings.start[1],
+        st.start_q.iter().map(|v| format!("{v:.4}")).collect::<Vec<_>>().join(", "),
+        st.settings.target[0],
+        st.settings.target[1],
+        st.settings.r2.len(),
+        st.settings.offsets_s.len(),
+        st.settings.planner.knot_dt,
+        st.settings.planner.transcription,
+        st.failed_cells(),
+        st.wall_time_s,
+    );
+    s.push_str("| r2 | L1 (m) | L2 (m) | T_freefall (s) | T (s) | E(T) (J) | lowest-energy swing time (s) | its energy (J) | failed cells |\n|---|---|---|---|---|---|---|---|---|\n");
+    let f = |v: Option<f64>, d: usize| v.map_or("-".into(), |x| format!("{x:.d$}"));
+    for r in &st.rows {
+        let _ = writeln!(
+            s,
+            "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {}{} | {} | {} |",
+            r.r2,
+            r.lengths_m.first().copied().unwrap_or(0.0),
+            r.lengths_m.get(1).copied().unwrap_or(0.0),
+            r.freefall_time_s,
+            r.swing_time_s,
+            f(r.energy_at_t_j, 3),
+            f(r.argmin_swing_time_s, 2),
+            if r.argmin_at_edge == Some(true) { " (edge)" } else { "" },
+            f(r.min_energy_j, 3),
+            r.failed_cells
+        );
+    }
+    s.push('\n');
+    for (name, alt) in [
+        ("fig3_energy_heatmap", "Fig. 3: energy over r2 and swing time"),
+        ("fig3b_energy_vs_swing_time", "energy against swing time"),
+        ("fig4a_swing_time", "Fig. 4a: T against r2"),
+    ] {
+        let _ = writeln!(s, "![{alt}]({})\n", figs.join(format!("{name}.png")).display());
+    }
+    for st in &st.sticks {
+        let name = format!("fig4b_stick_r2_{:.1}", st.r2).replace('.', "_");
+        let _ = writeln!(s, "![Fig. 4b: r2 = {}]({})\n", st.r2, figs.join(format!("{name}.png")).display());
+    }
+    s
+}
