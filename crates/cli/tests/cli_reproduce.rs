@@ -1,0 +1,89 @@
+//! `brachia reproduce --quick` as CI runs it: every experiment's run folder, every figure the report
+//! embeds, the comparison table and the summary; bad input exits 2 and writes nothing.
+
+mod common;
+
+use common::brachia;
+
+#[test]
+fn quick_reproduction_writes_report_figures_and_run_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let o = brachia()
+        .args(["reproduce", "--quick", "--no-progress", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "REPORT.md",
+        "summary.json",
+        "tracking/closed_loop.csv",
+        "tracking/plan/trajectory.csv",
+        "tracking-model/report.json",
+        "obstacle/avoid/report.json",
+        "obstacle/ignored/report.json",
+        "robustness/mpc/contacts.csv",
+        "robustness/pd/report.json",
+        "robustness/open-loop/obstacles.csv",
+        "robustness-paper/report.json",
+        "parameter-study/report.json",
+        "parameter-study/cells.csv",
+    ] {
+        assert!(out.join(f).is_file(), "missing {f}");
+    }
+    let md = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    assert!(md.contains("| quantity | paper | brachia | note |"));
+    for row in ["plan time", "MPC time", "planned energy", "final EE error", "torque range", "T_freefall grows"] {
+        assert!(md.contains(row), "the table lacks {row}");
+    }
+    // every embedded figure exists as PNG with its SVG, every linked GIF exists
+    let mut images = 0;
+    for part in md.split("](").skip(1) {
+        let link = &part[..part.find(')').unwrap()];
+        let p = out.join(link);
+        assert!(p.is_file(), "REPORT.md links a missing file {link}");
+        if link.ends_with(".png") {
+            assert!(p.with_extension("svg").is_file(), "no SVG beside {link}");
+            images += 1;
+        }
+    }
+    assert!(images >= 14, "only {images} figures embedded");
+    assert!(md.contains(".gif"));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["mode"], "quick");
+    assert!(s["failures"].as_array().unwrap().is_empty(), "{}", s["failures"]);
+    let hit = s["robustness"]["runs"]["mpc"]["first_contact_s"].as_f64().unwrap();
+    assert!((0.5..=0.7).contains(&hit));
+    assert!(s["tracking"]["rapier"]["ee_final_error_m"].as_f64().unwrap() < 0.01);
+    assert_eq!(s["parameter_study"]["grid"], serde_json::json!([3, 3]));
+    // no temporary file left behind anywhere
+    let mut stack = vec![out.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let name = e.file_name().to_string_lossy().to_string();
+            assert!(!name.ends_with(".partial") && !name.ends_with(".tmp"), "left {name}");
+            if e.path().is_dir() {
+                stack.push(e.path());
+            }
+        }
+    }
+}
+
+#[test]
+fn missing_scenarios_exit_2_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let o = brachia()
+        .args(["reproduce", "--quick", "--no-progress", "--scenarios"])
+        .arg(dir.path().join("nowhere"))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("tracking.toml"), "{err}");
+    assert!(!out.exists());
+}
