@@ -34,7 +34,14 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
     }
     let md = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert!(md.contains("| quantity | paper | brachia | note |"));
-    for row in ["plan time", "MPC time", "planned energy", "final EE error", "torque range", "T_freefall grows"] {
+    for row in [
+        "plan time",
+        "MPC time",
+        "planned energy",
+        "final EE error",
+        "torque range",
+        "T_freefall grows",
+    ] {
         assert!(md.contains(row), "the table lacks {row}");
     }
     // every embedded figure exists as PNG with its SVG, every linked GIF exists
@@ -53,17 +60,31 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(s["mode"], "quick");
-    assert!(s["failures"].as_array().unwrap().is_empty(), "{}", s["failures"]);
-    let hit = s["robustness"]["runs"]["mpc"]["first_contact_s"].as_f64().unwrap();
+    assert!(
+        s["failures"].as_array().unwrap().is_empty(),
+        "{}",
+        s["failures"]
+    );
+    let hit = s["robustness"]["runs"]["mpc"]["first_contact_s"]
+        .as_f64()
+        .unwrap();
     assert!((0.5..=0.7).contains(&hit));
-    assert!(s["tracking"]["rapier"]["ee_final_error_m"].as_f64().unwrap() < 0.01);
+    assert!(
+        s["tracking"]["rapier"]["ee_final_error_m"]
+            .as_f64()
+            .unwrap()
+            < 0.01
+    );
     assert_eq!(s["parameter_study"]["grid"], serde_json::json!([3, 3]));
     // no temporary file left behind anywhere
     let mut stack = vec![out.clone()];
     while let Some(d) = stack.pop() {
         for e in std::fs::read_dir(&d).unwrap().flatten() {
             let name = e.file_name().to_string_lossy().to_string();
-            assert!(!name.ends_with(".partial") && !name.ends_with(".tmp"), "left {name}");
+            assert!(
+                !name.ends_with(".partial") && !name.ends_with(".tmp"),
+                "left {name}"
+            );
             if e.path().is_dir() {
                 stack.push(e.path());
             }

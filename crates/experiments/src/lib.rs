@@ -2,17 +2,23 @@
 //!
 //! Declarative experiments: a scenario file (robot, task, planner, solver, and later controller and plant
 //! settings) goes into a deterministic runner that fills a run folder (resolved inputs, CSVs, a
-//! machine-readable report). The CLI is a thin layer over these functions.
+//! machine-readable report). The CLI is a thin layer over these functions. The paper's parameter study
+//! (Section V-A, Figs. 3 and 4) is [`run_parameter_study`] and [`parameter_study_folder`].
 //!
 //! Conventions as in `brachia`: SI units; q1 absolute from +x, q2..qn relative; `x = [q, qd]`; torques of
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
+pub mod parameter_study;
 pub mod plan_run;
 pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
 pub mod track_run;
 
+pub use parameter_study::{
+    parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams, CellStart,
+    ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
+};
 pub use plan_run::{plan_report, run_plan, PlanRun};
 pub use run_folder::RunFolder;
 pub use scenario::{ControllerKind, PlantKind, Scenario};

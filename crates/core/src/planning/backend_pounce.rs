@@ -11,7 +11,8 @@
 //! collocation problem). The problem never leaves the calling thread, so it need not be `Send`.
 //!
 //! Options set: `print_level`, `max_iter`, `tol`, `constr_viol_tol`, `acceptable_tol`,
-//! `acceptable_iter`, `max_wall_time`, `mu_strategy`, `warm_start_init_point`, `sb = yes`.
+//! `acceptable_iter`, `max_wall_time`, `mu_strategy`, `mu_init` (when set), `warm_start_init_point`,
+//! `sb = yes`.
 
 use std::cell::RefCell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -294,6 +295,9 @@ fn set_options(
     num("acceptable_tol", settings.acceptable_tol)?;
     if let Some(t) = settings.max_wall_time_s {
         num("max_wall_time", t)?;
+    }
+    if let Some(mu) = settings.mu_init {
+        num("mu_init", mu)?;
     }
     let mut string = |k: &str, v: &str| {
         o.set_string_value(k, v, true, true)

@@ -3,7 +3,7 @@
 //! ripopt's `NlpProblem` takes `&self` in its callbacks and has no `'static` bound, so the user's
 //! problem is borrowed directly (through a `RefCell`) and evaluated on the calling thread.
 //! Options set: `print_level`, `max_iter`, `tol`, `constr_viol_tol`, `acceptable_iter`,
-//! `max_wall_time`, `mu_strategy_adaptive`, `warm_start` (+ `warm_start_y/z_l/z_u` via
+//! `max_wall_time`, `mu_strategy_adaptive`, `mu_init` (when set), `warm_start` (+ `warm_start_y/z_l/z_u` via
 //! `initial_multipliers`), `nlp_{lower,upper}_bound_inf = -+1e19`. Everything else keeps ripopt's
 //! defaults (its acceptable tolerance is fixed at 1e-6).
 //!
@@ -111,6 +111,9 @@ fn options(settings: &NlpSettings, prep: &Prepared) -> SolverOptions {
         sparse_threshold: usize::MAX,
         ..SolverOptions::default()
     };
+    if let Some(mu) = settings.mu_init {
+        o.mu_init = mu;
+    }
     if let Some(w) = &prep.warm {
         o.warm_start = true;
         o.warm_start_y = Some(w.lambda.clone());

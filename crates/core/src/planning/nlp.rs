@@ -141,6 +141,11 @@ pub struct NlpSettings {
     pub print_level: u8,
     /// Barrier-parameter strategy. Default [`MuStrategy::Monotone`].
     pub mu_strategy: MuStrategy,
+    /// Initial barrier parameter, IPOPT's `mu_init`; `None` = the backend's default (0.1). A small
+    /// value (1e-4) keeps a good primal starting point from being pushed back towards the centre
+    /// of the feasible region, which is what makes a primal warm start pay off (see
+    /// `brachia::planning::plan_with_guess`). Default `None`.
+    pub mu_init: Option<f64>,
     /// Warm start from [`SparseNlp::initial_guess`] and [`SparseNlp::initial_multipliers`]
     /// (IPOPT's `warm_start_init_point`; ripopt's `warm_start`). Ignored when the problem has no
     /// multipliers to offer. Default `false`.
@@ -159,6 +164,7 @@ impl Default for NlpSettings {
             max_wall_time_s: None,
             print_level: 0,
             mu_strategy: MuStrategy::Monotone,
+            mu_init: None,
             warm_start: false,
         }
     }
@@ -180,6 +186,9 @@ impl NlpSettings {
         positive("acceptable_tol", self.acceptable_tol)?;
         if let Some(t) = self.max_wall_time_s {
             positive("max_wall_time_s", t)?;
+        }
+        if let Some(mu) = self.mu_init {
+            positive("mu_init", mu)?;
         }
         if self.print_level > 12 {
             return Err(Error::invalid(
@@ -701,6 +710,9 @@ mod tests {
         assert_eq!(r.backend, Backend::Ripopt);
         assert_eq!(r.mu_strategy, MuStrategy::Adaptive);
         assert_eq!(r.max_iter, 500);
+        assert_eq!(r.mu_init, None);
+        let m: NlpSettings = toml::from_str("mu_init = 1e-4").unwrap();
+        assert_eq!(m.mu_init, Some(1e-4));
         assert!(toml::from_str::<NlpSettings>("backend = \"ipopt\"").is_err());
         for bad in [
             NlpSettings {
@@ -717,6 +729,10 @@ mod tests {
             },
             NlpSettings {
                 print_level: 13,
+                ..s.clone()
+            },
+            NlpSettings {
+                mu_init: Some(0.0),
                 ..s.clone()
             },
         ] {

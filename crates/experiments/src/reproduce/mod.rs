@@ -14,6 +14,7 @@
 
 mod figures;
 mod report;
+mod study;
 
 use crate::plan_run::{plan_report, run_plan, PlanRun};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
@@ -98,6 +99,7 @@ pub(crate) struct Results {
     pub(crate) tracking: Option<Tracking>,
     pub(crate) obstacle: Option<ObstacleRuns>,
     pub(crate) robustness: Option<Robustness>,
+    pub(crate) study: Option<crate::parameter_study::ParameterStudy>,
     pub(crate) quick: bool,
     pub(crate) wall_s: f64,
 }
@@ -154,6 +156,8 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let ls_ignored = load(opts, "obstacle-ignored.toml")?;
     let ls_robust = load(opts, "robustness.toml")?;
     let ls_robust_paper = load(opts, "robustness-paper.toml")?;
+    let study_settings = study::settings(&ls_track, opts.quick);
+    study_settings.validate()?;
 
     let mut failures = Vec::new();
     let mut files = Vec::new();
@@ -265,6 +269,22 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
             ));
         }
     }
+
+    // V-A: the parameter study (the longest part)
+    let st = crate::parameter_study::run_parameter_study(&study_settings, opts.progress)?;
+    write(
+        &crate::parameter_study::parameter_study_folder(&st),
+        &out.join("parameter-study"),
+        &mut files,
+    )?;
+    if st.failed_cells() > 0 {
+        failures.push(format!(
+            "parameter study: {} of {} cells did not converge (shown as failed)",
+            st.failed_cells(),
+            st.cells.len()
+        ));
+    }
+    res.study = Some(st);
 
     // figures, animations, the report
     let fig_dir = out.join("figures");

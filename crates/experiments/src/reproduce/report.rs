@@ -145,6 +145,11 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
             );
         }
     }
+    if let Some(st) = &res.study {
+        for (what, r) in super::study::draw_figures(st, figs) {
+            check(&what, r);
+        }
+    }
     if let Some(r) = &res.robustness {
         let (robot, target) = (&r.ls.robot, r.ls.scenario.task.target);
         let mpc = &r.runs[0];
@@ -225,6 +230,9 @@ pub(crate) fn summary(res: &Results, failures: &[String]) -> Value {
     let mut s = summary_skeleton(res);
     let m = s.as_object_mut().expect("an object");
     m.insert("failures".into(), json!(failures));
+    if let Some(st) = &res.study {
+        m.insert("parameter_study".into(), super::study::summary(st));
+    }
     if let Some(t) = &res.tracking {
         let plan = t.rapier.plan.as_ref().map(|p| &p.plan);
         m.insert(
@@ -318,6 +326,11 @@ fn rows(res: &Results) -> Vec<Row> {
             note: note.into(),
         })
     };
+    if let Some(st) = &res.study {
+        for (q, pv, ours, note) in super::study::trend_rows(st) {
+            row(&q, pv, ours, &note);
+        }
+    }
     if let Some(t) = &res.tracking {
         let plan = t.rapier.plan.as_ref().map(|x| &x.plan);
         let (sr, sm) = (&t.rapier.summary, &t.model.summary);
@@ -471,6 +484,10 @@ pub(crate) fn markdown(
     s.push_str("## The paper's numbers beside ours\n\n");
     s.push_str(&table(res));
     s.push('\n');
+    if let Some(st) = &res.study {
+        s.push_str("## A. Parameter study (Figs. 3 and 4)\n\n");
+        s.push_str(&super::study::markdown(st, figs));
+    }
     if let Some(t) = &res.tracking {
         let _ = writeln!(
             s,

@@ -6,7 +6,9 @@
 use super::figures::FigureDir;
 use crate::parameter_study::{BaseParams, ParameterStudy, ParameterStudySettings};
 use crate::scenario::LoadedScenario;
-use brachia_plot::{heatmap, line_plot, stick_diagram, Heatmap, LinePlot, PlotError, Series, StickOptions};
+use brachia_plot::{
+    heatmap, line_plot, stick_diagram, Heatmap, LinePlot, PlotError, Series, StickOptions,
+};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -42,7 +44,10 @@ fn energy_grid(st: &ParameterStudy) -> Vec<Option<f64>> {
 
 /// Figs. 3 and 4: the energy heat map, energy against swing time per r2, T against r2, and the stick
 /// diagrams of a short and a long lower arm.
-pub(crate) fn draw_figures(st: &ParameterStudy, figs: &mut FigureDir) -> Vec<(String, Result<(), PlotError>)> {
+pub(crate) fn draw_figures(
+    st: &ParameterStudy,
+    figs: &mut FigureDir,
+) -> Vec<(String, Result<(), PlotError>)> {
     let mut out = Vec::new();
     out.push((
         "fig3".to_string(),
@@ -99,8 +104,19 @@ pub(crate) fn draw_figures(st: &ParameterStudy, figs: &mut FigureDir) -> Vec<(St
                 x_label: "r2 = L1 / (L1 + L2)".into(),
                 y_label: "time (s)".into(),
                 series: vec![
-                    Series::new("T = 2 T_freefall", r2.clone(), st.rows.iter().map(|r| r.swing_time_s).collect()).colour(0),
-                    Series::new("T_freefall", r2, st.rows.iter().map(|r| r.freefall_time_s).collect()).dashed().colour(1),
+                    Series::new(
+                        "T = 2 T_freefall",
+                        r2.clone(),
+                        st.rows.iter().map(|r| r.swing_time_s).collect(),
+                    )
+                    .colour(0),
+                    Series::new(
+                        "T_freefall",
+                        r2,
+                        st.rows.iter().map(|r| r.freefall_time_s).collect(),
+                    )
+                    .dashed()
+                    .colour(1),
                 ],
                 size: None,
             },
@@ -112,7 +128,8 @@ pub(crate) fn draw_figures(st: &ParameterStudy, figs: &mut FigureDir) -> Vec<(St
             "Parameter study (V-A): r2 = {}, T = {:.2} s, energy {}",
             s.r2,
             s.swing_time_s,
-            s.energy_j.map_or("- (not converged)".into(), |e| format!("{e:.2} J"))
+            s.energy_j
+                .map_or("- (not converged)".into(), |e| format!("{e:.2} J"))
         );
         out.push((
             name.clone(),
@@ -156,11 +173,28 @@ fn verdict(b: Option<bool>) -> &'static str {
 /// The trends of the paper's three conclusions, as rows `(quantity, paper, ours, note)`.
 pub(crate) fn trend_rows(st: &ParameterStudy) -> Vec<(String, String, String, String)> {
     let rows = &st.rows;
-    let r2 = rows.iter().map(|r| format!("{}", r.r2)).collect::<Vec<_>>().join(", ");
-    let tf = increasing(&rows.iter().map(|r| Some(r.freefall_time_s)).collect::<Vec<_>>());
+    let r2 = rows
+        .iter()
+        .map(|r| format!("{}", r.r2))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let tf = increasing(
+        &rows
+            .iter()
+            .map(|r| Some(r.freefall_time_s))
+            .collect::<Vec<_>>(),
+    );
     let e = increasing(&rows.iter().map(|r| r.energy_at_t_j).collect::<Vec<_>>());
-    let amin = increasing(&rows.iter().map(|r| r.argmin_swing_time_s).collect::<Vec<_>>());
-    let inside = rows.iter().filter(|r| r.argmin_at_edge == Some(false)).count();
+    let amin = increasing(
+        &rows
+            .iter()
+            .map(|r| r.argmin_swing_time_s)
+            .collect::<Vec<_>>(),
+    );
+    let inside = rows
+        .iter()
+        .filter(|r| r.argmin_at_edge == Some(false))
+        .count();
     vec![
         (
             "T_freefall grows with r2 (Fig. 4a)".into(),
@@ -243,22 +277,38 @@ pub(crate) fn markdown(st: &ParameterStudy, figs: &Path) -> String {
             r.swing_time_s,
             f(r.energy_at_t_j, 3),
             f(r.argmin_swing_time_s, 2),
-            if r.argmin_at_edge == Some(true) { " (edge)" } else { "" },
+            if r.argmin_at_edge == Some(true) {
+                " (edge)"
+            } else {
+                ""
+            },
             f(r.min_energy_j, 3),
             r.failed_cells
         );
     }
     s.push('\n');
     for (name, alt) in [
-        ("fig3_energy_heatmap", "Fig. 3: energy over r2 and swing time"),
+        (
+            "fig3_energy_heatmap",
+            "Fig. 3: energy over r2 and swing time",
+        ),
         ("fig3b_energy_vs_swing_time", "energy against swing time"),
         ("fig4a_swing_time", "Fig. 4a: T against r2"),
     ] {
-        let _ = writeln!(s, "![{alt}]({})\n", figs.join(format!("{name}.png")).display());
+        let _ = writeln!(
+            s,
+            "![{alt}]({})\n",
+            figs.join(format!("{name}.png")).display()
+        );
     }
     for st in &st.sticks {
         let name = format!("fig4b_stick_r2_{:.1}", st.r2).replace('.', "_");
-        let _ = writeln!(s, "![Fig. 4b: r2 = {}]({})\n", st.r2, figs.join(format!("{name}.png")).display());
+        let _ = writeln!(
+            s,
+            "![Fig. 4b: r2 = {}]({})\n",
+            st.r2,
+            figs.join(format!("{name}.png")).display()
+        );
     }
     s
 }

@@ -1,0 +1,897 @@
+//! The paper's parameter study (Section V-A, Figs. 3 and 4): energy of the planned swing over a grid of
+//! lower-to-total arm length ratios `r2 = L1 / (L1 + L2)` and swing times around `T = 2 T_freefall`.
+//!
+//! - **Scaled robots** ([`scaled_params`]): the arm length `L1 + L2 = L3 + L4` (default 0.71 m) is kept;
+//!   links 1 and 4 are the lower arms, `L1 = L4 = r2 A`, links 2 and 3 the upper arms,
+//!   `L2 = L3 = (1 - r2) A`. Each link of the base robot (Table I at r2 = 0.5) scales with its length
+//!   ratio `s = L / L_base`: mass `* s` (same linear density), centre of mass `* s` (same fraction of the
+//!   length), planar inertia `* s^3` (as `m L^2`); the capsule radius, gravity and torque limits stay.
+//!   At r2 = 0.5 with A = 0.71 the base robot comes back unchanged.
+//! - **Start pose** ([`start_pose`]): the EE at the start bar with both arms straight (`q2 = q4 = 0`) and
+//!   the shoulder (joint 3) below the bar; the same for every r2, since only the arm lengths matter.
+//! - **Grid**: every r2 times every offset, swing time `T + offset` with `T = 2 T_freefall` of that r2
+//!   (EE from the start to the x midway between start and target bars, joints locked; see
+//!   [`brachia::planning::freefall_time`]).
+//! - **Parallel rows, warm-started cells**: one rayon task per r2 row, the longest swings first. A row
+//!   solves the offset closest
+//!   to 0 cold, then walks outwards in both directions, each cell warm-started
+//!   ([`brachia::planning::plan_with_guess`]) from the last converged cell on its side; a cell with no
+//!   converged neighbour starts cold, and a warm-started cell that does not converge is solved again
+//!   cold (its iterations and time are then the sum of both solves).
+//! - A cell that fails keeps its [`SolveStatus`], iterations and time and has no energy; nothing is
+//!   dropped.
+//!
+//! Energy of a cell: paper eq. (18), `E = sum_{i=2..4} int_0^T qd_i tau_i dt` (signed work of the
+//! actuated joints, J), i.e. [`brachia::planning::Plan::energy_j`].
+//!
+//! Units: m, kg, kg m^2, s, rad, N m, J.
+
+use crate::run_folder::RunFolder;
+use brachia::model::{Robot, RobotParams};
+use brachia::planning::{
+    freefall_time, plan_with_guess, NlpSettings, PlannerSettings, SolveStatus, SwingTask, SwingTime,
+};
+use brachia::trajectory::Trajectory;
+use brachia::Error;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Names the settings in error messages when they do not come from a file.
+const SRC: &str = "<parameter study settings>";
+
+/// Two r2 values (or offsets) closer than this are the same grid value.
+const SAME: f64 = 1e-9;
+
+/// Where the base robot (the one scaled to every r2) comes from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum BaseParams {
+    /// The bundled `params/paper.toml` (Table I). Default. TOML: `base_params = "paper"`.
+    #[default]
+    Paper,
+    /// A parameters file. TOML: `base_params = { file = "../params/paper-uniform-rod.toml" }`,
+    /// relative to the settings file when read by [`ParameterStudySettings::from_toml_file`].
+    File(PathBuf),
+    /// Parameters given in place. TOML: `[base_params.inline]` with the fields of a parameters file.
+    Inline(RobotParams),
+}
+
+impl BaseParams {
+    /// Read (for `File`) and validate the base parameters.
+    pub fn load(&self) -> Result<RobotParams, Error> {
+        let p = match self {
+            BaseParams::Paper => Robot::paper().params,
+            BaseParams::File(path) => RobotParams::from_toml_file(path)?,
+            BaseParams::Inline(p) => p.clone(),
+        };
+        let src = match self {
+            BaseParams::File(path) => path.display().to_string(),
+            _ => "base_params".to_string(),
+        };
+        p.validate(&src)?;
+        if p.links.len() != 4 {
+            return Err(Error::invalid(
+                src,
+                "links",
+                format!("{} links", p.links.len()),
+                "the parameter study scales a 4-link robot (two arms of two links)",
+            ));
+        }
+        Ok(p)
+    }
+}
+
+/// Settings of the study. Plain data with [`Default`] (the paper's grid), serde and
+/// [`ParameterStudySettings::validate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ParameterStudySettings {
+    /// The robot scaled to every r2. Default the bundled Table I.
+    pub base_params: BaseParams,
+    /// Length of each arm, `L1 + L2 = L3 + L4`, m. Default 0.71.
+    pub arm_length_m: f64,
+    /// Lower-to-total arm length ratios r2 = L1 / (L1 + L2), each in (0, 1), strictly increasing.
+    /// Default 0.1, 0.2, ..., 0.9.
+    pub r2: Vec<f64>,
+    /// Swing-time offsets from `T = 2 T_freefall`, s, strictly increasing. Default -0.5, -0.4, ..., 0.5.
+    pub offsets_s: Vec<f64>,
+    /// Start bar (the EE's start), m, in the grip frame. Default (-1, 0).
+    pub start: [f64; 2],
+    /// Target bar, m. Default (1, 0).
+    pub target: [f64; 2],
+    /// r2 values whose swing at their own T is kept as a 1 ms trajectory for stick diagrams (Fig. 4b).
+    /// Default 0.2 and 0.8 (a short and a long lower arm).
+    pub stick_r2: Vec<f64>,
+    /// Warm-start each cell from its converged neighbour in the row. Default true.
+    pub warm_start: bool,
+    /// Planner settings for every cell: `knot_dt` (default 0.01 s as in the paper; 0.02-0.05 for a
+    /// quick run), `transcription` (default Hermite-Simpson), weights, bounds. `swing_time` must stay
+    /// `"auto"`: the study sets each cell's swing time.
+    pub planner: PlannerSettings,
+    /// NLP solver settings for every cell.
+    pub solver: NlpSettings,
+}
+
+impl Default for ParameterStudySettings {
+    fn default() -> Self {
+        ParameterStudySettings {
+            base_params: BaseParams::Paper,
+            arm_length_m: 0.71,
+            r2: (1..=9).map(|i| i as f64 / 10.0).collect(),
+            offsets_s: (-5..=5).map(|i| i as f64 / 10.0).collect(),
+            start: [-1.0, 0.0],
+            target: [1.0, 0.0],
+            stick_r2: vec![0.2, 0.8],
+            warm_start: true,
+            planner: PlannerSettings::default(),
+            solver: NlpSettings::default(),
+        }
+    }
+}
+
+/// Prefix the field of an [`Error::InvalidValue`] with `section.` and set its source.
+fn in_section(e: Error, src: &str, section: &str) -> Error {
+    match e {
+        Error::InvalidValue {
+            field,
+            value,
+            reason,
+            ..
+        } => Error::InvalidValue {
+            source_name: src.to_string(),
+            field: format!("{section}.{field}"),
+            value,
+            reason,
+        },
+        other => other,
+    }
+}
+
+impl ParameterStudySettings {
+    /// Parse settings from TOML text (not validated); `source` names it in errors.
+    pub fn from_toml_str(text: &str, source: &str) -> Result<Self, Error> {
+        toml::from_str(text).map_err(|e| Error::Parse {
+            path: source.into(),
+            message: e.to_string().trim_end().replace('\n', " "),
+        })
+    }
+
+    /// Read settings from a TOML file, resolve a `base_params` file relative to it and validate.
+    pub fn from_toml_file(path: &Path) -> Result<Self, Error> {
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.into(),
+            source,
+        })?;
+        let src = path.display().to_string();
+        let mut s = Self::from_toml_str(&text, &src)?;
+        if let BaseParams::File(f) = &s.base_params {
+            s.base_params = BaseParams::File(path.parent().unwrap_or(Path::new(".")).join(f));
+        }
+        s.validate_as(&src)?;
+        Ok(s)
+    }
+
+    /// Check every value (not the base parameters file, which [`BaseParams::load`] reads); the error
+    /// names the field.
+    pub fn validate(&self) -> Result<(), Error> {
+        self.validate_as(SRC)
+    }
+
+    fn validate_as(&self, src: &str) -> Result<(), Error> {
+        let a = self.arm_length_m;
+        if !(a.is_finite() && a > 0.0) {
+            return Err(Error::invalid(
+                src,
+                "arm_length_m",
+                a,
+                "must be finite and > 0",
+            ));
+        }
+        let ratio = |field: &str, v: &[f64], need_increasing: bool| -> Result<(), Error> {
+            for (i, &x) in v.iter().enumerate() {
+                if !(x.is_finite() && x > 0.0 && x < 1.0) {
+                    return Err(Error::invalid(
+                        src,
+                        format!("{field}[{i}]"),
+                        x,
+                        "must lie in (0, 1)",
+                    ));
+                }
+                if need_increasing && i > 0 && x <= v[i - 1] {
+                    return Err(Error::invalid(
+                        src,
+                        format!("{field}[{i}]"),
+                        x,
+                        "values must increase strictly",
+                    ));
+                }
+            }
+            Ok(())
+        };
+        if self.r2.is_empty() {
+            return Err(Error::invalid(src, "r2", "[]", "needs at least one value"));
+        }
+        ratio("r2", &self.r2, true)?;
+        ratio("stick_r2", &self.stick_r2, false)?;
+        if self.offsets_s.is_empty() {
+            return Err(Error::invalid(
+                src,
+                "offsets_s",
+                "[]",
+                "needs at least one value",
+            ));
+        }
+        for (i, &x) in self.offsets_s.iter().enumerate() {
+            if !x.is_finite() || (i > 0 && x <= self.offsets_s[i - 1]) {
+                return Err(Error::invalid(
+                    src,
+                    format!("offsets_s[{i}]"),
+                    x,
+                    "must be finite and increase strictly",
+                ));
+            }
+        }
+        for (field, p) in [("start", self.start), ("target", self.target)] {
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    format!("{p:?}"),
+                    "must be finite",
+                ));
+            }
+        }
+        if self.start == self.target {
+            return Err(Error::invalid(
+                src,
+                "target",
+                format!("{:?}", self.target),
+                "must differ from start",
+            ));
+        }
+        if self.planner.swing_time != SwingTime::default() {
+            return Err(Error::invalid(
+                src,
+                "planner.swing_time",
+                format!("{:?}", self.planner.swing_time),
+                "the study sets each cell's swing time (T + offset); leave it \"auto\"",
+            ));
+        }
+        self.planner
+            .validate(4, src)
+            .map_err(|e| in_section(e, src, "planner"))?;
+        self.solver
+            .validate()
+            .map_err(|e| in_section(e, src, "solver"))?;
+        if let BaseParams::Inline(p) = &self.base_params {
+            p.validate(src)
+                .map_err(|e| in_section(e, src, "base_params.inline"))?;
+        }
+        Ok(())
+    }
+}
+
+/// The base robot scaled to lower-to-total arm length ratio `r2` with arms of `arm_length_m` (see the
+/// module docs for the rule). `base` must have 4 links; the result is validated.
+pub fn scaled_params(base: &RobotParams, r2: f64, arm_length_m: f64) -> Result<RobotParams, Error> {
+    if base.links.len() != 4 {
+        return Err(Error::Dimension {
+            what: "base parameters: links".into(),
+            expected: 4,
+            got: base.links.len(),
+        });
+    }
+    if !(r2.is_finite() && r2 > 0.0 && r2 < 1.0) {
+        return Err(Error::invalid(SRC, "r2", r2, "must lie in (0, 1)"));
+    }
+    if !(arm_length_m.is_finite() && arm_length_m > 0.0) {
+        return Err(Error::invalid(
+            SRC,
+            "arm_length_m",
+            arm_length_m,
+            "must be finite and > 0",
+        ));
+    }
+    let (lower, upper) = (r2 * arm_length_m, (1.0 - r2) * arm_length_m);
+    let mut p = base.clone();
+    for (i, l) in p.links.iter_mut().enumerate() {
+        let length = if i == 0 || i == 3 { lower } else { upper };
+        let s = length / l.length;
+        l.length = length;
+        l.mass *= s;
+        l.com *= s;
+        l.inertia *= s * s * s;
+    }
+    p.name = format!("{} scaled to r2 = {r2}", base.name);
+    p.validate(&format!("{} (r2 = {r2})", base.name))?;
+    Ok(p)
+}
+
+/// The start pose with the EE at `start` and both arms straight (`q2 = q4 = 0`), the shoulder (joint 3)
+/// on the lower of the two points at distance `L1 + L2` from the grip and `L3 + L4` from `start`.
+/// Returns `[q1, 0, q3, 0]` (rad; q1 absolute, the rest relative, wrapped to (-pi, pi]). Errors when no
+/// such pose exists.
+pub fn start_pose(robot: &Robot, start: [f64; 2]) -> Result<Vec<f64>, Error> {
+    if robot.n != 4 {
+        return Err(Error::Dimension {
+            what: "start pose: links".into(),
+            expected: 4,
+            got: robot.n,
+        });
+    }
+    let (a, b) = (robot.len[0] + robot.len[1], robot.len[2] + robot.len[3]);
+    let d = start[0].hypot(start[1]);
+    if !(d > 0.0 && d <= a + b && d >= (a - b).abs()) {
+        return Err(Error::InfeasibleTask(format!(
+            "no straight-arm pose puts the EE at ({:.3}, {:.3}): arms of {a:.3} m and {b:.3} m",
+            start[0], start[1]
+        )));
+    }
+    // shoulder = along * u + h * w, u = start / d, w = u rotated by -90 deg; pick the lower one
+    let along = (a * a - b * b + d * d) / (2.0 * d);
+    let h = (a * a - along * along).max(0.0).sqrt();
+    let u = [start[0] / d, start[1] / d];
+    let w = [u[1], -u[0]];
+    let cands = [1.0, -1.0].map(|sg| [along * u[0] + sg * h * w[0], along * u[1] + sg * h * w[1]]);
+    let s = if cands[0][1] <= cands[1][1] {
+        cands[0]
+    } else {
+        cands[1]
+    };
+    let q1 = s[1].atan2(s[0]);
+    let th3 = (start[1] - s[1]).atan2(start[0] - s[0]);
+    let pi = std::f64::consts::PI;
+    let mut q3 = (th3 - q1).rem_euclid(2.0 * pi);
+    if q3 > pi {
+        q3 -= 2.0 * pi;
+    }
+    Ok(vec![q1, 0.0, q3, 0.0])
+}
+
+/// How a cell's solve started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CellStart {
+    /// From the planner's own guess (no converged neighbour, or warm starts off).
+    Cold,
+    /// From the converged neighbour's plan.
+    Warm,
+    /// The warm-started solve did not converge; this is the result of a second, cold solve.
+    ColdAfterWarm,
+}
+
+impl CellStart {
+    fn name(self) -> &'static str {
+        match self {
+            CellStart::Cold => "cold",
+            CellStart::Warm => "warm",
+            CellStart::ColdAfterWarm => "cold-after-warm",
+        }
+    }
+}
+
+/// One cell of the grid.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StudyCell {
+    /// Lower-to-total arm length ratio.
+    pub r2: f64,
+    /// Offset from T = 2 T_freefall, s.
+    pub offset_s: f64,
+    /// Swing time T + offset, s.
+    pub swing_time_s: f64,
+    /// Solver outcome.
+    pub status: SolveStatus,
+    /// True when the solver converged.
+    pub converged: bool,
+    /// Energy, paper eq. (18), J; `None` when the solve did not converge.
+    pub energy_j: Option<f64>,
+    /// Positive work of the actuated joints, J; `None` when the solve did not converge.
+    pub positive_work_j: Option<f64>,
+    /// Objective (the planner's cost), `None` when the solve did not converge.
+    pub objective: Option<f64>,
+    /// Solver iterations (all attempts of the cell).
+    pub iterations: usize,
+    /// Solve wall time (all attempts of the cell), s.
+    pub solve_time_s: f64,
+    /// How the solve started.
+    pub start: CellStart,
+}
+
+/// Per-r2 summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StudyRow {
+    /// Lower-to-total arm length ratio.
+    pub r2: f64,
+    /// Link lengths L1..L4, m.
+    pub lengths_m: Vec<f64>,
+    /// T_freefall, s.
+    pub freefall_time_s: f64,
+    /// T = 2 T_freefall, s.
+    pub swing_time_s: f64,
+    /// Energy of the cell at offset 0, J (`None` when it failed or 0 is not an offset).
+    pub energy_at_t_j: Option<f64>,
+    /// Swing time of the lowest-energy converged cell, s.
+    pub argmin_swing_time_s: Option<f64>,
+    /// Its offset from T, s.
+    pub argmin_offset_s: Option<f64>,
+    /// Its energy, J.
+    pub min_energy_j: Option<f64>,
+    /// True when the minimum is at the first or last offset (the true minimum may lie outside).
+    pub argmin_at_edge: Option<bool>,
+    /// Cells of this row that did not converge.
+    pub failed_cells: usize,
+}
+
+/// A swing kept for a stick diagram (Fig. 4b): r2, its robot and its 1 ms trajectory at T.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StickDiagram {
+    /// Lower-to-total arm length ratio.
+    pub r2: f64,
+    /// The scaled robot.
+    pub robot: Robot,
+    /// Swing time T = 2 T_freefall, s.
+    pub swing_time_s: f64,
+    /// Solver outcome.
+    pub status: SolveStatus,
+    /// Energy, paper eq. (18), J (`None` when it did not converge).
+    pub energy_j: Option<f64>,
+    /// The 1 ms trajectory (`Plan::trajectory`; the last iterate when it did not converge).
+    pub trajectory: Trajectory,
+}
+
+/// The outcome of [`run_parameter_study`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParameterStudy {
+    /// The settings that ran.
+    pub settings: ParameterStudySettings,
+    /// The base robot parameters (r2 = 0.5 at 0.71 m arms for Table I).
+    pub base: RobotParams,
+    /// The start pose, rad (the same for every r2).
+    pub start_q: Vec<f64>,
+    /// One summary per r2, in the order of `settings.r2`.
+    pub rows: Vec<StudyRow>,
+    /// Every cell, row-major: `cells[i * offsets + j]` is r2 `i`, offset `j`.
+    pub cells: Vec<StudyCell>,
+    /// The stick-diagram swings, in the order of `settings.stick_r2`.
+    pub sticks: Vec<StickDiagram>,
+    /// Wall time of the whole study, s.
+    pub wall_time_s: f64,
+}
+
+impl ParameterStudy {
+    /// The cell of r2 index `i` and offset index `j`.
+    pub fn cell(&self, i: usize, j: usize) -> &StudyCell {
+        &self.cells[i * self.settings.offsets_s.len() + j]
+    }
+
+    /// Number of cells that did not converge.
+    pub fn failed_cells(&self) -> usize {
+        self.cells.iter().filter(|c| !c.converged).count()
+    }
+}
+
+/// One r2 row before solving.
+struct RowSetup {
+    r2: f64,
+    robot: Robot,
+    freefall: f64,
+    t_nominal: f64,
+}
+
+/// The task of the study: start pose, target bar, no obstacles.
+fn task(start_q: &[f64], target: [f64; 2]) -> SwingTask {
+    SwingTask {
+        q0: start_q.to_vec(),
+        qd0: vec![],
+        target,
+        obstacles: vec![],
+    }
+}
+
+/// Plan one swing of `swing_time_s`, warm-started from `guess` when given (cold again if that fails).
+fn solve_cell(
+    setup: &RowSetup,
+    task: &SwingTask,
+    settings: &ParameterStudySettings,
+    swing_time_s: f64,
+    guess: Option<&Trajectory>,
+) -> Result<(brachia::planning::Plan, CellStart, usize, f64), Error> {
+    let planner = PlannerSettings {
+        swing_time: SwingTime::Seconds(swing_time_s),
+        ..settings.planner.clone()
+    };
+    let first = plan_with_guess(&setup.robot, task, &planner, &settings.solver, guess)?;
+    if guess.is_none() || first.converged() {
+        let start = if guess.is_some() {
+            CellStart::Warm
+        } else {
+            CellStart::Cold
+        };
+        let (it, t) = (first.iterations, first.solve_time_s);
+        return Ok((first, start, it, t));
+    }
+    let cold = plan_with_guess(&setup.robot, task, &planner, &settings.solver, None)?;
+    let (it, t) = (
+        first.iterations + cold.iterations,
+        first.solve_time_s + cold.solve_time_s,
+    );
+    Ok((cold, CellStart::ColdAfterWarm, it, t))
+}
+
+fn make_cell(
+    r2: f64,
+    offset_s: f64,
+    p: &brachia::planning::Plan,
+    start: CellStart,
+    iterations: usize,
+    solve_time_s: f64,
+) -> StudyCell {
+    let ok = p.converged();
+    StudyCell {
+        r2,
+        offset_s,
+        swing_time_s: p.swing_time_s,
+        status: p.status.clone(),
+        converged: ok,
+        energy_j: ok.then_some(p.energy_j),
+        positive_work_j: ok.then_some(p.positive_work_j),
+        objective: ok.then_some(p.objective),
+        iterations,
+        solve_time_s,
+        start,
+    }
+}
+
+/// Index of the offset closest to 0 (the row's first, cold-started cell).
+fn centre_index(offsets: &[f64]) -> usize {
+    let mut best = 0;
+    for (j, o) in offsets.iter().enumerate() {
+        if o.abs() < offsets[best].abs() {
+            best = j;
+        }
+    }
+    best
+}
+
+/// A solved row: its cells in offset order and, when wanted, the stick diagram of its centre cell.
+type RowResult = (Vec<StudyCell>, Option<StickDiagram>);
+
+/// Solve one r2 row: the centre cold, then outwards. Returns the cells in offset order and the centre's
+/// trajectory and status when the centre is at offset 0 and a stick diagram wants it.
+fn run_row(
+    setup: &RowSetup,
+    task: &SwingTask,
+    settings: &ParameterStudySettings,
+    keep_centre: bool,
+    bar: &ProgressBar,
+) -> Result<RowResult, Error> {
+    let offs = &settings.offsets_s;
+    let c = centre_index(offs);
+    let mut cells: Vec<Option<StudyCell>> = vec![None; offs.len()];
+    let solve = |j: usize, guess: Option<&Trajectory>| {
+        let r = solve_cell(setup, task, settings, setup.t_nominal + offs[j], guess);
+        bar.inc(1);
+        r
+    };
+    let (centre, start, it, t) = solve(c, None)?;
+    cells[c] = Some(make_cell(setup.r2, offs[c], &centre, start, it, t));
+    let centre_guess = centre.converged().then(|| centre.points.clone());
+    let stick = (keep_centre && offs[c].abs() < SAME).then(|| StickDiagram {
+        r2: setup.r2,
+        robot: setup.robot.clone(),
+        swing_time_s: centre.swing_time_s,
+        status: centre.status.clone(),
+        energy_j: centre.converged().then_some(centre.energy_j),
+        trajectory: centre.trajectory.clone(),
+    });
+    drop(centre);
+    let up: Vec<usize> = (c + 1..offs.len()).collect();
+    let down: Vec<usize> = (0..c).rev().collect();
+    for side in [up, down] {
+        let mut guess = centre_guess.clone();
+        for j in side {
+            let g = if settings.warm_start {
+                guess.as_ref()
+            } else {
+                None
+            };
+            let (p, start, it, t) = solve(j, g)?;
+            if p.converged() {
+                guess = Some(p.points.clone());
+            }
+            cells[j] = Some(make_cell(setup.r2, offs[j], &p, start, it, t));
+        }
+    }
+    Ok((cells.into_iter().flatten().collect(), stick))
+}
+
+/// Summary of one row from its cells.
+fn summarise(setup: &RowSetup, cells: &[StudyCell]) -> StudyRow {
+    let best = cells
+        .iter()
+        .enumerate()
+        .filter_map(|(j, c)| c.energy_j.map(|e| (j, e)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    StudyRow {
+        r2: setup.r2,
+        lengths_m: setup.robot.len.clone(),
+        freefall_time_s: setup.freefall,
+        swing_time_s: setup.t_nominal,
+        energy_at_t_j: cells
+            .iter()
+            .find(|c| c.offset_s.abs() < SAME)
+            .and_then(|c| c.energy_j),
+        argmin_swing_time_s: best.map(|(j, _)| cells[j].swing_time_s),
+        argmin_offset_s: best.map(|(j, _)| cells[j].offset_s),
+        min_energy_j: best.map(|(_, e)| e),
+        argmin_at_edge: best.map(|(j, _)| j == 0 || j + 1 == cells.len()),
+        failed_cells: cells.iter().filter(|c| !c.converged).count(),
+    }
+}
+
+/// Scaled robot, T_freefall and T for one r2.
+fn row_setup(
+    base: &RobotParams,
+    r2: f64,
+    settings: &ParameterStudySettings,
+    start_q: Option<&[f64]>,
+) -> Result<(RowSetup, Vec<f64>), Error> {
+    let p = scaled_params(base, r2, settings.arm_length_m)?;
+    let robot = Robot::from_params(p, &format!("r2 = {r2}"))?;
+    let q0 = match start_q {
+        Some(q) => q.to_vec(),
+        None => start_pose(&robot, settings.start)?,
+    };
+    let freefall = freefall_time(&robot, &q0, 0.5 * (settings.start[0] + settings.target[0]))?;
+    Ok((
+        RowSetup {
+            r2,
+            robot,
+            freefall,
+            t_nominal: 2.0 * freefall,
+        },
+        q0,
+    ))
+}
+
+/// Run the study: every cell of `settings.r2 x settings.offsets_s` in parallel rows (rayon's global
+/// pool: all cores, or `RAYON_NUM_THREADS`), plus the stick-diagram swings of `settings.stick_r2`.
+/// `progress` shows an indicatif bar on stderr (one tick per solve; it hides itself when stderr is not
+/// a terminal). Errors on bad settings or base parameters and on a swing time `T + offset <= 0`, before
+/// anything is solved; cells that do not converge are results, not errors.
+pub fn run_parameter_study(
+    settings: &ParameterStudySettings,
+    progress: bool,
+) -> Result<ParameterStudy, Error> {
+    let wall = Instant::now();
+    settings.validate()?;
+    let base = settings.base_params.load()?;
+    // every robot, T and the start pose before any solving
+    let mut start_q: Option<Vec<f64>> = None;
+    let mut setups = Vec::with_capacity(settings.r2.len());
+    for &r2 in &settings.r2 {
+        let (s, q0) = row_setup(&base, r2, settings, start_q.as_deref())?;
+        start_q.get_or_insert(q0);
+        setups.push(s);
+    }
+    let start_q = start_q.unwrap_or_default();
+    let first_off = settings.offsets_s[0];
+    for s in &setups {
+        if s.t_nominal + first_off <= 0.0 {
+            return Err(Error::invalid(
+                SRC,
+                "offsets_s[0]",
+                first_off,
+                format!(
+                    "gives a swing time <= 0 for r2 = {} (T = {:.3} s)",
+                    s.r2, s.t_nominal
+                ),
+            ));
+        }
+    }
+    let wants_stick = |r2: f64| settings.stick_r2.iter().any(|s| (s - r2).abs() < SAME);
+    let centre_is_zero = settings.offsets_s[centre_index(&settings.offsets_s)].abs() < SAME;
+    // stick diagrams that the grid does not provide are solved separately
+    let mut extra = Vec::new();
+    for &s in &settings.stick_r2 {
+        let in_grid = centre_is_zero && settings.r2.iter().any(|r| (r - s).abs() < SAME);
+        let dup = extra.iter().any(|e: &RowSetup| (e.r2 - s).abs() < SAME);
+        if !in_grid && !dup {
+            extra.push(row_setup(&base, s, settings, Some(&start_q))?.0);
+        }
+    }
+    let total = (setups.len() * settings.offsets_s.len() + extra.len()) as u64;
+    let bar = if progress {
+        ProgressBar::new(total)
+    } else {
+        ProgressBar::hidden()
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} solves (eta {eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let task = task(&start_q, settings.target);
+    // Longest swings first: they have the most knots and iterations, and a long row started last
+    // would leave the other cores idle at the end.
+    let mut order: Vec<usize> = (0..setups.len()).collect();
+    order.sort_by(|&a, &b| setups[b].t_nominal.total_cmp(&setups[a].t_nominal));
+    let solved: Vec<(usize, RowResult)> = order
+        .par_iter()
+        .with_max_len(1)
+        .map(|&i| {
+            let s = &setups[i];
+            run_row(s, &task, settings, wants_stick(s.r2), &bar).map(|r| (i, r))
+        })
+        .collect::<Result<_, _>>()?;
+    let mut rows: Vec<Option<RowResult>> = (0..setups.len()).map(|_| None).collect();
+    for (i, r) in solved {
+        rows[i] = Some(r);
+    }
+    let extra_sticks: Vec<StickDiagram> = extra
+        .par_iter()
+        .map(|s| {
+            let (p, _, _, _) = solve_cell(s, &task, settings, s.t_nominal, None)?;
+            bar.inc(1);
+            Ok(StickDiagram {
+                r2: s.r2,
+                robot: s.robot.clone(),
+                swing_time_s: p.swing_time_s,
+                status: p.status.clone(),
+                energy_j: p.converged().then_some(p.energy_j),
+                trajectory: p.trajectory,
+            })
+        })
+        .collect::<Result<_, Error>>()?;
+    bar.finish_and_clear();
+    let mut summaries = Vec::with_capacity(rows.len());
+    let mut cells = Vec::with_capacity(total as usize);
+    let mut grid_sticks = Vec::new();
+    for (s, (row_cells, stick)) in setups.iter().zip(rows.into_iter().flatten()) {
+        summaries.push(summarise(s, &row_cells));
+        cells.extend(row_cells);
+        grid_sticks.extend(stick);
+    }
+    let mut sticks = Vec::new();
+    for &s in &settings.stick_r2 {
+        let found = grid_sticks
+            .iter()
+            .chain(&extra_sticks)
+            .find(|d| (d.r2 - s).abs() < SAME);
+        if let Some(d) = found {
+            if !sticks
+                .iter()
+                .any(|e: &StickDiagram| (e.r2 - s).abs() < SAME)
+            {
+                sticks.push(d.clone());
+            }
+        }
+    }
+    Ok(ParameterStudy {
+        settings: settings.clone(),
+        base,
+        start_q,
+        rows: summaries,
+        cells,
+        sticks,
+        wall_time_s: wall.elapsed().as_secs_f64(),
+    })
+}
+
+/// The snake_case name of a status (`solved`, `max_iterations`, `evaluation_error`, ...).
+pub fn status_name(s: &SolveStatus) -> String {
+    match serde_json::to_value(s) {
+        Ok(serde_json::Value::String(name)) => name,
+        Ok(serde_json::Value::Object(m)) => m.keys().next().cloned().unwrap_or_default(),
+        _ => format!("{s:?}"),
+    }
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:.9}")).unwrap_or_default()
+}
+
+/// File-name tag of an r2 value: `0.20`.
+fn r2_tag(r2: f64) -> String {
+    format!("{r2:.2}")
+}
+
+/// The run folder of a study:
+/// - `cells.csv`: one row per cell, header
+///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start`
+///   (energy, work and objective empty for a cell that did not converge);
+/// - `freefall.csv`: per r2, `r2,l1_m,l2_m,l3_m,l4_m,freefall_time_s,swing_time_s,energy_at_t_j,
+///   argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells`;
+/// - `report.json`: the settings (with the base parameters resolved), the start pose, the per-r2
+///   summaries, the count of failed cells, the wall time;
+/// - `stick_r2_<r2>.csv` (the 1 ms trajectory, `t,q1..q4,qd1..qd4,tau2..tau4,ee_x,ee_y`) and
+///   `stick_r2_<r2>_params.toml` (the scaled robot) for every stick diagram.
+pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
+    let mut folder = RunFolder::default();
+    let mut csv = String::from(
+        "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start\n",
+    );
+    for c in &study.cells {
+        let _ = writeln!(
+            csv,
+            "{},{},{:.6},{},{},{},{},{},{},{:.4},{}",
+            c.r2,
+            c.offset_s,
+            c.swing_time_s,
+            status_name(&c.status),
+            c.converged,
+            opt(c.energy_j),
+            opt(c.positive_work_j),
+            opt(c.objective),
+            c.iterations,
+            c.solve_time_s,
+            c.start.name()
+        );
+    }
+    folder.add("cells.csv", csv);
+    let mut ff = String::from(
+        "r2,l1_m,l2_m,l3_m,l4_m,freefall_time_s,swing_time_s,energy_at_t_j,argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells\n",
+    );
+    for r in &study.rows {
+        let _ = write!(ff, "{}", r.r2);
+        for l in &r.lengths_m {
+            let _ = write!(ff, ",{l:.6}");
+        }
+        let _ = writeln!(
+            ff,
+            ",{:.6},{:.6},{},{},{},{},{}",
+            r.freefall_time_s,
+            r.swing_time_s,
+            opt(r.energy_at_t_j),
+            r.argmin_swing_time_s
+                .map(|v| format!("{v:.6}"))
+                .unwrap_or_default(),
+            r.argmin_offset_s.map(|v| v.to_string()).unwrap_or_default(),
+            opt(r.min_energy_j),
+            r.failed_cells
+        );
+    }
+    folder.add("freefall.csv", ff);
+    for s in &study.sticks {
+        let tag = r2_tag(s.r2);
+        folder.add(
+            &format!("stick_r2_{tag}.csv"),
+            s.trajectory.to_csv(&s.robot, &[]),
+        );
+        let head = format!(
+            "# Robot of the parameter study at r2 = {} (arm length {} m), scaled from `{}`: mass and centre of\n\
+             # mass with the link length, inertia with its cube. Swing time T = {:.6} s. Units: m, kg, kg m^2, N m.\n",
+            s.r2, study.settings.arm_length_m, study.base.name, s.swing_time_s
+        );
+        folder.add(
+            &format!("stick_r2_{tag}_params.toml"),
+            head + &toml::to_string(&s.robot.params).unwrap_or_default(),
+        );
+    }
+    let mut resolved = study.settings.clone();
+    resolved.base_params = BaseParams::Inline(study.base.clone());
+    resolved.planner.q1_diag = resolved.planner.q1(4);
+    resolved.planner.r1_diag = resolved.planner.r1(4);
+    let report = json!({
+        "settings": resolved,
+        "base_params_source": study.settings.base_params,
+        "start_q": study.start_q,
+        "rows": study.rows,
+        "cells": study.cells.len(),
+        "failed_cells": study.failed_cells(),
+        "stick_r2": study.sticks.iter().map(|s| json!({
+            "r2": s.r2,
+            "swing_time_s": s.swing_time_s,
+            "status": s.status,
+            "energy_j": s.energy_j,
+        })).collect::<Vec<_>>(),
+        "wall_time_s": study.wall_time_s,
+    });
+    folder.add_json("report.json", &report);
+    folder
+}

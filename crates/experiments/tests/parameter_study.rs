@@ -1,0 +1,337 @@
+//! The parameter study (paper Section V-A): scaling rule, start pose, a small grid end to end, failed
+//! cells kept, settings errors. Coarse knots (50 ms) keep every solve short. Units: m, kg, s, J.
+
+use brachia::model::{Robot, RobotParams};
+use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SolveStatus};
+use brachia_experiments::{
+    parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams,
+    ParameterStudySettings,
+};
+use std::path::PathBuf;
+
+fn paper() -> RobotParams {
+    Robot::paper().params
+}
+
+fn quick(r2: Vec<f64>, offsets_s: Vec<f64>) -> ParameterStudySettings {
+    ParameterStudySettings {
+        r2,
+        offsets_s,
+        stick_r2: vec![],
+        planner: PlannerSettings {
+            knot_dt: 0.05,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+#[test]
+fn r2_one_half_is_table_one() {
+    let base = paper();
+    let p = scaled_params(&base, 0.5, 0.71).unwrap();
+    assert_eq!(p.links, base.links);
+    assert_eq!(p.actuators, base.actuators);
+    assert_eq!(p.gravity, base.gravity);
+}
+
+#[test]
+fn lengths_sum_to_the_arm_length_and_links_scale_with_length() {
+    let base = paper();
+    for r2 in [0.1, 0.2, 0.35, 0.8, 0.9] {
+        let p = scaled_params(&base, r2, 0.71).unwrap();
+        let l: Vec<f64> = p.links.iter().map(|l| l.length).collect();
+        assert!((l[0] + l[1] - 0.71).abs() < 1e-15 && (l[2] + l[3] - 0.71).abs() < 1e-15);
+        assert!((l[0] / (l[0] + l[1]) - r2).abs() < 1e-15 && l[0] == l[3] && l[1] == l[2]);
+        for (new, old) in p.links.iter().zip(&base.links) {
+            let s = new.length / old.length;
+            assert!((new.mass / old.mass - s).abs() < 1e-12);
+            assert!((new.com / new.length - old.com / old.length).abs() < 1e-12);
+            assert!((new.inertia / old.inertia - s.powi(3)).abs() < 1e-12);
+            assert_eq!(new.radius, old.radius);
+        }
+        Robot::from_params(p, "scaled").unwrap();
+    }
+    assert!(scaled_params(&base, 1.0, 0.71).is_err());
+    let mut three = base.clone();
+    three.links.pop();
+    assert!(scaled_params(&three, 0.5, 0.71).is_err());
+}
+
+#[test]
+fn start_pose_puts_the_ee_at_the_start_bar_with_straight_arms() {
+    for r2 in [0.1, 0.5, 0.9] {
+        let robot = Robot::from_params(scaled_params(&paper(), r2, 0.71).unwrap(), "r2").unwrap();
+        let q = start_pose(&robot, [-1.0, 0.0]).unwrap();
+        let ee = robot.ee_position(&q);
+        assert!(
+            (ee[0] + 1.0).abs() < 1e-12 && ee[1].abs() < 1e-12,
+            "EE {ee:?}"
+        );
+        assert_eq!((q[1], q[3]), (0.0, 0.0));
+        // the lower solution: shoulder below the bar, close to the paper's [-2.35, 0, -1.55, 0]
+        let mut joints = [[0.0; 2]; 5];
+        robot.joint_positions(&q, &mut joints);
+        assert!(joints[2][1] < 0.0);
+        assert!(
+            (q[0] + 2.35).abs() < 0.01 && (q[2] + 1.55).abs() < 0.04,
+            "{q:?}"
+        );
+    }
+    let robot = Robot::paper();
+    assert!(start_pose(&robot, [-1.5, 0.0]).is_err());
+}
+
+#[test]
+fn freefall_time_grows_with_the_lower_arm() {
+    // Fig. 4a of the paper
+    let t: Vec<f64> = [0.2, 0.5, 0.8]
+        .iter()
+        .map(|&r2| {
+            let robot =
+                Robot::from_params(scaled_params(&paper(), r2, 0.71).unwrap(), "r2").unwrap();
+            let q0 = start_pose(&robot, [-1.0, 0.0]).unwrap();
+            freefall_time(&robot, &q0, 0.0).unwrap()
+        })
+        .collect();
+    assert!(t[0] < t[1] && t[1] < t[2], "T_freefall {t:?}");
+}
+
+#[test]
+fn small_grid_runs_and_fills_the_run_folder() {
+    let s = ParameterStudySettings {
+        stick_r2: vec![0.3, 0.7],
+        ..quick(vec![0.3, 0.7], vec![-0.2, 0.0, 0.2])
+    };
+    let study = run_parameter_study(&s, false).unwrap();
+    assert_eq!(study.cells.len(), 6);
+    assert_eq!(study.rows.len(), 2);
+    for (i, &r2) in s.r2.iter().enumerate() {
+        let row = &study.rows[i];
+        assert!((row.swing_time_s - 2.0 * row.freefall_time_s).abs() < 1e-12);
+        for (j, &off) in s.offsets_s.iter().enumerate() {
+            let c = study.cell(i, j);
+            assert_eq!((c.r2, c.offset_s), (r2, off));
+            assert!((c.swing_time_s - row.swing_time_s - off).abs() < 1e-12);
+            assert_eq!(c.converged, c.status.is_converged());
+            assert_eq!(c.converged, c.energy_j.is_some());
+            if let Some(e) = c.energy_j {
+                let w = c.positive_work_j.unwrap();
+                assert!(
+                    e.is_finite() && w >= 0.0 && w >= e - 1e-9,
+                    "energy {e} J, positive work {w} J at r2 {r2} offset {off}"
+                );
+            }
+        }
+        if let Some(t) = row.argmin_swing_time_s {
+            let best = row.min_energy_j.unwrap();
+            assert!(study
+                .cells
+                .iter()
+                .filter(|c| c.r2 == r2)
+                .all(|c| c.energy_j.is_none_or(|e| e >= best)));
+            assert!(s
+                .offsets_s
+                .iter()
+                .any(|o| (row.swing_time_s + o - t).abs() < 1e-9));
+        }
+    }
+    assert!(study.failed_cells() < 6, "every cell failed");
+    assert_eq!(study.sticks.len(), 2);
+    for st in &study.sticks {
+        let tr = &st.trajectory;
+        assert!((tr.t[1] - 1e-3).abs() < 1e-12);
+        // eq. (18) is the work of the actuated joints, so it equals the gain in mechanical energy
+        // (up to the 1 ms quadrature and the transcription's error at 50 ms knots: ~1 % measured)
+        let last = tr.len() - 1;
+        let gain = st.robot.energy(tr.q(last), tr.qd(last)) - st.robot.energy(tr.q(0), tr.qd(0));
+        let e = st.energy_j.unwrap();
+        eprintln!(
+            "r2 {}: eq. (18) {e} J, mechanical energy gain {gain} J",
+            st.r2
+        );
+        assert!(
+            (e - gain).abs() < 0.05 * e.abs().max(1.0),
+            "r2 {}: eq. (18) {e} J, mechanical energy gain {gain} J",
+            st.r2
+        );
+    }
+
+    let f = parameter_study_folder(&study);
+    let names: Vec<&str> = f.names().collect();
+    for want in [
+        "cells.csv",
+        "freefall.csv",
+        "report.json",
+        "stick_r2_0.30.csv",
+        "stick_r2_0.30_params.toml",
+        "stick_r2_0.70.csv",
+        "stick_r2_0.70_params.toml",
+    ] {
+        assert!(names.contains(&want), "{want} missing from {names:?}");
+    }
+    let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    assert!(cells.starts_with("r2,offset_s,swing_time_s,status,converged,energy_j,"));
+    assert_eq!(cells.lines().count(), 7);
+    let report: serde_json::Value = serde_json::from_slice(f.get("report.json").unwrap()).unwrap();
+    assert_eq!(report["failed_cells"], study.failed_cells());
+    assert_eq!(report["rows"].as_array().unwrap().len(), 2);
+    assert!(report["settings"]["base_params"]["inline"]["links"].is_array());
+    let toml_text = std::str::from_utf8(f.get("stick_r2_0.30_params.toml").unwrap()).unwrap();
+    let p = RobotParams::from_toml_str(toml_text, "stick").unwrap();
+    assert_eq!(p, study.sticks[0].robot.params);
+    let traj = std::str::from_utf8(f.get("stick_r2_0.70.csv").unwrap()).unwrap();
+    assert!(traj.starts_with("t,q1,q2,q3,q4,qd1"));
+}
+
+#[test]
+fn failed_cells_are_kept_with_their_status_and_no_energy() {
+    let s = ParameterStudySettings {
+        solver: NlpSettings {
+            max_iter: 2,
+            ..Default::default()
+        },
+        stick_r2: vec![0.5],
+        ..quick(vec![0.5], vec![-0.1, 0.0, 0.1])
+    };
+    let study = run_parameter_study(&s, false).unwrap();
+    assert_eq!(study.cells.len(), 3);
+    assert_eq!(study.failed_cells(), 3);
+    for c in &study.cells {
+        assert_eq!(c.status, SolveStatus::MaxIterations);
+        assert!(!c.converged && c.energy_j.is_none() && c.iterations >= 2);
+        assert!(c.solve_time_s > 0.0);
+    }
+    let row = &study.rows[0];
+    assert_eq!(row.failed_cells, 3);
+    assert!(row.argmin_swing_time_s.is_none() && row.energy_at_t_j.is_none());
+    assert_eq!(study.sticks.len(), 1);
+    assert!(study.sticks[0].energy_j.is_none());
+    let f = parameter_study_folder(&study);
+    let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    assert_eq!(cells.matches(",max_iterations,false,,,,").count(), 3);
+}
+
+#[test]
+fn bad_settings_name_the_field() {
+    let ok = ParameterStudySettings::default();
+    ok.validate().unwrap();
+    let cases: Vec<(ParameterStudySettings, &str)> = vec![
+        (
+            ParameterStudySettings {
+                r2: vec![0.2, 1.2],
+                ..ok.clone()
+            },
+            "r2[1]",
+        ),
+        (
+            ParameterStudySettings {
+                r2: vec![0.5, 0.4],
+                ..ok.clone()
+            },
+            "r2[1]",
+        ),
+        (
+            ParameterStudySettings {
+                offsets_s: vec![],
+                ..ok.clone()
+            },
+            "offsets_s",
+        ),
+        (
+            ParameterStudySettings {
+                arm_length_m: -0.7,
+                ..ok.clone()
+            },
+            "arm_length_m",
+        ),
+        (
+            ParameterStudySettings {
+                stick_r2: vec![0.0],
+                ..ok.clone()
+            },
+            "stick_r2[0]",
+        ),
+        (
+            ParameterStudySettings {
+                planner: PlannerSettings {
+                    knot_dt: 0.0,
+                    ..Default::default()
+                },
+                ..ok.clone()
+            },
+            "planner.knot_dt",
+        ),
+        (
+            ParameterStudySettings {
+                planner: PlannerSettings {
+                    swing_time: brachia::planning::SwingTime::Seconds(2.0),
+                    ..Default::default()
+                },
+                ..ok.clone()
+            },
+            "planner.swing_time",
+        ),
+        (
+            ParameterStudySettings {
+                solver: NlpSettings {
+                    tol: -1.0,
+                    ..Default::default()
+                },
+                ..ok.clone()
+            },
+            "solver.tol",
+        ),
+        (
+            ParameterStudySettings {
+                target: [f64::NAN, 0.0],
+                ..ok.clone()
+            },
+            "target",
+        ),
+    ];
+    for (s, field) in cases {
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
+        let e = run_parameter_study(&s, false).unwrap_err().to_string();
+        assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
+    }
+    // a swing time T + offset <= 0 is refused before solving
+    let s = quick(vec![0.5], vec![-10.0, 0.0]);
+    let e = run_parameter_study(&s, false).unwrap_err().to_string();
+    assert!(e.contains("`offsets_s[0]`"), "{e}");
+    // a missing base parameters file
+    let s = ParameterStudySettings {
+        base_params: BaseParams::File(PathBuf::from("/nonexistent/params.toml")),
+        ..quick(vec![0.5], vec![0.0])
+    };
+    assert!(run_parameter_study(&s, false).is_err());
+}
+
+#[test]
+fn settings_read_from_toml_with_defaults_and_a_relative_params_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../params/paper-uniform-rod.toml");
+    std::fs::copy(&params, dir.path().join("rod.toml")).unwrap();
+    let path = dir.path().join("study.toml");
+    std::fs::write(
+        &path,
+        "base_params = { file = \"rod.toml\" }\nr2 = [0.2, 0.8]\n[planner]\nknot_dt = 0.03\n",
+    )
+    .unwrap();
+    let s = ParameterStudySettings::from_toml_file(&path).unwrap();
+    assert_eq!(s.r2, vec![0.2, 0.8]);
+    assert_eq!(s.offsets_s.len(), 11);
+    assert_eq!(s.planner.knot_dt, 0.03);
+    let base = s.base_params.load().unwrap();
+    assert_eq!(base.name, "paper-uniform-rod");
+    std::fs::write(&path, "r2 = [0.2]\nknot_dt = 0.03\n").unwrap();
+    let e = ParameterStudySettings::from_toml_file(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("knot_dt"), "{e}");
+    let d = ParameterStudySettings::default();
+    let back: ParameterStudySettings = toml::from_str(&toml::to_string(&d).unwrap()).unwrap();
+    assert_eq!(back, d);
+}
