@@ -326,11 +326,6 @@ fn rows(res: &Results) -> Vec<Row> {
             note: note.into(),
         })
     };
-    if let Some(st) = &res.study {
-        for (q, pv, ours, note) in super::study::trend_rows(st) {
-            row(&q, pv, ours, &note);
-        }
-    }
     if let Some(t) = &res.tracking {
         let plan = t.rapier.plan.as_ref().map(|x| &x.plan);
         let (sr, sm) = (&t.rapier.summary, &t.model.summary);
@@ -352,7 +347,8 @@ fn rows(res: &Results) -> Vec<Row> {
                 "p50 {:.0} us, p99 {:.0} us, max {:.0} us",
                 sr.control_step_us_p50, sr.control_step_us_p99, sr.control_step_us_max
             ),
-            "dense active-set box-QP, horizon and weights of docs/mpc.md; wall-clock on a shared 2-core machine",
+            "dense active-set box-QP, horizon and weights of docs/mpc.md; wall-clock of the controller call on a \
+             shared 2-core machine (the max includes the OS preempting the process)",
         );
         row(
             "planned energy (eq. 18)",
@@ -391,6 +387,11 @@ fn rows(res: &Results) -> Vec<Row> {
             format!("{} s", num(plan.map(|x| x.swing_time_s), 3)),
             "T_freefall: the locked robot released at rest until its EE reaches the midpoint's x",
         );
+    }
+    if let Some(st) = &res.study {
+        for (q, pv, ours, note) in super::study::trend_rows(st) {
+            row(&q, pv, ours, &note);
+        }
     }
     if let Some(o) = &res.obstacle {
         row(
