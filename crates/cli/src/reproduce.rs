@@ -44,6 +44,9 @@ pub fn run(a: Args) -> Result<(), CliError> {
         rep.wall_s,
         a.out.join("REPORT.md").display()
     );
+    for w in &rep.warnings {
+        eprintln!("reproduce: note: {w}");
+    }
     if rep.failures.is_empty() {
         Ok(())
     } else {

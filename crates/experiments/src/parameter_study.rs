@@ -27,6 +27,7 @@
 //! Units: m, kg, kg m^2, s, rad, N m, J.
 
 use crate::run_folder::RunFolder;
+use crate::scenario::in_section;
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{
     freefall_time, plan_with_guess, NlpSettings, PlannerSettings, SolveStatus, SwingTask, SwingTime,
@@ -131,24 +132,6 @@ impl Default for ParameterStudySettings {
             planner: PlannerSettings::default(),
             solver: NlpSettings::default(),
         }
-    }
-}
-
-/// Prefix the field of an [`Error::InvalidValue`] with `section.` and set its source.
-fn in_section(e: Error, src: &str, section: &str) -> Error {
-    match e {
-        Error::InvalidValue {
-            field,
-            value,
-            reason,
-            ..
-        } => Error::InvalidValue {
-            source_name: src.to_string(),
-            field: format!("{section}.{field}"),
-            value,
-            reason,
-        },
-        other => other,
     }
 }
 

@@ -177,6 +177,36 @@ pub struct LoadedScenario {
     pub path: PathBuf,
 }
 
+/// Re-home an error of a settings section into the file it came from: the field of an
+/// [`Error::InvalidValue`] gets the prefix `section.` and the source `src`; an [`Error::Dimension`] becomes an
+/// invalid value of that section. Other errors pass through.
+pub(crate) fn in_section(e: Error, src: &str, section: &str) -> Error {
+    match e {
+        Error::InvalidValue {
+            field,
+            value,
+            reason,
+            ..
+        } => Error::InvalidValue {
+            source_name: src.to_string(),
+            field: format!("{section}.{field}"),
+            value,
+            reason,
+        },
+        Error::Dimension {
+            what,
+            expected,
+            got,
+        } => Error::invalid(
+            src,
+            format!("{section}: {what}"),
+            format!("{got} values"),
+            format!("needs {expected}"),
+        ),
+        other => other,
+    }
+}
+
 impl Scenario {
     /// Parse a scenario from TOML text; `source` names it in errors.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Self, Error> {
@@ -204,20 +234,9 @@ impl Scenario {
         sc.params = base.join(&sc.params);
         let robot = Robot::from_toml_file(&sc.params)?;
         sc.planner.validate(robot.n, &src)?;
-        sc.solver.validate().map_err(|e| match e {
-            Error::InvalidValue {
-                field,
-                value,
-                reason,
-                ..
-            } => Error::InvalidValue {
-                source_name: src.clone(),
-                field: format!("solver.{field}"),
-                value,
-                reason,
-            },
-            other => other,
-        })?;
+        sc.solver
+            .validate()
+            .map_err(|e| in_section(e, &src, "solver"))?;
         let n = robot.n;
         if sc.task.q0.len() != n {
             return Err(Error::invalid(
@@ -238,30 +257,7 @@ impl Scenario {
         for (i, o) in sc.task.obstacles.iter().enumerate() {
             o.validate(&src, &format!("task.obstacles[{i}]"))?;
         }
-        let rename = |e: Error, section: &str| match e {
-            Error::InvalidValue {
-                field,
-                value,
-                reason,
-                ..
-            } => Error::InvalidValue {
-                source_name: src.clone(),
-                field: format!("{section}.{field}"),
-                value,
-                reason,
-            },
-            Error::Dimension {
-                what,
-                expected,
-                got,
-            } => Error::invalid(
-                &src,
-                format!("{section}: {what}"),
-                format!("{got} values"),
-                format!("needs {expected}"),
-            ),
-            other => other,
-        };
+        let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.tracking
             .mpc
             .validate(n)

@@ -60,9 +60,12 @@ impl Default for ReproduceOptions {
 pub struct Reproduction {
     /// The contents of `summary.json`.
     pub summary: Value,
-    /// Experiments that did not succeed (a solver that did not converge, a figure that failed), each with
-    /// the reason; empty when everything ran.
+    /// Experiments that did not succeed (a plan of V-B, V-C or V-D that did not converge, a figure that
+    /// could not be drawn), each with the reason; empty when everything ran.
     pub failures: Vec<String>,
+    /// Results worth a warning that are not failures of the run: parameter-study cells that did not
+    /// converge (they are data of the study, shown as failed in the heat map and the tables).
+    pub warnings: Vec<String>,
     /// Files written (figures, run folders' reports, REPORT.md, summary.json).
     pub files: Vec<PathBuf>,
     /// Wall time of the whole reproduction, s.
@@ -277,8 +280,9 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
         &out.join("parameter-study"),
         &mut files,
     )?;
+    let mut warnings = Vec::new();
     if st.failed_cells() > 0 {
-        failures.push(format!(
+        warnings.push(format!(
             "parameter study: {} of {} cells did not converge (shown as failed)",
             st.failed_cells(),
             st.cells.len()
@@ -297,20 +301,21 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     failures.extend(fig_failures);
     files.extend(figs.written.iter().cloned());
     res.wall_s = start.elapsed().as_secs_f64();
-    let summary = report::summary(&res, &failures);
+    let summary = report::summary(&res, &failures, &warnings);
     let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
-    let md = report::markdown(&res, &summary, &failures, Path::new("figures"));
+    let md = report::markdown(&res, &failures, &warnings, Path::new("figures"));
     let mut top = crate::RunFolder::default();
     top.add("summary.json", summary_text);
     top.add("REPORT.md", md);
     write(&top, out, &mut files)?;
     if let Some(page) = &opts.results_page {
-        report::publish(&res, &summary, &failures, out, page)?;
+        report::publish(&res, &failures, &warnings, out, page)?;
         files.push(page.clone());
     }
     Ok(Reproduction {
         summary,
         failures,
+        warnings,
         files,
         wall_s: res.wall_s,
     })
