@@ -303,7 +303,13 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);
     let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
-    let md = report::markdown(&res, &failures, &warnings, Path::new("figures"));
+    let md = report::markdown(
+        &res,
+        &failures,
+        &warnings,
+        Path::new("figures"),
+        report::Target::Report,
+    );
     let mut top = crate::RunFolder::default();
     top.add("summary.json", summary_text);
     top.add("REPORT.md", md);
