@@ -1,10 +1,11 @@
 //! `brachia simulate`: the passive chain (zero torque) on the RK4 model plant, 1 ms rows.
 
-use crate::io::{parse_list, RunFolder};
+use crate::io::parse_list;
 use crate::CliError;
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
+use brachia_experiments::RunFolder;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -99,4 +100,5 @@ pub fn run(a: Args) -> Result<(), CliError> {
         }),
     );
     out.write(&a.out)
+        .map_err(|e| CliError::Input(e.to_string()))
 }
