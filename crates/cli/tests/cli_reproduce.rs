@@ -55,7 +55,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
             images += 1;
         }
     }
-    assert!(images >= 14, "only {images} figures embedded");
+    assert!(images >= 16, "only {images} figures embedded");
     assert!(md.contains(".gif"));
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

@@ -457,6 +457,7 @@ fn summary_and_csv_of_a_small_log() {
     for k in 0..3 {
         assert_eq!(tr.t[k], log.t[k]);
         assert_eq!(tr.q(k), &qs[k][..]);
+        assert_eq!(tr.qd(k), log.x(k)[n..].to_vec().as_slice());
         assert_eq!(tr.tau(k), &taus[k][..]);
     }
 }

@@ -530,6 +530,24 @@ fn make_cell(
     }
 }
 
+/// A cell the planner refused before solving (an impossible task at that swing time): failed, with the
+/// planner's message as its status.
+fn refused_cell(setup: &RowSetup, offset_s: f64, e: &Error) -> StudyCell {
+    StudyCell {
+        r2: setup.r2,
+        offset_s,
+        swing_time_s: setup.t_nominal + offset_s,
+        status: SolveStatus::Other(format!("planner refused the cell: {e}")),
+        converged: false,
+        energy_j: None,
+        positive_work_j: None,
+        objective: None,
+        iterations: 0,
+        solve_time_s: 0.0,
+        start: CellStart::Cold,
+    }
+}
+
 /// Index of the offset closest to 0 (the row's first, cold-started cell).
 fn centre_index(offsets: &[f64]) -> usize {
     let mut best = 0;
@@ -561,18 +579,25 @@ fn run_row(
         bar.inc(1);
         r
     };
-    let (centre, start, it, t) = solve(c, None)?;
-    cells[c] = Some(make_cell(setup.r2, offs[c], &centre, start, it, t));
-    let centre_guess = centre.converged().then(|| centre.points.clone());
-    let stick = (keep_centre && offs[c].abs() < SAME).then(|| StickDiagram {
-        r2: setup.r2,
-        robot: setup.robot.clone(),
-        swing_time_s: centre.swing_time_s,
-        status: centre.status.clone(),
-        energy_j: centre.converged().then_some(centre.energy_j),
-        trajectory: centre.trajectory.clone(),
-    });
-    drop(centre);
+    // A planner error of one cell (e.g. no joint configuration reaches the target at that swing time)
+    // is a failed cell of the study, not an error of the whole study.
+    let mut stick = None;
+    let mut centre_guess = None;
+    match solve(c, None) {
+        Ok((centre, start, it, t)) => {
+            cells[c] = Some(make_cell(setup.r2, offs[c], &centre, start, it, t));
+            centre_guess = centre.converged().then(|| centre.points.clone());
+            stick = (keep_centre && offs[c].abs() < SAME).then(|| StickDiagram {
+                r2: setup.r2,
+                robot: setup.robot.clone(),
+                swing_time_s: centre.swing_time_s,
+                status: centre.status.clone(),
+                energy_j: centre.converged().then_some(centre.energy_j),
+                trajectory: centre.trajectory.clone(),
+            });
+        }
+        Err(e) => cells[c] = Some(refused_cell(setup, offs[c], &e)),
+    }
     let up: Vec<usize> = (c + 1..offs.len()).collect();
     let down: Vec<usize> = (0..c).rev().collect();
     for side in [up, down] {
@@ -583,11 +608,15 @@ fn run_row(
             } else {
                 None
             };
-            let (p, start, it, t) = solve(j, g)?;
-            if p.converged() {
-                guess = Some(p.points.clone());
-            }
-            cells[j] = Some(make_cell(setup.r2, offs[j], &p, start, it, t));
+            cells[j] = Some(match solve(j, g) {
+                Ok((p, start, it, t)) => {
+                    if p.converged() {
+                        guess = Some(p.points.clone());
+                    }
+                    make_cell(setup.r2, offs[j], &p, start, it, t)
+                }
+                Err(e) => refused_cell(setup, offs[j], &e),
+            });
         }
     }
     Ok((cells.into_iter().flatten().collect(), stick))
@@ -716,12 +745,14 @@ pub fn run_parameter_study(
     for (i, r) in solved {
         rows[i] = Some(r);
     }
+    // a stick swing the planner refuses (no pose reaches the target) has nothing to draw: it is left out
     let extra_sticks: Vec<StickDiagram> = extra
         .par_iter()
-        .map(|s| {
-            let (p, _, _, _) = solve_cell(s, &task, settings, s.t_nominal, None)?;
+        .filter_map(|s| {
+            let solved = solve_cell(s, &task, settings, s.t_nominal, None);
             bar.inc(1);
-            Ok(StickDiagram {
+            let (p, _, _, _) = solved.ok()?;
+            Some(StickDiagram {
                 r2: s.r2,
                 robot: s.robot.clone(),
                 swing_time_s: p.swing_time_s,
@@ -730,7 +761,7 @@ pub fn run_parameter_study(
                 trajectory: p.trajectory,
             })
         })
-        .collect::<Result<_, Error>>()?;
+        .collect();
     bar.finish_and_clear();
     let mut summaries = Vec::with_capacity(rows.len());
     let mut cells = Vec::with_capacity(total as usize);
@@ -780,7 +811,7 @@ fn opt(v: Option<f64>) -> String {
 }
 
 /// File-name tag of an r2 value: `0.20`.
-fn r2_tag(r2: f64) -> String {
+pub(crate) fn r2_tag(r2: f64) -> String {
     format!("{r2:.2}")
 }
 

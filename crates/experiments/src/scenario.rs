@@ -21,8 +21,8 @@
 //! [plant]                               # see PlantSettings
 //! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
 //! substeps = 1
-//! obstacles = [{ kind = "ball", center = [-0.9, -0.56], radius = 0.05, mass = 0.4,
-//!                restitution = 0.3, gravity = false }]   # in the plant only: the planner never sees them
+//! # in the plant only (the planner never sees them): free balls and fixed circles
+//! obstacles = [{ kind = "ball", center = [0.02, -0.44], radius = 0.05, mass = 0.4, restitution = 0.3, gravity = false }]
 //! ```
 
 use brachia::control::{MpcSettings, PdSettings};

@@ -101,6 +101,16 @@ pub fn run_track(
     plant: PlantKind,
     reference: Option<(Trajectory, Value)>,
 ) -> Result<Result<TrackRun, Box<PlanRun>>, Error> {
+    if plant == PlantKind::Model && !ls.scenario.plant.obstacles.is_empty() {
+        // refused before planning: the model plant cannot simulate the scenario's obstacles
+        return Err(Error::invalid(
+            ls.path.display().to_string(),
+            "plant.obstacles",
+            format!("{} obstacles", ls.scenario.plant.obstacles.len()),
+            "the model plant simulates no contacts: run them on the rapier plant \
+             (plant.kind = \"rapier\" or --plant rapier)",
+        ));
+    }
     let (plan, reference, plan_report) = match reference {
         Some((r, rep)) => (None, r, rep),
         None => {
@@ -121,15 +131,6 @@ pub fn run_track(
     let mut model = None;
     let plant_ref: &mut dyn Plant = match plant {
         PlantKind::Model => {
-            if !sc.plant.obstacles.is_empty() {
-                return Err(Error::invalid(
-                    ls.path.display().to_string(),
-                    "plant.obstacles",
-                    format!("{} obstacles", sc.plant.obstacles.len()),
-                    "the model plant simulates no contacts: run them on the rapier plant \
-                     (plant.kind = \"rapier\" or --plant rapier)",
-                ));
-            }
             let mut p = ModelPlant::new(probot, &x0);
             p.substeps = sc.plant.substeps;
             model.insert(p)
@@ -145,12 +146,18 @@ pub fn run_track(
             world.obstacles = task_obstacles
                 .chain(sc.plant.obstacles.iter().cloned())
                 .collect();
-            for o in &world.obstacles {
+            let n_task = sc.task.obstacles.len();
+            for (id, o) in world.obstacles.iter().enumerate() {
+                let (field, center) = if id < n_task {
+                    (format!("task.obstacles[{id}]"), o.shape().0)
+                } else {
+                    (format!("plant.obstacles[{}]", id - n_task), o.shape().0)
+                };
                 p.add_obstacle(o).map_err(|e| match e {
                     Error::InfeasibleTask(m) => Error::invalid(
                         ls.path.display().to_string(),
-                        "plant.obstacles",
-                        format!("{o:?}"),
+                        field.clone(),
+                        format!("center [{}, {}]", center[0], center[1]),
                         m,
                     ),
                     other => other,
@@ -193,7 +200,7 @@ pub fn run_track(
         "plant_obstacles": world.obstacles,
         "first_contact_s": world.first_contact_s(),
         "contact_events": world.contacts.len(),
-        "contact_impulse_ns": world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
+        "contact_impulse_n_s": world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
         "plan": plan_report,
     });
     if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(summary)) {

@@ -335,3 +335,30 @@ fn settings_read_from_toml_with_defaults_and_a_relative_params_file() {
     let back: ParameterStudySettings = toml::from_str(&toml::to_string(&d).unwrap()).unwrap();
     assert_eq!(back, d);
 }
+
+/// A cell the planner refuses before solving (here: a target bar no pose reaches) is a failed cell of
+/// the study with the planner's message, not an error of the whole study; a stick swing that cannot be
+/// planned is left out.
+#[test]
+fn cells_the_planner_refuses_are_failed_cells_not_a_failed_study() {
+    let s = ParameterStudySettings {
+        target: [1.5, 0.0], // 1.5 m from the grip, beyond the 1.42 m reach; its midpoint x = 0.25 is swung past
+        stick_r2: vec![0.25],
+        ..quick(vec![0.3, 0.5], vec![-0.1, 0.0])
+    };
+    let study = run_parameter_study(&s, false).expect("the study itself runs");
+    assert_eq!(study.cells.len(), 4);
+    assert_eq!(study.failed_cells(), 4);
+    for c in &study.cells {
+        match &c.status {
+            SolveStatus::Other(m) => assert!(m.contains("refused"), "{m}"),
+            other => panic!("status {other:?}"),
+        }
+        assert!(c.energy_j.is_none() && c.iterations == 0);
+    }
+    assert!(study.rows.iter().all(|r| r.failed_cells == 2));
+    assert!(study.sticks.is_empty());
+    let f = parameter_study_folder(&study);
+    let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    assert_eq!(cells.lines().count(), 5);
+}

@@ -346,8 +346,8 @@ impl RapierPlant {
         Some([v.x, v.y])
     }
 
-    /// Centres `[x, y]` (m) of the free balls, in the order they were added (ball i of an
-    /// `obstacles.csv` with columns `t, ball_0_x, ball_0_y, ...`).
+    /// Centres `[x, y]` (m) of the free balls, in the order they were added (fixed circles left out;
+    /// [`Self::obstacle_track`] has every obstacle over time).
     pub fn ball_positions(&self) -> Vec<[f64; 2]> {
         (0..self.obstacles.len())
             .filter(|&i| matches!(self.obstacles[i].spec, Obstacle::Ball(_)))

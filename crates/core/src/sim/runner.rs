@@ -157,8 +157,8 @@ impl ClosedLoopLog {
         &self.tau[k * (self.n - 1)..(k + 1) * (self.n - 1)]
     }
 
-    /// The executed motion as a [`Trajectory`] (the measured `q`, `qd` and the applied `tau` of every
-    /// row), e.g. for stick diagrams and animations.
+    /// The executed motion as a [`Trajectory`] (the plant's true `q`, `qd`, without sensor noise, and
+    /// the applied `tau` of every row), e.g. for stick diagrams and animations.
     pub fn trajectory(&self) -> Trajectory {
         let n = self.n;
         let mut tr = Trajectory::new(n);

@@ -21,7 +21,7 @@ const STICK_EVERY_S: f64 = 0.1;
 /// Figure paths are `dir/<name>.png` (+ `.svg`) and `dir/<name>.gif`.
 pub(crate) struct FigureDir {
     dir: PathBuf,
-    /// Every file written, relative to the reproduction folder (for the report).
+    /// Every figure file asked for (`dir/<name>.png` or `.gif`; the caller drops those not written).
     pub written: Vec<PathBuf>,
 }
 

@@ -92,6 +92,8 @@ pub(crate) struct Robustness {
     pub(crate) ls: LoadedScenario,
     /// MPC, PD, open loop on the rapier plant, the same plan.
     pub(crate) runs: Vec<TrackRun>,
+    /// The scenario with the paper's ball placement.
+    pub(crate) paper_ls: LoadedScenario,
     /// MPC with the paper's ball placement.
     pub(crate) paper: Option<TrackRun>,
 }
@@ -143,11 +145,6 @@ fn plan_and_track(
     Ok(Ok(out))
 }
 
-/// A track run's folder; the plan's files go under `plan/` only for the run that planned.
-fn track_folder(run: &TrackRun) -> &crate::RunFolder {
-    &run.folder
-}
-
 /// Run every experiment, write `out`, and return the summary. Errors on bad input (a scenario that does
 /// not load) or when a file cannot be written; solver failures are collected in
 /// [`Reproduction::failures`] instead.
@@ -162,6 +159,22 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let study_settings = study::settings(&ls_track, opts.quick);
     study_settings.validate()?;
 
+    // a previous reproduction's experiment folders and figures go first, so nothing stale is reported
+    for sub in [
+        "figures",
+        "parameter-study",
+        "tracking",
+        "tracking-model",
+        "obstacle",
+        "robustness",
+        "robustness-paper",
+    ] {
+        let dir = out.join(sub);
+        if dir.is_dir() {
+            std::fs::remove_dir_all(&dir)
+                .map_err(|source| ExpError::Write { path: dir, source })?;
+        }
+    }
     let mut failures = Vec::new();
     let mut files = Vec::new();
     let mut res = Results {
@@ -180,12 +193,8 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
         Ok(mut runs) => {
             let model = runs.pop().expect("two runs");
             let rapier = runs.pop().expect("two runs");
-            write(track_folder(&rapier), &out.join("tracking"), &mut files)?;
-            write(
-                track_folder(&model),
-                &out.join("tracking-model"),
-                &mut files,
-            )?;
+            write(&rapier.folder, &out.join("tracking"), &mut files)?;
+            write(&model.folder, &out.join("tracking-model"), &mut files)?;
             res.tracking = Some(Tracking {
                 ls: ls_track.clone(),
                 rapier,
@@ -234,7 +243,7 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
         Ok(runs) => {
             for r in &runs {
                 write(
-                    track_folder(r),
+                    &r.folder,
                     &out.join("robustness").join(&r.log.controller),
                     &mut files,
                 )?;
@@ -246,7 +255,7 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
                 None,
             )? {
                 Ok(r) => {
-                    write(track_folder(&r), &out.join("robustness-paper"), &mut files)?;
+                    write(&r.folder, &out.join("robustness-paper"), &mut files)?;
                     Some(r)
                 }
                 Err(p) => {
@@ -261,6 +270,7 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
             res.robustness = Some(Robustness {
                 ls: ls_robust,
                 runs,
+                paper_ls: ls_robust_paper,
                 paper,
             });
         }
@@ -299,6 +309,8 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let mut figs = FigureDir::new(&fig_dir);
     let fig_failures = report::draw_figures(&res, &mut figs);
     failures.extend(fig_failures);
+    // a figure that failed was never written (the folder started empty)
+    figs.written.retain(|p| p.is_file());
     files.extend(figs.written.iter().cloned());
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);

@@ -153,16 +153,13 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
     if let Some(r) = &res.robustness {
         let (robot, target) = (&r.ls.robot, r.ls.scenario.task.target);
         let mpc = &r.runs[0];
+        let title = format!(
+            "Robustness (V-D): MPC on the rapier plant, ball at {}",
+            ball_at(&r.ls)
+        );
         check(
             "fig8a",
-            figures::tracked_stick(
-                figs,
-                "fig8a_robustness_stick",
-                "Robustness (V-D): MPC on the rapier plant, a free 0.4 kg ball on the path",
-                robot,
-                mpc,
-                target,
-            ),
+            figures::tracked_stick(figs, "fig8a_robustness_stick", &title, robot, mpc, target),
         );
         let runs: Vec<(&str, &crate::TrackRun)> = r
             .runs
@@ -200,12 +197,20 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
             ),
         );
         if let Some(p) = &r.paper {
+            let title = format!(
+                "Robustness (V-D) with the paper's ball at {}: {}",
+                ball_at(&r.paper_ls),
+                match p.world.first_contact_s() {
+                    None => "never touched".to_string(),
+                    Some(t) => format!("first touched at {t:.3} s"),
+                }
+            );
             check(
                 "fig8d",
                 figures::tracked_stick(
                     figs,
                     "fig8d_robustness_paper_ball",
-                    "Robustness (V-D) with the paper's ball at (-1.2, 0.2): never touched",
+                    &title,
                     robot,
                     p,
                     target,
@@ -214,6 +219,40 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
         }
     }
     failed
+}
+
+/// "a free 0.4 kg ball (radius 0.05 m, no gravity, restitution 0.3) at (0.02, -0.44)" for the first ball
+/// of a scenario's plant.
+fn ball_text(ls: &crate::scenario::LoadedScenario) -> String {
+    ls.scenario
+        .plant
+        .obstacles
+        .iter()
+        .find_map(|o| match o {
+            brachia_rapier::Obstacle::Ball(b) => Some(format!(
+                "a free {} kg ball (radius {} m, {}, restitution {}) at ({}, {})",
+                b.mass,
+                b.radius,
+                if b.gravity {
+                    "under gravity"
+                } else {
+                    "no gravity"
+                },
+                b.restitution,
+                b.center[0],
+                b.center[1]
+            )),
+            _ => None,
+        })
+        .unwrap_or_else(|| "no ball".into())
+}
+
+/// Where the first ball of a scenario's plant starts, `(x, y)`.
+fn ball_at(ls: &crate::scenario::LoadedScenario) -> String {
+    ls.scenario.plant.obstacles.first().map_or("-".into(), |o| {
+        let c = o.shape().0;
+        format!("({}, {})", c[0], c[1])
+    })
 }
 
 fn controller_label(name: &str) -> &'static str {
@@ -338,8 +377,13 @@ fn rows(res: &Results) -> Vec<Row> {
                 num(plan.map(|x| x.solve_time_s * 1e3), 0),
                 plan.map_or(0, |x| x.iterations)
             ),
-            "pounce-rs interior point with the exact sparse Hessian; Hermite-Simpson at 10 ms knots \
-             (447 collocation points, twice the paper's Euler mesh); see docs/benchmarks.md",
+            &format!(
+                "pounce-rs interior point with the exact sparse Hessian; {:?} at {} s knots ({} collocation \
+                 points; the paper's Euler mesh has one per knot); see docs/benchmarks.md",
+                t.ls.scenario.planner.transcription,
+                t.ls.scenario.planner.knot_dt,
+                plan.map_or(0, |x| x.layout.points)
+            ),
         );
         row(
             "MPC time per 1 kHz step",
@@ -547,10 +591,20 @@ pub(crate) fn markdown(
     if let Some(o) = &res.obstacle {
         let _ = writeln!(
             s,
-            "## C. Obstacle avoidance (Fig. 7)\n\nA circle of radius 0.1 m at (0.55, -0.2), target (0.5, 0). \
-             Without avoidance the plan passes {} m from the obstacle's surface (negative: through it); with \
+            "## C. Obstacle avoidance (Fig. 7)\n\nObstacles {}, target ({}, {}). Without avoidance the plan passes {} m from the obstacle's surface (negative: through it); with \
              avoidance every link keeps at least {} m (the margin is {} m). Energy {} J without, {} J with \
              avoidance (`obstacle/ignored/`, `obstacle/avoid/`).\n",
+            o.avoid
+                .0
+                .scenario
+                .task
+                .obstacles
+                .iter()
+                .map(|c| format!("radius {} m at ({}, {})", c.radius, c.center[0], c.center[1]))
+                .collect::<Vec<_>>()
+                .join(", "),
+            o.avoid.0.scenario.task.target[0],
+            o.avoid.0.scenario.task.target[1],
             num(o.ignored.1.plan.min_obstacle_clearance_m, 3),
             num(o.avoid.1.plan.min_obstacle_clearance_m, 3),
             o.avoid.0.scenario.planner.obstacle_margin,
@@ -572,15 +626,12 @@ pub(crate) fn markdown(
     }
     if let Some(r) = &res.robustness {
         let mpc = &r.runs[0];
-        let ball = r.ls.scenario.plant.obstacles.first().map(|o| o.shape());
         let _ = writeln!(
             s,
-            "## D. Robustness (Fig. 8)\n\nThe tracking scenario with a free 0.4 kg ball (radius {} m, no gravity, \
-             restitution 0.3) at {} that the planner does not know, on the rapier plant. The first contact \
-             comes at {} s ({} contact events); the MPC ends {:.2e} m from the bar (largest EE error {:.2e} m). \
+            "## D. Robustness (Fig. 8)\n\nThe tracking scenario with {} that the planner does not know, on the \
+             rapier plant. The first contact comes at {} s ({} contact events); the MPC ends {:.2e} m from the bar (largest EE error {:.2e} m). \
              The same plan under the baselines: {}.\n",
-            num(ball.map(|b| b.1), 2),
-            ball.map_or("-".into(), |b| format!("({}, {})", b.0[0], b.0[1])),
+            ball_text(&r.ls),
             num(mpc.world.first_contact_s(), 3),
             mpc.world.contacts.len(),
             mpc.summary.ee_final_error_m,
@@ -599,10 +650,14 @@ pub(crate) fn markdown(
         if let Some(p) = &r.paper {
             let _ = writeln!(
                 s,
-                "With the paper's placement, (-1.2, 0.2), the ball is {} (final EE error {:.2e} m): the planned \
-                 swing starts below the bar at (-1.01, -0.02) and moves down and forward, never within 0.28 m \
-                 of that point (`robustness-paper/`).\n",
-                if p.world.contacts.is_empty() { "never touched" } else { "touched" },
+                "With the paper's placement, {}, the ball is {} (final EE error {:.2e} m; `robustness-paper/`). \
+                 The planned swing starts below the bar and moves down and forward, away from that point \
+                 (docs/rapier.md measures 0.28 m between it and the nearest link axis).\n",
+                ball_at(&r.paper_ls),
+                match p.world.first_contact_s() {
+                    None => "never touched".to_string(),
+                    Some(t) => format!("first touched at {t:.3} s"),
+                },
                 p.summary.ee_final_error_m
             );
         }
@@ -624,6 +679,14 @@ pub(crate) fn markdown(
             "fig8c_robustness_joints",
             "Fig. 8: joints after the hit",
         );
+        if r.paper.is_some() {
+            image(
+                &mut s,
+                figs,
+                "fig8d_robustness_paper_ball",
+                "the paper's ball placement",
+            );
+        }
     }
     s.push_str("## Animations\n\n");
     for (name, what) in ANIMATIONS {
@@ -637,8 +700,9 @@ pub(crate) fn markdown(
         );
     }
     s.push_str(
-        "\nEvery static figure has an SVG beside its PNG. Each run folder holds the resolved inputs \
-         (`scenario.toml`), the CSVs (1 ms) and a `report.json`.\n",
+        "\nIn the reproduction folder every static figure has an SVG beside its PNG. Each run folder holds \
+         its CSVs (1 ms) and a `report.json`; the folders that planned also hold the plan's resolved inputs \
+         (`scenario.toml`, under `plan/` for track runs), and the others track that same plan.\n",
     );
     s
 }
