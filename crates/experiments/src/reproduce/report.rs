@@ -723,6 +723,15 @@ pub(crate) fn publish(
         source,
     };
     std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
+    // the previous page's figures go first (sub-folders, such as recorded data, stay)
+    if let Ok(entries) = std::fs::read_dir(&dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_file() && p.extension().is_some_and(|x| x == "png" || x == "gif") {
+                std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
+            }
+        }
+    }
     let mut folder = crate::RunFolder::default();
     let figs = out.join("figures");
     if let Ok(entries) = std::fs::read_dir(&figs) {
