@@ -27,7 +27,7 @@
 //! Units: m, kg, kg m^2, s, rad, N m, J.
 
 use crate::run_folder::RunFolder;
-use crate::scenario::in_section;
+use crate::scenario::{in_section, parse_toml, read_text};
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{
     freefall_time, plan_with_guess, NlpSettings, PlannerSettings, SolveStatus, SwingTask, SwingTime,
@@ -138,18 +138,12 @@ impl Default for ParameterStudySettings {
 impl ParameterStudySettings {
     /// Parse settings from TOML text (not validated); `source` names it in errors.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Self, Error> {
-        toml::from_str(text).map_err(|e| Error::Parse {
-            path: source.into(),
-            message: e.to_string().trim_end().replace('\n', " "),
-        })
+        parse_toml(text, source)
     }
 
     /// Read settings from a TOML file, resolve a `base_params` file relative to it and validate.
     pub fn from_toml_file(path: &Path) -> Result<Self, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.into(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let src = path.display().to_string();
         let mut s = Self::from_toml_str(&text, &src)?;
         if let BaseParams::File(f) = &s.base_params {

@@ -207,21 +207,34 @@ pub(crate) fn in_section(e: Error, src: &str, section: &str) -> Error {
     }
 }
 
+/// Parse TOML text into `T`; `source` names it in the error (the parser's message names line and field).
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    source: &str,
+) -> Result<T, Error> {
+    toml::from_str(text).map_err(|e| Error::Parse {
+        path: source.into(),
+        message: e.to_string().trim_end().replace('\n', " "),
+    })
+}
+
+/// Read a text file; an I/O error names the path.
+pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
+    std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.into(),
+        source,
+    })
+}
+
 impl Scenario {
     /// Parse a scenario from TOML text; `source` names it in errors.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Self, Error> {
-        toml::from_str(text).map_err(|e| Error::Parse {
-            path: source.into(),
-            message: e.to_string().trim_end().replace('\n', " "),
-        })
+        parse_toml(text, source)
     }
 
     /// Read a scenario file, load its robot and validate everything (nothing is solved).
     pub fn load(path: &Path) -> Result<LoadedScenario, Error> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.into(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let src = path.display().to_string();
         let mut sc = Self::from_toml_str(&text, &src)?;
         if sc.name.is_empty() {
