@@ -22,7 +22,7 @@ pub use parameter_study::{
 pub use plan_run::{plan_report, run_plan, PlanRun};
 pub use run_folder::RunFolder;
 pub use scenario::{ControllerKind, PlantKind, Scenario};
-pub use track_run::{read_plan_folder, run_track, PlantWorld, TrackRun};
+pub use track_run::{read_plan_folder, run_track, track_plan, PlantWorld, TrackRun};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

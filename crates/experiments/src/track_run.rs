@@ -26,6 +26,8 @@ use std::fmt::Write as _;
 pub struct TrackRun {
     /// The plan that was tracked (absent when the reference was read from a folder).
     pub plan: Option<PlanRun>,
+    /// The plan's machine-readable report (the `plan` entry of `report.json`).
+    pub plan_report: Value,
     /// The reference (1 ms).
     pub reference: Trajectory,
     /// The closed-loop log.
@@ -93,16 +95,9 @@ pub fn plant_robot(ls: &LoadedScenario) -> Result<Robot, Error> {
     Robot::from_params(p, "plant (scenario [plant])")
 }
 
-/// Plan (unless `reference` is given), then track with `controller` on `plant`. Errors on bad input; a plan
-/// that does not converge is returned with no closed loop run (`Ok(Err(plan_run))`).
-pub fn run_track(
-    ls: &LoadedScenario,
-    controller: ControllerKind,
-    plant: PlantKind,
-    reference: Option<(Trajectory, Value)>,
-) -> Result<Result<TrackRun, Box<PlanRun>>, Error> {
+/// Refuse a plant that cannot run the scenario (the model plant simulates no contacts), before planning.
+fn check_plant(ls: &LoadedScenario, plant: PlantKind) -> Result<(), Error> {
     if plant == PlantKind::Model && !ls.scenario.plant.obstacles.is_empty() {
-        // refused before planning: the model plant cannot simulate the scenario's obstacles
         return Err(Error::invalid(
             ls.path.display().to_string(),
             "plant.obstacles",
@@ -111,8 +106,20 @@ pub fn run_track(
              (plant.kind = \"rapier\" or --plant rapier)",
         ));
     }
-    let (plan, reference, plan_report) = match reference {
-        Some((r, rep)) => (None, r, rep),
+    Ok(())
+}
+
+/// Plan (unless `reference` is given), then track with `controller` on `plant`. Errors on bad input; a plan
+/// that does not converge is returned with no closed loop run (`Ok(Err(plan_run))`).
+pub fn run_track(
+    ls: &LoadedScenario,
+    controller: ControllerKind,
+    plant: PlantKind,
+    reference: Option<(Trajectory, Value)>,
+) -> Result<Result<TrackRun, Box<PlanRun>>, Error> {
+    check_plant(ls, plant)?;
+    match reference {
+        Some((r, rep)) => track_plan(ls, controller, plant, None, r, rep).map(Ok),
         None => {
             let run = run_plan(ls)?;
             if !run.plan.converged() {
@@ -120,9 +127,22 @@ pub fn run_track(
             }
             let rep = crate::plan_run::plan_report(ls, &run.plan);
             let r = run.plan.trajectory.clone();
-            (Some(run), r, rep)
+            track_plan(ls, controller, plant, Some(run), r, rep).map(Ok)
         }
-    };
+    }
+}
+
+/// Track `reference` (whose plan report is `plan_report`) with `controller` on `plant`; `plan` is the run
+/// that produced it, if it was planned here (its files go under `plan/`). Errors on bad input only.
+pub fn track_plan(
+    ls: &LoadedScenario,
+    controller: ControllerKind,
+    plant: PlantKind,
+    plan: Option<PlanRun>,
+    reference: Trajectory,
+    plan_report: Value,
+) -> Result<TrackRun, Error> {
+    check_plant(ls, plant)?;
     let sc = &ls.scenario;
     let probot = plant_robot(ls)?;
     let x0 = [reference.q(0), reference.qd(0)].concat();
@@ -201,7 +221,7 @@ pub fn run_track(
         "first_contact_s": world.first_contact_s(),
         "contact_events": world.contacts.len(),
         "contact_impulse_n_s": world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
-        "plan": plan_report,
+        "plan": plan_report.clone(),
     });
     if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(summary)) {
         for (k, v) in s {
@@ -216,14 +236,15 @@ pub fn run_track(
             }
         }
     }
-    Ok(Ok(TrackRun {
+    Ok(TrackRun {
         plan,
+        plan_report,
         reference,
         log,
         summary,
         world,
         folder,
-    }))
+    })
 }
 
 /// Read a plan folder written by `brachia plan` (its `trajectory.csv` and `report.json`).

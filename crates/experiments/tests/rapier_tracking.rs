@@ -5,7 +5,7 @@
 //! Conventions: SI units (s, m, rad, N s); ee errors are distances to the reference EE position.
 
 use brachia_experiments::scenario::LoadedScenario;
-use brachia_experiments::{run_track, ControllerKind, PlantKind, Scenario, TrackRun};
+use brachia_experiments::{run_track, track_plan, ControllerKind, PlantKind, Scenario, TrackRun};
 use std::path::{Path, PathBuf};
 
 fn scenario(name: &str) -> LoadedScenario {
@@ -20,15 +20,10 @@ fn track_all(ls: &LoadedScenario, controllers: &[ControllerKind]) -> Vec<TrackRu
     let first = run_track(ls, controllers[0], PlantKind::Rapier, None)
         .unwrap()
         .expect("the plan converges");
-    let plan_report = brachia_experiments::plan_report(ls, &first.plan.as_ref().unwrap().plan);
     let mut runs = vec![first];
     for &c in &controllers[1..] {
-        let reference = Some((runs[0].reference.clone(), plan_report.clone()));
-        runs.push(
-            run_track(ls, c, PlantKind::Rapier, reference)
-                .unwrap()
-                .unwrap(),
-        );
+        let (r, rep) = (runs[0].reference.clone(), runs[0].plan_report.clone());
+        runs.push(track_plan(ls, c, PlantKind::Rapier, None, r, rep).unwrap());
     }
     runs
 }

@@ -16,9 +16,9 @@ mod figures;
 mod report;
 mod study;
 
-use crate::plan_run::{plan_report, run_plan, PlanRun};
+use crate::plan_run::{run_plan, PlanRun};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
-use crate::track_run::{run_track, TrackRun};
+use crate::track_run::{run_track, track_plan, TrackRun};
 use crate::ExpError;
 use figures::FigureDir;
 use serde_json::{json, Value};
@@ -129,19 +129,12 @@ fn plan_and_track(
         Ok(r) => r,
         Err(p) => return Ok(Err(p)),
     };
-    let rep = first
-        .plan
-        .as_ref()
-        .map(|p| plan_report(ls, &p.plan))
-        .unwrap_or(Value::Null);
-    let mut out = vec![first];
+    let mut out = Vec::with_capacity(runs.len());
     for &(c, p) in &runs[1..] {
-        let reference = Some((out[0].reference.clone(), rep.clone()));
-        match run_track(ls, c, p, reference)? {
-            Ok(r) => out.push(r),
-            Err(p) => return Ok(Err(p)),
-        }
+        let (r, rep) = (first.reference.clone(), first.plan_report.clone());
+        out.push(track_plan(ls, c, p, None, r, rep)?);
     }
+    out.insert(0, first);
     Ok(Ok(out))
 }
 
