@@ -108,6 +108,17 @@ pub(crate) struct Riccati {
     pub b: Vec<f64>,
     /// Value-function Hessians P_k.
     p: Vec<f64>,
+    /// Soft dynamics (restoration): per dynamics row a weight D >= 0 in
+    /// `dx_{k+1} = A dx + B du + b - D lam` (empty use when `soft` is false).
+    pub soft: bool,
+    /// The weights D (n_l).
+    pub dsoft: Vec<f64>,
+    /// `P~_{k+1} = P - P S (I + S P S)^-1 S P`, S = D^1/2, stored at the offsets of P_{k+1}.
+    ptil: Vec<f64>,
+    /// Cholesky factors of `I + S P_{k+1} S`, at the offsets of P_{k+1}.
+    lm: Vec<f64>,
+    /// Soft-dynamics gradients p~_{k+1} (n_l) of the last solve.
+    pvt: Vec<f64>,
     /// Feedback gains K_k = -R^^-1 S^.
     kgain: Vec<f64>,
     /// Cholesky factors of R^_k.
@@ -132,6 +143,8 @@ pub(crate) struct Riccati {
     pub eq_a: Vec<f64>,
     /// Residuals rho_j.
     pub eq_rho: Vec<f64>,
+    /// Per-row regularisation of the Schur complement (restoration weights; 0 otherwise).
+    pub eq_reg: Vec<f64>,
     /// Number of equality rows in use.
     pub m: usize,
     schur: Vec<f64>,
@@ -155,6 +168,11 @@ impl Riccati {
             a: vec![0.0; lay.oa[kk + 1]],
             b: vec![0.0; lay.ob[kk + 1]],
             p: vec![0.0; lay.op[kk + 1]],
+            soft: false,
+            dsoft: vec![0.0; lay.n_l()],
+            ptil: vec![0.0; lay.op[kk + 1]],
+            lm: vec![0.0; lay.op[kk + 1]],
+            pvt: vec![0.0; lay.n_l()],
             kgain: vec![0.0; lay.ok[kk + 1]],
             lr: vec![0.0; lay.or[kk + 1]],
             lp0: vec![0.0; lay.nx[0] * lay.nx[0]],
@@ -169,6 +187,7 @@ impl Riccati {
             eq_stage: vec![0; me],
             eq_a: vec![0.0; me * nxm],
             eq_rho: vec![0.0; me],
+            eq_reg: vec![0.0; me],
             m: 0,
             schur: vec![0.0; me * me],
             schur_fac: vec![0.0; me * me],
@@ -210,8 +229,53 @@ impl Riccati {
                     rh[i * nu + i] += delta_w;
                 }
             }
+            if k < lay.kk && self.soft {
+                let (o, n) = (lay.op[k + 1], nx1);
+                let p1 = &self.p[o..o + n * n];
+                let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                let lm = &mut self.lm[o..o + n * n];
+                for i in 0..n {
+                    for j in 0..n {
+                        lm[i * n + j] = d[i].sqrt() * p1[i * n + j] * d[j].sqrt()
+                            + if i == j { 1.0 } else { 0.0 };
+                    }
+                }
+                if !chol(lm, n) {
+                    return Err(NotPositive);
+                }
+                // X = M^-1 S P in ptil, then P~ = P - (S P)^T X
+                let pt = &mut self.ptil[o..o + n * n];
+                for i in 0..n {
+                    for j in 0..n {
+                        pt[i * n + j] = d[i].sqrt() * p1[i * n + j];
+                    }
+                }
+                chol_solve(lm, n, pt, n);
+                let pa = &mut self.pa[..n * n];
+                pa.copy_from_slice(p1);
+                for l in 0..n {
+                    let sl = d[l].sqrt();
+                    for i in 0..n {
+                        let spli = sl * p1[l * n + i];
+                        for j in 0..n {
+                            pa[i * n + j] -= spli * pt[l * n + j];
+                        }
+                    }
+                }
+                for i in 0..n {
+                    for j in 0..=i {
+                        let v = 0.5 * (pa[i * n + j] + pa[j * n + i]);
+                        pt[i * n + j] = v;
+                        pt[j * n + i] = v;
+                    }
+                }
+            }
             if k < lay.kk {
-                let p1 = &self.p[lay.op[k + 1]..lay.op[k + 2]];
+                let p1 = if self.soft {
+                    &self.ptil[lay.op[k + 1]..lay.op[k + 2]]
+                } else {
+                    &self.p[lay.op[k + 1]..lay.op[k + 2]]
+                };
                 let a = &self.a[lay.oa[k]..lay.oa[k + 1]];
                 let b = &self.b[lay.ob[k]..lay.ob[k + 1]];
                 let pa = &mut self.pa[..nx1 * nx];
@@ -274,10 +338,37 @@ impl Riccati {
             pk.copy_from_slice(&gk[..nx]);
             let rh = &mut self.rh[..nu];
             rh.copy_from_slice(&gk[nx..]);
+            if k < kk && self.soft {
+                // p~ = p - P S M^-1 S p
+                let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                let w = &mut self.t[..nx1];
+                for i in 0..nx1 {
+                    w[i] = d[i].sqrt() * pv_hi[i];
+                }
+                let o = lay.op[k + 1];
+                chol_solve(&self.lm[o..o + nx1 * nx1], nx1, w, 1);
+                for i in 0..nx1 {
+                    w[i] *= d[i].sqrt();
+                }
+                let pt = &mut self.pvt[lay.ol[k]..lay.ol[k + 1]];
+                pt.copy_from_slice(&pv_hi[..nx1]);
+                for i in 0..nx1 {
+                    let mut acc = 0.0;
+                    for j in 0..nx1 {
+                        acc += self.p[o + i * nx1 + j] * w[j];
+                    }
+                    pt[i] -= acc;
+                }
+            }
             if k < kk {
                 let t = &mut self.t[..nx1];
-                t.copy_from_slice(&pv_hi[..nx1]); // p_{k+1} sits at oz[k+1]
-                let p1 = &self.p[lay.op[k + 1]..lay.op[k + 2]];
+                let p1 = if self.soft {
+                    t.copy_from_slice(&self.pvt[lay.ol[k]..lay.ol[k + 1]]);
+                    &self.ptil[lay.op[k + 1]..lay.op[k + 2]]
+                } else {
+                    t.copy_from_slice(&pv_hi[..nx1]); // p_{k+1} sits at oz[k+1]
+                    &self.p[lay.op[k + 1]..lay.op[k + 2]]
+                };
                 gemv_n_acc(p1, &bdef[lay.ol[k]..lay.ol[k + 1]], t, nx1, nx1);
                 gemv_t_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], t, pk, nx1, nx);
                 if nu > 0 {
@@ -321,8 +412,18 @@ impl Riccati {
                     gemv_n_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], du, dx1, nx1, nu);
                 }
                 let lk = &mut lam[lay.ol[k]..lay.ol[k + 1]];
-                lk.copy_from_slice(&self.pv[lay.oz[k + 1]..lay.oz[k + 1] + nx1]);
-                gemv_n_acc(&self.p[lay.op[k + 1]..lay.op[k + 2]], dx1, lk, nx1, nx1);
+                if self.soft {
+                    // lam = P~ y + p~, x+ = y - D lam
+                    lk.copy_from_slice(&self.pvt[lay.ol[k]..lay.ol[k + 1]]);
+                    gemv_n_acc(&self.ptil[lay.op[k + 1]..lay.op[k + 2]], dx1, lk, nx1, nx1);
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    for i in 0..nx1 {
+                        dx1[i] -= d[i] * lk[i];
+                    }
+                } else {
+                    lk.copy_from_slice(&self.pv[lay.oz[k + 1]..lay.oz[k + 1] + nx1]);
+                    gemv_n_acc(&self.p[lay.op[k + 1]..lay.op[k + 2]], dx1, lk, nx1, nx1);
+                }
             }
         }
     }
@@ -386,7 +487,11 @@ impl Riccati {
             for i in 0..m {
                 for j in 0..m {
                     let v = -0.5 * (self.schur[i * m + j] + self.schur[j * m + i]);
-                    self.schur_fac[i * m + j] = v + if i == j { delta_c } else { 0.0 };
+                    self.schur_fac[i * m + j] = v + if i == j {
+                        delta_c + self.eq_reg[i]
+                    } else {
+                        0.0
+                    };
                 }
             }
             if chol(&mut self.schur_fac[..m * m], m) {

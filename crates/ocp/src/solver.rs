@@ -33,6 +33,8 @@ const KW_MINUS: f64 = 1.0 / 3.0;
 const KW_PLUS: f64 = 8.0;
 const KW_PLUS_BAR: f64 = 100.0;
 const BOUND_MULT_RESET: f64 = 1e3;
+/// Penalty on the l1 relaxation slacks p, n in the restoration phase (IPOPT's `resto_penalty_parameter`).
+const RHO_RESTO: f64 = 1e3;
 
 /// Role of one entry of z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -109,6 +111,23 @@ pub struct OcpSolver {
     z_ref: Vec<f64>,
     dr: Vec<f64>,
     delta_w_last: f64,
+    /// Constraint rows (dynamics, stage rows c - s, terminal, fixed states) at the iterate and trial.
+    cv: Vec<f64>,
+    cv_t: Vec<f64>,
+    /// Restoration slacks: row = p - n relaxation, duals, steps, trial values.
+    rp: Vec<f64>,
+    rn: Vec<f64>,
+    rzp: Vec<f64>,
+    rzn: Vec<f64>,
+    drp: Vec<f64>,
+    drn: Vec<f64>,
+    drzp: Vec<f64>,
+    drzn: Vec<f64>,
+    rp_t: Vec<f64>,
+    rn_t: Vec<f64>,
+    /// Per row: the (relaxed) residual c^ and the regularisation D of the Newton step.
+    chat: Vec<f64>,
+    dreg: Vec<f64>,
 }
 
 /// State of the restoration phase.
@@ -296,6 +315,20 @@ impl OcpSolver {
             z_ref: vec![0.0; nz],
             dr: vec![0.0; nz],
             delta_w_last: 0.0,
+            cv: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            cv_t: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rp: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rn: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rzp: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rzn: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            drp: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            drn: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            drzp: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            drzn: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rp_t: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            rn_t: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            chat: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            dreg: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             dims: dims.clone(),
             lay,
             ric,
@@ -497,40 +530,74 @@ impl OcpSolver {
         r
     }
 
-    /// Constraint violation (l1, inf) at (z, s) with evaluations `ev`, `term`.
-    fn theta(&self, z: &[f64], s: &[f64], ev: &[StageEval], term: &TerminalEval) -> (f64, f64) {
+    /// Number of constraint rows: dynamics, stage rows, terminal rows, fixed states.
+    fn nrows(&self) -> usize {
+        self.lay.n_l() + self.lay.n_c() + self.dims.n_terminal + self.fixed_rows.len()
+    }
+
+    /// Constraint rows at (z, s) with evaluations `ev`, `term` into `out`.
+    fn row_values(
+        &self,
+        z: &[f64],
+        s: &[f64],
+        ev: &[StageEval],
+        term: &TerminalEval,
+        out: &mut [f64],
+    ) {
         let lay = &self.lay;
-        let (mut t1, mut ti) = (0.0_f64, 0.0_f64);
-        let mut add = |v: f64| {
-            let a = v.abs();
-            t1 += a;
-            ti = ti.max(a);
-        };
-        for k in 0..=lay.kk {
-            if k < lay.kk {
-                let o1 = lay.oz[k + 1];
-                for i in 0..lay.nx1[k] {
-                    add(ev[k].f[i] - z[o1 + i]);
-                }
+        for k in 0..lay.kk {
+            let o1 = lay.oz[k + 1];
+            for i in 0..lay.nx1[k] {
+                out[lay.ol[k] + i] = ev[k].f[i] - z[o1 + i];
             }
+        }
+        let nl = lay.n_l();
+        for k in 0..=lay.kk {
             let oc = lay.oc[k];
             for j in 0..lay.nc[k] {
-                add(ev[k].c[j] - s[oc + j]);
+                out[nl + oc + j] = ev[k].c[j] - s[oc + j];
             }
         }
-        for v in &term.r {
-            add(*v);
-        }
-        for &(k, i) in &self.fixed_rows {
+        let base = nl + lay.n_c();
+        out[base..base + term.r.len()].copy_from_slice(&term.r);
+        let base = base + term.r.len();
+        for (j, &(k, i)) in self.fixed_rows.iter().enumerate() {
             let o = lay.oz[k] + i;
-            add(z[o] - self.zlo[o]);
+            out[base + j] = z[o] - self.zlo[o];
+        }
+    }
+
+    /// (l1, inf) norms of the rows `cv` (relaxed by the restoration slacks if given).
+    fn theta_of(&self, cv: &[f64], pn: Option<(&[f64], &[f64])>) -> (f64, f64) {
+        let (mut t1, mut ti) = (0.0_f64, 0.0_f64);
+        for i in 0..self.nrows() {
+            let v = match pn {
+                Some((p, n)) => cv[i] - p[i] + n[i],
+                None => cv[i],
+            };
+            t1 += v.abs();
+            ti = ti.max(v.abs());
         }
         (t1, ti)
     }
 
+    /// Original constraint violation (l1, inf) at the iterate (refreshes `cv`).
+    fn theta_current(&mut self) -> (f64, f64) {
+        let mut cv = std::mem::take(&mut self.cv);
+        self.row_values(&self.z, &self.s, &self.ev, &self.term, &mut cv);
+        let r = self.theta_of(&cv, None);
+        self.cv = cv;
+        r
+    }
+
     /// Barrier sum -sum ln(slack) over all bounded entries at (z, s).
-    fn barrier(&self, z: &[f64], s: &[f64]) -> f64 {
+    fn barrier(&self, z: &[f64], s: &[f64], pn: Option<(&[f64], &[f64])>) -> f64 {
         let mut b = 0.0;
+        if let Some((p, n)) = pn {
+            for i in 0..self.nrows() {
+                b -= p[i].ln() + n[i].ln();
+            }
+        }
         for i in 0..z.len() {
             if self.kind[i] == Kind::Free {
                 if self.zlo[i].is_finite() {
@@ -557,7 +624,13 @@ impl OcpSolver {
     }
 
     /// Objective of the current phase at z (cost or the restoration proximity term).
-    fn phase_objective(&self, z: &[f64], ev: &[StageEval], resto: Option<&Resto>) -> f64 {
+    fn phase_objective(
+        &self,
+        z: &[f64],
+        ev: &[StageEval],
+        resto: Option<&Resto>,
+        pn: (&[f64], &[f64]),
+    ) -> f64 {
         match resto {
             None => Self::cost(ev),
             Some(r) => {
@@ -566,7 +639,11 @@ impl OcpSolver {
                     let d = self.dr[i] * (z[i] - self.z_ref[i]);
                     v += d * d;
                 }
-                0.5 * r.zeta * v
+                let mut l1 = 0.0;
+                for i in 0..self.nrows() {
+                    l1 += pn.0[i] + pn.1[i];
+                }
+                0.5 * r.zeta * v + RHO_RESTO * l1
             }
         }
     }
@@ -621,7 +698,19 @@ impl OcpSolver {
                 .max((-self.y[j] - self.vl[j] + self.vu[j]).abs());
         }
         self.rz = rz;
-        let (t1, ti) = self.theta(&self.z, &self.s, &self.ev, &self.term);
+        let (mut t1, mut ti) = self.theta_current();
+        if resto.is_some() {
+            (t1, ti) = self.theta_of(&self.cv, Some((&self.rp, &self.rn)));
+            let nl = self.lay.n_l();
+            let nc = self.lay.n_c();
+            for i in 0..self.nrows() {
+                let l = self.row_multiplier(i, nl, nc);
+                res.dual_inf = res
+                    .dual_inf
+                    .max((RHO_RESTO - l - self.rzp[i]).abs())
+                    .max((RHO_RESTO + l - self.rzn[i]).abs());
+            }
+        }
         res.theta_1 = t1;
         res.theta_inf = ti;
         // complementarity and scaling
@@ -654,6 +743,15 @@ impl OcpSolver {
                 nb += 1;
             }
         }
+        if resto.is_some() {
+            for i in 0..self.nrows() {
+                comp = comp
+                    .max((self.rp[i] * self.rzp[i]).abs())
+                    .max((self.rn[i] * self.rzn[i]).abs());
+                bsum += self.rzp[i] + self.rzn[i];
+                nb += 2;
+            }
+        }
         let esum: f64 = self
             .lam
             .iter()
@@ -680,9 +778,33 @@ impl OcpSolver {
         res
     }
 
+    /// Multiplier of constraint row i (current iterate).
+    fn row_multiplier(&self, i: usize, nl: usize, nc: usize) -> f64 {
+        if i < nl {
+            self.lam[i]
+        } else if i < nl + nc {
+            self.y[i - nl]
+        } else {
+            let j = i - nl - nc;
+            let nr = self.dims.n_terminal;
+            if j < nr {
+                self.nu[j]
+            } else {
+                self.eta[j - nr]
+            }
+        }
+    }
+
     /// Barrier error E_mu: complementarity measured against mu.
-    fn e_mu(&self, res: &Residuals, mu: f64) -> f64 {
+    fn e_mu(&self, res: &Residuals, mu: f64, resto: bool) -> f64 {
         let mut comp = 0.0_f64;
+        if resto {
+            for i in 0..self.nrows() {
+                comp = comp
+                    .max((self.rp[i] * self.rzp[i] - mu).abs())
+                    .max((self.rn[i] * self.rzn[i] - mu).abs());
+            }
+        }
         for i in 0..self.z.len() {
             if self.kind[i] != Kind::Free {
                 continue;
@@ -715,8 +837,25 @@ impl OcpSolver {
         stats: &mut OcpStats,
     ) -> Result<(), String> {
         let t = Instant::now();
+        // per row: relaxed residual and regularisation (restoration: the condensed slacks p, n)
+        let nrows = self.nrows();
+        for i in 0..nrows {
+            if resto.is_some() {
+                let (p, n) = (self.rp[i], self.rn[i]);
+                let (sp, sn) = (self.rzp[i] / p, self.rzn[i] / n);
+                self.dreg[i] = 1.0 / sp + 1.0 / sn;
+                self.chat[i] =
+                    self.cv[i] - p + n + (RHO_RESTO - mu / p) / sp - (RHO_RESTO - mu / n) / sn;
+            } else {
+                self.dreg[i] = 0.0;
+                self.chat[i] = self.cv[i];
+            }
+        }
         let lay = &self.lay;
         let kk = lay.kk;
+        let (nl, ncall) = (lay.n_l(), lay.n_c());
+        self.ric.soft = resto.is_some();
+        self.ric.dsoft.copy_from_slice(&self.dreg[..nl]);
         for k in 0..=kk {
             let (o, nx, nz, nx1, nc) = (lay.oz[k], lay.nx[k], lay.nz(k), lay.nx1[k], lay.nc[k]);
             let e = &self.ev[k];
@@ -758,7 +897,9 @@ impl OcpSolver {
                     sig += self.vu[jj] / su;
                     rhs += mu / su;
                 }
-                rhs += sig * (e.c[j] - self.s[jj]);
+                let dd = 1.0 + sig * self.dreg[nl + jj];
+                rhs = (rhs + sig * self.chat[nl + jj]) / dd;
+                sig /= dd;
                 let row = &e.jac_c[j * nz..(j + 1) * nz];
                 for a in 0..nz {
                     if row[a] == 0.0 {
@@ -801,7 +942,7 @@ impl OcpSolver {
                             row[nx + c]
                         };
                     }
-                    self.bdef[lay.ol[k] + r] = e.f[r] - self.z[lay.oz[k + 1] + r];
+                    self.bdef[lay.ol[k] + r] = self.chat[lay.ol[k] + r];
                 }
             }
         }
@@ -813,15 +954,16 @@ impl OcpSolver {
             self.ric.eq_stage[j] = kk;
             self.ric.eq_a[j * nxm..j * nxm + nxk]
                 .copy_from_slice(&self.term.jac_r[j * nxk..(j + 1) * nxk]);
-            self.ric.eq_rho[j] = self.term.r[j];
+            self.ric.eq_rho[j] = self.chat[nl + ncall + j];
+            self.ric.eq_reg[j] = self.dreg[nl + ncall + j];
         }
         for (jf, &(k, i)) in self.fixed_rows.iter().enumerate() {
             let j = nr + jf;
             self.ric.eq_stage[j] = k;
             self.ric.eq_a[j * nxm..(j + 1) * nxm].fill(0.0);
             self.ric.eq_a[j * nxm + i] = 1.0;
-            let o = lay.oz[k] + i;
-            self.ric.eq_rho[j] = self.z[o] - self.zlo[o];
+            self.ric.eq_rho[j] = self.chat[nl + ncall + j];
+            self.ric.eq_reg[j] = self.dreg[nl + ncall + j];
         }
         self.ric.m = nr + self.fixed_rows.len();
         // inertia correction (IPOPT Algorithm IC)
@@ -869,7 +1011,6 @@ impl OcpSolver {
             stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
             return Err("the equality rows' Schur complement is singular".to_string());
         }
-        let _ = mu;
         // slack, inequality multiplier and bound-dual steps
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
@@ -877,22 +1018,33 @@ impl OcpSolver {
             for j in 0..lay.nc[k] {
                 let jj = oc + j;
                 let row = &e.jac_c[j * nz..(j + 1) * nz];
-                let mut ds = e.c[j] - self.s[jj];
+                // y+ = (Sigma (J dz + c^) + rbar) / (1 + Sigma D), ds = J dz + c^ - D y+
+                let mut lin = self.chat[nl + jj];
                 for a in 0..nz {
-                    ds += row[a] * self.dz[o + a];
+                    lin += row[a] * self.dz[o + a];
                 }
+                let (mut sig, mut rbar) = (0.0, 0.0);
+                if self.clo[jj].is_finite() {
+                    let sl = self.s[jj] - self.clo[jj];
+                    sig += self.vl[jj] / sl;
+                    rbar -= mu / sl;
+                }
+                if self.chi[jj].is_finite() {
+                    let su = self.chi[jj] - self.s[jj];
+                    sig += self.vu[jj] / su;
+                    rbar += mu / su;
+                }
+                let yn = (sig * lin + rbar) / (1.0 + sig * self.dreg[nl + jj]);
+                let ds = lin - self.dreg[nl + jj] * yn;
                 self.ds[jj] = ds;
-                let mut yn = 0.0;
                 self.dvl[jj] = 0.0;
                 self.dvu[jj] = 0.0;
                 if self.clo[jj].is_finite() {
                     let sl = self.s[jj] - self.clo[jj];
-                    yn += (self.vl[jj] / sl) * ds - mu / sl;
                     self.dvl[jj] = mu / sl - self.vl[jj] - (self.vl[jj] / sl) * ds;
                 }
                 if self.chi[jj].is_finite() {
                     let su = self.chi[jj] - self.s[jj];
-                    yn += (self.vu[jj] / su) * ds + mu / su;
                     self.dvu[jj] = mu / su - self.vu[jj] + (self.vu[jj] / su) * ds;
                 }
                 self.y_n[jj] = yn;
@@ -913,6 +1065,24 @@ impl OcpSolver {
                 self.dzu[i] = mu / su - self.zu[i] + (self.zu[i] / su) * self.dz[i];
             }
         }
+        // restoration slacks: dp = (l+ - rho + mu/p)/Sp, dn = (-l+ - rho + mu/n)/Sn
+        if resto.is_some() {
+            for i in 0..nrows {
+                let lp = if i < nl {
+                    self.lam_n[i]
+                } else if i < nl + ncall {
+                    self.y_n[i - nl]
+                } else {
+                    self.eqm_n[i - nl - ncall]
+                };
+                let (p, n) = (self.rp[i], self.rn[i]);
+                let (sp, sn) = (self.rzp[i] / p, self.rzn[i] / n);
+                self.drp[i] = (lp - RHO_RESTO + mu / p) / sp;
+                self.drn[i] = (-lp - RHO_RESTO + mu / n) / sn;
+                self.drzp[i] = mu / p - self.rzp[i] - sp * self.drp[i];
+                self.drzn[i] = mu / n - self.rzn[i] - sn * self.drn[i];
+            }
+        }
         stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
         if !(finite(&self.dz)
             && finite(&self.ds)
@@ -924,9 +1094,128 @@ impl OcpSolver {
         Ok(())
     }
 
+    /// Least-squares estimate of the equality multipliers (IPOPT's initialisation):
+    /// `min ||grad l + J^T lam - z_L + z_U||^2`, i.e. the chain QP with `H = I` and zero residuals,
+    /// solved by the same Riccati recursion. Stage-row multipliers come from their slack duals.
+    /// Estimates larger than 1e3 are discarded (zeros).
+    fn least_squares_multipliers(&mut self) {
+        let lay = &self.lay;
+        let kk = lay.kk;
+        for j in 0..self.s.len() {
+            self.y[j] = self.vu[j] - self.vl[j];
+        }
+        for k in 0..=kk {
+            let (o, nx, nz, nx1, nu) = (lay.oz[k], lay.nx[k], lay.nz(k), lay.nx1[k], lay.nu[k]);
+            let e = &self.ev[k];
+            let h = &mut self.ric.h[lay.oh[k]..lay.oh[k + 1]];
+            h.fill(0.0);
+            for li in 0..nz {
+                h[li * nz + li] = 1.0;
+                let i = o + li;
+                self.g[i] = if self.kind[i] == Kind::Eliminated {
+                    0.0
+                } else {
+                    e.grad[li] - self.zl[i] + self.zu[i]
+                };
+            }
+            let gk = &mut self.g[o..o + nz];
+            gemv_t_acc(
+                &e.jac_c,
+                &self.y[lay.oc[k]..lay.oc[k + 1]],
+                gk,
+                lay.nc[k],
+                nz,
+            );
+            for li in 0..nz {
+                if self.kind[o + li] == Kind::Eliminated {
+                    gk[li] = 0.0;
+                }
+            }
+            if k < kk {
+                let a = &mut self.ric.a[lay.oa[k]..lay.oa[k + 1]];
+                let b = &mut self.ric.b[lay.ob[k]..lay.ob[k + 1]];
+                for r in 0..nx1 {
+                    let row = &e.jac_f[r * nz..(r + 1) * nz];
+                    for c in 0..nx {
+                        a[r * nx + c] = if self.kind[o + c] == Kind::Eliminated {
+                            0.0
+                        } else {
+                            row[c]
+                        };
+                    }
+                    for c in 0..nu {
+                        b[r * nu + c] = if self.kind[o + nx + c] == Kind::Eliminated {
+                            0.0
+                        } else {
+                            row[nx + c]
+                        };
+                    }
+                }
+            }
+        }
+        self.bdef.fill(0.0);
+        let nr = self.dims.n_terminal;
+        let nxm = lay.nx_max;
+        let nxk = lay.nx[kk];
+        for j in 0..nr {
+            self.ric.eq_stage[j] = kk;
+            self.ric.eq_a[j * nxm..j * nxm + nxk]
+                .copy_from_slice(&self.term.jac_r[j * nxk..(j + 1) * nxk]);
+        }
+        for (jf, &(k, i)) in self.fixed_rows.iter().enumerate() {
+            let j = nr + jf;
+            self.ric.eq_stage[j] = k;
+            self.ric.eq_a[j * nxm..(j + 1) * nxm].fill(0.0);
+            self.ric.eq_a[j * nxm + i] = 1.0;
+        }
+        let m = nr + self.fixed_rows.len();
+        self.ric.m = m;
+        self.ric.eq_rho[..m].fill(0.0);
+        self.ric.eq_reg[..m].fill(0.0);
+        self.ric.soft = false;
+        let ok = self.ric.factor(lay, 0.0, &self.reg).is_ok()
+            && self
+                .ric
+                .solve(
+                    lay,
+                    &self.g,
+                    &self.bdef,
+                    0.0,
+                    &mut self.dz,
+                    &mut self.lam_n,
+                    &mut self.eqm_n[..m],
+                )
+                .is_ok();
+        let big = |v: &[f64]| v.iter().any(|x| !(x.abs() <= 1e3));
+        if ok && !big(&self.lam_n) && !big(&self.eqm_n[..m]) {
+            self.lam.copy_from_slice(&self.lam_n);
+            self.nu.copy_from_slice(&self.eqm_n[..nr]);
+            self.eta[..m - nr].copy_from_slice(&self.eqm_n[nr..m]);
+        } else {
+            self.lam.fill(0.0);
+            self.nu.fill(0.0);
+            self.eta.fill(0.0);
+            self.y.fill(0.0);
+        }
+    }
+
     /// Largest step in (0, 1] keeping the primal (`primal`) or dual variables a fraction tau inside.
-    fn max_step(&self, tau: f64) -> (f64, f64) {
+    fn max_step(&self, tau: f64, resto: bool) -> (f64, f64) {
         let (mut ap, mut ad) = (1.0_f64, 1.0_f64);
+        if resto {
+            for i in 0..self.nrows() {
+                for (v, d) in [(self.rp[i], self.drp[i]), (self.rn[i], self.drn[i])] {
+                    if d < 0.0 {
+                        ap = ap.min(-tau * v / d);
+                    }
+                }
+                for (v, d) in [(self.rzp[i], self.drzp[i]), (self.rzn[i], self.drzn[i])] {
+                    if d < 0.0 {
+                        ad = ad.min(-tau * v / d);
+                    }
+                }
+            }
+        }
         for i in 0..self.z.len() {
             if self.kind[i] != Kind::Free {
                 continue;
@@ -975,6 +1264,12 @@ impl OcpSolver {
     fn barrier_slope(&self, mu: f64, resto: Option<&Resto>) -> f64 {
         let lay = &self.lay;
         let mut d = 0.0;
+        if resto.is_some() {
+            for i in 0..self.nrows() {
+                d += (RHO_RESTO - mu / self.rp[i]) * self.drp[i]
+                    + (RHO_RESTO - mu / self.rn[i]) * self.drn[i];
+            }
+        }
         for k in 0..=lay.kk {
             let o = lay.oz[k];
             for li in 0..lay.nz(k) {
@@ -1161,8 +1456,11 @@ impl OcpSolver {
                 }
             }
         }
+        if !warm {
+            self.least_squares_multipliers();
+        }
         let mut mu = st.mu_init;
-        let (th0, _) = self.theta(&self.z, &self.s, &self.ev, &self.term);
+        let (th0, _) = self.theta_current();
         let mut theta_max = 1e4 * th0.max(1.0);
         let mut theta_min = 1e-4 * th0.max(1.0);
         let mut resto: Option<Resto> = None;
@@ -1187,6 +1485,10 @@ impl OcpSolver {
                 } else {
                     acceptable_count = 0;
                 }
+            } else if res.e0() <= st.tol.max(1e-10) {
+                // the restoration problem converged without reaching a point the filter accepts:
+                // a stationary point of the constraint violation
+                break OcpStatus::LocallyInfeasible;
             }
             if iter >= st.max_iter {
                 break OcpStatus::MaxIterations;
@@ -1205,7 +1507,7 @@ impl OcpSolver {
             // monotone barrier update
             let mu_min = st.tol / 10.0;
             loop {
-                if mu <= mu_min || self.e_mu(&res, mu) > KAPPA_EPS * mu {
+                if mu <= mu_min || self.e_mu(&res, mu, resto.is_some()) > KAPPA_EPS * mu {
                     break;
                 }
                 mu = mu_min.max((KAPPA_MU * mu).min(mu.powf(THETA_MU)));
@@ -1236,13 +1538,21 @@ impl OcpSolver {
             if let Err(e) = self.direction(mu, resto.as_ref(), stats) {
                 break OcpStatus::NumericalError(e);
             }
-            // line search
+            // filter line search
             let tl = Instant::now();
             let eval_before = stats.time.evaluation_s;
+            let in_resto = resto.is_some();
             let tau = TAU_MIN.max(1.0 - mu);
-            let (amax, adual) = self.max_step(tau);
-            let b0 = self.barrier(&self.z, &self.s);
-            let phi0 = self.phase_objective(&self.z, &self.ev, resto.as_ref()) + mu * b0;
+            let (amax, adual) = self.max_step(tau, in_resto);
+            let pn0 = if in_resto {
+                Some((&self.rp[..], &self.rn[..]))
+            } else {
+                None
+            };
+            let b0 = self.barrier(&self.z, &self.s, pn0);
+            let phi0 =
+                self.phase_objective(&self.z, &self.ev, resto.as_ref(), (&self.rp, &self.rn))
+                    + mu * b0;
             let theta0 = res.theta_1;
             let gphi = self.barrier_slope(mu, resto.as_ref());
             let tiny = self
@@ -1261,7 +1571,9 @@ impl OcpSolver {
             }
             .max(1e-14);
             let mut alpha = amax;
-            let mut accepted: Option<(f64, f64, f64, bool)> = None; // (alpha, theta_t, phi_t, h-type)
+            // (alpha, original theta at the trial, h-type)
+            let mut accepted: Option<(f64, f64, bool)> = None;
+            let nrows = self.nrows();
             loop {
                 for i in 0..self.z.len() {
                     self.z_t[i] = self.z[i] + alpha * self.dz[i];
@@ -1269,14 +1581,37 @@ impl OcpSolver {
                 for j in 0..self.s.len() {
                     self.s_t[j] = self.s[j] + alpha * self.ds[j];
                 }
+                if in_resto {
+                    for i in 0..nrows {
+                        self.rp_t[i] = self.rp[i] + alpha * self.drp[i];
+                        self.rn_t[i] = self.rn[i] + alpha * self.drn[i];
+                    }
+                }
                 if self.evaluate(p, true, EvalLevel::Values, stats).is_ok() {
-                    let (tt, _) = self.theta(&self.z_t, &self.s_t, &self.ev_t, &self.term_t);
-                    let bt = self.barrier(&self.z_t, &self.s_t);
-                    let phit =
-                        self.phase_objective(&self.z_t, &self.ev_t, resto.as_ref()) + mu * bt;
+                    let mut cv = std::mem::take(&mut self.cv_t);
+                    self.row_values(&self.z_t, &self.s_t, &self.ev_t, &self.term_t, &mut cv);
+                    let (to, _) = self.theta_of(&cv, None);
+                    let pnt = if in_resto {
+                        Some((&self.rp_t[..], &self.rn_t[..]))
+                    } else {
+                        None
+                    };
+                    let tt = if in_resto {
+                        self.theta_of(&cv, pnt).0
+                    } else {
+                        to
+                    };
+                    self.cv_t = cv;
+                    let bt = self.barrier(&self.z_t, &self.s_t, pnt);
+                    let phit = self.phase_objective(
+                        &self.z_t,
+                        &self.ev_t,
+                        resto.as_ref(),
+                        (&self.rp_t, &self.rn_t),
+                    ) + mu * bt;
                     if tt.is_finite() && phit.is_finite() {
                         if tiny {
-                            accepted = Some((alpha, tt, phit, false));
+                            accepted = Some((alpha, to, false));
                             break;
                         }
                         let in_filter =
@@ -1286,13 +1621,13 @@ impl OcpSolver {
                                 && alpha * (-gphi).powf(S_PHI) > DELTA_SW * theta0.powf(S_THETA);
                             if theta0 <= theta_min && switching {
                                 if phit <= phi0 + ETA_PHI * alpha * gphi {
-                                    accepted = Some((alpha, tt, phit, false));
+                                    accepted = Some((alpha, to, false));
                                     break;
                                 }
                             } else if tt <= (1.0 - GAMMA_THETA) * theta0
                                 || phit <= phi0 - GAMMA_PHI * theta0
                             {
-                                accepted = Some((alpha, tt, phit, true));
+                                accepted = Some((alpha, to, true));
                                 break;
                             }
                         }
@@ -1304,9 +1639,8 @@ impl OcpSolver {
                 }
             }
             let ls_eval = stats.time.evaluation_s - eval_before;
-            let Some((alpha, tt, _phit, h_type)) = accepted else {
+            let Some((alpha, theta_orig_t, h_type)) = accepted else {
                 stats.time.line_search_s += tl.elapsed().as_secs_f64() - ls_eval;
-                // line search failed
                 if let Some(r) = resto.as_ref() {
                     break self.resto_failure(r);
                 }
@@ -1315,7 +1649,8 @@ impl OcpSolver {
                 {
                     break OcpStatus::SolvedToAcceptableLevel;
                 }
-                // enter restoration: minimise the violation near the current point
+                // enter the restoration phase (IPOPT section 3.3): min rho ||p + n||_1 + proximity
+                // s.t. c(z) - p + n = 0 from the current point
                 Self::filter_add(
                     &mut self.filter,
                     (1.0 - GAMMA_THETA) * theta0,
@@ -1333,6 +1668,22 @@ impl OcpSolver {
                         1.0_f64.min(1.0 / self.z[i].abs())
                     };
                 }
+                for i in 0..nrows {
+                    let c = self.cv[i];
+                    let q = (mu_r - RHO_RESTO * c) / (2.0 * RHO_RESTO);
+                    let n = q + (q * q + mu_r * c / (2.0 * RHO_RESTO)).sqrt();
+                    let n = n.max(1e-12 * mu_r);
+                    self.rn[i] = n;
+                    self.rp[i] = (c + n).max(1e-12 * mu_r);
+                    self.rzp[i] = mu_r / self.rp[i];
+                    self.rzn[i] = mu_r / self.rn[i];
+                }
+                for v in self.zl.iter_mut().chain(self.zu.iter_mut()) {
+                    *v = v.min(RHO_RESTO);
+                }
+                for v in self.vl.iter_mut().chain(self.vu.iter_mut()) {
+                    *v = v.min(RHO_RESTO);
+                }
                 resto = Some(Resto {
                     theta0,
                     mu_orig: mu,
@@ -1340,14 +1691,16 @@ impl OcpSolver {
                     iters: 0,
                     theta_max_orig: theta_max,
                 });
-                theta_max = 1e4 * theta0.max(1.0);
-                theta_min = 1e-4 * theta0.max(1.0);
                 mu = mu_r;
                 self.lam.fill(0.0);
                 self.y.fill(0.0);
                 self.nu.fill(0.0);
                 self.eta.fill(0.0);
                 self.filter.clear();
+                let (tr, _) = self.theta_of(&self.cv, Some((&self.rp, &self.rn)));
+                theta_max = 1e4 * tr.max(theta0).max(1.0);
+                theta_min = 1e-4 * tr.max(1.0);
+                self.delta_w_last = 0.0;
                 iter += 1;
                 continue;
             };
@@ -1374,36 +1727,46 @@ impl OcpSolver {
             for j in 0..self.fixed_rows.len() {
                 self.eta[j] += alpha * (self.eqm_n[nr + j] - self.eta[j]);
             }
+            let safeguard = |v: f64, slack: f64| {
+                v.min(KAPPA_SIGMA * mu / slack)
+                    .max(mu / (KAPPA_SIGMA * slack))
+            };
             for i in 0..self.z.len() {
                 if self.kind[i] != Kind::Free {
                     continue;
                 }
                 if self.zlo[i].is_finite() {
-                    let sl = self.z[i] - self.zlo[i];
                     let v = self.zl[i] + adual * self.dzl[i];
-                    self.zl[i] = v.min(KAPPA_SIGMA * mu / sl).max(mu / (KAPPA_SIGMA * sl));
+                    self.zl[i] = safeguard(v, self.z[i] - self.zlo[i]);
                 }
                 if self.zhi[i].is_finite() {
-                    let su = self.zhi[i] - self.z[i];
                     let v = self.zu[i] + adual * self.dzu[i];
-                    self.zu[i] = v.min(KAPPA_SIGMA * mu / su).max(mu / (KAPPA_SIGMA * su));
+                    self.zu[i] = safeguard(v, self.zhi[i] - self.z[i]);
                 }
             }
             for j in 0..self.s.len() {
                 if self.clo[j].is_finite() {
-                    let sl = self.s[j] - self.clo[j];
                     let v = self.vl[j] + adual * self.dvl[j];
-                    self.vl[j] = v.min(KAPPA_SIGMA * mu / sl).max(mu / (KAPPA_SIGMA * sl));
+                    self.vl[j] = safeguard(v, self.s[j] - self.clo[j]);
                 }
                 if self.chi[j].is_finite() {
-                    let su = self.chi[j] - self.s[j];
                     let v = self.vu[j] + adual * self.dvu[j];
-                    self.vu[j] = v.min(KAPPA_SIGMA * mu / su).max(mu / (KAPPA_SIGMA * su));
+                    self.vu[j] = safeguard(v, self.chi[j] - self.s[j]);
                 }
             }
-            // the original objective at the accepted point (restoration exit test)
-            let phi_orig_t =
-                resto.map(|r| Self::cost(&self.ev_t) + r.mu_orig * self.barrier(&self.z, &self.s));
+            if in_resto {
+                std::mem::swap(&mut self.rp, &mut self.rp_t);
+                std::mem::swap(&mut self.rn, &mut self.rn_t);
+                for i in 0..nrows {
+                    let v = self.rzp[i] + adual * self.drzp[i];
+                    self.rzp[i] = safeguard(v, self.rp[i]);
+                    let v = self.rzn[i] + adual * self.drzn[i];
+                    self.rzn[i] = safeguard(v, self.rn[i]);
+                }
+            }
+            // the original barrier objective at the accepted point (restoration exit test)
+            let phi_orig_t = resto
+                .map(|r| Self::cost(&self.ev_t) + r.mu_orig * self.barrier(&self.z, &self.s, None));
             stats.time.line_search_s += tl.elapsed().as_secs_f64() - ls_eval;
             if let Err(EvalFail::Failed(e)) = self.evaluate(p, false, EvalLevel::FirstOrder, stats)
             {
@@ -1411,10 +1774,13 @@ impl OcpSolver {
             }
             iter += 1;
             if let (Some(r), Some(phio)) = (resto, phi_orig_t) {
-                if tt <= 0.9 * r.theta0 && Self::filter_acceptable(&self.filter_orig, tt, phio) {
+                if theta_orig_t <= 0.9 * r.theta0
+                    && Self::filter_acceptable(&self.filter_orig, theta_orig_t, phio)
+                {
                     // back to the original problem
                     mu = r.mu_orig;
                     theta_max = r.theta_max_orig;
+                    theta_min = 1e-4 * (theta_max / 1e4);
                     std::mem::swap(&mut self.filter, &mut self.filter_orig);
                     self.lam.fill(0.0);
                     self.y.fill(0.0);
@@ -1431,6 +1797,8 @@ impl OcpSolver {
                             *v = 1.0;
                         }
                     }
+                    self.least_squares_multipliers();
+                    self.delta_w_last = 0.0;
                     resto = None;
                 }
             }
@@ -1440,8 +1808,8 @@ impl OcpSolver {
         status
     }
 
-    fn resto_failure(&self, r: &Resto) -> OcpStatus {
-        let (t1, _) = self.theta(&self.z, &self.s, &self.ev, &self.term);
+    fn resto_failure(&mut self, r: &Resto) -> OcpStatus {
+        let (t1, _) = self.theta_current();
         if t1 >= 0.5 * r.theta0 {
             OcpStatus::LocallyInfeasible
         } else {

@@ -239,11 +239,20 @@ impl OcpProblem for LqProblem {
         &self.dims
     }
     fn bounds(&self, k: usize, b: &mut StageBounds) {
-        *b = self.stages[k].bounds.clone();
+        let s = &self.stages[k].bounds;
+        b.x_lo.copy_from_slice(&s.x_lo);
+        b.x_hi.copy_from_slice(&s.x_hi);
+        b.u_lo.copy_from_slice(&s.u_lo);
+        b.u_hi.copy_from_slice(&s.u_hi);
+        b.c_lo.copy_from_slice(&s.c_lo);
+        b.c_hi.copy_from_slice(&s.c_hi);
     }
     fn initial_guess(&self, z: &mut Primal) {
         if let Some(g) = &self.guess {
-            *z = g.clone();
+            for k in 0..g.x.len() {
+                z.x[k].copy_from_slice(&g.x[k]);
+                z.u[k].copy_from_slice(&g.u[k]);
+            }
         }
     }
     fn evaluate(
@@ -259,14 +268,14 @@ impl OcpProblem for LqProblem {
             let (nx, nu, nz) = (d.nx, d.nu, d.nz());
             let st = &self.stages[k];
             let e = &mut stages[k];
-            let zk: Vec<f64> = z.x[k].iter().chain(z.u[k].iter()).copied().collect();
+            let zk = |i: usize| if i < nx { z.x[k][i] } else { z.u[k][i - nx] };
             let mut cost = 0.0;
             for a in 0..nz {
                 let mut hz = 0.0;
                 for b in 0..nz {
-                    hz += st.h[a * nz + b] * zk[b];
+                    hz += st.h[a * nz + b] * zk(b);
                 }
-                cost += 0.5 * zk[a] * hz + st.q[a] * zk[a];
+                cost += 0.5 * zk(a) * hz + st.q[a] * zk(a);
                 if level == EvalLevel::FirstOrder {
                     e.grad[a] = hz + st.q[a];
                 }
@@ -277,13 +286,13 @@ impl OcpProblem for LqProblem {
                 for r in 0..nx1 {
                     let mut v = st.d[r];
                     for c in 0..nx {
-                        v += st.a[r * nx + c] * zk[c];
+                        v += st.a[r * nx + c] * zk(c);
                         if level == EvalLevel::FirstOrder {
                             e.jac_f[r * nz + c] = st.a[r * nx + c];
                         }
                     }
                     for c in 0..nu {
-                        v += st.b[r * nu + c] * zk[nx + c];
+                        v += st.b[r * nu + c] * zk(nx + c);
                         if level == EvalLevel::FirstOrder {
                             e.jac_f[r * nz + nx + c] = st.b[r * nu + c];
                         }
@@ -292,7 +301,7 @@ impl OcpProblem for LqProblem {
                 }
             }
             for j in 0..d.nc {
-                e.c[j] = (0..nz).map(|c| st.cm[j * nz + c] * zk[c]).sum();
+                e.c[j] = (0..nz).map(|c| st.cm[j * nz + c] * zk(c)).sum();
             }
             if level == EvalLevel::FirstOrder {
                 e.jac_c.copy_from_slice(&st.cm);
@@ -494,4 +503,255 @@ pub fn random_qp(
         }
     }
     p
+}
+
+/// A scalar with its gradient and Hessian w.r.t. the three stage variables z = [theta, omega, tau]
+/// (hand-written second-order forward mode for the pendulum's RK4 step).
+#[derive(Debug, Clone, Copy)]
+pub struct Jet {
+    pub v: f64,
+    pub g: [f64; 3],
+    pub h: [[f64; 3]; 3],
+}
+
+impl Jet {
+    pub fn var(v: f64, i: usize) -> Jet {
+        let mut g = [0.0; 3];
+        g[i] = 1.0;
+        Jet {
+            v,
+            g,
+            h: [[0.0; 3]; 3],
+        }
+    }
+    pub fn add(self, o: Jet) -> Jet {
+        let mut r = self;
+        r.v += o.v;
+        for i in 0..3 {
+            r.g[i] += o.g[i];
+            for j in 0..3 {
+                r.h[i][j] += o.h[i][j];
+            }
+        }
+        r
+    }
+    pub fn scale(self, c: f64) -> Jet {
+        let mut r = self;
+        r.v *= c;
+        for i in 0..3 {
+            r.g[i] *= c;
+            for j in 0..3 {
+                r.h[i][j] *= c;
+            }
+        }
+        r
+    }
+    pub fn sin(self) -> Jet {
+        let (s, c) = self.v.sin_cos();
+        let mut r = Jet {
+            v: s,
+            g: [0.0; 3],
+            h: [[0.0; 3]; 3],
+        };
+        for i in 0..3 {
+            r.g[i] = c * self.g[i];
+            for j in 0..3 {
+                r.h[i][j] = c * self.h[i][j] - s * self.g[i] * self.g[j];
+            }
+        }
+        r
+    }
+}
+
+/// Pendulum swing-up: theta = 0 hanging down, theta' = omega,
+/// omega' = -g/l sin(theta) - b omega + tau / (m l^2); RK4 steps of h with tau held; x_0 = [0, 0]
+/// fixed, x_K = [pi, 0]; cost sum_k 1/2 h (tau^2 + w omega^2); |tau| <= tau_max; stage rows
+/// omega^2 <= omega_max^2.
+#[derive(Debug, Clone)]
+pub struct Pendulum {
+    pub dims: OcpDims,
+    pub h: f64,
+    pub tau_max: f64,
+    pub omega_max: f64,
+    pub x0: [f64; 2],
+    pub w: f64,
+}
+
+pub const G_L: f64 = 9.81;
+pub const DAMP: f64 = 0.1;
+
+impl Pendulum {
+    pub fn new(kk: usize, h: f64, tau_max: f64) -> Self {
+        let stages = (0..=kk)
+            .map(|k| StageDims {
+                nx: 2,
+                nu: if k < kk { 1 } else { 0 },
+                nc: 1,
+            })
+            .collect();
+        Pendulum {
+            dims: OcpDims {
+                stages,
+                n_terminal: 2,
+            },
+            h,
+            tau_max,
+            omega_max: 7.0,
+            x0: [0.0, 0.0],
+            w: 0.01,
+        }
+    }
+
+    fn rhs(th: Jet, om: Jet, tau: Jet) -> [Jet; 2] {
+        [om, th.sin().scale(-G_L).add(om.scale(-DAMP)).add(tau)]
+    }
+
+    /// One RK4 step with derivatives w.r.t. [theta, omega, tau].
+    pub fn step(&self, x: [f64; 2], tau: f64) -> [Jet; 2] {
+        let h = self.h;
+        let th = Jet::var(x[0], 0);
+        let om = Jet::var(x[1], 1);
+        let u = Jet::var(tau, 2);
+        let k1 = Self::rhs(th, om, u);
+        let k2 = Self::rhs(
+            th.add(k1[0].scale(h / 2.0)),
+            om.add(k1[1].scale(h / 2.0)),
+            u,
+        );
+        let k3 = Self::rhs(
+            th.add(k2[0].scale(h / 2.0)),
+            om.add(k2[1].scale(h / 2.0)),
+            u,
+        );
+        let k4 = Self::rhs(th.add(k3[0].scale(h)), om.add(k3[1].scale(h)), u);
+        let comb = |y: Jet, i: usize| {
+            y.add(
+                k1[i]
+                    .add(k2[i].scale(2.0))
+                    .add(k3[i].scale(2.0))
+                    .add(k4[i])
+                    .scale(h / 6.0),
+            )
+        };
+        [comb(th, 0), comb(om, 1)]
+    }
+}
+
+impl OcpProblem for Pendulum {
+    fn dims(&self) -> &OcpDims {
+        &self.dims
+    }
+    fn bounds(&self, k: usize, b: &mut StageBounds) {
+        if k == 0 {
+            b.x_lo.copy_from_slice(&self.x0);
+            b.x_hi.copy_from_slice(&self.x0);
+        }
+        if k < self.dims.horizon() {
+            b.u_lo[0] = -self.tau_max;
+            b.u_hi[0] = self.tau_max;
+        }
+        b.c_hi[0] = self.omega_max * self.omega_max;
+    }
+    fn initial_guess(&self, z: &mut Primal) {
+        let kk = self.dims.horizon();
+        for k in 0..=kk {
+            let s = k as f64 / kk as f64;
+            z.x[k][0] = std::f64::consts::PI * s;
+            z.x[k][1] = std::f64::consts::PI / (kk as f64 * self.h);
+        }
+    }
+    fn evaluate(
+        &mut self,
+        z: &Primal,
+        level: EvalLevel,
+        stages: &mut [StageEval],
+        terminal: &mut TerminalEval,
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let h = self.h;
+        for k in 0..=kk {
+            let e = &mut stages[k];
+            let (th, om) = (z.x[k][0], z.x[k][1]);
+            let tau = if k < kk { z.u[k][0] } else { 0.0 };
+            e.cost = if k < kk {
+                0.5 * h * (tau * tau + self.w * om * om)
+            } else {
+                0.0
+            };
+            e.c[0] = om * om;
+            if level == EvalLevel::FirstOrder {
+                e.jac_c.fill(0.0);
+                e.jac_c[1] = 2.0 * om;
+                e.grad.fill(0.0);
+                if k < kk {
+                    e.grad[1] = h * self.w * om;
+                    e.grad[2] = h * tau;
+                }
+            }
+            if k < kk {
+                let f = self.step([th, om], tau);
+                for r in 0..2 {
+                    e.f[r] = f[r].v;
+                    if level == EvalLevel::FirstOrder {
+                        e.jac_f[r * 3..r * 3 + 3].copy_from_slice(&f[r].g);
+                    }
+                }
+            }
+        }
+        terminal.r[0] = z.x[kk][0] - std::f64::consts::PI;
+        terminal.r[1] = z.x[kk][1];
+        if level == EvalLevel::FirstOrder {
+            terminal.jac_r.copy_from_slice(&[1.0, 0.0, 0.0, 1.0]);
+        }
+        Ok(())
+    }
+    fn hessians(
+        &mut self,
+        z: &Primal,
+        sigma: f64,
+        m: &Multipliers,
+        stages: &mut [StageEval],
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let h = self.h;
+        for k in 0..=kk {
+            let e = &mut stages[k];
+            let nz = if k < kk { 3 } else { 2 };
+            e.hess.fill(0.0);
+            if k < kk {
+                e.hess[1 * 3 + 1] = sigma * h * self.w;
+                e.hess[2 * 3 + 2] = sigma * h;
+                let f = self.step([z.x[k][0], z.x[k][1]], z.u[k][0]);
+                for r in 0..2 {
+                    for i in 0..3 {
+                        for j in 0..3 {
+                            e.hess[i * 3 + j] += m.lam[k][r] * f[r].h[i][j];
+                        }
+                    }
+                }
+            }
+            e.hess[1 * nz + 1] += 2.0 * m.mu[k][0];
+        }
+        Ok(())
+    }
+}
+
+/// Central finite-difference check of a vector function's Jacobian: `f(z) -> values`, analytic
+/// `jac` (rows x n); returns the largest absolute error.
+pub fn fd_jacobian_error(f: impl Fn(&[f64]) -> Vec<f64>, z: &[f64], jac: &[f64]) -> f64 {
+    let n = z.len();
+    let eps = 1e-6;
+    let mut err = 0.0_f64;
+    for c in 0..n {
+        let mut zp = z.to_vec();
+        let mut zm = z.to_vec();
+        zp[c] += eps;
+        zm[c] -= eps;
+        let (fp, fm) = (f(&zp), f(&zm));
+        for r in 0..fp.len() {
+            let d = (fp[r] - fm[r]) / (2.0 * eps);
+            err = err.max((d - jac[r * n + c]).abs());
+        }
+    }
+    err
 }
