@@ -351,6 +351,28 @@ impl OcpSolver {
         &self.mult
     }
 
+    /// Benchmark hook (not part of the API): recomputes the Newton step at the stored iterate of the
+    /// last solve with barrier `mu` (condensing, Riccati factorisation with inertia correction,
+    /// Schur complement, solves, step recovery). Returns false if there is no iterate or it failed.
+    #[doc(hidden)]
+    pub fn bench_newton_step(&mut self, mu: f64) -> bool {
+        if !self.has_iterate {
+            return false;
+        }
+        let mut stats = OcpStats {
+            status: OcpStatus::Solved,
+            iterations: 0,
+            objective: 0.0,
+            primal_infeasibility: 0.0,
+            dual_infeasibility: 0.0,
+            final_mu: mu,
+            regularizations: 0,
+            time: OcpTimings::default(),
+        };
+        self.theta_current();
+        self.direction(mu, None, &mut stats).is_ok()
+    }
+
     /// Solves `p` (see the crate docs). Never panics: a panicking callback ends in
     /// [`OcpStatus::EvaluationError`], an internal failure in [`OcpStatus::NumericalError`].
     pub fn solve(&mut self, p: &mut dyn OcpProblem, s: &OcpSettings) -> OcpStats {

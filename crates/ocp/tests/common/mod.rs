@@ -417,6 +417,22 @@ pub fn random_qp(
     nr: usize,
     free_x0: bool,
 ) -> LqProblem {
+    random_qp_with(rng, kk, nx, nu, nc, nr, free_x0, 1.0, 0.3)
+}
+
+/// [`random_qp`] with dynamics `A = a_diag I + U(-a_spread, a_spread)` (stable for long horizons
+/// with e.g. 0.9 and 0.05).
+pub fn random_qp_with(
+    rng: &mut ChaCha8Rng,
+    kk: usize,
+    nx: usize,
+    nu: usize,
+    nc: usize,
+    nr: usize,
+    free_x0: bool,
+    a_diag: f64,
+    a_spread: f64,
+) -> LqProblem {
     let stages: Vec<StageDims> = (0..=kk)
         .map(|k| StageDims {
             nx,
@@ -482,7 +498,8 @@ pub fn random_qp(
             let mut xn = vec![0.0; nx1];
             for r in 0..nx1 {
                 for c in 0..nx {
-                    st.a[r * nx + c] = if r == c { 1.0 } else { 0.0 } + rng.gen_range(-0.3..0.3);
+                    st.a[r * nx + c] =
+                        if r == c { a_diag } else { 0.0 } + rng.gen_range(-a_spread..a_spread);
                 }
                 for c in 0..d.nu {
                     st.b[r * d.nu + c] = rng.gen_range(-1.0..1.0);
