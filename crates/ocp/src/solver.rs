@@ -1208,7 +1208,7 @@ impl OcpSolver {
                     &mut self.eqm_n[..m],
                 )
                 .is_ok();
-        let big = |v: &[f64]| v.iter().any(|x| !(x.abs() <= 1e3));
+        let big = |v: &[f64]| v.iter().any(|x| x.is_nan() || x.abs() > 1e3);
         if ok && !big(&self.lam_n) && !big(&self.eqm_n[..m]) {
             self.lam.copy_from_slice(&self.lam_n);
             self.nu.copy_from_slice(&self.eqm_n[..nr]);

@@ -54,7 +54,7 @@ fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
     let mut p = double_integrator(kk, h);
     p.stages[0].bounds.x_lo[1] = f64::NEG_INFINITY;
     p.stages[0].bounds.x_hi[1] = f64::INFINITY;
-    p.stages[0].h[1 * 3 + 1] = w0; // 1/2 w0 v0^2
+    p.stages[0].h[3 + 1] = w0; // (v0, v0): 1/2 w0 v0^2
     let (solver, stats) = solve(&mut p);
     assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
     // unknowns y = [v0, u_0..u_K-1]; x_K = [T v0, v0] + E u

@@ -468,12 +468,10 @@ pub fn random_qp_with(
             } else {
                 (&mut st.bounds.u_lo[i - nx], &mut st.bounds.u_hi[i - nx])
             };
-            if k == 0 && i < nx {
-                if !(free_x0 && i == 0) {
-                    *lo = zbar[i];
-                    *hi = zbar[i];
-                    continue;
-                }
+            if k == 0 && i < nx && !(free_x0 && i == 0) {
+                *lo = zbar[i];
+                *hi = zbar[i];
+                continue;
             }
             if rng.gen_bool(0.5) {
                 *lo = zbar[i] - rng.gen_range(0.0..0.5);
@@ -736,7 +734,7 @@ impl OcpProblem for Pendulum {
             let nz = if k < kk { 3 } else { 2 };
             e.hess.fill(0.0);
             if k < kk {
-                e.hess[1 * 3 + 1] = sigma * h * self.w;
+                e.hess[3 + 1] = sigma * h * self.w; // (omega, omega)
                 e.hess[2 * 3 + 2] = sigma * h;
                 let f = self.step([z.x[k][0], z.x[k][1]], z.u[k][0]);
                 for r in 0..2 {
@@ -747,7 +745,7 @@ impl OcpProblem for Pendulum {
                     }
                 }
             }
-            e.hess[1 * nz + 1] += 2.0 * m.mu[k][0];
+            e.hess[nz + 1] += 2.0 * m.mu[k][0]; // (omega, omega)
         }
         Ok(())
     }
