@@ -197,6 +197,7 @@ fn active_bounds_and_stage_inequalities_match_clarabel() {
 #[test]
 fn random_convex_qps_match_clarabel() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut pinned = 0;
     for case in 0..40 {
         let kk = rng.gen_range(1..15);
         let nx = rng.gen_range(1..5);
@@ -205,8 +206,25 @@ fn random_convex_qps_match_clarabel() {
         let nr = rng.gen_range(0..=nx.min(2));
         let free = rng.gen_bool(0.3);
         let mut p = random_qp(&mut rng, kk, nx, nu, nc, nr, free);
-        let (jc, zc, ok) = p.solve_clarabel();
+        let (mut jc, mut zc, ok) = p.solve_clarabel();
         assert!(ok, "case {case}: clarabel failed");
+        if case % 3 == 0 && kk * nu >= nr + 4 {
+            // pin one state after stage 0 at its optimal value (an equality row of the Schur
+            // complement; the optimum does not move). Only with spare inputs: pinning the last
+            // free direction makes the problem degenerate (no strictly feasible direction).
+            let k = rng.gen_range(1..=kk);
+            let i = rng.gen_range(0..nx);
+            let o: usize = p.dims.stages[..k].iter().map(|d| d.nz()).sum();
+            p.stages[k].bounds.x_lo[i] = zc[o + i];
+            p.stages[k].bounds.x_hi[i] = zc[o + i];
+            let (j2, z2, ok) = p.solve_clarabel();
+            assert!(
+                ok && (j2 - jc).abs() < 1e-7 * jc.abs().max(1.0),
+                "case {case}: pinning moved the optimum"
+            );
+            (jc, zc) = (j2, z2);
+            pinned += 1;
+        }
         let (solver, stats) = solve(&mut p);
         assert_eq!(
             stats.status,
@@ -228,4 +246,51 @@ fn random_convex_qps_match_clarabel() {
         assert!(err < 1e-4, "case {case}: solution differs by {err}");
         assert!((p.objective(&z) - stats.objective).abs() < 1e-9 * (1.0 + jc.abs()));
     }
+    assert!(pinned >= 5, "only {pinned} cases with a pinned state");
+}
+
+#[test]
+fn fixed_states_after_stage_zero_are_exact_equalities() {
+    // x_K = [1, 0] through bounds instead of terminal rows: the same least-norm solution
+    let (kk, h) = (40, 0.05);
+    let mut p = double_integrator(kk, h);
+    p.dims.n_terminal = 0;
+    p.g.clear();
+    p.r0.clear();
+    p.stages[kk].bounds.x_lo = vec![1.0, 0.0];
+    p.stages[kk].bounds.x_hi = vec![1.0, 0.0];
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let u_ref = weighted_least_norm(&double_integrator_rows(kk, h), &vec![h; kk], &[1.0, 0.0]);
+    for k in 0..kk {
+        assert!((solver.primal().u[k][0] - u_ref[k]).abs() < 1e-7);
+    }
+    let xk = &solver.primal().x[kk];
+    assert!((xk[0] - 1.0).abs() < 1e-12 && xk[1].abs() < 1e-12, "{xk:?}");
+
+    // a via point (position fixed halfway) plus terminal rows, with an input bound: clarabel
+    let mut p = double_integrator(kk, h);
+    p.stages[kk / 2].bounds.x_lo[0] = 0.7;
+    p.stages[kk / 2].bounds.x_hi[0] = 0.7;
+    for k in 0..kk {
+        p.stages[k].bounds.u_lo = vec![-2.5];
+        p.stages[k].bounds.u_hi = vec![2.5];
+    }
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let (jc, zc, ok) = p.solve_clarabel();
+    assert!(ok);
+    assert!(
+        (stats.objective - jc).abs() < 1e-6 * jc.abs(),
+        "{} vs {jc}",
+        stats.objective
+    );
+    let z = LqProblem::flat(solver.primal());
+    let err = z
+        .iter()
+        .zip(&zc)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-4, "solution differs by {err}");
+    assert!((solver.primal().x[kk / 2][0] - 0.7).abs() < 1e-9);
 }
