@@ -35,7 +35,9 @@
 //!   1e40); a singular Schur complement gets a `delta_c`.
 //! - **Line search.** IPOPT's filter with the switching condition, Armijo test on the barrier
 //!   function, fraction-to-the-boundary `tau = max(0.99, 1 - mu)` separately for primal and dual
-//!   variables, and the `kappa_sigma` safeguard on the bound multipliers. No second-order correction.
+//!   variables, the `kappa_sigma` safeguard on the bound multipliers, and up to `max_soc`
+//!   second-order corrections (re-solves with the same factorisation) when a full step raises the
+//!   constraint violation.
 //! - **Barrier update.** Monotone (Fiacco-McCormick): `mu <- max(tol/10, min(0.2 mu, mu^1.5))`
 //!   whenever the barrier error is below `10 mu`; the filter is reset.
 //! - **Restoration.** When the line search fails, IPOPT's l1 restoration phase: minimise
