@@ -1532,6 +1532,18 @@ impl OcpSolver {
             return OcpStatus::InvalidProblem(e);
         }
         let warm = st.warm_start && self.has_iterate;
+        if warm {
+            let shape_ok = self.zp.x.len() == self.lay.kk + 1
+                && self.zp.u.len() == self.lay.kk + 1
+                && (0..=self.lay.kk).all(|k| {
+                    self.zp.x[k].len() == self.lay.nx[k] && self.zp.u[k].len() == self.lay.nu[k]
+                });
+            if !shape_ok {
+                return OcpStatus::InvalidProblem(
+                    "the stored iterate was resized through primal_mut".to_string(),
+                );
+            }
+        }
         if !warm || self.fixed_rows.len() != fixed_before {
             self.eta.fill(0.0);
         }
