@@ -332,6 +332,27 @@ fn invalid_dims_problems_and_settings_are_refused() {
         "{stats:?}"
     );
 
+    // a stored iterate resized by the user before a warm start
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let _ = solver.solve(
+        &mut p,
+        &OcpSettings {
+            max_iter: 2,
+            ..OcpSettings::default()
+        },
+    );
+    solver.primal_mut().x[3].push(1.0);
+    let warm = OcpSettings {
+        warm_start: true,
+        ..OcpSettings::default()
+    };
+    let stats = solver.solve(&mut p, &warm);
+    assert!(
+        matches!(stats.status, OcpStatus::InvalidProblem(_)),
+        "{stats:?}"
+    );
+
     // settings
     let bad = OcpSettings {
         tol: -1.0,
