@@ -1028,7 +1028,7 @@ impl OcpSolver {
         }
         self.ric.m = nr + self.fixed_rows.len();
         // inertia correction (IPOPT Algorithm IC)
-        let mut ok = self.ric.factor(lay, 0.0, &self.reg).is_ok();
+        let mut ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
         if !ok {
             let mut delta_w = if self.delta_w_last == 0.0 {
                 DW_0
@@ -1036,7 +1036,7 @@ impl OcpSolver {
                 (KW_MINUS * self.delta_w_last).max(DW_MIN)
             };
             loop {
-                ok = self.ric.factor(lay, delta_w, &self.reg).is_ok();
+                ok = self.ric.factor_with_inertia(lay, delta_w, &self.reg);
                 if ok {
                     break;
                 }
@@ -1107,19 +1107,14 @@ impl OcpSolver {
         self.bdef.copy_from_slice(&self.chat[..nl]);
         let m = self.ric.m;
         self.ric.eq_rho[..m].copy_from_slice(&self.chat[nl + ncall..nl + ncall + m]);
-        let r = self.ric.solve(
+        self.ric.solve(
             lay,
             &self.g,
             &self.bdef,
-            0.0,
             &mut self.dz,
             &mut self.lam_n,
             &mut self.eqm_n[..m],
         );
-        if r.is_err() {
-            stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
-            return Err("the equality rows' Schur complement is singular".to_string());
-        }
         // slack, inequality multiplier and bound-dual steps
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
@@ -1282,19 +1277,17 @@ impl OcpSolver {
         self.ric.eq_rho[..m].fill(0.0);
         self.ric.eq_reg[..m].fill(0.0);
         self.ric.soft = false;
-        let ok = self.ric.factor(lay, 0.0, &self.reg).is_ok()
-            && self
-                .ric
-                .solve(
-                    lay,
-                    &self.g,
-                    &self.bdef,
-                    0.0,
-                    &mut self.dz,
-                    &mut self.lam_n,
-                    &mut self.eqm_n[..m],
-                )
-                .is_ok();
+        let ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
+        if ok {
+            self.ric.solve(
+                lay,
+                &self.g,
+                &self.bdef,
+                &mut self.dz,
+                &mut self.lam_n,
+                &mut self.eqm_n[..m],
+            );
+        }
         let big = |v: &[f64]| v.iter().any(|x| x.is_nan() || x.abs() > 1e3);
         if ok && !big(&self.lam_n) && !big(&self.eqm_n[..m]) {
             self.lam.copy_from_slice(&self.lam_n);
