@@ -27,12 +27,15 @@
 //!   gradient, as in HPIPM.
 //! - **Newton step.** The condensed KKT system is an equality-constrained QP on the stage chain,
 //!   solved by a Riccati recursion: backward factorisation (Cholesky of the reduced input Hessians
-//!   `R + B^T P B` and of `P_0`), then backward gradient and forward passes. The terminal rows (and
-//!   fixed states after stage 0), `m` rows in all, are handled exactly by a dense `m x m` Schur
-//!   complement: `m + 2` solves with the same factorisation.
-//! - **Inertia correction.** If a Cholesky fails, `delta_w` is added to the Hessian diagonal with
-//!   IPOPT's rules (first 1e-4, later a third of the last value, growth 8x or 100x, give up above
-//!   1e40); a singular Schur complement gets a `delta_c`.
+//!   `R + B^T P B`, eigendecomposition of `P_0`), then backward gradient and forward passes. The
+//!   terminal rows (and fixed states after stage 0), `m` rows in all, are handled exactly by a dense
+//!   `m x m` Schur complement: `m` solves per factorisation and 2 per right-hand side.
+//! - **Inertia test and correction.** The KKT matrix must have the inertia of a local minimiser:
+//!   the reduced input Hessians have a Cholesky, `P_0` (eigendecomposition) has q negative
+//!   eigenvalues, and the Schur matrix of the equality rows exactly q as well (so a free swing
+//!   time, convex only with the terminal rows, needs no regularisation). Otherwise `delta_w` is
+//!   added to the Hessian diagonal with IPOPT's rules (first 1e-4, later a third of the last value,
+//!   growth 8x or 100x, give up above 1e40); a singular Schur matrix gets a `delta_c`.
 //! - **Line search.** IPOPT's filter with the switching condition, Armijo test on the barrier
 //!   function, fraction-to-the-boundary `tau = max(0.99, 1 - mu)` separately for primal and dual
 //!   variables, the `kappa_sigma` safeguard on the bound multipliers, and up to `max_soc`
@@ -76,9 +79,8 @@
 //! # Limits
 //! At least 2 stages; `nx_k >= 1`; `nx_k + nu_k <=` [`MAX_STAGE_VARIABLES`]; terminal rows plus
 //! fixed state components after stage 0 `<=` [`MAX_EQUALITY_ROWS`] (each costs one extra Riccati
-//! solve per iteration). The inertia test is that of the dynamics-constrained problem (reduced input
-//! Hessians and `P_0` positive definite): a problem whose Hessian is positive definite only on the
-//! null space of the terminal rows too gets a (harmless, but slowing) regularisation.
+//! solve per factorisation). The inertia test needs positive definite reduced input Hessians and a
+//! non-singular `P_0`; otherwise the step is regularised (harmless, but slowing).
 //!
 //! # Memory
 //! [`OcpSolver::new`] allocates the whole workspace; the first solve reserves the filter
