@@ -1434,6 +1434,23 @@ impl OcpSolver {
                 self.y[lay.oc[k]..lay.oc[k + 1]].copy_from_slice(&self.mult.mu[k]);
             }
             self.nu.copy_from_slice(&self.mult.nu);
+            // a failed previous solve may leave non-finite values behind
+            for v in self
+                .lam
+                .iter_mut()
+                .chain(self.y.iter_mut())
+                .chain(self.nu.iter_mut())
+                .chain(self.eta.iter_mut())
+                .chain(self.zl.iter_mut())
+                .chain(self.zu.iter_mut())
+                .chain(self.vl.iter_mut())
+                .chain(self.vu.iter_mut())
+                .chain(self.s.iter_mut())
+            {
+                if !v.is_finite() {
+                    *v = 0.0;
+                }
+            }
         } else {
             for x in self.zp.x.iter_mut().chain(self.zp.u.iter_mut()) {
                 x.fill(0.0);

@@ -148,7 +148,7 @@ struct Faulty<P> {
     calls: usize,
 }
 
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Fault {
     /// evaluate returns Err from the start.
     ErrAlways,
@@ -235,6 +235,14 @@ fn failing_callbacks_end_in_evaluation_errors_or_shorter_steps() {
             "{stats:?}"
         );
         assert!(!stats.status.is_converged());
+        // the solver stays usable: a warm start from whatever the failure left behind
+        let mut healthy = pendulum();
+        let warm = OcpSettings {
+            warm_start: true,
+            ..OcpSettings::default()
+        };
+        let again = solver.solve(&mut healthy, &warm);
+        assert_eq!(again.status, OcpStatus::Solved, "after {mode:?}: {again:?}");
     }
     let mut p = Faulty {
         inner: pendulum(),
