@@ -1,7 +1,7 @@
 //! The interior-point iteration: initialisation, condensing, inertia correction, filter line search,
 //! barrier update, termination and restoration. See the crate docs and docs/ocp.md.
 
-use crate::dense::{gemv_n_acc, gemv_t_acc};
+use crate::dense::gemv_t_acc;
 use crate::problem::{
     EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval,
 };
@@ -2025,6 +2025,5 @@ impl OcpSolver {
             v = v.max(self.zlo[i] - self.z[i]).max(self.z[i] - self.zhi[i]);
         }
         stats.primal_infeasibility = v;
-        let _ = gemv_n_acc;
     }
 }
