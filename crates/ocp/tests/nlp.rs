@@ -502,3 +502,12 @@ fn free_time_lagrangian_hessian_matches_central_differences() {
     }
     let _ = &mut term;
 }
+
+#[test]
+fn solver_settings_and_stats_can_cross_threads() {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<OcpSolver>();
+    send_sync::<OcpSettings>();
+    send_sync::<OcpStats>();
+    send_sync::<OcpError>();
+}
