@@ -294,3 +294,101 @@ fn fixed_states_after_stage_zero_are_exact_equalities() {
     assert!(err < 1e-4, "solution differs by {err}");
     assert!((solver.primal().x[kk / 2][0] - 0.7).abs() < 1e-9);
 }
+
+#[test]
+fn stage_sizes_that_vary_along_the_horizon_match_clarabel() {
+    // nx_k, nu_k and nc_k change from stage to stage (e.g. a grasp switch that drops states)
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for case in 0..10 {
+        let kk = rng.gen_range(2..8);
+        let stages: Vec<StageDims> = (0..=kk)
+            .map(|_| StageDims {
+                nx: rng.gen_range(1..5),
+                nu: rng.gen_range(0..3),
+                nc: rng.gen_range(0..2),
+            })
+            .collect();
+        let nr = rng.gen_range(0..=stages[kk].nx.min(2));
+        let mut p = LqProblem::zeros(OcpDims {
+            stages: stages.clone(),
+            n_terminal: nr,
+        });
+        let mut x: Vec<f64> = (0..stages[0].nx)
+            .map(|_| rng.gen_range(-1.0..1.0))
+            .collect();
+        for k in 0..=kk {
+            let d = stages[k];
+            let nz = d.nz();
+            let u: Vec<f64> = (0..d.nu).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let zbar: Vec<f64> = x.iter().chain(&u).copied().collect();
+            let st = &mut p.stages[k];
+            let mm: Vec<f64> = (0..nz * nz).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            for a in 0..nz {
+                for b in 0..nz {
+                    st.h[a * nz + b] = (0..nz)
+                        .map(|r| mm[r * nz + a] * mm[r * nz + b])
+                        .sum::<f64>()
+                        + if a == b { 0.2 } else { 0.0 };
+                }
+                st.q[a] = rng.gen_range(-1.0..1.0);
+            }
+            if k == 0 {
+                st.bounds.x_lo.copy_from_slice(&x);
+                st.bounds.x_hi.copy_from_slice(&x);
+            }
+            for i in 0..d.nu {
+                st.bounds.u_lo[i] = u[i] - rng.gen_range(0.0..0.3);
+                st.bounds.u_hi[i] = u[i] + rng.gen_range(0.0..0.3);
+            }
+            for j in 0..d.nc {
+                let row: Vec<f64> = (0..nz).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let cv: f64 = row.iter().zip(&zbar).map(|(a, b)| a * b).sum();
+                st.cm[j * nz..(j + 1) * nz].copy_from_slice(&row);
+                st.bounds.c_hi[j] = cv + rng.gen_range(0.0..0.2);
+            }
+            if k < kk {
+                let nx1 = stages[k + 1].nx;
+                let mut xn = vec![0.0; nx1];
+                for r in 0..nx1 {
+                    for c in 0..d.nx {
+                        st.a[r * d.nx + c] = rng.gen_range(-1.0..1.0);
+                    }
+                    for c in 0..d.nu {
+                        st.b[r * d.nu + c] = rng.gen_range(-1.0..1.0);
+                    }
+                    xn[r] = (0..d.nx).map(|c| st.a[r * d.nx + c] * x[c]).sum::<f64>()
+                        + (0..d.nu).map(|c| st.b[r * d.nu + c] * u[c]).sum::<f64>();
+                }
+                x = xn;
+            }
+        }
+        let nxk = stages[kk].nx;
+        for r in 0..nr {
+            for c in 0..nxk {
+                p.g[r * nxk + c] = rng.gen_range(-1.0..1.0);
+            }
+            p.r0[r] = -(0..nxk).map(|c| p.g[r * nxk + c] * x[c]).sum::<f64>();
+        }
+        let (jc, zc, ok) = p.solve_clarabel();
+        assert!(ok, "case {case}: clarabel failed");
+        let (solver, stats) = solve(&mut p);
+        assert_eq!(
+            stats.status,
+            OcpStatus::Solved,
+            "case {case} {stages:?}: {stats:?}"
+        );
+        let rel = (stats.objective - jc).abs() / jc.abs().max(1.0);
+        assert!(
+            rel < 1e-6,
+            "case {case}: objective {} vs clarabel {jc}",
+            stats.objective
+        );
+        let z = LqProblem::flat(solver.primal());
+        let err = z
+            .iter()
+            .zip(&zc)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-4, "case {case}: solution differs by {err}");
+    }
+}
