@@ -15,7 +15,8 @@
 use brachia::ad::{as_f64_fn, Diff, LocalFn};
 use brachia::fdcheck::{assert_hessian, assert_jacobian};
 use brachia::model::{
-    ActuatorParams, DynamicsDerivatives, DynamicsFn, LinkParams, Robot, RobotParams, Scratch,
+    ActuatorParams, DynamicsDerivatives, DynamicsFn, LinearModel, Linearizer, LinkParams, Robot,
+    RobotParams, Scratch,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -284,6 +285,35 @@ fn combined_call_equals_the_separate_calls() {
             let (mut q2, mut j2, mut h2) = (vec![1.0; n], vec![1.0; n * nz], vec![1.0; nz * nz]);
             dd.jacobian_and_hessian(&robot, &z, &w, &mut q2, &mut j2, &mut h2);
             assert_eq!((q1, j1, h1), (q2, j2, h2), "n = {n}");
+        }
+    }
+}
+
+#[test]
+fn mpc_linearisation_equals_the_ad_jacobian() {
+    // The Linearizer runs on the analytic Jacobian; its A and B rows of qdd must be the AD ones.
+    for (robot, zs) in cases(18, 1, 3) {
+        let n = robot.n;
+        let (nx, nu, nz) = (2 * n, n - 1, 3 * n - 1);
+        let f = DynamicsFn { robot: &robot };
+        let mut diff = Diff::new(&f);
+        let mut lin = Linearizer::new(&robot);
+        let mut lm = LinearModel::zeros(n);
+        for z in zs {
+            lin.linearize_into(&z[..nx], &z[nx..], &mut lm);
+            let (mut qdd, mut jac) = (vec![0.0; n], vec![0.0; n * nz]);
+            diff.jacobian(&f, &z, &mut qdd, &mut jac);
+            let mut ab = vec![0.0; n * nz];
+            for i in 0..n {
+                ab[i * nz..i * nz + nx].copy_from_slice(&lm.a[(n + i) * nx..(n + i + 1) * nx]);
+                ab[i * nz + nx..(i + 1) * nz]
+                    .copy_from_slice(&lm.b[(n + i) * nu..(n + i + 1) * nu]);
+            }
+            let e = rel_err(&ab, &jac);
+            assert!(
+                e <= 1e-10,
+                "n = {n}: linearisation differs from AD by {e:.2e}"
+            );
         }
     }
 }
