@@ -757,15 +757,22 @@ impl<'a> Mpc<'a> {
             // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
             mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
             let qt = &self.qt[(j - 1) * nx * nx..j * nx * nx];
-            // P is symmetric: compute the upper triangle and mirror it.
+            // P is symmetric: compute the upper triangle and mirror it. Row i is accumulated over k
+            // into independent sums (the same order per entry as a dot product over k, so the same
+            // rounding, without one long dependency chain per entry).
             for i in 0..nx {
-                for c in i..nx {
-                    let mut v = qt[i * nx + c];
-                    for k in 0..nx {
-                        v += ad[k * nx + i] * self.ptmp[k * nx + c];
+                let mut acc = [0.0; 2 * crate::model::MAX_LINKS];
+                acc[i..nx].copy_from_slice(&qt[i * nx + i..(i + 1) * nx]);
+                for k in 0..nx {
+                    let aki = ad[k * nx + i];
+                    let pk = &self.ptmp[k * nx + i..(k + 1) * nx];
+                    for (v, &b) in acc[i..nx].iter_mut().zip(pk) {
+                        *v += aki * b;
                     }
-                    self.p[i * nx + c] = v;
-                    self.p[c * nx + i] = v;
+                }
+                for c in i..nx {
+                    self.p[i * nx + c] = acc[c];
+                    self.p[c * nx + i] = acc[c];
                 }
             }
             let e = &self.e[(j - 1) * nx..j * nx];
@@ -781,6 +788,7 @@ impl<'a> Mpc<'a> {
 
         // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored.
         let blk = nx * nu;
+        let mut acc_buf = [0.0; crate::model::MAX_LINKS * crate::model::MAX_LINKS];
         for j in 0..hn {
             let pb = &self.pb[j * blk..(j + 1) * blk];
             for i in 0..=j {
@@ -790,12 +798,22 @@ impl<'a> Mpc<'a> {
                         &self.gam[(j * hn + i) * blk..(j * hn + i + 1) * blk]
                     }
                 };
+                // Gamma^T PB accumulated over k into nu x nu independent sums (same order per entry
+                // as a dot product over k).
+                let acc = &mut acc_buf[..nu * nu];
+                acc.fill(0.0);
+                for k in 0..nx {
+                    let gk = &gm[k * nu..(k + 1) * nu];
+                    let pk = &pb[k * nu..(k + 1) * nu];
+                    for (a, &ga) in gk.iter().enumerate() {
+                        for (v, &b) in acc[a * nu..(a + 1) * nu].iter_mut().zip(pk) {
+                            *v += ga * b;
+                        }
+                    }
+                }
                 for a in 0..nu {
                     for b in 0..nu {
-                        let mut v = 0.0;
-                        for k in 0..nx {
-                            v += gm[k * nu + a] * pb[k * nu + b];
-                        }
+                        let v = acc[a * nu + b];
                         let (row, col) = (i * nu + a, j * nu + b);
                         self.h[row * nall + col] = v;
                         self.h[col * nall + row] = v;
