@@ -245,20 +245,7 @@ impl Expm {
 
 /// `c = a b`, all m x m row-major.
 fn matmul(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
-    for i in 0..m {
-        let ci = &mut c[i * m..(i + 1) * m];
-        ci.fill(0.0);
-        for k in 0..m {
-            let aik = a[i * m + k];
-            if aik == 0.0 {
-                continue;
-            }
-            let bk = &b[k * m..(k + 1) * m];
-            for j in 0..m {
-                ci[j] += aik * bk[j];
-            }
-        }
-    }
+    mat_mul_rect(a, b, c, m, m, m);
 }
 
 /// Discrete affine model of one stage: `x_{k+1} = Ad x_k + Bd u_k + Fd`, `y_k = C x_k + fy`.
@@ -836,17 +823,17 @@ impl<'a> Mpc<'a> {
 
 /// `c = a b` with a: r x k, b: k x s, c: r x s, row-major.
 fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
-    for i in 0..r {
-        let ci = &mut c[i * s..(i + 1) * s];
+    for (ai, ci) in a[..r * k]
+        .chunks_exact(k)
+        .zip(c[..r * s].chunks_exact_mut(s))
+    {
         ci.fill(0.0);
-        for l in 0..k {
-            let v = a[i * k + l];
+        for (&v, bl) in ai.iter().zip(b[..k * s].chunks_exact(s)) {
             if v == 0.0 {
                 continue;
             }
-            let bl = &b[l * s..(l + 1) * s];
-            for j in 0..s {
-                ci[j] += v * bl[j];
+            for (x, &y) in ci.iter_mut().zip(bl) {
+                *x += v * y;
             }
         }
     }
