@@ -300,6 +300,10 @@ pub struct Mpc<'a> {
     gam: Vec<f64>,
     /// `P_{j+1} B_j` for j = 0..N-1 (N x nx x nu).
     pb: Vec<f64>,
+    /// Gamma blocks of one Hessian block column side by side (nx x N nu).
+    gs: Vec<f64>,
+    /// One Hessian block column, transposed (nu x N nu).
+    hw: Vec<f64>,
     p: Vec<f64>,
     ptmp: Vec<f64>,
     lam: Vec<f64>,
@@ -378,6 +382,8 @@ impl<'a> Mpc<'a> {
             xi: vec![0.0; (hn + 1) * nx],
             gam: vec![0.0; n_gam * nx * nu],
             pb: vec![0.0; hn * nx * nu],
+            gs: vec![0.0; nx * nu_all],
+            hw: vec![0.0; nu * nu_all],
             p: vec![0.0; nx * nx],
             ptmp: vec![0.0; nx * nx],
             lam: vec![0.0; nx],
@@ -773,34 +779,48 @@ impl<'a> Mpc<'a> {
             std::mem::swap(&mut self.lam, &mut self.lamtmp);
         }
 
-        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored.
+        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored. For one j all
+        // blocks i <= j come from one product: the Gamma blocks are gathered side by side into
+        // `gs` (nx x (j + 1) nu; for `Measured` block c holds Gamma_c = A^c B, i.e. i = j - c, and is
+        // gathered once), then `hw[b][.] = sum_k PB[k][b] gs[k][.]` runs over long contiguous rows.
+        // Each entry is summed over k in the same order as before (bit-identical H).
         let blk = nx * nu;
-        let mut acc_buf = [0.0; crate::model::MAX_LINKS * crate::model::MAX_LINKS];
-        for j in 0..hn {
-            let pb = &self.pb[j * blk..(j + 1) * blk];
-            for i in 0..=j {
-                let gm = match self.settings.linearization {
-                    Linearization::Measured => &self.gam[(j - i) * blk..(j - i + 1) * blk],
-                    Linearization::AlongReference => {
-                        &self.gam[(j * hn + i) * blk..(j * hn + i + 1) * blk]
-                    }
-                };
-                // Gamma^T PB accumulated over k into nu x nu independent sums (same order per entry
-                // as a dot product over k).
-                let acc = &mut acc_buf[..nu * nu];
-                acc.fill(0.0);
+        let lti = self.settings.linearization == Linearization::Measured;
+        if lti {
+            for c in 0..hn {
                 for k in 0..nx {
-                    let gk = &gm[k * nu..(k + 1) * nu];
-                    let pk = &pb[k * nu..(k + 1) * nu];
-                    for (a, &ga) in gk.iter().enumerate() {
-                        for (v, &b) in acc[a * nu..(a + 1) * nu].iter_mut().zip(pk) {
-                            *v += ga * b;
-                        }
+                    self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
+                        .copy_from_slice(&self.gam[c * blk + k * nu..c * blk + (k + 1) * nu]);
+                }
+            }
+        }
+        for j in 0..hn {
+            if !lti {
+                for c in 0..=j {
+                    let g0 = (j * hn + c) * blk;
+                    for k in 0..nx {
+                        self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
+                            .copy_from_slice(&self.gam[g0 + k * nu..g0 + (k + 1) * nu]);
                     }
                 }
+            }
+            let len = (j + 1) * nu;
+            let pb = &self.pb[j * blk..(j + 1) * blk];
+            for b in 0..nu {
+                let wb = &mut self.hw[b * nall..b * nall + len];
+                wb.fill(0.0);
+                for k in 0..nx {
+                    let pkb = pb[k * nu + b];
+                    for (x, &g) in wb.iter_mut().zip(&self.gs[k * nall..k * nall + len]) {
+                        *x += g * pkb;
+                    }
+                }
+            }
+            for c in 0..=j {
+                let i = if lti { j - c } else { c };
                 for a in 0..nu {
                     for b in 0..nu {
-                        let v = acc[a * nu + b];
+                        let v = self.hw[b * nall + c * nu + a];
                         let (row, col) = (i * nu + a, j * nu + b);
                         self.h[row * nall + col] = v;
                         self.h[col * nall + row] = v;
