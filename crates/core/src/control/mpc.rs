@@ -185,6 +185,8 @@ impl MpcSettings {
 #[derive(Debug, Clone)]
 struct Expm {
     m: usize,
+    /// Only the first `top` rows of `a` may be non-zero (the ZOH block matrix `[A B f; 0 0 0]`).
+    top: usize,
     a: Vec<f64>,
     term: Vec<f64>,
     sum: Vec<f64>,
@@ -192,9 +194,10 @@ struct Expm {
 }
 
 impl Expm {
-    fn new(m: usize) -> Self {
+    fn new(m: usize, top: usize) -> Self {
         Expm {
             m,
+            top,
             a: vec![0.0; m * m],
             term: vec![0.0; m * m],
             sum: vec![0.0; m * m],
@@ -226,8 +229,12 @@ impl Expm {
             self.sum[i * m + i] = 1.0;
             self.term[i * m + i] = 1.0;
         }
+        // With a's rows top.. zero, term_k = term_{k-1} a has zero rows top.. too (k >= 1) and only
+        // the rows 0..top of a contribute: the terms that are skipped would add exact zeros.
+        let top = self.top;
+        self.tmp.fill(0.0);
         for k in 1..=12 {
-            matmul(&self.term, &self.a, &mut self.tmp, m);
+            mat_mul_rows(&self.term, &self.a, &mut self.tmp, m, top);
             let inv = 1.0 / k as f64;
             for (t, &v) in self.term.iter_mut().zip(&self.tmp) {
                 *t = v * inv;
@@ -239,6 +246,25 @@ impl Expm {
         for _ in 0..s {
             matmul(&self.sum, &self.sum, &mut self.tmp, m);
             std::mem::swap(&mut self.sum, &mut self.tmp);
+        }
+    }
+}
+
+/// `c[..top] = a[..top, ..top] b[..top]` for m x m row-major matrices (rows top.. of c untouched):
+/// the product `a b` when rows top.. of `b` are zero and rows top.. of `a` are zero too.
+fn mat_mul_rows(a: &[f64], b: &[f64], c: &mut [f64], m: usize, top: usize) {
+    for (ai, ci) in a[..top * m]
+        .chunks_exact(m)
+        .zip(c[..top * m].chunks_exact_mut(m))
+    {
+        ci.fill(0.0);
+        for (&v, bl) in ai[..top].iter().zip(b[..top * m].chunks_exact(m)) {
+            if v == 0.0 {
+                continue;
+            }
+            for (x, &y) in ci.iter_mut().zip(bl) {
+                *x += v * y;
+            }
         }
     }
 }
@@ -364,7 +390,7 @@ impl<'a> Mpc<'a> {
             reference,
             lin: Linearizer::new(robot),
             lm: LinearModel::zeros(n),
-            expm: Expm::new(nx + nu + 1),
+            expm: Expm::new(nx + nu + 1, nx),
             n_models,
             ad: vec![0.0; n_models * nx * nx],
             bd: vec![0.0; n_models * nx * nu],
