@@ -204,13 +204,10 @@ impl BoxQp {
         let tol = self.settings.tol * (1.0 + gmax + hmax * umax);
 
         // Factor H_FF from scratch.
-        self.nf = 0;
-        for i in 0..n {
-            if self.state[i] == FREE && !self.append(h, n, i) {
-                info.status = BoxQpStatus::NotPositiveDefinite;
-                info.active = self.count_active(n);
-                return info;
-            }
+        if !self.factor_free(h, n) {
+            info.status = BoxQpStatus::NotPositiveDefinite;
+            info.active = self.count_active(n);
+            return info;
         }
 
         loop {
@@ -337,6 +334,41 @@ impl BoxQp {
         self.l[nf * m + nf] = d.sqrt();
         self.free[nf] = i;
         self.nf += 1;
+        true
+    }
+
+    /// Factor `H_FF` from scratch for the free variables in index order. Builds exactly the factor that
+    /// [`Self::append`] would build one row at a time (same formulas, same rounding), but column by
+    /// column: the rows of one column are independent, so their dot products and divisions overlap
+    /// instead of waiting on each other. False if a pivot is not positive (then `nf` counts the
+    /// variables factored before it, as after a failed `append`).
+    fn factor_free(&mut self, h: &[f64], n: usize) -> bool {
+        let m = self.n_max;
+        let mut nf = 0;
+        for i in 0..n {
+            if self.state[i] == FREE {
+                self.free[nf] = i;
+                nf += 1;
+            }
+        }
+        self.nf = 0;
+        for j in 0..nf {
+            let fj = self.free[j];
+            let (head, tail) = self.l.split_at_mut((j + 1) * m);
+            let lj = &mut head[j * m..(j + 1) * m];
+            let d = h[fj * n + fj] - dot(&lj[..j], &lj[..j]);
+            if d.is_nan() || d <= 1e-14 * h[fj * n + fj].abs() || !d.is_finite() {
+                return false;
+            }
+            let piv = d.sqrt();
+            lj[j] = piv;
+            let lj = &lj[..j];
+            for (i, li) in (j + 1..nf).zip(tail.chunks_exact_mut(m)) {
+                let v = h[self.free[i] * n + fj] - dot(lj, &li[..j]);
+                li[j] = v / piv;
+            }
+            self.nf = j + 1;
+        }
         true
     }
 

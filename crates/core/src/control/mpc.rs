@@ -185,6 +185,8 @@ impl MpcSettings {
 #[derive(Debug, Clone)]
 struct Expm {
     m: usize,
+    /// Only the first `top` rows of `a` may be non-zero (the ZOH block matrix `[A B f; 0 0 0]`).
+    top: usize,
     a: Vec<f64>,
     term: Vec<f64>,
     sum: Vec<f64>,
@@ -192,9 +194,10 @@ struct Expm {
 }
 
 impl Expm {
-    fn new(m: usize) -> Self {
+    fn new(m: usize, top: usize) -> Self {
         Expm {
             m,
+            top,
             a: vec![0.0; m * m],
             term: vec![0.0; m * m],
             sum: vec![0.0; m * m],
@@ -226,8 +229,12 @@ impl Expm {
             self.sum[i * m + i] = 1.0;
             self.term[i * m + i] = 1.0;
         }
+        // With a's rows top.. zero, term_k = term_{k-1} a has zero rows top.. too (k >= 1) and only
+        // the rows 0..top of a contribute: the terms that are skipped would add exact zeros.
+        let top = self.top;
+        self.tmp.fill(0.0);
         for k in 1..=12 {
-            matmul(&self.term, &self.a, &mut self.tmp, m);
+            mat_mul_rows(&self.term, &self.a, &mut self.tmp, m, top);
             let inv = 1.0 / k as f64;
             for (t, &v) in self.term.iter_mut().zip(&self.tmp) {
                 *t = v * inv;
@@ -243,22 +250,28 @@ impl Expm {
     }
 }
 
-/// `c = a b`, all m x m row-major.
-fn matmul(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
-    for i in 0..m {
-        let ci = &mut c[i * m..(i + 1) * m];
+/// `c[..top] = a[..top, ..top] b[..top]` for m x m row-major matrices (rows top.. of c untouched):
+/// the product `a b` when rows top.. of `b` are zero and rows top.. of `a` are zero too.
+fn mat_mul_rows(a: &[f64], b: &[f64], c: &mut [f64], m: usize, top: usize) {
+    for (ai, ci) in a[..top * m]
+        .chunks_exact(m)
+        .zip(c[..top * m].chunks_exact_mut(m))
+    {
         ci.fill(0.0);
-        for k in 0..m {
-            let aik = a[i * m + k];
-            if aik == 0.0 {
+        for (&v, bl) in ai[..top].iter().zip(b[..top * m].chunks_exact(m)) {
+            if v == 0.0 {
                 continue;
             }
-            let bk = &b[k * m..(k + 1) * m];
-            for j in 0..m {
-                ci[j] += aik * bk[j];
+            for (x, &y) in ci.iter_mut().zip(bl) {
+                *x += v * y;
             }
         }
     }
+}
+
+/// `c = a b`, all m x m row-major.
+fn matmul(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
+    mat_mul_rect(a, b, c, m, m, m);
 }
 
 /// Discrete affine model of one stage: `x_{k+1} = Ad x_k + Bd u_k + Fd`, `y_k = C x_k + fy`.
@@ -313,6 +326,10 @@ pub struct Mpc<'a> {
     gam: Vec<f64>,
     /// `P_{j+1} B_j` for j = 0..N-1 (N x nx x nu).
     pb: Vec<f64>,
+    /// Gamma blocks of one Hessian block column side by side (nx x N nu).
+    gs: Vec<f64>,
+    /// One Hessian block column, transposed (nu x N nu).
+    hw: Vec<f64>,
     p: Vec<f64>,
     ptmp: Vec<f64>,
     lam: Vec<f64>,
@@ -373,7 +390,7 @@ impl<'a> Mpc<'a> {
             reference,
             lin: Linearizer::new(robot),
             lm: LinearModel::zeros(n),
-            expm: Expm::new(nx + nu + 1),
+            expm: Expm::new(nx + nu + 1, nx),
             n_models,
             ad: vec![0.0; n_models * nx * nx],
             bd: vec![0.0; n_models * nx * nu],
@@ -391,6 +408,8 @@ impl<'a> Mpc<'a> {
             xi: vec![0.0; (hn + 1) * nx],
             gam: vec![0.0; n_gam * nx * nu],
             pb: vec![0.0; hn * nx * nu],
+            gs: vec![0.0; nx * nu_all],
+            hw: vec![0.0; nu * nu_all],
             p: vec![0.0; nx * nx],
             ptmp: vec![0.0; nx * nx],
             lam: vec![0.0; nx],
@@ -757,15 +776,22 @@ impl<'a> Mpc<'a> {
             // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
             mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
             let qt = &self.qt[(j - 1) * nx * nx..j * nx * nx];
-            // P is symmetric: compute the upper triangle and mirror it.
+            // P is symmetric: compute the upper triangle and mirror it. Row i is accumulated over k
+            // into independent sums (the same order per entry as a dot product over k, so the same
+            // rounding, without one long dependency chain per entry).
             for i in 0..nx {
-                for c in i..nx {
-                    let mut v = qt[i * nx + c];
-                    for k in 0..nx {
-                        v += ad[k * nx + i] * self.ptmp[k * nx + c];
+                let mut acc = [0.0; 2 * crate::model::MAX_LINKS];
+                acc[i..nx].copy_from_slice(&qt[i * nx + i..(i + 1) * nx]);
+                for k in 0..nx {
+                    let aki = ad[k * nx + i];
+                    let pk = &self.ptmp[k * nx + i..(k + 1) * nx];
+                    for (v, &b) in acc[i..nx].iter_mut().zip(pk) {
+                        *v += aki * b;
                     }
-                    self.p[i * nx + c] = v;
-                    self.p[c * nx + i] = v;
+                }
+                for c in i..nx {
+                    self.p[i * nx + c] = acc[c];
+                    self.p[c * nx + i] = acc[c];
                 }
             }
             let e = &self.e[(j - 1) * nx..j * nx];
@@ -779,23 +805,48 @@ impl<'a> Mpc<'a> {
             std::mem::swap(&mut self.lam, &mut self.lamtmp);
         }
 
-        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored.
+        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored. For one j all
+        // blocks i <= j come from one product: the Gamma blocks are gathered side by side into
+        // `gs` (nx x (j + 1) nu; for `Measured` block c holds Gamma_c = A^c B, i.e. i = j - c, and is
+        // gathered once), then `hw[b][.] = sum_k PB[k][b] gs[k][.]` runs over long contiguous rows.
+        // Each entry is summed over k in the same order as before (bit-identical H).
         let blk = nx * nu;
+        let lti = self.settings.linearization == Linearization::Measured;
+        if lti {
+            for c in 0..hn {
+                for k in 0..nx {
+                    self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
+                        .copy_from_slice(&self.gam[c * blk + k * nu..c * blk + (k + 1) * nu]);
+                }
+            }
+        }
         for j in 0..hn {
-            let pb = &self.pb[j * blk..(j + 1) * blk];
-            for i in 0..=j {
-                let gm = match self.settings.linearization {
-                    Linearization::Measured => &self.gam[(j - i) * blk..(j - i + 1) * blk],
-                    Linearization::AlongReference => {
-                        &self.gam[(j * hn + i) * blk..(j * hn + i + 1) * blk]
+            if !lti {
+                for c in 0..=j {
+                    let g0 = (j * hn + c) * blk;
+                    for k in 0..nx {
+                        self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
+                            .copy_from_slice(&self.gam[g0 + k * nu..g0 + (k + 1) * nu]);
                     }
-                };
+                }
+            }
+            let len = (j + 1) * nu;
+            let pb = &self.pb[j * blk..(j + 1) * blk];
+            for b in 0..nu {
+                let wb = &mut self.hw[b * nall..b * nall + len];
+                wb.fill(0.0);
+                for k in 0..nx {
+                    let pkb = pb[k * nu + b];
+                    for (x, &g) in wb.iter_mut().zip(&self.gs[k * nall..k * nall + len]) {
+                        *x += g * pkb;
+                    }
+                }
+            }
+            for c in 0..=j {
+                let i = if lti { j - c } else { c };
                 for a in 0..nu {
                     for b in 0..nu {
-                        let mut v = 0.0;
-                        for k in 0..nx {
-                            v += gm[k * nu + a] * pb[k * nu + b];
-                        }
+                        let v = self.hw[b * nall + c * nu + a];
                         let (row, col) = (i * nu + a, j * nu + b);
                         self.h[row * nall + col] = v;
                         self.h[col * nall + row] = v;
@@ -818,17 +869,17 @@ impl<'a> Mpc<'a> {
 
 /// `c = a b` with a: r x k, b: k x s, c: r x s, row-major.
 fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
-    for i in 0..r {
-        let ci = &mut c[i * s..(i + 1) * s];
+    for (ai, ci) in a[..r * k]
+        .chunks_exact(k)
+        .zip(c[..r * s].chunks_exact_mut(s))
+    {
         ci.fill(0.0);
-        for l in 0..k {
-            let v = a[i * k + l];
+        for (&v, bl) in ai.iter().zip(b[..k * s].chunks_exact(s)) {
             if v == 0.0 {
                 continue;
             }
-            let bl = &b[l * s..(l + 1) * s];
-            for j in 0..s {
-                ci[j] += v * bl[j];
+            for (x, &y) in ci.iter_mut().zip(bl) {
+                *x += v * y;
             }
         }
     }

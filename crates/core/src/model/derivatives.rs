@@ -2,10 +2,14 @@
 //!
 //! [`DynamicsFn`] presents `qdd(z)` with `z = [q, qd, tau]` (2n + n - 1 inputs, n outputs) to the
 //! automatic-differentiation engine in [`crate::ad`]. Second derivatives that are zero by structure
-//! (qdd is linear in tau, and qd and tau never multiply) are declared so and skipped.
+//! (qdd is linear in tau, and qd and tau never multiply) are declared so and skipped. Production code
+//! uses the closed forms of [`super::DynamicsDerivatives`]; `DynamicsFn` with [`crate::ad::Diff`] is
+//! their test oracle.
+//!
+//! [`Linearizer`] builds the MPC's continuous-time linear model from the analytic Jacobian.
 
-use super::{Robot, Scratch};
-use crate::ad::{Diff, LocalFn};
+use super::{DynamicsDerivatives, Robot, Scratch};
+use crate::ad::LocalFn;
 use crate::math::Scalar;
 
 /// Forward dynamics as a [`LocalFn`]: `z = [q (n), qd (n), tau (n-1)] -> qdd (n)`.
@@ -56,10 +60,11 @@ pub struct LinearModel {
     pub fy: Vec<f64>,
 }
 
-/// Reusable evaluator of [`LinearModel`]s for one robot: allocates at construction only.
+/// Reusable evaluator of [`LinearModel`]s for one robot (analytic Jacobian of qdd): allocates at
+/// construction only.
 pub struct Linearizer<'a> {
-    f: DynamicsFn<'a>,
-    diff: Diff<DynamicsFn<'a>>,
+    robot: &'a Robot,
+    dd: DynamicsDerivatives,
     z: Vec<f64>,
     qdd: Vec<f64>,
     jac: Vec<f64>,
@@ -69,11 +74,10 @@ pub struct Linearizer<'a> {
 impl<'a> Linearizer<'a> {
     /// Buffers for `robot`.
     pub fn new(robot: &'a Robot) -> Self {
-        let f = DynamicsFn { robot };
         let n = robot.n;
         Linearizer {
-            diff: Diff::new(&f),
-            f,
+            robot,
+            dd: DynamicsDerivatives::new(robot),
             z: vec![0.0; 3 * n - 1],
             qdd: vec![0.0; n],
             jac: vec![0.0; n * (3 * n - 1)],
@@ -83,19 +87,19 @@ impl<'a> Linearizer<'a> {
 
     /// Exact Jacobian of qdd with respect to `[q, qd, tau]`, row-major n x (3n-1), and qdd itself.
     pub fn qdd_jacobian(&mut self, q: &[f64], qd: &[f64], tau: &[f64]) -> (&[f64], &[f64]) {
-        let n = self.f.robot.n;
+        let n = self.robot.n;
         self.z[..n].copy_from_slice(q);
         self.z[n..2 * n].copy_from_slice(qd);
         self.z[2 * n..].copy_from_slice(tau);
-        self.diff
-            .jacobian(&self.f, &self.z, &mut self.qdd, &mut self.jac);
+        self.dd
+            .jacobian(self.robot, &self.z, &mut self.qdd, &mut self.jac);
         (&self.qdd, &self.jac)
     }
 
     /// Linearise `xdot = f(x, u)` and `y = ee(q)` about `(x, u)`, writing into `out` (no allocation
     /// when `out` already has the right sizes).
     pub fn linearize_into(&mut self, x: &[f64], u: &[f64], out: &mut LinearModel) {
-        let n = self.f.robot.n;
+        let n = self.robot.n;
         let (nx, nu) = (2 * n, n - 1);
         let nz = 3 * n - 1;
         self.qdd_jacobian(&x[..n], &x[n..], u);
@@ -121,8 +125,8 @@ impl<'a> Linearizer<'a> {
             let bu: f64 = (0..nu).map(|j| out.b[i * nu + j] * u[j]).sum();
             out.f[i] = fx - ax - bu;
         }
-        self.f.robot.ee_jacobian(&x[..n], &mut self.jee);
-        let ee = self.f.robot.ee_position(&x[..n]);
+        self.robot.ee_jacobian(&x[..n], &mut self.jee);
+        let ee = self.robot.ee_position(&x[..n]);
         out.c.fill(0.0);
         for r in 0..2 {
             let mut cx = 0.0;
