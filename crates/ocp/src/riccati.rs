@@ -1,0 +1,531 @@
+//! The Newton step: a Riccati recursion over the condensed stage chain, plus a small dense Schur
+//! complement for the equality rows (terminal rows and fixed states after stage 0).
+//!
+//! The equality-constrained QP solved here (all quantities are steps):
+//! ```text
+//! min  sum_k 1/2 dz_k^T H_k dz_k + g_k^T dz_k
+//! s.t. dx_{k+1} = A_k dx_k + B_k du_k + b_k          (multiplier lam_k)
+//!      a_j^T dx_{k_j} + rho_j = 0,  j = 0..m          (multiplier nu_j)
+//! ```
+//! `H_k = [Q S^T; S R]` in the order `z = [x, u]`. See docs/ocp.md for the derivation.
+
+use crate::dense::{chol, chol_solve, gemm_nn, gemm_tn_acc, gemv_n_acc, gemv_t_acc};
+use crate::settings::MAX_EQUALITY_ROWS;
+
+/// Offsets of every per-stage block in the flat workspace arrays.
+#[derive(Debug, Clone)]
+pub(crate) struct Layout {
+    /// K (index of the last stage).
+    pub kk: usize,
+    pub nx: Vec<usize>,
+    pub nu: Vec<usize>,
+    pub nc: Vec<usize>,
+    /// nx of the successor (0 at K).
+    pub nx1: Vec<usize>,
+    /// Offsets into arrays of `nz` per stage (K + 2 entries, the last is the total).
+    pub oz: Vec<usize>,
+    /// Offsets into arrays of `nx_{k+1}` per stage (dynamics rows, multipliers lam).
+    pub ol: Vec<usize>,
+    /// Offsets into arrays of `nc` per stage.
+    pub oc: Vec<usize>,
+    /// Offsets of the `nz x nz` stage Hessians.
+    pub oh: Vec<usize>,
+    /// Offsets of `A_k` (`nx_{k+1} x nx_k`).
+    pub oa: Vec<usize>,
+    /// Offsets of `B_k` (`nx_{k+1} x nu_k`).
+    pub ob: Vec<usize>,
+    /// Offsets of `P_k` (`nx_k x nx_k`).
+    pub op: Vec<usize>,
+    /// Offsets of the gains `K_k` (`nu_k x nx_k`).
+    pub ok: Vec<usize>,
+    /// Offsets of the Cholesky factors of `R^_k` (`nu_k x nu_k`).
+    pub or: Vec<usize>,
+    /// Largest nx, nu, nz over the stages.
+    pub nx_max: usize,
+    pub nu_max: usize,
+}
+
+fn offsets(sizes: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut v = vec![0];
+    let mut acc = 0;
+    for s in sizes {
+        acc += s;
+        v.push(acc);
+    }
+    v
+}
+
+impl Layout {
+    pub fn new(nx: Vec<usize>, nu: Vec<usize>, nc: Vec<usize>) -> Self {
+        let n = nx.len();
+        let kk = n - 1;
+        let nx1: Vec<usize> = (0..n).map(|k| if k < kk { nx[k + 1] } else { 0 }).collect();
+        let nz: Vec<usize> = (0..n).map(|k| nx[k] + nu[k]).collect();
+        Layout {
+            kk,
+            oz: offsets(nz.iter().copied()),
+            ol: offsets(nx1.iter().copied()),
+            oc: offsets(nc.iter().copied()),
+            oh: offsets(nz.iter().map(|z| z * z)),
+            oa: offsets((0..n).map(|k| nx1[k] * nx[k])),
+            ob: offsets((0..n).map(|k| nx1[k] * nu[k])),
+            op: offsets(nx.iter().map(|x| x * x)),
+            ok: offsets((0..n).map(|k| nu[k] * nx[k])),
+            or: offsets(nu.iter().map(|u| u * u)),
+            nx_max: nx.iter().copied().max().unwrap_or(0),
+            nu_max: nu.iter().copied().max().unwrap_or(0),
+            nx,
+            nu,
+            nc,
+            nx1,
+        }
+    }
+    pub fn nz(&self, k: usize) -> usize {
+        self.nx[k] + self.nu[k]
+    }
+    pub fn n_z(&self) -> usize {
+        self.oz[self.kk + 1]
+    }
+    pub fn n_l(&self) -> usize {
+        self.ol[self.kk + 1]
+    }
+    pub fn n_c(&self) -> usize {
+        self.oc[self.kk + 1]
+    }
+}
+
+/// Where the factorisation failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct NotPositive;
+
+/// Riccati factors and solve workspace.
+#[derive(Debug, Clone)]
+pub(crate) struct Riccati {
+    /// Condensed stage Hessians (input; left untouched by the factorisation).
+    pub h: Vec<f64>,
+    /// Dynamics Jacobians (input).
+    pub a: Vec<f64>,
+    pub b: Vec<f64>,
+    /// Value-function Hessians P_k.
+    p: Vec<f64>,
+    /// Soft dynamics (restoration): per dynamics row a weight D >= 0 in
+    /// `dx_{k+1} = A dx + B du + b - D lam` (empty use when `soft` is false).
+    pub soft: bool,
+    /// The weights D (n_l).
+    pub dsoft: Vec<f64>,
+    /// `P~_{k+1} = P - P S (I + S P S)^-1 S P`, S = D^1/2, stored at the offsets of P_{k+1}.
+    ptil: Vec<f64>,
+    /// Cholesky factors of `I + S P_{k+1} S`, at the offsets of P_{k+1}.
+    lm: Vec<f64>,
+    /// Soft-dynamics gradients p~_{k+1} (n_l) of the last solve.
+    pvt: Vec<f64>,
+    /// Feedback gains K_k = -R^^-1 S^.
+    kgain: Vec<f64>,
+    /// Cholesky factors of R^_k.
+    lr: Vec<f64>,
+    /// Cholesky factor of P_0.
+    lp0: Vec<f64>,
+    /// Value-function gradients p_k of the last solve.
+    pv: Vec<f64>,
+    /// Feed-forward terms of the last solve.
+    kff: Vec<f64>,
+    // temporaries
+    pa: Vec<f64>,
+    pb: Vec<f64>,
+    qh: Vec<f64>,
+    sh: Vec<f64>,
+    rh: Vec<f64>,
+    t: Vec<f64>,
+    // Schur complement over the equality rows
+    /// Stage of each equality row.
+    pub eq_stage: Vec<usize>,
+    /// Row vectors a_j (MAX_EQUALITY_ROWS x nx_max; only nx_{k_j} entries used).
+    pub eq_a: Vec<f64>,
+    /// Residuals rho_j.
+    pub eq_rho: Vec<f64>,
+    /// Per-row regularisation of the Schur complement (restoration weights; 0 otherwise).
+    pub eq_reg: Vec<f64>,
+    /// Number of equality rows in use.
+    pub m: usize,
+    schur: Vec<f64>,
+    schur_fac: Vec<f64>,
+    w: Vec<f64>,
+    gw: Vec<f64>,
+    zero_b: Vec<f64>,
+    dz_tmp: Vec<f64>,
+    lam_tmp: Vec<f64>,
+}
+
+impl Riccati {
+    pub fn new(lay: &Layout) -> Self {
+        let kk = lay.kk;
+        let nxm = lay.nx_max;
+        let num = lay.nu_max;
+        let nx1m = lay.nx1.iter().copied().max().unwrap_or(0);
+        let me = MAX_EQUALITY_ROWS;
+        Riccati {
+            h: vec![0.0; lay.oh[kk + 1]],
+            a: vec![0.0; lay.oa[kk + 1]],
+            b: vec![0.0; lay.ob[kk + 1]],
+            p: vec![0.0; lay.op[kk + 1]],
+            soft: false,
+            dsoft: vec![0.0; lay.n_l()],
+            ptil: vec![0.0; lay.op[kk + 1]],
+            lm: vec![0.0; lay.op[kk + 1]],
+            pvt: vec![0.0; lay.n_l()],
+            kgain: vec![0.0; lay.ok[kk + 1]],
+            lr: vec![0.0; lay.or[kk + 1]],
+            lp0: vec![0.0; lay.nx[0] * lay.nx[0]],
+            pv: vec![0.0; lay.oz[kk + 1]],
+            kff: vec![0.0; lay.oz[kk + 1]],
+            pa: vec![0.0; nx1m * nxm],
+            pb: vec![0.0; nx1m * num],
+            qh: vec![0.0; nxm * nxm],
+            sh: vec![0.0; num * nxm],
+            rh: vec![0.0; num * num.max(1)],
+            t: vec![0.0; nx1m.max(nxm)],
+            eq_stage: vec![0; me],
+            eq_a: vec![0.0; me * nxm],
+            eq_rho: vec![0.0; me],
+            eq_reg: vec![0.0; me],
+            m: 0,
+            schur: vec![0.0; me * me],
+            schur_fac: vec![0.0; me * me],
+            w: vec![0.0; me],
+            gw: vec![0.0; lay.n_z()],
+            zero_b: vec![0.0; lay.n_l()],
+            dz_tmp: vec![0.0; lay.n_z()],
+            lam_tmp: vec![0.0; lay.n_l()],
+        }
+    }
+
+    /// Backward factorisation of the chain with `delta_w` added to the diagonal entries flagged in
+    /// `regularize` (one flag per entry of z). Fails when a reduced input Hessian `R^_k` or `P_0` is
+    /// not positive definite.
+    pub fn factor(
+        &mut self,
+        lay: &Layout,
+        delta_w: f64,
+        regularize: &[bool],
+    ) -> Result<(), NotPositive> {
+        for k in (0..=lay.kk).rev() {
+            let (nx, nu, nz, nx1) = (lay.nx[k], lay.nu[k], lay.nz(k), lay.nx1[k]);
+            let h = &self.h[lay.oh[k]..lay.oh[k + 1]];
+            let reg = &regularize[lay.oz[k]..lay.oz[k + 1]];
+            let qh = &mut self.qh[..nx * nx];
+            let sh = &mut self.sh[..nu * nx];
+            let rh = &mut self.rh[..nu * nu];
+            for i in 0..nx {
+                qh[i * nx..(i + 1) * nx].copy_from_slice(&h[i * nz..i * nz + nx]);
+                if reg[i] {
+                    qh[i * nx + i] += delta_w;
+                }
+            }
+            for i in 0..nu {
+                let row = &h[(nx + i) * nz..(nx + i + 1) * nz];
+                sh[i * nx..(i + 1) * nx].copy_from_slice(&row[..nx]);
+                rh[i * nu..(i + 1) * nu].copy_from_slice(&row[nx..]);
+                if reg[nx + i] {
+                    rh[i * nu + i] += delta_w;
+                }
+            }
+            if k < lay.kk && self.soft {
+                let (o, n) = (lay.op[k + 1], nx1);
+                let p1 = &self.p[o..o + n * n];
+                let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                let lm = &mut self.lm[o..o + n * n];
+                for i in 0..n {
+                    for j in 0..n {
+                        lm[i * n + j] = d[i].sqrt() * p1[i * n + j] * d[j].sqrt()
+                            + if i == j { 1.0 } else { 0.0 };
+                    }
+                }
+                if !chol(lm, n) {
+                    return Err(NotPositive);
+                }
+                // X = M^-1 S P in ptil, then P~ = P - (S P)^T X
+                let pt = &mut self.ptil[o..o + n * n];
+                for i in 0..n {
+                    for j in 0..n {
+                        pt[i * n + j] = d[i].sqrt() * p1[i * n + j];
+                    }
+                }
+                chol_solve(lm, n, pt, n);
+                let pa = &mut self.pa[..n * n];
+                pa.copy_from_slice(p1);
+                for l in 0..n {
+                    let sl = d[l].sqrt();
+                    for i in 0..n {
+                        let spli = sl * p1[l * n + i];
+                        for j in 0..n {
+                            pa[i * n + j] -= spli * pt[l * n + j];
+                        }
+                    }
+                }
+                for i in 0..n {
+                    for j in 0..=i {
+                        let v = 0.5 * (pa[i * n + j] + pa[j * n + i]);
+                        pt[i * n + j] = v;
+                        pt[j * n + i] = v;
+                    }
+                }
+            }
+            if k < lay.kk {
+                let p1 = if self.soft {
+                    &self.ptil[lay.op[k + 1]..lay.op[k + 2]]
+                } else {
+                    &self.p[lay.op[k + 1]..lay.op[k + 2]]
+                };
+                let a = &self.a[lay.oa[k]..lay.oa[k + 1]];
+                let b = &self.b[lay.ob[k]..lay.ob[k + 1]];
+                let pa = &mut self.pa[..nx1 * nx];
+                let pb = &mut self.pb[..nx1 * nu];
+                gemm_nn(p1, a, pa, nx1, nx1, nx);
+                gemm_tn_acc(a, pa, qh, nx1, nx, nx);
+                if nu > 0 {
+                    gemm_tn_acc(b, pa, sh, nx1, nu, nx);
+                    gemm_nn(p1, b, pb, nx1, nx1, nu);
+                    gemm_tn_acc(b, pb, rh, nx1, nu, nu);
+                }
+            }
+            if nu > 0 {
+                if !chol(rh, nu) {
+                    return Err(NotPositive);
+                }
+                self.lr[lay.or[k]..lay.or[k + 1]].copy_from_slice(rh);
+                let kg = &mut self.kgain[lay.ok[k]..lay.ok[k + 1]];
+                kg.copy_from_slice(sh);
+                chol_solve(rh, nu, kg, nx);
+                for v in kg.iter_mut() {
+                    *v = -*v;
+                }
+                // P = Q^ + S^^T K
+                gemm_tn_acc(sh, kg, qh, nu, nx, nx);
+            }
+            let p = &mut self.p[lay.op[k]..lay.op[k + 1]];
+            for i in 0..nx {
+                for j in 0..=i {
+                    let v = 0.5 * (qh[i * nx + j] + qh[j * nx + i]);
+                    p[i * nx + j] = v;
+                    p[j * nx + i] = v;
+                }
+            }
+        }
+        let n0 = lay.nx[0];
+        self.lp0.copy_from_slice(&self.p[..n0 * n0]);
+        if !chol(&mut self.lp0, n0) {
+            return Err(NotPositive);
+        }
+        Ok(())
+    }
+
+    /// Solves the chain QP without the equality rows, for gradient `g` (n_z) and defects `bdef`
+    /// (n_l), after [`Riccati::factor`]. Writes the step `dz` and the dynamics multipliers `lam`.
+    pub fn solve_chain(
+        &mut self,
+        lay: &Layout,
+        g: &[f64],
+        bdef: &[f64],
+        dz: &mut [f64],
+        lam: &mut [f64],
+    ) {
+        let kk = lay.kk;
+        for k in (0..=kk).rev() {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let gk = &g[lay.oz[k]..lay.oz[k + 1]];
+            let (pv_lo, pv_hi) = self.pv.split_at_mut(lay.oz[k + 1]);
+            let pk = &mut pv_lo[lay.oz[k]..lay.oz[k] + nx];
+            pk.copy_from_slice(&gk[..nx]);
+            let rh = &mut self.rh[..nu];
+            rh.copy_from_slice(&gk[nx..]);
+            if k < kk && self.soft {
+                // p~ = p - P S M^-1 S p
+                let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                let w = &mut self.t[..nx1];
+                for i in 0..nx1 {
+                    w[i] = d[i].sqrt() * pv_hi[i];
+                }
+                let o = lay.op[k + 1];
+                chol_solve(&self.lm[o..o + nx1 * nx1], nx1, w, 1);
+                for i in 0..nx1 {
+                    w[i] *= d[i].sqrt();
+                }
+                let pt = &mut self.pvt[lay.ol[k]..lay.ol[k + 1]];
+                pt.copy_from_slice(&pv_hi[..nx1]);
+                for i in 0..nx1 {
+                    let mut acc = 0.0;
+                    for j in 0..nx1 {
+                        acc += self.p[o + i * nx1 + j] * w[j];
+                    }
+                    pt[i] -= acc;
+                }
+            }
+            if k < kk {
+                let t = &mut self.t[..nx1];
+                let p1 = if self.soft {
+                    t.copy_from_slice(&self.pvt[lay.ol[k]..lay.ol[k + 1]]);
+                    &self.ptil[lay.op[k + 1]..lay.op[k + 2]]
+                } else {
+                    t.copy_from_slice(&pv_hi[..nx1]); // p_{k+1} sits at oz[k+1]
+                    &self.p[lay.op[k + 1]..lay.op[k + 2]]
+                };
+                gemv_n_acc(p1, &bdef[lay.ol[k]..lay.ol[k + 1]], t, nx1, nx1);
+                gemv_t_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], t, pk, nx1, nx);
+                if nu > 0 {
+                    gemv_t_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], t, rh, nx1, nu);
+                }
+            }
+            if nu > 0 {
+                let kf = &mut self.kff[lay.oz[k]..lay.oz[k] + nu];
+                kf.copy_from_slice(rh);
+                chol_solve(&self.lr[lay.or[k]..lay.or[k + 1]], nu, kf, 1);
+                for v in kf.iter_mut() {
+                    *v = -*v;
+                }
+                // p_k = q^ + K^T r^
+                gemv_t_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], rh, pk, nu, nx);
+            }
+        }
+        // forward
+        let n0 = lay.nx[0];
+        {
+            let dx0 = &mut dz[..n0];
+            for i in 0..n0 {
+                dx0[i] = -self.pv[i];
+            }
+            chol_solve(&self.lp0, n0, dx0, 1);
+        }
+        for k in 0..=kk {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let (dz_lo, dz_hi) = dz.split_at_mut(lay.oz[k + 1]);
+            let dzk = &mut dz_lo[lay.oz[k]..];
+            let (dx, du) = dzk.split_at_mut(nx);
+            if nu > 0 {
+                du.copy_from_slice(&self.kff[lay.oz[k]..lay.oz[k] + nu]);
+                gemv_n_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], dx, du, nu, nx);
+            }
+            if k < kk {
+                let dx1 = &mut dz_hi[..nx1];
+                dx1.copy_from_slice(&bdef[lay.ol[k]..lay.ol[k + 1]]);
+                gemv_n_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], dx, dx1, nx1, nx);
+                if nu > 0 {
+                    gemv_n_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], du, dx1, nx1, nu);
+                }
+                let lk = &mut lam[lay.ol[k]..lay.ol[k + 1]];
+                if self.soft {
+                    // lam = P~ y + p~, x+ = y - D lam
+                    lk.copy_from_slice(&self.pvt[lay.ol[k]..lay.ol[k + 1]]);
+                    gemv_n_acc(&self.ptil[lay.op[k + 1]..lay.op[k + 2]], dx1, lk, nx1, nx1);
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    for i in 0..nx1 {
+                        dx1[i] -= d[i] * lk[i];
+                    }
+                } else {
+                    lk.copy_from_slice(&self.pv[lay.oz[k + 1]..lay.oz[k + 1] + nx1]);
+                    gemv_n_acc(&self.p[lay.op[k + 1]..lay.op[k + 2]], dx1, lk, nx1, nx1);
+                }
+            }
+        }
+    }
+
+    fn eq_dot(&self, lay: &Layout, j: usize, dz: &[f64]) -> f64 {
+        let k = self.eq_stage[j];
+        let nx = lay.nx[k];
+        let a = &self.eq_a[j * lay.nx_max..j * lay.nx_max + nx];
+        let x = &dz[lay.oz[k]..lay.oz[k] + nx];
+        a.iter().zip(x).map(|(a, x)| a * x).sum()
+    }
+
+    /// Solves the full QP (chain and the `m` equality rows) after [`Riccati::factor`]: `m + 2` chain
+    /// solves and an `m x m` Cholesky of `delta_c I - M`. Writes `dz`, `lam` and the equality
+    /// multipliers `nu` (m). `delta_c` is raised if the Schur complement is singular (returned).
+    pub fn solve(
+        &mut self,
+        lay: &Layout,
+        g: &[f64],
+        bdef: &[f64],
+        mut delta_c: f64,
+        dz: &mut [f64],
+        lam: &mut [f64],
+        nu: &mut [f64],
+    ) -> Result<f64, NotPositive> {
+        let m = self.m;
+        if m == 0 {
+            self.solve_chain(lay, g, bdef, dz, lam);
+            return Ok(0.0);
+        }
+        let mut gw = std::mem::take(&mut self.gw);
+        let mut zero_b = std::mem::take(&mut self.zero_b);
+        let mut dz_tmp = std::mem::take(&mut self.dz_tmp);
+        let mut lam_tmp = std::mem::take(&mut self.lam_tmp);
+        zero_b.fill(0.0);
+        let nxm = lay.nx_max;
+        // responses to unit multipliers: M_ij = a_i^T dx^(j)
+        for j in 0..m {
+            gw.fill(0.0);
+            let k = self.eq_stage[j];
+            for i in 0..lay.nx[k] {
+                gw[lay.oz[k] + i] = self.eq_a[j * nxm + i];
+            }
+            self.solve_chain(lay, &gw, &zero_b, &mut dz_tmp, &mut lam_tmp);
+            for i in 0..m {
+                self.schur[i * m + j] = self.eq_dot(lay, i, &dz_tmp);
+            }
+        }
+        // base solve
+        self.solve_chain(lay, g, bdef, &mut dz_tmp, &mut lam_tmp);
+        for i in 0..m {
+            self.w[i] = self.eq_dot(lay, i, &dz_tmp) + self.eq_rho[i];
+        }
+        let scale = (0..m)
+            .map(|i| self.schur[i * m + i].abs())
+            .fold(0.0_f64, f64::max)
+            .max(1e-300);
+        let mut ok = false;
+        for _attempt in 0..12 {
+            // (delta_c I - M) nu = w, with M symmetric negative semidefinite
+            for i in 0..m {
+                for j in 0..m {
+                    let v = -0.5 * (self.schur[i * m + j] + self.schur[j * m + i]);
+                    self.schur_fac[i * m + j] = v + if i == j {
+                        delta_c + self.eq_reg[i]
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            if chol(&mut self.schur_fac[..m * m], m) {
+                ok = true;
+                break;
+            }
+            delta_c = if delta_c == 0.0 {
+                1e-10 * scale
+            } else {
+                delta_c * 100.0
+            };
+        }
+        if !ok {
+            self.gw = gw;
+            self.zero_b = zero_b;
+            self.dz_tmp = dz_tmp;
+            self.lam_tmp = lam_tmp;
+            return Err(NotPositive);
+        }
+        nu[..m].copy_from_slice(&self.w[..m]);
+        chol_solve(&self.schur_fac[..m * m], m, &mut nu[..m], 1);
+        // final solve with the gradient g + sum_j nu_j a_j
+        gw.copy_from_slice(g);
+        for j in 0..m {
+            let k = self.eq_stage[j];
+            for i in 0..lay.nx[k] {
+                gw[lay.oz[k] + i] += nu[j] * self.eq_a[j * nxm + i];
+            }
+        }
+        self.solve_chain(lay, &gw, bdef, dz, lam);
+        self.gw = gw;
+        self.zero_b = zero_b;
+        self.dz_tmp = dz_tmp;
+        self.lam_tmp = lam_tmp;
+        Ok(delta_c)
+    }
+}

@@ -1,0 +1,399 @@
+//! A nonlinear problem (pendulum swing-up with RK4), warm starts and failure paths.
+
+mod common;
+
+use brachia_ocp::*;
+use common::*;
+
+fn pendulum() -> Pendulum {
+    Pendulum::new(100, 0.05, 4.0)
+}
+
+#[test]
+fn pendulum_derivatives_match_central_differences() {
+    let p = pendulum();
+    for (x, tau) in [([0.3, -0.7], 1.1), ([2.9, 3.0], -2.5), ([-1.0, 0.2], 0.0)] {
+        let z = [x[0], x[1], tau];
+        let f = p.step(x, tau);
+        let jac: Vec<f64> = f.iter().flat_map(|j| j.g).collect();
+        let val = |z: &[f64]| {
+            p.step([z[0], z[1]], z[2])
+                .iter()
+                .map(|j| j.v)
+                .collect::<Vec<_>>()
+        };
+        assert!(fd_jacobian_error(val, &z, &jac) < 1e-7);
+        for r in 0..2 {
+            let hess: Vec<f64> = f[r].h.iter().flatten().copied().collect();
+            let grad = |z: &[f64]| p.step([z[0], z[1]], z[2])[r].g.to_vec();
+            assert!(fd_jacobian_error(grad, &z, &hess) < 1e-6, "row {r}");
+        }
+    }
+}
+
+/// Largest KKT residual at the solver's solution, recomputed from the problem alone: stationarity
+/// of the Lagrangian w.r.t. every free variable (with the sign the active torque bound allows),
+/// the dynamics, the terminal rows, and complementarity of the stage rows.
+fn pendulum_kkt_residual(p: &mut Pendulum, z: &Primal, m: &Multipliers) -> f64 {
+    let dims = p.dims.clone();
+    let kk = dims.horizon();
+    let mut ev: Vec<StageEval> = (0..=kk)
+        .map(|k| StageEval::zeros(dims.stages[k], if k < kk { 2 } else { 0 }))
+        .collect();
+    let mut term = TerminalEval::zeros(2, 2);
+    p.evaluate(z, EvalLevel::FirstOrder, &mut ev, &mut term)
+        .unwrap();
+    let mut res = 0.0_f64;
+    for k in 0..=kk {
+        let nz = dims.stages[k].nz();
+        let mut g = ev[k].grad.clone();
+        for i in 0..nz {
+            if k < kk {
+                for r in 0..2 {
+                    g[i] += ev[k].jac_f[r * nz + i] * m.lam[k][r];
+                }
+            }
+            g[i] += ev[k].jac_c[i] * m.mu[k][0];
+        }
+        for i in 0..2 {
+            if k > 0 {
+                g[i] -= m.lam[k - 1][i];
+            }
+            if k == kk {
+                g[i] += term.jac_r[i] * m.nu[0] + term.jac_r[2 + i] * m.nu[1];
+            }
+        }
+        if k > 0 {
+            res = res.max(g[0].abs()).max(g[1].abs());
+        }
+        if k < kk {
+            // d/dtau L + z_U - z_L = 0 with z_U = max(-g, 0), z_L = max(g, 0) >= 0: complementarity
+            // z_U (tau_max - tau) = 0 and z_L (tau + tau_max) = 0, and tau inside its bounds
+            let tau = z.u[k][0];
+            let gu = g[2];
+            let r = ((-gu).max(0.0) * (p.tau_max - tau))
+                .abs()
+                .max((gu.max(0.0) * (tau + p.tau_max)).abs());
+            res = res.max(r).max(tau.abs() - p.tau_max);
+            res = res
+                .max((ev[k].f[0] - z.x[k + 1][0]).abs())
+                .max((ev[k].f[1] - z.x[k + 1][1]).abs());
+        }
+        let slack = p.omega_max * p.omega_max - ev[k].c[0];
+        res = res
+            .max((-slack).max(0.0))
+            .max((-m.mu[k][0]).max(0.0))
+            .max((m.mu[k][0] * slack).abs());
+    }
+    res.max(term.r[0].abs()).max(term.r[1].abs())
+}
+
+#[test]
+fn pendulum_swing_up_is_solved_and_satisfies_kkt() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let stats = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    assert!(stats.primal_infeasibility < 1e-8);
+    let z = solver.primal().clone();
+    let m = solver.multipliers().clone();
+    let kkt = pendulum_kkt_residual(&mut p, &z, &m);
+    assert!(kkt < 1e-6, "KKT residual {kkt}");
+    // the torque limit is what makes this a swing: it is active somewhere
+    let tmax = z.u[..100].iter().map(|u| u[0].abs()).fold(0.0, f64::max);
+    assert!(tmax > 4.0 - 1e-5, "max |tau| = {tmax}");
+    assert!(stats.time.total_s >= stats.time.linear_algebra_s);
+}
+
+#[test]
+fn warm_start_from_a_solution_takes_few_iterations() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let cold = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(cold.status, OcpStatus::Solved);
+    let warm_settings = OcpSettings {
+        warm_start: true,
+        mu_init: 1e-6,
+        ..OcpSettings::default()
+    };
+    let again = solver.solve(&mut p, &warm_settings);
+    assert_eq!(again.status, OcpStatus::Solved, "{again:?}");
+    assert!(
+        again.iterations <= 3,
+        "warm re-solve took {} iterations",
+        again.iterations
+    );
+    assert!((again.objective - cold.objective).abs() < 1e-7 * cold.objective);
+
+    // a perturbed start state: warm from the old solution beats cold
+    p.x0 = [0.01, 0.0];
+    let warm = solver.solve(&mut p, &warm_settings);
+    let mut fresh = OcpSolver::new(&p.dims).unwrap();
+    let cold2 = fresh.solve(&mut p, &OcpSettings::default());
+    assert_eq!(warm.status, OcpStatus::Solved, "{warm:?}");
+    assert_eq!(cold2.status, OcpStatus::Solved, "{cold2:?}");
+    assert!(
+        warm.iterations < cold2.iterations,
+        "warm {} vs cold {}",
+        warm.iterations,
+        cold2.iterations
+    );
+    assert!((warm.objective - cold2.objective).abs() < 1e-6 * cold2.objective);
+}
+
+/// Wraps a problem and injects failures.
+struct Faulty<P> {
+    inner: P,
+    mode: Fault,
+    calls: usize,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Fault {
+    /// evaluate returns Err from the start.
+    ErrAlways,
+    /// NaN cost at the first line-search trial only.
+    NanOnce,
+    /// evaluate panics.
+    PanicEvaluate,
+    /// hessians panics.
+    PanicHessian,
+    /// hessians returns NaN.
+    NanHessian,
+}
+
+impl<P: OcpProblem> OcpProblem for Faulty<P> {
+    fn dims(&self) -> &OcpDims {
+        self.inner.dims()
+    }
+    fn bounds(&self, k: usize, b: &mut StageBounds) {
+        self.inner.bounds(k, b)
+    }
+    fn initial_guess(&self, z: &mut Primal) {
+        self.inner.initial_guess(z)
+    }
+    fn evaluate(
+        &mut self,
+        z: &Primal,
+        level: EvalLevel,
+        s: &mut [StageEval],
+        t: &mut TerminalEval,
+    ) -> Result<(), EvalError> {
+        self.calls += 1;
+        match self.mode {
+            Fault::ErrAlways => {
+                return Err(EvalError {
+                    stage: 3,
+                    reason: "model error".into(),
+                })
+            }
+            Fault::PanicEvaluate => panic!("boom"),
+            _ => {}
+        }
+        self.inner.evaluate(z, level, s, t)?;
+        if self.mode == Fault::NanOnce && self.calls == 2 {
+            s[5].cost = f64::NAN;
+        }
+        Ok(())
+    }
+    fn hessians(
+        &mut self,
+        z: &Primal,
+        sigma: f64,
+        m: &Multipliers,
+        s: &mut [StageEval],
+    ) -> Result<(), EvalError> {
+        match self.mode {
+            Fault::PanicHessian => panic!("hessian boom"),
+            Fault::NanHessian => {
+                self.inner.hessians(z, sigma, m, s)?;
+                s[0].hess[0] = f64::NAN;
+                Ok(())
+            }
+            _ => self.inner.hessians(z, sigma, m, s),
+        }
+    }
+}
+
+#[test]
+fn failing_callbacks_end_in_evaluation_errors_or_shorter_steps() {
+    for mode in [
+        Fault::ErrAlways,
+        Fault::PanicEvaluate,
+        Fault::PanicHessian,
+        Fault::NanHessian,
+    ] {
+        let mut p = Faulty {
+            inner: pendulum(),
+            mode,
+            calls: 0,
+        };
+        let mut solver = OcpSolver::new(&p.inner.dims).unwrap();
+        let stats = solver.solve(&mut p, &OcpSettings::default());
+        assert!(
+            matches!(stats.status, OcpStatus::EvaluationError(_)),
+            "{stats:?}"
+        );
+        assert!(!stats.status.is_converged());
+    }
+    let mut p = Faulty {
+        inner: pendulum(),
+        mode: Fault::NanOnce,
+        calls: 0,
+    };
+    let mut solver = OcpSolver::new(&p.inner.dims).unwrap();
+    let stats = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(
+        stats.status,
+        OcpStatus::Solved,
+        "a NaN trial point only shortens the step: {stats:?}"
+    );
+}
+
+#[test]
+fn invalid_dims_problems_and_settings_are_refused() {
+    let one = OcpDims {
+        stages: vec![StageDims {
+            nx: 2,
+            nu: 1,
+            nc: 0,
+        }],
+        n_terminal: 0,
+    };
+    assert_eq!(
+        OcpSolver::new(&one).err(),
+        Some(OcpError::TooFewStages { stages: 1 })
+    );
+    let empty = OcpDims {
+        stages: vec![
+            StageDims {
+                nx: 2,
+                nu: 1,
+                nc: 0,
+            },
+            StageDims::default(),
+        ],
+        n_terminal: 0,
+    };
+    assert_eq!(
+        OcpSolver::new(&empty).err(),
+        Some(OcpError::EmptyState { stage: 1 })
+    );
+    let rows = OcpDims {
+        stages: vec![
+            StageDims {
+                nx: 2,
+                nu: 1,
+                nc: 0
+            };
+            3
+        ],
+        n_terminal: 3,
+    };
+    assert!(matches!(
+        OcpSolver::new(&rows),
+        Err(OcpError::TooManyTerminalRows { n_terminal: 3, .. })
+    ));
+    let big = OcpDims {
+        stages: vec![
+            StageDims {
+                nx: 400,
+                nu: 200,
+                nc: 0
+            };
+            2
+        ],
+        n_terminal: 0,
+    };
+    assert!(matches!(
+        OcpSolver::new(&big),
+        Err(OcpError::StageTooLarge {
+            stage: 0,
+            nz: 600,
+            ..
+        })
+    ));
+
+    // a problem of other dims
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&Pendulum::new(10, 0.05, 3.0).dims).unwrap();
+    let stats = solver.solve(&mut p, &OcpSettings::default());
+    assert!(
+        matches!(stats.status, OcpStatus::InvalidProblem(_)),
+        "{stats:?}"
+    );
+    // inconsistent bounds
+    let mut p = pendulum();
+    p.tau_max = -1.0;
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let stats = solver.solve(&mut p, &OcpSettings::default());
+    assert!(
+        matches!(stats.status, OcpStatus::InvalidProblem(ref s) if s.contains("stage 0")),
+        "{stats:?}"
+    );
+
+    // settings
+    let bad = OcpSettings {
+        tol: -1.0,
+        ..OcpSettings::default()
+    };
+    let err = bad.validate().unwrap_err();
+    assert!(
+        err.to_string().contains("tol") && err.to_string().contains("-1"),
+        "{err}"
+    );
+    let mut p = pendulum();
+    let stats = solver.solve(&mut p, &bad);
+    assert!(matches!(stats.status, OcpStatus::InvalidSettings(_)));
+    for s in [
+        OcpSettings {
+            mu_init: 0.0,
+            ..OcpSettings::default()
+        },
+        OcpSettings {
+            acceptable_tol: 1e-12,
+            ..OcpSettings::default()
+        },
+        OcpSettings {
+            max_wall_time_s: Some(f64::NAN),
+            ..OcpSettings::default()
+        },
+        OcpSettings {
+            bound_push: 0.7,
+            ..OcpSettings::default()
+        },
+    ] {
+        assert!(s.validate().is_err(), "{s:?}");
+    }
+    assert!(OcpSettings::default().validate().is_ok());
+    // serde: unknown fields refused, missing fields defaulted
+    let s: OcpSettings = serde_json::from_str(r#"{"max_iter": 7}"#).unwrap();
+    assert_eq!(s.max_iter, 7);
+    assert_eq!(s.tol, 1e-8);
+    assert!(serde_json::from_str::<OcpSettings>(r#"{"max_itr": 7}"#).is_err());
+}
+
+#[test]
+fn iteration_and_time_limits_end_the_solve() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let stats = solver.solve(
+        &mut p,
+        &OcpSettings {
+            max_iter: 3,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(stats.status, OcpStatus::MaxIterations);
+    assert_eq!(stats.iterations, 3);
+    let stats = solver.solve(
+        &mut p,
+        &OcpSettings {
+            max_wall_time_s: Some(1e-9),
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(stats.status, OcpStatus::MaxWallTime);
+    let json = serde_json::to_string(&stats).unwrap();
+    assert!(json.contains("MaxWallTime"));
+}

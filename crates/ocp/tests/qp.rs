@@ -1,0 +1,231 @@
+//! Convex problems with known answers, and random OCP-structured QPs against clarabel.
+
+mod common;
+
+use brachia_ocp::*;
+use common::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn solve(p: &mut LqProblem) -> (OcpSolver, OcpStats) {
+    let mut solver = OcpSolver::new(&p.dims.clone()).unwrap();
+    let stats = solver.solve(p, &OcpSettings::default());
+    (solver, stats)
+}
+
+/// Reachability rows of the double integrator: x_K = sum_k A^(K-1-k) B u_k.
+fn double_integrator_rows(kk: usize, h: f64) -> Vec<Vec<f64>> {
+    let mut e = vec![vec![0.0; kk]; 2];
+    for k in 0..kk {
+        let steps = (kk - 1 - k) as f64; // A^s B = [h^2/2 + s h^2, h]
+        e[0][k] = 0.5 * h * h + steps * h * h;
+        e[1][k] = h;
+    }
+    e
+}
+
+#[test]
+fn minimum_energy_double_integrator_matches_the_least_norm_solution() {
+    let (kk, h) = (40, 0.05);
+    let mut p = double_integrator(kk, h);
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let e = double_integrator_rows(kk, h);
+    let u_ref = weighted_least_norm(&e, &vec![h; kk], &[1.0, 0.0]);
+    for k in 0..kk {
+        let u = solver.primal().u[k][0];
+        assert!((u - u_ref[k]).abs() < 1e-7, "u_{k} = {u} vs {}", u_ref[k]);
+    }
+    let j_ref: f64 = u_ref.iter().map(|u| 0.5 * h * u * u).sum();
+    assert!((stats.objective - j_ref).abs() < 1e-8 * j_ref);
+    assert!(stats.primal_infeasibility < 1e-9);
+    assert!(
+        stats.iterations <= 3,
+        "an unconstrained QP is one Newton step: {}",
+        stats.iterations
+    );
+    // terminal multipliers: nu = -(E W^-1 E^T)^-1 t (sign of the Lagrangian +nu^T r)
+    assert!(solver.multipliers().nu.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
+    let (kk, h, w0) = (30, 0.05, 2.0);
+    let mut p = double_integrator(kk, h);
+    p.stages[0].bounds.x_lo[1] = f64::NEG_INFINITY;
+    p.stages[0].bounds.x_hi[1] = f64::INFINITY;
+    p.stages[0].h[1 * 3 + 1] = w0; // 1/2 w0 v0^2
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    // unknowns y = [v0, u_0..u_K-1]; x_K = [T v0, v0] + E u
+    let mut e = double_integrator_rows(kk, h);
+    e[0].insert(0, kk as f64 * h);
+    e[1].insert(0, 1.0);
+    let mut w = vec![w0];
+    w.extend(std::iter::repeat_n(h, kk));
+    let y = weighted_least_norm(&e, &w, &[1.0, 0.0]);
+    assert!(
+        (solver.primal().x[0][1] - y[0]).abs() < 1e-7,
+        "v0 {} vs {}",
+        solver.primal().x[0][1],
+        y[0]
+    );
+    for k in 0..kk {
+        assert!((solver.primal().u[k][0] - y[k + 1]).abs() < 1e-7);
+    }
+}
+
+#[test]
+fn decay_with_a_free_initial_state_and_no_cost_needs_regularisation() {
+    // x' = -x, exact discretisation x+ = e^-h x, no input, no cost; x_0 free, x_K = e^-T fixed by
+    // the terminal row: the solution is x_k = e^-(k h) and the reduced Hessian is zero (delta_w).
+    let (kk, h) = (25, 0.04_f64);
+    let stages = vec![
+        StageDims {
+            nx: 1,
+            nu: 0,
+            nc: 0
+        };
+        kk + 1
+    ];
+    let mut p = LqProblem::zeros(OcpDims {
+        stages,
+        n_terminal: 1,
+    });
+    for k in 0..kk {
+        p.stages[k].a = vec![(-h).exp()];
+    }
+    p.g = vec![1.0];
+    p.r0 = vec![-(-(kk as f64) * h).exp()];
+    let (solver, stats) = solve(&mut p);
+    assert!(stats.status.is_converged(), "{stats:?}");
+    for k in 0..=kk {
+        let x = solver.primal().x[k][0];
+        assert!((x - (-(k as f64) * h).exp()).abs() < 1e-7, "x_{k} = {x}");
+    }
+    assert!(stats.regularizations > 0);
+
+    // the same with x_0 = 1 fixed: pure simulation, x_K = e^-T
+    p.stages[0].bounds.x_lo = vec![1.0];
+    p.stages[0].bounds.x_hi = vec![1.0];
+    p.dims.n_terminal = 0;
+    p.g.clear();
+    p.r0.clear();
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let xk = solver.primal().x[kk][0];
+    assert!((xk - (-(kk as f64) * h).exp()).abs() < 1e-12);
+}
+
+/// The double integrator over `kk` steps with |u| <= u_max and the stage row v <= v_max.
+fn speed_limited(kk: usize, h: f64, u_max: f64, v_max: f64) -> LqProblem {
+    let mut p = double_integrator(kk, h);
+    for k in 0..=kk {
+        p.dims.stages[k].nc = 1;
+        let d = p.dims.stages[k];
+        p.stages[k].cm = vec![0.0; d.nz()];
+        p.stages[k].cm[1] = 1.0;
+        p.stages[k].bounds.c_lo = vec![f64::NEG_INFINITY];
+        p.stages[k].bounds.c_hi = vec![v_max];
+        if k < kk {
+            p.stages[k].bounds.u_lo = vec![-u_max];
+            p.stages[k].bounds.u_hi = vec![u_max];
+        }
+    }
+    p
+}
+
+#[test]
+fn an_unreachable_target_is_locally_infeasible() {
+    // 1 m in 2 s with |u| <= 1.2 and v <= 0.6 reaches at most 0.9 m
+    let mut p = speed_limited(40, 0.05, 1.2, 0.6);
+    let (_, stats) = solve(&mut p);
+    assert!(
+        matches!(
+            stats.status,
+            OcpStatus::LocallyInfeasible | OcpStatus::RestorationFailed
+        ),
+        "{stats:?}"
+    );
+    assert!(stats.primal_infeasibility > 0.05);
+}
+
+#[test]
+fn active_bounds_and_stage_inequalities_match_clarabel() {
+    // double integrator over 2.5 s (unconstrained: |u| <= 0.96, v <= 0.6) with |u| <= 0.8 and a
+    // speed limit v <= 0.58 as a stage row (both active)
+    let (kk, h) = (50, 0.05);
+    let mut p = speed_limited(kk, h, 0.8, 0.58);
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let (jc, zc, ok) = p.solve_clarabel();
+    assert!(ok);
+    assert!(
+        (stats.objective - jc).abs() < 1e-6 * jc.abs(),
+        "{} vs {jc}",
+        stats.objective
+    );
+    let z = LqProblem::flat(solver.primal());
+    let err = z
+        .iter()
+        .zip(&zc)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-4, "solution differs by {err}");
+    let umax = solver.primal().u[..kk]
+        .iter()
+        .map(|u| u[0].abs())
+        .fold(0.0, f64::max);
+    let vmax = solver
+        .primal()
+        .x
+        .iter()
+        .map(|x| x[1])
+        .fold(f64::MIN, f64::max);
+    assert!(
+        umax > 0.8 - 1e-6 && umax <= 0.8 + 1e-9,
+        "input bound active: {umax}"
+    );
+    assert!(
+        vmax > 0.58 - 1e-6 && vmax <= 0.58 + 1e-8,
+        "speed row active: {vmax}"
+    );
+    // inequality multipliers are >= 0 on the active upper rows
+    assert!(solver.multipliers().mu.iter().all(|m| m[0] > -1e-8));
+}
+
+#[test]
+fn random_convex_qps_match_clarabel() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for case in 0..40 {
+        let kk = rng.gen_range(1..15);
+        let nx = rng.gen_range(1..5);
+        let nu = rng.gen_range(0..4);
+        let nc = rng.gen_range(0..3);
+        let nr = rng.gen_range(0..=nx.min(2));
+        let free = rng.gen_bool(0.3);
+        let mut p = random_qp(&mut rng, kk, nx, nu, nc, nr, free);
+        let (jc, zc, ok) = p.solve_clarabel();
+        assert!(ok, "case {case}: clarabel failed");
+        let (solver, stats) = solve(&mut p);
+        assert_eq!(
+            stats.status,
+            OcpStatus::Solved,
+            "case {case} (K {kk} nx {nx} nu {nu} nc {nc} nr {nr}): {stats:?}"
+        );
+        let rel = (stats.objective - jc).abs() / jc.abs().max(1.0);
+        assert!(
+            rel < 1e-6,
+            "case {case}: objective {} vs clarabel {jc}",
+            stats.objective
+        );
+        let z = LqProblem::flat(solver.primal());
+        let err = z
+            .iter()
+            .zip(&zc)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-4, "case {case}: solution differs by {err}");
+        assert!((p.objective(&z) - stats.objective).abs() < 1e-9 * (1.0 + jc.abs()));
+    }
+}
