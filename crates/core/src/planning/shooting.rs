@@ -491,12 +491,24 @@ pub struct SwingOcp<'a, D: PointDynamics<'a> = AdDynamics<'a>> {
     pub timings: ShootingTimings,
 }
 
-impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
-    /// Build the problem for `robot`. `clearance` gives the stage inequalities (rows on q_k, k >= 1;
-    /// `None`: none). The initial guess is zero but for the start state (set it with
-    /// [`SwingOcp::guess_mut`]). Errors on sizes that do not match the robot, `intervals` or
-    /// `substeps` of 0, or a swing time that is not finite and positive.
+impl<'a> SwingOcp<'a> {
+    /// Build the problem for `robot` with the default per-point derivatives (see
+    /// [`SwingOcp::with_dynamics`] for the arguments and errors).
     pub fn new(
+        robot: &'a Robot,
+        spec: SwingOcpSpec,
+        clearance: Option<DistanceClearanceFn<'a>>,
+    ) -> Result<Self> {
+        Self::with_dynamics(robot, spec, clearance)
+    }
+}
+
+impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
+    /// Build the problem for `robot` with per-point derivatives from `D`. `clearance` gives the stage
+    /// inequalities (rows on q_k, k >= 1; `None`: none). The initial guess is zero but for the start
+    /// state (set it with [`SwingOcp::guess_mut`]). Errors on sizes that do not match the robot,
+    /// `intervals` or `substeps` of 0, or a swing time that is not finite and positive.
+    pub fn with_dynamics(
         robot: &'a Robot,
         spec: SwingOcpSpec,
         clearance: Option<DistanceClearanceFn<'a>>,
