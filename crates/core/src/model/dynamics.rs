@@ -216,6 +216,13 @@ impl Robot {
 /// Solve `A x = b` for symmetric positive definite `A` (row-major n x n) by Cholesky; `A`'s lower
 /// triangle is overwritten by the factor and `b` by the solution.
 pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
+    cholesky_factor_in_place(a, n);
+    cholesky_solve_factored(a, n, b);
+}
+
+/// Cholesky factorisation `A = L L^T` of a symmetric positive definite `A` (row-major n x n): the lower
+/// triangle of `a` is overwritten by `L`, the strict upper triangle is left untouched.
+pub fn cholesky_factor_in_place<T: Scalar>(a: &mut [T], n: usize) {
     for j in 0..n {
         let mut d = a[j * n + j];
         for k in 0..j {
@@ -232,18 +239,23 @@ pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
             a[i * n + j] = v * inv;
         }
     }
+}
+
+/// Solve `L L^T x = b` in place, with `L` the lower triangle of `l` (row-major n x n) as left by
+/// [`cholesky_factor_in_place`].
+pub fn cholesky_solve_factored<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
     for i in 0..n {
         let mut v = b[i];
         for k in 0..i {
-            v -= a[i * n + k] * b[k];
+            v -= l[i * n + k] * b[k];
         }
-        b[i] = v / a[i * n + i];
+        b[i] = v / l[i * n + i];
     }
     for i in (0..n).rev() {
         let mut v = b[i];
         for k in i + 1..n {
-            v -= a[k * n + i] * b[k];
+            v -= l[k * n + i] * b[k];
         }
-        b[i] = v / a[i * n + i];
+        b[i] = v / l[i * n + i];
     }
 }

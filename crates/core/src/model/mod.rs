@@ -1,13 +1,17 @@
 //! The robot model: parameters, kinematics, dynamics and their exact derivatives.
 
+mod analytic;
 mod collision;
 mod derivatives;
 mod dynamics;
 mod kinematics;
 mod params;
 
+pub use analytic::DynamicsDerivatives;
 pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
 pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
-pub use dynamics::{cholesky_solve_in_place, Scratch};
+pub use dynamics::{
+    cholesky_factor_in_place, cholesky_solve_factored, cholesky_solve_in_place, Scratch,
+};
 pub use kinematics::P2;
 pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS};

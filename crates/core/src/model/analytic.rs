@@ -1,0 +1,418 @@
+//! Closed-form first and second derivatives of the forward dynamics `qdd = f(z)`.
+//!
+//! Same function as [`super::DynamicsFn`]: `z = [q (n), qd (n), tau (n - 1)]` (rad, rad/s, N m) to
+//! `qdd` (n, rad/s^2), angles as in the crate docs (`q[0]` absolute, `q[1..]` relative, `th = S q` with
+//! `S` the lower-triangular matrix of ones). Outputs use exactly the layouts of
+//! [`crate::ad::Diff::jacobian`] (row-major `n x (3n - 1)`, entry `[i][j] = d qdd_i / d z_j`) and
+//! [`crate::ad::Diff::hessian_weighted`] (full symmetric row-major `(3n - 1) x (3n - 1)`), which stay the
+//! test oracle. Derivative units follow from those of `z`: `d qdd / d q` in 1/s^2, `d qdd / d qd` in 1/s,
+//! `d qdd / d tau` in 1/(kg m^2).
+//!
+//! ## Derivation (the formulas implemented; `docs/derivatives.md` has the long form)
+//! Everything is written in absolute angles `th = S q`, rates `om = S qd`, accelerations `al = S a`
+//! (`a = qdd`), where the generalised force of link j is a sum over links k with constant coefficients
+//! `d_jk` and `g_j`:
+//!
+//! `r_j(th, om, al) = sum_k d_jk [cos(th_j - th_k) al_k + sin(th_j - th_k) om_k^2] + g_j cos th_j`,
+//!
+//! and the dynamics read `F(z, a) = S^T r(S q, S qd, S a) - B tau = 0` (`M = S^T M_abs S`,
+//! `h = S^T r(th, om, 0)`). With `s_jk, c_jk` the sine and cosine of `th_j - th_k`:
+//!
+//! - First order: `M da/dz = -dF/dz`, with `dF/dq = S^T R_th S`, `dF/dqd = S^T R_om S`,
+//!   `dF/dtau = -B`, and for `m != j`: `R_th[j][m] = P_jm = d_jm (s_jm al_m - c_jm om_m^2)`,
+//!   `R_th[j][j] = -sum_{m != j} P_jm - g_j sin th_j`, `R_om[j][m] = 2 d_jm s_jm om_m`, `R_om[j][j] = 0`.
+//!   Row sums of the `P` part vanish: `M` does not depend on `q[0]`, only gravity does.
+//! - Second order, with the adjoint `y = M^-1 w` and `u = S y`: differentiating `F(z, a(z)) = 0` twice
+//!   (`F` is linear in `a` and in `tau`) gives
+//!   `w . d2a/dz2 = -(Q + P + P^T)`, where `Q = T^T (d2/d(th, om)^2 of u . r at fixed al) T`
+//!   (`T = diag(S, S)` on the q, qd block, zero on tau) and `P = S^T L S (da/dz)` fills the q rows,
+//!   `L[m][k] = d/dth_m (M_abs u)_k` (`L[m][k] = -u_m d_mk s_mk` for `m != k`, columns summing to zero).
+//!   `u . r` is a sum over link pairs `j < k` of
+//!   `psi = d_jk [c_jk (u_j al_k + u_k al_j) + s_jk (u_j om_k^2 - u_k om_j^2)]`, a function of
+//!   `th_j - th_k` whose second derivative is `-psi`, plus `u_j g_j cos th_j`. The tau-tau and qd-tau blocks are zero; qd-qd is the suffix sum of a
+//!   diagonal.
+//!
+//! The value `qdd` is computed with the arithmetic of [`Robot::forward_dynamics_into`] in the same order,
+//! so it agrees with it bit for bit.
+
+use super::dynamics::{cholesky_factor_in_place, cholesky_solve_factored};
+use super::Robot;
+
+/// Reusable buffers (allocated in new; no allocation per call). Sized for robot.n.
+///
+/// Every method panics (a programmer's error) when called with a robot of another size or with slices
+/// of the wrong lengths: `z` 3n - 1, `qdd` and `w` n, `jac` n (3n - 1), `hess` (3n - 1)^2.
+#[derive(Debug, Clone)]
+pub struct DynamicsDerivatives {
+    n: usize,
+    /// sin / cos of the absolute angles (n).
+    sn: Vec<f64>,
+    cs: Vec<f64>,
+    /// sin / cos of th_j - th_k, row-major n x n.
+    sd: Vec<f64>,
+    cd: Vec<f64>,
+    /// Absolute rates om = S qd (n).
+    om: Vec<f64>,
+    /// M_abs and its sandwich (n x n scratch).
+    tmp: Vec<f64>,
+    /// M (relative angles), then its Cholesky factor in the lower triangle (n x n).
+    l: Vec<f64>,
+    /// Bias forces in absolute then relative angles (n).
+    h: Vec<f64>,
+    /// qdd (n) and absolute accelerations al = S qdd (n).
+    a: Vec<f64>,
+    al: Vec<f64>,
+    /// dr/dth and dr/dom at fixed al (n x n), sandwiched in place by S^T . S.
+    rth: Vec<f64>,
+    rom: Vec<f64>,
+    /// d qdd / dz (n x nz) and its absolute version S d qdd / dz (n x nz).
+    jz: Vec<f64>,
+    az: Vec<f64>,
+    /// Adjoint y = M^-1 w and u = S y (n).
+    y: Vec<f64>,
+    u: Vec<f64>,
+    /// Second derivatives of u . r at fixed al: th-th (n x n), th-om (n x n), om-om (diagonal, n).
+    qtt: Vec<f64>,
+    qto: Vec<f64>,
+    qoo: Vec<f64>,
+    /// L[m][k] = d/dth_m (M_abs u)_k (n x n).
+    lta: Vec<f64>,
+    /// P = S^T L S d qdd / dz (n x nz).
+    p: Vec<f64>,
+}
+
+/// `x <- S^T x S` in place for row-major n x n `x`: entry `[i][l]` becomes `sum_{j >= i, m >= l} x[j][m]`.
+fn sandwich(x: &mut [f64], n: usize) {
+    for i in 0..n {
+        let row = &mut x[i * n..(i + 1) * n];
+        for m in (0..n - 1).rev() {
+            row[m] += row[m + 1];
+        }
+    }
+    for i in (0..n - 1).rev() {
+        for m in 0..n {
+            x[i * n + m] += x[(i + 1) * n + m];
+        }
+    }
+}
+
+/// Solve `L L^T X = B` in place for row-major n x nc `x` (= B on entry), `L` the lower triangle of `l`.
+fn solve_multi(l: &[f64], n: usize, x: &mut [f64], nc: usize) {
+    for i in 0..n {
+        let (done, rest) = x.split_at_mut(i * nc);
+        let xi = &mut rest[..nc];
+        for k in 0..i {
+            let lik = l[i * n + k];
+            for (v, &xk) in xi.iter_mut().zip(&done[k * nc..(k + 1) * nc]) {
+                *v -= lik * xk;
+            }
+        }
+        let d = l[i * n + i];
+        for v in xi.iter_mut() {
+            *v /= d;
+        }
+    }
+    for i in (0..n).rev() {
+        let (head, tail) = x.split_at_mut((i + 1) * nc);
+        let xi = &mut head[i * nc..];
+        for k in i + 1..n {
+            let lki = l[k * n + i];
+            let xk = &tail[(k - i - 1) * nc..(k - i) * nc];
+            for (v, &b) in xi.iter_mut().zip(xk) {
+                *v -= lki * b;
+            }
+        }
+        let d = l[i * n + i];
+        for v in xi.iter_mut() {
+            *v /= d;
+        }
+    }
+}
+
+impl DynamicsDerivatives {
+    /// Buffers for `robot`.
+    pub fn new(robot: &Robot) -> Self {
+        let n = robot.n;
+        let nz = 3 * n - 1;
+        let v = |len: usize| vec![0.0; len];
+        DynamicsDerivatives {
+            n,
+            sn: v(n),
+            cs: v(n),
+            sd: v(n * n),
+            cd: v(n * n),
+            om: v(n),
+            tmp: v(n * n),
+            l: v(n * n),
+            h: v(n),
+            a: v(n),
+            al: v(n),
+            rth: v(n * n),
+            rom: v(n * n),
+            jz: v(n * nz),
+            az: v(n * nz),
+            y: v(n),
+            u: v(n),
+            qtt: v(n * n),
+            qto: v(n * n),
+            qoo: v(n),
+            lta: v(n * n),
+            p: v(n * nz),
+        }
+    }
+
+    /// Number of inputs 3n - 1.
+    fn nz(&self) -> usize {
+        3 * self.n - 1
+    }
+
+    /// Trigonometry, M and its factor, h, qdd and al at `z`.
+    fn prepare(&mut self, robot: &Robot, z: &[f64]) {
+        let n = self.n;
+        assert_eq!(robot.n, n, "DynamicsDerivatives built for a {n}-link robot");
+        assert_eq!(
+            z.len(),
+            3 * n - 1,
+            "z must hold [q, qd, tau] (3n - 1 values)"
+        );
+        let (q, qd, tau) = (&z[..n], &z[n..2 * n], &z[2 * n..]);
+        let (d, g) = (&robot.d, &robot.gcoef);
+        let (mut th, mut om) = (0.0, 0.0);
+        for i in 0..n {
+            th += q[i];
+            let (s, c) = th.sin_cos();
+            self.sn[i] = s;
+            self.cs[i] = c;
+            om += qd[i];
+            self.om[i] = om;
+        }
+        for j in 0..n {
+            self.sd[j * n + j] = 0.0;
+            self.cd[j * n + j] = 1.0;
+            self.tmp[j * n + j] = d[j * n + j];
+            for k in j + 1..n {
+                let c = self.cs[j] * self.cs[k] + self.sn[j] * self.sn[k];
+                let s = self.sn[j] * self.cs[k] - self.cs[j] * self.sn[k];
+                self.cd[j * n + k] = c;
+                self.cd[k * n + j] = c;
+                self.sd[j * n + k] = s;
+                self.sd[k * n + j] = -s;
+                let m = c * d[j * n + k];
+                self.tmp[j * n + k] = m;
+                self.tmp[k * n + j] = m;
+            }
+        }
+        sandwich(&mut self.tmp, n);
+        self.l.copy_from_slice(&self.tmp);
+        for j in 0..n {
+            let mut v = 0.0;
+            for k in 0..n {
+                if k != j {
+                    v += self.sd[j * n + k] * self.om[k] * self.om[k] * d[j * n + k];
+                }
+            }
+            v += self.cs[j] * g[j];
+            self.h[j] = v;
+        }
+        for j in (0..n - 1).rev() {
+            self.h[j] += self.h[j + 1];
+        }
+        self.a[0] = -self.h[0];
+        for i in 1..n {
+            self.a[i] = tau[i - 1] - self.h[i];
+        }
+        cholesky_factor_in_place(&mut self.l, n);
+        cholesky_solve_factored(&self.l, n, &mut self.a);
+        let mut acc = 0.0;
+        for i in 0..n {
+            acc += self.a[i];
+            self.al[i] = acc;
+        }
+    }
+
+    /// `jz = d qdd / dz` (after `prepare`).
+    fn fill_jacobian(&mut self, robot: &Robot) {
+        let n = self.n;
+        let nz = self.nz();
+        let (d, g) = (&robot.d, &robot.gcoef);
+        for j in 0..n {
+            let mut diag = 0.0;
+            for m in 0..n {
+                if m == j {
+                    continue;
+                }
+                let jm = j * n + m;
+                let p = d[jm] * (self.sd[jm] * self.al[m] - self.cd[jm] * self.om[m] * self.om[m]);
+                self.rth[jm] = p;
+                diag += p;
+                self.rom[jm] = 2.0 * d[jm] * self.sd[jm] * self.om[m];
+            }
+            self.rth[j * n + j] = -diag - g[j] * self.sn[j];
+            self.rom[j * n + j] = 0.0;
+        }
+        sandwich(&mut self.rth, n);
+        sandwich(&mut self.rom, n);
+        for i in 0..n {
+            let row = &mut self.jz[i * nz..(i + 1) * nz];
+            for c in 0..n {
+                row[c] = -self.rth[i * n + c];
+                row[n + c] = -self.rom[i * n + c];
+            }
+            for c in 0..n - 1 {
+                row[2 * n + c] = if c + 1 == i { 1.0 } else { 0.0 };
+            }
+        }
+        solve_multi(&self.l, n, &mut self.jz, nz);
+    }
+
+    /// Weighted Hessian into `hess` (after `fill_jacobian`).
+    fn fill_hessian(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64]) {
+        let n = self.n;
+        let nz = self.nz();
+        assert_eq!(w.len(), n, "one weight per output qdd_i");
+        assert_eq!(hess.len(), nz * nz, "hess is (3n - 1) x (3n - 1)");
+        let (d, g) = (&robot.d, &robot.gcoef);
+        self.y.copy_from_slice(w);
+        cholesky_solve_factored(&self.l, n, &mut self.y);
+        let mut acc = 0.0;
+        for i in 0..n {
+            acc += self.y[i];
+            self.u[i] = acc;
+        }
+        // az = S jz: prefix sums over rows.
+        self.az[..nz].copy_from_slice(&self.jz[..nz]);
+        for i in 1..n {
+            for c in 0..nz {
+                self.az[i * nz + c] = self.az[(i - 1) * nz + c] + self.jz[i * nz + c];
+            }
+        }
+        // Second derivatives of u . r at fixed al, one link pair at a time.
+        self.qtt.fill(0.0);
+        self.qto.fill(0.0);
+        self.qoo.fill(0.0);
+        let (u, al, om) = (&self.u, &self.al, &self.om);
+        for j in 0..n {
+            for k in j + 1..n {
+                let jk = j * n + k;
+                let (c, s, djk) = (self.cd[jk], self.sd[jk], d[jk]);
+                let big_a = u[j] * al[k] + u[k] * al[j];
+                let big_w = u[j] * om[k] * om[k] - u[k] * om[j] * om[j];
+                let psi2 = -djk * (c * big_a + s * big_w);
+                self.qtt[j * n + j] += psi2;
+                self.qtt[k * n + k] += psi2;
+                self.qtt[jk] -= psi2;
+                self.qtt[k * n + j] -= psi2;
+                let e1 = 2.0 * djk * c * u[j] * om[k];
+                let e2 = 2.0 * djk * c * u[k] * om[j];
+                self.qto[jk] += e1;
+                self.qto[k * n + k] -= e1;
+                self.qto[j * n + j] -= e2;
+                self.qto[k * n + j] += e2;
+                self.qoo[k] += 2.0 * djk * s * u[j];
+                self.qoo[j] -= 2.0 * djk * s * u[k];
+            }
+            self.qtt[j * n + j] -= u[j] * g[j] * self.cs[j];
+        }
+        // L[m][k] = d/dth_m (M_abs u)_k.
+        for k in 0..n {
+            let mut diag = 0.0;
+            for m in 0..n {
+                if m != k {
+                    let v = -u[m] * d[m * n + k] * self.sd[m * n + k];
+                    self.lta[m * n + k] = v;
+                    diag -= v;
+                }
+            }
+            self.lta[k * n + k] = diag;
+        }
+        // P = S^T L az.
+        for m in 0..n {
+            let prow = &mut self.p[m * nz..(m + 1) * nz];
+            prow.fill(0.0);
+            for k in 0..n {
+                let lmk = self.lta[m * n + k];
+                for (v, &b) in prow.iter_mut().zip(&self.az[k * nz..(k + 1) * nz]) {
+                    *v += lmk * b;
+                }
+            }
+        }
+        for m in (0..n - 1).rev() {
+            for c in 0..nz {
+                self.p[m * nz + c] += self.p[(m + 1) * nz + c];
+            }
+        }
+        sandwich(&mut self.qtt, n);
+        sandwich(&mut self.qto, n);
+        for m in (0..n - 1).rev() {
+            self.qoo[m] += self.qoo[m + 1];
+        }
+        // Assemble -(Q + P + P^T) with exact symmetry.
+        let p = &self.p;
+        let mut put = |i: usize, j: usize, v: f64| {
+            hess[i * nz + j] = v;
+            hess[j * nz + i] = v;
+        };
+        for i in 0..n {
+            for l in 0..=i {
+                put(i, l, -(self.qtt[i * n + l] + p[i * nz + l] + p[l * nz + i]));
+            }
+            for l in 0..n {
+                put(i, n + l, -(self.qto[i * n + l] + p[i * nz + n + l]));
+            }
+            for l in 0..n - 1 {
+                put(i, 2 * n + l, -p[i * nz + 2 * n + l]);
+            }
+        }
+        for i in 0..n {
+            for l in 0..=i {
+                put(n + i, n + l, -self.qoo[i]);
+            }
+            for l in 0..n - 1 {
+                put(n + i, 2 * n + l, 0.0);
+            }
+        }
+        for i in 0..n - 1 {
+            for l in 0..=i {
+                put(2 * n + i, 2 * n + l, 0.0);
+            }
+        }
+    }
+
+    /// qdd = f(z), z = [q, qd, tau] (3n - 1).
+    pub fn qdd(&mut self, robot: &Robot, z: &[f64], qdd: &mut [f64]) {
+        self.prepare(robot, z);
+        qdd[..self.n].copy_from_slice(&self.a);
+    }
+
+    /// qdd and its Jacobian, row-major n x (3n - 1): exactly the layout of Diff::<DynamicsFn>::jacobian.
+    pub fn jacobian(&mut self, robot: &Robot, z: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
+        self.prepare(robot, z);
+        self.fill_jacobian(robot);
+        qdd[..self.n].copy_from_slice(&self.a);
+        jac[..self.jz.len()].copy_from_slice(&self.jz);
+    }
+
+    /// Full symmetric (3n-1) x (3n-1) row-major Hessian of sum_i w_i qdd_i(z): exactly Diff::<DynamicsFn>::hessian_weighted.
+    pub fn hessian_weighted(&mut self, robot: &Robot, z: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.prepare(robot, z);
+        self.fill_jacobian(robot);
+        self.fill_hessian(robot, w, hess);
+    }
+
+    /// Both at once when a caller needs Jacobian and weighted Hessian at the same z (shares the factorisation).
+    pub fn jacobian_and_hessian(
+        &mut self,
+        robot: &Robot,
+        z: &[f64],
+        w: &[f64],
+        qdd: &mut [f64],
+        jac: &mut [f64],
+        hess: &mut [f64],
+    ) {
+        self.prepare(robot, z);
+        self.fill_jacobian(robot);
+        self.fill_hessian(robot, w, hess);
+        qdd[..self.n].copy_from_slice(&self.a);
+        jac[..self.jz.len()].copy_from_slice(&self.jz);
+    }
+}
