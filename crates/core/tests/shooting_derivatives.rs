@@ -8,8 +8,10 @@ use brachia::fdcheck::{assert_hessian, assert_jacobian};
 use brachia::integrate::Rk4;
 use brachia::model::{ActuatorParams, Circle, ClearanceFn, LinkParams, Robot, RobotParams};
 use brachia::planning::planner::DistanceClearanceFn;
-use brachia::planning::{Bounds, SwingOcp, SwingOcpSpec};
-use brachia_ocp::{EvalLevel, Multipliers, OcpProblem, Primal, StageEval, TerminalEval};
+use brachia::planning::{
+    AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
+};
+use brachia_ocp::{EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageEval, TerminalEval};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -50,7 +52,11 @@ const OBSTACLES: [Circle; 2] = [
     },
 ];
 
-fn problem<'a>(robot: &'a Robot, intervals: usize, substeps: usize) -> SwingOcp<'a> {
+fn problem<'a, D: PointDynamics<'a>>(
+    robot: &'a Robot,
+    intervals: usize,
+    substeps: usize,
+) -> SwingOcp<'a, D> {
     let n = robot.n;
     let clearance = DistanceClearanceFn::new(
         ClearanceFn::new(robot, &OBSTACLES, 0.01)
@@ -68,11 +74,11 @@ fn problem<'a>(robot: &'a Robot, intervals: usize, substeps: usize) -> SwingOcp<
         bounds: Bounds::default(),
         parallel_min_stages: 3, // exercise the parallel path too
     };
-    SwingOcp::new(robot, spec, Some(clearance)).unwrap()
+    SwingOcp::with_dynamics(robot, spec, Some(clearance)).unwrap()
 }
 
-fn random_point(rng: &mut ChaCha8Rng, ocp: &SwingOcp) -> Primal {
-    let mut z = Primal::zeros(ocp.dims());
+fn random_point(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Primal {
+    let mut z = Primal::zeros(dims);
     let n = z.x[0].len() / 2;
     for (x, u) in z.x.iter_mut().zip(z.u.iter_mut()) {
         x[0] = rng.gen_range(-2.4..-0.7);
@@ -94,8 +100,7 @@ struct Bufs {
     term: TerminalEval,
 }
 
-fn bufs(ocp: &SwingOcp) -> Bufs {
-    let d = ocp.dims();
+fn bufs(d: &OcpDims) -> Bufs {
     let k_last = d.horizon();
     Bufs {
         stages: (0..=k_last)
@@ -105,8 +110,8 @@ fn bufs(ocp: &SwingOcp) -> Bufs {
     }
 }
 
-fn eval(ocp: &mut SwingOcp, z: &Primal, level: EvalLevel) -> Bufs {
-    let mut b = bufs(ocp);
+fn eval(ocp: &mut dyn OcpProblem, z: &Primal, level: EvalLevel) -> Bufs {
+    let mut b = bufs(ocp.dims());
     ocp.evaluate(z, level, &mut b.stages, &mut b.term).unwrap();
     b
 }
@@ -121,8 +126,8 @@ fn stage_vec(z: &Primal, k: usize) -> Vec<f64> {
     [z.x[k].as_slice(), z.u[k].as_slice()].concat()
 }
 
-fn random_multipliers(rng: &mut ChaCha8Rng, ocp: &SwingOcp) -> Multipliers {
-    let mut m = Multipliers::zeros(ocp.dims());
+fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
+    let mut m = Multipliers::zeros(dims);
     for v in m
         .lam
         .iter_mut()
@@ -163,14 +168,14 @@ fn stage_lagrangian_gradient(
     }
 }
 
-fn check_all_derivatives(n: usize, substeps: usize, seed: u64) {
-    let robot = robot(n);
+fn check_all_derivatives<'a, D: PointDynamics<'a>>(robot: &'a Robot, substeps: usize, seed: u64) {
+    let n = robot.n;
     let intervals = 3;
-    let mut ocp = problem(&robot, intervals, substeps);
-    let mut probe = problem(&robot, intervals, substeps);
+    let mut ocp: SwingOcp<D> = problem(robot, intervals, substeps);
+    let mut probe: SwingOcp<D> = problem(robot, intervals, substeps);
     assert!(ocp.n_clearance() > 0);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let z = random_point(&mut rng, &ocp);
+    let z = random_point(&mut rng, ocp.dims());
     let b = eval(&mut ocp, &z, EvalLevel::FirstOrder);
     let k_last = intervals;
     for k in 0..=k_last {
@@ -224,9 +229,9 @@ fn check_all_derivatives(n: usize, substeps: usize, seed: u64) {
     );
 
     // Hessians of the stage Lagrangians
-    let m = random_multipliers(&mut rng, &ocp);
+    let m = random_multipliers(&mut rng, ocp.dims());
     let sigma = 0.7;
-    let mut hb = bufs(&ocp);
+    let mut hb = bufs(ocp.dims());
     ocp.hessians(&z, sigma, &m, &mut hb.stages).unwrap();
     for k in 0..=k_last {
         let zk = stage_vec(&z, k);
@@ -255,13 +260,16 @@ fn check_all_derivatives(n: usize, substeps: usize, seed: u64) {
 #[test]
 fn derivatives_match_finite_differences_for_3_4_6_links() {
     for (n, seed) in [(3, 1), (4, 2), (6, 3)] {
-        check_all_derivatives(n, 1, seed);
+        let robot = robot(n);
+        check_all_derivatives::<AnalyticDynamics>(&robot, 1, seed);
+        check_all_derivatives::<AdDynamics>(&robot, 1, seed);
     }
 }
 
 #[test]
 fn derivatives_match_finite_differences_with_substeps() {
-    check_all_derivatives(4, 3, 7);
+    check_all_derivatives::<AnalyticDynamics>(&robot(4), 3, 7);
+    check_all_derivatives::<AdDynamics>(&robot(6), 2, 8);
 }
 
 #[test]
@@ -269,9 +277,9 @@ fn shooting_map_is_rk4_on_the_same_inputs() {
     for n in [3, 4, 6] {
         for substeps in [1, 2, 5] {
             let robot = robot(n);
-            let mut ocp = problem(&robot, 3, substeps);
+            let mut ocp: SwingOcp = problem(&robot, 3, substeps);
             let mut rng = ChaCha8Rng::seed_from_u64(n as u64 * 10 + substeps as u64);
-            let z = random_point(&mut rng, &ocp);
+            let z = random_point(&mut rng, ocp.dims());
             let h = ocp.interval();
             let mut rk4 = Rk4::new(&robot);
             for level in [EvalLevel::Values, EvalLevel::FirstOrder] {
@@ -298,19 +306,58 @@ fn hessian_does_not_depend_on_which_point_was_evaluated_last() {
     // The Hessian reuses the forward record of the last first-order evaluation when it is at the same
     // point; at another point it must recompute it.
     let robot = robot(4);
-    let mut ocp = problem(&robot, 3, 2);
-    let mut fresh = problem(&robot, 3, 2);
+    let mut ocp: SwingOcp = problem(&robot, 3, 2);
+    let mut fresh: SwingOcp = problem(&robot, 3, 2);
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let (z1, z2) = (random_point(&mut rng, &ocp), random_point(&mut rng, &ocp));
-    let m = random_multipliers(&mut rng, &ocp);
+    let (z1, z2) = (
+        random_point(&mut rng, ocp.dims()),
+        random_point(&mut rng, ocp.dims()),
+    );
+    let m = random_multipliers(&mut rng, ocp.dims());
     eval(&mut ocp, &z1, EvalLevel::FirstOrder);
     eval(&mut ocp, &z2, EvalLevel::Values);
-    let mut a = bufs(&ocp);
+    let mut a = bufs(ocp.dims());
     ocp.hessians(&z2, 1.0, &m, &mut a.stages).unwrap();
     eval(&mut fresh, &z2, EvalLevel::FirstOrder);
-    let mut b = bufs(&fresh);
+    let mut b = bufs(fresh.dims());
     fresh.hessians(&z2, 1.0, &m, &mut b.stages).unwrap();
     for k in 0..4 {
         assert_eq!(a.stages[k].hess, b.stages[k].hess, "stage {k}");
+    }
+}
+
+#[test]
+fn closed_form_and_automatic_differentiation_agree_stage_by_stage() {
+    // AD is the oracle of the closed-form derivatives: same Jacobians and Hessians to rounding.
+    for n in [3, 4, 6] {
+        let robot = robot(n);
+        let mut an: SwingOcp<AnalyticDynamics> = problem(&robot, 4, 2);
+        let mut ad: SwingOcp<AdDynamics> = problem(&robot, 4, 2);
+        let mut rng = ChaCha8Rng::seed_from_u64(40 + n as u64);
+        let z = random_point(&mut rng, an.dims());
+        let m = random_multipliers(&mut rng, an.dims());
+        let (a, b) = (
+            eval(&mut an, &z, EvalLevel::FirstOrder),
+            eval(&mut ad, &z, EvalLevel::FirstOrder),
+        );
+        let (mut ha, mut hb) = (bufs(an.dims()), bufs(ad.dims()));
+        an.hessians(&z, 0.9, &m, &mut ha.stages).unwrap();
+        ad.hessians(&z, 0.9, &m, &mut hb.stages).unwrap();
+        let close = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .all(|(p, q)| (p - q).abs() <= 1e-9 * p.abs().max(q.abs()).max(1.0))
+        };
+        for k in 0..=4 {
+            assert!(close(&a.stages[k].f, &b.stages[k].f), "n={n} stage {k} f");
+            assert!(
+                close(&a.stages[k].jac_f, &b.stages[k].jac_f),
+                "n={n} stage {k} jac"
+            );
+            assert!(
+                close(&ha.stages[k].hess, &hb.stages[k].hess),
+                "n={n} stage {k} hess"
+            );
+        }
     }
 }

@@ -20,4 +20,6 @@ pub use planner::{
     freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
 };
 pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
-pub use shooting::{AdDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec};
+pub use shooting::{
+    AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
+};

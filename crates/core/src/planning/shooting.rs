@@ -22,7 +22,8 @@
 //! `sum_i S_i^T [Hess_y (w_i . qdd)(y_i)] S_i`, with `w_i` the adjoint weight of evaluation i's
 //! acceleration output (a reverse sweep through the RK4 stages). Every other operation in `Phi` is
 //! linear, so nothing else contributes. Per-point derivatives of qdd come through [`PointDynamics`]:
-//! [`AdDynamics`] (forward-mode AD through [`crate::ad::Diff`]) today.
+//! [`AnalyticDynamics`] (closed form, the default) or [`AdDynamics`] (forward-mode AD through
+//! [`crate::ad::Diff`], the test oracle).
 //!
 //! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. Stages are evaluated in
 //! parallel with rayon when the horizon has at least `parallel_min_stages` stages.
@@ -32,7 +33,7 @@ use super::planner::DistanceClearanceFn;
 use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
-use crate::model::{DynamicsFn, Robot};
+use crate::model::{DynamicsDerivatives, DynamicsFn, Robot, Scratch};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -77,6 +78,35 @@ impl<'a> PointDynamics<'a> for AdDynamics<'a> {
     }
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         self.diff.hessian_weighted(&self.f, y, w, hess);
+    }
+}
+
+/// [`PointDynamics`] in closed form ([`DynamicsDerivatives`]); values by
+/// [`Robot::forward_dynamics_into`], the same arithmetic as [`crate::integrate::Rk4`]. The default.
+pub struct AnalyticDynamics<'a> {
+    robot: &'a Robot,
+    ws: Scratch<f64>,
+    d: DynamicsDerivatives,
+}
+
+impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
+    fn new(robot: &'a Robot) -> Self {
+        AnalyticDynamics {
+            robot,
+            ws: Scratch::new(robot.n),
+            d: DynamicsDerivatives::new(robot),
+        }
+    }
+    fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
+        let n = self.robot.n;
+        self.robot
+            .forward_dynamics_into(&mut self.ws, &y[..n], &y[n..2 * n], &y[2 * n..], qdd);
+    }
+    fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
+        self.d.jacobian(self.robot, y, qdd, jac);
+    }
+    fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.d.hessian_weighted(self.robot, y, w, hess);
     }
 }
 
@@ -472,7 +502,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
 
 /// The swing as an [`OcpProblem`] by multiple shooting (see the module docs). Generic over the source
 /// of the per-point dynamics derivatives.
-pub struct SwingOcp<'a, D: PointDynamics<'a> = AdDynamics<'a>> {
+pub struct SwingOcp<'a, D: PointDynamics<'a> = AnalyticDynamics<'a>> {
     ctx: Ctx<'a>,
     work: Vec<StageWork<'a, D>>,
     dims: OcpDims,
@@ -492,7 +522,7 @@ pub struct SwingOcp<'a, D: PointDynamics<'a> = AdDynamics<'a>> {
 }
 
 impl<'a> SwingOcp<'a> {
-    /// Build the problem for `robot` with the default per-point derivatives (see
+    /// Build the problem for `robot` with the closed-form per-point derivatives ([`AnalyticDynamics`]; see
     /// [`SwingOcp::with_dynamics`] for the arguments and errors).
     pub fn new(
         robot: &'a Robot,
