@@ -65,8 +65,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Seconds per stage of one first-order evaluation and one Hessian evaluation of the whole horizon
-/// (serial), at the plan's solution.
-fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan) -> (f64, f64) {
+/// (serial, or with rayon over the stages), at the plan's solution.
+fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan, parallel: bool) -> (f64, f64) {
     let k_last = p.layout.intervals;
     let spec = SwingOcpSpec {
         intervals: k_last,
@@ -77,7 +77,7 @@ fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan) -> (f64, f64)
         x_start: [p.points.q(0), p.points.qd(0)].concat(),
         target: task().target,
         bounds: Default::default(),
-        parallel_min_stages: usize::MAX,
+        parallel_min_stages: if parallel { 0 } else { usize::MAX },
     };
     let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot, spec, None).unwrap();
     let dims = ocp.dims().clone();
@@ -95,7 +95,7 @@ fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan) -> (f64, f64)
         .collect();
     let mut term = TerminalEval::zeros(4, 8);
     let (mut jt, mut ht) = (vec![], vec![]);
-    for _ in 0..9 {
+    for _ in 0..21 {
         let t = Instant::now();
         ocp.evaluate(&z, EvalLevel::FirstOrder, &mut st, &mut term)
             .unwrap();
@@ -114,12 +114,13 @@ fn report(robot: &Robot) {
     let mut ocp_plan = None;
     for (name, tr, b) in CASES {
         let (s, nlp) = settings(tr, b);
-        let mut times = vec![];
+        let (mut times, mut solves) = (vec![], vec![]);
         let mut last = None;
         for _ in 0..5 {
             let t = Instant::now();
             let p = plan(robot, &task(), &s, &nlp).unwrap();
             times.push(t.elapsed().as_secs_f64());
+            solves.push(p.solve_time_s);
             last = Some(p);
         }
         let p = last.unwrap();
@@ -132,10 +133,10 @@ fn report(robot: &Robot) {
         );
         let m = median(times);
         eprintln!(
-            "plan/tracking {name}: median {:.1} ms (solve {:.1} ms), {} iterations, objective {:.6}, \
-             replay EE error {:.3e} m, split {:?}",
+            "plan/tracking {name}: median {:.1} ms (median solve {:.1} ms), {} iterations, \
+             objective {:.6}, replay EE error {:.3e} m, last split {:?}",
             m * 1e3,
-            p.solve_time_s * 1e3,
+            median(solves) * 1e3,
             p.iterations,
             p.objective,
             p.replay_ee_error_m,
@@ -152,15 +153,33 @@ fn report(robot: &Robot) {
         medians[2] / medians[0]
     );
     let p = ocp_plan.unwrap();
-    let (ja, ha) = per_stage::<AnalyticDynamics>(robot, &p);
-    let (jd, hd) = per_stage::<AdDynamics>(robot, &p);
+    for parallel in [false, true] {
+        let (ja, ha) = per_stage::<AnalyticDynamics>(robot, &p, parallel);
+        let (jd, hd) = per_stage::<AdDynamics>(robot, &p, parallel);
+        eprintln!(
+            "per shooting stage (1 RK4 step, {}): first order {:.2} us analytic / {:.1} us AD, \
+             Hessian {:.2} us analytic / {:.1} us AD",
+            if parallel { "rayon" } else { "serial" },
+            ja * 1e6,
+            jd * 1e6,
+            ha * 1e6,
+            hd * 1e6
+        );
+    }
+    // the whole plan with the stages evaluated on the calling thread
+    let (mut s, nlp) = settings(Transcription::MultipleShooting, Backend::Ocp);
+    s.shooting.parallel_min_stages = usize::MAX;
+    let (mut total, mut solve) = (vec![], vec![]);
+    for _ in 0..5 {
+        let t = Instant::now();
+        let q = plan(robot, &task(), &s, &nlp).unwrap();
+        total.push(t.elapsed().as_secs_f64());
+        solve.push(q.solve_time_s);
+    }
     eprintln!(
-        "per shooting stage (1 RK4 step, serial): first order {:.1} us analytic / {:.1} us AD, \
-         Hessian {:.1} us analytic / {:.1} us AD",
-        ja * 1e6,
-        jd * 1e6,
-        ha * 1e6,
-        hd * 1e6
+        "plan/tracking multiple-shooting/ocp, serial stages: median {:.1} ms (solve {:.1} ms)",
+        median(total) * 1e3,
+        median(solve) * 1e3
     );
 }
 
