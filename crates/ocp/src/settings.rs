@@ -39,6 +39,9 @@ pub struct OcpSettings {
     /// Largest number of consecutive restoration iterations before [`OcpStatus::RestorationFailed`].
     /// Default 50.
     pub max_restoration_iter: usize,
+    /// Largest number of second-order corrections tried when a full step raises the constraint
+    /// violation (IPOPT's `max_soc`; 0 disables them). Default 4.
+    pub max_soc: usize,
 }
 
 impl Default for OcpSettings {
@@ -55,6 +58,7 @@ impl Default for OcpSettings {
             bound_push: 1e-2,
             warm_bound_push: 1e-9,
             max_restoration_iter: 50,
+            max_soc: 4,
         }
     }
 }
