@@ -1,28 +1,198 @@
-//! Planning time of the paper's tracking scenario (T = 2 T_freefall ~ 2.23 s, 10 ms knots, Hermite-
-//! Simpson, pounce-rs), with the trapezoidal rule beside it as the in-process baseline.
+//! Planning time of the paper's tracking scenario (`scenarios/tracking.toml`: params/paper.toml,
+//! T = 2 T_freefall ~ 2.23 s, 10 ms knots), cold starts:
+//! - multiple shooting (RK4, 223 intervals) on the stage-structured solver (`backend = "ocp"`),
+//! - the very same problem on pounce-rs (through the OCP adapter),
+//! - Hermite-Simpson collocation on pounce-rs, the baseline.
+//!
+//! A manual pass before the criterion groups plans each a few times in one process and prints the
+//! medians, the ratios, the iterations, the time split, the independent 0.1 ms open-loop replay error
+//! of each plan's torque profile (which must reach the bar within 1 mm: the bench panics otherwise)
+//! and the derivative cost per shooting stage (closed form and AD).
 
-use brachia::planning::{plan, NlpSettings, PlannerSettings, SwingTask, Transcription};
+use brachia::planning::{
+    plan, AdDynamics, AnalyticDynamics, Backend, NlpSettings, Plan, PlannerSettings, PointDynamics,
+    SwingOcp, SwingOcpSpec, SwingTask, Transcription,
+};
 use brachia::Robot;
+use brachia_ocp::{EvalLevel, Multipliers, OcpProblem, Primal, StageEval, TerminalEval};
 use criterion::{criterion_group, criterion_main, Criterion};
+use std::time::Instant;
 
-fn bench(c: &mut Criterion) {
-    let robot = Robot::paper();
-    let task = SwingTask {
+fn task() -> SwingTask {
+    SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
         target: [0.8, 0.0],
         obstacles: vec![],
-    };
-    let mut g = c.benchmark_group("plan/tracking");
-    g.sample_size(10);
-    for tr in [Transcription::HermiteSimpson, Transcription::Trapezoidal] {
-        let s = PlannerSettings {
+    }
+}
+
+/// The three configurations: (name, transcription, backend).
+const CASES: [(&str, Transcription, Backend); 3] = [
+    (
+        "multiple-shooting/ocp",
+        Transcription::MultipleShooting,
+        Backend::Ocp,
+    ),
+    (
+        "multiple-shooting/pounce",
+        Transcription::MultipleShooting,
+        Backend::Pounce,
+    ),
+    (
+        "hermite-simpson/pounce",
+        Transcription::HermiteSimpson,
+        Backend::Pounce,
+    ),
+];
+
+fn settings(tr: Transcription, b: Backend) -> (PlannerSettings, NlpSettings) {
+    (
+        PlannerSettings {
             transcription: tr,
             ..Default::default()
-        };
-        g.bench_function(format!("{tr:?}"), |b| {
-            b.iter(|| {
-                let p = plan(&robot, &task, &s, &NlpSettings::default()).unwrap();
+        },
+        NlpSettings {
+            backend: b,
+            ..Default::default()
+        },
+    )
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Seconds per stage of one first-order evaluation and one Hessian evaluation of the whole horizon
+/// (serial, or with rayon over the stages), at the plan's solution.
+fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan, parallel: bool) -> (f64, f64) {
+    let k_last = p.layout.intervals;
+    let spec = SwingOcpSpec {
+        intervals: k_last,
+        swing_time_s: p.swing_time_s,
+        substeps: 1,
+        q1_diag: vec![0.01; 4],
+        r1_diag: vec![1.0; 3],
+        x_start: [p.points.q(0), p.points.qd(0)].concat(),
+        target: task().target,
+        bounds: Default::default(),
+        parallel_min_stages: if parallel { 0 } else { usize::MAX },
+    };
+    let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot, spec, None).unwrap();
+    let dims = ocp.dims().clone();
+    let mut z = Primal::zeros(&dims);
+    for k in 0..=k_last {
+        z.x[k] = [p.points.q(k), p.points.qd(k)].concat();
+        if k < k_last {
+            z.u[k] = p.points.tau(k).to_vec();
+        }
+    }
+    let mut m = Multipliers::zeros(&dims);
+    m.lam.iter_mut().flatten().for_each(|v| *v = 0.3);
+    let mut st: Vec<StageEval> = (0..=k_last)
+        .map(|k| StageEval::zeros(dims.stages[k], if k < k_last { 8 } else { 0 }))
+        .collect();
+    let mut term = TerminalEval::zeros(4, 8);
+    let (mut jt, mut ht) = (vec![], vec![]);
+    for _ in 0..21 {
+        let t = Instant::now();
+        ocp.evaluate(&z, EvalLevel::FirstOrder, &mut st, &mut term)
+            .unwrap();
+        jt.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        ocp.hessians(&z, 1.0, &m, &mut st).unwrap();
+        ht.push(t.elapsed().as_secs_f64());
+    }
+    let ns = (k_last + 1) as f64;
+    (median(jt) / ns, median(ht) / ns)
+}
+
+/// The manual pass (see the module docs).
+fn report(robot: &Robot) {
+    let mut medians = vec![];
+    let mut ocp_plan = None;
+    for (name, tr, b) in CASES {
+        let (s, nlp) = settings(tr, b);
+        let (mut times, mut solves) = (vec![], vec![]);
+        let mut last = None;
+        for _ in 0..5 {
+            let t = Instant::now();
+            let p = plan(robot, &task(), &s, &nlp).unwrap();
+            times.push(t.elapsed().as_secs_f64());
+            solves.push(p.solve_time_s);
+            last = Some(p);
+        }
+        let p = last.unwrap();
+        assert!(p.converged(), "{name}: {:?}", p.status);
+        // the accuracy bar: the replayed torques reach the bar within 1 mm
+        assert!(
+            p.replay_ee_error_m <= 1e-3,
+            "{name}: open-loop replay misses the bar by {} m",
+            p.replay_ee_error_m
+        );
+        let m = median(times);
+        eprintln!(
+            "plan/tracking {name}: median {:.1} ms (median solve {:.1} ms), {} iterations, \
+             objective {:.6}, replay EE error {:.3e} m, last split {:?}",
+            m * 1e3,
+            median(solves) * 1e3,
+            p.iterations,
+            p.objective,
+            p.replay_ee_error_m,
+            p.time_split
+        );
+        medians.push(m);
+        if b == Backend::Ocp {
+            ocp_plan = Some(p);
+        }
+    }
+    eprintln!(
+        "ratios: shooting pounce / ocp {:.1}, hermite-simpson pounce / shooting ocp {:.1}",
+        medians[1] / medians[0],
+        medians[2] / medians[0]
+    );
+    let p = ocp_plan.unwrap();
+    for parallel in [false, true] {
+        let (ja, ha) = per_stage::<AnalyticDynamics>(robot, &p, parallel);
+        let (jd, hd) = per_stage::<AdDynamics>(robot, &p, parallel);
+        eprintln!(
+            "per shooting stage (1 RK4 step, {}): first order {:.2} us analytic / {:.1} us AD, \
+             Hessian {:.2} us analytic / {:.1} us AD",
+            if parallel { "rayon" } else { "serial" },
+            ja * 1e6,
+            jd * 1e6,
+            ha * 1e6,
+            hd * 1e6
+        );
+    }
+    // the whole plan with the stages evaluated on the calling thread
+    let (mut s, nlp) = settings(Transcription::MultipleShooting, Backend::Ocp);
+    s.shooting.parallel_min_stages = usize::MAX;
+    let (mut total, mut solve) = (vec![], vec![]);
+    for _ in 0..5 {
+        let t = Instant::now();
+        let q = plan(robot, &task(), &s, &nlp).unwrap();
+        total.push(t.elapsed().as_secs_f64());
+        solve.push(q.solve_time_s);
+    }
+    eprintln!(
+        "plan/tracking multiple-shooting/ocp, serial stages: median {:.1} ms (solve {:.1} ms)",
+        median(total) * 1e3,
+        median(solve) * 1e3
+    );
+}
+
+fn bench(c: &mut Criterion) {
+    let robot = Robot::paper();
+    report(&robot);
+    let mut g = c.benchmark_group("plan/tracking");
+    g.sample_size(10);
+    for (name, tr, b) in CASES {
+        let (s, nlp) = settings(tr, b);
+        g.bench_function(name, |bch| {
+            bch.iter(|| {
+                let p = plan(&robot, &task(), &s, &nlp).unwrap();
                 assert!(p.converged());
                 p.objective
             })

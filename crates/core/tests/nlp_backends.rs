@@ -382,6 +382,7 @@ fn infeasible_constraints_give_an_infeasibility_status() {
         let expected = match backend {
             Backend::Pounce => SolveStatus::RestorationFailed,
             Backend::Ripopt => SolveStatus::LocallyInfeasible,
+            Backend::Ocp => unreachable!("not a sparse-NLP backend"),
         };
         assert_eq!(sol.status, expected, "{backend:?} ({})", sol.backend_status);
         assert!(!sol.status.is_converged());

@@ -164,6 +164,10 @@ pub struct Row {
 }
 
 /// The defect rows of a transcription.
+///
+/// # Panics
+/// For [`Transcription::MultipleShooting`], which is not a collocation rule (its problem is
+/// [`crate::planning::SwingOcp`]); a programmer's error.
 pub fn defect_rows(l: &Layout) -> Vec<Row> {
     let (n, h) = (l.n, l.h);
     let q = |p: usize, i: usize| l.var(p, i);
@@ -172,6 +176,9 @@ pub fn defect_rows(l: &Layout) -> Vec<Row> {
     for k in 0..l.intervals {
         let (a, b) = (l.knot(k), l.knot(k + 1));
         match l.transcription {
+            Transcription::MultipleShooting => {
+                panic!("multiple shooting is not a collocation rule: build a SwingOcp")
+            }
             Transcription::Euler => {
                 for i in 0..n {
                     rows.push(Row {
@@ -338,6 +345,9 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> CollocationNlp<D, T, P> {
     /// to values that must equal `target`; `x_l`, `x_u` are the variable bounds (fixed start and final
     /// input included), `x0` the initial guess, `q1`/`r1` the cost weights on qd and u (cost: the
     /// transcription's quadrature of `||qd||^2_Q1 + ||u||^2_R1`), `path` the optional constraint on q.
+    ///
+    /// # Panics
+    /// When the layout's transcription is [`Transcription::MultipleShooting`] (see [`defect_rows`]).
     pub fn new(
         dynamics: D,
         terminal: T,

@@ -8,12 +8,20 @@ mod backend_pounce;
 mod backend_ripopt;
 pub mod collocation;
 pub mod nlp;
+pub mod ocp_nlp;
+pub mod plan_shooting;
 pub mod planner;
 pub mod settings;
+pub mod shooting;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
+pub use ocp_nlp::{AdapterTimings, OcpNlp};
+pub use plan_shooting::SolveTimeSplit;
 pub use planner::{
     freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
 };
-pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
+pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription};
+pub use shooting::{
+    AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
+};

@@ -90,14 +90,20 @@ pub enum Backend {
     Pounce,
     /// ripopt 0.8: an independent pure-Rust IPOPT-style solver, used as a cross-check.
     Ripopt,
+    /// brachia-ocp: the stage-structured interior-point solver with a Riccati KKT step. It solves
+    /// optimal-control problems, not general sparse NLPs: the planner uses it with
+    /// `transcription = "multiple-shooting"` only, and [`solve`] refuses it with
+    /// [`SolveStatus::InvalidSettings`].
+    Ocp,
 }
 
 impl Backend {
-    /// Lowercase name as used in settings files (`"pounce"`, `"ripopt"`).
+    /// Lowercase name as used in settings files (`"pounce"`, `"ripopt"`, `"ocp"`).
     pub fn name(self) -> &'static str {
         match self {
             Backend::Pounce => "pounce",
             Backend::Ripopt => "ripopt",
+            Backend::Ocp => "ocp",
         }
     }
 }
@@ -628,10 +634,21 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
             )
         }
     };
-    let outcome = match backend {
-        Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
-        Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
-    };
+    let outcome =
+        match backend {
+            Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
+            Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
+            Backend::Ocp => return fail(
+                SolveStatus::InvalidSettings(
+                    "backend \"ocp\" solves stage-structured optimal-control problems only (the \
+                     planner's transcription = \"multiple-shooting\"); a sparse NLP needs \
+                     \"pounce\" or \"ripopt\""
+                        .into(),
+                ),
+                prep.x0.clone(),
+                prep.m,
+            ),
+        };
     let x = outcome
         .x
         .filter(|x| x.len() == prep.n)

@@ -108,6 +108,9 @@ pub struct Plan {
     /// Time spent in the problem's callbacks (derivatives and assembly); the rest of `solve_time_s` is
     /// the solver's own work (linear algebra, line search).
     pub callback_timings: crate::planning::collocation::CallbackTimings,
+    /// Multiple shooting only: the solve's time split (evaluation, Hessians, solver work); `None` for
+    /// collocation.
+    pub time_split: Option<crate::planning::plan_shooting::SolveTimeSplit>,
     /// Objective value (the transcription's quadrature of ||qd||^2_Q1 + ||tau||^2_R1).
     pub objective: f64,
     /// Swing time T, s.
@@ -267,7 +270,7 @@ pub fn ik_from_seed(robot: &Robot, seed: &[f64], target: [f64; 2]) -> Option<Vec
 }
 
 /// Variable bounds for the layout (start state fixed, final torque zero).
-fn variable_bounds(
+pub(super) fn variable_bounds(
     robot: &Robot,
     layout: &Layout,
     settings: &PlannerSettings,
@@ -309,7 +312,11 @@ fn variable_bounds(
 }
 
 /// Check the task before any solving; returns (qd0, clearance function if obstacles are avoided).
-fn check_task(robot: &Robot, task: &SwingTask, settings: &PlannerSettings) -> Result<Vec<f64>> {
+pub(super) fn check_task(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<Vec<f64>> {
     let n = robot.n;
     let src = "task";
     if task.q0.len() != n {
@@ -399,7 +406,7 @@ fn check_task(robot: &Robot, task: &SwingTask, settings: &PlannerSettings) -> Re
 
 /// Pick the target pose for the initial guess: IK seeded by the mirrored start pose and variants,
 /// keeping poses inside the bounds, preferring obstacle-free ones, then the one closest to its seed.
-fn target_pose(
+pub(super) fn target_pose(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -458,7 +465,7 @@ pub fn plan(
 
 /// Check a warm-start trajectory: n links, at least two samples, finite values, strictly increasing
 /// times.
-fn check_guess(robot: &Robot, g: &Trajectory) -> Result<()> {
+pub(super) fn check_guess(robot: &Robot, g: &Trajectory) -> Result<()> {
     let (n, src) = (robot.n, "guess");
     if g.n != n {
         return Err(Error::Dimension {
@@ -512,7 +519,7 @@ fn check_guess(robot: &Robot, g: &Trajectory) -> Result<()> {
 /// Fill `x0` from a guess trajectory: its time axis is mapped linearly onto `[0, T]`, each collocation
 /// point takes q, qd (scaled by `T_guess / T`) and tau interpolated linearly from it, clamped to the
 /// variable bounds (so the start state and the zero final torque hold exactly).
-fn guess_from_trajectory(
+pub(super) fn guess_from_trajectory(
     g: &Trajectory,
     layout: &Layout,
     t_final: f64,
@@ -579,6 +586,11 @@ pub fn plan_with_guess(
         }
         _ => nlp,
     };
+    if settings.transcription == Transcription::MultipleShooting
+        || nlp.backend == super::nlp::Backend::Ocp
+    {
+        return super::plan_shooting::plan_shooting(robot, task, settings, nlp, guess);
+    }
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
     let start_ee = robot.ee_position(&task.q0);
@@ -710,6 +722,7 @@ pub fn plan_with_guess(
         iterations: sol.iterations,
         attempts,
         callback_timings,
+        time_split: None,
         solve_time_s: sol.solve_time_s,
         objective: sol.objective,
         swing_time_s: t_final,

@@ -18,6 +18,32 @@ pub enum Transcription {
     /// Hermite-Simpson (separated form: midpoint states and torques are variables); torque quadratic.
     #[default]
     HermiteSimpson,
+    /// RK4 multiple shooting (`"multiple-shooting"`): states and torques at the knots, torque held
+    /// over each interval, `x_{k+1} = Phi(x_k, u_k)` by [`ShootingSettings::substeps`] RK4 steps. A
+    /// stage-structured problem ([`crate::planning::SwingOcp`]): solved by the `ocp` backend (Riccati
+    /// interior point) or by pounce / ripopt through [`crate::planning::OcpNlp`].
+    MultipleShooting,
+}
+
+/// Settings of the multiple-shooting transcription (`[planner.shooting]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ShootingSettings {
+    /// RK4 steps per shooting interval (>= 1). Default 1 (at 10 ms knots one step reaches the bar to
+    /// a fraction of a millimetre; docs/planner.md).
+    pub substeps: usize,
+    /// Evaluate the stages in parallel (rayon) when the problem has at least this many stages;
+    /// 0 = always, a huge value = never. Default 64 (measured break-even on 2 cores: docs/planner.md).
+    pub parallel_min_stages: usize,
+}
+
+impl Default for ShootingSettings {
+    fn default() -> Self {
+        ShootingSettings {
+            substeps: 1,
+            parallel_min_stages: 64,
+        }
+    }
 }
 
 /// The swing time T.
@@ -91,6 +117,8 @@ pub struct PlannerSettings {
     pub self_collision: bool,
     /// Period of the resampled output trajectory, s (default 0.001).
     pub output_dt: f64,
+    /// Multiple-shooting settings (used by `transcription = "multiple-shooting"` only).
+    pub shooting: ShootingSettings,
 }
 
 impl Default for PlannerSettings {
@@ -106,6 +134,7 @@ impl Default for PlannerSettings {
             avoid_obstacles: true,
             self_collision: true,
             output_dt: 0.001,
+            shooting: ShootingSettings::default(),
         }
     }
 }
@@ -127,6 +156,9 @@ impl PlannerSettings {
         pos("output_dt", self.output_dt)?;
         pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
         pos("bounds.qd_max", self.bounds.qd_max)?;
+        if self.shooting.substeps == 0 {
+            return Err(Error::invalid(src, "shooting.substeps", 0, "must be >= 1"));
+        }
         let [lo, hi] = self.bounds.q1;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
             return Err(Error::invalid(

@@ -1,0 +1,427 @@
+//! The planner's multiple-shooting path: the swing as a [`SwingOcp`], solved by the stage-structured
+//! solver (`backend = "ocp"`) or by pounce / ripopt through [`OcpNlp`], and the [`Plan`] built from it.
+//!
+//! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
+
+use super::collocation::{CallbackTimings, Layout};
+use super::nlp::{solve, Backend, MuStrategy, NlpSettings, SolveStatus};
+use super::ocp_nlp::OcpNlp;
+use super::planner::{
+    check_guess, check_task, freefall_time, guess_from_trajectory, target_pose, variable_bounds,
+    DistanceClearanceFn, Plan, SwingTask, Violations,
+};
+use super::settings::{PlannerSettings, SwingTime, Transcription};
+use super::shooting::{SwingOcp, SwingOcpSpec};
+use crate::error::{Error, Result};
+use crate::integrate::Rk4;
+use crate::model::{Circle, ClearanceFn, Robot, Scratch};
+use crate::sim::{ModelPlant, Plant};
+use crate::trajectory::Trajectory;
+use brachia_ocp::{
+    EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStatus, Primal, StageBounds, StageEval,
+    TerminalEval,
+};
+use serde::Serialize;
+
+/// Step of the independent open-loop replay, s.
+const REPLAY_DT: f64 = 1e-4;
+
+/// Where the time of a multiple-shooting solve went, s.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct SolveTimeSplit {
+    /// Problem evaluations: values and first derivatives (line-search trials included).
+    pub evaluation_s: f64,
+    /// Hessians of the stage Lagrangians.
+    pub hessian_s: f64,
+    /// The solver's own work: `total_s - evaluation_s - hessian_s`.
+    pub solver_s: f64,
+    /// Of `solver_s`, the linear algebra (condensing, Riccati factorisations, solves); `ocp` only.
+    pub linear_algebra_s: Option<f64>,
+    /// Of `solver_s`, the line search and restoration bookkeeping; `ocp` only.
+    pub line_search_s: Option<f64>,
+    /// The whole solve.
+    pub total_s: f64,
+}
+
+/// The solver outcome of the OCP solver as the planner's status.
+fn status_of(s: &OcpStatus) -> SolveStatus {
+    match s {
+        OcpStatus::Solved => SolveStatus::Solved,
+        OcpStatus::SolvedToAcceptableLevel => SolveStatus::SolvedToAcceptableLevel,
+        OcpStatus::MaxIterations => SolveStatus::MaxIterations,
+        OcpStatus::MaxWallTime => SolveStatus::MaxWallTime,
+        OcpStatus::LocallyInfeasible => SolveStatus::LocallyInfeasible,
+        OcpStatus::RestorationFailed => SolveStatus::RestorationFailed,
+        OcpStatus::NumericalError(_) => SolveStatus::NumericalError,
+        OcpStatus::EvaluationError(m) => SolveStatus::EvaluationError(m.clone()),
+        OcpStatus::InvalidProblem(m) => SolveStatus::InvalidProblem(m.clone()),
+        OcpStatus::InvalidSettings(m) => SolveStatus::InvalidSettings(m.clone()),
+        other => SolveStatus::Other(format!("{other:?}")),
+    }
+}
+
+/// The OCP solver's settings from the NLP seam's (the same names and meanings).
+fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
+    let d = OcpSettings::default();
+    OcpSettings {
+        max_iter: nlp.max_iter,
+        tol: nlp.tol,
+        constr_viol_tol: nlp.constr_viol_tol,
+        acceptable_tol: nlp.acceptable_tol.max(nlp.tol),
+        acceptable_iter: nlp.acceptable_iter,
+        mu_init: nlp.mu_init.unwrap_or(d.mu_init),
+        max_wall_time_s: nlp.max_wall_time_s,
+        ..d
+    }
+}
+
+/// Plan the swing by multiple shooting (called by [`super::plan_with_guess`], which has validated the
+/// settings and the guess and set the warm-start `mu_init`). Refuses `backend = "ocp"` with a
+/// collocation transcription.
+pub(super) fn plan_shooting(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
+    if settings.transcription != Transcription::MultipleShooting {
+        let name = serde_json::to_value(settings.transcription)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        return Err(Error::invalid(
+            "planner",
+            "solver.backend, planner.transcription",
+            format!("\"ocp\" with \"{name}\""),
+            "the ocp backend solves the stage-structured problem only: set planner.transcription = \
+             \"multiple-shooting\", or choose backend \"pounce\" or \"ripopt\" for collocation",
+        ));
+    }
+    if let Some(g) = guess {
+        check_guess(robot, g)?;
+    }
+    let n = robot.n;
+    let qd0 = check_task(robot, task, settings)?;
+    let start_ee = robot.ee_position(&task.q0);
+    let (t_final, freefall) = match settings.swing_time {
+        SwingTime::Seconds(t) => (t, None),
+        SwingTime::Auto(_) => {
+            let tf = freefall_time(robot, &task.q0, 0.5 * (start_ee[0] + task.target[0]))?;
+            (2.0 * tf, Some(tf))
+        }
+    };
+    let intervals = ((t_final / settings.knot_dt).round() as usize).max(2);
+    let layout = Layout::new(
+        n,
+        n - 1,
+        intervals,
+        t_final,
+        Transcription::MultipleShooting,
+    );
+    let obstacles: &[Circle] = if settings.avoid_obstacles {
+        &task.obstacles
+    } else {
+        &[]
+    };
+    let cf = if obstacles.is_empty() && !settings.self_collision {
+        None
+    } else {
+        Some(
+            ClearanceFn::new(robot, obstacles, settings.obstacle_margin)?
+                .with_self_collision(settings.self_collision),
+        )
+    };
+
+    // initial guess, on the knots (stacked [q, qd, tau] per knot as for collocation)
+    let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);
+    let nz = layout.nz;
+    let mut x0 = vec![0.0; layout.n_vars()];
+    if let Some(g) = guess {
+        guess_from_trajectory(g, &layout, t_final, &bounds, &mut x0);
+    } else {
+        let q_t = target_pose(robot, task, settings, cf.as_ref())?;
+        for p in 0..layout.points {
+            let r = layout.time(p) / t_final;
+            let s = r * r * (3.0 - 2.0 * r);
+            let sd = 6.0 * r * (1.0 - r) / t_final;
+            for i in 0..n {
+                x0[layout.var(p, i)] = task.q0[i] + s * (q_t[i] - task.q0[i]);
+                x0[layout.var(p, n + i)] = sd * (q_t[i] - task.q0[i]);
+            }
+        }
+        for i in 0..n {
+            x0[layout.var(0, n + i)] = qd0[i];
+        }
+    }
+    let spec = SwingOcpSpec {
+        intervals,
+        swing_time_s: t_final,
+        substeps: settings.shooting.substeps,
+        q1_diag: settings.q1(n),
+        r1_diag: settings.r1(n),
+        x_start: [task.q0.as_slice(), &qd0].concat(),
+        target: task.target,
+        bounds: settings.bounds.clone(),
+        parallel_min_stages: settings.shooting.parallel_min_stages,
+    };
+    let mut ocp = SwingOcp::new(robot, spec, cf.map(DistanceClearanceFn::new))?;
+    {
+        let g = ocp.guess_mut();
+        for k in 0..=intervals {
+            g.x[k].copy_from_slice(&x0[k * nz..k * nz + 2 * n]);
+            let nu = g.u[k].len();
+            g.u[k].copy_from_slice(&x0[k * nz + 2 * n..k * nz + 2 * n + nu]);
+        }
+    }
+
+    // solve
+    let (z, status, iterations, attempts, objective, split, mut ocp) = match nlp.backend {
+        Backend::Ocp => {
+            let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
+                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
+            })?;
+            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
+            let t = stats.time;
+            let split = SolveTimeSplit {
+                evaluation_s: t.evaluation_s,
+                hessian_s: t.hessian_s,
+                solver_s: (t.total_s - t.evaluation_s - t.hessian_s).max(0.0),
+                linear_algebra_s: Some(t.linear_algebra_s),
+                line_search_s: Some(t.line_search_s),
+                total_s: t.total_s,
+            };
+            let status = status_of(&stats.status);
+            (
+                solver.primal().clone(),
+                status,
+                stats.iterations,
+                1,
+                stats.objective,
+                split,
+                ocp,
+            )
+        }
+        Backend::Pounce | Backend::Ripopt => {
+            let mut prob = OcpNlp::new(ocp);
+            let mut sol = solve(&mut prob, nlp);
+            let mut attempts = 1;
+            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+                // the collocation planner's retry (docs/planner.md, "Solver and retry")
+                let retry = NlpSettings {
+                    mu_strategy: MuStrategy::Adaptive,
+                    ..nlp.clone()
+                };
+                let second = solve(&mut prob, &retry);
+                attempts = 2;
+                if second.status.is_converged()
+                    || second.max_constraint_violation < sol.max_constraint_violation
+                {
+                    let (total, iters) = (
+                        sol.solve_time_s + second.solve_time_s,
+                        sol.iterations + second.iterations,
+                    );
+                    sol = second;
+                    sol.solve_time_s = total;
+                    sol.iterations = iters;
+                }
+            }
+            let mut z = Primal::zeros(prob.problem().dims());
+            if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
+                prob.unstack(&sol.x, &mut z);
+            } else {
+                prob.problem().initial_guess(&mut z);
+            }
+            let at = prob.timings;
+            let split = SolveTimeSplit {
+                evaluation_s: at.evaluation_s,
+                hessian_s: at.hessian_s,
+                solver_s: (sol.solve_time_s - at.evaluation_s - at.hessian_s).max(0.0),
+                linear_algebra_s: None,
+                line_search_s: None,
+                total_s: sol.solve_time_s,
+            };
+            (
+                z,
+                sol.status,
+                sol.iterations,
+                attempts,
+                sol.objective,
+                split,
+                prob.into_problem(),
+            )
+        }
+    };
+    let st = ocp.timings;
+    let callback_timings = CallbackTimings {
+        objective_s: 0.0,
+        constraints_s: st.values_s,
+        jacobian_s: st.first_order_s,
+        hessian_s: st.hessian_s,
+        hessian_calls: st.hessian_calls,
+    };
+
+    // knots: tau at knot k = u_k, the last knot repeats u_{K-1}
+    let mut points = Trajectory::new(n);
+    let mut points_qdd = vec![0.0; (intervals + 1) * n];
+    let mut ws = Scratch::new(n);
+    for k in 0..=intervals {
+        let tau = &z.u[k.min(intervals - 1)];
+        let (q, qd) = z.x[k].split_at(n);
+        points.push(layout.time(k), q, qd, tau);
+        robot.forward_dynamics_into(&mut ws, q, qd, tau, &mut points_qdd[k * n..(k + 1) * n]);
+    }
+    let max_step = settings
+        .output_dt
+        .min(layout.h / settings.shooting.substeps as f64);
+    let trajectory =
+        held_torque_trajectory(robot, &z, layout.h, t_final, settings.output_dt, max_step);
+    let (energy_j, positive_work_j) = trajectory.work();
+    let ee_final = robot.ee_position(&z.x[intervals][..n]);
+    let violations = violations(&mut ocp, &z);
+    let replay_ee_error_m = replay_held_torques(robot, &z, layout.h, task.target);
+    let min_obstacle_clearance_m = if task.obstacles.is_empty() {
+        None
+    } else {
+        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+        Some(
+            (0..trajectory.len())
+                .map(|k| cf.min_clearance(trajectory.q(k)))
+                .fold(f64::INFINITY, f64::min),
+        )
+    };
+    Ok(Plan {
+        status,
+        iterations,
+        attempts,
+        solve_time_s: split.total_s,
+        callback_timings,
+        time_split: Some(split),
+        objective,
+        swing_time_s: t_final,
+        freefall_time_s: freefall,
+        layout,
+        points,
+        points_qdd,
+        trajectory,
+        energy_j,
+        positive_work_j,
+        ee_final,
+        violations,
+        replay_ee_error_m,
+        min_obstacle_clearance_m,
+    })
+}
+
+/// Largest violations of the shooting problem at `z`, by kind (its own evaluation, values only).
+fn violations(ocp: &mut SwingOcp, z: &Primal) -> Violations {
+    let dims = ocp.dims().clone();
+    let k_last = dims.horizon();
+    let mut stages: Vec<StageEval> = (0..=k_last)
+        .map(|k| {
+            let next = if k < k_last { dims.stages[k + 1].nx } else { 0 };
+            StageEval::zeros(dims.stages[k], next)
+        })
+        .collect();
+    let mut term = TerminalEval::zeros(dims.n_terminal, dims.stages[k_last].nx);
+    if ocp
+        .evaluate(z, EvalLevel::Values, &mut stages, &mut term)
+        .is_err()
+    {
+        let inf = f64::INFINITY;
+        return Violations {
+            dynamics: inf,
+            ee_position: inf,
+            ee_velocity: inf,
+            clearance: inf,
+            bounds: inf,
+        };
+    }
+    let (mut dynamics, mut clearance, mut bounds) = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..=k_last {
+        if k < k_last {
+            for (f, x) in stages[k].f.iter().zip(&z.x[k + 1]) {
+                dynamics = dynamics.max((f - x).abs());
+            }
+        }
+        for c in &stages[k].c {
+            clearance = clearance.max(-c);
+        }
+        let mut b = StageBounds::unbounded(dims.stages[k]);
+        ocp.bounds(k, &mut b);
+        let out = |v: &[f64], lo: &[f64], hi: &[f64]| {
+            v.iter()
+                .zip(lo.iter().zip(hi))
+                .fold(0.0f64, |m, (v, (l, h))| m.max(l - v).max(v - h))
+        };
+        bounds = bounds
+            .max(out(&z.x[k], &b.x_lo, &b.x_hi))
+            .max(out(&z.u[k], &b.u_lo, &b.u_hi));
+    }
+    let r = &term.r;
+    Violations {
+        dynamics,
+        ee_position: r[0].hypot(r[1]),
+        ee_velocity: r[2].hypot(r[3]),
+        clearance,
+        bounds,
+    }
+}
+
+/// The swing at period `dt` (s) with the plan's held torques: every interval integrated from its knot
+/// by RK4 in steps of at most `max_step`; samples at `j dt` and a last one exactly at `t_final`. The
+/// torque of a sample is the one held over the interval that starts at or before it.
+fn held_torque_trajectory(
+    robot: &Robot,
+    z: &Primal,
+    h: f64,
+    t_final: f64,
+    dt: f64,
+    max_step: f64,
+) -> Trajectory {
+    let n = robot.n;
+    let k_last = z.x.len() - 1;
+    let mut rk4 = Rk4::new(robot);
+    let mut out = Trajectory::new(n);
+    let mut s = z.x[0].clone();
+    let (mut k, mut t_cur) = (0, 0.0);
+    let n_samples = ((t_final / dt) * (1.0 - 1e-12)).ceil() as usize; // samples j dt < t_final
+    for j in 0..=n_samples {
+        let t = if j == n_samples {
+            t_final
+        } else {
+            j as f64 * dt
+        };
+        // advance to the interval holding t (the last interval holds t_final)
+        while k + 1 < k_last && t >= (k + 1) as f64 * h {
+            k += 1;
+            s.copy_from_slice(&z.x[k]);
+            t_cur = k as f64 * h;
+        }
+        let span = t - t_cur;
+        if span > 0.0 {
+            let steps = (span / max_step).ceil().max(1.0) as usize;
+            rk4.advance(robot, &mut s, &z.u[k], span, steps);
+            t_cur = t;
+        }
+        out.push(t, &s[..n], &s[n..], &z.u[k]);
+    }
+    out
+}
+
+/// Replay the held torque profile open loop on the model plant at 0.1 ms (an integration independent
+/// of the plan's own RK4 steps) from the start state; the final EE distance from `target`, m.
+fn replay_held_torques(robot: &Robot, z: &Primal, h: f64, target: [f64; 2]) -> f64 {
+    let n = robot.n;
+    let mut plant = ModelPlant::new(robot.clone(), &z.x[0]);
+    let m = (h / REPLAY_DT).ceil().max(1.0) as usize;
+    for u in &z.u[..z.u.len() - 1] {
+        for _ in 0..m {
+            plant.step(u, h / m as f64);
+        }
+    }
+    let mut x = vec![0.0; 2 * n];
+    plant.state(&mut x);
+    let ee = robot.ee_position(&x[..n]);
+    (ee[0] - target[0]).hypot(ee[1] - target[1])
+}

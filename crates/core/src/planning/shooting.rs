@@ -1,0 +1,802 @@
+//! The swing by multiple shooting, as a stage-structured optimal-control problem
+//! ([`brachia_ocp::OcpProblem`]).
+//!
+//! ## Transcription
+//! Stages `k = 0..=K` on a uniform grid `t_k = k h`, `h = T / K`. Stage variables `z_k = [x_k, u_k]` with
+//! `x_k = [q_k (n), qd_k (n)]` (rad, rad/s) and `u_k = tau_k` (n - 1, N m) held constant over
+//! `[t_k, t_{k+1})` (zero-order hold); the last stage has no input (`nu_K = 0`).
+//! - **Dynamics**: `x_{k+1} = Phi(x_k, u_k)`, `substeps` classical RK4 steps of `h / substeps` on
+//!   `xdot = f(x, u) = [qd, qdd(q, qd, u)]` (the same arithmetic as [`crate::integrate::Rk4`]).
+//! - **Cost** (paper eq. 5 as a quadrature): `l_k = w_k ||qd_k||^2_Q1 + h ||u_k||^2_R1` with trapezoid
+//!   weights `w_k = h / 2` at the two ends and `h` inside (no torque term at k = K).
+//! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`]
+//!   (obstacles and non-adjacent links), when there are any.
+//! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
+//!   [`Bounds`]; torques from the robot's limits.
+//! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
+//!
+//! ## Derivatives (exact; derivation in docs/planner.md)
+//! The forward pass of `Phi` carries, through every RK4 evaluation `i`, the sensitivity `S_i = d y_i / d z_k`
+//! of that evaluation's input `y_i = [x_i, u_k]`, so `d Phi / d z_k` comes out of the chain rule
+//! through the stages. The Hessian of `lam^T Phi` is the second-order adjoint of the composition:
+//! `sum_i S_i^T [Hess_y (w_i . qdd)(y_i)] S_i`, with `w_i` the adjoint weight of evaluation i's
+//! acceleration output (a reverse sweep through the RK4 stages). Every other operation in `Phi` is
+//! linear, so nothing else contributes. Per-point derivatives of qdd come through [`PointDynamics`]:
+//! [`AnalyticDynamics`] (closed form, the default) or [`AdDynamics`] (forward-mode AD through
+//! [`crate::ad::Diff`], the test oracle).
+//!
+//! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. Stages are evaluated in
+//! parallel with rayon when the horizon has at least `parallel_min_stages` stages.
+
+use super::collocation::EeTerminalFn;
+use super::planner::DistanceClearanceFn;
+use super::settings::Bounds;
+use crate::ad::{Diff, LocalFn};
+use crate::error::{Error, Result};
+use crate::model::{DynamicsDerivatives, DynamicsFn, Robot, Scratch};
+use brachia_ocp::{
+    EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
+    StageEval, TerminalEval,
+};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Exact derivatives of the forward dynamics `qdd(y)`, `y = [q (n), qd (n), tau (n - 1)]`, at one point:
+/// the seam through which the shooting problem gets them (automatic differentiation now, the closed
+/// form later; the AD path then stays as the test oracle). Layouts as [`crate::ad::Diff`]:
+/// Jacobian row-major `n x (3n - 1)`, Hessian full symmetric row-major `(3n - 1) x (3n - 1)`.
+pub trait PointDynamics<'a>: Send + Sized {
+    /// Buffers for `robot` (allocated once).
+    fn new(robot: &'a Robot) -> Self;
+    /// `qdd = f(y)`.
+    fn value(&mut self, y: &[f64], qdd: &mut [f64]);
+    /// `qdd = f(y)` and its Jacobian.
+    fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]);
+    /// Hessian of `w . qdd(y)` (w: n weights).
+    fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]);
+}
+
+/// [`PointDynamics`] by forward-mode automatic differentiation ([`DynamicsFn`] through [`Diff`]).
+pub struct AdDynamics<'a> {
+    f: DynamicsFn<'a>,
+    diff: Diff<DynamicsFn<'a>>,
+}
+
+impl<'a> PointDynamics<'a> for AdDynamics<'a> {
+    fn new(robot: &'a Robot) -> Self {
+        let f = DynamicsFn { robot };
+        AdDynamics {
+            diff: Diff::new(&f),
+            f,
+        }
+    }
+    fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
+        self.diff.value(&self.f, y, qdd);
+    }
+    fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
+        self.diff.jacobian(&self.f, y, qdd, jac);
+    }
+    fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.diff.hessian_weighted(&self.f, y, w, hess);
+    }
+}
+
+/// [`PointDynamics`] in closed form ([`DynamicsDerivatives`]); values by
+/// [`Robot::forward_dynamics_into`], the same arithmetic as [`crate::integrate::Rk4`]. The default.
+pub struct AnalyticDynamics<'a> {
+    robot: &'a Robot,
+    ws: Scratch<f64>,
+    d: DynamicsDerivatives,
+}
+
+impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
+    fn new(robot: &'a Robot) -> Self {
+        AnalyticDynamics {
+            robot,
+            ws: Scratch::new(robot.n),
+            d: DynamicsDerivatives::new(robot),
+        }
+    }
+    fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
+        let n = self.robot.n;
+        self.robot
+            .forward_dynamics_into(&mut self.ws, &y[..n], &y[n..2 * n], &y[2 * n..], qdd);
+    }
+    fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
+        self.d.jacobian(self.robot, y, qdd, jac);
+    }
+    fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.d.hessian_weighted(self.robot, y, w, hess);
+    }
+}
+
+/// What defines a [`SwingOcp`] besides the robot and the clearance rows. Units: s, rad, rad/s, m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwingOcpSpec {
+    /// Number of shooting intervals K (>= 1); K + 1 stages.
+    pub intervals: usize,
+    /// Swing time T, s.
+    pub swing_time_s: f64,
+    /// RK4 steps per interval (>= 1).
+    pub substeps: usize,
+    /// Diagonal of Q1 (n), the weight on qd.
+    pub q1_diag: Vec<f64>,
+    /// Diagonal of R1 (n - 1), the weight on tau.
+    pub r1_diag: Vec<f64>,
+    /// Start state `[q0, qd0]` (2n), fixed.
+    pub x_start: Vec<f64>,
+    /// Target bar position, m.
+    pub target: [f64; 2],
+    /// Box bounds on q and qd (torque limits come from the robot).
+    pub bounds: Bounds,
+    /// Evaluate the stages in parallel (rayon) when there are at least this many; `usize::MAX` never.
+    pub parallel_min_stages: usize,
+}
+
+/// Wall time spent in the problem's evaluations, s (accumulated over a solve).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ShootingTimings {
+    /// Value-only evaluations (line search).
+    pub values_s: f64,
+    /// Evaluations with first derivatives.
+    pub first_order_s: f64,
+    /// Hessian evaluations.
+    pub hessian_s: f64,
+    /// Number of evaluations with first derivatives.
+    pub first_order_calls: usize,
+    /// Number of Hessian evaluations.
+    pub hessian_calls: usize,
+}
+
+/// Immutable data shared by the stages (read from every rayon worker).
+struct Ctx<'a> {
+    n: usize,
+    nx: usize,
+    nz: usize,
+    horizon: usize,
+    h: f64,
+    substeps: usize,
+    q1: Vec<f64>,
+    r1: Vec<f64>,
+    clearance: Option<DistanceClearanceFn<'a>>,
+    n_clear: usize,
+}
+
+impl Ctx<'_> {
+    /// Trapezoid weight of the state term at stage k.
+    fn state_weight(&self, k: usize) -> f64 {
+        if k == 0 || k == self.horizon {
+            0.5 * self.h
+        } else {
+            self.h
+        }
+    }
+}
+
+/// Per-stage scratch, allocated once.
+struct StageWork<'a, D> {
+    dynamics: D,
+    clear: Option<Diff<DistanceClearanceFn<'a>>>,
+    /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
+    rec_z: Vec<f64>,
+    rec_valid: bool,
+    /// Inputs of the RK4 evaluations, `ne x nz`.
+    y: Vec<f64>,
+    /// `d qdd / d y` at each evaluation, `ne x (n x nz)`.
+    jq: Vec<f64>,
+    /// `S_i = d y_i / d z_k`, `ne x (nz x nz)`.
+    sens: Vec<f64>,
+    /// Current sub-step state and its sensitivity `nx x nz`.
+    xs: Vec<f64>,
+    xsens: Vec<f64>,
+    /// RK4 stage derivatives `4 x nx` and their sensitivities `4 x (nx x nz)`.
+    kv: Vec<f64>,
+    kz: Vec<f64>,
+    /// Input of a value-only evaluation.
+    yv: Vec<f64>,
+    qdd: Vec<f64>,
+    /// Reverse sweep: state adjoint, one transposed-Jacobian product per evaluation, weights.
+    abar: Vec<f64>,
+    g: Vec<f64>,
+    w: Vec<f64>,
+    hbuf: Vec<f64>,
+    tmp: Vec<f64>,
+    /// Clearance Jacobian (`nc x n`) and weighted Hessian (`n x n`).
+    cjac: Vec<f64>,
+    chess: Vec<f64>,
+}
+
+impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
+    fn new(robot: &'a Robot, ctx: &Ctx<'a>) -> Self {
+        let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
+        let ne = 4 * ctx.substeps;
+        let nc = ctx.n_clear;
+        StageWork {
+            dynamics: D::new(robot),
+            clear: ctx.clearance.as_ref().map(Diff::new),
+            rec_z: vec![0.0; nz],
+            rec_valid: false,
+            y: vec![0.0; ne * nz],
+            jq: vec![0.0; ne * n * nz],
+            sens: vec![0.0; ne * nz * nz],
+            xs: vec![0.0; nx],
+            xsens: vec![0.0; nx * nz],
+            kv: vec![0.0; 4 * nx],
+            kz: vec![0.0; 4 * nx * nz],
+            yv: vec![0.0; nz],
+            qdd: vec![0.0; n],
+            abar: vec![0.0; nx],
+            g: vec![0.0; 4 * nx],
+            w: vec![0.0; 4 * nx],
+            hbuf: vec![0.0; nz * nz],
+            tmp: vec![0.0; nz * nz],
+            cjac: vec![0.0; nc * n],
+            chess: vec![0.0; n * n],
+        }
+    }
+
+    /// Integrate `Phi(x, u)` into `self.xs`; with `jac`, also record every evaluation and leave
+    /// `d Phi / d z` in `self.xsens`.
+    fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool) {
+        let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
+        let hs = ctx.h / ctx.substeps as f64;
+        let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
+        self.xs.copy_from_slice(x);
+        if jac {
+            self.xsens.fill(0.0);
+            for a in 0..nx {
+                self.xsens[a * nz + a] = 1.0;
+            }
+        }
+        for s in 0..ctx.substeps {
+            for j in 0..4 {
+                let i = 4 * s + j;
+                let y = if jac {
+                    &mut self.y[i * nz..(i + 1) * nz]
+                } else {
+                    &mut self.yv[..]
+                };
+                if j == 0 {
+                    y[..nx].copy_from_slice(&self.xs);
+                } else {
+                    let kp = &self.kv[(j - 1) * nx..j * nx];
+                    for a in 0..nx {
+                        y[a] = self.xs[a] + coef[j] * kp[a];
+                    }
+                }
+                y[nx..].copy_from_slice(u);
+                if jac {
+                    let sens = &mut self.sens[i * nz * nz..(i + 1) * nz * nz];
+                    if j == 0 {
+                        sens[..nx * nz].copy_from_slice(&self.xsens);
+                    } else {
+                        let kzp = &self.kz[(j - 1) * nx * nz..j * nx * nz];
+                        for e in 0..nx * nz {
+                            sens[e] = self.xsens[e] + coef[j] * kzp[e];
+                        }
+                    }
+                    sens[nx * nz..].fill(0.0);
+                    for m in 0..nz - nx {
+                        sens[(nx + m) * nz + nx + m] = 1.0;
+                    }
+                    let jq = &mut self.jq[i * n * nz..(i + 1) * n * nz];
+                    self.dynamics.jacobian(y, &mut self.qdd, jq);
+                    // K_j = [S_i rows n..2n ; Jq S_i]
+                    let kz = &mut self.kz[j * nx * nz..(j + 1) * nx * nz];
+                    kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
+                    for r in 0..n {
+                        let out = &mut kz[(n + r) * nz..(n + r + 1) * nz];
+                        out.fill(0.0);
+                        for c in 0..nz {
+                            let a = jq[r * nz + c];
+                            if a != 0.0 {
+                                let srow = &sens[c * nz..(c + 1) * nz];
+                                for b in 0..nz {
+                                    out[b] += a * srow[b];
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    self.dynamics.value(y, &mut self.qdd);
+                }
+                let k = &mut self.kv[j * nx..(j + 1) * nx];
+                k[..n].copy_from_slice(&y[n..nx]);
+                k[n..].copy_from_slice(&self.qdd);
+            }
+            let c6 = hs / 6.0;
+            let (k1, rest) = self.kv.split_at(nx);
+            let (k2, rest) = rest.split_at(nx);
+            let (k3, k4) = rest.split_at(nx);
+            for a in 0..nx {
+                self.xs[a] += c6 * (k1[a] + 2.0 * k2[a] + 2.0 * k3[a] + k4[a]);
+            }
+            if jac {
+                let m = nx * nz;
+                let (z1, rest) = self.kz.split_at(m);
+                let (z2, rest) = rest.split_at(m);
+                let (z3, z4) = rest.split_at(m);
+                for e in 0..m {
+                    self.xsens[e] += c6 * (z1[e] + 2.0 * z2[e] + 2.0 * z3[e] + z4[e]);
+                }
+            }
+        }
+        if jac {
+            self.rec_z[..nx].copy_from_slice(x);
+            self.rec_z[nx..].copy_from_slice(u);
+            self.rec_valid = true;
+        }
+    }
+
+    /// Cost, dynamics and clearance of stage k into `ev`.
+    fn evaluate(
+        &mut self,
+        ctx: &Ctx<'a>,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        level: EvalLevel,
+        ev: &mut StageEval,
+    ) {
+        let (n, nx) = (ctx.n, ctx.nx);
+        let first = level == EvalLevel::FirstOrder;
+        let wq = ctx.state_weight(k);
+        let mut cost = 0.0;
+        for i in 0..n {
+            cost += wq * ctx.q1[i] * x[n + i] * x[n + i];
+        }
+        for (j, &v) in u.iter().enumerate() {
+            cost += ctx.h * ctx.r1[j] * v * v;
+        }
+        ev.cost = cost;
+        if first {
+            ev.grad.fill(0.0);
+            for i in 0..n {
+                ev.grad[n + i] = 2.0 * wq * ctx.q1[i] * x[n + i];
+            }
+            for (j, &v) in u.iter().enumerate() {
+                ev.grad[nx + j] = 2.0 * ctx.h * ctx.r1[j] * v;
+            }
+        }
+        if k < ctx.horizon {
+            self.forward(ctx, x, u, first);
+            ev.f.copy_from_slice(&self.xs);
+            if first {
+                ev.jac_f.copy_from_slice(&self.xsens);
+            }
+        }
+        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
+            let nc = ctx.n_clear;
+            let nzk = ev.grad.len();
+            if first {
+                cd.jacobian(cf, &x[..n], &mut ev.c, &mut self.cjac);
+                ev.jac_c.fill(0.0);
+                for r in 0..nc {
+                    ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
+                }
+            } else {
+                cd.value(cf, &x[..n], &mut ev.c);
+            }
+        }
+    }
+
+    /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k).
+    fn hessian(
+        &mut self,
+        ctx: &Ctx<'a>,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        sigma: f64,
+        lam: &[f64],
+        mu: &[f64],
+        hess: &mut [f64],
+    ) {
+        let (n, nx) = (ctx.n, ctx.nx);
+        let nzk = nx + u.len();
+        hess.fill(0.0);
+        if k < ctx.horizon {
+            let nz = ctx.nz;
+            let current = self.rec_valid && self.rec_z[..nx] == *x && self.rec_z[nx..] == *u;
+            if !current {
+                self.forward(ctx, x, u, true);
+            }
+            let hs = ctx.h / ctx.substeps as f64;
+            self.abar.copy_from_slice(lam);
+            for s in (0..ctx.substeps).rev() {
+                // Reverse sweep through the four evaluations of sub-step s (j = 3, 2, 1, 0):
+                // w_j = b_j hs abar + a_{j+1} hs g_{j+1}, g_j = F_x(y_j)^T w_j.
+                let b = [hs / 6.0, hs / 3.0, hs / 3.0, hs / 6.0];
+                let a_next = [0.5 * hs, 0.5 * hs, hs];
+                for j in (0..4).rev() {
+                    for e in 0..nx {
+                        let mut v = b[j] * self.abar[e];
+                        if j < 3 {
+                            v += a_next[j] * self.g[(j + 1) * nx + e];
+                        }
+                        self.w[j * nx + e] = v;
+                    }
+                    let i = 4 * s + j;
+                    let jq = &self.jq[i * n * nz..(i + 1) * n * nz];
+                    let (w, g) = (
+                        &self.w[j * nx..(j + 1) * nx],
+                        &mut self.g[j * nx..(j + 1) * nx],
+                    );
+                    // F_x = [[0, I], [Jq_x]]: (F_x^T w)_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}
+                    for e in 0..nx {
+                        let mut v = if e >= n { w[e - n] } else { 0.0 };
+                        for r in 0..n {
+                            v += jq[r * nz + e] * w[n + r];
+                        }
+                        g[e] = v;
+                    }
+                    // S_i^T [Hess (w_v . qdd)(y_i)] S_i
+                    let y = &self.y[i * nz..(i + 1) * nz];
+                    self.dynamics.hessian_weighted(
+                        y,
+                        &self.w[j * nx + n..(j + 1) * nx],
+                        &mut self.hbuf,
+                    );
+                    let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
+                    // tmp = H S
+                    for r in 0..nz {
+                        let out = &mut self.tmp[r * nz..(r + 1) * nz];
+                        out.fill(0.0);
+                        for c in 0..nz {
+                            let hv = self.hbuf[r * nz + c];
+                            if hv != 0.0 {
+                                let srow = &sens[c * nz..(c + 1) * nz];
+                                for e in 0..nz {
+                                    out[e] += hv * srow[e];
+                                }
+                            }
+                        }
+                    }
+                    // hess += S^T tmp
+                    for r in 0..nz {
+                        let srow = &sens[r * nz..(r + 1) * nz];
+                        let trow = &self.tmp[r * nz..(r + 1) * nz];
+                        for a in 0..nz {
+                            let sa = srow[a];
+                            if sa != 0.0 {
+                                let out = &mut hess[a * nz..(a + 1) * nz];
+                                for e in 0..nz {
+                                    out[e] += sa * trow[e];
+                                }
+                            }
+                        }
+                    }
+                }
+                for j in 0..4 {
+                    for e in 0..nx {
+                        self.abar[e] += self.g[j * nx + e];
+                    }
+                }
+            }
+            // S^T H S is symmetric up to rounding: make it exactly so.
+            for a in 0..nz {
+                for b in 0..a {
+                    let v = 0.5 * (hess[a * nz + b] + hess[b * nz + a]);
+                    hess[a * nz + b] = v;
+                    hess[b * nz + a] = v;
+                }
+            }
+        }
+        let wq = ctx.state_weight(k);
+        for i in 0..n {
+            hess[(n + i) * nzk + n + i] += 2.0 * sigma * wq * ctx.q1[i];
+        }
+        for j in 0..u.len() {
+            hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
+        }
+        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
+            cd.hessian_weighted(cf, &x[..n], mu, &mut self.chess);
+            for a in 0..n {
+                for b in 0..n {
+                    hess[a * nzk + b] += self.chess[a * n + b];
+                }
+            }
+        }
+    }
+}
+
+/// The swing as an [`OcpProblem`] by multiple shooting (see the module docs). Generic over the source
+/// of the per-point dynamics derivatives.
+pub struct SwingOcp<'a, D: PointDynamics<'a> = AnalyticDynamics<'a>> {
+    ctx: Ctx<'a>,
+    work: Vec<StageWork<'a, D>>,
+    dims: OcpDims,
+    x_start: Vec<f64>,
+    target: [f64; 2],
+    bounds: Bounds,
+    tau_lo: Vec<f64>,
+    tau_hi: Vec<f64>,
+    guess: Primal,
+    term_fn: EeTerminalFn<'a>,
+    term: Diff<EeTerminalFn<'a>>,
+    term_val: Vec<f64>,
+    term_hess: Vec<f64>,
+    parallel: bool,
+    /// Wall time spent in evaluations since construction (or the last reset by the caller).
+    pub timings: ShootingTimings,
+}
+
+impl<'a> SwingOcp<'a> {
+    /// Build the problem for `robot` with the closed-form per-point derivatives ([`AnalyticDynamics`]; see
+    /// [`SwingOcp::with_dynamics`] for the arguments and errors).
+    pub fn new(
+        robot: &'a Robot,
+        spec: SwingOcpSpec,
+        clearance: Option<DistanceClearanceFn<'a>>,
+    ) -> Result<Self> {
+        Self::with_dynamics(robot, spec, clearance)
+    }
+}
+
+impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
+    /// Build the problem for `robot` with per-point derivatives from `D`. `clearance` gives the stage
+    /// inequalities (rows on q_k, k >= 1; `None`: none). The initial guess is zero but for the start
+    /// state (set it with [`SwingOcp::guess_mut`]). Errors on sizes that do not match the robot,
+    /// `intervals` or `substeps` of 0, or a swing time that is not finite and positive.
+    pub fn with_dynamics(
+        robot: &'a Robot,
+        spec: SwingOcpSpec,
+        clearance: Option<DistanceClearanceFn<'a>>,
+    ) -> Result<Self> {
+        let n = robot.n;
+        let (nx, nu) = (2 * n, n - 1);
+        let src = "<shooting>";
+        for (what, expected, got) in [
+            ("shooting: x_start", nx, spec.x_start.len()),
+            ("shooting: q1_diag", n, spec.q1_diag.len()),
+            ("shooting: r1_diag", nu, spec.r1_diag.len()),
+        ] {
+            if expected != got {
+                return Err(Error::Dimension {
+                    what: what.into(),
+                    expected,
+                    got,
+                });
+            }
+        }
+        if spec.intervals == 0 {
+            return Err(Error::invalid(src, "intervals", 0, "must be >= 1"));
+        }
+        if spec.substeps == 0 {
+            return Err(Error::invalid(src, "substeps", 0, "must be >= 1"));
+        }
+        if !(spec.swing_time_s.is_finite() && spec.swing_time_s > 0.0) {
+            return Err(Error::invalid(
+                src,
+                "swing_time_s",
+                spec.swing_time_s,
+                "must be finite and > 0",
+            ));
+        }
+        if let Some(c) = &clearance {
+            if c.n_in() != n {
+                return Err(Error::Dimension {
+                    what: "shooting: clearance inputs".into(),
+                    expected: n,
+                    got: c.n_in(),
+                });
+            }
+        }
+        let k_last = spec.intervals;
+        let n_clear = clearance.as_ref().map_or(0, |c| c.n_out());
+        let ctx = Ctx {
+            n,
+            nx,
+            nz: nx + nu,
+            horizon: k_last,
+            h: spec.swing_time_s / k_last as f64,
+            substeps: spec.substeps,
+            q1: spec.q1_diag.clone(),
+            r1: spec.r1_diag.clone(),
+            clearance,
+            n_clear,
+        };
+        let stages: Vec<StageDims> = (0..=k_last)
+            .map(|k| StageDims {
+                nx,
+                nu: if k < k_last { nu } else { 0 },
+                nc: if k >= 1 { n_clear } else { 0 },
+            })
+            .collect();
+        let dims = OcpDims {
+            stages,
+            n_terminal: 4,
+        };
+        let work = (0..=k_last).map(|_| StageWork::new(robot, &ctx)).collect();
+        let mut guess = Primal::zeros(&dims);
+        guess.x[0].copy_from_slice(&spec.x_start);
+        let term_fn = EeTerminalFn { robot };
+        Ok(SwingOcp {
+            ctx,
+            work,
+            x_start: spec.x_start,
+            target: spec.target,
+            bounds: spec.bounds,
+            tau_lo: robot.tau_min.clone(),
+            tau_hi: robot.tau_max.clone(),
+            guess,
+            term: Diff::new(&term_fn),
+            term_fn,
+            term_val: vec![0.0; 4],
+            term_hess: vec![0.0; nx * nx],
+            parallel: k_last + 1 >= spec.parallel_min_stages,
+            dims,
+            timings: ShootingTimings::default(),
+        })
+    }
+
+    /// The initial guess handed to the solver (x_0 should stay the start state).
+    pub fn guess_mut(&mut self) -> &mut Primal {
+        &mut self.guess
+    }
+
+    /// Shooting interval h = T / K, s.
+    pub fn interval(&self) -> f64 {
+        self.ctx.h
+    }
+
+    /// RK4 steps per interval.
+    pub fn substeps(&self) -> usize {
+        self.ctx.substeps
+    }
+
+    /// Number of clearance rows per stage (k >= 1).
+    pub fn n_clearance(&self) -> usize {
+        self.ctx.n_clear
+    }
+
+    /// Evaluate the stages on the calling thread or in parallel.
+    fn for_stages(
+        &mut self,
+        z: &Primal,
+        stages: &mut [StageEval],
+        op: impl Fn(&mut StageWork<'a, D>, &Ctx<'a>, usize, &[f64], &[f64], &mut StageEval) + Sync,
+    ) {
+        let ctx = &self.ctx;
+        if self.parallel {
+            self.work
+                .par_iter_mut()
+                .zip(stages.par_iter_mut())
+                .enumerate()
+                .for_each(|(k, (w, ev))| op(w, ctx, k, &z.x[k], &z.u[k], ev));
+        } else {
+            for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
+                op(w, ctx, k, &z.x[k], &z.u[k], ev);
+            }
+        }
+    }
+
+    fn check_sizes(&self, z: &Primal, n_stages: usize) -> std::result::Result<(), EvalError> {
+        let ok = n_stages == self.work.len()
+            && z.x.len() == self.work.len()
+            && z.u.len() == self.work.len()
+            && z.x
+                .iter()
+                .zip(&z.u)
+                .zip(&self.dims.stages)
+                .all(|((x, u), d)| x.len() == d.nx && u.len() == d.nu);
+        if ok {
+            Ok(())
+        } else {
+            Err(EvalError {
+                stage: 0,
+                reason: "primal point or buffers not shaped like the problem's dims".into(),
+            })
+        }
+    }
+}
+
+impl<'a, D: PointDynamics<'a>> OcpProblem for SwingOcp<'a, D> {
+    fn dims(&self) -> &OcpDims {
+        &self.dims
+    }
+
+    fn bounds(&self, k: usize, b: &mut StageBounds) {
+        let n = self.ctx.n;
+        if k == 0 {
+            b.x_lo.copy_from_slice(&self.x_start);
+            b.x_hi.copy_from_slice(&self.x_start);
+        } else {
+            let bd = &self.bounds;
+            b.x_lo[0] = bd.q1[0];
+            b.x_hi[0] = bd.q1[1];
+            for i in 1..n {
+                b.x_lo[i] = -bd.q_rel_max;
+                b.x_hi[i] = bd.q_rel_max;
+            }
+            for i in 0..n {
+                b.x_lo[n + i] = -bd.qd_max;
+                b.x_hi[n + i] = bd.qd_max;
+            }
+        }
+        if k < self.ctx.horizon {
+            b.u_lo.copy_from_slice(&self.tau_lo);
+            b.u_hi.copy_from_slice(&self.tau_hi);
+        }
+        b.c_lo.fill(0.0);
+        b.c_hi.fill(f64::INFINITY);
+    }
+
+    fn initial_guess(&self, z: &mut Primal) {
+        for (dst, src) in z.x.iter_mut().zip(&self.guess.x) {
+            dst.copy_from_slice(src);
+        }
+        for (dst, src) in z.u.iter_mut().zip(&self.guess.u) {
+            dst.copy_from_slice(src);
+        }
+    }
+
+    fn evaluate(
+        &mut self,
+        z: &Primal,
+        level: EvalLevel,
+        stages: &mut [StageEval],
+        terminal: &mut TerminalEval,
+    ) -> std::result::Result<(), EvalError> {
+        self.check_sizes(z, stages.len())?;
+        let t0 = Instant::now();
+        self.for_stages(z, stages, |w, ctx, k, x, u, ev| {
+            w.evaluate(ctx, k, x, u, level, ev)
+        });
+        let xl = &z.x[self.ctx.horizon];
+        let nx = self.ctx.nx;
+        if level == EvalLevel::FirstOrder {
+            self.term.jacobian(
+                &self.term_fn,
+                xl,
+                &mut self.term_val,
+                &mut terminal.jac_r[..4 * nx],
+            );
+        } else {
+            self.term.value(&self.term_fn, xl, &mut self.term_val);
+        }
+        terminal.r[0] = self.term_val[0] - self.target[0];
+        terminal.r[1] = self.term_val[1] - self.target[1];
+        terminal.r[2] = self.term_val[2];
+        terminal.r[3] = self.term_val[3];
+        let dt = t0.elapsed().as_secs_f64();
+        if level == EvalLevel::FirstOrder {
+            self.timings.first_order_s += dt;
+            self.timings.first_order_calls += 1;
+        } else {
+            self.timings.values_s += dt;
+        }
+        Ok(())
+    }
+
+    fn hessians(
+        &mut self,
+        z: &Primal,
+        sigma: f64,
+        mult: &Multipliers,
+        stages: &mut [StageEval],
+    ) -> std::result::Result<(), EvalError> {
+        self.check_sizes(z, stages.len())?;
+        if mult.lam.len() != stages.len() || mult.mu.len() != stages.len() || mult.nu.len() != 4 {
+            return Err(EvalError {
+                stage: 0,
+                reason: "multipliers not shaped like the problem's dims".into(),
+            });
+        }
+        let t0 = Instant::now();
+        self.for_stages(z, stages, |w, ctx, k, x, u, ev| {
+            w.hessian(ctx, k, x, u, sigma, &mult.lam[k], &mult.mu[k], &mut ev.hess)
+        });
+        let k_last = self.ctx.horizon;
+        let nx = self.ctx.nx;
+        self.term
+            .hessian_weighted(&self.term_fn, &z.x[k_last], &mult.nu, &mut self.term_hess);
+        let hk = &mut stages[k_last].hess;
+        for (dst, src) in hk.iter_mut().zip(&self.term_hess[..nx * nx]) {
+            *dst += src;
+        }
+        self.timings.hessian_s += t0.elapsed().as_secs_f64();
+        self.timings.hessian_calls += 1;
+        Ok(())
+    }
+}

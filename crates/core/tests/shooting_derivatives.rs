@@ -1,0 +1,363 @@
+//! The multiple-shooting problem's exact derivatives against central finite differences
+//! (`brachia::fdcheck`): every stage's dynamics and clearance Jacobian, every stage's Lagrangian
+//! Hessian (second-order adjoint through the RK4 stages), the terminal rows; and the shooting map Phi
+//! against `brachia::integrate::Rk4` on the same inputs. Robots with n = 3, 4 and 6 links; one and three
+//! RK4 sub-steps. Units: rad, rad/s, N m, s, m.
+
+use brachia::fdcheck::{assert_hessian, assert_jacobian};
+use brachia::integrate::Rk4;
+use brachia::model::{ActuatorParams, Circle, ClearanceFn, LinkParams, Robot, RobotParams};
+use brachia::planning::planner::DistanceClearanceFn;
+use brachia::planning::{
+    AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
+};
+use brachia_ocp::{EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageEval, TerminalEval};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// An n-link chain of unequal links (n = 4: the paper's robot).
+fn robot(n: usize) -> Robot {
+    if n == 4 {
+        return Robot::paper();
+    }
+    let links = (0..n)
+        .map(|i| LinkParams {
+            length: 0.2 + 0.03 * i as f64,
+            mass: 0.3 + 0.05 * i as f64,
+            com: 0.08 + 0.01 * i as f64,
+            inertia: 0.01 + 0.004 * i as f64,
+            radius: 0.02,
+        })
+        .collect();
+    let params = RobotParams {
+        name: format!("chain-{n}"),
+        gravity: 9.81,
+        links,
+        actuators: ActuatorParams {
+            tau_min: vec![-5.0; n - 1],
+            tau_max: vec![5.0; n - 1],
+        },
+    };
+    Robot::from_params(params, "<test>").unwrap()
+}
+
+const OBSTACLES: [Circle; 2] = [
+    Circle {
+        center: [0.25, -0.45],
+        radius: 0.08,
+    },
+    Circle {
+        center: [-0.35, -0.3],
+        radius: 0.05,
+    },
+];
+
+fn problem<'a, D: PointDynamics<'a>>(
+    robot: &'a Robot,
+    intervals: usize,
+    substeps: usize,
+) -> SwingOcp<'a, D> {
+    let n = robot.n;
+    let clearance = DistanceClearanceFn::new(
+        ClearanceFn::new(robot, &OBSTACLES, 0.01)
+            .unwrap()
+            .with_self_collision(true),
+    );
+    let spec = SwingOcpSpec {
+        intervals,
+        swing_time_s: 0.06 * intervals as f64,
+        substeps,
+        q1_diag: (0..n).map(|i| 0.01 + 0.02 * i as f64).collect(),
+        r1_diag: (0..n - 1).map(|j| 1.0 + 0.5 * j as f64).collect(),
+        x_start: vec![0.0; 2 * n],
+        target: [0.3, -0.1],
+        bounds: Bounds::default(),
+        parallel_min_stages: 3, // exercise the parallel path too
+    };
+    SwingOcp::with_dynamics(robot, spec, Some(clearance)).unwrap()
+}
+
+fn random_point(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Primal {
+    let mut z = Primal::zeros(dims);
+    let n = z.x[0].len() / 2;
+    for (x, u) in z.x.iter_mut().zip(z.u.iter_mut()) {
+        x[0] = rng.gen_range(-2.4..-0.7);
+        for v in &mut x[1..n] {
+            *v = rng.gen_range(-1.2..1.2);
+        }
+        for v in &mut x[n..] {
+            *v = rng.gen_range(-1.5..1.5);
+        }
+        for v in u.iter_mut() {
+            *v = rng.gen_range(-2.0..2.0);
+        }
+    }
+    z
+}
+
+struct Bufs {
+    stages: Vec<StageEval>,
+    term: TerminalEval,
+}
+
+fn bufs(d: &OcpDims) -> Bufs {
+    let k_last = d.horizon();
+    Bufs {
+        stages: (0..=k_last)
+            .map(|k| StageEval::zeros(d.stages[k], if k < k_last { d.stages[k + 1].nx } else { 0 }))
+            .collect(),
+        term: TerminalEval::zeros(d.n_terminal, d.stages[k_last].nx),
+    }
+}
+
+fn eval(ocp: &mut dyn OcpProblem, z: &Primal, level: EvalLevel) -> Bufs {
+    let mut b = bufs(ocp.dims());
+    ocp.evaluate(z, level, &mut b.stages, &mut b.term).unwrap();
+    b
+}
+
+fn set_stage(z: &mut Primal, k: usize, v: &[f64]) {
+    let nx = z.x[k].len();
+    z.x[k].copy_from_slice(&v[..nx]);
+    z.u[k].copy_from_slice(&v[nx..]);
+}
+
+fn stage_vec(z: &Primal, k: usize) -> Vec<f64> {
+    [z.x[k].as_slice(), z.u[k].as_slice()].concat()
+}
+
+fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
+    let mut m = Multipliers::zeros(dims);
+    for v in m
+        .lam
+        .iter_mut()
+        .chain(m.mu.iter_mut())
+        .flat_map(|v| v.iter_mut())
+        .chain(m.nu.iter_mut())
+    {
+        *v = rng.gen_range(-1.0..1.0);
+    }
+    m
+}
+
+/// Gradient w.r.t. z_k of sigma l_k + lam_k^T f_k + mu_k^T c_k (+ nu^T r at the last stage).
+fn stage_lagrangian_gradient(
+    b: &Bufs,
+    k: usize,
+    sigma: f64,
+    m: &Multipliers,
+    k_last: usize,
+    out: &mut [f64],
+) {
+    let ev = &b.stages[k];
+    let nz = ev.grad.len();
+    for j in 0..nz {
+        let mut v = sigma * ev.grad[j];
+        for (r, l) in m.lam[k].iter().enumerate() {
+            v += l * ev.jac_f[r * nz + j];
+        }
+        for (r, l) in m.mu[k].iter().enumerate() {
+            v += l * ev.jac_c[r * nz + j];
+        }
+        if k == k_last {
+            for (r, l) in m.nu.iter().enumerate() {
+                v += l * b.term.jac_r[r * nz + j];
+            }
+        }
+        out[j] = v;
+    }
+}
+
+fn check_all_derivatives<'a, D: PointDynamics<'a>>(robot: &'a Robot, substeps: usize, seed: u64) {
+    let n = robot.n;
+    let intervals = 3;
+    let mut ocp: SwingOcp<D> = problem(robot, intervals, substeps);
+    let mut probe: SwingOcp<D> = problem(robot, intervals, substeps);
+    assert!(ocp.n_clearance() > 0);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let z = random_point(&mut rng, ocp.dims());
+    let b = eval(&mut ocp, &z, EvalLevel::FirstOrder);
+    let k_last = intervals;
+    for k in 0..=k_last {
+        let ev = &b.stages[k];
+        let zk = stage_vec(&z, k);
+        let nz = zk.len();
+        // Jacobian of [f_k; c_k] w.r.t. z_k
+        let (nf, nc) = (ev.f.len(), ev.c.len());
+        let exact = [ev.jac_f.as_slice(), ev.jac_c.as_slice()].concat();
+        if nf + nc > 0 {
+            let mut zp = z.clone();
+            assert_jacobian(
+                &format!("n={n} substeps={substeps} stage {k}: [Phi; clearance] Jacobian"),
+                |v, out| {
+                    set_stage(&mut zp, k, v);
+                    let e = eval(&mut probe, &zp, EvalLevel::Values);
+                    out[..nf].copy_from_slice(&e.stages[k].f);
+                    out[nf..].copy_from_slice(&e.stages[k].c);
+                },
+                &zk,
+                &exact,
+                1e-6,
+            );
+        }
+        // cost gradient
+        let mut zp = z.clone();
+        assert_jacobian(
+            &format!("n={n} stage {k}: cost gradient"),
+            |v, out| {
+                set_stage(&mut zp, k, v);
+                out[0] = eval(&mut probe, &zp, EvalLevel::Values).stages[k].cost;
+            },
+            &zk,
+            &ev.grad,
+            1e-7,
+        );
+        assert_eq!(ev.grad.len(), nz);
+    }
+    // terminal rows on x_K
+    let xk = z.x[k_last].clone();
+    let mut zp = z.clone();
+    assert_jacobian(
+        &format!("n={n}: terminal Jacobian"),
+        |v, out| {
+            zp.x[k_last].copy_from_slice(v);
+            out.copy_from_slice(&eval(&mut probe, &zp, EvalLevel::Values).term.r);
+        },
+        &xk,
+        &b.term.jac_r,
+        1e-7,
+    );
+
+    // Hessians of the stage Lagrangians
+    let m = random_multipliers(&mut rng, ocp.dims());
+    let sigma = 0.7;
+    let mut hb = bufs(ocp.dims());
+    ocp.hessians(&z, sigma, &m, &mut hb.stages).unwrap();
+    for k in 0..=k_last {
+        let zk = stage_vec(&z, k);
+        let mut zp = z.clone();
+        let hess = hb.stages[k].hess.clone();
+        let nz = zk.len();
+        for a in 0..nz {
+            for c in 0..nz {
+                assert_eq!(hess[a * nz + c], hess[c * nz + a], "stage {k} symmetric");
+            }
+        }
+        assert_hessian(
+            &format!("n={n} substeps={substeps} stage {k}: Lagrangian Hessian"),
+            |v, out| {
+                set_stage(&mut zp, k, v);
+                let e = eval(&mut probe, &zp, EvalLevel::FirstOrder);
+                stage_lagrangian_gradient(&e, k, sigma, &m, k_last, out);
+            },
+            &zk,
+            &hess,
+            1e-5,
+        );
+    }
+}
+
+#[test]
+fn derivatives_match_finite_differences_for_3_4_6_links() {
+    for (n, seed) in [(3, 1), (4, 2), (6, 3)] {
+        let robot = robot(n);
+        check_all_derivatives::<AnalyticDynamics>(&robot, 1, seed);
+        check_all_derivatives::<AdDynamics>(&robot, 1, seed);
+    }
+}
+
+#[test]
+fn derivatives_match_finite_differences_with_substeps() {
+    check_all_derivatives::<AnalyticDynamics>(&robot(4), 3, 7);
+    check_all_derivatives::<AdDynamics>(&robot(6), 2, 8);
+}
+
+#[test]
+fn shooting_map_is_rk4_on_the_same_inputs() {
+    for n in [3, 4, 6] {
+        for substeps in [1, 2, 5] {
+            let robot = robot(n);
+            let mut ocp: SwingOcp = problem(&robot, 3, substeps);
+            let mut rng = ChaCha8Rng::seed_from_u64(n as u64 * 10 + substeps as u64);
+            let z = random_point(&mut rng, ocp.dims());
+            let h = ocp.interval();
+            let mut rk4 = Rk4::new(&robot);
+            for level in [EvalLevel::Values, EvalLevel::FirstOrder] {
+                let b = eval(&mut ocp, &z, level);
+                for k in 0..3 {
+                    let mut x = z.x[k].clone();
+                    rk4.advance(&robot, &mut x, &z.u[k], h, substeps);
+                    let err = x
+                        .iter()
+                        .zip(&b.stages[k].f)
+                        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                    assert!(
+                        err <= 1e-13,
+                        "n={n} substeps={substeps} stage {k} {level:?}: |Phi - Rk4| = {err:e}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn hessian_does_not_depend_on_which_point_was_evaluated_last() {
+    // The Hessian reuses the forward record of the last first-order evaluation when it is at the same
+    // point; at another point it must recompute it.
+    let robot = robot(4);
+    let mut ocp: SwingOcp = problem(&robot, 3, 2);
+    let mut fresh: SwingOcp = problem(&robot, 3, 2);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (z1, z2) = (
+        random_point(&mut rng, ocp.dims()),
+        random_point(&mut rng, ocp.dims()),
+    );
+    let m = random_multipliers(&mut rng, ocp.dims());
+    eval(&mut ocp, &z1, EvalLevel::FirstOrder);
+    eval(&mut ocp, &z2, EvalLevel::Values);
+    let mut a = bufs(ocp.dims());
+    ocp.hessians(&z2, 1.0, &m, &mut a.stages).unwrap();
+    eval(&mut fresh, &z2, EvalLevel::FirstOrder);
+    let mut b = bufs(fresh.dims());
+    fresh.hessians(&z2, 1.0, &m, &mut b.stages).unwrap();
+    for k in 0..4 {
+        assert_eq!(a.stages[k].hess, b.stages[k].hess, "stage {k}");
+    }
+}
+
+#[test]
+fn closed_form_and_automatic_differentiation_agree_stage_by_stage() {
+    // AD is the oracle of the closed-form derivatives: same Jacobians and Hessians to rounding.
+    for n in [3, 4, 6] {
+        let robot = robot(n);
+        let mut an: SwingOcp<AnalyticDynamics> = problem(&robot, 4, 2);
+        let mut ad: SwingOcp<AdDynamics> = problem(&robot, 4, 2);
+        let mut rng = ChaCha8Rng::seed_from_u64(40 + n as u64);
+        let z = random_point(&mut rng, an.dims());
+        let m = random_multipliers(&mut rng, an.dims());
+        let (a, b) = (
+            eval(&mut an, &z, EvalLevel::FirstOrder),
+            eval(&mut ad, &z, EvalLevel::FirstOrder),
+        );
+        let (mut ha, mut hb) = (bufs(an.dims()), bufs(ad.dims()));
+        an.hessians(&z, 0.9, &m, &mut ha.stages).unwrap();
+        ad.hessians(&z, 0.9, &m, &mut hb.stages).unwrap();
+        let close = |x: &[f64], y: &[f64]| {
+            x.iter()
+                .zip(y)
+                .all(|(p, q)| (p - q).abs() <= 1e-9 * p.abs().max(q.abs()).max(1.0))
+        };
+        for k in 0..=4 {
+            assert!(close(&a.stages[k].f, &b.stages[k].f), "n={n} stage {k} f");
+            assert!(
+                close(&a.stages[k].jac_f, &b.stages[k].jac_f),
+                "n={n} stage {k} jac"
+            );
+            assert!(
+                close(&ha.stages[k].hess, &hb.stages[k].hess),
+                "n={n} stage {k} hess"
+            );
+        }
+    }
+}
