@@ -9,10 +9,13 @@ mod backend_ripopt;
 pub mod collocation;
 pub mod nlp;
 pub mod planner;
+pub mod profile;
 pub mod settings;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
+pub use nlp::{PassStats, TimeSplit};
+pub use planner::SolveAttempt;
 pub use planner::{
     freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
 };
