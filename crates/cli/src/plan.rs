@@ -24,10 +24,9 @@ pub fn run(a: Args) -> Result<(), CliError> {
         .map_err(|e| CliError::Input(e.to_string()))?;
     let p = &run.plan;
     eprintln!(
-        "plan: {:?} after {} iterations in {:.3} s; energy {:.3} J; EE final error {:.2e} m; replay error {:.2e} m",
+        "plan: {:?}; {}; energy {:.3} J; EE final error {:.2e} m; replay error {:.2e} m",
         p.status,
-        p.iterations,
-        p.solve_time_s,
+        brachia_experiments::solver_work_text(p),
         p.energy_j,
         p.violations.ee_position,
         p.replay_ee_error_m

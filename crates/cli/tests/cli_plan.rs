@@ -43,9 +43,37 @@ fn plan_writes_the_run_folder_contract() {
     let t = r["swing_time_s"].as_f64().unwrap();
     assert_eq!(
         rows,
-        (t / 1e-3).round() as usize + 1,
-        "1 ms rows over the swing"
+        (t / 1e-3 - 1e-6).ceil() as usize + 1,
+        "1 ms rows over the swing and one at T"
     );
+    let last_t: f64 = traj
+        .lines()
+        .last()
+        .and_then(|l| l.split(',').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((last_t - t).abs() < 1e-6, "last row at {last_t}, T = {t}");
+    assert_eq!(r["trajectory_end_s"].as_f64(), Some(t));
+    // the solver's work: totals over the attempts and their passes, and the time split
+    assert!(r["solver"].is_string());
+    let solves = r["solves"].as_array().unwrap();
+    assert_eq!(solves.len() as u64, r["attempts"].as_u64().unwrap());
+    let passes: Vec<&serde_json::Value> = solves
+        .iter()
+        .flat_map(|a| a["passes"].as_array().unwrap())
+        .collect();
+    let it: u64 = passes
+        .iter()
+        .map(|p| p["iterations"].as_u64().unwrap())
+        .sum();
+    assert_eq!(r["iterations"].as_u64(), Some(it));
+    let split = &r["time_split_s"];
+    let total: f64 = ["callbacks_s", "linear_algebra_s", "line_search_and_other_s"]
+        .iter()
+        .map(|k| split[k].as_f64().unwrap())
+        .sum();
+    assert!((total - r["solve_time_s"].as_f64().unwrap()).abs() < 1e-6);
     assert!(std::fs::read_to_string(out.join("knots.csv"))
         .unwrap()
         .contains("is_midpoint"));

@@ -97,17 +97,14 @@ impl Trajectory {
         }
     }
 
-    /// Resample at a fixed period `dt` from `t[0]` for `round(duration / dt)` periods with
-    /// [`Trajectory::hermite_at`] (times past the last sample are clamped to it). The result passes
-    /// through every knot and agrees with the knot velocities.
+    /// Resample at a fixed period `dt` with [`Trajectory::hermite_at`] at [`sample_times`] from the
+    /// first sample's time to the last's: the last sample is at the last time exactly (the last step
+    /// the shorter one). The result agrees with this trajectory at its first and last samples.
     pub fn resample_hermite(&self, qdd: &[f64], dt: f64) -> Trajectory {
         let n = self.n;
-        let t0 = self.t[0];
-        let steps = (self.duration() / dt).round() as usize;
         let mut out = Trajectory::new(n);
         let (mut q, mut qd, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; n - 1]);
-        for s in 0..=steps {
-            let t = t0 + s as f64 * dt;
+        for t in sample_times(self.t[0], self.t[self.len() - 1], dt) {
             self.hermite_at(qdd, t, &mut q, &mut qd, &mut tau);
             out.push(t, &q, &qd, &tau);
         }
@@ -243,6 +240,17 @@ impl Trajectory {
         }
         Ok(tr)
     }
+}
+
+/// The sample times of a trajectory of period `dt` over `[t0, t1]`: `t0 + s dt` while that is
+/// before `t1`, then `t1` itself, so the last step is the shorter one. A remainder below `1e-6 dt`
+/// is merged into the step before it (which is then at most `1e-6 dt` longer than `dt`), so no step
+/// is vanishingly short. At least two samples.
+pub fn sample_times(t0: f64, t1: f64, dt: f64) -> Vec<f64> {
+    let periods = ((t1 - t0) / dt - 1e-6).ceil().max(1.0) as usize;
+    let mut t: Vec<f64> = (0..periods).map(|s| t0 + s as f64 * dt).collect();
+    t.push(t1);
+    t
 }
 
 /// Cubic Hermite basis functions at `r` in [0, 1].

@@ -19,6 +19,7 @@ pub use parameter_study::{
     parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams, CellStart,
     ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
 };
+pub use plan_run::solver_work_text;
 pub use plan_run::{plan_report, run_plan, PlanRun};
 pub use run_folder::RunFolder;
 pub use scenario::{ControllerKind, PlantKind, Scenario};

@@ -23,13 +23,13 @@ use std::sync::Arc;
 
 use pounce_rs::pounce_nlp::alg_types::SolverReturn;
 use pounce_rs::{
-    ApplicationReturnStatus as Ars, BoundsInfo, Index, IndexStyle, IpoptApplication, IpoptCq,
-    IpoptData, IterStats, NlpInfo, Solution, SparsityRequest, StartingPoint, TNLP,
+    AlgorithmMode, ApplicationReturnStatus as Ars, BoundsInfo, Index, IndexStyle, IpoptApplication,
+    IpoptCq, IpoptData, IterStats, NlpInfo, Solution, SparsityRequest, StartingPoint, TNLP,
 };
 
 use super::nlp::{
-    panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus,
-    SparseNlp,
+    panic_text, BackendOutcome, Evaluator, IterFingerprint, MuStrategy, NlpSettings, Prepared,
+    SolveStatus, SparseNlp,
 };
 
 /// Stack of the solver thread (pounce's recursion depth is modest; this is generous).
@@ -41,7 +41,16 @@ enum Kind {
     Gradient,
     Constraints,
     Jacobian,
-    Hessian { obj_factor: f64 },
+    Hessian {
+        obj_factor: f64,
+    },
+    /// Not an evaluation: the solver reports an iteration (counted by the calling thread's meter,
+    /// which tells the passes apart).
+    Iteration {
+        iter: usize,
+        restoration: bool,
+        row: IterFingerprint,
+    },
 }
 
 /// An evaluation request; the buffers come back in the [`Reply`].
@@ -240,8 +249,20 @@ impl TNLP for Proxy {
         true
     }
 
-    fn intermediate_callback(&mut self, _s: IterStats, _d: &IpoptData, _q: &IpoptCq) -> bool {
-        !self.abort.load(Ordering::Relaxed)
+    fn intermediate_callback(&mut self, s: IterStats, _d: &IpoptData, _q: &IpoptCq) -> bool {
+        let kind = Kind::Iteration {
+            iter: usize::try_from(s.iter).unwrap_or(0),
+            restoration: s.mode == AlgorithmMode::RestorationPhaseMode,
+            row: [
+                u64::try_from(s.iter).unwrap_or(0),
+                s.obj_value.to_bits(),
+                s.inf_pr.to_bits(),
+                s.inf_du.to_bits(),
+                s.mu.to_bits(),
+                s.alpha_pr.to_bits(),
+            ],
+        };
+        self.call(kind, &[], &[], 0).is_some() && !self.abort.load(Ordering::Relaxed)
     }
 }
 
@@ -397,6 +418,14 @@ fn serve(
                 eval.hessian(&req.x, obj_factor, &req.lambda, &mut req.out),
                 0.0,
             ),
+            Kind::Iteration {
+                iter,
+                restoration,
+                row,
+            } => {
+                eval.meter.iteration(iter, restoration, row);
+                (true, 0.0)
+            }
         }));
         match res {
             Ok((ok, value)) => {
@@ -458,6 +487,7 @@ pub(crate) fn run(
             };
             let finalized = r.fin.status.is_some();
             let some = |v: Vec<f64>| finalized.then_some(v);
+            let passes = eval.passes("pounce", "pounce re-solve", r.iterations, &status);
             BackendOutcome {
                 status,
                 backend_status: r.backend_status,
@@ -465,17 +495,23 @@ pub(crate) fn run(
                 lambda: some(r.fin.lambda),
                 z_l: some(r.fin.z_l),
                 z_u: some(r.fin.z_u),
-                iterations: r.iterations,
+                iterations: passes.iter().map(|p| p.iterations).sum(),
+                passes,
             }
         }
-        Err(msg) => BackendOutcome {
-            status: SolveStatus::Other(msg),
-            backend_status: "panic".into(),
-            x: None,
-            lambda: None,
-            z_l: None,
-            z_u: None,
-            iterations: 0,
-        },
+        Err(msg) => {
+            let status = SolveStatus::Other(msg);
+            let passes = eval.passes("pounce", "pounce re-solve", 0, &status);
+            BackendOutcome {
+                status,
+                backend_status: "panic".into(),
+                x: None,
+                lambda: None,
+                z_l: None,
+                z_u: None,
+                iterations: 0,
+                passes,
+            }
+        }
     }
 }

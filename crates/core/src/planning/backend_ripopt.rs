@@ -153,24 +153,42 @@ pub(crate) fn run(
         prep,
         eval: RefCell::new(Evaluator::new(nlp, prep)),
     };
-    match catch_unwind(AssertUnwindSafe(|| ripopt::solve(&adapter, &opts))) {
-        Ok(r) => BackendOutcome {
-            status: map_status(r.status),
-            backend_status: format!("{:?}", r.status),
-            x: Some(r.x),
-            lambda: Some(r.constraint_multipliers),
-            z_l: Some(r.bound_multipliers_lower),
-            z_u: Some(r.bound_multipliers_upper),
-            iterations: r.iterations,
-        },
-        Err(p) => BackendOutcome {
-            status: SolveStatus::Other(format!("ripopt panicked: {}", panic_text(&*p))),
-            backend_status: "panic".into(),
-            x: None,
-            lambda: None,
-            z_l: None,
-            z_u: None,
-            iterations: 0,
-        },
+    let result = catch_unwind(AssertUnwindSafe(|| ripopt::solve(&adapter, &opts)));
+    // ripopt runs one pass as far as an observer can tell (no per-iteration events here); a
+    // fallback it used is named in the pass.
+    let mut eval = adapter.eval.into_inner();
+    match result {
+        Ok(r) => {
+            let status = map_status(r.status);
+            let what = match &r.diagnostics.fallback_used {
+                Some(f) => format!("ripopt (fallback: {f})"),
+                None => "ripopt".to_string(),
+            };
+            let passes = eval.passes(&what, &what, r.iterations, &status);
+            BackendOutcome {
+                status,
+                backend_status: format!("{:?}", r.status),
+                x: Some(r.x),
+                lambda: Some(r.constraint_multipliers),
+                z_l: Some(r.bound_multipliers_lower),
+                z_u: Some(r.bound_multipliers_upper),
+                iterations: r.iterations,
+                passes,
+            }
+        }
+        Err(p) => {
+            let status = SolveStatus::Other(format!("ripopt panicked: {}", panic_text(&*p)));
+            let passes = eval.passes("ripopt", "ripopt", 0, &status);
+            BackendOutcome {
+                status,
+                backend_status: "panic".into(),
+                x: None,
+                lambda: None,
+                z_l: None,
+                z_u: None,
+                iterations: 0,
+                passes,
+            }
+        }
     }
 }

@@ -11,13 +11,15 @@ pub mod nlp;
 pub mod ocp_nlp;
 pub mod plan_shooting;
 pub mod planner;
+pub mod profile;
 pub mod settings;
 pub mod shooting;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use ocp_nlp::{AdapterTimings, OcpNlp};
-pub use plan_shooting::SolveTimeSplit;
+pub use nlp::{PassStats, TimeSplit};
+pub use planner::SolveAttempt;
 pub use planner::{
     freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
 };

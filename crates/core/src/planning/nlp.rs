@@ -287,10 +287,17 @@ pub struct NlpSolution {
     pub z_l: Vec<f64>,
     /// Upper-bound multipliers (n, >= 0). Zeros when unavailable.
     pub z_u: Vec<f64>,
-    /// Interior-point iterations performed.
+    /// Interior-point iterations performed: the sum over [`NlpSolution::passes`].
     pub iterations: usize,
-    /// Wall-clock time of the whole call, s (structure checks, solve, final re-evaluation).
+    /// Wall-clock time of the whole call, s (structure checks, solve, final re-evaluation): the sum
+    /// of the passes' `time_s`.
     pub solve_time_s: f64,
+    /// Where `solve_time_s` went: the sum of the passes' splits.
+    pub time_split: TimeSplit,
+    /// Every pass the backend ran inside this call, in order: its first run, then any re-solve it
+    /// started on its own (pounce's scale audit, its barrier-strategy and dual-divergence fallbacks),
+    /// whether or not the re-solve's point was returned. Never empty after a solve was started.
+    pub passes: Vec<PassStats>,
     /// Largest violation at [`NlpSolution::x`] of the constraint bounds and the variable bounds
     /// (absolute, unscaled; 0 when feasible; infinite if g(x) could not be evaluated).
     pub max_constraint_violation: f64,
@@ -298,6 +305,174 @@ pub struct NlpSolution {
     pub backend: Backend,
     /// The backend's own status name (e.g. `Solve_Succeeded`, `Optimal`), for diagnostics.
     pub backend_status: String,
+}
+
+/// Where the wall-clock time of a solve (or of one pass) went, s. The split is measured at the seam,
+/// from the order of the callbacks, as far as a backend lets an outside observer tell: the time in
+/// the callbacks is exact; the solver's own time between callbacks is attributed by what precedes
+/// it. An interior-point iteration evaluates the Hessian of the Lagrangian, then computes the
+/// Newton step (factorisation of the KKT matrix, inertia correction, back-solves) and only then
+/// evaluates the objective and constraints at a trial point, so the solver time from the return of
+/// a Hessian evaluation to the next callback is the step's linear algebra; every other gap (the
+/// line search between trial points, the barrier update and convergence test, the initial
+/// multiplier estimate, setup, the thread hand-offs of the pounce bridge) is in
+/// `line_search_and_other_s`. The three parts add up to the time they split.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TimeSplit {
+    /// In the problem's callbacks: objective, constraints and their first and second derivatives
+    /// (evaluation and assembly), s.
+    pub callbacks_s: f64,
+    /// In the solver from the end of a Hessian evaluation to the next callback: the Newton step, s.
+    pub linear_algebra_s: f64,
+    /// The rest of the solver's own time (line search, barrier and convergence tests, setup), s.
+    pub line_search_and_other_s: f64,
+}
+
+impl TimeSplit {
+    /// The time split, s.
+    pub fn total_s(&self) -> f64 {
+        self.callbacks_s + self.linear_algebra_s + self.line_search_and_other_s
+    }
+
+    /// Add `other` to `self`, part by part.
+    pub fn add(&mut self, other: &TimeSplit) {
+        self.callbacks_s += other.callbacks_s;
+        self.linear_algebra_s += other.linear_algebra_s;
+        self.line_search_and_other_s += other.line_search_and_other_s;
+    }
+}
+
+/// One pass of a backend inside one call of [`solve`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PassStats {
+    /// What the pass was: `"pounce"` / `"ripopt"` for the backend's first run, `"pounce re-solve"`
+    /// for a run pounce started on its own after it (its scale audit or a fallback; pounce does not
+    /// say which to an outside observer).
+    pub what: String,
+    /// Interior-point iterations of this pass (restoration iterations included).
+    pub iterations: usize,
+    /// Wall-clock time of this pass, s (`time.total_s()`).
+    pub time_s: f64,
+    /// Where the time of this pass went.
+    pub time: TimeSplit,
+    /// The outcome of the pass whose point the solve returns (the solve's status); `None` for a
+    /// pass whose point was discarded or superseded (the backend reports no status for it).
+    pub status: Option<SolveStatus>,
+    /// True for the pass whose point the solve returns.
+    pub returned: bool,
+}
+
+/// A fingerprint of one iteration's summary row, to recognise a row a backend sends again.
+pub(crate) type IterFingerprint = [u64; 6];
+
+/// Accumulator of one pass.
+#[derive(Debug, Clone, Default)]
+struct PassAcc {
+    iterations: usize,
+    seen_iteration: bool,
+    split: TimeSplit,
+    last_row: Option<IterFingerprint>,
+}
+
+/// Counts iterations and splits time by pass, from the callbacks and the per-iteration events of
+/// a backend (see [`TimeSplit`] for the attribution).
+#[derive(Debug, Clone)]
+pub(crate) struct Meter {
+    /// End of the last event (callback or iteration), or the start.
+    last: Instant,
+    /// The last callback was a Hessian evaluation.
+    after_hessian: bool,
+    /// Time since the last iteration event, not yet given to a pass.
+    pending: TimeSplit,
+    passes: Vec<PassAcc>,
+    /// A pass whose final row the backend sent again to mark its point as the one returned.
+    returned: Option<usize>,
+}
+
+impl Meter {
+    fn new() -> Self {
+        Meter {
+            last: Instant::now(),
+            after_hessian: false,
+            pending: TimeSplit::default(),
+            passes: vec![PassAcc::default()],
+            returned: None,
+        }
+    }
+
+    /// Give the solver time since the last event to the linear algebra or the rest.
+    fn gap(&mut self, now: Instant) {
+        let g = now.saturating_duration_since(self.last).as_secs_f64();
+        if self.after_hessian {
+            self.pending.linear_algebra_s += g;
+        } else {
+            self.pending.line_search_and_other_s += g;
+        }
+        self.last = now;
+    }
+
+    /// Run one callback, timing it.
+    fn timed<R>(&mut self, hessian: bool, f: impl FnOnce() -> R) -> R {
+        self.gap(Instant::now());
+        let r = f();
+        let end = Instant::now();
+        self.pending.callbacks_s += end.saturating_duration_since(self.last).as_secs_f64();
+        self.last = end;
+        self.after_hessian = hessian;
+        r
+    }
+
+    fn current(&mut self) -> &mut PassAcc {
+        self.passes.last_mut().expect("a meter always has a pass")
+    }
+
+    fn fold_pending(&mut self) {
+        let p = std::mem::take(&mut self.pending);
+        self.current().split.add(&p);
+    }
+
+    /// The backend reports iteration `iter` of its current pass with the summary row `row`
+    /// (`restoration`: a row of the restoration phase, whose counter continues the pass's). A regular
+    /// iteration 0 after iterations starts a new pass; a row equal to the final row of an earlier
+    /// pass (sent again by pounce when it keeps an earlier pass's point) marks that pass as
+    /// returned and is not counted.
+    pub fn iteration(&mut self, iter: usize, restoration: bool, row: IterFingerprint) {
+        self.gap(Instant::now());
+        self.after_hessian = false;
+        let cur = self.passes.len() - 1;
+        if iter > 0 {
+            if let Some(k) = self.passes[..cur]
+                .iter()
+                .rposition(|p| p.last_row == Some(row))
+            {
+                self.returned = Some(k);
+                self.fold_pending();
+                return;
+            }
+        }
+        if iter == 0 && !restoration && self.current().seen_iteration {
+            self.passes.push(PassAcc::default());
+            self.returned = None;
+        }
+        self.fold_pending();
+        let p = self.current();
+        p.iterations = p.iterations.max(iter);
+        p.seen_iteration = true;
+        p.last_row = Some(row);
+    }
+
+    /// Close the meter: per pass (iterations, time split, seen an iteration event), and the pass
+    /// marked as returned, if any.
+    fn finish(&mut self) -> (Vec<(usize, TimeSplit, bool)>, Option<usize>) {
+        self.gap(Instant::now());
+        self.fold_pending();
+        let passes = self
+            .passes
+            .iter()
+            .map(|p| (p.iterations, p.split, p.seen_iteration))
+            .collect();
+        (passes, self.returned)
+    }
 }
 
 /// A Jacobian or Hessian sparsity pattern with duplicates merged (and, for the Hessian, every
@@ -523,6 +698,8 @@ pub(crate) struct Evaluator<'a> {
     prep: &'a Prepared,
     jac_raw: Vec<f64>,
     hess_raw: Vec<f64>,
+    /// Iterations and time by pass.
+    pub meter: Meter,
 }
 
 fn all_finite(v: &[f64]) -> bool {
@@ -536,42 +713,78 @@ impl<'a> Evaluator<'a> {
             prep,
             jac_raw: vec![0.0; prep.jac.raw_nnz],
             hess_raw: vec![0.0; prep.hess.raw_nnz],
+            meter: Meter::new(),
         }
     }
 
     /// f(x), or `None` if it is not finite.
     pub fn objective(&mut self, x: &[f64]) -> Option<f64> {
-        let f = self.nlp.objective(x);
+        let nlp = &mut *self.nlp;
+        let f = self.meter.timed(false, || nlp.objective(x));
         f.is_finite().then_some(f)
     }
 
     /// Gradient into `out` (n).
     pub fn gradient(&mut self, x: &[f64], out: &mut [f64]) -> bool {
-        self.nlp.gradient(x, out);
+        let nlp = &mut *self.nlp;
+        self.meter.timed(false, || nlp.gradient(x, out));
         all_finite(out)
     }
 
     /// g(x) into `out` (m).
     pub fn constraints(&mut self, x: &[f64], out: &mut [f64]) -> bool {
-        self.nlp.constraints(x, out);
+        let nlp = &mut *self.nlp;
+        self.meter.timed(false, || nlp.constraints(x, out));
         all_finite(out)
     }
 
     /// Merged Jacobian values into `out` (unique nnz).
     pub fn jacobian(&mut self, x: &[f64], out: &mut [f64]) -> bool {
-        self.jac_raw.fill(0.0);
-        self.nlp.jacobian_values(x, &mut self.jac_raw);
-        self.prep.jac.merge(&self.jac_raw, out);
+        let (nlp, raw, prep) = (&mut *self.nlp, &mut self.jac_raw, self.prep);
+        self.meter.timed(false, || {
+            raw.fill(0.0);
+            nlp.jacobian_values(x, raw);
+            prep.jac.merge(raw, out);
+        });
         all_finite(out)
     }
 
     /// Merged Hessian-of-the-Lagrangian values into `out` (unique nnz).
     pub fn hessian(&mut self, x: &[f64], obj_factor: f64, lambda: &[f64], out: &mut [f64]) -> bool {
-        self.hess_raw.fill(0.0);
-        self.nlp
-            .hessian_values(x, obj_factor, lambda, &mut self.hess_raw);
-        self.prep.hess.merge(&self.hess_raw, out);
+        let (nlp, raw, prep) = (&mut *self.nlp, &mut self.hess_raw, self.prep);
+        self.meter.timed(true, || {
+            raw.fill(0.0);
+            nlp.hessian_values(x, obj_factor, lambda, raw);
+            prep.hess.merge(raw, out);
+        });
         all_finite(out)
+    }
+
+    /// The passes of the backend's run, labelled `first` (the first pass) and `resolve` (any
+    /// later one), with `iterations` (the backend's own count) standing in for a backend that
+    /// reported no iteration events. `status` goes to the returned pass: the one marked by
+    /// [`Meter::iteration`], else the last.
+    pub fn passes(
+        &mut self,
+        first: &str,
+        resolve: &str,
+        iterations: usize,
+        status: &SolveStatus,
+    ) -> Vec<PassStats> {
+        let (raw, marked) = self.meter.finish();
+        let seen_any = raw.iter().any(|p| p.2);
+        let returned = marked.unwrap_or(raw.len() - 1);
+        raw.iter()
+            .enumerate()
+            .map(|(k, &(it, split, _))| PassStats {
+                what: if k == 0 { first } else { resolve }.to_string(),
+                iterations: if seen_any { it } else { iterations },
+                time_s: split.total_s(),
+                time: split,
+                status: (k == returned).then(|| status.clone()),
+                returned: k == returned,
+            })
+            .collect()
     }
 }
 
@@ -585,7 +798,10 @@ pub(crate) struct BackendOutcome {
     pub lambda: Option<Vec<f64>>,
     pub z_l: Option<Vec<f64>>,
     pub z_u: Option<Vec<f64>>,
+    /// Iterations over every pass.
     pub iterations: usize,
+    /// Every pass (see [`Evaluator::passes`]); empty when the backend could not start.
+    pub passes: Vec<PassStats>,
 }
 
 /// Text of a caught panic payload.
@@ -613,6 +829,11 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         x,
         iterations: 0,
         solve_time_s: start.elapsed().as_secs_f64(),
+        time_split: TimeSplit {
+            line_search_and_other_s: start.elapsed().as_secs_f64(),
+            ..TimeSplit::default()
+        },
+        passes: Vec::new(),
         max_constraint_violation: f64::INFINITY,
         backend,
         backend_status: String::new(),
@@ -634,11 +855,12 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
             )
         }
     };
-    let outcome =
-        match backend {
-            Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
-            Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
-            Backend::Ocp => return fail(
+    let backend_start = Instant::now();
+    let mut outcome = match backend {
+        Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
+        Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
+        Backend::Ocp => {
+            return fail(
                 SolveStatus::InvalidSettings(
                     "backend \"ocp\" solves stage-structured optimal-control problems only (the \
                      planner's transcription = \"multiple-shooting\"); a sparse NLP needs \
@@ -647,8 +869,9 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
                 ),
                 prep.x0.clone(),
                 prep.m,
-            ),
-        };
+            )
+        }
+    };
     let x = outcome
         .x
         .filter(|x| x.len() == prep.n)
@@ -666,6 +889,30 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         (f, prep.violation(&x, &g))
     }))
     .unwrap_or((f64::NAN, f64::INFINITY));
+    // The passes cover the backend's run; the checks before it go to the first pass and the final
+    // re-evaluation (a callback) to the last, so the passes add up to the whole call.
+    let before = backend_start.saturating_duration_since(start).as_secs_f64();
+    let solve_time_s = start.elapsed().as_secs_f64();
+    if outcome.passes.is_empty() {
+        outcome.passes.push(PassStats {
+            what: backend.name().to_string(),
+            iterations: outcome.iterations,
+            time_s: 0.0,
+            time: TimeSplit::default(),
+            status: Some(outcome.status.clone()),
+            returned: true,
+        });
+    }
+    outcome.passes[0].time.line_search_and_other_s += before;
+    let covered: f64 = outcome.passes.iter().map(|p| p.time.total_s()).sum();
+    if let Some(last) = outcome.passes.last_mut() {
+        last.time.callbacks_s += (solve_time_s - covered).max(0.0);
+    }
+    let mut time_split = TimeSplit::default();
+    for p in &mut outcome.passes {
+        p.time_s = p.time.total_s();
+        time_split.add(&p.time);
+    }
     NlpSolution {
         status: outcome.status,
         lambda: vec_or_zeros(outcome.lambda, prep.m),
@@ -673,8 +920,10 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         z_u: vec_or_zeros(outcome.z_u, prep.n),
         x,
         objective,
-        iterations: outcome.iterations,
-        solve_time_s: start.elapsed().as_secs_f64(),
+        iterations: outcome.passes.iter().map(|p| p.iterations).sum(),
+        solve_time_s,
+        time_split,
+        passes: outcome.passes,
         max_constraint_violation: viol,
         backend,
         backend_status: outcome.backend_status,
@@ -684,6 +933,34 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_meter_tells_passes_apart_and_recognises_a_row_sent_again() {
+        let row = |i: u64, f: f64| [i, f.to_bits(), 0, 0, 0, 0];
+        let mut m = Meter::new();
+        for i in 0..=7 {
+            m.iteration(i, false, row(i as u64, 1.0 / (1.0 + i as f64)));
+        }
+        // restoration rows continue the counter and do not start a pass, even at 0
+        m.iteration(0, true, row(0, 9.0));
+        m.iteration(8, true, row(8, 9.0));
+        // a re-solve from iteration 0
+        for i in 0..=5 {
+            m.iteration(i, false, row(i as u64, 2.0 + i as f64));
+        }
+        let (passes, returned) = m.clone().finish();
+        assert_eq!(
+            passes.iter().map(|p| p.0).collect::<Vec<_>>(),
+            [8, 5],
+            "iterations per pass"
+        );
+        assert_eq!(returned, None, "no pass marked: the last is returned");
+        // the backend sends the first pass's final row again: its point is the one returned
+        m.iteration(8, true, row(8, 9.0));
+        let (passes, returned) = m.finish();
+        assert_eq!(passes.iter().map(|p| p.0).collect::<Vec<_>>(), [8, 5]);
+        assert_eq!(returned, Some(0));
+    }
 
     #[test]
     fn pattern_merges_duplicates_and_sums_values() {

@@ -4,12 +4,13 @@
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
 
 use super::collocation::{CallbackTimings, Layout};
-use super::nlp::{solve, Backend, MuStrategy, NlpSettings, SolveStatus};
+use super::nlp::{solve, Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
     check_guess, check_task, freefall_time, guess_from_trajectory, target_pose, variable_bounds,
-    DistanceClearanceFn, Plan, SwingTask, Violations,
+    DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
 };
+use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
 use crate::error::{Error, Result};
@@ -18,30 +19,12 @@ use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::Trajectory;
 use brachia_ocp::{
-    EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStatus, Primal, StageBounds, StageEval,
+    EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds, StageEval,
     TerminalEval,
 };
-use serde::Serialize;
 
 /// Step of the independent open-loop replay, s.
 const REPLAY_DT: f64 = 1e-4;
-
-/// Where the time of a multiple-shooting solve went, s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
-pub struct SolveTimeSplit {
-    /// Problem evaluations: values and first derivatives (line-search trials included).
-    pub evaluation_s: f64,
-    /// Hessians of the stage Lagrangians.
-    pub hessian_s: f64,
-    /// The solver's own work: `total_s - evaluation_s - hessian_s`.
-    pub solver_s: f64,
-    /// Of `solver_s`, the linear algebra (condensing, Riccati factorisations, solves); `ocp` only.
-    pub linear_algebra_s: Option<f64>,
-    /// Of `solver_s`, the line search and restoration bookkeeping; `ocp` only.
-    pub line_search_s: Option<f64>,
-    /// The whole solve.
-    pub total_s: f64,
-}
 
 /// The solver outcome of the OCP solver as the planner's status.
 fn status_of(s: &OcpStatus) -> SolveStatus {
@@ -57,6 +40,34 @@ fn status_of(s: &OcpStatus) -> SolveStatus {
         OcpStatus::InvalidProblem(m) => SolveStatus::InvalidProblem(m.clone()),
         OcpStatus::InvalidSettings(m) => SolveStatus::InvalidSettings(m.clone()),
         other => SolveStatus::Other(format!("{other:?}")),
+    }
+}
+
+/// The OCP solver's one pass as a planner attempt: callbacks are its evaluations and Hessians, the
+/// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping.
+fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt {
+    let t = stats.time;
+    let callbacks_s = t.evaluation_s + t.hessian_s;
+    let time_split = TimeSplit {
+        callbacks_s,
+        linear_algebra_s: t.linear_algebra_s,
+        line_search_and_other_s: (t.total_s - callbacks_s - t.linear_algebra_s).max(0.0),
+    };
+    SolveAttempt {
+        mu_strategy: MuStrategy::Monotone,
+        status: status.clone(),
+        adopted: true,
+        iterations: stats.iterations,
+        time_s: t.total_s,
+        time_split,
+        passes: vec![PassStats {
+            what: "ocp".into(),
+            iterations: stats.iterations,
+            time_s: t.total_s,
+            time: time_split,
+            status: Some(status),
+            returned: true,
+        }],
     }
 }
 
@@ -176,36 +187,21 @@ pub(super) fn plan_shooting(
     }
 
     // solve
-    let (z, status, iterations, attempts, objective, split, mut ocp) = match nlp.backend {
+    let (z, status, objective, solves, mut ocp) = match nlp.backend {
         Backend::Ocp => {
             let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
                 Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
             })?;
             let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
-            let t = stats.time;
-            let split = SolveTimeSplit {
-                evaluation_s: t.evaluation_s,
-                hessian_s: t.hessian_s,
-                solver_s: (t.total_s - t.evaluation_s - t.hessian_s).max(0.0),
-                linear_algebra_s: Some(t.linear_algebra_s),
-                line_search_s: Some(t.line_search_s),
-                total_s: t.total_s,
-            };
             let status = status_of(&stats.status);
-            (
-                solver.primal().clone(),
-                status,
-                stats.iterations,
-                1,
-                stats.objective,
-                split,
-                ocp,
-            )
+            let solves = vec![ocp_attempt(&stats, status.clone())];
+            (solver.primal().clone(), status, stats.objective, solves, ocp)
         }
         Backend::Pounce | Backend::Ripopt => {
             let mut prob = OcpNlp::new(ocp);
             let mut sol = solve(&mut prob, nlp);
-            let mut attempts = 1;
+            let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
+            let mut adopted = 0;
             if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
                 // the collocation planner's retry (docs/planner.md, "Solver and retry")
                 let retry = NlpSettings {
@@ -213,45 +209,28 @@ pub(super) fn plan_shooting(
                     ..nlp.clone()
                 };
                 let second = solve(&mut prob, &retry);
-                attempts = 2;
+                solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
                 if second.status.is_converged()
                     || second.max_constraint_violation < sol.max_constraint_violation
                 {
-                    let (total, iters) = (
-                        sol.solve_time_s + second.solve_time_s,
-                        sol.iterations + second.iterations,
-                    );
                     sol = second;
-                    sol.solve_time_s = total;
-                    sol.iterations = iters;
+                    adopted = 1;
                 }
             }
+            solves[adopted].adopted = true;
             let mut z = Primal::zeros(prob.problem().dims());
             if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
                 prob.unstack(&sol.x, &mut z);
             } else {
                 prob.problem().initial_guess(&mut z);
             }
-            let at = prob.timings;
-            let split = SolveTimeSplit {
-                evaluation_s: at.evaluation_s,
-                hessian_s: at.hessian_s,
-                solver_s: (sol.solve_time_s - at.evaluation_s - at.hessian_s).max(0.0),
-                linear_algebra_s: None,
-                line_search_s: None,
-                total_s: sol.solve_time_s,
-            };
-            (
-                z,
-                sol.status,
-                sol.iterations,
-                attempts,
-                sol.objective,
-                split,
-                prob.into_problem(),
-            )
+            (z, sol.status, sol.objective, solves, prob.into_problem())
         }
     };
+    let mut time_split = TimeSplit::default();
+    for a in &solves {
+        time_split.add(&a.time_split);
+    }
     let st = ocp.timings;
     let callback_timings = CallbackTimings {
         objective_s: 0.0,
@@ -292,11 +271,13 @@ pub(super) fn plan_shooting(
     };
     Ok(Plan {
         status,
-        iterations,
-        attempts,
-        solve_time_s: split.total_s,
+        backend: nlp.backend,
+        iterations: solves.iter().map(|a| a.iterations).sum(),
+        attempts: solves.len(),
+        solve_time_s: solves.iter().map(|a| a.time_s).sum(),
+        solves,
+        time_split,
         callback_timings,
-        time_split: Some(split),
         objective,
         swing_time_s: t_final,
         freefall_time_s: freefall,
@@ -304,6 +285,8 @@ pub(super) fn plan_shooting(
         points,
         points_qdd,
         trajectory,
+        // integrated with the held torques, not interpolated: nothing to clamp
+        resample_clamped: Clamped::default(),
         energy_j,
         positive_work_j,
         ee_final,

@@ -3,12 +3,14 @@
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs (q1 absolute from +x, the rest relative).
 
 use super::collocation::{CollocationNlp, EeTerminalFn, Layout};
-use super::nlp::{solve, MuStrategy, NlpSettings, SolveStatus};
-use super::settings::{PlannerSettings, SwingTime, Transcription};
+use super::nlp::{
+    solve, Backend, MuStrategy, NlpSettings, NlpSolution, PassStats, SolveStatus, TimeSplit,
+};
+use super::profile::{replay_ee_error, resample, Clamped};
+use super::settings::{PlannerSettings, SwingTime};
 use crate::ad::LocalFn;
 use crate::error::{Error, Result};
 use crate::model::{Circle, ClearanceFn, DynamicsFn, Robot};
-use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 
@@ -93,24 +95,60 @@ pub struct Violations {
     pub bounds: f64,
 }
 
+/// One call of the NLP solver by the planner, adopted or not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolveAttempt {
+    /// Barrier strategy of this attempt.
+    pub mu_strategy: MuStrategy,
+    /// How it ended.
+    pub status: SolveStatus,
+    /// True when the plan is this attempt's point.
+    pub adopted: bool,
+    /// Iterations over its passes.
+    pub iterations: usize,
+    /// Wall-clock time of the call, s (the sum of its passes).
+    pub time_s: f64,
+    /// Where that time went.
+    pub time_split: TimeSplit,
+    /// Every pass the backend ran in this call.
+    pub passes: Vec<PassStats>,
+}
+
+impl SolveAttempt {
+    pub(crate) fn new(sol: &NlpSolution, mu_strategy: MuStrategy) -> Self {
+        SolveAttempt {
+            mu_strategy,
+            status: sol.status.clone(),
+            adopted: false,
+            iterations: sol.iterations,
+            time_s: sol.solve_time_s,
+            time_split: sol.time_split,
+            passes: sol.passes.clone(),
+        }
+    }
+}
+
 /// A planned swing and how it was found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
-    /// Solver outcome.
+    /// Solver outcome (of the adopted attempt).
     pub status: SolveStatus,
-    /// Iterations of the NLP solver (summed over attempts).
+    /// The backend that ran.
+    pub backend: Backend,
+    /// Iterations of the NLP solver, summed over every attempt and pass (adopted or not).
     pub iterations: usize,
     /// Solver attempts: 1, or 2 when the first did not converge and was retried with the adaptive
-    /// barrier strategy.
+    /// barrier strategy (`solves.len()`).
     pub attempts: usize,
-    /// Wall-clock time of the solve, s.
+    /// Every solver attempt, in order, with its passes; exactly one is `adopted`.
+    pub solves: Vec<SolveAttempt>,
+    /// Wall-clock time of every attempt together, s (the sum of `solves[..].time_s`).
     pub solve_time_s: f64,
-    /// Time spent in the problem's callbacks (derivatives and assembly); the rest of `solve_time_s` is
-    /// the solver's own work (linear algebra, line search).
+    /// Where `solve_time_s` went (the sum of the attempts' splits; see [`TimeSplit`]).
+    pub time_split: TimeSplit,
+    /// Time spent in the problem's callbacks by kind, over every attempt (the transcription's own
+    /// measurement, inside `time_split.callbacks_s`).
     pub callback_timings: crate::planning::collocation::CallbackTimings,
-    /// Multiple shooting only: the solve's time split (evaluation, Hessians, solver work); `None` for
-    /// collocation.
-    pub time_split: Option<crate::planning::plan_shooting::SolveTimeSplit>,
     /// Objective value (the transcription's quadrature of ||qd||^2_Q1 + ||tau||^2_R1).
     pub objective: f64,
     /// Swing time T, s.
@@ -123,8 +161,12 @@ pub struct Plan {
     pub points: Trajectory,
     /// Accelerations at the points, row-major `points x n`.
     pub points_qdd: Vec<f64>,
-    /// The swing resampled at `output_dt` (cubic Hermite through the points).
+    /// The swing at `output_dt` from 0 to exactly T (the last step the shorter one), states as the
+    /// transcription implies between the points, torques as it assumes, clamped into the bounds
+    /// (see [`crate::planning::profile::resample`]).
     pub trajectory: Trajectory,
+    /// How far the clamp moved samples of `trajectory` into the bounds, per kind of variable.
+    pub resample_clamped: Clamped,
     /// Paper eq. (18): signed work of the actuated joints over the 1 ms trajectory, J.
     pub energy_j: f64,
     /// Positive work of the actuated joints, J.
@@ -133,7 +175,9 @@ pub struct Plan {
     pub ee_final: [f64; 2],
     /// Largest constraint violations by kind.
     pub violations: Violations,
-    /// EE distance from the target after replaying the planned torques open loop on the RK4 model, m.
+    /// EE distance from the target after replaying open loop, on the RK4 model from the start state,
+    /// the torque profile the transcription assumes between its points, m (see
+    /// [`crate::planning::profile::replay_ee_error`]).
     pub replay_ee_error_m: f64,
     /// Smallest surface distance to an obstacle (or between non-adjacent links) over the resampled
     /// trajectory, m; `None` without obstacles.
@@ -649,7 +693,8 @@ pub fn plan_with_guess(
         path,
     );
     let mut sol = solve(&mut problem, nlp);
-    let mut attempts = 1;
+    let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
+    let mut adopted = 0;
     if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
         // A second attempt with the adaptive barrier update, which recovers from initial guesses that
         // cut through obstacles (measured on the paper's obstacle scenario; docs/planner.md).
@@ -658,16 +703,18 @@ pub fn plan_with_guess(
             ..nlp.clone()
         };
         let second = solve(&mut problem, &retry);
-        attempts = 2;
+        solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
         if second.status.is_converged()
             || second.max_constraint_violation < sol.max_constraint_violation
         {
-            let total = sol.solve_time_s + second.solve_time_s;
-            let iters = sol.iterations + second.iterations;
             sol = second;
-            sol.solve_time_s = total;
-            sol.iterations = iters;
+            adopted = 1;
         }
+    }
+    solves[adopted].adopted = true;
+    let mut time_split = TimeSplit::default();
+    for a in &solves {
+        time_split.add(&a.time_split);
     }
     let callback_timings = problem.timings;
     let x = if sol.x.len() == layout.n_vars() {
@@ -684,7 +731,15 @@ pub fn plan_with_guess(
         points.push(layout.time(p), &z[..n], &z[n..2 * n], &z[2 * n..]);
     }
     let points_qdd = problem.accelerations(&x).to_vec();
-    let trajectory = points.resample_hermite(&points_qdd, settings.output_dt);
+    let (trajectory, resample_clamped) = resample(
+        robot,
+        &points,
+        &points_qdd,
+        &layout,
+        settings.transcription,
+        &settings.bounds,
+        settings.output_dt,
+    );
     let (energy_j, positive_work_j) = trajectory.work();
     let ql = points.q(layout.points - 1);
     let ee_final = robot.ee_position(ql);
@@ -706,7 +761,8 @@ pub fn plan_with_guess(
             .zip(bounds.0.iter().zip(&bounds.1))
             .fold(0.0f64, |m, (v, (lo, hi))| m.max(lo - v).max(v - hi)),
     };
-    let replay_ee_error_m = replay_error(robot, &trajectory, task.target, settings.transcription);
+    let replay_ee_error_m =
+        replay_ee_error(robot, &points, &layout, settings.transcription, task.target);
     let min_obstacle_clearance_m = if task.obstacles.is_empty() {
         None
     } else {
@@ -719,11 +775,13 @@ pub fn plan_with_guess(
     };
     Ok(Plan {
         status: sol.status,
-        iterations: sol.iterations,
-        attempts,
+        backend: sol.backend,
+        iterations: solves.iter().map(|a| a.iterations).sum(),
+        attempts: solves.len(),
+        solve_time_s: solves.iter().map(|a| a.time_s).sum(),
+        solves,
+        time_split,
         callback_timings,
-        time_split: None,
-        solve_time_s: sol.solve_time_s,
         objective: sol.objective,
         swing_time_s: t_final,
         freefall_time_s: freefall,
@@ -731,6 +789,7 @@ pub fn plan_with_guess(
         points,
         points_qdd,
         trajectory,
+        resample_clamped,
         energy_j,
         positive_work_j,
         ee_final,
@@ -744,28 +803,4 @@ fn problem_guess(p: &dyn crate::planning::nlp::SparseNlp) -> Vec<f64> {
     let mut x = vec![0.0; p.n_vars()];
     p.initial_guess(&mut x);
     x
-}
-
-/// Replay the planned torques open loop on the RK4 model (0.1 ms steps, torque linearly interpolated
-/// from the resampled trajectory) and return the final EE distance from `target`, m.
-pub fn replay_error(robot: &Robot, traj: &Trajectory, target: [f64; 2], _tr: Transcription) -> f64 {
-    let n = robot.n;
-    let x0 = [traj.q(0), traj.qd(0)].concat();
-    let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let sub = 10;
-    let mut tau = vec![0.0; n - 1];
-    for k in 0..traj.len() - 1 {
-        let h = (traj.t[k + 1] - traj.t[k]) / sub as f64;
-        for s in 0..sub {
-            let r = (s as f64 + 0.5) / sub as f64;
-            for j in 0..n - 1 {
-                tau[j] = traj.tau(k)[j] + r * (traj.tau(k + 1)[j] - traj.tau(k)[j]);
-            }
-            plant.step(&tau, h);
-        }
-    }
-    let mut x = vec![0.0; 2 * n];
-    plant.state(&mut x);
-    let ee = robot.ee_position(&x[..n]);
-    (ee[0] - target[0]).hypot(ee[1] - target[1])
 }

@@ -280,6 +280,10 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
             json!({
                 "plan_solve_time_s": plan.map(|p| p.solve_time_s),
                 "plan_iterations": plan.map(|p| p.iterations),
+                "plan_solver": plan.map(|p| p.backend.name()),
+                "plan_time_split_s": plan.map(|p| p.time_split),
+                "plan_solves": plan.map(|p| &p.solves),
+                "plan_replay_ee_error_m": plan.map(|p| p.replay_ee_error_m),
                 "swing_time_s": plan.map(|p| p.swing_time_s),
                 "freefall_time_s": plan.and_then(|p| p.freefall_time_s),
                 "planned_energy_j": plan.map(|p| p.energy_j),
@@ -296,6 +300,10 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
                 "min_clearance_m": p.plan.min_obstacle_clearance_m,
                 "energy_j": p.plan.energy_j,
                 "solve_time_s": p.plan.solve_time_s,
+                "iterations": p.plan.iterations,
+                "solver": p.plan.backend.name(),
+                "time_split_s": p.plan.time_split,
+                "solves": p.plan.solves,
             })
         };
         m.insert(
@@ -339,6 +347,25 @@ fn track_summary(r: &crate::TrackRun) -> Value {
     })
 }
 
+/// A plan's solver work (every attempt and pass, totals, time split) and what it hands on: the
+/// open-loop replay of its own torque profile and its 1 ms trajectory.
+fn plan_text(p: &brachia::planning::Plan) -> String {
+    let c = &p.resample_clamped;
+    format!(
+        "the planner's solver ({}): {}. Open-loop replay of the {:?} torque profile from the start \
+         state ends {:.2e} m from the bar; the 1 ms trajectory ends at T = {:.4} s and was clamped into \
+         the bounds by at most {:.1e} rad, {:.1e} rad/s, {:.1e} N m.",
+        p.backend.name(),
+        crate::solver_work_text(p),
+        p.layout.transcription,
+        p.replay_ee_error_m,
+        p.trajectory.t.last().copied().unwrap_or(0.0),
+        c.q_rad,
+        c.qd_rad_s,
+        c.tau_nm
+    )
+}
+
 /// Format a number for the table (`-` when absent).
 fn num(v: Option<f64>, digits: usize) -> String {
     match v {
@@ -373,13 +400,21 @@ fn rows(res: &Results) -> Vec<Row> {
             "plan time (V-B swing)",
             format!("<= {:.0} ms (SNOPT)", p.plan_time_s * 1e3),
             format!(
-                "{} ms ({} iterations)",
+                "{} ms ({} iterations{})",
                 num(plan.map(|x| x.solve_time_s * 1e3), 0),
-                plan.map_or(0, |x| x.iterations)
+                plan.map_or(0, |x| x.iterations),
+                plan.map_or(String::new(), |x| format!(
+                    "; callbacks {:.0} ms, linear algebra {:.0} ms, line search and rest {:.0} ms",
+                    x.time_split.callbacks_s * 1e3,
+                    x.time_split.linear_algebra_s * 1e3,
+                    x.time_split.line_search_and_other_s * 1e3
+                ))
             ),
             &format!(
-                "pounce-rs interior point with the exact sparse Hessian; {:?} at {} s knots ({} collocation \
-                 points; the paper's Euler mesh has one per knot); see docs/benchmarks.md",
+                "{} interior point with the exact sparse Hessian, every attempt and pass counted (section B); \
+                 {:?} at {} s knots ({} collocation points; the paper's Euler mesh has one per knot); see \
+                 docs/benchmarks.md",
+                plan.map_or("pounce", |x| x.backend.name()),
                 t.ls.scenario.planner.transcription,
                 t.ls.scenario.planner.knot_dt,
                 plan.map_or(0, |x| x.layout.points)
@@ -573,6 +608,9 @@ pub(crate) fn markdown(
             t.ls.scenario.task.target[0],
             t.ls.scenario.task.target[1]
         );
+        if let Some(p) = t.rapier.plan.as_ref().map(|x| &x.plan) {
+            let _ = writeln!(s, "{}\n", plan_text(p));
+        }
         image(
             &mut s,
             figs,
@@ -610,6 +648,12 @@ pub(crate) fn markdown(
             o.avoid.0.scenario.planner.obstacle_margin,
             num(Some(o.ignored.1.plan.energy_j), 3),
             num(Some(o.avoid.1.plan.energy_j), 3),
+        );
+        let _ = writeln!(
+            s,
+            "With avoidance: {}\n\nWithout: {}\n",
+            plan_text(&o.avoid.1.plan),
+            plan_text(&o.ignored.1.plan)
         );
         image(
             &mut s,
