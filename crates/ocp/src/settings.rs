@@ -36,6 +36,8 @@ pub struct OcpSettings {
     /// The same for a warm start (small: keep the active set of the stored solution), in (0, 0.5).
     /// Default 1e-9.
     pub warm_bound_push: f64,
+    /// What a warm start does with the stored multipliers. Default [`WarmDuals::Reset`].
+    pub warm_duals: WarmDuals,
     /// Largest number of consecutive restoration iterations before [`OcpStatus::RestorationFailed`].
     /// Default 50.
     pub max_restoration_iter: usize,
@@ -56,7 +58,8 @@ impl Default for OcpSettings {
             max_wall_time_s: None,
             warm_start: false,
             bound_push: 1e-2,
-            warm_bound_push: 1e-9,
+            warm_bound_push: 1e-2,
+            warm_duals: WarmDuals::Reset,
             max_restoration_iter: 50,
             max_soc: 4,
         }
@@ -105,6 +108,23 @@ impl OcpSettings {
         }
         Ok(())
     }
+}
+
+/// The multipliers of a warm start ([`OcpSettings::warm_duals`]); the primal iterate is always the
+/// stored one, pushed inside its bounds by `warm_bound_push`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum WarmDuals {
+    /// The stored bound duals (floored at 1e-20) and equality multipliers: right for a re-solve of
+    /// the same or a very slightly changed problem (with a small `mu_init` and `warm_bound_push`).
+    Stored,
+    /// Bound duals `mu_init / slack` (on the central path of the new barrier parameter), equality
+    /// multipliers by least squares.
+    Centered,
+    /// Bound duals 1 and equality multipliers by least squares, as at a cold start: only the
+    /// primal is warm. Pays for moderate changes (a disturbed start state), where stored duals of
+    /// active bounds hold the old active set too firmly.
+    Reset,
 }
 
 /// How a solve ended. Not an error: every solve returns one, with [`OcpStats`].

@@ -7,7 +7,8 @@ use crate::problem::{
 };
 use crate::riccati::{Layout, Riccati};
 use crate::settings::{
-    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
+    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals, MAX_EQUALITY_ROWS,
+    MAX_STAGE_VARIABLES,
 };
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
@@ -1477,7 +1478,18 @@ impl OcpSolver {
             match self.kind[i] {
                 Kind::Free => {
                     self.z[i] = Self::push_inside(self.zlo[i], self.zhi[i], self.z[i], push);
-                    if warm {
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        self.zl[i] = if self.zlo[i].is_finite() {
+                            st.mu_init / (self.z[i] - self.zlo[i])
+                        } else {
+                            0.0
+                        };
+                        self.zu[i] = if self.zhi[i].is_finite() {
+                            st.mu_init / (self.zhi[i] - self.z[i])
+                        } else {
+                            0.0
+                        };
+                    } else if warm && st.warm_duals == WarmDuals::Stored {
                         self.zl[i] = if self.zlo[i].is_finite() {
                             self.zl[i].max(1e-20)
                         } else {
@@ -1507,12 +1519,12 @@ impl OcpSolver {
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals == WarmDuals::Reset {
             self.vl.fill(1.0);
             self.vu.fill(1.0);
         }
         for j in 0..self.s.len() {
-            if warm {
+            if warm && st.warm_duals == WarmDuals::Stored {
                 self.vl[j] = self.vl[j].max(1e-20);
                 self.vu[j] = self.vu[j].max(1e-20);
             }
@@ -1584,10 +1596,23 @@ impl OcpSolver {
                     };
                     let c = if warm { self.s[jj] } else { self.ev[k].c[j] };
                     self.s[jj] = Self::push_inside(self.clo[jj], self.chi[jj], c, push);
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        let (lo, hi) = (self.clo[jj], self.chi[jj]);
+                        self.vl[jj] = if lo.is_finite() {
+                            st.mu_init / (self.s[jj] - lo)
+                        } else {
+                            0.0
+                        };
+                        self.vu[jj] = if hi.is_finite() {
+                            st.mu_init / (hi - self.s[jj])
+                        } else {
+                            0.0
+                        };
+                    }
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals != WarmDuals::Stored {
             self.least_squares_multipliers();
         }
         let mut mu = st.mu_init;

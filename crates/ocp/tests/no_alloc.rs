@@ -51,7 +51,13 @@ fn solves_after_the_first_do_not_allocate() {
     let cold = OcpSettings::default();
     let warm = OcpSettings {
         warm_start: true,
+        ..OcpSettings::default()
+    };
+    let warm_stored = OcpSettings {
+        warm_start: true,
+        warm_duals: WarmDuals::Stored,
         mu_init: 1e-6,
+        warm_bound_push: 1e-9,
         ..OcpSettings::default()
     };
 
@@ -61,7 +67,7 @@ fn solves_after_the_first_do_not_allocate() {
     let mut solver = OcpSolver::new(&qp.dims.clone()).unwrap();
     let first = solver.solve(&mut qp, &cold);
     assert_eq!(first.status, OcpStatus::Solved);
-    for settings in [&cold, &warm, &cold] {
+    for settings in [&cold, &warm, &warm_stored, &cold] {
         let (n, stats) = count(|| solver.solve(&mut qp, settings));
         assert_eq!(stats.status, OcpStatus::Solved);
         assert_eq!(n, 0, "QP solve allocated {n} times");
