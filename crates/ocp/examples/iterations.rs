@@ -79,6 +79,25 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 2 || args[1] == "cold" {
         cold_table("default", &d);
+        let ad = OcpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..d.clone()
+        };
+        cold_table("adaptive", &ad);
+        cold_table(
+            "adaptive mu_init 1",
+            &OcpSettings {
+                mu_init: 1.0,
+                ..ad.clone()
+            },
+        );
+        cold_table(
+            "adaptive bound_push 0.1",
+            &OcpSettings {
+                bound_push: 0.1,
+                ..ad.clone()
+            },
+        );
         for mu in [0.01, 1.0] {
             cold_table(
                 &format!("mu_init {mu}"),
@@ -115,6 +134,17 @@ fn main() {
             (WarmDuals::Reset, 1e-3, 1e-3),
             (WarmDuals::Reset, 1e-1, 1e-1),
         ] {
+            warm_table(
+                &format!("adaptive {duals:?} mu {mu:e} push {push:e}"),
+                &OcpSettings {
+                    warm_start: true,
+                    warm_duals: duals,
+                    mu_init: mu,
+                    warm_bound_push: push,
+                    mu_strategy: MuStrategy::Adaptive,
+                    ..d.clone()
+                },
+            );
             warm_table(
                 &format!("{duals:?} mu {mu:e} push {push:e}"),
                 &OcpSettings {

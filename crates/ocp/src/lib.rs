@@ -148,7 +148,7 @@ pub use problem::{
     StageEval, TerminalEval,
 };
 pub use settings::{
-    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals, MAX_EQUALITY_ROWS,
-    MAX_STAGE_VARIABLES,
+    MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
+    MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
 pub use solver::OcpSolver;

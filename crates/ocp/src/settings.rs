@@ -22,6 +22,8 @@ pub struct OcpSettings {
     /// Initial barrier parameter mu (dimensionless, > 0), used for cold and warm starts. Default 0.1;
     /// a warm start from a nearby solution wants a small value (1e-6 .. 1e-4).
     pub mu_init: f64,
+    /// How the barrier parameter is updated. Default [`MuStrategy::Monotone`].
+    pub mu_strategy: MuStrategy,
     /// Wall-clock budget of one solve in seconds (checked once per iteration); `None` = unlimited.
     /// Default `None`.
     pub max_wall_time_s: Option<f64>,
@@ -55,6 +57,7 @@ impl Default for OcpSettings {
             acceptable_tol: 1e-6,
             acceptable_iter: 15,
             mu_init: 0.1,
+            mu_strategy: MuStrategy::Monotone,
             max_wall_time_s: None,
             warm_start: false,
             bound_push: 1e-2,
@@ -108,6 +111,21 @@ impl OcpSettings {
         }
         Ok(())
     }
+}
+
+/// The barrier update ([`OcpSettings::mu_strategy`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum MuStrategy {
+    /// Fiacco-McCormick: mu is kept until the barrier problem is solved to `10 mu`, then
+    /// `mu <- max(tol/10, min(0.2 mu, mu^1.5))` (IPOPT's `monotone`).
+    Monotone,
+    /// Mehrotra's probing heuristic (IPOPT's `adaptive` with the `probing` oracle): every
+    /// iteration an affine-scaling step (mu = 0, same factorisation) predicts the complementarity
+    /// it reaches, and `mu = (mu_aff / mu_avg)^3 mu_avg`. It falls back to the monotone rule while
+    /// the optimality error fails to fall below 0.9999 times its largest of the last 4 iterations,
+    /// and returns once the barrier problem of that mu is solved.
+    Adaptive,
 }
 
 /// The multipliers of a warm start ([`OcpSettings::warm_duals`]); the primal iterate is always the
