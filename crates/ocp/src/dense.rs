@@ -71,6 +71,59 @@ pub(crate) fn chol_solve(l: &[f64], n: usize, b: &mut [f64], m: usize) {
     }
 }
 
+/// `y += a x` for slices of equal length. The common stage sizes get fixed-length copies (no loop,
+/// no bounds checks, fully vectorised); other lengths the plain loop.
+#[inline(always)]
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    fn fixed<const N: usize>(a: f64, x: &[f64], y: &mut [f64]) -> bool {
+        match (<&[f64; N]>::try_from(x), <&mut [f64; N]>::try_from(y)) {
+            (Ok(x), Ok(y)) => {
+                for i in 0..N {
+                    y[i] += a * x[i];
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+    let done = match x.len() {
+        8 => fixed::<8>(a, x, y),
+        4 => fixed::<4>(a, x, y),
+        3 => fixed::<3>(a, x, y),
+        2 => fixed::<2>(a, x, y),
+        _ => false,
+    };
+    if !done {
+        for (p, q) in y.iter_mut().zip(x) {
+            *p += a * q;
+        }
+    }
+}
+
+/// `sum x_i y_i` (fixed-length copies for the common stage sizes, as in [`axpy`]).
+#[inline(always)]
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    fn fixed<const N: usize>(x: &[f64], y: &[f64]) -> Option<f64> {
+        match (<&[f64; N]>::try_from(x), <&[f64; N]>::try_from(y)) {
+            (Ok(x), Ok(y)) => {
+                let mut s = 0.0;
+                for i in 0..N {
+                    s += x[i] * y[i];
+                }
+                Some(s)
+            }
+            _ => None,
+        }
+    }
+    let r = match x.len() {
+        8 => fixed::<8>(x, y),
+        4 => fixed::<4>(x, y),
+        3 => fixed::<3>(x, y),
+        _ => None,
+    };
+    r.unwrap_or_else(|| x.iter().zip(y).map(|(p, q)| p * q).sum())
+}
+
 /// `c (m x n) = a (m x r) * b (r x n)`.
 pub(crate) fn gemm_nn(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
     if n == 0 {
@@ -88,9 +141,7 @@ pub(crate) fn gemm_nn_acc(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usiz
     let b = &b[..r * n];
     for (ci, ai) in c[..m * n].chunks_exact_mut(n).zip(a.chunks_exact(r)) {
         for (aik, bk) in ai.iter().zip(b.chunks_exact(n)) {
-            for (x, y) in ci.iter_mut().zip(bk) {
-                *x += aik * y;
-            }
+            axpy(*aik, bk, ci);
         }
     }
 }
@@ -103,9 +154,7 @@ pub(crate) fn gemm_tn_acc(a: &[f64], b: &[f64], c: &mut [f64], r: usize, m: usiz
     let c = &mut c[..m * n];
     for (ak, bk) in a[..r * m].chunks_exact(m).zip(b.chunks_exact(n)) {
         for (aki, ci) in ak.iter().zip(c.chunks_exact_mut(n)) {
-            for (x, y) in ci.iter_mut().zip(bk) {
-                *x += aki * y;
-            }
+            axpy(*aki, bk, ci);
         }
     }
 }
@@ -117,11 +166,7 @@ pub(crate) fn gemv_n_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize
     }
     let x = &x[..n];
     for (yi, ai) in y[..m].iter_mut().zip(a.chunks_exact(n)) {
-        let mut s = 0.0;
-        for (p, q) in ai.iter().zip(x) {
-            s += p * q;
-        }
-        *yi += s;
+        *yi += dot(ai, x);
     }
 }
 
@@ -132,9 +177,7 @@ pub(crate) fn gemv_t_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize
     }
     let y = &mut y[..n];
     for (xi, ai) in x[..m].iter().zip(a.chunks_exact(n)) {
-        for (p, q) in y.iter_mut().zip(ai) {
-            *p += q * xi;
-        }
+        axpy(*xi, ai, y);
     }
 }
 
