@@ -62,8 +62,8 @@ enum EvalFail {
 
 /// A stage-structured primal-dual interior-point solver (see the crate docs).
 ///
-/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries on
-/// the first solve); later solves of a problem with the same dimensions do not allocate unless they
+/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries,
+/// and the Schur responses to the number of equality rows, on the first solve); later solves of a problem with the same dimensions do not allocate unless they
 /// fail (status strings).
 pub struct OcpSolver {
     dims: OcpDims,
