@@ -534,3 +534,29 @@ fn solver_settings_and_stats_can_cross_threads() {
     send_sync::<OcpStats>();
     send_sync::<OcpError>();
 }
+
+#[test]
+fn adaptive_mu_solves_the_swing_up_in_fewer_iterations() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let mono = solver.solve(&mut p, &OcpSettings::default());
+    let adaptive = solver.solve(
+        &mut p,
+        &OcpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(mono.status, OcpStatus::Solved, "{mono:?}");
+    assert_eq!(adaptive.status, OcpStatus::Solved, "{adaptive:?}");
+    assert!(
+        adaptive.iterations < mono.iterations,
+        "adaptive {} vs monotone {}",
+        adaptive.iterations,
+        mono.iterations
+    );
+    assert!((adaptive.objective - mono.objective).abs() < 1e-6 * mono.objective);
+    let z = solver.primal().clone();
+    let m = solver.multipliers().clone();
+    assert!(pendulum_kkt_residual(&mut p, &z, &m) < 1e-6);
+}
