@@ -34,94 +34,150 @@ pub(crate) fn chol(a: &mut [f64], n: usize) -> bool {
 /// Solves `L L^T X = B` in place for the n x m row-major `b` (m right-hand sides as columns), with L
 /// from [`chol`].
 pub(crate) fn chol_solve(l: &[f64], n: usize, b: &mut [f64], m: usize) {
+    if n == 0 || m == 0 {
+        return;
+    }
+    let l = &l[..n * n];
+    let b = &mut b[..n * m];
     // forward: L Y = B
     for i in 0..n {
-        for k in 0..i {
-            let lik = l[i * n + k];
-            if lik != 0.0 {
-                for c in 0..m {
-                    b[i * m + c] -= lik * b[k * m + c];
-                }
+        let (done, rest) = b.split_at_mut(i * m);
+        let bi = &mut rest[..m];
+        let li = &l[i * n..i * n + i];
+        for (lik, bk) in li.iter().zip(done.chunks_exact(m)) {
+            for (x, y) in bi.iter_mut().zip(bk) {
+                *x -= lik * y;
             }
         }
         let d = 1.0 / l[i * n + i];
-        for c in 0..m {
-            b[i * m + c] *= d;
+        for x in bi.iter_mut() {
+            *x *= d;
         }
     }
     // backward: L^T X = Y
     for i in (0..n).rev() {
-        for k in i + 1..n {
-            let lki = l[k * n + i];
-            if lki != 0.0 {
-                for c in 0..m {
-                    b[i * m + c] -= lki * b[k * m + c];
-                }
+        let (head, tail) = b.split_at_mut((i + 1) * m);
+        let bi = &mut head[i * m..];
+        for (k, bk) in tail.chunks_exact(m).enumerate() {
+            let lki = l[(i + 1 + k) * n + i];
+            for (x, y) in bi.iter_mut().zip(bk) {
+                *x -= lki * y;
             }
         }
         let d = 1.0 / l[i * n + i];
-        for c in 0..m {
-            b[i * m + c] *= d;
+        for x in bi.iter_mut() {
+            *x *= d;
         }
     }
 }
 
+/// `y += a x` for slices of equal length. The common stage sizes get fixed-length copies (no loop,
+/// no bounds checks, fully vectorised); other lengths the plain loop.
+#[inline(always)]
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    fn fixed<const N: usize>(a: f64, x: &[f64], y: &mut [f64]) -> bool {
+        match (<&[f64; N]>::try_from(x), <&mut [f64; N]>::try_from(y)) {
+            (Ok(x), Ok(y)) => {
+                for i in 0..N {
+                    y[i] += a * x[i];
+                }
+                true
+            }
+            _ => false,
+        }
+    }
+    let done = match x.len() {
+        8 => fixed::<8>(a, x, y),
+        4 => fixed::<4>(a, x, y),
+        3 => fixed::<3>(a, x, y),
+        2 => fixed::<2>(a, x, y),
+        _ => false,
+    };
+    if !done {
+        for (p, q) in y.iter_mut().zip(x) {
+            *p += a * q;
+        }
+    }
+}
+
+/// `sum x_i y_i` (fixed-length copies for the common stage sizes, as in [`axpy`]).
+#[inline(always)]
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    fn fixed<const N: usize>(x: &[f64], y: &[f64]) -> Option<f64> {
+        match (<&[f64; N]>::try_from(x), <&[f64; N]>::try_from(y)) {
+            (Ok(x), Ok(y)) => {
+                let mut s = 0.0;
+                for i in 0..N {
+                    s += x[i] * y[i];
+                }
+                Some(s)
+            }
+            _ => None,
+        }
+    }
+    let r = match x.len() {
+        8 => fixed::<8>(x, y),
+        4 => fixed::<4>(x, y),
+        3 => fixed::<3>(x, y),
+        _ => None,
+    };
+    r.unwrap_or_else(|| x.iter().zip(y).map(|(p, q)| p * q).sum())
+}
+
 /// `c (m x n) = a (m x r) * b (r x n)`.
 pub(crate) fn gemm_nn(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
-    for i in 0..m {
-        let ci = &mut c[i * n..(i + 1) * n];
-        ci.fill(0.0);
-        for k in 0..r {
-            let aik = a[i * r + k];
-            if aik != 0.0 {
-                let bk = &b[k * n..(k + 1) * n];
-                for j in 0..n {
-                    ci[j] += aik * bk[j];
-                }
-            }
+    if n == 0 {
+        return;
+    }
+    c[..m * n].fill(0.0);
+    gemm_nn_acc(a, b, c, m, r, n);
+}
+
+/// `c (m x n) += a (m x r) * b (r x n)`.
+pub(crate) fn gemm_nn_acc(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
+    if n == 0 || r == 0 {
+        return;
+    }
+    let b = &b[..r * n];
+    for (ci, ai) in c[..m * n].chunks_exact_mut(n).zip(a.chunks_exact(r)) {
+        for (aik, bk) in ai.iter().zip(b.chunks_exact(n)) {
+            axpy(*aik, bk, ci);
         }
     }
 }
 
 /// `c (m x n) += a^T b` with `a` r x m and `b` r x n.
 pub(crate) fn gemm_tn_acc(a: &[f64], b: &[f64], c: &mut [f64], r: usize, m: usize, n: usize) {
-    for k in 0..r {
-        let ak = &a[k * m..(k + 1) * m];
-        let bk = &b[k * n..(k + 1) * n];
-        for i in 0..m {
-            let aki = ak[i];
-            if aki != 0.0 {
-                let ci = &mut c[i * n..(i + 1) * n];
-                for j in 0..n {
-                    ci[j] += aki * bk[j];
-                }
-            }
+    if n == 0 || m == 0 {
+        return;
+    }
+    let c = &mut c[..m * n];
+    for (ak, bk) in a[..r * m].chunks_exact(m).zip(b.chunks_exact(n)) {
+        for (aki, ci) in ak.iter().zip(c.chunks_exact_mut(n)) {
+            axpy(*aki, bk, ci);
         }
     }
 }
 
 /// `y (m) += a (m x n) x`.
 pub(crate) fn gemv_n_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize) {
-    for i in 0..m {
-        let ai = &a[i * n..(i + 1) * n];
-        let mut s = 0.0;
-        for j in 0..n {
-            s += ai[j] * x[j];
-        }
-        y[i] += s;
+    if n == 0 {
+        return;
+    }
+    let x = &x[..n];
+    for (yi, ai) in y[..m].iter_mut().zip(a.chunks_exact(n)) {
+        *yi += dot(ai, x);
     }
 }
 
 /// `y (n) += a^T x` with `a` m x n.
 pub(crate) fn gemv_t_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize) {
-    for i in 0..m {
-        let xi = x[i];
-        if xi != 0.0 {
-            let ai = &a[i * n..(i + 1) * n];
-            for j in 0..n {
-                y[j] += ai[j] * xi;
-            }
-        }
+    if n == 0 {
+        return;
+    }
+    let y = &mut y[..n];
+    for (xi, ai) in x[..m].iter().zip(a.chunks_exact(n)) {
+        axpy(*xi, ai, y);
     }
 }
 

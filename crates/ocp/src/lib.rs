@@ -29,7 +29,8 @@
 //!   solved by a Riccati recursion: backward factorisation (Cholesky of the reduced input Hessians
 //!   `R + B^T P B`, eigendecomposition of `P_0`), then backward gradient and forward passes. The
 //!   terminal rows (and fixed states after stage 0), `m` rows in all, are handled exactly by a dense
-//!   `m x m` Schur complement: `m` solves per factorisation and 2 per right-hand side.
+//!   `m x m` Schur complement: one backward and forward pass with `m` right-hand sides per
+//!   factorisation, and 2 chain solves per right-hand side.
 //! - **Inertia test and correction.** The KKT matrix must have the inertia of a local minimiser:
 //!   the reduced input Hessians have a Cholesky, `P_0` (eigendecomposition) has q negative
 //!   eigenvalues, and the Schur matrix of the equality rows exactly q as well (so a free swing
@@ -41,8 +42,10 @@
 //!   variables, the `kappa_sigma` safeguard on the bound multipliers, and up to `max_soc`
 //!   second-order corrections (re-solves with the same factorisation) when a full step raises the
 //!   constraint violation.
-//! - **Barrier update.** Monotone (Fiacco-McCormick): `mu <- max(tol/10, min(0.2 mu, mu^1.5))`
-//!   whenever the barrier error is below `10 mu`; the filter is reset.
+//! - **Barrier update** ([`MuStrategy`]). Monotone (Fiacco-McCormick, the default):
+//!   `mu <- max(tol/10, min(0.2 mu, mu^1.5))` whenever the barrier error is below `10 mu`; the
+//!   filter is reset. Or adaptive: Mehrotra's probing (an affine step with the same factorisation
+//!   sets mu every iteration), falling back to the monotone rule while the optimality error stalls.
 //! - **Restoration.** When the line search fails, IPOPT's l1 restoration phase: minimise
 //!   `1000 ||p + n||_1 + sqrt(mu)/2 ||D (z - z_R)||^2` s.t. `c(z) - p + n = 0` (all equality rows:
 //!   dynamics, slack rows, terminal rows) with the same machinery; the slacks `p, n` condense into a
@@ -50,6 +53,9 @@
 //!   returns when the violation fell to 0.9 of its value at entry and the original filter accepts
 //!   the point; then the multipliers are re-estimated by least squares (a Riccati solve with H = I,
 //!   as at a cold start).
+//! - **Warm start** ([`OcpSettings::warm_start`]): the stored primal (e.g. shifted in time through
+//!   [`OcpSolver::primal_mut`]) pushed inside by `warm_bound_push`; the multipliers by
+//!   [`WarmDuals`] (default: reset as at a cold start, which pays after a disturbed x_0).
 //! - **Termination.** IPOPT's scaled optimality error `E_0 <= tol` together with
 //!   `max |constraint| <= constr_viol_tol`; or the acceptable test (`acceptable_tol`) for
 //!   `acceptable_iter` consecutive iterations.
@@ -84,7 +90,7 @@
 //!
 //! # Memory
 //! [`OcpSolver::new`] allocates the whole workspace; the first solve reserves the filter
-//! (`max_iter` entries). Later solves with the same or smaller `max_iter` do not allocate (tested),
+//! (`max_iter` entries) and the Schur responses (`m` columns). Later solves with the same or smaller `max_iter` do not allocate (tested),
 //! except for the message of a failure status.
 //!
 //! # Example
@@ -148,6 +154,7 @@ pub use problem::{
     StageEval, TerminalEval,
 };
 pub use settings::{
-    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
+    MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
+    MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
 pub use solver::OcpSolver;

@@ -10,7 +10,8 @@
 //! `H_k = [Q S^T; S R]` in the order `z = [x, u]`. See docs/ocp.md for the derivation.
 
 use crate::dense::{
-    chol, chol_solve, eigen_solve, gemm_nn, gemm_tn_acc, gemv_n_acc, gemv_t_acc, sym_eigen,
+    chol, chol_solve, eigen_solve, gemm_nn, gemm_nn_acc, gemm_tn_acc, gemv_n_acc, gemv_t_acc,
+    sym_eigen,
 };
 use crate::settings::MAX_EQUALITY_ROWS;
 
@@ -158,10 +159,23 @@ pub(crate) struct Riccati {
     schur_v: Vec<f64>,
     schur_d: Vec<f64>,
     schur_tmp: Vec<f64>,
+    /// Responses of the chain QP to the unit gradients `a_j` (zero defects), all m at once:
+    /// `dz^(j)` as an `n_z x m` and `lam^(j)` as an `n_l x m` row-major array (sized on the first
+    /// factorisation with m rows; see [`Riccati::factor_schur`]).
+    resp_dz: Vec<f64>,
+    resp_lam: Vec<f64>,
+    /// Gradient with the equality rows' contributions (n_z).
     gw: Vec<f64>,
-    zero_b: Vec<f64>,
-    dz_tmp: Vec<f64>,
-    lam_tmp: Vec<f64>,
+    /// Multi-right-hand-side value-function gradients (n_z x m), feed-forward terms (n_z x m) and
+    /// soft-dynamics gradients (n_l x m) of the response solve.
+    mpv: Vec<f64>,
+    mkff: Vec<f64>,
+    mpvt: Vec<f64>,
+    /// Scratch of the response solve (nx_max x m each, nu_max x m).
+    mt: Vec<f64>,
+    mw: Vec<f64>,
+    mrh: Vec<f64>,
+    p0_col: Vec<f64>,
 }
 
 impl Riccati {
@@ -205,10 +219,16 @@ impl Riccati {
             schur_v: vec![0.0; me * me],
             schur_d: vec![0.0; me],
             schur_tmp: vec![0.0; me],
+            resp_dz: Vec::new(),
             gw: vec![0.0; lay.n_z()],
-            zero_b: vec![0.0; lay.n_l()],
-            dz_tmp: vec![0.0; lay.n_z()],
-            lam_tmp: vec![0.0; lay.n_l()],
+            resp_lam: Vec::new(),
+            mpv: Vec::new(),
+            mkff: Vec::new(),
+            mpvt: Vec::new(),
+            mt: Vec::new(),
+            mw: Vec::new(),
+            mrh: Vec::new(),
+            p0_col: vec![0.0; lay.nx[0]],
         }
     }
 
@@ -468,27 +488,21 @@ impl Riccati {
         if m == 0 {
             return Ok(0);
         }
-        let mut gw = std::mem::take(&mut self.gw);
-        let mut zero_b = std::mem::take(&mut self.zero_b);
-        let mut dz_tmp = std::mem::take(&mut self.dz_tmp);
-        let mut lam_tmp = std::mem::take(&mut self.lam_tmp);
-        zero_b.fill(0.0);
+        self.solve_responses(lay);
         let nxm = lay.nx_max;
-        for j in 0..m {
-            gw.fill(0.0);
-            let k = self.eq_stage[j];
-            for i in 0..lay.nx[k] {
-                gw[lay.oz[k] + i] = self.eq_a[j * nxm + i];
-            }
-            self.solve_chain(lay, &gw, &zero_b, &mut dz_tmp, &mut lam_tmp);
-            for i in 0..m {
-                self.schur[i * m + j] = self.eq_dot(lay, i, &dz_tmp);
+        for i in 0..m {
+            let k = self.eq_stage[i];
+            let nx = lay.nx[k];
+            let ai = &self.eq_a[i * nxm..i * nxm + nx];
+            let rows = &self.resp_dz[lay.oz[k] * m..(lay.oz[k] + nx) * m];
+            let si = &mut self.schur[i * m..(i + 1) * m];
+            si.fill(0.0);
+            for (a, r) in ai.iter().zip(rows.chunks_exact(m)) {
+                for (x, y) in si.iter_mut().zip(r) {
+                    *x += a * y;
+                }
             }
         }
-        self.gw = gw;
-        self.zero_b = zero_b;
-        self.dz_tmp = dz_tmp;
-        self.lam_tmp = lam_tmp;
         let scale = (0..m)
             .map(|i| self.schur[i * m + i].abs())
             .fold(0.0_f64, f64::max)
@@ -539,14 +553,10 @@ impl Riccati {
             self.solve_chain(lay, g, bdef, dz, lam);
             return;
         }
-        let mut gw = std::mem::take(&mut self.gw);
-        let mut dz_tmp = std::mem::take(&mut self.dz_tmp);
-        let mut lam_tmp = std::mem::take(&mut self.lam_tmp);
-        let nxm = lay.nx_max;
         // base solve, then (delta_c I + D - M) nu = a^T dx^0 + rho
-        self.solve_chain(lay, g, bdef, &mut dz_tmp, &mut lam_tmp);
+        self.solve_chain(lay, g, bdef, dz, lam);
         for i in 0..m {
-            nu[i] = self.eq_dot(lay, i, &dz_tmp) + self.eq_rho[i];
+            nu[i] = self.eq_dot(lay, i, dz) + self.eq_rho[i];
         }
         eigen_solve(
             &self.schur_v[..m * m],
@@ -555,18 +565,148 @@ impl Riccati {
             &mut nu[..m],
             &mut self.schur_tmp[..m],
         );
-        // final solve with the gradient g + sum_j nu_j a_j
-        gw.copy_from_slice(g);
+        // final solve with the gradient g + sum_j nu_j a_j (not the base plus nu times the
+        // responses: near an active bound P_k has entries ~1/mu, and the cancellation in
+        // lam = P dx + p is only consistent within one solve)
+        let nxm = lay.nx_max;
+        self.gw.copy_from_slice(g);
         for j in 0..m {
             let k = self.eq_stage[j];
             for i in 0..lay.nx[k] {
-                gw[lay.oz[k] + i] += nu[j] * self.eq_a[j * nxm + i];
+                self.gw[lay.oz[k] + i] += nu[j] * self.eq_a[j * nxm + i];
             }
         }
+        let gw = std::mem::take(&mut self.gw);
         self.solve_chain(lay, &gw, bdef, dz, lam);
         self.gw = gw;
-        self.dz_tmp = dz_tmp;
-        self.lam_tmp = lam_tmp;
+    }
+
+    /// The responses `dz^(j)`, `lam^(j)` of the chain QP to the unit gradients `a_j` (at the
+    /// state of stage `k_j`) with zero defects, for all m equality rows at once: the backward and
+    /// forward passes of [`Riccati::solve_chain`] with m right-hand sides (matrix products instead
+    /// of m matrix-vector passes). Sizes the response arrays on first use.
+    fn solve_responses(&mut self, lay: &Layout) {
+        let m = self.m;
+        let kk = lay.kk;
+        let (nz, nl) = (lay.n_z(), lay.n_l());
+        let nx1m = lay.nx1.iter().copied().max().unwrap_or(0).max(lay.nx_max);
+        if self.resp_dz.len() < nz * m {
+            for v in [&mut self.resp_dz, &mut self.mpv, &mut self.mkff] {
+                v.resize(nz * m, 0.0);
+            }
+            for v in [&mut self.resp_lam, &mut self.mpvt] {
+                v.resize(nl * m, 0.0);
+            }
+            self.mt.resize(nx1m * m, 0.0);
+            self.mw.resize(nx1m * m, 0.0);
+            self.mrh.resize(lay.nu_max.max(1) * m, 0.0);
+        }
+        let nxm = lay.nx_max;
+        for k in (0..=kk).rev() {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let o = lay.oz[k] * m;
+            let (pv_lo, pv_hi) = self.mpv.split_at_mut(lay.oz[k + 1] * m);
+            let pk = &mut pv_lo[o..o + nx * m];
+            pk.fill(0.0);
+            for j in 0..m {
+                if self.eq_stage[j] == k {
+                    for i in 0..nx {
+                        pk[i * m + j] = self.eq_a[j * nxm + i];
+                    }
+                }
+            }
+            let rh = &mut self.mrh[..nu * m];
+            rh.fill(0.0);
+            if k < kk {
+                let t = &mut self.mt[..nx1 * m];
+                let o1 = lay.op[k + 1];
+                if self.soft {
+                    // p~ = p - P S M^-1 S p
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    let w = &mut self.mw[..nx1 * m];
+                    for ((wi, pi), di) in w.chunks_exact_mut(m).zip(pv_hi.chunks_exact(m)).zip(d) {
+                        let sd = di.sqrt();
+                        for (x, y) in wi.iter_mut().zip(pi) {
+                            *x = sd * y;
+                        }
+                    }
+                    chol_solve(&self.lm[o1..o1 + nx1 * nx1], nx1, w, m);
+                    for (wi, di) in w.chunks_exact_mut(m).zip(d) {
+                        let sd = -di.sqrt();
+                        for x in wi.iter_mut() {
+                            *x *= sd;
+                        }
+                    }
+                    let pt = &mut self.mpvt[lay.ol[k] * m..lay.ol[k + 1] * m];
+                    pt.copy_from_slice(&pv_hi[..nx1 * m]);
+                    gemm_nn_acc(&self.p[o1..o1 + nx1 * nx1], w, pt, nx1, nx1, m);
+                    t.copy_from_slice(pt);
+                } else {
+                    t.copy_from_slice(&pv_hi[..nx1 * m]);
+                }
+                gemm_tn_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], t, pk, nx1, nx, m);
+                if nu > 0 {
+                    gemm_tn_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], t, rh, nx1, nu, m);
+                }
+            }
+            if nu > 0 {
+                let kf = &mut self.mkff[o..o + nu * m];
+                kf.copy_from_slice(rh);
+                chol_solve(&self.lr[lay.or[k]..lay.or[k + 1]], nu, kf, m);
+                for v in kf.iter_mut() {
+                    *v = -*v;
+                }
+                gemm_tn_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], rh, pk, nu, nx, m);
+            }
+        }
+        // forward: dx_0 = -P_0^-1 p_0 column by column
+        let n0 = lay.nx[0];
+        for c in 0..m {
+            for i in 0..n0 {
+                self.p0_col[i] = -self.mpv[i * m + c];
+            }
+            eigen_solve(
+                &self.p0_v,
+                &self.p0_d,
+                n0,
+                &mut self.p0_col,
+                &mut self.p0_tmp,
+            );
+            for i in 0..n0 {
+                self.resp_dz[i * m + c] = self.p0_col[i];
+            }
+        }
+        for k in 0..=kk {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let (dz_lo, dz_hi) = self.resp_dz.split_at_mut(lay.oz[k + 1] * m);
+            let dzk = &mut dz_lo[lay.oz[k] * m..];
+            let (dx, du) = dzk.split_at_mut(nx * m);
+            if nu > 0 {
+                du.copy_from_slice(&self.mkff[lay.oz[k] * m..lay.oz[k] * m + nu * m]);
+                gemm_nn_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], dx, du, nu, nx, m);
+            }
+            if k < kk {
+                let dx1 = &mut dz_hi[..nx1 * m];
+                dx1.fill(0.0);
+                gemm_nn_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], dx, dx1, nx1, nx, m);
+                if nu > 0 {
+                    gemm_nn_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], du, dx1, nx1, nu, m);
+                }
+                // the multipliers lam^(j) are only needed for the soft dynamics' x_{k+1}
+                if self.soft {
+                    let lk = &mut self.resp_lam[lay.ol[k] * m..lay.ol[k + 1] * m];
+                    lk.copy_from_slice(&self.mpvt[lay.ol[k] * m..lay.ol[k + 1] * m]);
+                    let o1 = lay.op[k + 1];
+                    gemm_nn_acc(&self.ptil[o1..o1 + nx1 * nx1], dx1, lk, nx1, nx1, m);
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    for ((xi, li), di) in dx1.chunks_exact_mut(m).zip(lk.chunks_exact(m)).zip(d) {
+                        for (x, l) in xi.iter_mut().zip(li) {
+                            *x -= di * l;
+                        }
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -7,7 +7,8 @@ use crate::problem::{
 };
 use crate::riccati::{Layout, Riccati};
 use crate::settings::{
-    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
+    MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
+    MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
@@ -34,6 +35,12 @@ const KW_PLUS: f64 = 8.0;
 const KW_PLUS_BAR: f64 = 100.0;
 const BOUND_MULT_RESET: f64 = 1e3;
 const KAPPA_SOC: f64 = 0.99;
+// Adaptive mu (IPOPT's defaults for its free mode)
+const KKT_REF_ITERS: usize = 4;
+const KKT_REF_FACTOR: f64 = 0.9999;
+const MONOTONE_INIT_FACTOR: f64 = 0.8;
+const MU_MAX_FACTOR: f64 = 1e3;
+const SIGMA_MAX: f64 = 100.0;
 /// Penalty on the l1 relaxation slacks p, n in the restoration phase (IPOPT's `resto_penalty_parameter`).
 const RHO_RESTO: f64 = 1e3;
 
@@ -55,8 +62,8 @@ enum EvalFail {
 
 /// A stage-structured primal-dual interior-point solver (see the crate docs).
 ///
-/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries on
-/// the first solve); later solves of a problem with the same dimensions do not allocate unless they
+/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries,
+/// and the Schur responses to the number of equality rows, on the first solve); later solves of a problem with the same dimensions do not allocate unless they
 /// fail (status strings).
 pub struct OcpSolver {
     dims: OcpDims,
@@ -103,8 +110,11 @@ pub struct OcpSolver {
     dvu: Vec<f64>,
     // KKT data
     g: Vec<f64>,
-    /// The part of the condensed gradient that does not depend on the row residuals.
+    /// The part of the condensed gradient that depends neither on the row residuals nor on mu.
     g_base: Vec<f64>,
+    /// The barrier part of the condensed gradient per unit of mu (`-1/(z - lo) + 1/(hi - z)`), so
+    /// that one factorisation serves right-hand sides for several mu (adaptive mu).
+    g_bar: Vec<f64>,
     bdef: Vec<f64>,
     /// Fixed-state rows (k >= 1): (stage, component).
     fixed_rows: Vec<(usize, usize)>,
@@ -339,6 +349,7 @@ impl OcpSolver {
             dvu: vec![0.0; nc],
             g: vec![0.0; nz],
             g_base: vec![0.0; nz],
+            g_bar: vec![0.0; nz],
             bdef: vec![0.0; nl],
             fixed_rows: Vec::with_capacity(MAX_EQUALITY_ROWS),
             rz: vec![0.0; nz],
@@ -891,8 +902,70 @@ impl OcpSolver {
         stats: &mut OcpStats,
     ) -> Result<(), String> {
         self.prepare_rows(mu, resto);
-        self.build_and_factor(mu, resto, stats)?;
+        self.build_and_factor(resto, stats)?;
         self.solve_rhs(mu, resto, stats)
+    }
+
+    /// The Newton step of the adaptive strategy's free mode: factorise once, take the affine
+    /// step (mu = 0), set `mu = sigma mu_avg` with `sigma = (mu_aff / mu_avg)^3` from the
+    /// complementarity the affine step reaches (Mehrotra's probing), then the step for that mu.
+    fn probing_direction(
+        &mut self,
+        mu: &mut f64,
+        mu_min: f64,
+        mu_max: &mut f64,
+        stats: &mut OcpStats,
+    ) -> Result<(), String> {
+        self.prepare_rows(0.0, None);
+        self.build_and_factor(None, stats)?;
+        let (sum, nb) = self.complementarity(0.0, 0.0);
+        if nb > 0 {
+            let avg = sum / nb as f64;
+            if mu_max.is_nan() {
+                *mu_max = MU_MAX_FACTOR * avg.max(*mu);
+            }
+            self.solve_rhs(0.0, None, stats)?;
+            let (ap, ad) = self.max_step(1.0, false);
+            let (sum_aff, _) = self.complementarity(ap, ad);
+            let sigma = (sum_aff / sum).max(0.0).powi(3).min(SIGMA_MAX);
+            *mu = (sigma * avg).min(*mu_max).max(mu_min);
+        } else {
+            *mu = mu_min;
+        }
+        self.filter.clear();
+        self.solve_rhs(*mu, None, stats)
+    }
+
+    /// Sum of the complementarity products (slack times bound dual) over all bounds of z and s
+    /// at the iterate moved by `ap` times the primal and `ad` times the dual step, and their number.
+    fn complementarity(&self, ap: f64, ad: f64) -> (f64, usize) {
+        let (mut sum, mut nb) = (0.0, 0usize);
+        for i in 0..self.z.len() {
+            if self.kind[i] != Kind::Free {
+                continue;
+            }
+            let z = self.z[i] + ap * self.dz[i];
+            if self.zlo[i].is_finite() {
+                sum += (z - self.zlo[i]) * (self.zl[i] + ad * self.dzl[i]);
+                nb += 1;
+            }
+            if self.zhi[i].is_finite() {
+                sum += (self.zhi[i] - z) * (self.zu[i] + ad * self.dzu[i]);
+                nb += 1;
+            }
+        }
+        for j in 0..self.s.len() {
+            let v = self.s[j] + ap * self.ds[j];
+            if self.clo[j].is_finite() {
+                sum += (v - self.clo[j]) * (self.vl[j] + ad * self.dvl[j]);
+                nb += 1;
+            }
+            if self.chi[j].is_finite() {
+                sum += (self.chi[j] - v) * (self.vu[j] + ad * self.dvu[j]);
+                nb += 1;
+            }
+        }
+        (sum, nb)
     }
 
     /// Per row: the residual of the Newton system `c^` and its regularisation `D` (restoration: the
@@ -918,7 +991,6 @@ impl OcpSolver {
     /// correction.
     fn build_and_factor(
         &mut self,
-        mu: f64,
         resto: Option<&Resto>,
         stats: &mut OcpStats,
     ) -> Result<(), String> {
@@ -935,24 +1007,25 @@ impl OcpSolver {
             h.copy_from_slice(&e.hess);
             for li in 0..nz {
                 let i = o + li;
-                let mut gi =
-                    phase_grad_of(&self.ev, &self.z, &self.z_ref, &self.dr, i, k, li, resto);
+                let gi = phase_grad_of(&self.ev, &self.z, &self.z_ref, &self.dr, i, k, li, resto);
                 if let Some(r) = resto {
                     h[li * nz + li] += r.zeta * self.dr[i] * self.dr[i];
                 }
+                let mut gb = 0.0;
                 if self.kind[i] == Kind::Free {
                     if self.zlo[i].is_finite() {
                         let sl = self.z[i] - self.zlo[i];
                         h[li * nz + li] += self.zl[i] / sl;
-                        gi -= mu / sl;
+                        gb -= 1.0 / sl;
                     }
                     if self.zhi[i].is_finite() {
                         let su = self.zhi[i] - self.z[i];
                         h[li * nz + li] += self.zu[i] / su;
-                        gi += mu / su;
+                        gb += 1.0 / su;
                     }
                 }
                 self.g_base[i] = gi;
+                self.g_bar[i] = gb;
             }
             let oc = lay.oc[k];
             for j in 0..nc {
@@ -984,6 +1057,7 @@ impl OcpSolver {
                     }
                     h[li * nz + li] = 1.0;
                     self.g_base[o + li] = 0.0;
+                    self.g_bar[o + li] = 0.0;
                 }
             }
             if k < kk {
@@ -1075,7 +1149,9 @@ impl OcpSolver {
         let kk = lay.kk;
         let (nl, ncall) = (lay.n_l(), lay.n_c());
         let nrows = self.nrows();
-        self.g.copy_from_slice(&self.g_base);
+        for ((g, gb), gm) in self.g.iter_mut().zip(&self.g_base).zip(&self.g_bar) {
+            *g = gb + mu * gm;
+        }
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
             let e = &self.ev[k];
@@ -1477,7 +1553,18 @@ impl OcpSolver {
             match self.kind[i] {
                 Kind::Free => {
                     self.z[i] = Self::push_inside(self.zlo[i], self.zhi[i], self.z[i], push);
-                    if warm {
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        self.zl[i] = if self.zlo[i].is_finite() {
+                            st.mu_init / (self.z[i] - self.zlo[i])
+                        } else {
+                            0.0
+                        };
+                        self.zu[i] = if self.zhi[i].is_finite() {
+                            st.mu_init / (self.zhi[i] - self.z[i])
+                        } else {
+                            0.0
+                        };
+                    } else if warm && st.warm_duals == WarmDuals::Stored {
                         self.zl[i] = if self.zlo[i].is_finite() {
                             self.zl[i].max(1e-20)
                         } else {
@@ -1507,12 +1594,12 @@ impl OcpSolver {
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals == WarmDuals::Reset {
             self.vl.fill(1.0);
             self.vu.fill(1.0);
         }
         for j in 0..self.s.len() {
-            if warm {
+            if warm && st.warm_duals == WarmDuals::Stored {
                 self.vl[j] = self.vl[j].max(1e-20);
                 self.vu[j] = self.vu[j].max(1e-20);
             }
@@ -1584,10 +1671,23 @@ impl OcpSolver {
                     };
                     let c = if warm { self.s[jj] } else { self.ev[k].c[j] };
                     self.s[jj] = Self::push_inside(self.clo[jj], self.chi[jj], c, push);
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        let (lo, hi) = (self.clo[jj], self.chi[jj]);
+                        self.vl[jj] = if lo.is_finite() {
+                            st.mu_init / (self.s[jj] - lo)
+                        } else {
+                            0.0
+                        };
+                        self.vu[jj] = if hi.is_finite() {
+                            st.mu_init / (hi - self.s[jj])
+                        } else {
+                            0.0
+                        };
+                    }
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals != WarmDuals::Stored {
             self.least_squares_multipliers();
         }
         let mut mu = st.mu_init;
@@ -1597,6 +1697,11 @@ impl OcpSolver {
         let mut resto: Option<Resto> = None;
         let mut acceptable_count = 0usize;
         let mut iter = 0usize;
+        let adaptive = st.mu_strategy == MuStrategy::Adaptive;
+        let mut free_mode = adaptive;
+        let mut kkt_ref = [0.0_f64; KKT_REF_ITERS];
+        let mut kkt_count = 0usize;
+        let mut mu_max = f64::NAN;
         let status = 'iterations: loop {
             let res = self.residuals(resto.as_ref());
             stats.iterations = iter;
@@ -1635,14 +1740,37 @@ impl OcpSolver {
                     break self.resto_failure(r);
                 }
             }
-            // monotone barrier update
             let mu_min = st.tol / 10.0;
-            loop {
-                if mu <= mu_min || self.e_mu(&res, mu, resto.is_some()) > KAPPA_EPS * mu {
-                    break;
+            // adaptive mu: free mode while the optimality error keeps falling
+            if adaptive && resto.is_none() {
+                if free_mode {
+                    let e = res.e0();
+                    let n = kkt_count.min(KKT_REF_ITERS);
+                    let e_ref = kkt_ref[..n].iter().fold(0.0_f64, |a, b| a.max(*b));
+                    if n == 0 || e <= KKT_REF_FACTOR * e_ref {
+                        kkt_ref[kkt_count % KKT_REF_ITERS] = e;
+                        kkt_count += 1;
+                    } else {
+                        free_mode = false;
+                        let (sum, nb) = self.complementarity(0.0, 0.0);
+                        if nb > 0 {
+                            mu = mu_min.max(MONOTONE_INIT_FACTOR * sum / nb as f64);
+                        }
+                        self.filter.clear();
+                    }
+                } else if self.e_mu(&res, mu, false) <= KAPPA_EPS * mu {
+                    free_mode = true;
+                    kkt_ref[0] = res.e0();
+                    kkt_count = 1;
                 }
-                mu = mu_min.max((KAPPA_MU * mu).min(mu.powf(THETA_MU)));
-                self.filter.clear();
+            }
+            let probing = adaptive && free_mode && resto.is_none();
+            // monotone barrier update
+            if !probing {
+                while mu > mu_min && self.e_mu(&res, mu, resto.is_some()) <= KAPPA_EPS * mu {
+                    mu = mu_min.max((KAPPA_MU * mu).min(mu.powf(THETA_MU)));
+                    self.filter.clear();
+                }
             }
             // Hessian of the Lagrangian (sigma = 0 in restoration)
             {
@@ -1666,7 +1794,12 @@ impl OcpSolver {
                     break OcpStatus::EvaluationError(e);
                 }
             }
-            if let Err(e) = self.direction(mu, resto.as_ref(), stats) {
+            let step = if probing {
+                self.probing_direction(&mut mu, mu_min, &mut mu_max, stats)
+            } else {
+                self.direction(mu, resto.as_ref(), stats)
+            };
+            if let Err(e) = step {
                 break OcpStatus::NumericalError(e);
             }
             // filter line search

@@ -111,12 +111,17 @@ fn warm_start_from_a_solution_takes_few_iterations() {
     let mut solver = OcpSolver::new(&p.dims).unwrap();
     let cold = solver.solve(&mut p, &OcpSettings::default());
     assert_eq!(cold.status, OcpStatus::Solved);
-    let warm_settings = OcpSettings {
-        warm_start: true,
-        mu_init: 1e-6,
-        ..OcpSettings::default()
-    };
-    let again = solver.solve(&mut p, &warm_settings);
+    // the same problem with the stored multipliers: the stored point passes at once
+    let again = solver.solve(
+        &mut p,
+        &OcpSettings {
+            warm_start: true,
+            warm_duals: WarmDuals::Stored,
+            mu_init: 1e-6,
+            warm_bound_push: 1e-9,
+            ..OcpSettings::default()
+        },
+    );
     assert_eq!(again.status, OcpStatus::Solved, "{again:?}");
     assert!(
         again.iterations <= 3,
@@ -124,21 +129,39 @@ fn warm_start_from_a_solution_takes_few_iterations() {
         again.iterations
     );
     assert!((again.objective - cold.objective).abs() < 1e-7 * cold.objective);
+}
 
-    // a perturbed start state: warm from the old solution beats cold
-    p.x0 = [0.01, 0.0];
-    let warm = solver.solve(&mut p, &warm_settings);
-    let mut fresh = OcpSolver::new(&p.dims).unwrap();
-    let cold2 = fresh.solve(&mut p, &OcpSettings::default());
-    assert_eq!(warm.status, OcpStatus::Solved, "{warm:?}");
-    assert_eq!(cold2.status, OcpStatus::Solved, "{cold2:?}");
-    assert!(
-        warm.iterations < cold2.iterations,
-        "warm {} vs cold {}",
-        warm.iterations,
-        cold2.iterations
-    );
-    assert!((warm.objective - cold2.objective).abs() < 1e-6 * cold2.objective);
+#[test]
+fn warm_starts_after_a_shifted_initial_state_beat_cold_starts() {
+    // the default warm start (stored primal, duals reset) from the unshifted solution
+    let warm_settings = OcpSettings {
+        warm_start: true,
+        ..OcpSettings::default()
+    };
+    for shift in [0.01, 0.05, 0.1] {
+        let mut p = pendulum();
+        let mut solver = OcpSolver::new(&p.dims).unwrap();
+        assert_eq!(
+            solver.solve(&mut p, &OcpSettings::default()).status,
+            OcpStatus::Solved
+        );
+        p.x0 = [shift, 0.0];
+        let warm = solver.solve(&mut p, &warm_settings);
+        let mut fresh = OcpSolver::new(&p.dims).unwrap();
+        let cold = fresh.solve(&mut p, &OcpSettings::default());
+        assert_eq!(warm.status, OcpStatus::Solved, "{shift}: {warm:?}");
+        assert_eq!(cold.status, OcpStatus::Solved, "{shift}: {cold:?}");
+        assert!(
+            warm.iterations < cold.iterations,
+            "{shift}: warm {} vs cold {}",
+            warm.iterations,
+            cold.iterations
+        );
+        assert!(
+            (warm.objective - cold.objective).abs() < 1e-6 * cold.objective,
+            "{shift}: another local optimum"
+        );
+    }
 }
 
 /// Wraps a problem and injects failures.
@@ -510,4 +533,30 @@ fn solver_settings_and_stats_can_cross_threads() {
     send_sync::<OcpSettings>();
     send_sync::<OcpStats>();
     send_sync::<OcpError>();
+}
+
+#[test]
+fn adaptive_mu_solves_the_swing_up_in_fewer_iterations() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let mono = solver.solve(&mut p, &OcpSettings::default());
+    let adaptive = solver.solve(
+        &mut p,
+        &OcpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(mono.status, OcpStatus::Solved, "{mono:?}");
+    assert_eq!(adaptive.status, OcpStatus::Solved, "{adaptive:?}");
+    assert!(
+        adaptive.iterations < mono.iterations,
+        "adaptive {} vs monotone {}",
+        adaptive.iterations,
+        mono.iterations
+    );
+    assert!((adaptive.objective - mono.objective).abs() < 1e-6 * mono.objective);
+    let z = solver.primal().clone();
+    let m = solver.multipliers().clone();
+    assert!(pendulum_kkt_residual(&mut p, &z, &m) < 1e-6);
 }
