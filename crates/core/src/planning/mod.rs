@@ -14,6 +14,7 @@ pub mod settings;
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use planner::{
-    freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
+    freefall_time, plan, plan_with_guess, validate_task, Plan, SwingTask, Violations,
+    WARM_START_MU_INIT,
 };
 pub use settings::{Bounds, PlannerSettings, SwingTime, Transcription};
