@@ -4,6 +4,10 @@ use crate::CliError;
 use brachia_experiments::{check_out_dir, run_plan, Scenario, Uses};
 use std::path::PathBuf;
 
+/// Largest open-loop replay error (EE distance to the bar, m) of a plan reported as a success; a larger
+/// one means the discrete problem does not describe the swing (exit 1, the report is still written).
+pub const REPLAY_TRUST_M: f64 = 0.05;
+
 /// Arguments of `brachia plan`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -34,7 +38,15 @@ pub fn run(a: Args) -> Result<(), CliError> {
         p.violations.ee_position,
         p.replay_ee_error_m
     );
-    if p.converged() {
+    if p.converged() && p.replay_ee_error_m > REPLAY_TRUST_M {
+        Err(CliError::Failed(format!(
+            "the planner converged, but replaying its torques open loop misses the bar by {:.3} m \
+             (more than {REPLAY_TRUST_M} m): the collocation grid is too coarse to trust (use a smaller \
+             planner.knot_dt or hermite-simpson); the report is in {}",
+            p.replay_ee_error_m,
+            a.out.display()
+        )))
+    } else if p.converged() {
         Ok(())
     } else {
         Err(CliError::Failed(format!(

@@ -777,6 +777,7 @@ pub(crate) fn publish(
     };
     std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
     // the previous publication's figures go first (only those it listed)
+    let mut previous = std::collections::BTreeSet::new();
     if let Ok(text) = std::fs::read_to_string(dir.join(PAGE_MANIFEST)) {
         for name in text
             .lines()
@@ -787,8 +788,11 @@ pub(crate) fn publish(
             if plain && p.is_file() {
                 std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
             }
+            previous.insert(name.to_string());
         }
     }
+    // only the figures this reproduction wrote (its manifest), never the user's files in figures/
+    let ours = crate::run_folder::read_manifest(out).unwrap_or_default();
     let mut folder = crate::RunFolder::default();
     let figs = out.join("figures");
     if let Ok(entries) = std::fs::read_dir(&figs) {
@@ -799,9 +803,17 @@ pub(crate) fn publish(
                 || PAGE_ANIMATIONS
                     .iter()
                     .any(|g| p.ends_with(format!("{g}.gif")));
-            if keep {
+            let name = e.file_name().to_string_lossy().to_string();
+            let written = ours.contains(&Path::new("figures").join(&name));
+            if keep && written {
                 let data = std::fs::read(&p).map_err(|e| werr(&p, e))?;
-                folder.add(&e.file_name().to_string_lossy(), data);
+                // a user's file of the same name beside the page is kept as NAME.user
+                let target = dir.join(&name);
+                if target.exists() && !previous.contains(&name) {
+                    let aside = dir.join(format!("{name}.user"));
+                    std::fs::rename(&target, &aside).map_err(|e| werr(&aside, e))?;
+                }
+                folder.add(&name, data);
             }
         }
     }
