@@ -1,7 +1,8 @@
 //! `brachia`: the command-line interface, a thin layer over the library.
 //!
-//! Exit codes: 0 success; 1 a solver did not converge (its report is still written); 2 bad input
-//! (nothing is written).
+//! Exit codes (docs/limits.md): 0 success, results to be trusted; 1 a solver or run failure (a plan that
+//! did not converge: its report is still written); 2 bad input, refused before any work (nothing is
+//! written); 3 an I/O failure after the inputs were accepted (a file could not be written).
 
 mod io;
 mod plan;
@@ -32,18 +33,31 @@ enum Command {
     Reproduce(reproduce::Args),
 }
 
-/// An error of a command: bad input (exit 2) or a failure after the inputs were accepted (exit 1).
+/// An error of a command: bad input (exit 2), a failure after the inputs were accepted (exit 1) or an
+/// I/O failure (exit 3).
 #[derive(Debug)]
 pub enum CliError {
     /// Invalid or missing input: exit code 2, nothing written.
     Input(String),
     /// A computation did not succeed: exit code 1.
     Failed(String),
+    /// A file could not be written after the work was done: exit code 3.
+    Io(String),
 }
 
 impl From<brachia::Error> for CliError {
     fn from(e: brachia::Error) -> Self {
         CliError::Input(e.to_string())
+    }
+}
+
+impl From<brachia_experiments::ExpError> for CliError {
+    fn from(e: brachia_experiments::ExpError) -> Self {
+        use brachia_experiments::ExpError;
+        match e {
+            ExpError::Write { .. } => CliError::Io(format!("could not write the results: {e}")),
+            other => CliError::Input(other.to_string()),
+        }
     }
 }
 
@@ -64,6 +78,10 @@ fn main() -> ExitCode {
         Err(CliError::Failed(msg)) => {
             eprintln!("error: {msg}");
             ExitCode::from(1)
+        }
+        Err(CliError::Io(msg)) => {
+            eprintln!("error: {msg}");
+            ExitCode::from(3)
         }
     }
 }

@@ -1,8 +1,12 @@
 //! `brachia plan`: plan the scenario's swing and write its run folder.
 
 use crate::CliError;
-use brachia_experiments::{run_plan, Scenario};
+use brachia_experiments::{check_out_dir, run_plan, Scenario, Uses};
 use std::path::PathBuf;
+
+/// Largest open-loop replay error (EE distance to the bar, m) of a plan reported as a success; a larger
+/// one means the discrete problem does not describe the swing (exit 1, the report is still written).
+pub const REPLAY_TRUST_M: f64 = 0.05;
 
 /// Arguments of `brachia plan`.
 #[derive(clap::Args)]
@@ -13,15 +17,17 @@ pub struct Args {
     /// Output folder: knots.csv, trajectory.csv, scenario.toml, report.json.
     #[arg(long)]
     out: PathBuf,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run the command.
 pub fn run(a: Args) -> Result<(), CliError> {
-    let ls = Scenario::load(&a.scenario)?;
+    let ls = Scenario::load_for(&a.scenario, Uses::Plan)?;
+    check_out_dir(&a.out, a.force)?;
     let run = run_plan(&ls)?;
-    run.folder
-        .write(&a.out)
-        .map_err(|e| CliError::Input(e.to_string()))?;
+    run.folder.write(&a.out)?;
     let p = &run.plan;
     eprintln!(
         "plan: {:?}; {}; energy {:.3} J; EE final error {:.2e} m; replay error {:.2e} m",
@@ -31,7 +37,15 @@ pub fn run(a: Args) -> Result<(), CliError> {
         p.violations.ee_position,
         p.replay_ee_error_m
     );
-    if p.converged() {
+    if p.converged() && p.replay_ee_error_m > REPLAY_TRUST_M {
+        Err(CliError::Failed(format!(
+            "the planner converged, but replaying its torques open loop misses the bar by {:.3} m \
+             (more than {REPLAY_TRUST_M} m): the collocation grid is too coarse to trust (use a smaller \
+             planner.knot_dt or hermite-simpson); the report is in {}",
+            p.replay_ee_error_m,
+            a.out.display()
+        )))
+    } else if p.converged() {
         Ok(())
     } else {
         Err(CliError::Failed(format!(

@@ -23,6 +23,9 @@ pub struct Args {
     /// No progress bar.
     #[arg(long)]
     no_progress: bool,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run the command.
@@ -32,11 +35,9 @@ pub fn run(a: Args) -> Result<(), CliError> {
         quick: a.quick,
         progress: !a.no_progress,
         results_page: a.results_page,
+        force: a.force,
     };
-    let rep = reproduce(&opts, &a.out).map_err(|e| match e {
-        brachia_experiments::ExpError::Input(e) => CliError::Input(e.to_string()),
-        other => CliError::Failed(other.to_string()),
-    })?;
+    let rep = reproduce(&opts, &a.out)?;
     eprintln!(
         "reproduce: {} files in {} after {:.0} s; report {}",
         rep.files.len(),

@@ -2,10 +2,11 @@
 
 use crate::io::parse_list;
 use crate::CliError;
+use brachia::limits;
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
-use brachia_experiments::RunFolder;
+use brachia_experiments::{check_out_dir, RunFolder};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -33,6 +34,9 @@ pub struct Args {
     /// Output folder: trajectory.csv and report.json.
     #[arg(long)]
     out: PathBuf,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run the command.
@@ -44,33 +48,72 @@ pub fn run(a: Args) -> Result<(), CliError> {
         Some(s) => parse_list("--qd0", s, n)?,
         None => vec![0.0; n],
     };
-    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= 3600.0) {
+    for (flag, v, max, unit) in [
+        ("--q0", &q0, limits::MAX_ANGLE_RAD, "rad"),
+        ("--qd0", &qd0, limits::MAX_RATE_RAD_S, "rad/s"),
+    ] {
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| x.abs() > max) {
+            return Err(CliError::Input(format!(
+                "{flag}: value {} = {x:e}: must be at most {max:.4} {unit} in magnitude (brachia::limits)",
+                i + 1
+            )));
+        }
+    }
+    let dmax = limits::MAX_RUN_DURATION_S;
+    if !(a.duration.is_finite() && a.duration > 0.0 && a.duration <= dmax) {
         return Err(CliError::Input(format!(
-            "--duration = {}: must be in (0, 3600] s",
+            "--duration = {}: must be in (0, {dmax}] s (brachia::limits::MAX_RUN_DURATION_S)",
             a.duration
         )));
     }
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= a.duration) {
         return Err(CliError::Input(format!(
-            "--dt = {}: must be in (0, duration] s",
-            a.dt
+            "--dt = {}: must be in (0, duration = {}] s",
+            a.dt, a.duration
         )));
     }
-    if a.substeps == 0 || a.substeps > 1000 {
+    let rmax = limits::MAX_SIM_ROWS - 1;
+    let Some(steps) = limits::count(a.duration, a.dt, rmax) else {
         return Err(CliError::Input(format!(
-            "--substeps = {}: must be 1..=1000",
+            "--dt = {}: {} s at this period would write more than {rmax} rows \
+             (brachia::limits::MAX_SIM_ROWS); --dt must be >= {:.3e} s",
+            a.dt,
+            a.duration,
+            a.duration / rmax as f64
+        )));
+    };
+    let kmax = limits::MAX_SUBSTEPS;
+    if a.substeps == 0 || a.substeps > kmax {
+        return Err(CliError::Input(format!(
+            "--substeps = {}: must be 1..={kmax}",
             a.substeps
         )));
     }
+    let total = steps as u64 * a.substeps as u64;
+    if total > limits::MAX_SIM_STEPS {
+        return Err(CliError::Input(format!(
+            "--substeps = {}: {steps} periods x {} substeps = {total} RK4 steps; at most {} \
+             (brachia::limits::MAX_SIM_STEPS): shorten --duration or raise --dt",
+            a.substeps,
+            a.substeps,
+            limits::MAX_SIM_STEPS
+        )));
+    }
+    check_out_dir(&a.out, a.force)?;
     let mut plant = ModelPlant::new(robot.clone(), &[q0.clone(), qd0.clone()].concat());
     plant.substeps = a.substeps;
-    let steps = (a.duration / a.dt).round() as usize;
     let mut traj = Trajectory::new(n);
     let mut energy = Vec::with_capacity(steps + 1);
     let mut x = vec![0.0; 2 * n];
     let tau = vec![0.0; n - 1];
     for k in 0..=steps {
         plant.state(&mut x);
+        if let Some(v) = x.iter().find(|v| !v.is_finite()) {
+            return Err(CliError::Failed(format!(
+                "the simulation diverged at t = {:.4} s (state value {v}); nothing was written",
+                k as f64 * a.dt
+            )));
+        }
         traj.push(k as f64 * a.dt, &x[..n], &x[n..], &tau);
         energy.push(plant.energy());
         if k < steps {
@@ -99,6 +142,6 @@ pub fn run(a: Args) -> Result<(), CliError> {
             "energy_drift_max_rel": if e0 != 0.0 { drift / e0.abs() } else { drift },
         }),
     );
-    out.write(&a.out)
-        .map_err(|e| CliError::Input(e.to_string()))
+    out.write(&a.out)?;
+    Ok(())
 }

@@ -1,7 +1,9 @@
 //! `brachia track`: plan (or read a plan) and track it in closed loop at 1 kHz.
 
 use crate::CliError;
-use brachia_experiments::{read_plan_folder, run_track, ControllerKind, PlantKind, Scenario};
+use brachia_experiments::{
+    check_out_dir, read_plan_folder, run_track, ControllerKind, PlantKind, RunFolder, Scenario,
+};
 use std::path::PathBuf;
 
 /// Arguments of `brachia track`.
@@ -23,6 +25,9 @@ pub struct Args {
     /// Track the plan in this folder (written by `brachia plan`) instead of planning.
     #[arg(long)]
     plan: Option<PathBuf>,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -53,14 +58,13 @@ pub fn run(a: Args) -> Result<(), CliError> {
         None => ls.scenario.plant.kind,
     };
     let reference = match &a.plan {
-        Some(dir) => Some(read_plan_folder(dir, ls.robot.n)?),
+        Some(dir) => Some(read_plan_folder(dir, &ls)?),
         None => None,
     };
+    check_out_dir(&a.out, a.force)?;
     match run_track(&ls, controller, plant, reference)? {
         Ok(run) => {
-            run.folder
-                .write(&a.out)
-                .map_err(|e| CliError::Input(e.to_string()))?;
+            run.folder.write(&a.out)?;
             let s = &run.summary;
             eprintln!(
                 "track: EE final error {:.2e} m (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
@@ -78,10 +82,13 @@ pub fn run(a: Args) -> Result<(), CliError> {
             Ok(())
         }
         Err(plan_run) => {
-            plan_run
-                .folder
-                .write(&a.out.join("plan"))
-                .map_err(|e| CliError::Input(e.to_string()))?;
+            let mut folder = RunFolder::default();
+            for name in plan_run.folder.names() {
+                if let Some(data) = plan_run.folder.get(name) {
+                    folder.add(&format!("plan/{name}"), data.to_vec());
+                }
+            }
+            folder.write(&a.out)?;
             Err(CliError::Failed(format!(
                 "the planner did not converge (status {:?}); nothing was tracked; the plan's report is in {}",
                 plan_run.plan.status,

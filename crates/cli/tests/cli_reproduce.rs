@@ -9,12 +9,42 @@ use common::brachia;
 fn quick_reproduction_writes_report_figures_and_run_folders() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rep");
+    // issue 11: the user's own files in --out (with --force) and beside the results page survive
+    let mine = [
+        (out.join("figures/mine.png"), "my figure"),
+        (out.join("tracking/notes.txt"), "my notes"),
+        (dir.path().join("pub/results/mine.png"), "my page figure"),
+    ];
+    for (p, text) in &mine {
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, text).unwrap();
+    }
+    let page = dir.path().join("pub/results.md");
     let o = brachia()
-        .args(["reproduce", "--quick", "--no-progress", "--out"])
+        .args(["reproduce", "--quick", "--no-progress", "--force", "--out"])
         .arg(&out)
+        .arg("--results-page")
+        .arg(&page)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (p, text) in &mine {
+        assert_eq!(
+            std::fs::read_to_string(p).unwrap(),
+            *text,
+            "{}",
+            p.display()
+        );
+    }
+    assert!(page.is_file() && dir.path().join("pub/results/.brachia-page").is_file());
+    assert!(out.join(brachia_experiments::MANIFEST).is_file());
+    // nothing but the two folders (no staging folder) beside them
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert!(names.iter().all(|n| !n.starts_with('.')), "{names:?}");
     for f in [
         "REPORT.md",
         "summary.json",

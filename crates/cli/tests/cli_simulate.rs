@@ -109,3 +109,43 @@ fn bad_input_exits_2_names_the_problem_and_writes_nothing() {
         "links[1].mass",
     );
 }
+
+/// Issue 11: any link count from 2 to 12 works end to end; the 3- and 6-link robots of params/ simulate
+/// with energy conserved.
+#[test]
+fn three_and_six_link_robots_simulate() {
+    let dir = tempfile::tempdir().unwrap();
+    for (params, q0, n) in [
+        ("params/three-link.toml", "--q0=-2.2,0,-1.0", 3),
+        ("params/six-link.toml", "--q0=-2.35,0,-0.5,0,-0.5,0", 6),
+    ] {
+        let out = dir.path().join(format!("run{n}"));
+        let o = brachia()
+            .args([
+                "simulate",
+                "--params",
+                params,
+                q0,
+                "--duration",
+                "0.5",
+                "--out",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        let header = csv.lines().next().unwrap();
+        assert!(
+            header.contains(&format!(",q{n},")) && header.contains(&format!(",tau{n},")),
+            "{header}"
+        );
+        let rep: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+                .unwrap();
+        assert!(
+            rep["energy_drift_max_rel"].as_f64().unwrap() < 1e-5,
+            "{rep}"
+        );
+    }
+}

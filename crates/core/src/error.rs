@@ -50,6 +50,14 @@ pub enum Error {
     },
 }
 
+/// A value written as a long plain number (`1e300` prints as 301 digits) in scientific notation.
+fn readable_number(v: String) -> String {
+    match v.parse::<f64>() {
+        Ok(x) if v.len() > 12 && x.is_finite() && x != 0.0 => format!("{x:e}"),
+        _ => v,
+    }
+}
+
 /// Shorthand for results of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
 
@@ -64,7 +72,7 @@ impl Error {
         Error::InvalidValue {
             source_name: source_name.into(),
             field: field.into(),
-            value: value.to_string(),
+            value: readable_number(value.to_string()),
             reason: reason.into(),
         }
     }

@@ -26,9 +26,11 @@ pub mod error;
 pub mod fdcheck;
 pub mod geometry;
 pub mod integrate;
+pub mod limits;
 pub mod math;
 pub mod model;
 pub mod planning;
+pub mod serde_exact;
 
 pub use error::{Error, Result};
 pub use model::Robot;

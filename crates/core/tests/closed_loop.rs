@@ -123,6 +123,7 @@ fn window(robot: &Robot, tr: &Trajectory, t: f64, s: &MpcSettings, zero_ref: boo
 }
 
 fn weights(s: &MpcSettings) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let s = &s.resolved(4);
     (
         DMatrix::from_diagonal(&DVector::from_column_slice(&s.q_diag)),
         DMatrix::from_diagonal(&DVector::from_column_slice(&s.w_diag)),

@@ -230,7 +230,8 @@ fn impossible_tasks_are_refused_before_solving() {
     )
     .unwrap_err();
     assert!(
-        matches!(e, Error::InfeasibleTask(_)) && e.to_string().contains("reaches at most"),
+        matches!(e, Error::InvalidValue { ref field, .. } if field == "target")
+            && e.to_string().contains("reaches at most"),
         "{e}"
     );
     let blocked = SwingTask {

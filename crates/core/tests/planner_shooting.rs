@@ -69,8 +69,11 @@ fn ocp_backend_plans_the_tracking_swing_and_its_torques_reach_the_bar() {
     for i in 0..4 {
         assert!((tr.q(last)[i] - p.points.q(k_last)[i]).abs() < 1e-7);
     }
-    let split = p.time_split.unwrap();
-    assert!(split.linear_algebra_s.is_some() && split.total_s > 0.0);
+    let split = p.time_split;
+    assert!(split.linear_algebra_s > 0.0 && split.callbacks_s > 0.0);
+    assert!((split.total_s() - p.solve_time_s).abs() <= 1e-9 * p.solve_time_s.max(1.0));
+    assert_eq!(p.solves.len(), 1);
+    assert_eq!(p.solves[0].passes[0].what, "ocp");
     assert!(p.iterations > 0 && p.energy_j.is_finite());
 }
 
@@ -100,7 +103,8 @@ fn ocp_and_pounce_reach_the_same_optimum() {
         .zip(&b.points.q)
         .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     assert!(dq < 1e-4, "largest knot angle difference {dq}");
-    assert!(b.time_split.unwrap().linear_algebra_s.is_none());
+    assert!(b.solves.iter().any(|a| a.adopted));
+    assert_eq!(b.iterations, b.solves.iter().map(|a| a.iterations).sum::<usize>());
 }
 
 #[test]

@@ -21,8 +21,8 @@ pub use parameter_study::{
 };
 pub use plan_run::solver_work_text;
 pub use plan_run::{plan_report, run_plan, PlanRun};
-pub use run_folder::RunFolder;
-pub use scenario::{ControllerKind, PlantKind, Scenario};
+pub use run_folder::{check_out_dir, RunFolder, MANIFEST};
+pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use track_run::{read_plan_folder, run_track, track_plan, PlantWorld, TrackRun};
 
 /// Errors of the experiment layer.
@@ -32,6 +32,15 @@ pub enum ExpError {
     /// Invalid input (a scenario, parameters or a task): nothing was computed or written.
     #[error(transparent)]
     Input(#[from] brachia::Error),
+    /// An output location that cannot be used (a file, a non-empty folder that is not a brachia run
+    /// folder, a read-only place): refused before any work.
+    #[error("{path}: {reason}")]
+    OutDir {
+        /// The output folder or page.
+        path: std::path::PathBuf,
+        /// Why it cannot be used.
+        reason: String,
+    },
     /// Writing the run folder failed.
     #[error("{path}: {source}")]
     Write {

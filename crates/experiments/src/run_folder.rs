@@ -1,13 +1,42 @@
-//! Run folders: every file of a run is queued in memory and written at the end, each under a temporary
-//! name and then renamed, so a failed or interrupted run never leaves a half-written file.
+//! Run folders, written so that nothing is ever half-written and no user file is ever deleted.
+//!
+//! Every file of a run is queued in memory and written at the end into a *staging folder* next to the
+//! target (`.NAME.partial-PID`), with a manifest [`MANIFEST`] that lists every file the run wrote. Only
+//! when everything is written is the staging folder renamed into place:
+//! - no target folder (or an empty one): the staging folder simply becomes it;
+//! - a target that is a brachia run folder (it has a manifest): the old folder is renamed aside, the new
+//!   one into place, and every file of the old folder that its manifest does not list (the user's own)
+//!   is moved into the new folder (a name the new run also wrote is kept as `NAME.user`); only then is
+//!   the old folder, holding nothing but files brachia wrote, removed;
+//! - a non-empty folder without a manifest is refused by [`check_out_dir`] unless `force` is given;
+//!   with `force` its files are kept as above.
+//!
+//! An interrupted run leaves the previous results as they were (and a hidden staging folder, removed by
+//! the next run into the same place once its process is gone).
 
 use crate::ExpError;
-use std::path::Path;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// The manifest of a run folder: one relative path per line (after a header line) of every file the run
+/// wrote. Its presence marks a folder as a brachia run folder.
+pub const MANIFEST: &str = ".brachia-run";
+
+const MANIFEST_HEADER: &str =
+    "# brachia run folder: the files this run wrote (a re-run replaces only these)";
 
 /// The files of one run.
 #[derive(Debug, Default, Clone)]
 pub struct RunFolder {
     files: Vec<(String, Vec<u8>)>,
+}
+
+fn werr(path: &Path, source: std::io::Error) -> ExpError {
+    ExpError::Write {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 impl RunFolder {
@@ -35,12 +64,24 @@ impl RunFolder {
             .map(|(_, d)| d.as_slice())
     }
 
-    /// Create `dir` and write every file atomically.
+    /// Write the run folder `dir`: into a staging folder next to it, then renamed into place (see the
+    /// module docs; the user's files in a previous run folder are kept).
     pub fn write(&self, dir: &Path) -> Result<(), ExpError> {
-        let werr = |path: &Path, source| ExpError::Write {
-            path: path.to_path_buf(),
-            source,
-        };
+        let stage = stage_for(dir)?;
+        let written = self.write_into(&stage);
+        match written {
+            Ok(()) => install(&stage, dir),
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&stage);
+                Err(e)
+            }
+        }
+    }
+
+    /// Write every file into the existing folder `dir` (created if missing), each under a temporary name
+    /// renamed into place; other files in `dir` are left alone. For pages published into folders that
+    /// also hold the user's files.
+    pub fn write_into(&self, dir: &Path) -> Result<(), ExpError> {
         std::fs::create_dir_all(dir).map_err(|e| werr(dir, e))?;
         for (name, data) in &self.files {
             let path = dir.join(name);
@@ -56,5 +97,235 @@ impl RunFolder {
             std::fs::rename(&tmp, &path).map_err(|e| werr(&path, e))?;
         }
         Ok(())
+    }
+}
+
+/// The folder `dir` lives in (`.` for a bare name).
+fn parent_of(dir: &Path) -> PathBuf {
+    match dir.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+fn name_of(dir: &Path) -> String {
+    dir.file_name()
+        .map(|f| f.to_string_lossy().to_string())
+        .unwrap_or_else(|| "out".into())
+}
+
+fn pid_alive(pid: u32) -> bool {
+    pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
+}
+
+/// Create a fresh, empty staging folder next to `dir` (`.NAME.partial-PID-K`), removing staging folders
+/// of the same target left by processes that no longer run.
+pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    let parent = parent_of(dir);
+    std::fs::create_dir_all(&parent).map_err(|e| werr(&parent, e))?;
+    let name = name_of(dir);
+    let prefix = format!(".{name}.partial-");
+    if let Ok(entries) = std::fs::read_dir(&parent) {
+        for e in entries.flatten() {
+            let f = e.file_name().to_string_lossy().to_string();
+            let Some(rest) = f.strip_prefix(&prefix) else {
+                continue;
+            };
+            let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+            if pid.is_some_and(|p| !pid_alive(p)) && e.path().join(MANIFEST).is_file() {
+                let _ = std::fs::remove_dir_all(e.path());
+            }
+        }
+    }
+    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let stage = parent.join(format!("{prefix}{}-{k}", std::process::id()));
+    if stage.exists() {
+        std::fs::remove_dir_all(&stage).map_err(|e| werr(&stage, e))?;
+    }
+    std::fs::create_dir(&stage).map_err(|e| werr(&stage, e))?;
+    // mark it as ours at once, so a later run may clean it up if this one is interrupted
+    std::fs::write(stage.join(MANIFEST), format!("{MANIFEST_HEADER}\n"))
+        .map_err(|e| werr(&stage, e))?;
+    Ok(stage)
+}
+
+/// Every file under `dir`, as paths relative to it (sorted).
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![PathBuf::new()];
+    while let Some(rel) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(dir.join(&rel)) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let r = rel.join(e.file_name());
+            match e.file_type() {
+                Ok(t) if t.is_dir() => stack.push(r),
+                Ok(_) => out.push(r),
+                Err(_) => {}
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The files a run folder's manifest lists, or `None` when `dir` has no manifest.
+pub fn read_manifest(dir: &Path) -> Option<BTreeSet<PathBuf>> {
+    let text = std::fs::read_to_string(dir.join(MANIFEST)).ok()?;
+    Some(
+        text.lines()
+            .filter(|l| !l.starts_with('#') && !l.is_empty())
+            .map(PathBuf::from)
+            .collect(),
+    )
+}
+
+/// Refuse an output folder before any work: a path that exists but is not a folder, a non-empty folder
+/// that is not a brachia run folder (unless `force`), or a place where nothing can be written.
+pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
+    let bad = |reason: String| ExpError::OutDir {
+        path: dir.to_path_buf(),
+        reason,
+    };
+    if dir.exists() || dir.is_symlink() {
+        if !dir.is_dir() {
+            return Err(bad(
+                "exists and is not a folder; --out needs a folder (new, empty or a brachia run folder)"
+                    .into(),
+            ));
+        }
+        let empty = std::fs::read_dir(dir)
+            .map_err(|e| bad(format!("cannot be read: {e}")))?
+            .next()
+            .is_none();
+        if !empty && !dir.join(MANIFEST).is_file() && !force {
+            return Err(bad(format!(
+                "is not empty and is not a brachia run folder (it has no {MANIFEST}); choose a new \
+                 folder, or pass --force to write into it (its files are kept, a clashing name is kept \
+                 as NAME.user)"
+            )));
+        }
+    }
+    // the staging folder is created next to the target: probe the nearest existing ancestor
+    let mut anc = parent_of(dir);
+    while !anc.exists() {
+        match anc.parent() {
+            Some(p) if !p.as_os_str().is_empty() => anc = p.to_path_buf(),
+            _ => {
+                anc = PathBuf::from(".");
+                break;
+            }
+        }
+    }
+    if !anc.is_dir() {
+        return Err(bad(format!(
+            "{} is not a folder, so nothing can be created there",
+            anc.display()
+        )));
+    }
+    let probe = anc.join(format!(".brachia-probe-{}", std::process::id()));
+    match std::fs::create_dir(&probe) {
+        Ok(()) => {
+            let _ = std::fs::remove_dir(&probe);
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+        Err(e) => {
+            return Err(bad(format!(
+                "nothing can be written in {}: {e}",
+                anc.display()
+            )))
+        }
+    }
+    if dir.is_dir() {
+        let probe = dir.join(format!(".brachia-probe-{}", std::process::id()));
+        match std::fs::create_dir(&probe) {
+            Ok(()) => {
+                let _ = std::fs::remove_dir(&probe);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(bad(format!("nothing can be written in it: {e}"))),
+        }
+    }
+    Ok(())
+}
+
+/// Write the manifest of the finished staging folder `stage` and move it into place as `dir` (see the
+/// module docs). Files of a previous run folder at `dir` that its manifest does not list are moved into
+/// the new folder; nothing but files brachia wrote is ever removed.
+pub fn install(stage: &Path, dir: &Path) -> Result<(), ExpError> {
+    let mut manifest = String::from(MANIFEST_HEADER);
+    manifest.push('\n');
+    for f in files_under(stage) {
+        if f != Path::new(MANIFEST) {
+            manifest.push_str(&f.to_string_lossy());
+            manifest.push('\n');
+        }
+    }
+    let mpath = stage.join(MANIFEST);
+    std::fs::write(&mpath, manifest).map_err(|e| werr(&mpath, e))?;
+    if !(dir.exists() || dir.is_symlink()) {
+        return std::fs::rename(stage, dir).map_err(|e| werr(dir, e));
+    }
+    if !dir.is_dir() {
+        return Err(ExpError::OutDir {
+            path: dir.to_path_buf(),
+            reason: "exists and is not a folder".into(),
+        });
+    }
+    let empty = std::fs::read_dir(dir)
+        .map_err(|e| werr(dir, e))?
+        .next()
+        .is_none();
+    if empty {
+        std::fs::remove_dir(dir).map_err(|e| werr(dir, e))?;
+        return std::fs::rename(stage, dir).map_err(|e| werr(dir, e));
+    }
+    let ours = read_manifest(dir).unwrap_or_default();
+    let old = parent_of(dir).join(format!(".{}.old-{}", name_of(dir), std::process::id()));
+    if old.exists() {
+        std::fs::remove_dir_all(&old).map_err(|e| werr(&old, e))?;
+    }
+    std::fs::rename(dir, &old).map_err(|e| werr(dir, e))?;
+    if let Err(e) = std::fs::rename(stage, dir) {
+        let _ = std::fs::rename(&old, dir);
+        return Err(werr(dir, e));
+    }
+    // the user's files come along into the new folder
+    let mut kept_all = true;
+    for rel in files_under(&old) {
+        if rel == Path::new(MANIFEST) || ours.contains(&rel) {
+            continue;
+        }
+        let mut to = dir.join(&rel);
+        if to.exists() || to.is_symlink() {
+            let f = to
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .to_string();
+            to = to.with_file_name(format!("{f}.user"));
+        }
+        let moved = to
+            .parent()
+            .map_or(Ok(()), std::fs::create_dir_all)
+            .and_then(|()| std::fs::rename(old.join(&rel), &to));
+        if moved.is_err() {
+            kept_all = false;
+        }
+    }
+    if kept_all {
+        std::fs::remove_dir_all(&old).map_err(|e| werr(&old, e))?;
+        Ok(())
+    } else {
+        Err(ExpError::OutDir {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "the new results are in place, but some of your files could not be moved back from {}: \
+                 they are still there",
+                old.display()
+            ),
+        })
     }
 }

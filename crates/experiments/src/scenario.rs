@@ -26,7 +26,8 @@
 //! ```
 
 use brachia::control::{MpcSettings, PdSettings};
-use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
+use brachia::limits;
+use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::{Error, Robot};
 use brachia_rapier::{Obstacle, RapierSettings};
 use serde::{Deserialize, Serialize};
@@ -189,7 +190,11 @@ pub(crate) fn in_section(e: Error, src: &str, section: &str) -> Error {
             ..
         } => Error::InvalidValue {
             source_name: src.to_string(),
-            field: format!("{section}.{field}"),
+            field: if field.starts_with(&format!("{section}.")) {
+                field
+            } else {
+                format!("{section}.{field}")
+            },
             value,
             reason,
         },
@@ -218,12 +223,18 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
     })
 }
 
-/// Read a text file; an I/O error names the path.
+/// Read a text file of at most [`brachia::limits::MAX_TOML_BYTES`]; an I/O error names the path.
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
-    std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.into(),
-        source,
-    })
+    brachia::limits::read_text_capped(path, brachia::limits::MAX_TOML_BYTES, "TOML file")
+}
+
+/// Which sections of a scenario a command uses (and so validates).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Uses {
+    /// Robot, task, planner and solver (`brachia plan`).
+    Plan,
+    /// Everything: also tracking and plant (`brachia track`, `brachia reproduce`).
+    Track,
 }
 
 impl Scenario {
@@ -232,8 +243,17 @@ impl Scenario {
         parse_toml(text, source)
     }
 
-    /// Read a scenario file, load its robot and validate everything (nothing is solved).
+    /// Read a scenario file, load its robot and validate every section (nothing is solved).
     pub fn load(path: &Path) -> Result<LoadedScenario, Error> {
+        Self::load_for(path, Uses::Track)
+    }
+
+    /// Read a scenario file, load its robot and validate the sections `uses` needs (nothing is solved):
+    /// every value finite and in range, vectors of the robot's length, the start state inside the
+    /// bounds, the swing's collocation grid and the closed loop's steps within [`brachia::limits`].
+    /// Errors name the file, the field as written (`task.qd0[2]`, `tracking.mpc.horizon`), the value
+    /// and the rule.
+    pub fn load_for(path: &Path, uses: Uses) -> Result<LoadedScenario, Error> {
         let text = read_text(path)?;
         let src = path.display().to_string();
         let mut sc = Self::from_toml_str(&text, &src)?;
@@ -246,30 +266,49 @@ impl Scenario {
         let base = path.parent().unwrap_or(Path::new("."));
         sc.params = base.join(&sc.params);
         let robot = Robot::from_toml_file(&sc.params)?;
-        sc.planner.validate(robot.n, &src)?;
-        sc.solver
-            .validate()
-            .map_err(|e| in_section(e, &src, "solver"))?;
-        let n = robot.n;
-        if sc.task.q0.len() != n {
-            return Err(Error::invalid(
-                &src,
-                "task.q0",
-                format!("{:?}", sc.task.q0),
-                format!("needs {n} values"),
-            ));
+        let rename = |e: Error, section: &str| in_section(e, &src, section);
+        sc.planner
+            .validate(robot.n, &src)
+            .map_err(|e| rename(e, "planner"))?;
+        sc.solver.validate().map_err(|e| rename(e, "solver"))?;
+        brachia::planning::validate_task(&robot, &sc.task, &sc.planner, &src, "task.")?;
+        let swing_time = match sc.planner.swing_time {
+            SwingTime::Seconds(t) => t,
+            SwingTime::Auto(_) => {
+                let start_ee = robot.ee_position(&sc.task.q0);
+                let x_mid = 0.5 * (start_ee[0] + sc.task.target[0]);
+                let tf = freefall_time(&robot, &sc.task.q0, x_mid).map_err(|e| match e {
+                    Error::InfeasibleTask(m) => Error::invalid(
+                        &src,
+                        "planner.swing_time",
+                        "\"auto\"",
+                        format!("{m}; give swing_time in seconds"),
+                    ),
+                    other => rename(other, "planner"),
+                })?;
+                2.0 * tf
+            }
+        };
+        sc.planner
+            .grid(swing_time, &src)
+            .map_err(|e| rename(e, "planner"))?;
+        let ls = LoadedScenario {
+            scenario: sc,
+            robot,
+            path: path.to_path_buf(),
+        };
+        if uses == Uses::Track {
+            ls.check_tracking(swing_time)?;
         }
-        if !sc.task.qd0.is_empty() && sc.task.qd0.len() != n {
-            return Err(Error::invalid(
-                &src,
-                "task.qd0",
-                format!("{:?}", sc.task.qd0),
-                format!("needs {n} values"),
-            ));
-        }
-        for (i, o) in sc.task.obstacles.iter().enumerate() {
-            o.validate(&src, &format!("task.obstacles[{i}]"))?;
-        }
+        Ok(ls)
+    }
+}
+
+impl LoadedScenario {
+    /// Check the `[tracking]` and `[plant]` sections for a swing of `swing_time` seconds.
+    fn check_tracking(&self, swing_time: f64) -> Result<(), Error> {
+        let (sc, n) = (&self.scenario, self.robot.n);
+        let src = self.path.display().to_string();
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.tracking
             .mpc
@@ -289,6 +328,23 @@ impl Scenario {
                 return Err(Error::invalid(&src, field, v, "must be finite and >= 0"));
             }
         }
+        let hmax = limits::MAX_HOLD_S;
+        if t.hold_s > hmax {
+            return Err(Error::invalid(
+                &src,
+                "tracking.hold_s",
+                t.hold_s,
+                format!("must be at most {hmax} s (brachia::limits::MAX_HOLD_S)"),
+            ));
+        }
+        for (field, v) in [
+            ("tracking.noise_q_std", t.noise_q_std),
+            ("tracking.noise_qd_std", t.noise_qd_std),
+        ] {
+            if v > 10.0 {
+                return Err(Error::invalid(&src, field, v, "must be at most 10"));
+            }
+        }
         if !(t.control_dt.is_finite() && t.control_dt > 0.0 && t.control_dt <= 0.1) {
             return Err(Error::invalid(
                 &src,
@@ -297,31 +353,65 @@ impl Scenario {
                 "must be in (0, 0.1] s",
             ));
         }
+        let duration = swing_time + t.hold_s;
+        let smax = limits::MAX_RUN_STEPS;
+        let Some(steps) = limits::count(duration, t.control_dt, smax) else {
+            return Err(Error::invalid(
+                &src,
+                "tracking.control_dt",
+                t.control_dt,
+                format!(
+                    "swing {swing_time:.3} s + hold {} s would take more than {smax} control steps \
+                     (brachia::limits::MAX_RUN_STEPS); control_dt must be >= {:.3e} s",
+                    t.hold_s,
+                    duration / smax as f64
+                ),
+            ));
+        };
         let pl = &sc.plant;
-        if !(pl.mass_scale.is_finite() && pl.mass_scale > 0.0) {
+        if !(pl.mass_scale.is_finite() && pl.mass_scale > 0.0 && pl.mass_scale <= 100.0) {
             return Err(Error::invalid(
                 &src,
                 "plant.mass_scale",
                 pl.mass_scale,
-                "must be > 0",
+                "must be in (0, 100]",
             ));
         }
-        if pl.substeps == 0 || pl.substeps > 1000 {
+        let kmax = limits::MAX_SUBSTEPS;
+        if pl.substeps == 0 || pl.substeps > kmax {
             return Err(Error::invalid(
                 &src,
                 "plant.substeps",
                 pl.substeps,
-                "must be 1..=1000",
+                format!("must be 1..={kmax}"),
+            ));
+        }
+        let total = steps as u64 * pl.substeps as u64;
+        if total > limits::MAX_SIM_STEPS {
+            return Err(Error::invalid(
+                &src,
+                "plant.substeps",
+                pl.substeps,
+                format!(
+                    "{steps} control steps x {} substeps = {total} integration steps; at most {} \
+                     (brachia::limits::MAX_SIM_STEPS)",
+                    pl.substeps,
+                    limits::MAX_SIM_STEPS
+                ),
             ));
         }
         pl.rapier().validate(&src).map_err(|e| rename(e, "plant"))?;
+        if pl.obstacles.len() > brachia::planning::planner::MAX_OBSTACLES {
+            return Err(Error::invalid(
+                &src,
+                "plant.obstacles",
+                format!("{} obstacles", pl.obstacles.len()),
+                format!("at most {}", brachia::planning::planner::MAX_OBSTACLES),
+            ));
+        }
         for (i, o) in pl.obstacles.iter().enumerate() {
             o.validate(&src, i).map_err(|e| rename(e, "plant"))?;
         }
-        Ok(LoadedScenario {
-            scenario: sc,
-            robot,
-            path: path.to_path_buf(),
-        })
+        Ok(())
     }
 }

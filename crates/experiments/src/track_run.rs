@@ -247,14 +247,59 @@ pub fn track_plan(
     })
 }
 
-/// Read a plan folder written by `brachia plan` (its `trajectory.csv` and `report.json`).
-pub fn read_plan_folder(dir: &std::path::Path, n: usize) -> Result<(Trajectory, Value), Error> {
-    let read = |name: &str| {
-        let p = dir.join(name);
-        std::fs::read_to_string(&p).map_err(|source| Error::Io { path: p, source })
-    };
-    let tpath = dir.join("trajectory.csv").display().to_string();
-    let traj = Trajectory::from_csv(&read("trajectory.csv")?, n, &tpath)?;
+/// Tolerance between a plan's first sample and the scenario's start state (rad, rad/s): the CSV keeps 9
+/// decimals.
+const START_TOLERANCE: f64 = 1e-6;
+
+/// Read a plan folder written by `brachia plan` (its `trajectory.csv` and `report.json`) and check it
+/// against the scenario `ls` before anything is tracked: the header names the scenario robot's joints
+/// (`t,q1..qn,qd1..qdn,tau2..taun,...`), every value is finite, times start at 0 and increase strictly,
+/// the swing lasts at most [`brachia::limits::MAX_SWING_TIME_S`], and the first sample is the scenario's
+/// start state (`task.q0`, `task.qd0`). Files are read with a size cap.
+pub fn read_plan_folder(
+    dir: &std::path::Path,
+    ls: &LoadedScenario,
+) -> Result<(Trajectory, Value), Error> {
+    use brachia::limits;
+    let n = ls.robot.n;
+    let tfile = dir.join("trajectory.csv");
+    let tpath = tfile.display().to_string();
+    if !dir.is_dir() {
+        return Err(Error::invalid(
+            dir.display().to_string(),
+            "--plan",
+            dir.display(),
+            "must be a plan folder written by `brachia plan` (trajectory.csv, report.json)",
+        ));
+    }
+    let text = limits::read_text_capped(&tfile, limits::MAX_CSV_BYTES, "trajectory.csv")?;
+    let header = text.lines().next().unwrap_or("");
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let links = cols
+        .iter()
+        .filter(|c| {
+            c.strip_prefix('q')
+                .is_some_and(|r| r.parse::<usize>().is_ok())
+        })
+        .count();
+    let mut want = vec!["t".to_string()];
+    want.extend((1..=n).map(|i| format!("q{i}")));
+    want.extend((1..=n).map(|i| format!("qd{i}")));
+    want.extend((2..=n).map(|i| format!("tau{i}")));
+    if links != n || cols.len() < want.len() || cols[..want.len()] != want[..] {
+        return Err(Error::invalid(
+            &tpath,
+            "header",
+            header.chars().take(120).collect::<String>(),
+            format!(
+                "the plan is for a {links}-link robot, the scenario's robot ({}) has {n} links: \
+                 expected {},...",
+                ls.scenario.params.display(),
+                want.join(",")
+            ),
+        ));
+    }
+    let traj = Trajectory::from_csv(&text, n, &tpath)?;
     if traj.len() < 2 {
         return Err(Error::invalid(
             &tpath,
@@ -263,8 +308,87 @@ pub fn read_plan_folder(dir: &std::path::Path, n: usize) -> Result<(Trajectory, 
             "a plan needs at least two samples",
         ));
     }
+    let per_row = [
+        ("q", &traj.q, n),
+        ("qd", &traj.qd, n),
+        ("tau", &traj.tau, n - 1),
+    ];
+    for (name, v, w) in per_row {
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            let (row, col) = (i / w.max(1), i % w.max(1));
+            let j = if name == "tau" { col + 2 } else { col + 1 };
+            return Err(Error::invalid(
+                &tpath,
+                format!("line {}, {name}{j}", row + 2),
+                x,
+                "every value of a plan must be finite",
+            ));
+        }
+    }
+    if let Some((k, x)) = traj.t.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+        return Err(Error::invalid(
+            &tpath,
+            format!("line {}, t", k + 2),
+            x,
+            "every value of a plan must be finite",
+        ));
+    }
+    if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
+        return Err(Error::invalid(
+            &tpath,
+            format!("line {}, t", k + 2),
+            traj.t[k],
+            format!(
+                "times must increase strictly (previous row: {})",
+                traj.t[k - 1]
+            ),
+        ));
+    }
+    if traj.t[0].abs() > 1e-9 {
+        return Err(Error::invalid(
+            &tpath,
+            "line 2, t",
+            traj.t[0],
+            "a plan starts at t = 0",
+        ));
+    }
+    let tmax = limits::MAX_SWING_TIME_S;
+    if traj.duration() > tmax {
+        return Err(Error::invalid(
+            &tpath,
+            "t",
+            traj.duration(),
+            format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
+        ));
+    }
+    let task = &ls.scenario.task;
+    let qd0 = if task.qd0.is_empty() {
+        vec![0.0; n]
+    } else {
+        task.qd0.clone()
+    };
+    for (name, plan_v, sc_v) in [("q0", traj.q(0), &task.q0), ("qd0", traj.qd(0), &qd0)] {
+        let diff = plan_v
+            .iter()
+            .zip(sc_v.iter())
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if diff > START_TOLERANCE {
+            return Err(Error::invalid(
+                ls.path.display().to_string(),
+                format!("task.{name}"),
+                format!("{sc_v:?}"),
+                format!(
+                    "the plan in {} starts at {name} = {plan_v:?} (differs by {diff:.3e}); track it \
+                     with the scenario it was planned for",
+                    dir.display()
+                ),
+            ));
+        }
+    }
     let rpath = dir.join("report.json");
-    let rep: Value = serde_json::from_str(&read("report.json")?).map_err(|e| Error::Parse {
+    let rtext = limits::read_text_capped(&rpath, limits::MAX_JSON_BYTES, "report.json")?;
+    let rep: Value = serde_json::from_str(&rtext).map_err(|e| Error::Parse {
         path: rpath.clone(),
         message: e.to_string(),
     })?;

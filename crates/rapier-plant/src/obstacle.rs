@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields)]
 pub struct Circle {
     /// Centre `[x, y]`, m.
+    #[serde(deserialize_with = "brachia::serde_exact::pair")]
     pub center: [f64; 2],
     /// Radius, m (> 0).
     pub radius: f64,
@@ -20,6 +21,7 @@ pub struct Circle {
 #[serde(deny_unknown_fields)]
 pub struct Ball {
     /// Initial centre `[x, y]`, m (the ball starts at rest).
+    #[serde(deserialize_with = "brachia::serde_exact::pair")]
     pub center: [f64; 2],
     /// Radius, m (> 0).
     pub radius: f64,

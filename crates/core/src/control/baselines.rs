@@ -84,8 +84,14 @@ pub struct PdSettings {
 }
 
 impl Default for PdSettings {
+    /// Empty gains: the per-link defaults of [`PdSettings::for_links`], filled in when the controller is
+    /// built.
     fn default() -> Self {
-        Self::for_links(4)
+        PdSettings {
+            kp: Vec::new(),
+            kd: Vec::new(),
+            feedforward: true,
+        }
     }
 }
 
@@ -99,22 +105,44 @@ impl PdSettings {
         }
     }
 
-    /// Check sizes and signs for an n-link robot.
+    /// These settings with empty gain vectors filled with the per-link defaults.
+    pub fn resolved(&self, n: usize) -> Self {
+        let d = Self::for_links(n);
+        let mut s = self.clone();
+        if s.kp.is_empty() {
+            s.kp = d.kp;
+        }
+        if s.kd.is_empty() {
+            s.kd = d.kd;
+        }
+        s
+    }
+
+    /// Check sizes and signs for an n-link robot (empty gains stand for the per-link defaults).
     pub fn validate(&self, n: usize) -> Result<()> {
-        for (name, v) in [("kp", &self.kp), ("kd", &self.kd)] {
+        let s = self.resolved(n);
+        for (name, v) in [("kp", &s.kp), ("kd", &s.kd)] {
             if v.len() != n.saturating_sub(1) {
-                return Err(Error::Dimension {
-                    what: format!("PdSettings.{name}"),
-                    expected: n.saturating_sub(1),
-                    got: v.len(),
-                });
+                return Err(Error::invalid(
+                    "PdSettings",
+                    name,
+                    format!("{v:?}"),
+                    format!(
+                        "needs {} values for the {n}-link robot (one per actuated joint 2..{n}), \
+                         or none for the default",
+                        n.saturating_sub(1)
+                    ),
+                ));
             }
-            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+            if let Some(x) = v
+                .iter()
+                .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e9))
+            {
                 return Err(Error::invalid(
                     "PdSettings",
                     name,
                     x,
-                    "gains must be finite and >= 0",
+                    "gains must be finite, >= 0 and <= 1e9",
                 ));
             }
         }
@@ -140,7 +168,7 @@ impl<'a> Pd<'a> {
         Ok(Pd {
             robot,
             reference,
-            settings,
+            settings: settings.resolved(robot.n),
             xref: vec![0.0; robot.nx()],
         })
     }

@@ -106,8 +106,14 @@ pub struct MpcSettings {
 }
 
 impl Default for MpcSettings {
+    /// The defaults for any number of links: `q_diag` and `r_diag` empty (filled per link by
+    /// [`MpcSettings::resolved`] when the controller is built).
     fn default() -> Self {
-        Self::for_links(4)
+        MpcSettings {
+            q_diag: Vec::new(),
+            r_diag: Vec::new(),
+            ..Self::for_links(0)
+        }
     }
 }
 
@@ -131,37 +137,86 @@ impl MpcSettings {
         }
     }
 
-    /// Check the values for an n-link robot.
+    /// These settings with the empty weight vectors (`q_diag`, `r_diag`) filled with the per-link
+    /// defaults of [`MpcSettings::for_links`].
+    pub fn resolved(&self, n: usize) -> Self {
+        let d = Self::for_links(n);
+        let mut s = self.clone();
+        if s.q_diag.is_empty() {
+            s.q_diag = d.q_diag;
+        }
+        if s.r_diag.is_empty() {
+            s.r_diag = d.r_diag;
+        }
+        s
+    }
+
+    /// Check the values for an n-link robot (empty `q_diag` / `r_diag` stand for the per-link
+    /// defaults). Errors name the field as written in a scenario's `[tracking.mpc]`.
     pub fn validate(&self, n: usize) -> Result<()> {
         let src = "MpcSettings";
-        if self.horizon == 0 {
-            return Err(Error::invalid(src, "horizon", self.horizon, "must be >= 1"));
+        let hmax = crate::limits::MAX_MPC_HORIZON;
+        if self.horizon == 0 || self.horizon > hmax {
+            return Err(Error::invalid(
+                src,
+                "horizon",
+                self.horizon,
+                format!("must be 1..={hmax} steps (brachia::limits::MAX_MPC_HORIZON)"),
+            ));
         }
         if !(self.dt_mpc.is_finite() && self.dt_mpc > 0.0) {
             return Err(Error::invalid(src, "dt_mpc", self.dt_mpc, "must be > 0"));
         }
-        for (name, v, len) in [
-            ("q_diag", &self.q_diag, 2 * n),
-            ("w_diag", &self.w_diag, 2),
-            ("r_diag", &self.r_diag, n.saturating_sub(1)),
+        let span = self.horizon as f64 * self.dt_mpc;
+        let smax = crate::limits::MAX_MPC_SPAN_S;
+        if span > smax {
+            return Err(Error::invalid(
+                src,
+                "dt_mpc",
+                self.dt_mpc,
+                format!(
+                    "horizon * dt_mpc = {span} s; the horizon may span at most {smax} s \
+                     (brachia::limits::MAX_MPC_SPAN_S)"
+                ),
+            ));
+        }
+        let s = self.resolved(n);
+        for (name, v, len, what) in [
+            (
+                "q_diag",
+                &s.q_diag,
+                2 * n,
+                "2n values (q then qd), or none for the default",
+            ),
+            ("w_diag", &s.w_diag, 2, "2 values (EE x, y)"),
+            (
+                "r_diag",
+                &s.r_diag,
+                n.saturating_sub(1),
+                "n - 1 values, or none for the default",
+            ),
         ] {
             if v.len() != len {
-                return Err(Error::Dimension {
-                    what: format!("{src}.{name}"),
-                    expected: len,
-                    got: v.len(),
-                });
+                return Err(Error::invalid(
+                    src,
+                    name,
+                    format!("{v:?}"),
+                    format!("needs {len} values for the {n}-link robot: {what}"),
+                ));
             }
-            if let Some(x) = v.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+            if let Some(x) = v
+                .iter()
+                .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
+            {
                 return Err(Error::invalid(
                     src,
                     name,
                     x,
-                    "weights must be finite and >= 0",
+                    "weights must be finite, >= 0 and <= 1e12",
                 ));
             }
         }
-        if let Some(x) = self.r_diag.iter().find(|x| **x <= 0.0) {
+        if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
             return Err(Error::invalid(
                 src,
                 "r_diag",
@@ -169,12 +224,15 @@ impl MpcSettings {
                 "must be > 0 (keeps the QP strictly convex)",
             ));
         }
-        if !(self.terminal_factor.is_finite() && self.terminal_factor >= 0.0) {
+        if !(self.terminal_factor.is_finite()
+            && self.terminal_factor >= 0.0
+            && self.terminal_factor <= 1e6)
+        {
             return Err(Error::invalid(
                 src,
                 "terminal_factor",
                 self.terminal_factor,
-                "must be finite and >= 0",
+                "must be finite and in [0, 1e6]",
             ));
         }
         self.qp.validate()
@@ -352,6 +410,7 @@ impl<'a> Mpc<'a> {
     pub fn new(robot: &'a Robot, reference: &'a Trajectory, settings: MpcSettings) -> Result<Self> {
         let n = robot.n;
         settings.validate(n)?;
+        let settings = settings.resolved(n);
         if reference.n != n {
             return Err(Error::Dimension {
                 what: "reference links".into(),

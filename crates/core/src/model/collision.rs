@@ -26,6 +26,7 @@ use std::fmt;
 #[serde(deny_unknown_fields)]
 pub struct Circle {
     /// Centre `[x, y]` in the body frame, m.
+    #[serde(deserialize_with = "crate::serde_exact::pair")]
     pub center: [f64; 2],
     /// Radius, m (>= 0; 0 is a point obstacle).
     pub radius: f64,

@@ -12,6 +12,10 @@ use std::path::Path;
 /// Largest number of links a robot may have (the model code keeps small fixed-size stack buffers).
 pub const MAX_LINKS: usize = 12;
 
+/// Largest link length, mass, inertia, radius or torque limit accepted (SI units): beyond it the
+/// model's products overflow or lose all precision.
+pub const LINK_VALUE_MAX: f64 = 1e6;
+
 /// One link as written in a parameters file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -74,10 +78,11 @@ impl RobotParams {
 
     /// Read and parse a TOML file (not yet validated: see [`Robot::from_params`]).
     pub fn from_toml_file(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::limits::read_text_capped(
+            path,
+            crate::limits::MAX_TOML_BYTES,
+            "parameters file",
+        )?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
 
@@ -95,8 +100,13 @@ impl RobotParams {
         let bad = |field: String, value: f64, reason: &str| {
             Err(Error::invalid(source_name, field, value, reason))
         };
-        if !(self.gravity.is_finite() && self.gravity >= 0.0) {
-            return bad("gravity".into(), self.gravity, "must be finite and >= 0");
+        let gmax = crate::limits::MAX_GRAVITY;
+        if !(self.gravity.is_finite() && self.gravity >= 0.0 && self.gravity <= gmax) {
+            return bad(
+                "gravity".into(),
+                self.gravity,
+                &format!("must be in [0, {gmax}] m/s^2"),
+            );
         }
         let n = self.links.len();
         if !(2..=MAX_LINKS).contains(&n) {
@@ -118,6 +128,13 @@ impl RobotParams {
                 if !v.is_finite() || v <= 0.0 {
                     return bad(f(name), v, "must be a finite number > 0");
                 }
+                if v > LINK_VALUE_MAX {
+                    return bad(
+                        f(name),
+                        v,
+                        &format!("must be at most {LINK_VALUE_MAX:e} (SI units)"),
+                    );
+                }
             }
             if !l.com.is_finite() || l.com < 0.0 || l.com > l.length {
                 return bad(f("com"), l.com, "must lie on the link: 0 <= com <= length");
@@ -136,8 +153,15 @@ impl RobotParams {
                     format!("needs {} values, one per actuated joint 2..{n}", n - 1),
                 ));
             }
-            if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-                return bad(name.into(), *x, "must be finite");
+            if let Some(x) = v
+                .iter()
+                .find(|x| !x.is_finite() || x.abs() > LINK_VALUE_MAX)
+            {
+                return bad(
+                    name.into(),
+                    *x,
+                    &format!("must be finite and at most {LINK_VALUE_MAX:e} N m in magnitude"),
+                );
             }
         }
         for j in 0..n - 1 {

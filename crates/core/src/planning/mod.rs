@@ -21,7 +21,8 @@ pub use ocp_nlp::{AdapterTimings, OcpNlp};
 pub use nlp::{PassStats, TimeSplit};
 pub use planner::SolveAttempt;
 pub use planner::{
-    freefall_time, plan, plan_with_guess, Plan, SwingTask, Violations, WARM_START_MU_INIT,
+    freefall_time, plan, plan_with_guess, validate_task, Plan, SwingTask, Violations,
+    WARM_START_MU_INIT,
 };
 pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription};
 pub use shooting::{

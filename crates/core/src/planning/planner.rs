@@ -7,7 +7,7 @@ use super::nlp::{
     solve, Backend, MuStrategy, NlpSettings, NlpSolution, PassStats, SolveStatus, TimeSplit,
 };
 use super::profile::{replay_ee_error, resample, Clamped};
-use super::settings::{PlannerSettings, SwingTime};
+use super::settings::{PlannerSettings, SwingTime, Transcription};
 use crate::ad::LocalFn;
 use crate::error::{Error, Result};
 use crate::model::{Circle, ClearanceFn, DynamicsFn, Robot};
@@ -24,6 +24,7 @@ pub struct SwingTask {
     #[serde(default)]
     pub qd0: Vec<f64>,
     /// Target bar position in the grip frame, m.
+    #[serde(deserialize_with = "crate::serde_exact::pair")]
     pub target: [f64; 2],
     /// Circular obstacles.
     #[serde(default)]
@@ -196,6 +197,17 @@ impl Plan {
 /// 20 s.
 pub fn freefall_time(robot: &Robot, q0: &[f64], x_mid: f64) -> Result<f64> {
     let n = robot.n;
+    if robot.gravity <= 0.0 {
+        return Err(Error::invalid(
+            "planner",
+            "swing_time",
+            "\"auto\"",
+            format!(
+                "needs gravity > 0 (the robot's gravity is {} m/s^2); give swing_time in seconds",
+                robot.gravity
+            ),
+        ));
+    }
     let m11 = robot.mass_matrix(q0)[0]; // inertia of the locked chain about the grip
     let mut ws = crate::model::Scratch::new(n);
     let mut g = vec![0.0; n];
@@ -355,20 +367,38 @@ pub(super) fn variable_bounds(
     (lo, hi)
 }
 
-/// Check the task before any solving; returns (qd0, clearance function if obstacles are avoided).
+/// Most obstacles a task may have (each adds n clearance rows per collocation point).
+pub const MAX_OBSTACLES: usize = 64;
+
+/// Check the task before any solving; returns qd0 (filled in when empty).
 pub(super) fn check_task(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
 ) -> Result<Vec<f64>> {
+    validate_task(robot, task, settings, "task", "")
+}
+
+/// Check a task for `robot` under `settings` before anything is solved: lengths of `q0` and `qd0`,
+/// finite values, the start state inside the bounds (q1 range, |q_i| <= q_rel_max, |qd_i| <= qd_max),
+/// the target within reach, the obstacles valid and clear of the start pose and the target. `src`
+/// names the file and `prefix` the section (e.g. `task.`) in messages. Returns qd0 (zeros when empty).
+pub fn validate_task(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    src: &str,
+    prefix: &str,
+) -> Result<Vec<f64>> {
     let n = robot.n;
-    let src = "task";
+    let field = |f: &str| format!("{prefix}{f}");
+    let fmt = |v: &[f64]| format!("{v:?}");
     if task.q0.len() != n {
         return Err(Error::invalid(
             src,
-            "q0",
-            format!("{:?}", task.q0),
-            format!("needs {n} values"),
+            field("q0"),
+            fmt(&task.q0),
+            format!("needs {n} values, one per joint of the {n}-link robot"),
         ));
     }
     let qd0 = if task.qd0.is_empty() {
@@ -379,21 +409,26 @@ pub(super) fn check_task(
     if qd0.len() != n {
         return Err(Error::invalid(
             src,
-            "qd0",
-            format!("{:?}", task.qd0),
-            format!("needs {n} values"),
+            field("qd0"),
+            fmt(&task.qd0),
+            format!("needs {n} values, one per joint of the {n}-link robot (or none: at rest)"),
         ));
     }
     for (name, v) in [("q0", &task.q0), ("qd0", &qd0)] {
-        if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-            return Err(Error::invalid(src, name, x, "must be finite"));
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(Error::invalid(
+                src,
+                field(&format!("{name}[{i}]")),
+                x,
+                "must be finite",
+            ));
         }
     }
-    if !(task.target[0].is_finite() && task.target[1].is_finite()) {
+    if let Some((i, x)) = task.target.iter().enumerate().find(|(_, x)| !x.is_finite()) {
         return Err(Error::invalid(
             src,
-            "target",
-            format!("{:?}", task.target),
+            field(&format!("target[{i}]")),
+            x,
             "must be finite",
         ));
     }
@@ -401,47 +436,91 @@ pub(super) fn check_task(
     if task.q0[0] < b.q1[0] || task.q0[0] > b.q1[1] {
         return Err(Error::invalid(
             src,
-            "q0[0]",
+            field("q0[0]"),
             task.q0[0],
-            format!("outside bounds.q1 = [{}, {}]", b.q1[0], b.q1[1]),
+            format!(
+                "the start pose must lie inside planner.bounds.q1 = [{}, {}] rad",
+                b.q1[0], b.q1[1]
+            ),
         ));
     }
     for i in 1..n {
         if task.q0[i].abs() > b.q_rel_max {
             return Err(Error::invalid(
                 src,
-                format!("q0[{i}]"),
+                field(&format!("q0[{i}]")),
                 task.q0[i],
-                "outside bounds.q_rel_max",
+                format!(
+                    "the start pose must lie inside planner.bounds.q_rel_max = {} rad",
+                    b.q_rel_max
+                ),
+            ));
+        }
+    }
+    for (i, v) in qd0.iter().enumerate() {
+        if v.abs() > b.qd_max {
+            return Err(Error::invalid(
+                src,
+                field(&format!("qd0[{i}]")),
+                v,
+                format!(
+                    "the start velocity must lie inside planner.bounds.qd_max = {} rad/s",
+                    b.qd_max
+                ),
             ));
         }
     }
     let dist = task.target[0].hypot(task.target[1]);
     if dist > robot.reach() - 1e-6 {
-        return Err(Error::InfeasibleTask(format!(
-            "target ({:.3}, {:.3}) is {dist:.3} m from the grip; the robot reaches at most {:.3} m",
-            task.target[0],
-            task.target[1],
-            robot.reach()
-        )));
+        return Err(Error::invalid(
+            src,
+            field("target"),
+            fmt(&task.target),
+            format!(
+                "is {dist:.3} m from the grip; the robot reaches at most {:.3} m",
+                robot.reach()
+            ),
+        ));
+    }
+    if task.obstacles.len() > MAX_OBSTACLES {
+        return Err(Error::invalid(
+            src,
+            field("obstacles"),
+            format!("{} obstacles", task.obstacles.len()),
+            format!("at most {MAX_OBSTACLES}"),
+        ));
     }
     for (i, o) in task.obstacles.iter().enumerate() {
-        o.validate(src, &format!("obstacles[{i}]"))?;
+        o.validate(src, &field(&format!("obstacles[{i}]")))?;
+        if o.center.iter().any(|c| c.abs() > 1e3) || o.radius > 1e3 {
+            return Err(Error::invalid(
+                src,
+                field(&format!("obstacles[{i}]")),
+                format!("center {:?}, radius {}", o.center, o.radius),
+                "must lie within 1000 m of the grip",
+            ));
+        }
     }
     if settings.avoid_obstacles && !task.obstacles.is_empty() {
         let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
         let c = cf.min_clearance(&task.q0);
         if c < 0.0 {
-            return Err(Error::InfeasibleTask(format!(
-                "the start pose overlaps an obstacle (surface distance {c:.4} m)"
-            )));
+            return Err(Error::invalid(
+                src,
+                field("q0"),
+                fmt(&task.q0),
+                format!("the start pose overlaps an obstacle (surface distance {c:.4} m)"),
+            ));
         }
         for (i, o) in task.obstacles.iter().enumerate() {
             let d = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]);
             if d < o.radius {
-                return Err(Error::InfeasibleTask(format!(
-                    "the target lies inside obstacle {i}"
-                )));
+                return Err(Error::invalid(
+                    src,
+                    field("target"),
+                    fmt(&task.target),
+                    format!("lies inside {}", field(&format!("obstacles[{i}]"))),
+                ));
             }
         }
     }
@@ -645,7 +724,7 @@ pub fn plan_with_guess(
             (2.0 * tf, Some(tf))
         }
     };
-    let intervals = ((t_final / settings.knot_dt).round() as usize).max(2);
+    let intervals = settings.grid(t_final, "planner")?;
     let layout = Layout::new(n, n - 1, intervals, t_final, settings.transcription);
     let obstacles: &[Circle] = if settings.avoid_obstacles {
         &task.obstacles

@@ -4,6 +4,7 @@
 //! n - 1 values).
 
 use crate::error::{Error, Result};
+use crate::limits;
 use serde::{Deserialize, Serialize};
 
 /// How the dynamics are imposed between knots (paper eq. 6 and better rules).
@@ -46,6 +47,10 @@ impl Default for ShootingSettings {
     }
 }
 
+/// Largest number of RK4 steps per multiple-shooting interval (each costs a dynamics evaluation and
+/// its derivatives per stage and iteration; 100 steps of a 10 ms interval are 0.1 ms each).
+pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
+
 /// The swing time T.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -75,6 +80,7 @@ impl Default for SwingTime {
 #[serde(deny_unknown_fields, default)]
 pub struct Bounds {
     /// Range of q1 (absolute angle of link 1), rad. Default [-pi, 0]: link 1 stays below the bar.
+    #[serde(deserialize_with = "crate::serde_exact::pair")]
     pub q1: [f64; 2],
     /// Largest |q_i| of the relative joints 2..n, rad. Default 2.9 (links may fold but not pass through
     /// each other).
@@ -151,13 +157,46 @@ impl PlannerSettings {
         };
         if let SwingTime::Seconds(t) = self.swing_time {
             pos("swing_time", t)?;
+            if t > limits::MAX_SWING_TIME_S {
+                return Err(Error::invalid(
+                    src,
+                    "swing_time",
+                    t,
+                    format!(
+                        "must be at most {} s (brachia::limits::MAX_SWING_TIME_S)",
+                        limits::MAX_SWING_TIME_S
+                    ),
+                ));
+            }
+            self.grid(t, src)?;
         }
         pos("knot_dt", self.knot_dt)?;
         pos("output_dt", self.output_dt)?;
         pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
         pos("bounds.qd_max", self.bounds.qd_max)?;
-        if self.shooting.substeps == 0 {
-            return Err(Error::invalid(src, "shooting.substeps", 0, "must be >= 1"));
+        if self.shooting.substeps == 0 || self.shooting.substeps > MAX_SHOOTING_SUBSTEPS {
+            return Err(Error::invalid(
+                src,
+                "shooting.substeps",
+                self.shooting.substeps,
+                format!("must be in 1..={MAX_SHOOTING_SUBSTEPS}"),
+            ));
+        }
+        if self.bounds.qd_max > limits::MAX_RATE_RAD_S {
+            return Err(Error::invalid(
+                src,
+                "bounds.qd_max",
+                self.bounds.qd_max,
+                format!("must be at most {} rad/s", limits::MAX_RATE_RAD_S),
+            ));
+        }
+        if self.obstacle_margin > 10.0 {
+            return Err(Error::invalid(
+                src,
+                "obstacle_margin",
+                self.obstacle_margin,
+                "must be at most 10 m",
+            ));
         }
         let [lo, hi] = self.bounds.q1;
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
@@ -198,6 +237,42 @@ impl PlannerSettings {
             }
         }
         Ok(())
+    }
+
+    /// The number of collocation intervals `N = round(T / knot_dt)` of a swing of `t_final` seconds,
+    /// checked against [`limits::MIN_INTERVALS`], [`limits::MAX_INTERVALS`] and the output samples
+    /// `T / output_dt` against [`limits::MAX_OUTPUT_SAMPLES`] (before anything of that size is allocated).
+    pub fn grid(&self, t_final: f64, src: &str) -> Result<usize> {
+        let (lo, hi) = (limits::MIN_INTERVALS, limits::MAX_INTERVALS);
+        let n = limits::count(t_final, self.knot_dt, hi);
+        match n {
+            Some(n) if n >= lo => {}
+            _ => {
+                return Err(Error::invalid(
+                    src,
+                    "knot_dt",
+                    self.knot_dt,
+                    format!(
+                        "a swing of {t_final:.4} s needs between {lo} and {hi} intervals                          (brachia::limits); knot_dt must be in [{:.3e}, {:.3e}] s",
+                        t_final / hi as f64,
+                        t_final / lo as f64
+                    ),
+                ))
+            }
+        }
+        let max_s = limits::MAX_OUTPUT_SAMPLES - 1;
+        if limits::count(t_final, self.output_dt, max_s).is_none() {
+            return Err(Error::invalid(
+                src,
+                "output_dt",
+                self.output_dt,
+                format!(
+                    "a swing of {t_final:.4} s would have more than {max_s} output samples                      (brachia::limits::MAX_OUTPUT_SAMPLES); output_dt must be >= {:.3e} s",
+                    t_final / max_s as f64
+                ),
+            ));
+        }
+        Ok(n.unwrap_or(lo))
     }
 
     /// Q1 diagonal with defaults filled in.

@@ -73,6 +73,31 @@ impl RunSettings {
                 return Err(Error::invalid(src, name, v, "must be finite and >= 0"));
             }
         }
+        let dmax = crate::limits::MAX_RUN_DURATION_S;
+        if self.duration_s > dmax {
+            return Err(Error::invalid(
+                src,
+                "duration_s",
+                self.duration_s,
+                format!(
+                    "a closed loop may run at most {dmax} s (brachia::limits::MAX_RUN_DURATION_S)"
+                ),
+            ));
+        }
+        let smax = crate::limits::MAX_RUN_STEPS;
+        if crate::limits::count(self.duration_s, self.control_dt, smax).is_none() {
+            return Err(Error::invalid(
+                src,
+                "control_dt",
+                self.control_dt,
+                format!(
+                    "{} s at this period would take more than {smax} control steps \
+                     (brachia::limits::MAX_RUN_STEPS); control_dt must be >= {:.3e} s",
+                    self.duration_s,
+                    self.duration_s / smax as f64
+                ),
+            ));
+        }
         Ok(())
     }
 }

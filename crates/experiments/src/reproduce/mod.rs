@@ -8,7 +8,9 @@
 //!   `obstacle/avoid/`, `obstacle/ignored/`, `robustness/{mpc,pd,open-loop}/`, `robustness-paper/`),
 //!   each with its resolved inputs, CSVs and `report.json`, as `brachia plan` / `brachia track` write them.
 //!
-//! Every file is written under a temporary name and renamed. An experiment whose solver does not converge
+//! Everything is written into a staging folder next to `DIR` and renamed into place when complete
+//! ([`crate::run_folder`]): an interrupted run leaves the previous results as they were, and a re-run
+//! replaces only the files the previous run wrote (its manifest), never the user's own. An experiment whose solver does not converge
 //! is reported as such (its run folder is still written) and the others go on; [`Reproduction::failures`]
 //! lists them. Units: SI (s, m, rad, N m, J).
 
@@ -42,6 +44,9 @@ pub struct ReproduceOptions {
     /// Also write the results page (e.g. `docs/results.md`) with the key figures copied into a folder
     /// named after it (`docs/results/`). Default none.
     pub results_page: Option<PathBuf>,
+    /// Write into a non-empty output folder that is not a brachia run folder (its files are kept).
+    /// Default false.
+    pub force: bool,
 }
 
 impl Default for ReproduceOptions {
@@ -51,6 +56,7 @@ impl Default for ReproduceOptions {
             quick: false,
             progress: true,
             results_page: None,
+            force: false,
         }
     }
 }
@@ -151,23 +157,15 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let ls_robust_paper = load(opts, "robustness-paper.toml")?;
     let study_settings = study::settings(&ls_track, opts.quick);
     study_settings.validate()?;
-
-    // a previous reproduction's experiment folders and figures go first, so nothing stale is reported
-    for sub in [
-        "figures",
-        "parameter-study",
-        "tracking",
-        "tracking-model",
-        "obstacle",
-        "robustness",
-        "robustness-paper",
-    ] {
-        let dir = out.join(sub);
-        if dir.is_dir() {
-            std::fs::remove_dir_all(&dir)
-                .map_err(|source| ExpError::Write { path: dir, source })?;
-        }
+    // the output places are checked before any work
+    crate::run_folder::check_out_dir(out, opts.force)?;
+    if let Some(page) = &opts.results_page {
+        report::check_page(page)?;
     }
+    let final_out = out;
+    let stage = crate::run_folder::stage_for(out)?;
+    let _cleanup = RemoveOnDrop(stage.clone());
+    let out = stage.as_path();
     let mut failures = Vec::new();
     let mut files = Vec::new();
     let mut res = Results {
@@ -318,9 +316,16 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let mut top = crate::RunFolder::default();
     top.add("summary.json", summary_text);
     top.add("REPORT.md", md);
-    write(&top, out, &mut files)?;
+    top.write_into(out)?;
+    files.extend(top.names().map(|n| out.join(n)));
+    crate::run_folder::install(out, final_out)?;
+    let files: Vec<PathBuf> = files
+        .iter()
+        .map(|f| final_out.join(f.strip_prefix(out).unwrap_or(f)))
+        .collect();
+    let mut files = files;
     if let Some(page) = &opts.results_page {
-        report::publish(&res, &failures, &warnings, out, page)?;
+        report::publish(&res, &failures, &warnings, final_out, page)?;
         files.push(page.clone());
     }
     Ok(Reproduction {
@@ -330,6 +335,18 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
         files,
         wall_s: res.wall_s,
     })
+}
+
+/// Removes a staging folder when a run stops early (an error or a panic); a no-op once the folder has
+/// been renamed into place.
+struct RemoveOnDrop(PathBuf);
+
+impl Drop for RemoveOnDrop {
+    fn drop(&mut self) {
+        if self.0.is_dir() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Keys of `summary.json` (stable names other tools read).

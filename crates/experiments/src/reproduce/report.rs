@@ -751,8 +751,60 @@ pub(crate) fn markdown(
     s
 }
 
+/// Manifest of the figures a results page's folder holds that `publish` wrote (a re-run removes only
+/// these).
+const PAGE_MANIFEST: &str = ".brachia-page";
+
+/// Check a results page before any work: a `.md` file (not a folder) whose folder of figures (the page
+/// path without `.md`) is not a regular file, in a place that can be written.
+pub(crate) fn check_page(page: &Path) -> Result<(), ExpError> {
+    let bad = |reason: String| ExpError::OutDir {
+        path: page.to_path_buf(),
+        reason,
+    };
+    if page.extension().is_none_or(|x| x != "md") {
+        return Err(bad(
+            "--results-page must be a Markdown file ending in .md (its figures go into the folder \
+             of the same name without .md)"
+                .into(),
+        ));
+    }
+    if page.is_dir() {
+        return Err(bad("is a folder; --results-page must be a .md file".into()));
+    }
+    let dir = page.with_extension("");
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad(format!(
+            "{} (where the page's figures go) exists and is not a folder",
+            dir.display()
+        )));
+    }
+    let parent = match page.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    if !parent.is_dir() {
+        return Err(bad(format!(
+            "its folder {} does not exist",
+            parent.display()
+        )));
+    }
+    let probe = parent.join(format!(".brachia-probe-page-{}", std::process::id()));
+    match std::fs::create_dir(&probe) {
+        Ok(()) => {
+            let _ = std::fs::remove_dir(&probe);
+            Ok(())
+        }
+        Err(e) => Err(bad(format!(
+            "nothing can be written in {}: {e}",
+            parent.display()
+        ))),
+    }
+}
+
 /// Write the results page (`page`, e.g. docs/results.md) with the key figures copied beside it into a
-/// folder named after the page (docs/results/).
+/// folder named after the page (docs/results/). Only the figures the previous publication wrote (listed
+/// in the folder's `.brachia-page`) are replaced or removed; other files there are the user's and stay.
 pub(crate) fn publish(
     res: &Results,
     failures: &[String],
@@ -760,6 +812,7 @@ pub(crate) fn publish(
     out: &Path,
     page: &Path,
 ) -> Result<(), ExpError> {
+    check_page(page)?;
     let dir = page.with_extension("");
     let rel = Path::new(dir.file_name().unwrap_or_default());
     let werr = |path: &Path, source| ExpError::Write {
@@ -767,15 +820,23 @@ pub(crate) fn publish(
         source,
     };
     std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
-    // the previous page's figures go first (sub-folders, such as recorded data, stay)
-    if let Ok(entries) = std::fs::read_dir(&dir) {
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_file() && p.extension().is_some_and(|x| x == "png" || x == "gif") {
+    // the previous publication's figures go first (only those it listed)
+    let mut previous = std::collections::BTreeSet::new();
+    if let Ok(text) = std::fs::read_to_string(dir.join(PAGE_MANIFEST)) {
+        for name in text
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.is_empty())
+        {
+            let p = dir.join(name);
+            let plain = Path::new(name).components().count() == 1;
+            if plain && p.is_file() {
                 std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
             }
+            previous.insert(name.to_string());
         }
     }
+    // only the figures this reproduction wrote (its manifest), never the user's files in figures/
+    let ours = crate::run_folder::read_manifest(out).unwrap_or_default();
     let mut folder = crate::RunFolder::default();
     let figs = out.join("figures");
     if let Ok(entries) = std::fs::read_dir(&figs) {
@@ -786,13 +847,27 @@ pub(crate) fn publish(
                 || PAGE_ANIMATIONS
                     .iter()
                     .any(|g| p.ends_with(format!("{g}.gif")));
-            if keep {
+            let name = e.file_name().to_string_lossy().to_string();
+            let written = ours.contains(&Path::new("figures").join(&name));
+            if keep && written {
                 let data = std::fs::read(&p).map_err(|e| werr(&p, e))?;
-                folder.add(&e.file_name().to_string_lossy(), data);
+                // a user's file of the same name beside the page is kept as NAME.user
+                let target = dir.join(&name);
+                if target.exists() && !previous.contains(&name) {
+                    let aside = dir.join(format!("{name}.user"));
+                    std::fs::rename(&target, &aside).map_err(|e| werr(&aside, e))?;
+                }
+                folder.add(&name, data);
             }
         }
     }
-    folder.write(&dir)?;
+    let mut listed = String::from("# figures written by brachia reproduce --results-page\n");
+    for n in folder.names() {
+        listed.push_str(n);
+        listed.push('\n');
+    }
+    folder.add(PAGE_MANIFEST, listed);
+    folder.write_into(&dir)?;
     let mut md = markdown(res, failures, warnings, rel, Target::Page);
     md = md.replacen(
         "# brachia: reproduction of Ji et al., Section V",
@@ -807,5 +882,5 @@ pub(crate) fn publish(
         .to_string_lossy()
         .to_string();
     top.add(&name, md);
-    top.write(page.parent().unwrap_or(Path::new(".")))
+    top.write_into(page.parent().unwrap_or(Path::new(".")))
 }

@@ -1,0 +1,17 @@
+//! Fixed-length vectors read exactly: `[x, y]` with three values is an error, not a silent truncation.
+
+use serde::de::{Deserializer, Error as _};
+use serde::Deserialize;
+
+/// Deserialize `[f64; 2]` from a sequence of exactly two numbers (for
+/// `#[serde(deserialize_with = "brachia::serde_exact::pair")]`).
+pub fn pair<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    match v[..] {
+        [a, b] => Ok([a, b]),
+        _ => Err(D::Error::custom(format!(
+            "expected exactly 2 numbers [x, y], got {} ({v:?})",
+            v.len()
+        ))),
+    }
+}
