@@ -10,12 +10,12 @@
 //! [planner]                             # every field optional; see brachia::planning::PlannerSettings
 //! swing_time = "auto"                   # or seconds
 //! knot_dt = 0.01
-//! transcription = "hermite-simpson"     # euler | trapezoidal | hermite-simpson
+//! transcription = "hermite-simpson"     # euler | trapezoidal | hermite-simpson | multiple-shooting
 //! q1_diag = [0.01, 0.01, 0.01, 0.01]
 //! r1_diag = [1.0, 1.0, 1.0]
 //! avoid_obstacles = true
 //! [solver]                              # see brachia::planning::NlpSettings
-//! backend = "pounce"                    # pounce | ripopt
+//! backend = "pounce"                    # pounce | ripopt | ocp (multiple-shooting only)
 //! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
 //! controller = "mpc"                    # mpc | pd | open-loop
 //! [plant]                               # see PlantSettings
