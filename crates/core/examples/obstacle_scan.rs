@@ -28,6 +28,7 @@ fn cell(p: &Plan, wall: f64) -> String {
 
 fn main() -> Result<(), brachia::Error> {
     let pounce = !std::env::args().any(|a| a == "--no-pounce");
+    let run_ocp = !std::env::args().any(|a| a == "--pounce-only");
     let robot = Robot::paper();
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
@@ -60,6 +61,22 @@ fn main() -> Result<(), brachia::Error> {
             obstacles: vec![pl.obstacle],
             ..task.clone()
         };
+        if !run_ocp {
+            let t0 = Instant::now();
+            let b = plan(&robot, &tk, &hs, &NlpSettings::default())?;
+            let wb = t0.elapsed().as_secs_f64();
+            n_hs += usize::from(b.converged());
+            println!(
+                "| {} | {:.3} | {} | pounce HS direct: {} | {} | {:.2} |",
+                i + 1,
+                pl.time_s,
+                pl.link + 1,
+                if b.converged() { "yes" } else { "**no**" },
+                b.iterations,
+                wb
+            );
+            continue;
+        }
         let t0 = Instant::now();
         let a = plan(&robot, &tk, &ms, &ocp)?;
         let wa = t0.elapsed().as_secs_f64();

@@ -26,9 +26,10 @@ use std::fmt;
 pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
 /// First step of the radius scale after the obstacle-free plan.
 pub const FIRST_SCALE_STEP: f64 = 0.5;
-/// Iteration limit of one intermediate continuation solve (the last, at full radius, keeps the
-/// settings' `max_iter`): a step that does not converge within it is retried with a smaller step.
-pub const STEP_MAX_ITER: usize = 150;
+/// Iteration limit of one intermediate continuation solve, and of the final attempt after the
+/// continuation gave up (the step at full radius keeps the settings' `max_iter`): a step that does not
+/// converge within it is retried with a smaller step.
+pub const STEP_MAX_ITER: usize = 60;
 
 /// How the planner finds its initial guess when the task has obstacles (`[planner] obstacle_guess`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -277,7 +278,7 @@ pub(super) fn plan_around_obstacles(
         Some(b) => b,
         // the last full-radius attempt, or plan directly for a plan to return
         None => {
-            let p = plan_single(robot, task, settings, nlp, Some(&guess))?;
+            let p = plan_single(robot, task, settings, &step_nlp, Some(&guess))?;
             count(&mut rep, &p);
             p
         }
