@@ -3,12 +3,14 @@
 //!
 //! The default guess (a smooth step to an inverse-kinematics target pose, [`super::planner`]) ignores the
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
-//! infeasible set and its restoration phase often fails. [`plan_around_obstacles`] then
+//! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
 //! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
 //! 2. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
 //!    from the previous converged plan (`s` doubles its step after a success, halves it after a
-//!    failure, down to [`MIN_SCALE_STEP`]); the clearance rows of a small obstacle are violated by at
-//!    most a few centimetres, which the solver repairs, and the plan moves around it as it grows.
+//!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
+//!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
+//!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
+//!    free end: avoiding it changes the whole swing, not a neighbourhood of it.
 //!
 //! The guess of step 2 is the previous plan's own knots (or collocation points), so the strategy works
 //! for every transcription and backend. Units: m, s.
