@@ -39,8 +39,8 @@ pub const STEP_MAX_ITER: usize = 60;
 pub enum ObstacleGuess {
     /// The smooth step to the target pose only, as without obstacles (one solve).
     Direct,
-    /// The smooth step when it clears every obstacle; otherwise, or when that solve fails,
-    /// continuation on the obstacle radii from an obstacle-free plan (see the module docs). Default.
+    /// The smooth step; when that solve fails, continuation on the obstacle radii from an
+    /// obstacle-free plan (see the module docs). Default.
     #[default]
     Continuation,
 }
@@ -221,7 +221,8 @@ pub(super) fn plan_around_obstacles(
         scales: vec![],
     };
     let mut best: Option<Plan> = None;
-    if clear || settings.obstacle_guess == ObstacleGuess::Direct {
+    // the smooth step first, always: where it converged before, the plan is the same
+    {
         let p = plan_single(robot, task, settings, nlp, None)?;
         count(&mut rep, &p);
         if p.converged() || settings.obstacle_guess == ObstacleGuess::Direct {
