@@ -7,6 +7,7 @@
 mod backend_pounce;
 mod backend_ripopt;
 pub mod collocation;
+pub mod guess;
 pub mod nlp;
 pub mod ocp_nlp;
 pub mod plan_shooting;
@@ -16,6 +17,7 @@ pub mod settings;
 pub mod shooting;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
+pub use guess::{Blockage, GuessReport, GuessStrategy, ObstacleGuess};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use ocp_nlp::{AdapterTimings, OcpNlp};
 pub use nlp::{PassStats, TimeSplit};

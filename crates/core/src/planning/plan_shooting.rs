@@ -293,6 +293,8 @@ pub(super) fn plan_shooting(
         violations,
         replay_ee_error_m,
         min_obstacle_clearance_m,
+        guess: None,
+        blockage: None,
     })
 }
 

@@ -183,12 +183,30 @@ pub struct Plan {
     /// Smallest surface distance to an obstacle (or between non-adjacent links) over the resampled
     /// trajectory, m; `None` without obstacles.
     pub min_obstacle_clearance_m: Option<f64>,
+    /// With obstacles avoided and no warm-start guess: how the initial guess was found and what every
+    /// solve cost (see [`crate::planning::guess`]); `None` otherwise.
+    pub guess: Option<crate::planning::guess::GuessReport>,
+    /// When no strategy converged on a task with obstacles: which obstacle blocks which link
+    /// ([`crate::planning::guess::Blockage`], its `Display` is the message); `None` otherwise.
+    pub blockage: Option<crate::planning::guess::Blockage>,
 }
 
 impl Plan {
     /// True when the solver converged.
     pub fn converged(&self) -> bool {
         self.status.is_converged()
+    }
+
+    /// A one-line account of a plan that did not converge: the status and, when known, what blocks
+    /// the swing; `None` for a converged plan.
+    pub fn failure_message(&self) -> Option<String> {
+        if self.converged() {
+            return None;
+        }
+        Some(match &self.blockage {
+            Some(b) => format!("the planner did not converge ({:?}): {b}", self.status),
+            None => format!("the planner did not converge ({:?})", self.status),
+        })
     }
 }
 
@@ -686,7 +704,30 @@ pub const WARM_START_MU_INIT: f64 = 1e-4;
 /// guess with the wrong number of links, fewer than two samples, non-finite values or times that do
 /// not increase. Unless `nlp.mu_init` is set, a warm-started solve starts its barrier parameter at
 /// [`WARM_START_MU_INIT`].
+///
+/// Without a guess, on a task whose obstacles are avoided, the initial guess comes from
+/// [`crate::planning::guess`] (`settings.obstacle_guess`): continuation on the obstacle radii when the
+/// smooth step cuts through an obstacle; the plan then reports the strategy and the summed cost of
+/// every solve, and names what blocks the swing when nothing converged.
 pub fn plan_with_guess(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
+    if guess.is_none() && settings.avoid_obstacles && !task.obstacles.is_empty() {
+        settings.validate(robot.n, "planner")?;
+        nlp.validate()?;
+        check_task(robot, task, settings)?;
+        return super::guess::plan_around_obstacles(robot, task, settings, nlp);
+    }
+    plan_single(robot, task, settings, nlp, guess)
+}
+
+/// One plan from one initial guess (the guess given, or the smooth step): [`plan_with_guess`] without
+/// the obstacle strategies.
+pub(super) fn plan_single(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -875,6 +916,8 @@ pub fn plan_with_guess(
         violations,
         replay_ee_error_m,
         min_obstacle_clearance_m,
+        guess: None,
+        blockage: None,
     })
 }
 

@@ -125,6 +125,9 @@ pub struct PlannerSettings {
     pub output_dt: f64,
     /// Multiple-shooting settings (used by `transcription = "multiple-shooting"` only).
     pub shooting: ShootingSettings,
+    /// Initial guess with obstacles (`"continuation"`, default, or `"direct"`); see
+    /// [`crate::planning::guess`].
+    pub obstacle_guess: crate::planning::guess::ObstacleGuess,
 }
 
 impl Default for PlannerSettings {
@@ -141,6 +144,7 @@ impl Default for PlannerSettings {
             self_collision: true,
             output_dt: 0.001,
             shooting: ShootingSettings::default(),
+            obstacle_guess: crate::planning::guess::ObstacleGuess::default(),
         }
     }
 }

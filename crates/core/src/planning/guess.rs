@@ -1,0 +1,367 @@
+//! Plans that do not fail on obstacles: a collision-free initial guess by continuation on the obstacle
+//! radii, and a diagnosis of what blocks the swing when no strategy converges.
+//!
+//! The default guess (a smooth step to an inverse-kinematics target pose, [`super::planner`]) ignores the
+//! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
+//! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
+//! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
+//! 2. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
+//!    from the previous converged plan (`s` doubles its step after a success, halves it after a
+//!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
+//!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
+//!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
+//!    free end: avoiding it changes the whole swing, not a neighbourhood of it.
+//!
+//! The guess of step 2 is the previous plan's own knots (or collocation points), so the strategy works
+//! for every transcription and backend. Units: m, s.
+
+use super::nlp::NlpSettings;
+use super::planner::{plan_single, target_pose, Plan, SwingTask};
+use super::settings::PlannerSettings;
+use crate::error::Result;
+use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Smallest step of the radius scale before the continuation gives up.
+pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
+/// First step of the radius scale after the obstacle-free plan.
+pub const FIRST_SCALE_STEP: f64 = 0.5;
+/// Iteration limit of one intermediate continuation solve, and of the final attempt after the
+/// continuation gave up (the step at full radius keeps the settings' `max_iter`): a step that does not
+/// converge within it is retried with a smaller step.
+pub const STEP_MAX_ITER: usize = 60;
+
+/// How the planner finds its initial guess when the task has obstacles (`[planner] obstacle_guess`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObstacleGuess {
+    /// The smooth step to the target pose only, as without obstacles (one solve).
+    Direct,
+    /// The smooth step; when that solve fails, continuation on the obstacle radii from an
+    /// obstacle-free plan (see the module docs). Default.
+    #[default]
+    Continuation,
+}
+
+/// Which strategy produced a plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GuessStrategy {
+    /// The smooth step to the target pose (it cleared the obstacles, or continuation was off).
+    SmoothStep,
+    /// Continuation on the obstacle radii.
+    Continuation,
+}
+
+/// How the plan's initial guess was found and what it cost. The plan's own `iterations` and
+/// `solve_time_s` are these totals (every solve counted, failed ones too).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuessReport {
+    /// The strategy of the returned plan (the last one tried when none converged).
+    pub strategy: GuessStrategy,
+    /// Whether the default smooth-step guess already cleared every obstacle (margin included).
+    pub smooth_step_clear: bool,
+    /// Solves done, failed ones included.
+    pub solves: usize,
+    /// Solver iterations summed over all solves.
+    pub iterations: usize,
+    /// Solve time summed over all solves, s.
+    pub solve_time_s: f64,
+    /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
+    pub scales: Vec<f64>,
+}
+
+/// What blocks a swing that no strategy planned: the clearance row with the largest violation over
+/// the best attempt, and whether the start pose or the obstacle-free swing's final pose overlaps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Blockage {
+    /// 0-based link index.
+    pub link: usize,
+    /// 0-based obstacle index (position in the task's list).
+    pub obstacle: usize,
+    /// Time of the worst knot of the best attempt, s.
+    pub time_s: f64,
+    /// Required clearance (margin included) minus the surface distance there, m (> 0: violated).
+    pub violation_m: f64,
+    /// The obstacle is within `margin` of the start pose.
+    pub start_overlaps: bool,
+    /// The obstacle is within `margin` of the final pose of the obstacle-free swing (the pose that
+    /// reaches the bar), when that swing was planned.
+    pub final_pose_overlaps: Option<bool>,
+    /// The obstacle's surface is within the link radius plus the margin of the target bar.
+    pub bar_overlaps: bool,
+}
+
+impl fmt::Display for Blockage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "obstacle {} blocks link {}: clearance violated by {:.4} m at t = {:.3} s over the best attempt",
+            self.obstacle,
+            self.link + 1,
+            self.violation_m,
+            self.time_s
+        )?;
+        if self.start_overlaps {
+            write!(f, "; the start pose is within the margin of it")?;
+        }
+        if self.final_pose_overlaps == Some(true) {
+            write!(f, "; the obstacle-free swing's final pose overlaps it")?;
+        }
+        if self.bar_overlaps {
+            write!(f, "; it touches the target bar")?;
+        }
+        Ok(())
+    }
+}
+
+/// Add the cost of `p` to the totals of `r`.
+fn count(r: &mut GuessReport, p: &Plan) {
+    r.solves += p.attempts;
+    r.iterations += p.iterations;
+    r.solve_time_s += p.solve_time_s;
+}
+
+/// `task` with every obstacle's radius scaled by `s`.
+fn scaled(task: &SwingTask, s: f64) -> SwingTask {
+    SwingTask {
+        obstacles: task
+            .obstacles
+            .iter()
+            .map(|o| Circle {
+                center: o.center,
+                radius: s * o.radius,
+            })
+            .collect(),
+        ..task.clone()
+    }
+}
+
+/// Whether the smooth step from `q0` to the target pose (sampled at 100 points) clears every
+/// obstacle by the margin. Errors as [`target_pose`].
+fn smooth_step_is_clear(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<bool> {
+    let cf = ClearanceFn::new(robot, &task.obstacles, settings.obstacle_margin)?
+        .with_self_collision(false);
+    let q_t = target_pose(robot, task, settings, Some(&cf))?;
+    let mut q = vec![0.0; robot.n];
+    let clear = (0..=100).all(|j| {
+        let r = j as f64 / 100.0;
+        let s = r * r * (3.0 - 2.0 * r);
+        for i in 0..robot.n {
+            q[i] = task.q0[i] + s * (q_t[i] - task.q0[i]);
+        }
+        cf.min_clearance(&q) >= settings.obstacle_margin
+    });
+    Ok(clear)
+}
+
+/// The worst obstacle row of `points` against the task's obstacles (margin as in `settings`).
+pub fn diagnose(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    points: &Trajectory,
+    free_final_pose: Option<&[f64]>,
+) -> Result<Option<Blockage>> {
+    if task.obstacles.is_empty() || points.is_empty() {
+        return Ok(None);
+    }
+    let margin = settings.obstacle_margin;
+    let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+    let mut worst: Option<(ClearancePair, f64, f64)> = None;
+    for k in 0..points.len() {
+        if let Some((pair, d)) = cf.min_clearance_pair(points.q(k)) {
+            if worst.is_none_or(|(_, w, _)| d < w) {
+                worst = Some((pair, d, points.t[k]));
+            }
+        }
+    }
+    let Some((ClearancePair::LinkObstacle { link, obstacle }, d, time_s)) = worst else {
+        return Ok(None);
+    };
+    let one = [task.obstacles[obstacle]];
+    let cf1 = ClearanceFn::new(robot, &one, 0.0)?.with_self_collision(false);
+    let o = &task.obstacles[obstacle];
+    let r_last = robot.radius[robot.n - 1];
+    let bar = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius;
+    Ok(Some(Blockage {
+        link,
+        obstacle,
+        time_s,
+        violation_m: margin - d,
+        start_overlaps: cf1.min_clearance(&task.q0) < margin,
+        final_pose_overlaps: free_final_pose.map(|q| cf1.min_clearance(q) < margin),
+        bar_overlaps: bar < r_last + margin,
+    }))
+}
+
+/// Plan with a collision-free initial guess (see the module docs); called by
+/// [`super::plan_with_guess`] without a guess when obstacles are avoided. The returned plan counts
+/// every solve in `iterations`, `attempts` and `solve_time_s`, carries a [`GuessReport`], and, when it
+/// did not converge, a [`Blockage`].
+pub(super) fn plan_around_obstacles(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+) -> Result<Plan> {
+    let clear = smooth_step_is_clear(robot, task, settings)?;
+    let mut rep = GuessReport {
+        strategy: GuessStrategy::SmoothStep,
+        smooth_step_clear: clear,
+        solves: 0,
+        iterations: 0,
+        solve_time_s: 0.0,
+        scales: vec![],
+    };
+    let mut best: Option<Plan> = None;
+    // the smooth step first, always: where it converged before, the plan is the same
+    {
+        let p = plan_single(robot, task, settings, nlp, None)?;
+        count(&mut rep, &p);
+        if p.converged() || settings.obstacle_guess == ObstacleGuess::Direct {
+            return Ok(finish(robot, task, settings, p, rep, None));
+        }
+        best = Some(p);
+    }
+    rep.strategy = GuessStrategy::Continuation;
+    let no_obstacles = SwingTask {
+        obstacles: vec![],
+        ..task.clone()
+    };
+    let free = plan_single(robot, &no_obstacles, settings, nlp, None);
+    // an obstacle-free task can still be refused (e.g. a target out of reach): that is the error
+    let free = free?;
+    count(&mut rep, &free);
+    let free_final = free.points.q(free.points.len() - 1).to_vec();
+    if !free.converged() {
+        let p = best.unwrap_or(free);
+        return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+    }
+    rep.scales.push(0.0);
+    let step_nlp = NlpSettings {
+        max_iter: nlp.max_iter.min(STEP_MAX_ITER),
+        ..nlp.clone()
+    };
+    let mut guess = free.points;
+    let (mut done, mut step) = (0.0f64, FIRST_SCALE_STEP);
+    while step >= MIN_SCALE_STEP {
+        let s = (done + step).min(1.0);
+        let last = s >= 1.0;
+        let p = plan_single(
+            robot,
+            &scaled(task, s),
+            settings,
+            if last { nlp } else { &step_nlp },
+            Some(&guess),
+        )?;
+        count(&mut rep, &p);
+        if p.converged() {
+            rep.scales.push(s);
+            if last {
+                return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+            }
+            guess = p.points;
+            done = s;
+            step *= 2.0;
+        } else {
+            if last && best.is_none() {
+                best = Some(p);
+            }
+            step *= 0.5;
+        }
+    }
+    let p = match best {
+        Some(b) => b,
+        // the last full-radius attempt, or plan directly for a plan to return
+        None => {
+            let p = plan_single(robot, task, settings, &step_nlp, Some(&guess))?;
+            count(&mut rep, &p);
+            p
+        }
+    };
+    Ok(finish(robot, task, settings, p, rep, Some(&free_final)))
+}
+
+/// Attach the totals, the report and (if not converged) the diagnosis to `p`.
+fn finish(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    mut p: Plan,
+    rep: GuessReport,
+    free_final: Option<&[f64]>,
+) -> Plan {
+    p.iterations = rep.iterations;
+    p.attempts = rep.solves;
+    p.solve_time_s = rep.solve_time_s;
+    if !p.converged() {
+        p.blockage = diagnose(robot, task, settings, &p.points, free_final)
+            .ok()
+            .flatten();
+    }
+    p.guess = Some(rep);
+    p
+}
+
+/// One obstacle placement of a scan: a circle at the midpoint of `link` at time `time_s` of a swing.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Placement {
+    /// Time on the swing, s.
+    pub time_s: f64,
+    /// 0-based link index.
+    pub link: usize,
+    /// The obstacle.
+    pub obstacle: Circle,
+}
+
+/// Obstacles of `radius` (m) at the midpoint of every link at `times` evenly spaced times
+/// `t_j = T j / (times + 1)`, `j = 1..=times`, of the swing `points` (the knot at or before `t_j`),
+/// skipping those whose surface is within `margin` (m) of the start pose or of the swing's final
+/// pose, or within the last link's radius plus `margin` of `target` (the bar). Time-major, then link.
+pub fn path_placements(
+    robot: &Robot,
+    points: &Trajectory,
+    target: [f64; 2],
+    radius: f64,
+    margin: f64,
+    times: usize,
+) -> Result<Vec<Placement>> {
+    let n = robot.n;
+    let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+    let (q_start, q_end) = (points.q(0), points.q(points.len() - 1));
+    let t_final = points.t[points.len() - 1];
+    let mut out = vec![];
+    for j in 1..=times {
+        let t = points.t[0] + (t_final - points.t[0]) * j as f64 / (times + 1) as f64;
+        let (k, _) = points.locate(t);
+        robot.link_segments(points.q(k), &mut segs);
+        for (link, (a, b)) in segs.iter().enumerate() {
+            let obstacle = Circle {
+                center: [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])],
+                radius,
+            };
+            let one = [obstacle];
+            let cf = ClearanceFn::new(robot, &one, 0.0)?.with_self_collision(false);
+            let bar =
+                (target[0] - obstacle.center[0]).hypot(target[1] - obstacle.center[1]) - radius;
+            if cf.min_clearance(q_start) > margin
+                && cf.min_clearance(q_end) > margin
+                && bar > robot.radius[n - 1] + margin
+            {
+                out.push(Placement {
+                    time_s: t,
+                    link,
+                    obstacle,
+                });
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,128 @@
+//! Obstacles on the path of the tracking swing (docs/planner.md, "Obstacles on the path"): one 0.08 m
+//! obstacle at a link's midpoint of the unobstructed swing (multiple shooting, 10 ms knots, `ocp`). The
+//! full scan is the example `obstacle_scan` (minutes); this test runs the cheap part of it: the
+//! placements, two plans (one whose smooth step clears the obstacle, one that needs the continuation)
+//! and the diagnosis of what blocks a swing. Units: m, s.
+
+use brachia::model::{ClearanceFn, Robot};
+use brachia::planning::guess::{diagnose, path_placements};
+use brachia::planning::{
+    plan, Backend, GuessStrategy, NlpSettings, PlannerSettings, SwingTask, Transcription,
+};
+
+fn tracking() -> SwingTask {
+    SwingTask {
+        q0: vec![-2.35, 0.0, -1.55, 0.0],
+        qd0: vec![],
+        target: [0.8, 0.0],
+        obstacles: vec![],
+    }
+}
+
+fn settings() -> (PlannerSettings, NlpSettings) {
+    (
+        PlannerSettings {
+            transcription: Transcription::MultipleShooting,
+            knot_dt: 0.01,
+            ..Default::default()
+        },
+        NlpSettings {
+            backend: Backend::Ocp,
+            ..Default::default()
+        },
+    )
+}
+
+#[test]
+fn placements_lie_on_the_swing_and_clear_its_ends_and_the_bar() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    assert!(base.converged() && base.guess.is_none());
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    assert!(places.len() >= 19, "{} placements", places.len());
+    for pl in &places {
+        let one = [pl.obstacle];
+        let cf = ClearanceFn::new(&robot, &one, 0.0)
+            .unwrap()
+            .with_self_collision(false);
+        // on the path: the unobstructed swing overlaps it (its centre is on a link at t)
+        let (k, _) = base.points.locate(pl.time_s);
+        assert!(cf.min_clearance(base.points.q(k)) < -0.09, "{pl:?}");
+        assert!(cf.min_clearance(&tracking().q0) > 0.01, "{pl:?}");
+        let last = base.points.len() - 1;
+        assert!(cf.min_clearance(base.points.q(last)) > 0.01, "{pl:?}");
+    }
+}
+
+#[test]
+fn the_continuation_plans_around_an_obstacle_the_smooth_step_hits() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    // #3 of the scan (link 4 at 0.50 s: the smooth step clears it) and #13 (link 1 at 1.49 s: it
+    // does not)
+    for (i, strategy) in [
+        (2, GuessStrategy::SmoothStep),
+        (12, GuessStrategy::Continuation),
+    ] {
+        let pl = places[i];
+        let task = SwingTask {
+            obstacles: vec![pl.obstacle],
+            ..tracking()
+        };
+        let p = plan(&robot, &task, &s, &nlp).unwrap();
+        assert!(p.converged(), "#{}: {:?}", i + 1, p.failure_message());
+        let g = p.guess.as_ref().unwrap();
+        // the smooth step is solved first; #13 needs the continuation only if that solve fails
+        if strategy == GuessStrategy::SmoothStep {
+            assert_eq!(g.strategy, strategy, "#{}", i + 1);
+        }
+        assert_eq!(g.smooth_step_clear, strategy == GuessStrategy::SmoothStep);
+        // the plan's counts are the totals over every solve
+        assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
+        assert!(p.iterations > 0 && g.solve_time_s == p.solve_time_s);
+        if g.strategy == GuessStrategy::Continuation {
+            assert!(g.solves >= 2 && g.scales[0] == 0.0 && *g.scales.last().unwrap() == 1.0);
+        }
+        assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
+        assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
+        assert!(p.blockage.is_none() && p.failure_message().is_none());
+    }
+}
+
+#[test]
+fn the_diagnosis_names_the_link_the_obstacle_blocks() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let pl = places[0];
+    let task = SwingTask {
+        obstacles: vec![pl.obstacle],
+        ..tracking()
+    };
+    // the unobstructed swing as the attempt: its link sweeps through the centre at t
+    let last = base.points.q(base.points.len() - 1).to_vec();
+    let b = diagnose(&robot, &task, &s, &base.points, Some(&last))
+        .unwrap()
+        .unwrap();
+    assert_eq!((b.link, b.obstacle), (pl.link, 0), "{b:?}");
+    // the centre on the link: violated by the obstacle radius, the link radius and the margin
+    assert!((b.violation_m - (0.08 + 0.02 + 0.01)).abs() < 0.01, "{b:?}");
+    assert!((b.time_s - pl.time_s).abs() < 0.05, "{b:?} vs {pl:?}");
+    assert_eq!(
+        (b.start_overlaps, b.final_pose_overlaps, b.bar_overlaps),
+        (false, Some(false), false)
+    );
+    let msg = b.to_string();
+    assert!(
+        msg.contains(&format!("obstacle 0 blocks link {}", pl.link + 1)),
+        "{msg}"
+    );
+    // no obstacle, no diagnosis
+    assert!(diagnose(&robot, &tracking(), &s, &base.points, None)
+        .unwrap()
+        .is_none());
+}
