@@ -104,7 +104,10 @@ fn ocp_and_pounce_reach_the_same_optimum() {
         .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
     assert!(dq < 1e-4, "largest knot angle difference {dq}");
     assert!(b.solves.iter().any(|a| a.adopted));
-    assert_eq!(b.iterations, b.solves.iter().map(|a| a.iterations).sum::<usize>());
+    assert_eq!(
+        b.iterations,
+        b.solves.iter().map(|a| a.iterations).sum::<usize>()
+    );
 }
 
 #[test]

@@ -220,16 +220,15 @@ pub(super) fn plan_around_obstacles(
         solve_time_s: 0.0,
         scales: vec![],
     };
-    let mut best: Option<Plan> = None;
     // the smooth step first, always: where it converged before, the plan is the same
-    {
+    let mut best: Option<Plan> = {
         let p = plan_single(robot, task, settings, nlp, None)?;
         count(&mut rep, &p);
         if p.converged() || settings.obstacle_guess == ObstacleGuess::Direct {
             return Ok(finish(robot, task, settings, p, rep, None));
         }
-        best = Some(p);
-    }
+        Some(p)
+    };
     rep.strategy = GuessStrategy::Continuation;
     let no_obstacles = SwingTask {
         obstacles: vec![],

@@ -19,8 +19,8 @@ pub mod shooting;
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use guess::{Blockage, GuessReport, GuessStrategy, ObstacleGuess};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
-pub use ocp_nlp::{AdapterTimings, OcpNlp};
 pub use nlp::{PassStats, TimeSplit};
+pub use ocp_nlp::{AdapterTimings, OcpNlp};
 pub use planner::SolveAttempt;
 pub use planner::{
     freefall_time, plan, plan_with_guess, validate_task, Plan, SwingTask, Violations,

@@ -856,11 +856,11 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
         }
     };
     let backend_start = Instant::now();
-    let mut outcome = match backend {
-        Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
-        Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
-        Backend::Ocp => {
-            return fail(
+    let mut outcome =
+        match backend {
+            Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
+            Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
+            Backend::Ocp => return fail(
                 SolveStatus::InvalidSettings(
                     "backend \"ocp\" solves stage-structured optimal-control problems only (the \
                      planner's transcription = \"multiple-shooting\"); a sparse NLP needs \
@@ -869,9 +869,8 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
                 ),
                 prep.x0.clone(),
                 prep.m,
-            )
-        }
-    };
+            ),
+        };
     let x = outcome
         .x
         .filter(|x| x.len() == prep.n)

@@ -19,8 +19,8 @@ use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::Trajectory;
 use brachia_ocp::{
-    EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds, StageEval,
-    TerminalEval,
+    EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
+    StageEval, TerminalEval,
 };
 
 /// Step of the independent open-loop replay, s.
@@ -195,7 +195,13 @@ pub(super) fn plan_shooting(
             let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
             let status = status_of(&stats.status);
             let solves = vec![ocp_attempt(&stats, status.clone())];
-            (solver.primal().clone(), status, stats.objective, solves, ocp)
+            (
+                solver.primal().clone(),
+                status,
+                stats.objective,
+                solves,
+                ocp,
+            )
         }
         Backend::Pounce | Backend::Ripopt => {
             let mut prob = OcpNlp::new(ocp);
