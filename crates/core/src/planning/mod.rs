@@ -13,6 +13,7 @@ pub mod plan_shooting;
 pub mod planner;
 pub mod settings;
 pub mod shooting;
+pub mod swing_planner;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
@@ -25,3 +26,4 @@ pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcr
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
+pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};

@@ -44,7 +44,7 @@ pub struct SolveTimeSplit {
 }
 
 /// The solver outcome of the OCP solver as the planner's status.
-fn status_of(s: &OcpStatus) -> SolveStatus {
+pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
     match s {
         OcpStatus::Solved => SolveStatus::Solved,
         OcpStatus::SolvedToAcceptableLevel => SolveStatus::SolvedToAcceptableLevel,
@@ -61,7 +61,7 @@ fn status_of(s: &OcpStatus) -> SolveStatus {
 }
 
 /// The OCP solver's settings from the NLP seam's (the same names and meanings).
-fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
+pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     let d = OcpSettings::default();
     OcpSettings {
         max_iter: nlp.max_iter,
@@ -85,6 +85,144 @@ pub(super) fn plan_shooting(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    let ShootingSetup {
+        ocp,
+        layout,
+        t_final,
+        freefall,
+    } = setup_shooting(robot, task, settings, guess)?;
+
+    // solve
+    let (z, status, iterations, attempts, objective, split, mut ocp) = match nlp.backend {
+        Backend::Ocp => {
+            let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
+                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
+            })?;
+            let mut ocp = ocp;
+            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
+            let split = split_of(&stats);
+            let status = status_of(&stats.status);
+            (
+                solver.primal().clone(),
+                status,
+                stats.iterations,
+                1,
+                stats.objective,
+                split,
+                ocp,
+            )
+        }
+        Backend::Pounce | Backend::Ripopt => {
+            let mut prob = OcpNlp::new(ocp);
+            let mut sol = solve(&mut prob, nlp);
+            let mut attempts = 1;
+            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+                // the collocation planner's retry (docs/planner.md, "Solver and retry")
+                let retry = NlpSettings {
+                    mu_strategy: MuStrategy::Adaptive,
+                    ..nlp.clone()
+                };
+                let second = solve(&mut prob, &retry);
+                attempts = 2;
+                if second.status.is_converged()
+                    || second.max_constraint_violation < sol.max_constraint_violation
+                {
+                    let (total, iters) = (
+                        sol.solve_time_s + second.solve_time_s,
+                        sol.iterations + second.iterations,
+                    );
+                    sol = second;
+                    sol.solve_time_s = total;
+                    sol.iterations = iters;
+                }
+            }
+            let mut z = Primal::zeros(prob.problem().dims());
+            if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
+                prob.unstack(&sol.x, &mut z);
+            } else {
+                prob.problem().initial_guess(&mut z);
+            }
+            let at = prob.timings;
+            let split = SolveTimeSplit {
+                evaluation_s: at.evaluation_s,
+                hessian_s: at.hessian_s,
+                solver_s: (sol.solve_time_s - at.evaluation_s - at.hessian_s).max(0.0),
+                linear_algebra_s: None,
+                line_search_s: None,
+                total_s: sol.solve_time_s,
+            };
+            (
+                z,
+                sol.status,
+                sol.iterations,
+                attempts,
+                sol.objective,
+                split,
+                prob.into_problem(),
+            )
+        }
+    };
+    finish_plan(
+        robot,
+        task,
+        settings,
+        &layout,
+        t_final,
+        freefall,
+        &z,
+        &mut ocp,
+        SolveSummary {
+            status,
+            iterations,
+            attempts,
+            objective,
+            split,
+        },
+    )
+}
+
+/// The multiple-shooting problem of a task, built with its initial guess, and its grid.
+pub(super) struct ShootingSetup<'a> {
+    /// The problem (guess set).
+    pub ocp: SwingOcp<'a>,
+    /// The knot grid.
+    pub layout: Layout,
+    /// Swing time T, s.
+    pub t_final: f64,
+    /// The free-fall time when T is `"auto"`, s.
+    pub freefall: Option<f64>,
+}
+
+/// How a solve ended, for [`finish_plan`].
+pub(super) struct SolveSummary {
+    pub status: SolveStatus,
+    pub iterations: usize,
+    pub attempts: usize,
+    pub objective: f64,
+    pub split: SolveTimeSplit,
+}
+
+/// The time split of an OCP solve.
+pub(super) fn split_of(stats: &brachia_ocp::OcpStats) -> SolveTimeSplit {
+    let t = stats.time;
+    SolveTimeSplit {
+        evaluation_s: t.evaluation_s,
+        hessian_s: t.hessian_s,
+        solver_s: (t.total_s - t.evaluation_s - t.hessian_s).max(0.0),
+        linear_algebra_s: Some(t.linear_algebra_s),
+        line_search_s: Some(t.line_search_s),
+        total_s: t.total_s,
+    }
+}
+
+/// Build the multiple-shooting problem of `task` with its initial guess (from `guess`, or the
+/// smoothstep towards the inverse-kinematics target pose). Refuses a collocation transcription.
+pub(super) fn setup_shooting<'a>(
+    robot: &'a Robot,
+    task: &'a SwingTask,
+    settings: &PlannerSettings,
+    guess: Option<&Trajectory>,
+) -> Result<ShootingSetup<'a>> {
     if settings.transcription != Transcription::MultipleShooting {
         let name = serde_json::to_value(settings.transcription)
             .ok()
@@ -175,83 +313,36 @@ pub(super) fn plan_shooting(
         }
     }
 
-    // solve
-    let (z, status, iterations, attempts, objective, split, mut ocp) = match nlp.backend {
-        Backend::Ocp => {
-            let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
-                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
-            })?;
-            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
-            let t = stats.time;
-            let split = SolveTimeSplit {
-                evaluation_s: t.evaluation_s,
-                hessian_s: t.hessian_s,
-                solver_s: (t.total_s - t.evaluation_s - t.hessian_s).max(0.0),
-                linear_algebra_s: Some(t.linear_algebra_s),
-                line_search_s: Some(t.line_search_s),
-                total_s: t.total_s,
-            };
-            let status = status_of(&stats.status);
-            (
-                solver.primal().clone(),
-                status,
-                stats.iterations,
-                1,
-                stats.objective,
-                split,
-                ocp,
-            )
-        }
-        Backend::Pounce | Backend::Ripopt => {
-            let mut prob = OcpNlp::new(ocp);
-            let mut sol = solve(&mut prob, nlp);
-            let mut attempts = 1;
-            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
-                // the collocation planner's retry (docs/planner.md, "Solver and retry")
-                let retry = NlpSettings {
-                    mu_strategy: MuStrategy::Adaptive,
-                    ..nlp.clone()
-                };
-                let second = solve(&mut prob, &retry);
-                attempts = 2;
-                if second.status.is_converged()
-                    || second.max_constraint_violation < sol.max_constraint_violation
-                {
-                    let (total, iters) = (
-                        sol.solve_time_s + second.solve_time_s,
-                        sol.iterations + second.iterations,
-                    );
-                    sol = second;
-                    sol.solve_time_s = total;
-                    sol.iterations = iters;
-                }
-            }
-            let mut z = Primal::zeros(prob.problem().dims());
-            if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
-                prob.unstack(&sol.x, &mut z);
-            } else {
-                prob.problem().initial_guess(&mut z);
-            }
-            let at = prob.timings;
-            let split = SolveTimeSplit {
-                evaluation_s: at.evaluation_s,
-                hessian_s: at.hessian_s,
-                solver_s: (sol.solve_time_s - at.evaluation_s - at.hessian_s).max(0.0),
-                linear_algebra_s: None,
-                line_search_s: None,
-                total_s: sol.solve_time_s,
-            };
-            (
-                z,
-                sol.status,
-                sol.iterations,
-                attempts,
-                sol.objective,
-                split,
-                prob.into_problem(),
-            )
-        }
-    };
+    Ok(ShootingSetup {
+        ocp,
+        layout,
+        t_final,
+        freefall,
+    })
+}
+
+/// The [`Plan`] of a multiple-shooting solution `z` of `ocp` (knots, held-torque trajectory,
+/// violations, independent replay).
+pub(super) fn finish_plan(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    layout: &Layout,
+    t_final: f64,
+    freefall: Option<f64>,
+    z: &Primal,
+    ocp: &mut SwingOcp,
+    sum: SolveSummary,
+) -> Result<Plan> {
+    let SolveSummary {
+        status,
+        iterations,
+        attempts,
+        objective,
+        split,
+    } = sum;
+    let n = robot.n;
+    let intervals = layout.intervals;
     let st = ocp.timings;
     let callback_timings = CallbackTimings {
         objective_s: 0.0,
@@ -275,11 +366,11 @@ pub(super) fn plan_shooting(
         .output_dt
         .min(layout.h / settings.shooting.substeps as f64);
     let trajectory =
-        held_torque_trajectory(robot, &z, layout.h, t_final, settings.output_dt, max_step);
+        held_torque_trajectory(robot, z, layout.h, t_final, settings.output_dt, max_step);
     let (energy_j, positive_work_j) = trajectory.work();
     let ee_final = robot.ee_position(&z.x[intervals][..n]);
-    let violations = violations(&mut ocp, &z);
-    let replay_ee_error_m = replay_held_torques(robot, &z, layout.h, task.target);
+    let violations = violations(ocp, z);
+    let replay_ee_error_m = replay_held_torques(robot, z, layout.h, task.target);
     let min_obstacle_clearance_m = if task.obstacles.is_empty() {
         None
     } else {
@@ -300,7 +391,7 @@ pub(super) fn plan_shooting(
         objective,
         swing_time_s: t_final,
         freefall_time_s: freefall,
-        layout,
+        layout: *layout,
         points,
         points_qdd,
         trajectory,
