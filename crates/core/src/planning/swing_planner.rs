@@ -305,7 +305,17 @@ impl<'a> SwingPlanner<'a> {
         Ok(out)
     }
 
-    fn prepare(&mut self, t_now: f64, x_now: &[f64], warm: bool) -> Result<()> {
+    /// The solution re-plans shift from, shifted onto the knots of a re-plan from `x_now` at `t_now`
+    /// (what [`SwingPlanner::replan`] starts from), into `out` (shaped like [`SwingPlanner::knots`]).
+    /// Errors as [`SwingPlanner::replan`].
+    pub fn shifted_into(&self, t_now: f64, x_now: &[f64], out: &mut Primal) -> Result<()> {
+        self.check_replan(t_now, x_now)?;
+        let h_new = (self.t_final - t_now) / self.layout.intervals as f64;
+        shift(&self.prev, t_now, h_new, x_now, out);
+        Ok(())
+    }
+
+    fn check_replan(&self, t_now: f64, x_now: &[f64]) -> Result<()> {
         if !self.has_prev {
             return Err(Error::invalid(
                 "planner",
@@ -314,8 +324,6 @@ impl<'a> SwingPlanner<'a> {
                 "call plan() first",
             ));
         }
-        let k_last = self.layout.intervals;
-        // at least 1 ms per interval's worth of remaining time is not required; only T - t_now > 0
         if !(t_now.is_finite() && t_now >= 0.0 && t_now < self.t_final) {
             return Err(Error::invalid(
                 "planner",
@@ -324,6 +332,23 @@ impl<'a> SwingPlanner<'a> {
                 format!("must lie in [0, T = {})", self.t_final),
             ));
         }
+        let nx = 2 * self.robot.n;
+        if x_now.len() != nx {
+            return Err(Error::Dimension {
+                what: "planner: x_now".into(),
+                expected: nx,
+                got: x_now.len(),
+            });
+        }
+        if let Some(v) = x_now.iter().find(|v| !v.is_finite()) {
+            return Err(Error::invalid("planner", "x_now", *v, "must be finite"));
+        }
+        Ok(())
+    }
+
+    fn prepare(&mut self, t_now: f64, x_now: &[f64], warm: bool) -> Result<()> {
+        self.check_replan(t_now, x_now)?;
+        let k_last = self.layout.intervals;
         self.ocp.set_start(x_now)?;
         let t_rem = self.t_final - t_now;
         self.ocp.set_swing_time(t_rem)?;
