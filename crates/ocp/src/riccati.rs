@@ -9,7 +9,10 @@
 //! ```
 //! `H_k = [Q S^T; S R]` in the order `z = [x, u]`. See docs/ocp.md for the derivation.
 
-use crate::dense::{chol, chol_solve, gemm_nn, gemm_tn_acc, gemv_n_acc, gemv_t_acc};
+use crate::dense::{
+    chol, chol_solve, eigen_solve, gemm_nn, gemm_nn_acc, gemm_tn_acc, gemv_n_acc, gemv_t_acc,
+    sym_eigen,
+};
 use crate::settings::MAX_EQUALITY_ROWS;
 
 /// Offsets of every per-stage block in the flat workspace arrays.
@@ -123,8 +126,12 @@ pub(crate) struct Riccati {
     kgain: Vec<f64>,
     /// Cholesky factors of R^_k.
     lr: Vec<f64>,
-    /// Cholesky factor of P_0.
+    /// Scratch copy of P_0, and its eigendecomposition `P_0 = V diag(d) V^T` (P_0 may be
+    /// indefinite when equality rows make the problem convex; see [`Riccati::factor_schur`]).
     lp0: Vec<f64>,
+    p0_v: Vec<f64>,
+    p0_d: Vec<f64>,
+    p0_tmp: Vec<f64>,
     /// Value-function gradients p_k of the last solve.
     pv: Vec<f64>,
     /// Feed-forward terms of the last solve.
@@ -149,11 +156,26 @@ pub(crate) struct Riccati {
     pub m: usize,
     schur: Vec<f64>,
     schur_fac: Vec<f64>,
-    w: Vec<f64>,
+    schur_v: Vec<f64>,
+    schur_d: Vec<f64>,
+    schur_tmp: Vec<f64>,
+    /// Responses of the chain QP to the unit gradients `a_j` (zero defects), all m at once:
+    /// `dz^(j)` as an `n_z x m` and `lam^(j)` as an `n_l x m` row-major array (sized on the first
+    /// factorisation with m rows; see [`Riccati::factor_schur`]).
+    resp_dz: Vec<f64>,
+    resp_lam: Vec<f64>,
+    /// Gradient with the equality rows' contributions (n_z).
     gw: Vec<f64>,
-    zero_b: Vec<f64>,
-    dz_tmp: Vec<f64>,
-    lam_tmp: Vec<f64>,
+    /// Multi-right-hand-side value-function gradients (n_z x m), feed-forward terms (n_z x m) and
+    /// soft-dynamics gradients (n_l x m) of the response solve.
+    mpv: Vec<f64>,
+    mkff: Vec<f64>,
+    mpvt: Vec<f64>,
+    /// Scratch of the response solve (nx_max x m each, nu_max x m).
+    mt: Vec<f64>,
+    mw: Vec<f64>,
+    mrh: Vec<f64>,
+    p0_col: Vec<f64>,
 }
 
 impl Riccati {
@@ -176,6 +198,9 @@ impl Riccati {
             kgain: vec![0.0; lay.ok[kk + 1]],
             lr: vec![0.0; lay.or[kk + 1]],
             lp0: vec![0.0; lay.nx[0] * lay.nx[0]],
+            p0_v: vec![0.0; lay.nx[0] * lay.nx[0]],
+            p0_d: vec![0.0; lay.nx[0]],
+            p0_tmp: vec![0.0; lay.nx[0]],
             pv: vec![0.0; lay.oz[kk + 1]],
             kff: vec![0.0; lay.oz[kk + 1]],
             pa: vec![0.0; nx1m * nxm],
@@ -191,23 +216,31 @@ impl Riccati {
             m: 0,
             schur: vec![0.0; me * me],
             schur_fac: vec![0.0; me * me],
-            w: vec![0.0; me],
+            schur_v: vec![0.0; me * me],
+            schur_d: vec![0.0; me],
+            schur_tmp: vec![0.0; me],
+            resp_dz: Vec::new(),
             gw: vec![0.0; lay.n_z()],
-            zero_b: vec![0.0; lay.n_l()],
-            dz_tmp: vec![0.0; lay.n_z()],
-            lam_tmp: vec![0.0; lay.n_l()],
+            resp_lam: Vec::new(),
+            mpv: Vec::new(),
+            mkff: Vec::new(),
+            mpvt: Vec::new(),
+            mt: Vec::new(),
+            mw: Vec::new(),
+            mrh: Vec::new(),
+            p0_col: vec![0.0; lay.nx[0]],
         }
     }
 
     /// Backward factorisation of the chain with `delta_w` added to the diagonal entries flagged in
-    /// `regularize` (one flag per entry of z). Fails when a reduced input Hessian `R^_k` or `P_0` is
-    /// not positive definite.
+    /// `regularize` (one flag per entry of z). Fails when a reduced input Hessian `R^_k` is not
+    /// positive definite or `P_0` is singular; returns the number of negative eigenvalues of `P_0`.
     pub fn factor(
         &mut self,
         lay: &Layout,
         delta_w: f64,
         regularize: &[bool],
-    ) -> Result<(), NotPositive> {
+    ) -> Result<usize, NotPositive> {
         for k in (0..=lay.kk).rev() {
             let (nx, nu, nz, nx1) = (lay.nx[k], lay.nu[k], lay.nz(k), lay.nx1[k]);
             let h = &self.h[lay.oh[k]..lay.oh[k + 1]];
@@ -313,10 +346,7 @@ impl Riccati {
         }
         let n0 = lay.nx[0];
         self.lp0.copy_from_slice(&self.p[..n0 * n0]);
-        if !chol(&mut self.lp0, n0) {
-            return Err(NotPositive);
-        }
-        Ok(())
+        count_inertia(&mut self.lp0, n0, &mut self.p0_d, &mut self.p0_v)
     }
 
     /// Solves the chain QP without the equality rows, for gradient `g` (n_z) and defects `bdef`
@@ -393,7 +423,7 @@ impl Riccati {
             for i in 0..n0 {
                 dx0[i] = -self.pv[i];
             }
-            chol_solve(&self.lp0, n0, dx0, 1);
+            eigen_solve(&self.p0_v, &self.p0_d, n0, dx0, &mut self.p0_tmp);
         }
         for k in 0..=kk {
             let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
@@ -436,54 +466,49 @@ impl Riccati {
         a.iter().zip(x).map(|(a, x)| a * x).sum()
     }
 
-    /// Solves the full QP (chain and the `m` equality rows) after [`Riccati::factor`]: `m + 2` chain
-    /// solves and an `m x m` Cholesky of `delta_c I - M`. Writes `dz`, `lam` and the equality
-    /// multipliers `nu` (m). `delta_c` is raised if the Schur complement is singular (returned).
-    pub fn solve(
-        &mut self,
-        lay: &Layout,
-        g: &[f64],
-        bdef: &[f64],
-        mut delta_c: f64,
-        dz: &mut [f64],
-        lam: &mut [f64],
-        nu: &mut [f64],
-    ) -> Result<f64, NotPositive> {
+    /// [`Riccati::factor`] and [`Riccati::factor_schur`] with IPOPT's inertia test: true when the
+    /// KKT matrix has the inertia of a local minimiser (R^_k positive definite, and as many negative
+    /// eigenvalues in the Schur matrix W as in P_0).
+    pub fn factor_with_inertia(&mut self, lay: &Layout, delta_w: f64, regularize: &[bool]) -> bool {
+        match self.factor(lay, delta_w, regularize) {
+            Err(_) => false,
+            Ok(q) if self.m == 0 => q == 0,
+            Ok(q) => self.factor_schur(lay) == Ok(q),
+        }
+    }
+
+    /// The Schur complement of the `m` equality rows after [`Riccati::factor`]: the responses
+    /// `M_ij = a_i^T dx^(j)` (m chain solves) and the eigendecomposition of
+    /// `W = delta_c I + diag(eq_reg) - M`. `delta_c` starts at 0 and grows from `1e-10 max|M_ii|`
+    /// by 100 while W is singular (dependent rows). Returns the number of negative eigenvalues of W,
+    /// which equals that of `P_0` exactly when the whole KKT matrix has the inertia of a local
+    /// minimiser (Haynsworth: In(KKT) = In(S) + In(-C S^-1 C^T)).
+    pub fn factor_schur(&mut self, lay: &Layout) -> Result<usize, NotPositive> {
         let m = self.m;
         if m == 0 {
-            self.solve_chain(lay, g, bdef, dz, lam);
-            return Ok(0.0);
+            return Ok(0);
         }
-        let mut gw = std::mem::take(&mut self.gw);
-        let mut zero_b = std::mem::take(&mut self.zero_b);
-        let mut dz_tmp = std::mem::take(&mut self.dz_tmp);
-        let mut lam_tmp = std::mem::take(&mut self.lam_tmp);
-        zero_b.fill(0.0);
+        self.solve_responses(lay);
         let nxm = lay.nx_max;
-        // responses to unit multipliers: M_ij = a_i^T dx^(j)
-        for j in 0..m {
-            gw.fill(0.0);
-            let k = self.eq_stage[j];
-            for i in 0..lay.nx[k] {
-                gw[lay.oz[k] + i] = self.eq_a[j * nxm + i];
-            }
-            self.solve_chain(lay, &gw, &zero_b, &mut dz_tmp, &mut lam_tmp);
-            for i in 0..m {
-                self.schur[i * m + j] = self.eq_dot(lay, i, &dz_tmp);
-            }
-        }
-        // base solve
-        self.solve_chain(lay, g, bdef, &mut dz_tmp, &mut lam_tmp);
         for i in 0..m {
-            self.w[i] = self.eq_dot(lay, i, &dz_tmp) + self.eq_rho[i];
+            let k = self.eq_stage[i];
+            let nx = lay.nx[k];
+            let ai = &self.eq_a[i * nxm..i * nxm + nx];
+            let rows = &self.resp_dz[lay.oz[k] * m..(lay.oz[k] + nx) * m];
+            let si = &mut self.schur[i * m..(i + 1) * m];
+            si.fill(0.0);
+            for (a, r) in ai.iter().zip(rows.chunks_exact(m)) {
+                for (x, y) in si.iter_mut().zip(r) {
+                    *x += a * y;
+                }
+            }
         }
         let scale = (0..m)
             .map(|i| self.schur[i * m + i].abs())
             .fold(0.0_f64, f64::max)
             .max(1e-300);
-        let mut ok = false;
+        let mut delta_c = 0.0;
         for _attempt in 0..12 {
-            // (delta_c I - M) nu = w, with M symmetric negative semidefinite
             for i in 0..m {
                 for j in 0..m {
                     let v = -0.5 * (self.schur[i * m + j] + self.schur[j * m + i]);
@@ -494,9 +519,13 @@ impl Riccati {
                     };
                 }
             }
-            if chol(&mut self.schur_fac[..m * m], m) {
-                ok = true;
-                break;
+            if let Ok(neg) = count_inertia(
+                &mut self.schur_fac[..m * m],
+                m,
+                &mut self.schur_d[..m],
+                &mut self.schur_v[..m * m],
+            ) {
+                return Ok(neg);
             }
             delta_c = if delta_c == 0.0 {
                 1e-10 * scale
@@ -504,28 +533,197 @@ impl Riccati {
                 delta_c * 100.0
             };
         }
-        if !ok {
-            self.gw = gw;
-            self.zero_b = zero_b;
-            self.dz_tmp = dz_tmp;
-            self.lam_tmp = lam_tmp;
-            return Err(NotPositive);
+        Err(NotPositive)
+    }
+
+    /// Solves the full QP (chain and the `m` equality rows) after [`Riccati::factor`] and
+    /// [`Riccati::factor_schur`]: two chain solves and the small solve with W. Writes `dz`, `lam`
+    /// and the equality multipliers `nu` (m).
+    pub fn solve(
+        &mut self,
+        lay: &Layout,
+        g: &[f64],
+        bdef: &[f64],
+        dz: &mut [f64],
+        lam: &mut [f64],
+        nu: &mut [f64],
+    ) {
+        let m = self.m;
+        if m == 0 {
+            self.solve_chain(lay, g, bdef, dz, lam);
+            return;
         }
-        nu[..m].copy_from_slice(&self.w[..m]);
-        chol_solve(&self.schur_fac[..m * m], m, &mut nu[..m], 1);
-        // final solve with the gradient g + sum_j nu_j a_j
-        gw.copy_from_slice(g);
+        // base solve, then (delta_c I + D - M) nu = a^T dx^0 + rho
+        self.solve_chain(lay, g, bdef, dz, lam);
+        for i in 0..m {
+            nu[i] = self.eq_dot(lay, i, dz) + self.eq_rho[i];
+        }
+        eigen_solve(
+            &self.schur_v[..m * m],
+            &self.schur_d[..m],
+            m,
+            &mut nu[..m],
+            &mut self.schur_tmp[..m],
+        );
+        // final solve with the gradient g + sum_j nu_j a_j (not the base plus nu times the
+        // responses: near an active bound P_k has entries ~1/mu, and the cancellation in
+        // lam = P dx + p is only consistent within one solve)
+        let nxm = lay.nx_max;
+        self.gw.copy_from_slice(g);
         for j in 0..m {
             let k = self.eq_stage[j];
             for i in 0..lay.nx[k] {
-                gw[lay.oz[k] + i] += nu[j] * self.eq_a[j * nxm + i];
+                self.gw[lay.oz[k] + i] += nu[j] * self.eq_a[j * nxm + i];
             }
         }
+        let gw = std::mem::take(&mut self.gw);
         self.solve_chain(lay, &gw, bdef, dz, lam);
         self.gw = gw;
-        self.zero_b = zero_b;
-        self.dz_tmp = dz_tmp;
-        self.lam_tmp = lam_tmp;
-        Ok(delta_c)
     }
+
+    /// The responses `dz^(j)`, `lam^(j)` of the chain QP to the unit gradients `a_j` (at the
+    /// state of stage `k_j`) with zero defects, for all m equality rows at once: the backward and
+    /// forward passes of [`Riccati::solve_chain`] with m right-hand sides (matrix products instead
+    /// of m matrix-vector passes). Sizes the response arrays on first use.
+    fn solve_responses(&mut self, lay: &Layout) {
+        let m = self.m;
+        let kk = lay.kk;
+        let (nz, nl) = (lay.n_z(), lay.n_l());
+        let nx1m = lay.nx1.iter().copied().max().unwrap_or(0).max(lay.nx_max);
+        if self.resp_dz.len() < nz * m {
+            for v in [&mut self.resp_dz, &mut self.mpv, &mut self.mkff] {
+                v.resize(nz * m, 0.0);
+            }
+            for v in [&mut self.resp_lam, &mut self.mpvt] {
+                v.resize(nl * m, 0.0);
+            }
+            self.mt.resize(nx1m * m, 0.0);
+            self.mw.resize(nx1m * m, 0.0);
+            self.mrh.resize(lay.nu_max.max(1) * m, 0.0);
+        }
+        let nxm = lay.nx_max;
+        for k in (0..=kk).rev() {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let o = lay.oz[k] * m;
+            let (pv_lo, pv_hi) = self.mpv.split_at_mut(lay.oz[k + 1] * m);
+            let pk = &mut pv_lo[o..o + nx * m];
+            pk.fill(0.0);
+            for j in 0..m {
+                if self.eq_stage[j] == k {
+                    for i in 0..nx {
+                        pk[i * m + j] = self.eq_a[j * nxm + i];
+                    }
+                }
+            }
+            let rh = &mut self.mrh[..nu * m];
+            rh.fill(0.0);
+            if k < kk {
+                let t = &mut self.mt[..nx1 * m];
+                let o1 = lay.op[k + 1];
+                if self.soft {
+                    // p~ = p - P S M^-1 S p
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    let w = &mut self.mw[..nx1 * m];
+                    for ((wi, pi), di) in w.chunks_exact_mut(m).zip(pv_hi.chunks_exact(m)).zip(d) {
+                        let sd = di.sqrt();
+                        for (x, y) in wi.iter_mut().zip(pi) {
+                            *x = sd * y;
+                        }
+                    }
+                    chol_solve(&self.lm[o1..o1 + nx1 * nx1], nx1, w, m);
+                    for (wi, di) in w.chunks_exact_mut(m).zip(d) {
+                        let sd = -di.sqrt();
+                        for x in wi.iter_mut() {
+                            *x *= sd;
+                        }
+                    }
+                    let pt = &mut self.mpvt[lay.ol[k] * m..lay.ol[k + 1] * m];
+                    pt.copy_from_slice(&pv_hi[..nx1 * m]);
+                    gemm_nn_acc(&self.p[o1..o1 + nx1 * nx1], w, pt, nx1, nx1, m);
+                    t.copy_from_slice(pt);
+                } else {
+                    t.copy_from_slice(&pv_hi[..nx1 * m]);
+                }
+                gemm_tn_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], t, pk, nx1, nx, m);
+                if nu > 0 {
+                    gemm_tn_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], t, rh, nx1, nu, m);
+                }
+            }
+            if nu > 0 {
+                let kf = &mut self.mkff[o..o + nu * m];
+                kf.copy_from_slice(rh);
+                chol_solve(&self.lr[lay.or[k]..lay.or[k + 1]], nu, kf, m);
+                for v in kf.iter_mut() {
+                    *v = -*v;
+                }
+                gemm_tn_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], rh, pk, nu, nx, m);
+            }
+        }
+        // forward: dx_0 = -P_0^-1 p_0 column by column
+        let n0 = lay.nx[0];
+        for c in 0..m {
+            for i in 0..n0 {
+                self.p0_col[i] = -self.mpv[i * m + c];
+            }
+            eigen_solve(
+                &self.p0_v,
+                &self.p0_d,
+                n0,
+                &mut self.p0_col,
+                &mut self.p0_tmp,
+            );
+            for i in 0..n0 {
+                self.resp_dz[i * m + c] = self.p0_col[i];
+            }
+        }
+        for k in 0..=kk {
+            let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
+            let (dz_lo, dz_hi) = self.resp_dz.split_at_mut(lay.oz[k + 1] * m);
+            let dzk = &mut dz_lo[lay.oz[k] * m..];
+            let (dx, du) = dzk.split_at_mut(nx * m);
+            if nu > 0 {
+                du.copy_from_slice(&self.mkff[lay.oz[k] * m..lay.oz[k] * m + nu * m]);
+                gemm_nn_acc(&self.kgain[lay.ok[k]..lay.ok[k + 1]], dx, du, nu, nx, m);
+            }
+            if k < kk {
+                let dx1 = &mut dz_hi[..nx1 * m];
+                dx1.fill(0.0);
+                gemm_nn_acc(&self.a[lay.oa[k]..lay.oa[k + 1]], dx, dx1, nx1, nx, m);
+                if nu > 0 {
+                    gemm_nn_acc(&self.b[lay.ob[k]..lay.ob[k + 1]], du, dx1, nx1, nu, m);
+                }
+                // the multipliers lam^(j) are only needed for the soft dynamics' x_{k+1}
+                if self.soft {
+                    let lk = &mut self.resp_lam[lay.ol[k] * m..lay.ol[k + 1] * m];
+                    lk.copy_from_slice(&self.mpvt[lay.ol[k] * m..lay.ol[k + 1] * m]);
+                    let o1 = lay.op[k + 1];
+                    gemm_nn_acc(&self.ptil[o1..o1 + nx1 * nx1], dx1, lk, nx1, nx1, m);
+                    let d = &self.dsoft[lay.ol[k]..lay.ol[k + 1]];
+                    for ((xi, li), di) in dx1.chunks_exact_mut(m).zip(lk.chunks_exact(m)).zip(d) {
+                        for (x, l) in xi.iter_mut().zip(li) {
+                            *x -= di * l;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Eigendecomposition of the symmetric n x n matrix `a` (destroyed) into `d`, `v`; the number of
+/// negative eigenvalues, or an error if it is (numerically) singular or not finite.
+fn count_inertia(
+    a: &mut [f64],
+    n: usize,
+    d: &mut [f64],
+    v: &mut [f64],
+) -> Result<usize, NotPositive> {
+    if !sym_eigen(a, n, d, v) {
+        return Err(NotPositive);
+    }
+    let dmax = d[..n].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    if n > 0 && !(dmax > 0.0 && d[..n].iter().all(|x| x.abs() > 1e-13 * dmax)) {
+        return Err(NotPositive);
+    }
+    Ok(d[..n].iter().filter(|x| **x < 0.0).count())
 }

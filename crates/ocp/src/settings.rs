@@ -22,6 +22,8 @@ pub struct OcpSettings {
     /// Initial barrier parameter mu (dimensionless, > 0), used for cold and warm starts. Default 0.1;
     /// a warm start from a nearby solution wants a small value (1e-6 .. 1e-4).
     pub mu_init: f64,
+    /// How the barrier parameter is updated. Default [`MuStrategy::Monotone`].
+    pub mu_strategy: MuStrategy,
     /// Wall-clock budget of one solve in seconds (checked once per iteration); `None` = unlimited.
     /// Default `None`.
     pub max_wall_time_s: Option<f64>,
@@ -36,9 +38,14 @@ pub struct OcpSettings {
     /// The same for a warm start (small: keep the active set of the stored solution), in (0, 0.5).
     /// Default 1e-9.
     pub warm_bound_push: f64,
+    /// What a warm start does with the stored multipliers. Default [`WarmDuals::Reset`].
+    pub warm_duals: WarmDuals,
     /// Largest number of consecutive restoration iterations before [`OcpStatus::RestorationFailed`].
     /// Default 50.
     pub max_restoration_iter: usize,
+    /// Largest number of second-order corrections tried when a full step raises the constraint
+    /// violation (IPOPT's `max_soc`; 0 disables them). Default 4.
+    pub max_soc: usize,
 }
 
 impl Default for OcpSettings {
@@ -50,11 +57,14 @@ impl Default for OcpSettings {
             acceptable_tol: 1e-6,
             acceptable_iter: 15,
             mu_init: 0.1,
+            mu_strategy: MuStrategy::Monotone,
             max_wall_time_s: None,
             warm_start: false,
             bound_push: 1e-2,
-            warm_bound_push: 1e-9,
+            warm_bound_push: 1e-2,
+            warm_duals: WarmDuals::Reset,
             max_restoration_iter: 50,
+            max_soc: 4,
         }
     }
 }
@@ -101,6 +111,38 @@ impl OcpSettings {
         }
         Ok(())
     }
+}
+
+/// The barrier update ([`OcpSettings::mu_strategy`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum MuStrategy {
+    /// Fiacco-McCormick: mu is kept until the barrier problem is solved to `10 mu`, then
+    /// `mu <- max(tol/10, min(0.2 mu, mu^1.5))` (IPOPT's `monotone`).
+    Monotone,
+    /// Mehrotra's probing heuristic (IPOPT's `adaptive` with the `probing` oracle): every
+    /// iteration an affine-scaling step (mu = 0, same factorisation) predicts the complementarity
+    /// it reaches, and `mu = (mu_aff / mu_avg)^3 mu_avg`. It falls back to the monotone rule while
+    /// the optimality error fails to fall below 0.9999 times its largest of the last 4 iterations,
+    /// and returns once the barrier problem of that mu is solved.
+    Adaptive,
+}
+
+/// The multipliers of a warm start ([`OcpSettings::warm_duals`]); the primal iterate is always the
+/// stored one, pushed inside its bounds by `warm_bound_push`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[non_exhaustive]
+pub enum WarmDuals {
+    /// The stored bound duals (floored at 1e-20) and equality multipliers: right for a re-solve of
+    /// the same or a very slightly changed problem (with a small `mu_init` and `warm_bound_push`).
+    Stored,
+    /// Bound duals `mu_init / slack` (on the central path of the new barrier parameter), equality
+    /// multipliers by least squares.
+    Centered,
+    /// Bound duals 1 and equality multipliers by least squares, as at a cold start: only the
+    /// primal is warm. Pays for moderate changes (a disturbed start state), where stored duals of
+    /// active bounds hold the old active set too firmly.
+    Reset,
 }
 
 /// How a solve ended. Not an error: every solve returns one, with [`OcpStats`].

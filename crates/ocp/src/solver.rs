@@ -1,13 +1,14 @@
 //! The interior-point iteration: initialisation, condensing, inertia correction, filter line search,
 //! barrier update, termination and restoration. See the crate docs and docs/ocp.md.
 
-use crate::dense::{gemv_n_acc, gemv_t_acc};
+use crate::dense::gemv_t_acc;
 use crate::problem::{
     EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval,
 };
 use crate::riccati::{Layout, Riccati};
 use crate::settings::{
-    OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
+    MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
+    MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
@@ -33,6 +34,13 @@ const KW_MINUS: f64 = 1.0 / 3.0;
 const KW_PLUS: f64 = 8.0;
 const KW_PLUS_BAR: f64 = 100.0;
 const BOUND_MULT_RESET: f64 = 1e3;
+const KAPPA_SOC: f64 = 0.99;
+// Adaptive mu (IPOPT's defaults for its free mode)
+const KKT_REF_ITERS: usize = 4;
+const KKT_REF_FACTOR: f64 = 0.9999;
+const MONOTONE_INIT_FACTOR: f64 = 0.8;
+const MU_MAX_FACTOR: f64 = 1e3;
+const SIGMA_MAX: f64 = 100.0;
 /// Penalty on the l1 relaxation slacks p, n in the restoration phase (IPOPT's `resto_penalty_parameter`).
 const RHO_RESTO: f64 = 1e3;
 
@@ -54,8 +62,8 @@ enum EvalFail {
 
 /// A stage-structured primal-dual interior-point solver (see the crate docs).
 ///
-/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries on
-/// the first solve); later solves of a problem with the same dimensions do not allocate unless they
+/// All memory is allocated by [`OcpSolver::new`] (the filter grows once up to `max_iter` entries,
+/// and the Schur responses to the number of equality rows, on the first solve); later solves of a problem with the same dimensions do not allocate unless they
 /// fail (status strings).
 pub struct OcpSolver {
     dims: OcpDims,
@@ -102,6 +110,11 @@ pub struct OcpSolver {
     dvu: Vec<f64>,
     // KKT data
     g: Vec<f64>,
+    /// The part of the condensed gradient that depends neither on the row residuals nor on mu.
+    g_base: Vec<f64>,
+    /// The barrier part of the condensed gradient per unit of mu (`-1/(z - lo) + 1/(hi - z)`), so
+    /// that one factorisation serves right-hand sides for several mu (adaptive mu).
+    g_bar: Vec<f64>,
     bdef: Vec<f64>,
     /// Fixed-state rows (k >= 1): (stage, component).
     fixed_rows: Vec<(usize, usize)>,
@@ -138,6 +151,34 @@ struct Resto {
     zeta: f64,
     iters: usize,
     theta_max_orig: f64,
+}
+
+/// The line-search reference values of one iteration.
+#[derive(Debug, Clone, Copy)]
+struct LineSearch {
+    theta0: f64,
+    phi0: f64,
+    gphi: f64,
+    theta_min: f64,
+    theta_max: f64,
+}
+
+impl LineSearch {
+    /// IPOPT's acceptance test of a trial point (theta `tt`, barrier function `phit`) for step
+    /// length `alpha`: `Some(h_type)` if accepted (h-type iterations augment the filter).
+    fn accepts(&self, filter: &[(f64, f64)], tt: f64, phit: f64, alpha: f64) -> Option<bool> {
+        if !(tt < self.theta_max && OcpSolver::filter_acceptable(filter, tt, phit)) {
+            return None;
+        }
+        let switching = self.gphi < 0.0
+            && alpha * (-self.gphi).powf(S_PHI) > DELTA_SW * self.theta0.powf(S_THETA);
+        if self.theta0 <= self.theta_min && switching {
+            (phit <= self.phi0 + ETA_PHI * alpha * self.gphi).then_some(false)
+        } else {
+            (tt <= (1.0 - GAMMA_THETA) * self.theta0 || phit <= self.phi0 - GAMMA_PHI * self.theta0)
+                .then_some(true)
+        }
+    }
 }
 
 /// Residuals of the optimality conditions at the current iterate.
@@ -307,6 +348,8 @@ impl OcpSolver {
             dvl: vec![0.0; nc],
             dvu: vec![0.0; nc],
             g: vec![0.0; nz],
+            g_base: vec![0.0; nz],
+            g_bar: vec![0.0; nz],
             bdef: vec![0.0; nl],
             fixed_rows: Vec::with_capacity(MAX_EQUALITY_ROWS),
             rz: vec![0.0; nz],
@@ -858,7 +901,76 @@ impl OcpSolver {
         resto: Option<&Resto>,
         stats: &mut OcpStats,
     ) -> Result<(), String> {
-        let t = Instant::now();
+        self.prepare_rows(mu, resto);
+        self.build_and_factor(resto, stats)?;
+        self.solve_rhs(mu, resto, stats)
+    }
+
+    /// The Newton step of the adaptive strategy's free mode: factorise once, take the affine
+    /// step (mu = 0), set `mu = sigma mu_avg` with `sigma = (mu_aff / mu_avg)^3` from the
+    /// complementarity the affine step reaches (Mehrotra's probing), then the step for that mu.
+    fn probing_direction(
+        &mut self,
+        mu: &mut f64,
+        mu_min: f64,
+        mu_max: &mut f64,
+        stats: &mut OcpStats,
+    ) -> Result<(), String> {
+        self.prepare_rows(0.0, None);
+        self.build_and_factor(None, stats)?;
+        let (sum, nb) = self.complementarity(0.0, 0.0);
+        if nb > 0 {
+            let avg = sum / nb as f64;
+            if mu_max.is_nan() {
+                *mu_max = MU_MAX_FACTOR * avg.max(*mu);
+            }
+            self.solve_rhs(0.0, None, stats)?;
+            let (ap, ad) = self.max_step(1.0, false);
+            let (sum_aff, _) = self.complementarity(ap, ad);
+            let sigma = (sum_aff / sum).max(0.0).powi(3).min(SIGMA_MAX);
+            *mu = (sigma * avg).min(*mu_max).max(mu_min);
+        } else {
+            *mu = mu_min;
+        }
+        self.filter.clear();
+        self.solve_rhs(*mu, None, stats)
+    }
+
+    /// Sum of the complementarity products (slack times bound dual) over all bounds of z and s
+    /// at the iterate moved by `ap` times the primal and `ad` times the dual step, and their number.
+    fn complementarity(&self, ap: f64, ad: f64) -> (f64, usize) {
+        let (mut sum, mut nb) = (0.0, 0usize);
+        for i in 0..self.z.len() {
+            if self.kind[i] != Kind::Free {
+                continue;
+            }
+            let z = self.z[i] + ap * self.dz[i];
+            if self.zlo[i].is_finite() {
+                sum += (z - self.zlo[i]) * (self.zl[i] + ad * self.dzl[i]);
+                nb += 1;
+            }
+            if self.zhi[i].is_finite() {
+                sum += (self.zhi[i] - z) * (self.zu[i] + ad * self.dzu[i]);
+                nb += 1;
+            }
+        }
+        for j in 0..self.s.len() {
+            let v = self.s[j] + ap * self.ds[j];
+            if self.clo[j].is_finite() {
+                sum += (v - self.clo[j]) * (self.vl[j] + ad * self.dvl[j]);
+                nb += 1;
+            }
+            if self.chi[j].is_finite() {
+                sum += (self.chi[j] - v) * (self.vu[j] + ad * self.dvu[j]);
+                nb += 1;
+            }
+        }
+        (sum, nb)
+    }
+
+    /// Per row: the residual of the Newton system `c^` and its regularisation `D` (restoration: the
+    /// condensed slacks p, n; otherwise `c^ = c`, `D = 0`).
+    fn prepare_rows(&mut self, mu: f64, resto: Option<&Resto>) {
         // per row: relaxed residual and regularisation (restoration: the condensed slacks p, n)
         let nrows = self.nrows();
         for i in 0..nrows {
@@ -873,6 +985,16 @@ impl OcpSolver {
                 self.chat[i] = self.cv[i];
             }
         }
+    }
+
+    /// Condensed stage Hessians, dynamics Jacobians and equality rows; factorisation with inertia
+    /// correction.
+    fn build_and_factor(
+        &mut self,
+        resto: Option<&Resto>,
+        stats: &mut OcpStats,
+    ) -> Result<(), String> {
+        let t = Instant::now();
         let lay = &self.lay;
         let kk = lay.kk;
         let (nl, ncall) = (lay.n_l(), lay.n_c());
@@ -885,49 +1007,42 @@ impl OcpSolver {
             h.copy_from_slice(&e.hess);
             for li in 0..nz {
                 let i = o + li;
-                let mut gi =
-                    phase_grad_of(&self.ev, &self.z, &self.z_ref, &self.dr, i, k, li, resto);
+                let gi = phase_grad_of(&self.ev, &self.z, &self.z_ref, &self.dr, i, k, li, resto);
                 if let Some(r) = resto {
                     h[li * nz + li] += r.zeta * self.dr[i] * self.dr[i];
                 }
+                let mut gb = 0.0;
                 if self.kind[i] == Kind::Free {
                     if self.zlo[i].is_finite() {
                         let sl = self.z[i] - self.zlo[i];
                         h[li * nz + li] += self.zl[i] / sl;
-                        gi -= mu / sl;
+                        gb -= 1.0 / sl;
                     }
                     if self.zhi[i].is_finite() {
                         let su = self.zhi[i] - self.z[i];
                         h[li * nz + li] += self.zu[i] / su;
-                        gi += mu / su;
+                        gb += 1.0 / su;
                     }
                 }
-                self.g[i] = gi;
+                self.g_base[i] = gi;
+                self.g_bar[i] = gb;
             }
             let oc = lay.oc[k];
             for j in 0..nc {
                 let jj = oc + j;
                 let mut sig = 0.0;
-                let mut rhs = 0.0;
                 if self.clo[jj].is_finite() {
-                    let sl = self.s[jj] - self.clo[jj];
-                    sig += self.vl[jj] / sl;
-                    rhs -= mu / sl;
+                    sig += self.vl[jj] / (self.s[jj] - self.clo[jj]);
                 }
                 if self.chi[jj].is_finite() {
-                    let su = self.chi[jj] - self.s[jj];
-                    sig += self.vu[jj] / su;
-                    rhs += mu / su;
+                    sig += self.vu[jj] / (self.chi[jj] - self.s[jj]);
                 }
-                let dd = 1.0 + sig * self.dreg[nl + jj];
-                rhs = (rhs + sig * self.chat[nl + jj]) / dd;
-                sig /= dd;
+                sig /= 1.0 + sig * self.dreg[nl + jj];
                 let row = &e.jac_c[j * nz..(j + 1) * nz];
                 for a in 0..nz {
                     if row[a] == 0.0 {
                         continue;
                     }
-                    self.g[o + a] += row[a] * rhs;
                     let ra = row[a] * sig;
                     for b in 0..nz {
                         h[a * nz + b] += ra * row[b];
@@ -941,7 +1056,8 @@ impl OcpSolver {
                         h[b * nz + li] = 0.0;
                     }
                     h[li * nz + li] = 1.0;
-                    self.g[o + li] = 0.0;
+                    self.g_base[o + li] = 0.0;
+                    self.g_bar[o + li] = 0.0;
                 }
             }
             if k < kk {
@@ -964,7 +1080,6 @@ impl OcpSolver {
                             row[nx + c]
                         };
                     }
-                    self.bdef[lay.ol[k] + r] = self.chat[lay.ol[k] + r];
                 }
             }
         }
@@ -976,7 +1091,6 @@ impl OcpSolver {
             self.ric.eq_stage[j] = kk;
             self.ric.eq_a[j * nxm..j * nxm + nxk]
                 .copy_from_slice(&self.term.jac_r[j * nxk..(j + 1) * nxk]);
-            self.ric.eq_rho[j] = self.chat[nl + ncall + j];
             self.ric.eq_reg[j] = self.dreg[nl + ncall + j];
         }
         for (jf, &(k, i)) in self.fixed_rows.iter().enumerate() {
@@ -984,12 +1098,11 @@ impl OcpSolver {
             self.ric.eq_stage[j] = k;
             self.ric.eq_a[j * nxm..(j + 1) * nxm].fill(0.0);
             self.ric.eq_a[j * nxm + i] = 1.0;
-            self.ric.eq_rho[j] = self.chat[nl + ncall + j];
             self.ric.eq_reg[j] = self.dreg[nl + ncall + j];
         }
         self.ric.m = nr + self.fixed_rows.len();
         // inertia correction (IPOPT Algorithm IC)
-        let mut ok = self.ric.factor(lay, 0.0, &self.reg).is_ok();
+        let mut ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
         if !ok {
             let mut delta_w = if self.delta_w_last == 0.0 {
                 DW_0
@@ -997,7 +1110,7 @@ impl OcpSolver {
                 (KW_MINUS * self.delta_w_last).max(DW_MIN)
             };
             loop {
-                ok = self.ric.factor(lay, delta_w, &self.reg).is_ok();
+                ok = self.ric.factor_with_inertia(lay, delta_w, &self.reg);
                 if ok {
                     break;
                 }
@@ -1019,20 +1132,65 @@ impl OcpSolver {
             stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
             return Err("the Hessian could not be regularised (delta_w > 1e40)".to_string());
         }
+        stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// Right-hand side from the row residuals `c^`, the solves, and the recovery of the slack,
+    /// multiplier and bound-dual steps (after [`Self::build_and_factor`]).
+    fn solve_rhs(
+        &mut self,
+        mu: f64,
+        resto: Option<&Resto>,
+        stats: &mut OcpStats,
+    ) -> Result<(), String> {
+        let t = Instant::now();
+        let lay = &self.lay;
+        let kk = lay.kk;
+        let (nl, ncall) = (lay.n_l(), lay.n_c());
+        let nrows = self.nrows();
+        for ((g, gb), gm) in self.g.iter_mut().zip(&self.g_base).zip(&self.g_bar) {
+            *g = gb + mu * gm;
+        }
+        for k in 0..=kk {
+            let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
+            let e = &self.ev[k];
+            for j in 0..lay.nc[k] {
+                let jj = oc + j;
+                let (mut sig, mut rbar) = (0.0, 0.0);
+                if self.clo[jj].is_finite() {
+                    let sl = self.s[jj] - self.clo[jj];
+                    sig += self.vl[jj] / sl;
+                    rbar -= mu / sl;
+                }
+                if self.chi[jj].is_finite() {
+                    let su = self.chi[jj] - self.s[jj];
+                    sig += self.vu[jj] / su;
+                    rbar += mu / su;
+                }
+                let rhs = (rbar + sig * self.chat[nl + jj]) / (1.0 + sig * self.dreg[nl + jj]);
+                let row = &e.jac_c[j * nz..(j + 1) * nz];
+                for a in 0..nz {
+                    self.g[o + a] += row[a] * rhs;
+                }
+            }
+            for li in 0..nz {
+                if self.kind[o + li] == Kind::Eliminated {
+                    self.g[o + li] = 0.0;
+                }
+            }
+        }
+        self.bdef.copy_from_slice(&self.chat[..nl]);
         let m = self.ric.m;
-        let r = self.ric.solve(
+        self.ric.eq_rho[..m].copy_from_slice(&self.chat[nl + ncall..nl + ncall + m]);
+        self.ric.solve(
             lay,
             &self.g,
             &self.bdef,
-            0.0,
             &mut self.dz,
             &mut self.lam_n,
             &mut self.eqm_n[..m],
         );
-        if r.is_err() {
-            stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
-            return Err("the equality rows' Schur complement is singular".to_string());
-        }
         // slack, inequality multiplier and bound-dual steps
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
@@ -1195,20 +1353,18 @@ impl OcpSolver {
         self.ric.eq_rho[..m].fill(0.0);
         self.ric.eq_reg[..m].fill(0.0);
         self.ric.soft = false;
-        let ok = self.ric.factor(lay, 0.0, &self.reg).is_ok()
-            && self
-                .ric
-                .solve(
-                    lay,
-                    &self.g,
-                    &self.bdef,
-                    0.0,
-                    &mut self.dz,
-                    &mut self.lam_n,
-                    &mut self.eqm_n[..m],
-                )
-                .is_ok();
-        let big = |v: &[f64]| v.iter().any(|x| !(x.abs() <= 1e3));
+        let ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
+        if ok {
+            self.ric.solve(
+                lay,
+                &self.g,
+                &self.bdef,
+                &mut self.dz,
+                &mut self.lam_n,
+                &mut self.eqm_n[..m],
+            );
+        }
+        let big = |v: &[f64]| v.iter().any(|x| x.is_nan() || x.abs() > 1e3);
         if ok && !big(&self.lam_n) && !big(&self.eqm_n[..m]) {
             self.lam.copy_from_slice(&self.lam_n);
             self.nu.copy_from_slice(&self.eqm_n[..nr]);
@@ -1354,6 +1510,23 @@ impl OcpSolver {
                 self.y[lay.oc[k]..lay.oc[k + 1]].copy_from_slice(&self.mult.mu[k]);
             }
             self.nu.copy_from_slice(&self.mult.nu);
+            // a failed previous solve may leave non-finite values behind
+            for v in self
+                .lam
+                .iter_mut()
+                .chain(self.y.iter_mut())
+                .chain(self.nu.iter_mut())
+                .chain(self.eta.iter_mut())
+                .chain(self.zl.iter_mut())
+                .chain(self.zu.iter_mut())
+                .chain(self.vl.iter_mut())
+                .chain(self.vu.iter_mut())
+                .chain(self.s.iter_mut())
+            {
+                if !v.is_finite() {
+                    *v = 0.0;
+                }
+            }
         } else {
             for x in self.zp.x.iter_mut().chain(self.zp.u.iter_mut()) {
                 x.fill(0.0);
@@ -1380,7 +1553,18 @@ impl OcpSolver {
             match self.kind[i] {
                 Kind::Free => {
                     self.z[i] = Self::push_inside(self.zlo[i], self.zhi[i], self.z[i], push);
-                    if warm {
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        self.zl[i] = if self.zlo[i].is_finite() {
+                            st.mu_init / (self.z[i] - self.zlo[i])
+                        } else {
+                            0.0
+                        };
+                        self.zu[i] = if self.zhi[i].is_finite() {
+                            st.mu_init / (self.zhi[i] - self.z[i])
+                        } else {
+                            0.0
+                        };
+                    } else if warm && st.warm_duals == WarmDuals::Stored {
                         self.zl[i] = if self.zlo[i].is_finite() {
                             self.zl[i].max(1e-20)
                         } else {
@@ -1410,12 +1594,12 @@ impl OcpSolver {
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals == WarmDuals::Reset {
             self.vl.fill(1.0);
             self.vu.fill(1.0);
         }
         for j in 0..self.s.len() {
-            if warm {
+            if warm && st.warm_duals == WarmDuals::Stored {
                 self.vl[j] = self.vl[j].max(1e-20);
                 self.vu[j] = self.vu[j].max(1e-20);
             }
@@ -1445,6 +1629,18 @@ impl OcpSolver {
             return OcpStatus::InvalidProblem(e);
         }
         let warm = st.warm_start && self.has_iterate;
+        if warm {
+            let shape_ok = self.zp.x.len() == self.lay.kk + 1
+                && self.zp.u.len() == self.lay.kk + 1
+                && (0..=self.lay.kk).all(|k| {
+                    self.zp.x[k].len() == self.lay.nx[k] && self.zp.u[k].len() == self.lay.nu[k]
+                });
+            if !shape_ok {
+                return OcpStatus::InvalidProblem(
+                    "the stored iterate was resized through primal_mut".to_string(),
+                );
+            }
+        }
         if !warm || self.fixed_rows.len() != fixed_before {
             self.eta.fill(0.0);
         }
@@ -1475,10 +1671,23 @@ impl OcpSolver {
                     };
                     let c = if warm { self.s[jj] } else { self.ev[k].c[j] };
                     self.s[jj] = Self::push_inside(self.clo[jj], self.chi[jj], c, push);
+                    if warm && st.warm_duals == WarmDuals::Centered {
+                        let (lo, hi) = (self.clo[jj], self.chi[jj]);
+                        self.vl[jj] = if lo.is_finite() {
+                            st.mu_init / (self.s[jj] - lo)
+                        } else {
+                            0.0
+                        };
+                        self.vu[jj] = if hi.is_finite() {
+                            st.mu_init / (hi - self.s[jj])
+                        } else {
+                            0.0
+                        };
+                    }
                 }
             }
         }
-        if !warm {
+        if !warm || st.warm_duals != WarmDuals::Stored {
             self.least_squares_multipliers();
         }
         let mut mu = st.mu_init;
@@ -1488,7 +1697,12 @@ impl OcpSolver {
         let mut resto: Option<Resto> = None;
         let mut acceptable_count = 0usize;
         let mut iter = 0usize;
-        let status = loop {
+        let adaptive = st.mu_strategy == MuStrategy::Adaptive;
+        let mut free_mode = adaptive;
+        let mut kkt_ref = [0.0_f64; KKT_REF_ITERS];
+        let mut kkt_count = 0usize;
+        let mut mu_max = f64::NAN;
+        let status = 'iterations: loop {
             let res = self.residuals(resto.as_ref());
             stats.iterations = iter;
             if resto.is_none() {
@@ -1526,14 +1740,37 @@ impl OcpSolver {
                     break self.resto_failure(r);
                 }
             }
-            // monotone barrier update
             let mu_min = st.tol / 10.0;
-            loop {
-                if mu <= mu_min || self.e_mu(&res, mu, resto.is_some()) > KAPPA_EPS * mu {
-                    break;
+            // adaptive mu: free mode while the optimality error keeps falling
+            if adaptive && resto.is_none() {
+                if free_mode {
+                    let e = res.e0();
+                    let n = kkt_count.min(KKT_REF_ITERS);
+                    let e_ref = kkt_ref[..n].iter().fold(0.0_f64, |a, b| a.max(*b));
+                    if n == 0 || e <= KKT_REF_FACTOR * e_ref {
+                        kkt_ref[kkt_count % KKT_REF_ITERS] = e;
+                        kkt_count += 1;
+                    } else {
+                        free_mode = false;
+                        let (sum, nb) = self.complementarity(0.0, 0.0);
+                        if nb > 0 {
+                            mu = mu_min.max(MONOTONE_INIT_FACTOR * sum / nb as f64);
+                        }
+                        self.filter.clear();
+                    }
+                } else if self.e_mu(&res, mu, false) <= KAPPA_EPS * mu {
+                    free_mode = true;
+                    kkt_ref[0] = res.e0();
+                    kkt_count = 1;
                 }
-                mu = mu_min.max((KAPPA_MU * mu).min(mu.powf(THETA_MU)));
-                self.filter.clear();
+            }
+            let probing = adaptive && free_mode && resto.is_none();
+            // monotone barrier update
+            if !probing {
+                while mu > mu_min && self.e_mu(&res, mu, resto.is_some()) <= KAPPA_EPS * mu {
+                    mu = mu_min.max((KAPPA_MU * mu).min(mu.powf(THETA_MU)));
+                    self.filter.clear();
+                }
             }
             // Hessian of the Lagrangian (sigma = 0 in restoration)
             {
@@ -1557,7 +1794,12 @@ impl OcpSolver {
                     break OcpStatus::EvaluationError(e);
                 }
             }
-            if let Err(e) = self.direction(mu, resto.as_ref(), stats) {
+            let step = if probing {
+                self.probing_direction(&mut mu, mu_min, &mut mu_max, stats)
+            } else {
+                self.direction(mu, resto.as_ref(), stats)
+            };
+            if let Err(e) = step {
                 break OcpStatus::NumericalError(e);
             }
             // filter line search
@@ -1593,68 +1835,69 @@ impl OcpSolver {
             }
             .max(1e-14);
             let mut alpha = amax;
+            let mut adual = adual;
             // (alpha, original theta at the trial, h-type)
             let mut accepted: Option<(f64, f64, bool)> = None;
             let nrows = self.nrows();
+            let mut first = true;
             loop {
-                for i in 0..self.z.len() {
-                    self.z_t[i] = self.z[i] + alpha * self.dz[i];
-                }
-                for j in 0..self.s.len() {
-                    self.s_t[j] = self.s[j] + alpha * self.ds[j];
-                }
-                if in_resto {
-                    for i in 0..nrows {
-                        self.rp_t[i] = self.rp[i] + alpha * self.drp[i];
-                        self.rn_t[i] = self.rn[i] + alpha * self.drn[i];
+                let trial = self.trial(p, alpha, in_resto, mu, resto.as_ref(), stats);
+                if let Some((tt, to, phit)) = trial {
+                    if tiny {
+                        accepted = Some((alpha, to, false));
+                        break;
                     }
-                }
-                if self.evaluate(p, true, EvalLevel::Values, stats).is_ok() {
-                    let mut cv = std::mem::take(&mut self.cv_t);
-                    self.row_values(&self.z_t, &self.s_t, &self.ev_t, &self.term_t, &mut cv);
-                    let (to, _) = self.theta_of(&cv, None);
-                    let pnt = if in_resto {
-                        Some((&self.rp_t[..], &self.rn_t[..]))
-                    } else {
-                        None
+                    let ls = LineSearch {
+                        theta0,
+                        phi0,
+                        gphi,
+                        theta_min,
+                        theta_max,
                     };
-                    let tt = if in_resto {
-                        self.theta_of(&cv, pnt).0
-                    } else {
-                        to
-                    };
-                    self.cv_t = cv;
-                    let bt = self.barrier(&self.z_t, &self.s_t, pnt);
-                    let phit = self.phase_objective(
-                        &self.z_t,
-                        &self.ev_t,
-                        resto.as_ref(),
-                        (&self.rp_t, &self.rn_t),
-                    ) + mu * bt;
-                    if tt.is_finite() && phit.is_finite() {
-                        if tiny {
-                            accepted = Some((alpha, to, false));
-                            break;
-                        }
-                        let in_filter =
-                            tt < theta_max && Self::filter_acceptable(&self.filter, tt, phit);
-                        if in_filter {
-                            let switching = gphi < 0.0
-                                && alpha * (-gphi).powf(S_PHI) > DELTA_SW * theta0.powf(S_THETA);
-                            if theta0 <= theta_min && switching {
-                                if phit <= phi0 + ETA_PHI * alpha * gphi {
-                                    accepted = Some((alpha, to, false));
-                                    break;
-                                }
-                            } else if tt <= (1.0 - GAMMA_THETA) * theta0
-                                || phit <= phi0 - GAMMA_PHI * theta0
-                            {
-                                accepted = Some((alpha, to, true));
+                    if let Some(h) = ls.accepts(&self.filter, tt, phit, alpha) {
+                        accepted = Some((alpha, to, h));
+                        break;
+                    }
+                    // second-order correction (IPOPT section 2.4) when the full step raised theta
+                    if first && !in_resto && st.max_soc > 0 && tt >= theta0 {
+                        let mut a_soc = alpha;
+                        let mut th_old = theta0;
+                        for _ in 0..st.max_soc {
+                            for i in 0..nrows {
+                                self.chat[i] = a_soc * self.chat[i] + self.cv_t[i];
+                            }
+                            if self.solve_rhs(mu, None, stats).is_err() {
                                 break;
                             }
+                            let (ap, ad) = self.max_step(tau, false);
+                            let Some((ts, _, phis)) = self.trial(p, ap, false, mu, None, stats)
+                            else {
+                                break;
+                            };
+                            // Armijo and switching tests with the original step length (IPOPT)
+                            let acc = ls.accepts(&self.filter, ts, phis, alpha);
+                            if let Some(h) = acc {
+                                accepted = Some((ap, ts, h));
+                                adual = ad;
+                                break;
+                            }
+                            if ts > KAPPA_SOC * th_old {
+                                break;
+                            }
+                            th_old = ts;
+                            a_soc = ap;
+                        }
+                        if accepted.is_some() {
+                            break;
+                        }
+                        // back to the original direction
+                        self.chat[..nrows].copy_from_slice(&self.cv[..nrows]);
+                        if let Err(e) = self.solve_rhs(mu, None, stats) {
+                            break 'iterations OcpStatus::NumericalError(e);
                         }
                     }
                 }
+                first = false;
                 alpha *= 0.5;
                 if alpha < alpha_min {
                     break;
@@ -1830,6 +2073,52 @@ impl OcpSolver {
         status
     }
 
+    /// Evaluates the trial point `z + alpha dz` (slacks and restoration slacks likewise): returns
+    /// (theta of the phase, original theta, barrier function of the phase), or None if the
+    /// evaluation failed or is not finite.
+    fn trial(
+        &mut self,
+        p: &mut dyn OcpProblem,
+        alpha: f64,
+        in_resto: bool,
+        mu: f64,
+        resto: Option<&Resto>,
+        stats: &mut OcpStats,
+    ) -> Option<(f64, f64, f64)> {
+        for i in 0..self.z.len() {
+            self.z_t[i] = self.z[i] + alpha * self.dz[i];
+        }
+        for j in 0..self.s.len() {
+            self.s_t[j] = self.s[j] + alpha * self.ds[j];
+        }
+        let nrows = self.nrows();
+        if in_resto {
+            for i in 0..nrows {
+                self.rp_t[i] = self.rp[i] + alpha * self.drp[i];
+                self.rn_t[i] = self.rn[i] + alpha * self.drn[i];
+            }
+        }
+        self.evaluate(p, true, EvalLevel::Values, stats).ok()?;
+        let mut cv = std::mem::take(&mut self.cv_t);
+        self.row_values(&self.z_t, &self.s_t, &self.ev_t, &self.term_t, &mut cv);
+        let (to, _) = self.theta_of(&cv, None);
+        let pnt = if in_resto {
+            Some((&self.rp_t[..], &self.rn_t[..]))
+        } else {
+            None
+        };
+        let tt = if in_resto {
+            self.theta_of(&cv, pnt).0
+        } else {
+            to
+        };
+        self.cv_t = cv;
+        let bt = self.barrier(&self.z_t, &self.s_t, pnt);
+        let phit =
+            self.phase_objective(&self.z_t, &self.ev_t, resto, (&self.rp_t, &self.rn_t)) + mu * bt;
+        (tt.is_finite() && phit.is_finite()).then_some((tt, to, phit))
+    }
+
     fn resto_failure(&mut self, r: &Resto) -> OcpStatus {
         let (t1, _) = self.theta_current();
         if t1 >= 0.5 * r.theta0 {
@@ -1869,6 +2158,5 @@ impl OcpSolver {
             v = v.max(self.zlo[i] - self.z[i]).max(self.z[i] - self.zhi[i]);
         }
         stats.primal_infeasibility = v;
-        let _ = gemv_n_acc;
     }
 }

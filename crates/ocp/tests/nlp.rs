@@ -111,12 +111,17 @@ fn warm_start_from_a_solution_takes_few_iterations() {
     let mut solver = OcpSolver::new(&p.dims).unwrap();
     let cold = solver.solve(&mut p, &OcpSettings::default());
     assert_eq!(cold.status, OcpStatus::Solved);
-    let warm_settings = OcpSettings {
-        warm_start: true,
-        mu_init: 1e-6,
-        ..OcpSettings::default()
-    };
-    let again = solver.solve(&mut p, &warm_settings);
+    // the same problem with the stored multipliers: the stored point passes at once
+    let again = solver.solve(
+        &mut p,
+        &OcpSettings {
+            warm_start: true,
+            warm_duals: WarmDuals::Stored,
+            mu_init: 1e-6,
+            warm_bound_push: 1e-9,
+            ..OcpSettings::default()
+        },
+    );
     assert_eq!(again.status, OcpStatus::Solved, "{again:?}");
     assert!(
         again.iterations <= 3,
@@ -124,21 +129,39 @@ fn warm_start_from_a_solution_takes_few_iterations() {
         again.iterations
     );
     assert!((again.objective - cold.objective).abs() < 1e-7 * cold.objective);
+}
 
-    // a perturbed start state: warm from the old solution beats cold
-    p.x0 = [0.01, 0.0];
-    let warm = solver.solve(&mut p, &warm_settings);
-    let mut fresh = OcpSolver::new(&p.dims).unwrap();
-    let cold2 = fresh.solve(&mut p, &OcpSettings::default());
-    assert_eq!(warm.status, OcpStatus::Solved, "{warm:?}");
-    assert_eq!(cold2.status, OcpStatus::Solved, "{cold2:?}");
-    assert!(
-        warm.iterations < cold2.iterations,
-        "warm {} vs cold {}",
-        warm.iterations,
-        cold2.iterations
-    );
-    assert!((warm.objective - cold2.objective).abs() < 1e-6 * cold2.objective);
+#[test]
+fn warm_starts_after_a_shifted_initial_state_beat_cold_starts() {
+    // the default warm start (stored primal, duals reset) from the unshifted solution
+    let warm_settings = OcpSettings {
+        warm_start: true,
+        ..OcpSettings::default()
+    };
+    for shift in [0.01, 0.05, 0.1] {
+        let mut p = pendulum();
+        let mut solver = OcpSolver::new(&p.dims).unwrap();
+        assert_eq!(
+            solver.solve(&mut p, &OcpSettings::default()).status,
+            OcpStatus::Solved
+        );
+        p.x0 = [shift, 0.0];
+        let warm = solver.solve(&mut p, &warm_settings);
+        let mut fresh = OcpSolver::new(&p.dims).unwrap();
+        let cold = fresh.solve(&mut p, &OcpSettings::default());
+        assert_eq!(warm.status, OcpStatus::Solved, "{shift}: {warm:?}");
+        assert_eq!(cold.status, OcpStatus::Solved, "{shift}: {cold:?}");
+        assert!(
+            warm.iterations < cold.iterations,
+            "{shift}: warm {} vs cold {}",
+            warm.iterations,
+            cold.iterations
+        );
+        assert!(
+            (warm.objective - cold.objective).abs() < 1e-6 * cold.objective,
+            "{shift}: another local optimum"
+        );
+    }
 }
 
 /// Wraps a problem and injects failures.
@@ -148,7 +171,7 @@ struct Faulty<P> {
     calls: usize,
 }
 
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 enum Fault {
     /// evaluate returns Err from the start.
     ErrAlways,
@@ -235,6 +258,14 @@ fn failing_callbacks_end_in_evaluation_errors_or_shorter_steps() {
             "{stats:?}"
         );
         assert!(!stats.status.is_converged());
+        // the solver stays usable: a warm start from whatever the failure left behind
+        let mut healthy = pendulum();
+        let warm = OcpSettings {
+            warm_start: true,
+            ..OcpSettings::default()
+        };
+        let again = solver.solve(&mut healthy, &warm);
+        assert_eq!(again.status, OcpStatus::Solved, "after {mode:?}: {again:?}");
     }
     let mut p = Faulty {
         inner: pendulum(),
@@ -332,6 +363,27 @@ fn invalid_dims_problems_and_settings_are_refused() {
         "{stats:?}"
     );
 
+    // a stored iterate resized by the user before a warm start
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let _ = solver.solve(
+        &mut p,
+        &OcpSettings {
+            max_iter: 2,
+            ..OcpSettings::default()
+        },
+    );
+    solver.primal_mut().x[3].push(1.0);
+    let warm = OcpSettings {
+        warm_start: true,
+        ..OcpSettings::default()
+    };
+    let stats = solver.solve(&mut p, &warm);
+    assert!(
+        matches!(stats.status, OcpStatus::InvalidProblem(_)),
+        "{stats:?}"
+    );
+
     // settings
     let bad = OcpSettings {
         tol: -1.0,
@@ -396,4 +448,115 @@ fn iteration_and_time_limits_end_the_solve() {
     assert_eq!(stats.status, OcpStatus::MaxWallTime);
     let json = serde_json::to_string(&stats).unwrap();
     assert!(json.contains("MaxWallTime"));
+}
+
+#[test]
+fn free_final_time_as_a_free_initial_state_matches_a_one_dimensional_search() {
+    let (kk, w) = (40, 0.5);
+    // reference: golden-section search of E(T) + w T with the closed-form least-norm energy E(T)
+    let f = |t: f64| min_energy_for_time(kk, t) + w * t;
+    let (mut a, mut b) = (0.5, 5.0);
+    let g = 0.5 * (5.0_f64.sqrt() - 1.0);
+    for _ in 0..200 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if f(c) < f(d) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let t_ref = 0.5 * (a + b);
+    let mut p = FreeTime::new(kk, w);
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let stats = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let t = solver.primal().x[0][2];
+    assert!((t - t_ref).abs() < 1e-6, "T = {t} vs {t_ref}");
+    assert!((stats.objective - f(t_ref)).abs() < 1e-9);
+    // the reduced Hessian is indefinite along T on the dynamics alone but positive definite with
+    // the terminal rows: the inertia test of the whole KKT matrix needs no regularisation
+    assert_eq!(stats.regularizations, 0, "{stats:?}");
+    assert!(stats.iterations <= 12, "{stats:?}");
+}
+
+#[test]
+fn free_time_lagrangian_hessian_matches_central_differences() {
+    let mut p = FreeTime::new(3, 0.5);
+    let dims = p.dims.clone();
+    let mut z = Primal::zeros(&dims);
+    for k in 0..=3 {
+        z.x[k] = vec![0.1 * k as f64, -0.2 + 0.05 * k as f64, 1.3];
+        if k < 3 {
+            z.u[k] = vec![0.7 - 0.4 * k as f64];
+        }
+    }
+    let mut m = Multipliers::zeros(&dims);
+    for k in 0..3 {
+        m.lam[k] = vec![0.9 - 0.3 * k as f64, -0.4 + 0.2 * k as f64, 0.1];
+    }
+    let sigma = 1.3;
+    let mut ev: Vec<StageEval> = (0..=3)
+        .map(|k| StageEval::zeros(dims.stages[k], if k < 3 { 3 } else { 0 }))
+        .collect();
+    let mut term = TerminalEval::zeros(2, 3);
+    p.hessians(&z, sigma, &m, &mut ev).unwrap();
+    for k in 0..3 {
+        let hess = ev[k].hess.clone();
+        let zk: Vec<f64> = z.x[k].iter().chain(&z.u[k]).copied().collect();
+        let grad_l = |zz: &[f64]| {
+            let mut zc = z.clone();
+            zc.x[k].copy_from_slice(&zz[..3]);
+            zc.u[k].copy_from_slice(&zz[3..]);
+            let mut ev2 = ev.clone();
+            let mut p2 = p.clone();
+            p2.evaluate(&zc, EvalLevel::FirstOrder, &mut ev2, &mut term.clone())
+                .unwrap();
+            (0..4)
+                .map(|i| {
+                    sigma * ev2[k].grad[i]
+                        + (0..3)
+                            .map(|r| m.lam[k][r] * ev2[k].jac_f[r * 4 + i])
+                            .sum::<f64>()
+                })
+                .collect::<Vec<_>>()
+        };
+        let err = fd_jacobian_error(grad_l, &zk, &hess);
+        assert!(err < 1e-6, "stage {k}: Hessian error {err}");
+    }
+    let _ = &mut term;
+}
+
+#[test]
+fn solver_settings_and_stats_can_cross_threads() {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<OcpSolver>();
+    send_sync::<OcpSettings>();
+    send_sync::<OcpStats>();
+    send_sync::<OcpError>();
+}
+
+#[test]
+fn adaptive_mu_solves_the_swing_up_in_fewer_iterations() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let mono = solver.solve(&mut p, &OcpSettings::default());
+    let adaptive = solver.solve(
+        &mut p,
+        &OcpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(mono.status, OcpStatus::Solved, "{mono:?}");
+    assert_eq!(adaptive.status, OcpStatus::Solved, "{adaptive:?}");
+    assert!(
+        adaptive.iterations < mono.iterations,
+        "adaptive {} vs monotone {}",
+        adaptive.iterations,
+        mono.iterations
+    );
+    assert!((adaptive.objective - mono.objective).abs() < 1e-6 * mono.objective);
+    let z = solver.primal().clone();
+    let m = solver.multipliers().clone();
+    assert!(pendulum_kkt_residual(&mut p, &z, &m) < 1e-6);
 }

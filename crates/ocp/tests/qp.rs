@@ -54,7 +54,7 @@ fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
     let mut p = double_integrator(kk, h);
     p.stages[0].bounds.x_lo[1] = f64::NEG_INFINITY;
     p.stages[0].bounds.x_hi[1] = f64::INFINITY;
-    p.stages[0].h[1 * 3 + 1] = w0; // 1/2 w0 v0^2
+    p.stages[0].h[3 + 1] = w0; // (v0, v0): 1/2 w0 v0^2
     let (solver, stats) = solve(&mut p);
     assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
     // unknowns y = [v0, u_0..u_K-1]; x_K = [T v0, v0] + E u
@@ -147,7 +147,7 @@ fn an_unreachable_target_is_locally_infeasible() {
         ),
         "{stats:?}"
     );
-    assert!(stats.primal_infeasibility > 0.05);
+    assert!(stats.primal_infeasibility > 1e-3, "{stats:?}");
 }
 
 #[test]
@@ -197,6 +197,7 @@ fn active_bounds_and_stage_inequalities_match_clarabel() {
 #[test]
 fn random_convex_qps_match_clarabel() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let mut pinned = 0;
     for case in 0..40 {
         let kk = rng.gen_range(1..15);
         let nx = rng.gen_range(1..5);
@@ -205,8 +206,25 @@ fn random_convex_qps_match_clarabel() {
         let nr = rng.gen_range(0..=nx.min(2));
         let free = rng.gen_bool(0.3);
         let mut p = random_qp(&mut rng, kk, nx, nu, nc, nr, free);
-        let (jc, zc, ok) = p.solve_clarabel();
+        let (mut jc, mut zc, ok) = p.solve_clarabel();
         assert!(ok, "case {case}: clarabel failed");
+        if case % 3 == 0 && kk * nu >= nr + 4 {
+            // pin one state after stage 0 at its optimal value (an equality row of the Schur
+            // complement; the optimum does not move). Only with spare inputs: pinning the last
+            // free direction makes the problem degenerate (no strictly feasible direction).
+            let k = rng.gen_range(1..=kk);
+            let i = rng.gen_range(0..nx);
+            let o: usize = p.dims.stages[..k].iter().map(|d| d.nz()).sum();
+            p.stages[k].bounds.x_lo[i] = zc[o + i];
+            p.stages[k].bounds.x_hi[i] = zc[o + i];
+            let (j2, z2, ok) = p.solve_clarabel();
+            assert!(
+                ok && (j2 - jc).abs() < 1e-7 * jc.abs().max(1.0),
+                "case {case}: pinning moved the optimum"
+            );
+            (jc, zc) = (j2, z2);
+            pinned += 1;
+        }
         let (solver, stats) = solve(&mut p);
         assert_eq!(
             stats.status,
@@ -227,5 +245,150 @@ fn random_convex_qps_match_clarabel() {
             .fold(0.0, f64::max);
         assert!(err < 1e-4, "case {case}: solution differs by {err}");
         assert!((p.objective(&z) - stats.objective).abs() < 1e-9 * (1.0 + jc.abs()));
+    }
+    assert!(pinned >= 5, "only {pinned} cases with a pinned state");
+}
+
+#[test]
+fn fixed_states_after_stage_zero_are_exact_equalities() {
+    // x_K = [1, 0] through bounds instead of terminal rows: the same least-norm solution
+    let (kk, h) = (40, 0.05);
+    let mut p = double_integrator(kk, h);
+    p.dims.n_terminal = 0;
+    p.g.clear();
+    p.r0.clear();
+    p.stages[kk].bounds.x_lo = vec![1.0, 0.0];
+    p.stages[kk].bounds.x_hi = vec![1.0, 0.0];
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let u_ref = weighted_least_norm(&double_integrator_rows(kk, h), &vec![h; kk], &[1.0, 0.0]);
+    for k in 0..kk {
+        assert!((solver.primal().u[k][0] - u_ref[k]).abs() < 1e-7);
+    }
+    let xk = &solver.primal().x[kk];
+    assert!((xk[0] - 1.0).abs() < 1e-12 && xk[1].abs() < 1e-12, "{xk:?}");
+
+    // a via point (position fixed halfway) plus terminal rows, with an input bound: clarabel
+    let mut p = double_integrator(kk, h);
+    p.stages[kk / 2].bounds.x_lo[0] = 0.7;
+    p.stages[kk / 2].bounds.x_hi[0] = 0.7;
+    for k in 0..kk {
+        p.stages[k].bounds.u_lo = vec![-2.5];
+        p.stages[k].bounds.u_hi = vec![2.5];
+    }
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let (jc, zc, ok) = p.solve_clarabel();
+    assert!(ok);
+    assert!(
+        (stats.objective - jc).abs() < 1e-6 * jc.abs(),
+        "{} vs {jc}",
+        stats.objective
+    );
+    let z = LqProblem::flat(solver.primal());
+    let err = z
+        .iter()
+        .zip(&zc)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-4, "solution differs by {err}");
+    assert!((solver.primal().x[kk / 2][0] - 0.7).abs() < 1e-9);
+}
+
+#[test]
+fn stage_sizes_that_vary_along_the_horizon_match_clarabel() {
+    // nx_k, nu_k and nc_k change from stage to stage (e.g. a grasp switch that drops states)
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for case in 0..10 {
+        let kk = rng.gen_range(2..8);
+        let stages: Vec<StageDims> = (0..=kk)
+            .map(|_| StageDims {
+                nx: rng.gen_range(1..5),
+                nu: rng.gen_range(0..3),
+                nc: rng.gen_range(0..2),
+            })
+            .collect();
+        let nr = rng.gen_range(0..=stages[kk].nx.min(2));
+        let mut p = LqProblem::zeros(OcpDims {
+            stages: stages.clone(),
+            n_terminal: nr,
+        });
+        let mut x: Vec<f64> = (0..stages[0].nx)
+            .map(|_| rng.gen_range(-1.0..1.0))
+            .collect();
+        for k in 0..=kk {
+            let d = stages[k];
+            let nz = d.nz();
+            let u: Vec<f64> = (0..d.nu).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            let zbar: Vec<f64> = x.iter().chain(&u).copied().collect();
+            let st = &mut p.stages[k];
+            let mm: Vec<f64> = (0..nz * nz).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            for a in 0..nz {
+                for b in 0..nz {
+                    st.h[a * nz + b] = (0..nz)
+                        .map(|r| mm[r * nz + a] * mm[r * nz + b])
+                        .sum::<f64>()
+                        + if a == b { 0.2 } else { 0.0 };
+                }
+                st.q[a] = rng.gen_range(-1.0..1.0);
+            }
+            if k == 0 {
+                st.bounds.x_lo.copy_from_slice(&x);
+                st.bounds.x_hi.copy_from_slice(&x);
+            }
+            for i in 0..d.nu {
+                st.bounds.u_lo[i] = u[i] - rng.gen_range(0.0..0.3);
+                st.bounds.u_hi[i] = u[i] + rng.gen_range(0.0..0.3);
+            }
+            for j in 0..d.nc {
+                let row: Vec<f64> = (0..nz).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let cv: f64 = row.iter().zip(&zbar).map(|(a, b)| a * b).sum();
+                st.cm[j * nz..(j + 1) * nz].copy_from_slice(&row);
+                st.bounds.c_hi[j] = cv + rng.gen_range(0.0..0.2);
+            }
+            if k < kk {
+                let nx1 = stages[k + 1].nx;
+                let mut xn = vec![0.0; nx1];
+                for r in 0..nx1 {
+                    for c in 0..d.nx {
+                        st.a[r * d.nx + c] = rng.gen_range(-1.0..1.0);
+                    }
+                    for c in 0..d.nu {
+                        st.b[r * d.nu + c] = rng.gen_range(-1.0..1.0);
+                    }
+                    xn[r] = (0..d.nx).map(|c| st.a[r * d.nx + c] * x[c]).sum::<f64>()
+                        + (0..d.nu).map(|c| st.b[r * d.nu + c] * u[c]).sum::<f64>();
+                }
+                x = xn;
+            }
+        }
+        let nxk = stages[kk].nx;
+        for r in 0..nr {
+            for c in 0..nxk {
+                p.g[r * nxk + c] = rng.gen_range(-1.0..1.0);
+            }
+            p.r0[r] = -(0..nxk).map(|c| p.g[r * nxk + c] * x[c]).sum::<f64>();
+        }
+        let (jc, zc, ok) = p.solve_clarabel();
+        assert!(ok, "case {case}: clarabel failed");
+        let (solver, stats) = solve(&mut p);
+        assert_eq!(
+            stats.status,
+            OcpStatus::Solved,
+            "case {case} {stages:?}: {stats:?}"
+        );
+        let rel = (stats.objective - jc).abs() / jc.abs().max(1.0);
+        assert!(
+            rel < 1e-6,
+            "case {case}: objective {} vs clarabel {jc}",
+            stats.objective
+        );
+        let z = LqProblem::flat(solver.primal());
+        let err = z
+            .iter()
+            .zip(&zc)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-4, "case {case}: solution differs by {err}");
     }
 }

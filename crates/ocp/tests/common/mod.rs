@@ -468,12 +468,10 @@ pub fn random_qp_with(
             } else {
                 (&mut st.bounds.u_lo[i - nx], &mut st.bounds.u_hi[i - nx])
             };
-            if k == 0 && i < nx {
-                if !(free_x0 && i == 0) {
-                    *lo = zbar[i];
-                    *hi = zbar[i];
-                    continue;
-                }
+            if k == 0 && i < nx && !(free_x0 && i == 0) {
+                *lo = zbar[i];
+                *hi = zbar[i];
+                continue;
             }
             if rng.gen_bool(0.5) {
                 *lo = zbar[i] - rng.gen_range(0.0..0.5);
@@ -736,7 +734,7 @@ impl OcpProblem for Pendulum {
             let nz = if k < kk { 3 } else { 2 };
             e.hess.fill(0.0);
             if k < kk {
-                e.hess[1 * 3 + 1] = sigma * h * self.w;
+                e.hess[3 + 1] = sigma * h * self.w; // (omega, omega)
                 e.hess[2 * 3 + 2] = sigma * h;
                 let f = self.step([z.x[k][0], z.x[k][1]], z.u[k][0]);
                 for r in 0..2 {
@@ -747,7 +745,7 @@ impl OcpProblem for Pendulum {
                     }
                 }
             }
-            e.hess[1 * nz + 1] += 2.0 * m.mu[k][0];
+            e.hess[nz + 1] += 2.0 * m.mu[k][0]; // (omega, omega)
         }
         Ok(())
     }
@@ -771,4 +769,162 @@ pub fn fd_jacobian_error(f: impl Fn(&[f64]) -> Vec<f64>, z: &[f64], jac: &[f64])
         }
     }
     err
+}
+
+/// The double integrator with a free final time: x = [p, v, T] (T a constant state, free in x_0),
+/// steps h = T / K, p+ = p + h v + h^2/2 u, v+ = v + h u, T+ = T; cost sum_k 1/2 h u_k^2 + w T
+/// (at stage 0); x_0 = [0, 0, free], x_K = [1, 0, .]; T in [0.1, 10].
+#[derive(Debug, Clone)]
+pub struct FreeTime {
+    pub dims: OcpDims,
+    pub w: f64,
+    pub t_guess: f64,
+}
+
+impl FreeTime {
+    pub fn new(kk: usize, w: f64) -> Self {
+        let stages = (0..=kk)
+            .map(|k| StageDims {
+                nx: 3,
+                nu: if k < kk { 1 } else { 0 },
+                nc: 0,
+            })
+            .collect();
+        FreeTime {
+            dims: OcpDims {
+                stages,
+                n_terminal: 2,
+            },
+            w,
+            t_guess: 1.0,
+        }
+    }
+}
+
+impl OcpProblem for FreeTime {
+    fn dims(&self) -> &OcpDims {
+        &self.dims
+    }
+    fn bounds(&self, k: usize, b: &mut StageBounds) {
+        if k == 0 {
+            b.x_lo[0] = 0.0;
+            b.x_hi[0] = 0.0;
+            b.x_lo[1] = 0.0;
+            b.x_hi[1] = 0.0;
+        }
+        b.x_lo[2] = 0.1;
+        b.x_hi[2] = 10.0;
+    }
+    fn initial_guess(&self, z: &mut Primal) {
+        for x in z.x.iter_mut() {
+            x[2] = self.t_guess;
+        }
+    }
+    fn evaluate(
+        &mut self,
+        z: &Primal,
+        level: EvalLevel,
+        st: &mut [StageEval],
+        t: &mut TerminalEval,
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let n = kk as f64;
+        for k in 0..=kk {
+            let (p, v, tt) = (z.x[k][0], z.x[k][1], z.x[k][2]);
+            let h = tt / n;
+            let e = &mut st[k];
+            let u = if k < kk { z.u[k][0] } else { 0.0 };
+            e.cost =
+                if k < kk { 0.5 * h * u * u } else { 0.0 } + if k == 0 { self.w * tt } else { 0.0 };
+            if level == EvalLevel::FirstOrder {
+                e.grad.fill(0.0);
+                if k < kk {
+                    e.grad[2] = 0.5 * u * u / n;
+                    e.grad[3] = h * u;
+                }
+                if k == 0 {
+                    e.grad[2] += self.w;
+                }
+            }
+            if k < kk {
+                e.f[0] = p + h * v + 0.5 * h * h * u;
+                e.f[1] = v + h * u;
+                e.f[2] = tt;
+                if level == EvalLevel::FirstOrder {
+                    // columns [p, v, T, u]
+                    e.jac_f.copy_from_slice(&[
+                        1.0,
+                        h,
+                        (v + h * u) / n,
+                        0.5 * h * h,
+                        0.0,
+                        1.0,
+                        u / n,
+                        h,
+                        0.0,
+                        0.0,
+                        1.0,
+                        0.0,
+                    ]);
+                }
+            }
+        }
+        t.r[0] = z.x[kk][0] - 1.0;
+        t.r[1] = z.x[kk][1];
+        if level == EvalLevel::FirstOrder {
+            t.jac_r.copy_from_slice(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+        }
+        Ok(())
+    }
+    fn hessians(
+        &mut self,
+        z: &Primal,
+        sigma: f64,
+        m: &Multipliers,
+        st: &mut [StageEval],
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let n = kk as f64;
+        for k in 0..=kk {
+            let e = &mut st[k];
+            e.hess.fill(0.0);
+            if k == kk {
+                continue;
+            }
+            let (tt, u) = (z.x[k][2], z.u[k][0]);
+            let h = tt / n;
+            let (l0, l1) = (m.lam[k][0], m.lam[k][1]);
+            // z = [p, v, T, u]; index (i, j) = i * 4 + j
+            let mut set = |i: usize, j: usize, v: f64| {
+                e.hess[i * 4 + j] += v;
+                if i != j {
+                    e.hess[j * 4 + i] += v;
+                }
+            };
+            // cost 1/2 h u^2 = 1/2 T/n u^2
+            set(2, 3, sigma * u / n);
+            set(3, 3, sigma * h);
+            // f0 = p + T/n v + 1/2 (T/n)^2 u
+            set(1, 2, l0 / n);
+            set(2, 2, l0 * u / (n * n));
+            set(2, 3, l0 * h / n);
+            // f1 = v + T/n u
+            set(2, 3, l1 / n);
+            let _ = tt;
+        }
+        Ok(())
+    }
+}
+
+/// Energy of the discrete minimum-energy rest-to-rest transfer over 1 m in time `t` with `kk` steps.
+pub fn min_energy_for_time(kk: usize, t: f64) -> f64 {
+    let h = t / kk as f64;
+    let mut e = vec![vec![0.0; kk]; 2];
+    for k in 0..kk {
+        let steps = (kk - 1 - k) as f64;
+        e[0][k] = 0.5 * h * h + steps * h * h;
+        e[1][k] = h;
+    }
+    let u = weighted_least_norm(&e, &vec![h; kk], &[1.0, 0.0]);
+    u.iter().map(|u| 0.5 * h * u * u).sum()
 }
