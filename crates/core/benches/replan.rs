@@ -16,11 +16,11 @@ use brachia::planning::{
     SwingPlanner, SwingTask, Transcription,
 };
 use brachia::Robot;
-use brachia_ocp::{OcpProblem, Primal};
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use brachia_ocp::{OcpSettings, Primal, WarmDuals};
+use criterion::{criterion_group, criterion_main, Criterion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 const T_NOW: f64 = 0.6;
 
@@ -204,6 +204,66 @@ fn bench(c: &mut Criterion) {
         ..pn.clone()
     };
 
+    // warm-start variants (iterations and times over the draws; the default is the planner's own)
+    let base = planner.warm_settings_mut().clone();
+    let variants: [(&str, WarmDuals, f64, f64); 5] = [
+        (
+            "stored duals, mu 1e-4, push 1e-9",
+            WarmDuals::Stored,
+            1e-4,
+            1e-9,
+        ),
+        (
+            "reset duals, mu 1e-4, push 1e-2",
+            WarmDuals::Reset,
+            1e-4,
+            1e-2,
+        ),
+        (
+            "reset duals, mu 1e-3, push 1e-3",
+            WarmDuals::Reset,
+            1e-3,
+            1e-3,
+        ),
+        (
+            "reset duals, mu 1e-2, push 1e-2",
+            WarmDuals::Reset,
+            1e-2,
+            1e-2,
+        ),
+        (
+            "centered duals, mu 1e-3, push 1e-3",
+            WarmDuals::Centered,
+            1e-3,
+            1e-3,
+        ),
+    ];
+    for (name, duals, mu, push) in variants {
+        *planner.warm_settings_mut() = OcpSettings {
+            warm_duals: duals,
+            mu_init: mu,
+            warm_bound_push: push,
+            ..base.clone()
+        };
+        let (mut t, mut it, mut conv) = (vec![], 0usize, 0usize);
+        for x in &states {
+            planner.restore(&cp).unwrap();
+            let t0 = Instant::now();
+            let w = planner.replan(T_NOW, x).unwrap();
+            t.push(t0.elapsed().as_secs_f64());
+            it += w.iterations;
+            conv += usize::from(w.converged() && w.ee_error_m < 1e-6);
+        }
+        eprintln!(
+            "variant {name}: median {:.2} ms, p99 {:.2} ms, mean {:.1} iterations, {conv}/{} converged",
+            quantile(&t, 0.5) * 1e3,
+            quantile(&t, 0.99) * 1e3,
+            it as f64 / states.len() as f64,
+            states.len()
+        );
+    }
+    *planner.warm_settings_mut() = base;
+
     // manual pass
     let mut z = planner.knots().clone();
     let (mut tw, mut tc, mut tp) = (vec![], vec![], vec![]);
@@ -276,22 +336,22 @@ fn bench(c: &mut Criterion) {
     for (name, warm) in [("warm", true), ("cold", false)] {
         let mut i = 0;
         g.bench_function(name, |b| {
-            b.iter_batched(
-                || {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
                     planner.restore(&cp).unwrap();
                     i = (i + 1) % states.len();
-                    i
-                },
-                |i| {
+                    let t = Instant::now();
                     let out = if warm {
                         planner.replan(T_NOW, &states[i]).unwrap()
                     } else {
                         planner.replan_cold(T_NOW, &states[i]).unwrap()
                     };
-                    out.iterations
-                },
-                BatchSize::PerIteration,
-            )
+                    total += t.elapsed();
+                    std::hint::black_box(out.iterations);
+                }
+                total
+            })
         });
     }
     g.finish();

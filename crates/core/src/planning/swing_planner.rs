@@ -25,7 +25,7 @@ use super::settings::PlannerSettings;
 use super::shooting::SwingOcp;
 use crate::error::{Error, Result};
 use crate::model::Robot;
-use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, Primal};
+use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, Primal, WarmDuals};
 
 /// How one (re-)plan ended, without allocating: the solver's status and diagnostics and the grid of
 /// the solution (read the knots with [`SwingPlanner::knots`]).
@@ -116,9 +116,13 @@ impl<'a> SwingPlanner<'a> {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
         let cold = ocp_settings(nlp);
+        // the stored multipliers, a small barrier parameter and bound push: the fewest iterations
+        // of the variants measured in benches/replan.rs (docs/planner.md, "Re-planning")
         let warm = OcpSettings {
             warm_start: true,
             mu_init: nlp.mu_init.unwrap_or(WARM_START_MU_INIT),
+            warm_duals: WarmDuals::Stored,
+            warm_bound_push: 1e-9,
             ..cold.clone()
         };
         let mut guess = Primal::zeros(ocp.dims());
@@ -153,8 +157,8 @@ impl<'a> SwingPlanner<'a> {
         })
     }
 
-    /// Settings of the warm solves (warm start on, `mu_init` from the NLP settings or
-    /// [`WARM_START_MU_INIT`]); edit to tune.
+    /// Settings of the warm solves (warm start on, the stored multipliers, `mu_init` from the NLP
+    /// settings or [`WARM_START_MU_INIT`], `warm_bound_push` 1e-9); edit to tune.
     pub fn warm_settings_mut(&mut self) -> &mut OcpSettings {
         &mut self.warm
     }
