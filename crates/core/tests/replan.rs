@@ -82,9 +82,9 @@ fn warm_replans_from_disturbed_states_converge_reach_the_bar_and_beat_cold_start
     let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
     let cp = planner.checkpoint();
 
-    let states = disturbed(&x_nom, 12, 7);
+    let states = disturbed(&x_nom, 8, 7);
     assert!(
-        states.len() >= 8,
+        states.len() >= 6,
         "{} states inside the bounds",
         states.len()
     );
