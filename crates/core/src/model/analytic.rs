@@ -384,7 +384,7 @@ impl DynamicsDerivatives {
         qdd[..self.n].copy_from_slice(&self.a);
     }
 
-    /// qdd and its Jacobian, row-major n x (3n - 1): exactly the layout of Diff::<DynamicsFn>::jacobian.
+    /// qdd and its Jacobian, row-major n x (3n - 1): exactly the layout of `Diff::<DynamicsFn>::jacobian`.
     pub fn jacobian(&mut self, robot: &Robot, z: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.prepare(robot, z);
         self.fill_jacobian(robot);
@@ -392,7 +392,7 @@ impl DynamicsDerivatives {
         jac[..self.jz.len()].copy_from_slice(&self.jz);
     }
 
-    /// Full symmetric (3n-1) x (3n-1) row-major Hessian of sum_i w_i qdd_i(z): exactly Diff::<DynamicsFn>::hessian_weighted.
+    /// Full symmetric (3n-1) x (3n-1) row-major Hessian of sum_i w_i qdd_i(z): exactly `Diff::<DynamicsFn>::hessian_weighted`.
     pub fn hessian_weighted(&mut self, robot: &Robot, z: &[f64], w: &[f64], hess: &mut [f64]) {
         self.prepare(robot, z);
         self.fill_jacobian(robot);
