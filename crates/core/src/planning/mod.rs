@@ -15,6 +15,7 @@ pub mod planner;
 pub mod profile;
 pub mod settings;
 pub mod shooting;
+pub mod swing_planner;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use guess::{Blockage, GuessReport, GuessStrategy, ObstacleGuess};
@@ -30,3 +31,4 @@ pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcr
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
+pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};

@@ -27,7 +27,7 @@ use brachia_ocp::{
 const REPLAY_DT: f64 = 1e-4;
 
 /// The solver outcome of the OCP solver as the planner's status.
-fn status_of(s: &OcpStatus) -> SolveStatus {
+pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
     match s {
         OcpStatus::Solved => SolveStatus::Solved,
         OcpStatus::SolvedToAcceptableLevel => SolveStatus::SolvedToAcceptableLevel,
@@ -45,7 +45,7 @@ fn status_of(s: &OcpStatus) -> SolveStatus {
 
 /// The OCP solver's one pass as a planner attempt: callbacks are its evaluations and Hessians, the
 /// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping.
-fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt {
+pub(super) fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt {
     let t = stats.time;
     let callbacks_s = t.evaluation_s + t.hessian_s;
     let time_split = TimeSplit {
@@ -72,7 +72,7 @@ fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt {
 }
 
 /// The OCP solver's settings from the NLP seam's (the same names and meanings).
-fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
+pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     let d = OcpSettings::default();
     OcpSettings {
         max_iter: nlp.max_iter,
@@ -96,6 +96,108 @@ pub(super) fn plan_shooting(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    let ShootingSetup {
+        ocp,
+        layout,
+        t_final,
+        freefall,
+    } = setup_shooting(robot, task, settings, guess)?;
+
+    // solve
+    let (z, status, objective, solves, mut ocp) = match nlp.backend {
+        Backend::Ocp => {
+            let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
+                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
+            })?;
+            let mut ocp = ocp;
+            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
+            let status = status_of(&stats.status);
+            let solves = vec![ocp_attempt(&stats, status.clone())];
+            (
+                solver.primal().clone(),
+                status,
+                stats.objective,
+                solves,
+                ocp,
+            )
+        }
+        Backend::Pounce | Backend::Ripopt => {
+            let mut prob = OcpNlp::new(ocp);
+            let mut sol = solve(&mut prob, nlp);
+            let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
+            let mut adopted = 0;
+            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+                // the collocation planner's retry (docs/planner.md, "Solver and retry")
+                let retry = NlpSettings {
+                    mu_strategy: MuStrategy::Adaptive,
+                    ..nlp.clone()
+                };
+                let second = solve(&mut prob, &retry);
+                solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
+                if second.status.is_converged()
+                    || second.max_constraint_violation < sol.max_constraint_violation
+                {
+                    sol = second;
+                    adopted = 1;
+                }
+            }
+            solves[adopted].adopted = true;
+            let mut z = Primal::zeros(prob.problem().dims());
+            if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
+                prob.unstack(&sol.x, &mut z);
+            } else {
+                prob.problem().initial_guess(&mut z);
+            }
+            (z, sol.status, sol.objective, solves, prob.into_problem())
+        }
+    };
+    finish_plan(
+        robot,
+        task,
+        settings,
+        &layout,
+        t_final,
+        freefall,
+        &z,
+        &mut ocp,
+        SolveSummary {
+            status,
+            objective,
+            backend: nlp.backend,
+            solves,
+        },
+    )
+}
+
+/// The multiple-shooting problem of a task, built with its initial guess, and its grid.
+pub(super) struct ShootingSetup<'a> {
+    /// The problem (guess set).
+    pub ocp: SwingOcp<'a>,
+    /// The knot grid.
+    pub layout: Layout,
+    /// Swing time T, s.
+    pub t_final: f64,
+    /// The free-fall time when T is `"auto"`, s.
+    pub freefall: Option<f64>,
+}
+
+/// How a solve ended, for [`finish_plan`].
+pub(super) struct SolveSummary {
+    pub status: SolveStatus,
+    pub objective: f64,
+    pub backend: Backend,
+    /// Every solver attempt (exactly one adopted).
+    pub solves: Vec<SolveAttempt>,
+}
+
+/// Build the multiple-shooting problem of `task` with its initial guess (from `guess`, or the
+/// smoothstep towards the inverse-kinematics target pose). Refuses a collocation transcription.
+pub(super) fn setup_shooting<'a>(
+    robot: &'a Robot,
+    task: &'a SwingTask,
+    settings: &PlannerSettings,
+    guess: Option<&Trajectory>,
+) -> Result<ShootingSetup<'a>> {
     if settings.transcription != Transcription::MultipleShooting {
         let name = serde_json::to_value(settings.transcription)
             .ok()
@@ -186,57 +288,39 @@ pub(super) fn plan_shooting(
         }
     }
 
-    // solve
-    let (z, status, objective, solves, mut ocp) = match nlp.backend {
-        Backend::Ocp => {
-            let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
-                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
-            })?;
-            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
-            let status = status_of(&stats.status);
-            let solves = vec![ocp_attempt(&stats, status.clone())];
-            (
-                solver.primal().clone(),
-                status,
-                stats.objective,
-                solves,
-                ocp,
-            )
-        }
-        Backend::Pounce | Backend::Ripopt => {
-            let mut prob = OcpNlp::new(ocp);
-            let mut sol = solve(&mut prob, nlp);
-            let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
-            let mut adopted = 0;
-            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
-                // the collocation planner's retry (docs/planner.md, "Solver and retry")
-                let retry = NlpSettings {
-                    mu_strategy: MuStrategy::Adaptive,
-                    ..nlp.clone()
-                };
-                let second = solve(&mut prob, &retry);
-                solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
-                if second.status.is_converged()
-                    || second.max_constraint_violation < sol.max_constraint_violation
-                {
-                    sol = second;
-                    adopted = 1;
-                }
-            }
-            solves[adopted].adopted = true;
-            let mut z = Primal::zeros(prob.problem().dims());
-            if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
-                prob.unstack(&sol.x, &mut z);
-            } else {
-                prob.problem().initial_guess(&mut z);
-            }
-            (z, sol.status, sol.objective, solves, prob.into_problem())
-        }
-    };
+    Ok(ShootingSetup {
+        ocp,
+        layout,
+        t_final,
+        freefall,
+    })
+}
+
+/// The [`Plan`] of a multiple-shooting solution `z` of `ocp` (knots, held-torque trajectory,
+/// violations, independent replay).
+pub(super) fn finish_plan(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    layout: &Layout,
+    t_final: f64,
+    freefall: Option<f64>,
+    z: &Primal,
+    ocp: &mut SwingOcp,
+    sum: SolveSummary,
+) -> Result<Plan> {
+    let SolveSummary {
+        status,
+        objective,
+        backend,
+        solves,
+    } = sum;
     let mut time_split = TimeSplit::default();
     for a in &solves {
         time_split.add(&a.time_split);
     }
+    let n = robot.n;
+    let intervals = layout.intervals;
     let st = ocp.timings;
     let callback_timings = CallbackTimings {
         objective_s: 0.0,
@@ -260,11 +344,11 @@ pub(super) fn plan_shooting(
         .output_dt
         .min(layout.h / settings.shooting.substeps as f64);
     let trajectory =
-        held_torque_trajectory(robot, &z, layout.h, t_final, settings.output_dt, max_step);
+        held_torque_trajectory(robot, z, layout.h, t_final, settings.output_dt, max_step);
     let (energy_j, positive_work_j) = trajectory.work();
     let ee_final = robot.ee_position(&z.x[intervals][..n]);
-    let violations = violations(&mut ocp, &z);
-    let replay_ee_error_m = replay_held_torques(robot, &z, layout.h, task.target);
+    let violations = violations(ocp, z);
+    let replay_ee_error_m = replay_held_torques(robot, z, layout.h, task.target);
     let min_obstacle_clearance_m = if task.obstacles.is_empty() {
         None
     } else {
@@ -277,7 +361,7 @@ pub(super) fn plan_shooting(
     };
     Ok(Plan {
         status,
-        backend: nlp.backend,
+        backend,
         iterations: solves.iter().map(|a| a.iterations).sum(),
         attempts: solves.len(),
         solve_time_s: solves.iter().map(|a| a.time_s).sum(),
@@ -287,7 +371,7 @@ pub(super) fn plan_shooting(
         objective,
         swing_time_s: t_final,
         freefall_time_s: freefall,
-        layout,
+        layout: *layout,
         points,
         points_qdd,
         trajectory,

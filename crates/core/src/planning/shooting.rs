@@ -640,6 +640,67 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
         self.ctx.h
     }
 
+    /// Swing time T = K h, s.
+    pub fn swing_time(&self) -> f64 {
+        self.ctx.h * self.ctx.horizon as f64
+    }
+
+    /// The fixed start state `x_0` (2n).
+    pub fn start(&self) -> &[f64] {
+        &self.x_start
+    }
+
+    /// The target bar position, m.
+    pub fn target(&self) -> [f64; 2] {
+        self.target
+    }
+
+    /// Set the start state `x_0` in place (2n values; the bounds of stage 0 follow). Errors on the
+    /// wrong length or a non-finite value.
+    pub fn set_start(&mut self, x: &[f64]) -> Result<()> {
+        if x.len() != self.x_start.len() {
+            return Err(Error::Dimension {
+                what: "shooting: x_start".into(),
+                expected: self.x_start.len(),
+                got: x.len(),
+            });
+        }
+        if let Some(v) = x.iter().find(|v| !v.is_finite()) {
+            return Err(Error::invalid(
+                "<shooting>",
+                "x_start",
+                *v,
+                "must be finite",
+            ));
+        }
+        self.x_start.copy_from_slice(x);
+        self.guess.x[0].copy_from_slice(x);
+        Ok(())
+    }
+
+    /// Set the swing time T in place, keeping K: the interval becomes h = T / K (the recorded
+    /// forward passes are dropped). Errors on a time that is not finite and positive.
+    pub fn set_swing_time(&mut self, t: f64) -> Result<()> {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(Error::invalid(
+                "<shooting>",
+                "swing_time_s",
+                t,
+                "must be finite and > 0",
+            ));
+        }
+        self.ctx.h = t / self.ctx.horizon as f64;
+        for w in &mut self.work {
+            w.rec_valid = false;
+        }
+        Ok(())
+    }
+
+    /// Set the target bar position in place, m.
+    pub fn set_target(&mut self, target: [f64; 2]) {
+        self.target = target;
+    }
+
     /// RK4 steps per interval.
     pub fn substeps(&self) -> usize {
         self.ctx.substeps

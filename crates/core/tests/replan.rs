@@ -1,0 +1,209 @@
+//! The persistent planner (`SwingPlanner`) on the paper's tracking swing (params/paper.toml, T auto,
+//! 10 ms knots, multiple shooting on the Riccati solver): a cold plan, then re-plans from the planned
+//! state at t = 0.6 s disturbed by uniform +-0.1 rad and +-0.5 rad/s on each joint (seeded; only the
+//! disturbed states inside the bounds). Warm re-plans converge, reach the bar and take fewer
+//! iterations than the same re-plans started cold; the re-plan of the undisturbed state keeps the
+//! plan; misuse is refused. Units: s, m, rad, rad/s.
+
+use brachia::model::Robot;
+use brachia::planning::{
+    Backend, Bounds, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
+};
+use brachia::Error;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn tracking_task() -> SwingTask {
+    SwingTask {
+        q0: vec![-2.35, 0.0, -1.55, 0.0],
+        qd0: vec![],
+        target: [0.8, 0.0],
+        obstacles: vec![],
+    }
+}
+
+fn settings() -> (PlannerSettings, NlpSettings) {
+    (
+        PlannerSettings {
+            transcription: Transcription::MultipleShooting,
+            knot_dt: 0.01,
+            ..Default::default()
+        },
+        NlpSettings {
+            backend: Backend::Ocp,
+            ..Default::default()
+        },
+    )
+}
+
+/// Inside the planner's box bounds (q1, relative joints, velocities).
+fn inside(b: &Bounds, x: &[f64]) -> bool {
+    let n = x.len() / 2;
+    x[0] > b.q1[0]
+        && x[0] < b.q1[1]
+        && x[1..n].iter().all(|q| q.abs() < b.q_rel_max)
+        && x[n..].iter().all(|v| v.abs() < b.qd_max)
+}
+
+/// `count` disturbed copies of `x` (seeded), those inside the bounds.
+fn disturbed(x: &[f64], count: usize, seed: u64) -> Vec<Vec<f64>> {
+    let n = x.len() / 2;
+    let b = Bounds::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..count)
+        .map(|_| {
+            let mut y = x.to_vec();
+            for i in 0..n {
+                y[i] += rng.gen_range(-0.1..0.1);
+                y[n + i] += rng.gen_range(-0.5..0.5);
+            }
+            y
+        })
+        .filter(|y| inside(&b, y))
+        .collect()
+}
+
+#[test]
+fn warm_replans_from_disturbed_states_converge_reach_the_bar_and_beat_cold_starts() {
+    let robot = Robot::paper();
+    let task = tracking_task();
+    let (s, nlp) = settings();
+    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let p = planner.plan().unwrap();
+    assert!(p.converged(), "{:?}", p.status);
+    assert!(p.replay_ee_error_m < 1e-3);
+    let t_now = 0.6;
+    let j = p
+        .trajectory
+        .t
+        .iter()
+        .position(|t| (t - t_now).abs() < 1e-9)
+        .unwrap();
+    let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
+    let cp = planner.checkpoint();
+
+    let states = disturbed(&x_nom, 8, 7);
+    assert!(
+        states.len() >= 6,
+        "{} states inside the bounds",
+        states.len()
+    );
+    let (mut warm_iters, mut cold_iters, mut converged) = (0, 0, 0);
+    for x in &states {
+        assert!(planner.restore(&cp).unwrap().converged());
+        let w = planner.replan(t_now, x).unwrap();
+        assert!(w.converged(), "warm {:?} from {x:?}", w.status);
+        assert!(
+            w.ee_error_m < 1e-6,
+            "warm ends {} m from the bar",
+            w.ee_error_m
+        );
+        assert!((w.t_start - t_now).abs() < 1e-15);
+        assert!(
+            (w.interval_s * planner.intervals() as f64 - (planner.swing_time() - t_now)).abs()
+                < 1e-12
+        );
+        assert_eq!(planner.knots().x[0], *x);
+        converged += 1;
+        warm_iters += w.iterations;
+
+        assert!(planner.restore(&cp).unwrap().converged());
+        let c = planner.replan_cold(t_now, x).unwrap();
+        assert!(c.converged(), "cold {:?} from {x:?}", c.status);
+        // the same local optimum
+        assert!(
+            (c.objective - w.objective).abs() <= 1e-5 * w.objective.abs().max(1.0),
+            "warm {} cold {}",
+            w.objective,
+            c.objective
+        );
+        cold_iters += c.iterations;
+    }
+    assert_eq!(converged, states.len());
+    assert!(
+        warm_iters < cold_iters,
+        "warm {warm_iters} vs cold {cold_iters} iterations over {} re-plans",
+        states.len()
+    );
+
+    // the plan of the last (cold) re-plan: its own clock, the held torques replayed reach the bar
+    let rp = planner.current_plan().unwrap();
+    assert!(rp.converged());
+    assert!((rp.swing_time_s - (planner.swing_time() - t_now)).abs() < 1e-12);
+    assert!(
+        rp.replay_ee_error_m < 1e-3,
+        "replay {}",
+        rp.replay_ee_error_m
+    );
+}
+
+#[test]
+fn replan_of_the_undisturbed_state_keeps_the_plan_and_a_new_target_is_reached() {
+    let robot = Robot::paper();
+    let task = tracking_task();
+    let (s, nlp) = settings();
+    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let p = planner.plan().unwrap();
+    // at a knot time the shifted solution's start is the plan's own knot
+    let k = 60;
+    let t_now = planner.knot_time(k);
+    let x_nom = planner.knots().x[k].clone();
+    let w = planner.replan(t_now, &x_nom).unwrap();
+    assert!(w.converged(), "{:?}", w.status);
+    // the tail of the optimal swing is optimal for the remaining time (up to the finer grid)
+    let rp = planner.current_plan().unwrap();
+    let kk = planner.intervals();
+    let end = planner.knots().x[kk].clone();
+    let n = robot.n;
+    for i in 0..n {
+        assert!(
+            (end[i] - p.points.q(p.points.len() - 1)[i]).abs() < 0.05,
+            "{end:?}"
+        );
+    }
+    assert!(rp.replay_ee_error_m < 1e-3);
+
+    // move the bar 2 cm and re-plan from the same point
+    planner.set_target([0.82, 0.0]).unwrap();
+    let w = planner.replan(t_now, &x_nom).unwrap();
+    assert!(w.converged(), "{:?}", w.status);
+    assert!(w.ee_error_m < 1e-6);
+    let ee = w.ee_final;
+    assert!((ee[0] - 0.82).abs() < 1e-6 && ee[1].abs() < 1e-6, "{ee:?}");
+}
+
+#[test]
+fn replan_refuses_misuse() {
+    let robot = Robot::paper();
+    let task = tracking_task();
+    let (s, nlp) = settings();
+    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let x = vec![0.0; 8];
+    // before any plan
+    assert!(matches!(
+        planner.replan(0.1, &x),
+        Err(Error::InvalidValue { .. })
+    ));
+    assert!(planner.plan_outcome().unwrap().converged());
+    let t_f = planner.swing_time();
+    for t in [-0.1, t_f, t_f + 1.0, f64::NAN] {
+        assert!(
+            matches!(planner.replan(t, &x), Err(Error::InvalidValue { .. })),
+            "{t}"
+        );
+    }
+    assert!(matches!(
+        planner.replan(0.1, &x[..7]),
+        Err(Error::Dimension { .. })
+    ));
+    let mut bad = x.clone();
+    bad[3] = f64::INFINITY;
+    assert!(matches!(
+        planner.replan(0.1, &bad),
+        Err(Error::InvalidValue { .. })
+    ));
+    assert!(matches!(
+        planner.set_target([f64::NAN, 0.0]),
+        Err(Error::InvalidValue { .. })
+    ));
+}
