@@ -4,11 +4,11 @@
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
 
 use super::collocation::{CallbackTimings, Layout};
-use super::nlp::{solve, Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
+use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, freefall_time, guess_from_trajectory, target_pose, variable_bounds,
-    DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
+    check_guess, check_task, freefall_time, guess_from_trajectory, solve_with_retry, target_pose,
+    variable_bounds, DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
 };
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
@@ -123,25 +123,7 @@ pub(super) fn plan_shooting(
         }
         Backend::Pounce | Backend::Ripopt => {
             let mut prob = OcpNlp::new(ocp);
-            let mut sol = solve(&mut prob, nlp);
-            let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
-            let mut adopted = 0;
-            if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
-                // the collocation planner's retry (docs/planner.md, "Solver and retry")
-                let retry = NlpSettings {
-                    mu_strategy: MuStrategy::Adaptive,
-                    ..nlp.clone()
-                };
-                let second = solve(&mut prob, &retry);
-                solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
-                if second.status.is_converged()
-                    || second.max_constraint_violation < sol.max_constraint_violation
-                {
-                    sol = second;
-                    adopted = 1;
-                }
-            }
-            solves[adopted].adopted = true;
+            let (sol, solves) = solve_with_retry(&mut prob, nlp);
             let mut z = Primal::zeros(prob.problem().dims());
             if sol.x.len() == crate::planning::nlp::SparseNlp::n_vars(&prob) {
                 prob.unstack(&sol.x, &mut z);

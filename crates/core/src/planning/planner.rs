@@ -4,7 +4,8 @@
 
 use super::collocation::{CollocationNlp, EeTerminalFn, Layout};
 use super::nlp::{
-    solve, Backend, MuStrategy, NlpSettings, NlpSolution, PassStats, SolveStatus, TimeSplit,
+    solve, Backend, MuStrategy, NlpSettings, NlpSolution, PassStats, SolveStatus, SparseNlp,
+    TimeSplit,
 };
 use super::profile::{replay_ee_error, resample, Clamped};
 use super::settings::{PlannerSettings, SwingTime, Transcription};
@@ -695,6 +696,36 @@ pub(super) fn guess_from_trajectory(
 /// 1e-4 it takes 6 (and a swing 0.2 s longer 13 instead of 21); measured in docs/planner.md.
 pub const WARM_START_MU_INIT: f64 = 1e-4;
 
+/// Solve `problem` with the seam's backend; when that does not converge (and the barrier strategy was
+/// not already adaptive), a second attempt with the adaptive barrier update, which recovers from initial
+/// guesses that cut through obstacles (measured on the paper's obstacle scenario; docs/planner.md). The
+/// second is adopted when it converged or ended less infeasible. Returns the adopted solution and every
+/// attempt (exactly one marked adopted).
+pub(super) fn solve_with_retry(
+    problem: &mut dyn SparseNlp,
+    nlp: &NlpSettings,
+) -> (NlpSolution, Vec<SolveAttempt>) {
+    let mut sol = solve(problem, nlp);
+    let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
+    let mut adopted = 0;
+    if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+        let retry = NlpSettings {
+            mu_strategy: MuStrategy::Adaptive,
+            ..nlp.clone()
+        };
+        let second = solve(problem, &retry);
+        solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
+        if second.status.is_converged()
+            || second.max_constraint_violation < sol.max_constraint_violation
+        {
+            sol = second;
+            adopted = 1;
+        }
+    }
+    solves[adopted].adopted = true;
+    (sol, solves)
+}
+
 /// [`plan`] with an optional initial guess. `guess` is any trajectory of the robot (a neighbouring
 /// plan's `points` or `trajectory`, possibly of another swing time): its time axis is scaled linearly
 /// onto `[0, T]` of this problem and every collocation point takes q, qd (scaled by `T_guess / T`, so
@@ -812,26 +843,7 @@ pub(super) fn plan_single(
         (&q1, &r1),
         path,
     );
-    let mut sol = solve(&mut problem, nlp);
-    let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
-    let mut adopted = 0;
-    if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
-        // A second attempt with the adaptive barrier update, which recovers from initial guesses that
-        // cut through obstacles (measured on the paper's obstacle scenario; docs/planner.md).
-        let retry = NlpSettings {
-            mu_strategy: MuStrategy::Adaptive,
-            ..nlp.clone()
-        };
-        let second = solve(&mut problem, &retry);
-        solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));
-        if second.status.is_converged()
-            || second.max_constraint_violation < sol.max_constraint_violation
-        {
-            sol = second;
-            adopted = 1;
-        }
-    }
-    solves[adopted].adopted = true;
+    let (sol, solves) = solve_with_retry(&mut problem, nlp);
     let mut time_split = TimeSplit::default();
     for a in &solves {
         time_split.add(&a.time_split);
