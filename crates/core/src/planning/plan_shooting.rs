@@ -7,8 +7,9 @@ use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, freefall_time, guess_from_trajectory, solve_with_retry, target_pose,
-    variable_bounds, DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
+    check_guess, check_task, freefall_time, guess_from_trajectory, smooth_step_guess,
+    solve_with_retry, target_pose, variable_bounds, DistanceClearanceFn, Plan, SolveAttempt,
+    SwingTask, Violations,
 };
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
@@ -236,18 +237,7 @@ pub(super) fn setup_shooting<'a>(
         guess_from_trajectory(g, &layout, t_final, &bounds, &mut x0);
     } else {
         let q_t = target_pose(robot, task, settings, cf.as_ref())?;
-        for p in 0..layout.points {
-            let r = layout.time(p) / t_final;
-            let s = r * r * (3.0 - 2.0 * r);
-            let sd = 6.0 * r * (1.0 - r) / t_final;
-            for i in 0..n {
-                x0[layout.var(p, i)] = task.q0[i] + s * (q_t[i] - task.q0[i]);
-                x0[layout.var(p, n + i)] = sd * (q_t[i] - task.q0[i]);
-            }
-        }
-        for i in 0..n {
-            x0[layout.var(0, n + i)] = qd0[i];
-        }
+        smooth_step_guess(&layout, t_final, &task.q0, &q_t, &qd0, &mut x0);
     }
     let spec = SwingOcpSpec {
         intervals,

@@ -690,6 +690,32 @@ pub(super) fn guess_from_trajectory(
     }
 }
 
+/// The cold initial guess on `layout`'s points: a smooth step (3 r^2 - 2 r^3 of the time fraction r) of
+/// every joint from `q0` to the target pose `q_t`, its velocities the step's derivative, zero torque, the
+/// start velocity `qd0` at point 0. `x0` is stacked `[q, qd, tau]` per point as in [`Layout::var`].
+pub(super) fn smooth_step_guess(
+    layout: &Layout,
+    t_final: f64,
+    q0: &[f64],
+    q_t: &[f64],
+    qd0: &[f64],
+    x0: &mut [f64],
+) {
+    let n = layout.n;
+    for p in 0..layout.points {
+        let r = layout.time(p) / t_final;
+        let s = r * r * (3.0 - 2.0 * r);
+        let sd = 6.0 * r * (1.0 - r) / t_final;
+        for i in 0..n {
+            x0[layout.var(p, i)] = q0[i] + s * (q_t[i] - q0[i]);
+            x0[layout.var(p, n + i)] = sd * (q_t[i] - q0[i]);
+        }
+    }
+    for i in 0..n {
+        x0[layout.var(0, n + i)] = qd0[i];
+    }
+}
+
 /// Initial barrier parameter of a warm-started solve when [`NlpSettings::mu_init`] is not set. IPOPT's
 /// default (0.1) pushes a good guess back towards the centre of the feasible region; on the tracking
 /// scenario (20 ms knots) its own solution as the guess then takes 13 iterations against 16 cold, with
@@ -818,18 +844,7 @@ pub(super) fn plan_single(
     } else {
         // initial guess: smooth-step from q0 to the target pose, zero torque
         let q_t = target_pose(robot, task, settings, path.as_ref().map(|p| &p.inner))?;
-        for p in 0..layout.points {
-            let r = layout.time(p) / t_final;
-            let s = r * r * (3.0 - 2.0 * r);
-            let sd = 6.0 * r * (1.0 - r) / t_final;
-            for i in 0..n {
-                x0[layout.var(p, i)] = task.q0[i] + s * (q_t[i] - task.q0[i]);
-                x0[layout.var(p, n + i)] = sd * (q_t[i] - task.q0[i]);
-            }
-        }
-        for i in 0..n {
-            x0[layout.var(0, n + i)] = qd0[i];
-        }
+        smooth_step_guess(&layout, t_final, &task.q0, &q_t, &qd0, &mut x0);
     }
     let (q1, r1) = (settings.q1(n), settings.r1(n));
     let target = vec![task.target[0], task.target[1], 0.0, 0.0];
