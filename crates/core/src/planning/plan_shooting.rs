@@ -7,9 +7,9 @@ use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, freefall_time, guess_from_trajectory, smooth_step_guess,
-    solve_with_retry, target_pose, variable_bounds, DistanceClearanceFn, Plan, SolveAttempt,
-    SwingTask, Violations,
+    check_guess, check_task, freefall_time, guess_from_trajectory, min_obstacle_clearance,
+    smooth_step_guess, solve_with_retry, target_pose, variable_bounds, DistanceClearanceFn, Plan,
+    SolveAttempt, SwingTask, Violations,
 };
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
@@ -321,16 +321,7 @@ pub(super) fn finish_plan(
     let ee_final = robot.ee_position(&z.x[intervals][..n]);
     let violations = violations(ocp, z);
     let replay_ee_error_m = replay_held_torques(robot, z, layout.h, task.target);
-    let min_obstacle_clearance_m = if task.obstacles.is_empty() {
-        None
-    } else {
-        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
-        Some(
-            (0..trajectory.len())
-                .map(|k| cf.min_clearance(trajectory.q(k)))
-                .fold(f64::INFINITY, f64::min),
-        )
-    };
+    let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     Ok(Plan {
         status,
         backend,

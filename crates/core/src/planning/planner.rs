@@ -690,6 +690,24 @@ pub(super) fn guess_from_trajectory(
     }
 }
 
+/// Smallest surface distance between a link and an obstacle over `trajectory`, m (no margin, no
+/// self-collision); `None` without obstacles.
+pub(super) fn min_obstacle_clearance(
+    robot: &Robot,
+    obstacles: &[Circle],
+    trajectory: &Trajectory,
+) -> Result<Option<f64>> {
+    if obstacles.is_empty() {
+        return Ok(None);
+    }
+    let cf = ClearanceFn::new(robot, obstacles, 0.0)?.with_self_collision(false);
+    Ok(Some(
+        (0..trajectory.len())
+            .map(|k| cf.min_clearance(trajectory.q(k)))
+            .fold(f64::INFINITY, f64::min),
+    ))
+}
+
 /// The cold initial guess on `layout`'s points: a smooth step (3 r^2 - 2 r^3 of the time fraction r) of
 /// every joint from `q0` to the target pose `q_t`, its velocities the step's derivative, zero torque, the
 /// start velocity `qd0` at point 0. `x0` is stacked `[q, qd, tau]` per point as in [`Layout::var`].
@@ -910,16 +928,7 @@ pub(super) fn plan_single(
     };
     let replay_ee_error_m =
         replay_ee_error(robot, &points, &layout, settings.transcription, task.target);
-    let min_obstacle_clearance_m = if task.obstacles.is_empty() {
-        None
-    } else {
-        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
-        Some(
-            (0..trajectory.len())
-                .map(|k| cf.min_clearance(trajectory.q(k)))
-                .fold(f64::INFINITY, f64::min),
-        )
-    };
+    let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     Ok(Plan {
         status: sol.status,
         backend: sol.backend,
