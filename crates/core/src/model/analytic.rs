@@ -83,6 +83,17 @@ pub struct DynamicsDerivatives {
 
 /// `x <- S^T x S` in place for row-major n x n `x`: entry `[i][l]` becomes `sum_{j >= i, m >= l} x[j][m]`.
 fn sandwich(x: &mut [f64], n: usize) {
+    // the paper's 4 links with a constant size (unrolled), any other through the same code
+    if n == 4 {
+        sandwich_body(x, 4)
+    } else {
+        sandwich_body(x, n)
+    }
+}
+
+#[inline(always)]
+fn sandwich_body(x: &mut [f64], n: usize) {
+    let x = &mut x[..n * n];
     for i in 0..n {
         let row = &mut x[i * n..(i + 1) * n];
         for m in (0..n - 1).rev() {

@@ -438,34 +438,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                         &mut self.hbuf,
                     );
                     let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
-                    // tmp = H S
-                    for r in 0..nz {
-                        let out = &mut self.tmp[r * nz..(r + 1) * nz];
-                        out.fill(0.0);
-                        for c in 0..nz {
-                            let hv = self.hbuf[r * nz + c];
-                            if hv != 0.0 {
-                                let srow = &sens[c * nz..(c + 1) * nz];
-                                for e in 0..nz {
-                                    out[e] += hv * srow[e];
-                                }
-                            }
-                        }
-                    }
-                    // hess += S^T tmp
-                    for r in 0..nz {
-                        let srow = &sens[r * nz..(r + 1) * nz];
-                        let trow = &self.tmp[r * nz..(r + 1) * nz];
-                        for a in 0..nz {
-                            let sa = srow[a];
-                            if sa != 0.0 {
-                                let out = &mut hess[a * nz..(a + 1) * nz];
-                                for e in 0..nz {
-                                    out[e] += sa * trow[e];
-                                }
-                            }
-                        }
-                    }
+                    add_sandwich_upper(nx, nz, sens, i == 0, &self.hbuf, &mut self.tmp, hess);
                 }
                 for j in 0..4 {
                     for e in 0..nx {
@@ -473,12 +446,10 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                     }
                 }
             }
-            // S^T H S is symmetric up to rounding: make it exactly so.
+            // the sum of S^T H S was accumulated on the upper triangle: mirror it (exactly symmetric)
             for a in 0..nz {
                 for b in 0..a {
-                    let v = 0.5 * (hess[a * nz + b] + hess[b * nz + a]);
-                    hess[a * nz + b] = v;
-                    hess[b * nz + a] = v;
+                    hess[a * nz + b] = hess[b * nz + a];
                 }
             }
         }
@@ -496,6 +467,108 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                     hess[a * nzk + b] += self.chess[a * n + b];
                 }
             }
+        }
+    }
+}
+
+/// Add the upper triangle (`a <= b`) of `S^T H S` to `hess` (`nz x nz` row-major), for an evaluation's
+/// sensitivity `S = [Sx; 0 I]` (`Sx` its first `nx` rows, `nz x nz` in all) and the symmetric Hessian `H`
+/// of `w . qdd` at that evaluation. With `H = [Hxx Hxu; Hux Huu]`:
+/// `S^T H S = Sx^T Hxx Sx + Sx^T Hxu E + E^T Hux Sx + E^T Huu E`, `E = [0 I]` (the input rows), so
+/// the input rows of `S` are never multiplied. `identity`: `S = I` (the first evaluation of a stage),
+/// `H` itself. `tmp` holds at least `(nx + nu) nz` values.
+fn add_sandwich_upper(
+    nx: usize,
+    nz: usize,
+    sens: &[f64],
+    identity: bool,
+    h: &[f64],
+    tmp: &mut [f64],
+    hess: &mut [f64],
+) {
+    // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other size
+    // through the same code with run-time sizes
+    match (nx, nz) {
+        (8, 11) => sandwich_upper_body(8, 11, sens, identity, h, tmp, hess),
+        _ => sandwich_upper_body(nx, nz, sens, identity, h, tmp, hess),
+    }
+}
+
+#[inline(always)]
+fn sandwich_upper_body(
+    nx: usize,
+    nz: usize,
+    sens: &[f64],
+    identity: bool,
+    h: &[f64],
+    tmp: &mut [f64],
+    hess: &mut [f64],
+) {
+    let nu = nz - nx;
+    let h = &h[..nz * nz];
+    let hess = &mut hess[..nz * nz];
+    if identity {
+        for a in 0..nz {
+            for b in a..nz {
+                hess[a * nz + b] += h[a * nz + b];
+            }
+        }
+        return;
+    }
+    let sx = &sens[..nx * nz];
+    let (t, rest) = tmp.split_at_mut(nx * nz);
+    let g = &mut rest[..nz * nu];
+    // T = Hxx Sx (nx x nz), G = Sx^T Hxu (nz x nu)
+    t.fill(0.0);
+    g.fill(0.0);
+    for r in 0..nx {
+        let out = &mut t[r * nz..(r + 1) * nz];
+        for c in 0..nx {
+            let hv = h[r * nz + c];
+            let srow = &sx[c * nz..(c + 1) * nz];
+            for e in 0..nz {
+                out[e] += hv * srow[e];
+            }
+        }
+        let srow = &sx[r * nz..(r + 1) * nz];
+        let hrow = &h[r * nz + nx..(r + 1) * nz];
+        for a in 0..nz {
+            let sa = srow[a];
+            let grow = &mut g[a * nu..(a + 1) * nu];
+            for m in 0..nu {
+                grow[m] += sa * hrow[m];
+            }
+        }
+    }
+    // Sx^T T, upper triangle
+    for r in 0..nx {
+        let srow = &sx[r * nz..(r + 1) * nz];
+        let trow = &t[r * nz..(r + 1) * nz];
+        for a in 0..nz {
+            let sa = srow[a];
+            let out = &mut hess[a * nz..(a + 1) * nz];
+            for b in a..nz {
+                out[b] += sa * trow[b];
+            }
+        }
+    }
+    // G into the input columns (a, nx + m), its mirror E^T Hux Sx on the entries (nx + m, a), a >= nx + m
+    for a in 0..nz {
+        for m in 0..nu {
+            let v = g[a * nu + m];
+            let col = nx + m;
+            if a <= col {
+                hess[a * nz + col] += v;
+            }
+            if a >= col {
+                hess[col * nz + a] += v;
+            }
+        }
+    }
+    // E^T Huu E
+    for a in nx..nz {
+        for b in a..nz {
+            hess[a * nz + b] += h[a * nz + b];
         }
     }
 }
@@ -711,7 +784,9 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
         self.ctx.n_clear
     }
 
-    /// Evaluate the stages on the calling thread or in parallel.
+    /// Evaluate the stages on the calling thread, or in parallel: the horizon split into one
+    /// contiguous chunk per rayon thread (a task per stage costs more in scheduling than a stage's
+    /// evaluation on 2 cores; see docs/planner.md).
     fn for_stages(
         &mut self,
         z: &Primal,
@@ -719,12 +794,23 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
         op: impl Fn(&mut StageWork<'a, D>, &Ctx<'a>, usize, &[f64], &[f64], &mut StageEval) + Sync,
     ) {
         let ctx = &self.ctx;
-        if self.parallel {
+        let threads = if self.parallel {
+            rayon::current_num_threads()
+        } else {
+            1
+        };
+        if threads > 1 {
+            let chunk = self.work.len().div_ceil(threads);
             self.work
-                .par_iter_mut()
-                .zip(stages.par_iter_mut())
+                .par_chunks_mut(chunk)
+                .zip(stages.par_chunks_mut(chunk))
                 .enumerate()
-                .for_each(|(k, (w, ev))| op(w, ctx, k, &z.x[k], &z.u[k], ev));
+                .for_each(|(c, (ws, evs))| {
+                    for (j, (w, ev)) in ws.iter_mut().zip(evs.iter_mut()).enumerate() {
+                        let k = c * chunk + j;
+                        op(w, ctx, k, &z.x[k], &z.u[k], ev);
+                    }
+                });
         } else {
             for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
                 op(w, ctx, k, &z.x[k], &z.u[k], ev);
