@@ -15,10 +15,10 @@ use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
 use crate::error::{Error, Result};
-use crate::integrate::Rk4;
+use crate::integrate;
 use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
-use crate::trajectory::Trajectory;
+use crate::trajectory::{hermite_basis, Trajectory};
 use brachia_ocp::{
     EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
     StageEval, TerminalEval,
@@ -316,9 +316,7 @@ pub(super) fn finish_plan(
         points.push(layout.time(k), q, qd, tau);
         robot.forward_dynamics_into(&mut ws, q, qd, tau, &mut points_qdd[k * n..(k + 1) * n]);
     }
-    let max_step = settings
-        .output_dt
-        .min(layout.h / settings.shooting.substeps as f64);
+    let max_step = REPLAY_MAX_STEP_S.min(layout.h / settings.shooting.substeps as f64);
     let trajectory =
         held_torque_trajectory(robot, z, layout.h, t_final, settings.output_dt, max_step);
     let (energy_j, positive_work_j) = trajectory.work();
@@ -412,9 +410,12 @@ fn violations(ocp: &mut SwingOcp, z: &Primal) -> Violations {
 }
 
 /// The swing at period `dt` (s) with the plan's held torques: every interval integrated from its knot
-/// by RK4 in steps of at most `max_step`; samples at `j dt` and a last one exactly at `t_final`. The
-/// torque of a sample is the one held over the interval that starts at or before it.
-fn held_torque_trajectory(
+/// by RK4 in equal steps of at most `max_step`, the samples inside a step by the cubic Hermite
+/// interpolant of the state and its derivative `f(x, u)` at the step's two ends (error O(step^4): below
+/// 1e-9 rad and 1e-7 rad/s at 2.5 ms on the tracking swing, tested); samples at `j dt` and a last one
+/// exactly at `t_final`. The torque of a sample is the one held over the interval that starts at or
+/// before it.
+pub(super) fn held_torque_trajectory(
     robot: &Robot,
     z: &Primal,
     h: f64,
@@ -422,32 +423,74 @@ fn held_torque_trajectory(
     dt: f64,
     max_step: f64,
 ) -> Trajectory {
-    let n = robot.n;
+    let (n, nx) = (robot.n, robot.nx());
     let k_last = z.x.len() - 1;
-    let mut rk4 = Rk4::new(robot);
     let mut out = Trajectory::new(n);
-    let mut s = z.x[0].clone();
-    let (mut k, mut t_cur) = (0, 0.0);
     let n_samples = ((t_final / dt) * (1.0 - 1e-12)).ceil() as usize; // samples j dt < t_final
-    for j in 0..=n_samples {
-        let t = if j == n_samples {
+    let sample_t = |j: usize| {
+        if j == n_samples {
             t_final
         } else {
             j as f64 * dt
+        }
+    };
+    let mut ws = Scratch::new(n);
+    let mut buf = vec![0.0; 8 * nx];
+    let (x, rest) = buf.split_at_mut(nx);
+    let (x1, rest) = rest.split_at_mut(nx);
+    let (f0, rest) = rest.split_at_mut(nx);
+    let (k2, rest) = rest.split_at_mut(nx);
+    let (k3, rest) = rest.split_at_mut(nx);
+    let (k4, rest) = rest.split_at_mut(nx);
+    let (tmp, xs) = rest.split_at_mut(nx);
+    let m = (h / max_step).ceil().max(1.0) as usize;
+    let ds = h / m as f64;
+    let mut j = 0;
+    for k in 0..k_last {
+        let u = &z.u[k];
+        let ta = k as f64 * h;
+        // samples before the next knot belong to interval k; the last interval holds t_final
+        let tb = if k + 1 == k_last {
+            f64::INFINITY
+        } else {
+            (k + 1) as f64 * h
         };
-        // advance to the interval holding t (the last interval holds t_final)
-        while k + 1 < k_last && t >= (k + 1) as f64 * h {
-            k += 1;
-            s.copy_from_slice(&z.x[k]);
-            t_cur = k as f64 * h;
+        x.copy_from_slice(&z.x[k]);
+        integrate::deriv(robot, &mut ws, x, u, f0);
+        for s in 0..m {
+            let t0 = ta + s as f64 * ds;
+            // one RK4 step x -> x1 (the arithmetic of `Rk4::step`, its k1 = f0)
+            for i in 0..nx {
+                tmp[i] = x[i] + 0.5 * ds * f0[i];
+            }
+            integrate::deriv(robot, &mut ws, tmp, u, k2);
+            for i in 0..nx {
+                tmp[i] = x[i] + 0.5 * ds * k2[i];
+            }
+            integrate::deriv(robot, &mut ws, tmp, u, k3);
+            for i in 0..nx {
+                tmp[i] = x[i] + ds * k3[i];
+            }
+            integrate::deriv(robot, &mut ws, tmp, u, k4);
+            for i in 0..nx {
+                x1[i] = x[i] + ds / 6.0 * (f0[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            // f1 = f(x1) is the next step's k1: computed into k4 (free now), then swapped in
+            integrate::deriv(robot, &mut ws, x1, u, k4);
+            let end = if s + 1 == m { tb } else { t0 + ds };
+            while j <= n_samples && sample_t(j) < end {
+                let t = sample_t(j);
+                let r = ((t - t0) / ds).clamp(0.0, 1.0);
+                let (h00, h10, h01, h11) = hermite_basis(r);
+                for i in 0..nx {
+                    xs[i] = h00 * x[i] + h10 * ds * f0[i] + h01 * x1[i] + h11 * ds * k4[i];
+                }
+                out.push(t, &xs[..n], &xs[n..], u);
+                j += 1;
+            }
+            x.copy_from_slice(x1);
+            f0.copy_from_slice(k4);
         }
-        let span = t - t_cur;
-        if span > 0.0 {
-            let steps = (span / max_step).ceil().max(1.0) as usize;
-            rk4.advance(robot, &mut s, &z.u[k], span, steps);
-            t_cur = t;
-        }
-        out.push(t, &s[..n], &s[n..], &z.u[k]);
     }
     out
 }
@@ -542,6 +585,28 @@ mod tests {
             assert!(
                 (coarse - fine).abs() <= 0.02 * fine + 1e-10,
                 "knot_dt {knot_dt}: replay {coarse:e} m, at 0.1 ms {fine:e} m"
+            );
+            // the 1 ms trajectory (RK4 at <= 2.5 ms from each knot, Hermite between steps) against
+            // RK4 at 10 us from the knot
+            let tr = &p.trajectory;
+            let mut rk4 = integrate::Rk4::new(&robot);
+            let (mut dq, mut dqd) = (0.0f64, 0.0f64);
+            for j in (0..tr.len()).step_by(53).chain([tr.len() - 1]) {
+                let t = tr.t[j];
+                let k = ((t / h).floor() as usize).min(p.layout.intervals - 1);
+                let span = t - k as f64 * h;
+                let mut x = z.x[k].clone();
+                if span > 0.0 {
+                    rk4.advance(&robot, &mut x, &z.u[k], span, (span / 1e-5).ceil() as usize);
+                }
+                for i in 0..4 {
+                    dq = dq.max((tr.q(j)[i] - x[i]).abs());
+                    dqd = dqd.max((tr.qd(j)[i] - x[4 + i]).abs());
+                }
+            }
+            assert!(
+                dq < 1e-9 && dqd < 1e-7,
+                "knot_dt {knot_dt}: trajectory off by {dq:e} rad, {dqd:e} rad/s"
             );
         }
     }
