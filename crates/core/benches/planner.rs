@@ -7,7 +7,10 @@
 //! A manual pass before the criterion groups plans each a few times in one process and prints the
 //! medians, the ratios, the iterations, the time split, the independent 0.1 ms open-loop replay error
 //! of each plan's torque profile (which must reach the bar within 1 mm: the bench panics otherwise)
-//! and the derivative cost per shooting stage (closed form and AD).
+//! and the derivative cost per shooting stage (closed form and AD), the plan with the stages
+//! evaluated serially (parallel / serial in the same run), and coarser shooting meshes (20 and 30 ms
+//! knots, 1 and 2 RK4 substeps: time, objective, replay miss). The criterion group adds the
+//! headline configuration, 30 ms knots with one RK4 step.
 
 use brachia::planning::{
     plan, AdDynamics, AnalyticDynamics, Backend, NlpSettings, Plan, PlannerSettings, PointDynamics,
@@ -153,6 +156,7 @@ fn report(robot: &Robot) {
         medians[2] / medians[0]
     );
     let p = ocp_plan.unwrap();
+    let ref_objective = p.objective;
     for parallel in [false, true] {
         let (ja, ha) = per_stage::<AnalyticDynamics>(robot, &p, parallel);
         let (jd, hd) = per_stage::<AdDynamics>(robot, &p, parallel);
@@ -176,11 +180,56 @@ fn report(robot: &Robot) {
         total.push(t.elapsed().as_secs_f64());
         solve.push(q.solve_time_s);
     }
+    let serial = median(total);
     eprintln!(
-        "plan/tracking multiple-shooting/ocp, serial stages: median {:.1} ms (solve {:.1} ms)",
-        median(total) * 1e3,
-        median(solve) * 1e3
+        "plan/tracking multiple-shooting/ocp, serial stages: median {:.1} ms (solve {:.1} ms), \
+         parallel / serial {:.2}",
+        serial * 1e3,
+        median(solve) * 1e3,
+        medians[0] / serial
     );
+    // coarser meshes (RK4 substeps 1 and 2): time, objective, replay miss against the same run's
+    // Hermite-Simpson / pounce median
+    for (knot_dt, substeps) in COARSE {
+        let (s, nlp) = coarse_settings(knot_dt, substeps);
+        let mut times = vec![];
+        let mut last = None;
+        for _ in 0..7 {
+            let t = Instant::now();
+            let p = plan(robot, &task(), &s, &nlp).unwrap();
+            times.push(t.elapsed().as_secs_f64());
+            last = Some(p);
+        }
+        let p = last.unwrap();
+        let m = median(times);
+        eprintln!(
+            "plan/tracking multiple-shooting/ocp knot_dt {:.0} ms substeps {substeps}: median {:.1} ms \
+             ({} intervals, {} iterations, converged {}), objective {:.6} ({:+.2e} relative to 10 ms), \
+             replay EE error {:.3e} m (bar 1e-3), hermite-simpson pounce / this {:.1}",
+            knot_dt * 1e3,
+            m * 1e3,
+            p.layout.intervals,
+            p.iterations,
+            p.converged(),
+            p.objective,
+            p.objective / ref_objective - 1.0,
+            p.replay_ee_error_m,
+            medians[2] / m
+        );
+    }
+}
+
+/// Coarser shooting meshes of the manual pass: (knot_dt s, RK4 substeps).
+const COARSE: [(f64, usize); 4] = [(0.02, 1), (0.02, 2), (0.03, 1), (0.03, 2)];
+
+/// The headline configuration in the criterion group: 30 ms knots, one RK4 step per interval.
+const HEADLINE: (f64, usize) = (0.03, 1);
+
+fn coarse_settings(knot_dt: f64, substeps: usize) -> (PlannerSettings, NlpSettings) {
+    let (mut s, nlp) = settings(Transcription::MultipleShooting, Backend::Ocp);
+    s.knot_dt = knot_dt;
+    s.shooting.substeps = substeps;
+    (s, nlp)
 }
 
 fn bench(c: &mut Criterion) {
@@ -198,6 +247,14 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    let (s, nlp) = coarse_settings(HEADLINE.0, HEADLINE.1);
+    g.bench_function("multiple-shooting/ocp knot_dt 30 ms", |bch| {
+        bch.iter(|| {
+            let p = plan(&robot, &task(), &s, &nlp).unwrap();
+            assert!(p.converged() && p.replay_ee_error_m <= 1e-3);
+            p.objective
+        })
+    });
     g.finish();
 }
 
