@@ -144,13 +144,21 @@ fn obstacle_is_avoided_by_multiple_shooting() {
         }],
         ..tracking_task()
     };
-    // pounce: the stage-structured solver stops at its iteration limit on this one (docs/planner.md)
-    let p = plan(&robot, &task, &shooting(0.01), &backend(Backend::Pounce)).unwrap();
+    let p = plan(&robot, &task, &shooting(0.01), &backend(Backend::Ocp)).unwrap();
     assert!(p.converged(), "{:?}", p.status);
     assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
     // clearance is imposed at the knots; between them (1 ms samples) it may dip by a fraction of a mm
     let c = p.min_obstacle_clearance_m.unwrap();
     assert!(c > -1e-3, "clearance over the 1 ms trajectory {c}");
+    // pounce (IPOPT's algorithm) on the identical problem from the same guess: the same optimum
+    let q = plan(&robot, &task, &shooting(0.01), &backend(Backend::Pounce)).unwrap();
+    assert!(q.converged(), "{:?}", q.status);
+    assert!(
+        (p.objective - q.objective).abs() <= 1e-6 * q.objective.abs(),
+        "ocp {} vs pounce {}",
+        p.objective,
+        q.objective
+    );
 }
 
 #[test]

@@ -34,9 +34,12 @@
 //! - **Inertia test and correction.** The KKT matrix must have the inertia of a local minimiser:
 //!   the reduced input Hessians have a Cholesky, `P_0` (eigendecomposition) has q negative
 //!   eigenvalues, and the Schur matrix of the equality rows exactly q as well (so a free swing
-//!   time, convex only with the terminal rows, needs no regularisation). Otherwise `delta_w` is
-//!   added to the Hessian diagonal with IPOPT's rules (first 1e-4, later a third of the last value,
-//!   growth 8x or 100x, give up above 1e40); a singular Schur matrix gets a `delta_c`.
+//!   time, convex only with the terminal rows, needs no regularisation). Otherwise the test is
+//!   repeated with a penalty `rho a_j a_j^T` on the equality rows (rho = 1 .. 1e8; same step, same
+//!   inertia, but it lets the recursion see a Hessian convex only on the null space of the rows,
+//!   e.g. of a nonlinear terminal constraint), and then `delta_w` is added to the Hessian diagonal
+//!   with IPOPT's rules (first 1e-4, later a third of the last value, growth 8x or 100x, give up
+//!   above 1e40); a singular Schur matrix gets a `delta_c`.
 //! - **Line search.** IPOPT's filter with the switching condition, Armijo test on the barrier
 //!   function, fraction-to-the-boundary `tau = max(0.99, 1 - mu)` separately for primal and dual
 //!   variables, the `kappa_sigma` safeguard on the bound multipliers, and up to `max_soc`
@@ -86,7 +89,8 @@
 //! At least 2 stages; `nx_k >= 1`; `nx_k + nu_k <=` [`MAX_STAGE_VARIABLES`]; terminal rows plus
 //! fixed state components after stage 0 `<=` [`MAX_EQUALITY_ROWS`] (each costs one extra Riccati
 //! solve per factorisation). The inertia test needs positive definite reduced input Hessians and a
-//! non-singular `P_0`; otherwise the step is regularised (harmless, but slowing).
+//! non-singular `P_0` (after the equality-row penalty); otherwise the step is regularised
+//! (harmless, but slowing).
 //!
 //! # Memory
 //! [`OcpSolver::new`] allocates the whole workspace; the first solve reserves the filter

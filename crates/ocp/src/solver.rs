@@ -35,6 +35,11 @@ const KW_PLUS: f64 = 8.0;
 const KW_PLUS_BAR: f64 = 100.0;
 const BOUND_MULT_RESET: f64 = 1e3;
 const KAPPA_SOC: f64 = 0.99;
+// Penalty on the equality rows tried before delta_w (section 5 of docs/ocp.md): first value, growth
+// factor, largest value.
+const RHO_EQ_0: f64 = 1.0;
+const RHO_EQ_PLUS: f64 = 100.0;
+const RHO_EQ_MAX: f64 = 1e8;
 // Adaptive mu (IPOPT's defaults for its free mode)
 const KKT_REF_ITERS: usize = 4;
 const KKT_REF_FACTOR: f64 = 0.9999;
@@ -124,6 +129,10 @@ pub struct OcpSolver {
     z_ref: Vec<f64>,
     dr: Vec<f64>,
     delta_w_last: f64,
+    /// Penalty `rho_eq a_j a_j^T` on the equality rows in the condensed Hessians of the current
+    /// factorisation (0 = none), and the one that last passed the inertia test in this solve.
+    rho_eq: f64,
+    rho_eq_last: f64,
     /// Constraint rows (dynamics, stage rows c - s, terminal, fixed states) at the iterate and trial.
     cv: Vec<f64>,
     cv_t: Vec<f64>,
@@ -358,6 +367,8 @@ impl OcpSolver {
             z_ref: vec![0.0; nz],
             dr: vec![0.0; nz],
             delta_w_last: 0.0,
+            rho_eq: 0.0,
+            rho_eq_last: 0.0,
             cv: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             cv_t: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             rp: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
@@ -1101,8 +1112,32 @@ impl OcpSolver {
             self.ric.eq_reg[j] = self.dreg[nl + ncall + j];
         }
         self.ric.m = nr + self.fixed_rows.len();
-        // inertia correction (IPOPT Algorithm IC)
+        // inertia correction (IPOPT Algorithm IC), first by a penalty on the equality rows (exact:
+        // the same step and the same inertia, see docs/ocp.md section 5), then by delta_w
+        self.rho_eq = 0.0;
+        let use_penalty = resto.is_none() && self.ric.m > 0;
+        if use_penalty && self.rho_eq_last > 0.0 {
+            self.add_eq_penalty(self.rho_eq_last);
+        }
+        let lay = &self.lay;
         let mut ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
+        if !ok && use_penalty {
+            let mut rho = if self.rho_eq_last == 0.0 {
+                RHO_EQ_0
+            } else {
+                RHO_EQ_PLUS * self.rho_eq_last
+            };
+            while !ok && rho <= RHO_EQ_MAX {
+                self.add_eq_penalty(rho - self.rho_eq);
+                ok = self.ric.factor_with_inertia(&self.lay, 0.0, &self.reg);
+                if ok {
+                    self.rho_eq_last = rho;
+                } else {
+                    rho *= RHO_EQ_PLUS;
+                }
+            }
+        }
+        let lay = &self.lay;
         if !ok {
             let mut delta_w = if self.delta_w_last == 0.0 {
                 DW_0
@@ -1134,6 +1169,33 @@ impl OcpSolver {
         }
         stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// Adds `d a_j a_j^T` to the state block of the condensed Hessian of stage `k_j` for every
+    /// equality row j (terminal rows, fixed states), and `d` to `rho_eq`. With the gradient term
+    /// `rho_eq a_j c^_j` of [`Self::solve_rhs`] this changes neither the Newton step nor the
+    /// multipliers nor the inertia of the KKT matrix (the rows hold exactly), but it makes the
+    /// Riccati recursion's test (`R^_k` positive definite) pass where the Hessian is convex only
+    /// on the null space of the rows, e.g. `nu^T r''(x_K)` of a nonlinear terminal constraint.
+    fn add_eq_penalty(&mut self, d: f64) {
+        let lay = &self.lay;
+        let nxm = lay.nx_max;
+        for j in 0..self.ric.m {
+            let k = self.ric.eq_stage[j];
+            let (nx, nz) = (lay.nx[k], lay.nz(k));
+            let h = &mut self.ric.h[lay.oh[k]..lay.oh[k + 1]];
+            let a = &self.ric.eq_a[j * nxm..j * nxm + nx];
+            for r in 0..nx {
+                if a[r] == 0.0 {
+                    continue;
+                }
+                let da = d * a[r];
+                for c in 0..nx {
+                    h[r * nz + c] += da * a[c];
+                }
+            }
+        }
+        self.rho_eq += d;
     }
 
     /// Right-hand side from the row residuals `c^`, the solves, and the recovery of the slack,
@@ -1180,8 +1242,19 @@ impl OcpSolver {
                 }
             }
         }
-        self.bdef.copy_from_slice(&self.chat[..nl]);
         let m = self.ric.m;
+        if self.rho_eq > 0.0 {
+            let nxm = lay.nx_max;
+            for j in 0..m {
+                let k = self.ric.eq_stage[j];
+                let o = lay.oz[k];
+                let w = self.rho_eq * self.chat[nl + ncall + j];
+                for i in 0..lay.nx[k] {
+                    self.g[o + i] += w * self.ric.eq_a[j * nxm + i];
+                }
+            }
+        }
+        self.bdef.copy_from_slice(&self.chat[..nl]);
         self.ric.eq_rho[..m].copy_from_slice(&self.chat[nl + ncall..nl + ncall + m]);
         self.ric.solve(
             lay,
@@ -1647,6 +1720,7 @@ impl OcpSolver {
         self.initialize(p, st, warm);
         self.has_iterate = true;
         self.delta_w_last = 0.0;
+        self.rho_eq_last = 0.0;
         if self.filter.capacity() < st.max_iter + 2 {
             self.filter.reserve(st.max_iter + 2);
             self.filter_orig.reserve(st.max_iter + 2);

@@ -49,6 +49,30 @@ fn minimum_energy_double_integrator_matches_the_least_norm_solution() {
 }
 
 #[test]
+fn a_cost_concave_only_in_the_directions_the_terminal_rows_fix_needs_no_regularisation() {
+    // -c/2 |x_K|^2 with x_K fixed by the terminal rows: the KKT matrix has the inertia of a
+    // minimiser (the Hessian is positive definite on the null space of all rows), but the
+    // Riccati recursion alone sees R^_{K-1} = h - c |B|^2 < 0. The penalty on the equality rows
+    // (docs/ocp.md section 5) passes the test without delta_w: the exact Newton step, which for
+    // a QP is the solution, and the minimiser is that of the problem without the concave term.
+    let (kk, h, c) = (40, 0.05, 100.0);
+    let mut p = double_integrator(kk, h);
+    p.stages[kk].h = vec![-c, 0.0, 0.0, -c];
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    assert_eq!(stats.regularizations, 0, "{stats:?}");
+    assert!(stats.iterations <= 3, "{stats:?}");
+    let e = double_integrator_rows(kk, h);
+    let u_ref = weighted_least_norm(&e, &vec![h; kk], &[1.0, 0.0]);
+    for k in 0..kk {
+        let u = solver.primal().u[k][0];
+        assert!((u - u_ref[k]).abs() < 1e-7, "u_{k} = {u} vs {}", u_ref[k]);
+    }
+    let j_ref: f64 = u_ref.iter().map(|u| 0.5 * h * u * u).sum::<f64>() - 0.5 * c;
+    assert!((stats.objective - j_ref).abs() < 1e-8 * j_ref.abs());
+}
+
+#[test]
 fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
     let (kk, h, w0) = (30, 0.05, 2.0);
     let mut p = double_integrator(kk, h);
@@ -76,9 +100,11 @@ fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
 }
 
 #[test]
-fn decay_with_a_free_initial_state_and_no_cost_needs_regularisation() {
+fn decay_with_a_free_initial_state_and_no_cost_is_fixed_by_the_terminal_row() {
     // x' = -x, exact discretisation x+ = e^-h x, no input, no cost; x_0 free, x_K = e^-T fixed by
-    // the terminal row: the solution is x_k = e^-(k h) and the reduced Hessian is zero (delta_w).
+    // the terminal row: the solution is x_k = e^-(k h). The Hessian is zero, P_0 singular, but
+    // the KKT matrix is not (the row fixes x_0): the penalty on the equality rows makes P_0
+    // positive definite and the step exact, without delta_w.
     let (kk, h) = (25, 0.04_f64);
     let stages = vec![
         StageDims {
@@ -103,7 +129,8 @@ fn decay_with_a_free_initial_state_and_no_cost_needs_regularisation() {
         let x = solver.primal().x[k][0];
         assert!((x - (-(k as f64) * h).exp()).abs() < 1e-7, "x_{k} = {x}");
     }
-    assert!(stats.regularizations > 0);
+    assert_eq!(stats.regularizations, 0, "{stats:?}");
+    assert!(stats.iterations <= 2, "a linear problem: {stats:?}");
 
     // the same with x_0 = 1 fixed: pure simulation, x_K = e^-T
     p.stages[0].bounds.x_lo = vec![1.0];
