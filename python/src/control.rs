@@ -51,7 +51,9 @@ impl MpcCell {
 }
 
 /// The reference of a `Plan` or a `Trajectory`.
-pub(crate) fn reference_of(obj: &Bound<'_, PyAny>) -> PyResult<Arc<brachia::trajectory::Trajectory>> {
+pub(crate) fn reference_of(
+    obj: &Bound<'_, PyAny>,
+) -> PyResult<Arc<brachia::trajectory::Trajectory>> {
     if let Ok(p) = obj.cast::<Plan>() {
         return Ok(p.get().trajectory.clone());
     }
@@ -114,12 +116,22 @@ impl Mpc {
 
     /// Torques of joints 2..n (shape ``(n - 1,)``, N m) at time ``t`` (s) for the measured state
     /// ``x = [q, qd]`` (2n values, rad and rad/s).
-    fn control<'py>(&mut self, py: Python<'py>, t: f64, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn control<'py>(
+        &mut self,
+        py: Python<'py>,
+        t: f64,
+        x: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         if !t.is_finite() {
             return Err(bad(format!("t = {t}: must be finite")));
         }
         let n = self.x.len() / 2;
-        read_vector(x, "x", &format!("[q, qd] of the {n}-link robot"), &mut self.x)?;
+        read_vector(
+            x,
+            "x",
+            &format!("[q, qd] of the {n}-link robot"),
+            &mut self.x,
+        )?;
         let (xs, tau) = (&self.x, &mut self.tau);
         self.cell.with_dependent_mut(|_, m| m.control(t, xs, tau));
         arr1(py, &self.tau)

@@ -9,7 +9,7 @@ use crate::BrachiaError;
 use pyo3::buffer::PyBuffer;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyByteArray, PyDict, PyString};
+use pyo3::types::{PyByteArray, PyDict};
 
 /// `numpy.asarray` and `numpy.frombuffer`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
@@ -103,7 +103,9 @@ pub(crate) fn columns(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
     let b = buffer(obj, name)?;
     match b.shape() {
         [_, c] => Ok(*c),
-        s => Err(bad(format!("{name}: expected a 2-D array, got shape {s:?}"))),
+        s => Err(bad(format!(
+            "{name}: expected a 2-D array, got shape {s:?}"
+        ))),
     }
 }
 
@@ -170,7 +172,7 @@ pub(crate) fn to_json(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
     let s = json
         .call_method("dumps", (obj,), Some(&kw))
         .map_err(|e| bad(format!("{name}: cannot be read as settings data ({e})")))?;
-    Ok(s.cast::<PyString>()?.to_str()?.to_owned())
+    s.extract::<String>()
 }
 
 /// A Python dict (or `None` = `{}`) with `kwargs` merged over it, as a serde value of type `T`;
@@ -185,7 +187,10 @@ pub(crate) fn settings_from<T: serde::de::DeserializeOwned>(
 }
 
 /// A serde value as `T`; `name` names it in errors.
-pub(crate) fn from_value<T: serde::de::DeserializeOwned>(v: serde_json::Value, name: &str) -> PyResult<T> {
+pub(crate) fn from_value<T: serde::de::DeserializeOwned>(
+    v: serde_json::Value,
+    name: &str,
+) -> PyResult<T> {
     serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
 }
 
@@ -212,7 +217,10 @@ pub(crate) fn merged(
 }
 
 /// A Python dict as a JSON object.
-fn object(o: &Bound<'_, PyAny>, name: &str) -> PyResult<serde_json::Map<String, serde_json::Value>> {
+fn object(
+    o: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<serde_json::Map<String, serde_json::Value>> {
     let text = to_json(o, name)?;
     match serde_json::from_str(&text) {
         Ok(serde_json::Value::Object(m)) => Ok(m),
@@ -222,7 +230,10 @@ fn object(o: &Bound<'_, PyAny>, name: &str) -> PyResult<serde_json::Map<String, 
 }
 
 /// A serde-serialisable value as a Python object (dicts, lists, floats, strings, None).
-pub(crate) fn to_py<'py>(py: Python<'py>, v: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn to_py<'py>(
+    py: Python<'py>,
+    v: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(v).map_err(|e| bad(format!("serialising a result: {e}")))?;
     py.import("json")?.call_method1("loads", (text,))
 }

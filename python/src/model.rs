@@ -129,7 +129,11 @@ impl Robot {
 
     /// Mass matrix ``M(q)``, shape ``(n, n)``, kg m^2 (symmetric positive definite).
     #[pyo3(name = "M")]
-    fn mass_matrix<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
         arr2(py, self.inner.mass_matrix(&q), self.inner.n)
     }
@@ -198,7 +202,11 @@ impl Robot {
 
     /// Joint positions, shape ``(n + 1, 2)``, m: row 0 the grip (origin), row i the distal end of
     /// link i, row n the end effector.
-    fn joint_positions<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn joint_positions<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
         let mut pts = vec![[0.0; 2]; self.inner.n + 1];
         self.inner.joint_positions(&q, &mut pts);
@@ -206,7 +214,11 @@ impl Robot {
     }
 
     /// End-effector (distal tip of link n) position ``[x, y]``, m, shape ``(2,)``.
-    fn ee_position<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn ee_position<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
         arr1(py, &self.inner.ee_position(&q))
     }
@@ -223,7 +235,11 @@ impl Robot {
     }
 
     /// End-effector Jacobian ``J = d ee / d q``, shape ``(2, n)``, m/rad.
-    fn ee_jacobian<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn ee_jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
         let n = self.inner.n;
         let mut jac = vec![0.0; 2 * n];
@@ -289,7 +305,13 @@ impl Trajectory {
         }
         let (qv, _) = matrix(q, "q", Some(len), n, "joint angles per sample, rad")?;
         let (qdv, _) = matrix(qd, "qd", Some(len), n, "joint velocities per sample, rad/s")?;
-        let (tauv, _) = matrix(tau, "tau", Some(len), n - 1, "torques of joints 2..n per sample, N m")?;
+        let (tauv, _) = matrix(
+            tau,
+            "tau",
+            Some(len),
+            n - 1,
+            "torques of joints 2..n per sample, N m",
+        )?;
         Ok(Trajectory {
             inner: Arc::new(brachia::trajectory::Trajectory {
                 n,

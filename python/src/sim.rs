@@ -283,7 +283,12 @@ impl TrackResult {
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.log.n;
-        let v: Vec<f64> = self.log.x.chunks(2 * n.max(1)).flat_map(|r| r[..n].to_vec()).collect();
+        let v: Vec<f64> = self
+            .log
+            .x
+            .chunks(2 * n.max(1))
+            .flat_map(|r| r[..n].to_vec())
+            .collect();
         arr2(py, v, n)
     }
 
@@ -291,7 +296,12 @@ impl TrackResult {
     #[getter]
     fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let n = self.log.n;
-        let v: Vec<f64> = self.log.x.chunks(2 * n.max(1)).flat_map(|r| r[n..].to_vec()).collect();
+        let v: Vec<f64> = self
+            .log
+            .x
+            .chunks(2 * n.max(1))
+            .flat_map(|r| r[n..].to_vec())
+            .collect();
         arr2(py, v, n)
     }
 
