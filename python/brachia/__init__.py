@@ -1,0 +1,46 @@
+"""brachia: energy-optimal swings for underactuated brachiation robots, from Python.
+
+A thin layer over the Rust library (the extension module ``brachia._brachia``): the planar n-link
+model (``Robot``), the direct-collocation planner (``plan`` -> ``Plan``), the linear MPC tracker
+(``Mpc``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
+(``track`` -> ``TrackResult``) and scenario files (``Scenario``).
+
+Conventions (SI units throughout: m, kg, s, rad, N m, J): planar, grip point at the origin, x right,
+y up, gravity along -y. ``q[0]`` is the absolute angle of link 1 from +x (counter-clockwise), ``q[i]``
+(i >= 1) the angle of link i+1 relative to link i. State ``x = [q, qd]`` (2n values); torques ``tau``
+of joints 2..n (n - 1 values). Arrays are float64 numpy arrays; time series are ``(samples, columns)``.
+
+Bad input raises ``BrachiaError`` (a ``ValueError``) with the Rust library's message (file, field,
+value, rule). A solve that does not converge is a ``Plan`` with its ``status``, not an exception.
+See docs/python.md.
+"""
+
+from ._brachia import (
+    BrachiaError,
+    ModelPlant,
+    Mpc,
+    Plan,
+    RapierPlant,
+    Robot,
+    Scenario,
+    TrackResult,
+    Trajectory,
+    plan,
+    rust_mpc_step_times,
+    track,
+)
+
+__all__ = [
+    "BrachiaError",
+    "ModelPlant",
+    "Mpc",
+    "Plan",
+    "RapierPlant",
+    "Robot",
+    "Scenario",
+    "TrackResult",
+    "Trajectory",
+    "plan",
+    "rust_mpc_step_times",
+    "track",
+]

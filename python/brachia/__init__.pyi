@@ -1,0 +1,299 @@
+"""Type stubs of brachia (the Rust extension ``brachia._brachia``).
+
+Units: m, kg, s, rad, N m, J. State ``x = [q, qd]`` (2n); ``q[0]`` absolute angle of link 1 from +x,
+``q[1:]`` relative; torques ``tau`` of joints 2..n (n - 1). Arrays are float64 numpy arrays.
+"""
+
+from os import PathLike
+from typing import Any, Literal, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+ArrayLike = Union[npt.ArrayLike, Sequence[float]]
+Array = npt.NDArray[np.float64]
+StrPath = Union[str, PathLike[str]]
+Controller = Literal["mpc", "pd", "open-loop"]
+
+class BrachiaError(ValueError):
+    """Bad input: the message is the Rust library's (file, field, value, rule)."""
+
+class Robot:
+    """A validated planar n-link robot hanging from the grip point (joint 1, passive)."""
+
+    @staticmethod
+    def from_toml(path: StrPath) -> Robot:
+        """Load and validate a robot parameters file (TOML)."""
+    @staticmethod
+    def from_toml_str(text: str, source_name: str = "<string>") -> Robot:
+        """Parse and validate robot parameters from TOML text."""
+    @staticmethod
+    def paper() -> Robot:
+        """The paper's 4-link robot (Table I)."""
+    @property
+    def n_links(self) -> int:
+        """Number of links n."""
+    @property
+    def nx(self) -> int:
+        """State dimension 2n."""
+    @property
+    def nu(self) -> int:
+        """Number of actuated joints n - 1."""
+    @property
+    def name(self) -> str:
+        """The name from the parameters file."""
+    @property
+    def gravity(self) -> float:
+        """Gravitational acceleration, m/s^2 (along -y)."""
+    @property
+    def lengths(self) -> Array:
+        """Link lengths, m, shape (n,)."""
+    @property
+    def masses(self) -> Array:
+        """Link masses, kg, shape (n,)."""
+    @property
+    def tau_min(self) -> Array:
+        """Lower torque limits of joints 2..n, N m, shape (n - 1,)."""
+    @property
+    def tau_max(self) -> Array:
+        """Upper torque limits of joints 2..n, N m, shape (n - 1,)."""
+    @property
+    def params(self) -> dict[str, Any]:
+        """The parameters (TOML schema) as a dict."""
+    def M(self, q: ArrayLike) -> Array:
+        """Mass matrix M(q), shape (n, n)."""
+    def Cqd(self, q: ArrayLike, qd: ArrayLike) -> Array:
+        """Coriolis and centrifugal forces C(q, qd) qd, shape (n,)."""
+    def G(self, q: ArrayLike) -> Array:
+        """Gravity forces G(q), shape (n,)."""
+    def qdd(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> Array:
+        """Forward dynamics M^-1 (B tau - C qd - G), shape (n,)."""
+    def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> Array:
+        """Generalised forces M qdd + C qd + G, shape (n,)."""
+    def joint_positions(self, q: ArrayLike) -> Array:
+        """Joint positions (grip, joints 2..n, EE), m, shape (n + 1, 2)."""
+    def ee_position(self, q: ArrayLike) -> Array:
+        """End-effector position, m, shape (2,)."""
+    def ee_velocity(self, q: ArrayLike, qd: ArrayLike) -> Array:
+        """End-effector velocity J(q) qd, m/s, shape (2,)."""
+    def ee_jacobian(self, q: ArrayLike) -> Array:
+        """End-effector Jacobian d ee / d q, shape (2, n)."""
+    def energy(self, q: ArrayLike, qd: ArrayLike) -> float:
+        """Kinetic + potential energy, J."""
+
+class Trajectory:
+    """A sampled trajectory (a controller's reference)."""
+
+    def __init__(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> None:
+        """t (samples,), q and qd (samples, n), tau (samples, n - 1)."""
+    @property
+    def n_links(self) -> int: ...
+    @property
+    def t(self) -> Array:
+        """Times, s, shape (samples,)."""
+    @property
+    def q(self) -> Array:
+        """Joint angles, rad, shape (samples, n)."""
+    @property
+    def qd(self) -> Array:
+        """Joint velocities, rad/s, shape (samples, n)."""
+    @property
+    def tau(self) -> Array:
+        """Torques of joints 2..n, N m, shape (samples, n - 1)."""
+    @property
+    def duration(self) -> float:
+        """Last time minus first, s."""
+    def state_at(self, t: float) -> Array:
+        """[q, qd] at time t (linear interpolation, held past the ends), shape (2n,)."""
+    def __len__(self) -> int: ...
+
+class Plan:
+    """A planned swing (check ``converged``)."""
+
+    @property
+    def status(self) -> str:
+        """Solver status, snake case ("solved", "max_iterations", ...)."""
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def failure_message(self) -> Optional[str]: ...
+    @property
+    def objective(self) -> float: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def attempts(self) -> int: ...
+    @property
+    def solve_time_s(self) -> float: ...
+    @property
+    def swing_time(self) -> float:
+        """Swing time T, s."""
+    @property
+    def energy(self) -> float:
+        """Paper eq. 18 energy, J."""
+    @property
+    def t(self) -> Array:
+        """1 ms times, s, shape (samples,)."""
+    @property
+    def q(self) -> Array:
+        """Shape (samples, n), rad."""
+    @property
+    def qd(self) -> Array:
+        """Shape (samples, n), rad/s."""
+    @property
+    def tau(self) -> Array:
+        """Shape (samples, n - 1), N m."""
+    @property
+    def ee(self) -> Array:
+        """End-effector positions, shape (samples, 2), m."""
+    @property
+    def trajectory(self) -> Trajectory: ...
+    @property
+    def knots(self) -> Trajectory:
+        """The collocation points."""
+    @property
+    def report(self) -> dict[str, Any]:
+        """The report.json of ``brachia plan``."""
+    def write(self, out: StrPath, force: bool = False) -> None:
+        """Write the run folder (a scenario's plan only)."""
+
+def plan(
+    robot: Robot,
+    task: dict[str, Any],
+    settings: Optional[dict[str, Any]] = None,
+    **kwargs: Any,
+) -> Plan:
+    """Plan an energy-optimal swing; settings = [planner] fields plus ``solver`` = [solver] fields."""
+
+class Mpc:
+    """The linear MPC tracker (paper Section IV)."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        reference: Union[Plan, Trajectory],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    def control(self, t: float, x: ArrayLike) -> Array:
+        """Torques of joints 2..n, shape (n - 1,), for state x = [q, qd] at time t."""
+    def set_reference(self, reference: Union[Plan, Trajectory]) -> None:
+        """Track a new reference with the same settings."""
+    def reset(self) -> None:
+        """Forget the previous solution (next call starts cold)."""
+    @property
+    def settings(self) -> dict[str, Any]: ...
+    @property
+    def last_qp_iterations(self) -> Optional[int]: ...
+    @property
+    def reference(self) -> Trajectory: ...
+
+class ModelPlant:
+    """RK4 integration of the robot's model."""
+
+    def __init__(self, robot: Robot, x0: Optional[ArrayLike] = None, substeps: int = 1) -> None: ...
+    def reset(self, x: ArrayLike) -> None: ...
+    def step(self, tau: ArrayLike, dt: float) -> None: ...
+    def state(self) -> Array: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def substeps(self) -> int: ...
+    def energy(self) -> float: ...
+
+class RapierPlant:
+    """The rapier2d physics-engine plant with contacts."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        x0: Optional[ArrayLike] = None,
+        settings: Optional[dict[str, Any]] = None,
+        obstacles: Optional[list[dict[str, Any]]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    def reset(self, x: ArrayLike) -> None: ...
+    def step(self, tau: ArrayLike, dt: float) -> None: ...
+    def state(self) -> Array: ...
+    @property
+    def time(self) -> float: ...
+    def energy(self) -> float: ...
+    def contacts(self) -> list[dict[str, Any]]: ...
+
+class TrackResult:
+    """A closed-loop run's log (one row per control instant)."""
+
+    @property
+    def tracked(self) -> bool: ...
+    @property
+    def t(self) -> Array: ...
+    @property
+    def x(self) -> Array: ...
+    @property
+    def q(self) -> Array: ...
+    @property
+    def qd(self) -> Array: ...
+    @property
+    def tau(self) -> Array: ...
+    @property
+    def ee(self) -> Array: ...
+    @property
+    def ref_x(self) -> Array: ...
+    @property
+    def ref_ee(self) -> Array: ...
+    @property
+    def control_us(self) -> Array: ...
+    @property
+    def summary(self) -> Optional[dict[str, Any]]: ...
+    @property
+    def report(self) -> Any: ...
+    @property
+    def plan(self) -> Optional[Plan]: ...
+    def write(self, out: StrPath, force: bool = False) -> None: ...
+
+def track(
+    robot: Robot,
+    reference: Union[Plan, Trajectory],
+    controller: Union[Mpc, Controller, None] = None,
+    plant: Union[ModelPlant, RapierPlant, None] = None,
+    duration: Optional[float] = None,
+    control_dt: float = 0.001,
+    noise_q_std: float = 0.0,
+    noise_qd_std: float = 0.0,
+    seed: int = 0,
+) -> TrackResult:
+    """Run a controller against a plant in closed loop."""
+
+class Scenario:
+    """A scenario file, loaded and validated."""
+
+    @staticmethod
+    def from_toml(path: StrPath) -> Scenario: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def robot(self) -> Robot: ...
+    @property
+    def task(self) -> dict[str, Any]: ...
+    @property
+    def plan_settings(self) -> dict[str, Any]: ...
+    @property
+    def mpc_settings(self) -> dict[str, Any]: ...
+    def plan(self) -> Plan: ...
+    def track(
+        self,
+        controller: Optional[Controller] = None,
+        plant: Optional[Literal["model", "rapier"]] = None,
+        reference: Optional[Plan] = None,
+    ) -> TrackResult: ...
+
+def rust_mpc_step_times(
+    robot: Robot,
+    reference: Union[Plan, Trajectory],
+    steps: int,
+    dt: float = 0.001,
+    settings: Optional[dict[str, Any]] = None,
+) -> Array:
+    """Wall time (s) of each of ``steps`` Mpc control calls made in Rust."""

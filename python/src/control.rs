@@ -1,0 +1,216 @@
+//! `Mpc`: the linear MPC tracker (`brachia::control::Mpc`) owned together with its robot and reference.
+//!
+//! Conventions: `control(t, x)` takes the time (s) and the measured state `x = [q, qd]` (2n; rad, rad/s)
+//! and returns the torques of joints 2..n, shape `(n - 1,)`, N m, inside the robot's limits. Settings are
+//! a dict and/or keyword arguments with the fields of `brachia::control::MpcSettings` (a scenario's
+//! `[tracking.mpc]`); fields left out keep the Rust defaults.
+//!
+//! The library's `Mpc<'a>` borrows the robot and the reference; [`MpcCell`] owns both beside it (a
+//! self-referential cell from `self_cell`, no unsafe code here). `set_reference` rebuilds the cell with
+//! the same settings.
+
+use crate::convert::{arr1, bad, read_vector, rs, settings_from, to_py};
+use crate::model::{Robot, Trajectory};
+use crate::planning::Plan;
+use brachia::control::MpcSettings;
+use brachia::sim::Controller;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What an [`MpcCell`] owns: the robot and the reference the controller borrows.
+pub(crate) struct MpcOwner {
+    robot: Arc<brachia::Robot>,
+    reference: Arc<brachia::trajectory::Trajectory>,
+}
+
+/// The borrowing controller.
+type MpcOf<'a> = brachia::control::Mpc<'a>;
+
+self_cell::self_cell!(
+    /// An `Mpc` with the robot and the reference it borrows.
+    pub(crate) struct MpcCell {
+        owner: MpcOwner,
+        #[not_covariant]
+        dependent: MpcOf,
+    }
+);
+
+impl MpcCell {
+    /// Build the controller for `reference`.
+    pub(crate) fn build(
+        robot: Arc<brachia::Robot>,
+        reference: Arc<brachia::trajectory::Trajectory>,
+        settings: MpcSettings,
+    ) -> brachia::Result<Self> {
+        MpcCell::try_new(MpcOwner { robot, reference }, |o| {
+            brachia::control::Mpc::new(&o.robot, &o.reference, settings)
+        })
+    }
+}
+
+/// The reference of a `Plan` or a `Trajectory`.
+pub(crate) fn reference_of(
+    obj: &Bound<'_, PyAny>,
+) -> PyResult<Arc<brachia::trajectory::Trajectory>> {
+    if let Ok(p) = obj.cast::<Plan>() {
+        return Ok(p.get().trajectory.clone());
+    }
+    if let Ok(t) = obj.cast::<Trajectory>() {
+        return Ok(t.get().inner.clone());
+    }
+    Err(bad(format!(
+        "reference: expected a Plan or a Trajectory, got {}",
+        obj.get_type().name()?
+    )))
+}
+
+/// The linear MPC tracker of the paper's Section IV (``brachia::control::Mpc``).
+///
+/// ``Mpc(robot, reference, settings=None, **kwargs)``: ``reference`` is a ``Plan`` or a
+/// ``Trajectory``; ``settings`` (dict) and keyword arguments are ``[tracking.mpc]`` fields
+/// (``horizon``, ``dt_mpc``, ``q_diag``, ``w_diag``, ``r_diag``, ``terminal_factor``,
+/// ``discretization``, ``torque_reference``, ``linearization``, ``prediction``, ``qp``).
+#[pyclass(module = "brachia")]
+pub struct Mpc {
+    pub(crate) cell: MpcCell,
+    settings: MpcSettings,
+    x: Vec<f64>,
+    tau: Vec<f64>,
+}
+
+impl Mpc {
+    /// The controller, to run in a closed loop.
+    pub(crate) fn with_controller<R>(&mut self, f: impl FnOnce(&mut dyn Controller) -> R) -> R {
+        self.cell.with_dependent_mut(|_, m| f(m))
+    }
+
+    /// The robot it was built for.
+    pub(crate) fn robot(&self) -> &Arc<brachia::Robot> {
+        &self.cell.borrow_owner().robot
+    }
+}
+
+#[pymethods]
+impl Mpc {
+    #[new]
+    #[pyo3(signature = (robot, reference, settings = None, **kwargs))]
+    fn new(
+        robot: &Robot,
+        reference: &Bound<'_, PyAny>,
+        settings: Option<&Bound<'_, PyAny>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let settings: MpcSettings = settings_from(settings, kwargs, "mpc settings")?;
+        let reference = reference_of(reference)?;
+        let n = robot.inner.n;
+        let cell = MpcCell::build(robot.inner.clone(), reference, settings.clone()).map_err(rs)?;
+        Ok(Mpc {
+            cell,
+            settings,
+            x: vec![0.0; 2 * n],
+            tau: vec![0.0; n - 1],
+        })
+    }
+
+    /// Torques of joints 2..n (shape ``(n - 1,)``, N m) at time ``t`` (s) for the measured state
+    /// ``x = [q, qd]`` (2n values, rad and rad/s).
+    fn control<'py>(
+        &mut self,
+        py: Python<'py>,
+        t: f64,
+        x: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        if !t.is_finite() {
+            return Err(bad(format!("t = {t}: must be finite")));
+        }
+        let n = self.x.len() / 2;
+        read_vector(
+            x,
+            "x",
+            &format!("[q, qd] of the {n}-link robot"),
+            &mut self.x,
+        )?;
+        let (xs, tau) = (&self.x, &mut self.tau);
+        self.cell.with_dependent_mut(|_, m| m.control(t, xs, tau));
+        arr1(py, &self.tau)
+    }
+
+    /// Track a new reference (a ``Plan`` or a ``Trajectory`` of the same robot) with the same
+    /// settings; the next call starts cold.
+    fn set_reference(&mut self, reference: &Bound<'_, PyAny>) -> PyResult<()> {
+        let reference = reference_of(reference)?;
+        let robot = self.robot().clone();
+        self.cell = MpcCell::build(robot, reference, self.settings.clone()).map_err(rs)?;
+        Ok(())
+    }
+
+    /// Forget the previous solution and the last applied torque (the next call starts cold).
+    fn reset(&mut self) {
+        self.cell.with_dependent_mut(|_, m| m.reset());
+    }
+
+    /// The settings in use (per-link defaults filled in) as a dict.
+    #[getter]
+    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let s = self.cell.with_dependent(|_, m| m.settings().clone());
+        to_py(py, &s)
+    }
+
+    /// Iterations of the last QP solve (``None`` before the first call).
+    #[getter]
+    fn last_qp_iterations(&self) -> Option<usize> {
+        self.cell
+            .with_dependent(|_, m| m.last_qp_info().map(|i| i.iterations))
+    }
+
+    /// The reference being tracked.
+    #[getter]
+    fn reference(&self) -> Trajectory {
+        Trajectory {
+            inner: self.cell.borrow_owner().reference.clone(),
+        }
+    }
+}
+
+/// Wall-clock time of ``steps`` MPC control calls made in Rust, s each, shape ``(steps,)``: a fresh
+/// ``Mpc(robot, reference, settings)`` is called at ``t_k = k dt`` with the reference state at
+/// ``t_k`` (the same sequence ``bench/mpc_step.py`` makes from Python), to compare the two in one
+/// process.
+#[pyfunction]
+#[pyo3(signature = (robot, reference, steps, dt = 0.001, settings = None))]
+pub(crate) fn rust_mpc_step_times<'py>(
+    py: Python<'py>,
+    robot: &Robot,
+    reference: &Bound<'py, PyAny>,
+    steps: usize,
+    dt: f64,
+    settings: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    if steps == 0 || steps > 1_000_000 {
+        return Err(bad(format!("steps = {steps}: must be in 1..=1000000")));
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(bad(format!("dt = {dt}: must be finite and > 0")));
+    }
+    let settings: MpcSettings = settings_from(settings, None, "mpc settings")?;
+    let reference = reference_of(reference)?;
+    let n = robot.inner.n;
+    let mut cell = MpcCell::build(robot.inner.clone(), reference.clone(), settings).map_err(rs)?;
+    let mut times = vec![0.0; steps];
+    let mut x = vec![0.0; 2 * n];
+    let mut tau = vec![0.0; n - 1];
+    py.detach(|| {
+        cell.with_dependent_mut(|_, m| {
+            for (k, out) in times.iter_mut().enumerate() {
+                let t = k as f64 * dt;
+                reference.state_at(t, &mut x);
+                let start = Instant::now();
+                m.control(t, &x, &mut tau);
+                *out = start.elapsed().as_secs_f64();
+            }
+        })
+    });
+    arr1(py, &times)
+}

@@ -1,0 +1,56 @@
+//! # brachia-py
+//!
+//! Python bindings of brachia (PyO3, abi3): the extension module `brachia._brachia`, re-exported by the
+//! Python package `brachia` (python/brachia/__init__.py; type stubs in `__init__.pyi`). Thin: every
+//! computation is a call of the Rust library; this crate only converts arrays and errors.
+//!
+//! ## Conventions (the crate docs of `brachia`, repeated)
+//! - Planar, grip point at the origin, x right, y up, gravity along -y; SI units (m, kg, s, rad, N m, J).
+//! - `q[0]` absolute angle of link 1 from +x (counter-clockwise), `q[i >= 1]` relative; state
+//!   `x = [q (n), qd (n)]`; torques `tau` of joints 2..n (n - 1 values).
+//! - Arrays out are float64 numpy arrays: vectors `(n,)`, time series `(samples, columns)` row-major,
+//!   matrices `(rows, cols)`.
+//!
+//! ## Errors
+//! Bad input raises `brachia.BrachiaError` (a `ValueError`) whose text is the Rust error's `Display`
+//! unchanged (file, field, value, rule). A solve that does not converge is a `Plan` with its status,
+//! not an exception. Input arrays are checked (length, finiteness) before any Rust call, so no call
+//! with a wrong shape reaches an assertion.
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+mod control;
+mod convert;
+mod model;
+mod planning;
+mod scenario;
+mod sim;
+
+pyo3::create_exception!(
+    brachia,
+    BrachiaError,
+    PyValueError,
+    "Bad input to brachia (a file, a field, a value or an array shape): the message is the Rust \
+     library's, naming the file, the field, the value and the rule."
+);
+
+/// The extension module `brachia._brachia` (use it through the package `brachia`).
+#[pymodule]
+fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("BrachiaError", py.get_type::<BrachiaError>())?;
+    m.add_class::<model::Robot>()?;
+    m.add_class::<model::Trajectory>()?;
+    m.add_class::<planning::Plan>()?;
+    m.add_class::<control::Mpc>()?;
+    m.add_class::<sim::ModelPlant>()?;
+    m.add_class::<sim::RapierPlant>()?;
+    m.add_class::<sim::TrackResult>()?;
+    m.add_class::<scenario::Scenario>()?;
+    m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::track, m)?)?;
+    m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
+    m.add_function(wrap_pyfunction!(convert::jsonable, m)?)?;
+    Ok(())
+}

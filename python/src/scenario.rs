@@ -1,0 +1,192 @@
+//! `Scenario`: a scenario file (robot, task, planner, solver, tracking, plant), planned and tracked
+//! exactly as `brachia plan` and `brachia track` do (the same library calls, the same reports and run
+//! folders).
+
+use crate::convert::{bad, rs, to_py};
+use crate::model::Robot;
+use crate::planning::Plan;
+use crate::sim::TrackResult;
+use brachia_experiments::scenario::LoadedScenario;
+use brachia_experiments::{run_plan, run_track, ControllerKind, PlantKind, RunFolder, Uses};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// The report.json of a run folder (`null` if absent or unreadable, which a folder built by the
+/// library never is).
+fn folder_report(f: &RunFolder) -> serde_json::Value {
+    f.get("report.json")
+        .and_then(|b| serde_json::from_slice(b).ok())
+        .unwrap_or_default()
+}
+
+/// A scenario file, loaded and validated (nothing solved yet).
+///
+/// ``Scenario.from_toml(path)`` reads and checks every section, as ``brachia track`` does; errors
+/// name the file, the field as written (``planner.knot_dt``), the value and the rule.
+#[pyclass(module = "brachia", frozen)]
+pub struct Scenario {
+    ls: LoadedScenario,
+    robot: Arc<brachia::Robot>,
+}
+
+fn controller_kind(name: &str) -> PyResult<ControllerKind> {
+    match name {
+        "mpc" => Ok(ControllerKind::Mpc),
+        "pd" => Ok(ControllerKind::Pd),
+        "open-loop" => Ok(ControllerKind::OpenLoop),
+        other => Err(bad(format!(
+            "controller = {other:?}: expected \"mpc\", \"pd\" or \"open-loop\""
+        ))),
+    }
+}
+
+fn plant_kind(name: &str) -> PyResult<PlantKind> {
+    match name {
+        "model" => Ok(PlantKind::Model),
+        "rapier" => Ok(PlantKind::Rapier),
+        other => Err(bad(format!(
+            "plant = {other:?}: expected \"model\" or \"rapier\""
+        ))),
+    }
+}
+
+#[pymethods]
+impl Scenario {
+    /// Read a scenario file (TOML; its ``params`` path is relative to the file) and validate every
+    /// section.
+    #[staticmethod]
+    fn from_toml(path: PathBuf) -> PyResult<Self> {
+        let ls = brachia_experiments::Scenario::load_for(&path, Uses::Track).map_err(rs)?;
+        let robot = Arc::new(ls.robot.clone());
+        Ok(Scenario { ls, robot })
+    }
+
+    /// The scenario's name (default: the file stem).
+    #[getter]
+    fn name(&self) -> String {
+        self.ls.scenario.name.clone()
+    }
+
+    /// The file it was read from.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.ls.path.clone()
+    }
+
+    /// The robot of its ``params`` file.
+    #[getter]
+    fn robot(&self) -> Robot {
+        Robot {
+            inner: self.robot.clone(),
+        }
+    }
+
+    /// The ``[task]`` section as a dict (what ``brachia.plan`` takes).
+    #[getter]
+    fn task<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.ls.scenario.task)
+    }
+
+    /// The ``[planner]`` section with its defaults filled in, plus ``solver`` = the ``[solver]``
+    /// section (what ``brachia.plan`` takes as settings).
+    #[getter]
+    fn plan_settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let mut v = serde_json::to_value(&self.ls.scenario.planner).unwrap_or_default();
+        if let Some(m) = v.as_object_mut() {
+            m.insert(
+                "solver".into(),
+                serde_json::to_value(&self.ls.scenario.solver).unwrap_or_default(),
+            );
+        }
+        to_py(py, &v)
+    }
+
+    /// The ``[tracking.mpc]`` settings (what ``Mpc`` takes).
+    #[getter]
+    fn mpc_settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.ls.scenario.tracking.mpc)
+    }
+
+    /// Plan the swing as ``brachia plan`` does; the ``Plan`` keeps its run folder (``Plan.write``).
+    /// A solve that does not converge is a ``Plan`` with its status.
+    fn plan(&self, py: Python<'_>) -> PyResult<Plan> {
+        let ls = &self.ls;
+        let run = py.detach(|| run_plan(ls)).map_err(rs)?;
+        let report = folder_report(&run.folder);
+        Ok(Plan::new(
+            self.robot.clone(),
+            run.plan,
+            report,
+            Some(run.folder),
+        ))
+    }
+
+    /// Plan (or take ``reference``, a ``Plan`` of this scenario) and track it in closed loop as
+    /// ``brachia track`` does. ``controller`` (``"mpc"``, ``"pd"``, ``"open-loop"``) and ``plant``
+    /// (``"model"``, ``"rapier"``) default to the scenario's. When the plan does not converge nothing
+    /// is tracked: ``TrackResult.tracked`` is False and ``TrackResult.plan`` has the status.
+    #[pyo3(signature = (controller = None, plant = None, reference = None))]
+    fn track(
+        &self,
+        py: Python<'_>,
+        controller: Option<&str>,
+        plant: Option<&str>,
+        reference: Option<&Bound<'_, Plan>>,
+    ) -> PyResult<TrackResult> {
+        let ls = &self.ls;
+        let c = match controller {
+            Some(name) => controller_kind(name)?,
+            None => ls.scenario.tracking.controller,
+        };
+        let p = match plant {
+            Some(name) => plant_kind(name)?,
+            None => ls.scenario.plant.kind,
+        };
+        let given = reference.map(|r| {
+            let r = r.get();
+            ((*r.trajectory).clone(), r.report.clone())
+        });
+        let out = py.detach(|| run_track(ls, c, p, given)).map_err(rs)?;
+        match out {
+            Ok(run) => {
+                let report = folder_report(&run.folder);
+                let plan = match run.plan {
+                    Some(pr) => {
+                        let rep = folder_report(&pr.folder);
+                        let plan = Plan::new(self.robot.clone(), pr.plan, rep, Some(pr.folder));
+                        Some(Py::new(py, plan)?)
+                    }
+                    None => reference.map(|r| r.clone().unbind()),
+                };
+                Ok(TrackResult::new(
+                    run.log,
+                    Some(run.summary),
+                    report,
+                    plan,
+                    Some(run.folder),
+                ))
+            }
+            Err(pr) => {
+                let rep = folder_report(&pr.folder);
+                let plan = Plan::new(self.robot.clone(), pr.plan, rep, Some(pr.folder));
+                Ok(TrackResult::new(
+                    Default::default(),
+                    None,
+                    serde_json::Value::Null,
+                    Some(Py::new(py, plan)?),
+                    None,
+                ))
+            }
+        }
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scenario(name={:?}, path={:?}, n_links={})",
+            self.ls.scenario.name,
+            self.ls.path.display().to_string(),
+            self.robot.n
+        )
+    }
+}

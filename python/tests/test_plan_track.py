@@ -1,0 +1,151 @@
+"""Planning and tracking through the bindings, against the CLI and against each other.
+
+The V-B swing (scenarios/tracking.toml) is planned once per session (conftest.py). With BRACHIA_BIN
+set to the built `brachia` binary, its `brachia plan` output must equal the Python plan's arrays.
+"""
+
+import csv
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import brachia
+
+
+def read_csv(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], np.array(rows[1:], dtype=float)
+    return header, data
+
+
+def test_tracking_plan(tracking_plan, robot):
+    p = tracking_plan
+    assert p.status == "solved"
+    n = robot.n_links
+    rows = len(p.t)
+    assert p.q.shape == (rows, n) and p.qd.shape == (rows, n)
+    assert p.tau.shape == (rows, n - 1) and p.ee.shape == (rows, 2)
+    assert p.t[0] == 0.0 and p.t[-1] == pytest.approx(p.swing_time)
+    np.testing.assert_allclose(p.q[0], [-2.35, 0.0, -1.55, 0.0])
+    np.testing.assert_allclose(p.ee[-1], [0.8, 0.0], atol=1e-3)
+    assert np.all(p.tau <= robot.tau_max + 1e-9) and np.all(p.tau >= robot.tau_min - 1e-9)
+    rep = p.report
+    assert rep["status"] == "solved" and rep["converged"] is True
+    assert rep["iterations"] == p.iterations
+    assert rep["objective"] == pytest.approx(p.objective)
+    assert rep["energy_j"] == pytest.approx(p.energy)
+    assert len(p.knots) == rep["collocation_points"]
+
+
+@pytest.mark.skipif(not os.environ.get("BRACHIA_BIN"), reason="BRACHIA_BIN (the built brachia binary) not set")
+def test_plan_equals_cli(tracking_plan, root, tmp_path):
+    out = tmp_path / "plan"
+    subprocess.run(
+        [os.environ["BRACHIA_BIN"], "plan", "--scenario", str(root / "scenarios" / "tracking.toml"), "--out", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    header, data = read_csv(out / "trajectory.csv")
+    assert header[:5] == ["t", "q1", "q2", "q3", "q4"]
+    p = tracking_plan
+    ours = np.column_stack([p.t, p.q, p.qd, p.tau, p.ee])
+    assert data.shape == ours.shape
+    # the CSV keeps 6 decimals for t and 9 for the rest
+    np.testing.assert_allclose(data[:, 0], ours[:, 0], rtol=0, atol=5e-7)
+    np.testing.assert_allclose(data[:, 1:], ours[:, 1:], rtol=0, atol=5e-9)
+    # the Python run folder is the CLI's, byte for byte except the timings in report.json
+    ours_dir = tmp_path / "ours"
+    p.write(ours_dir)
+    for name in ["trajectory.csv", "knots.csv", "scenario.toml"]:
+        assert (ours_dir / name).read_bytes() == (out / name).read_bytes(), name
+
+
+def test_plan_function_equals_scenario_plan(tracking_plan, scenario, robot):
+    p = brachia.plan(robot, scenario.task, scenario.plan_settings)
+    assert p.status == tracking_plan.status
+    np.testing.assert_array_equal(p.q, tracking_plan.q)
+    np.testing.assert_array_equal(p.tau, tracking_plan.tau)
+    assert p.iterations == tracking_plan.iterations
+
+
+def test_plan_not_converged_is_a_status(robot):
+    task = {"q0": [-2.35, 0.0, -1.55, 0.0], "target": [0.8, 0.0]}
+    p = brachia.plan(robot, task, solver={"max_iter": 2})
+    assert not p.converged
+    assert p.status == "max_iterations"
+    assert p.report["converged"] is False
+    assert p.failure_message
+
+
+def test_track_with_mpc_reaches_the_bar(tracking_plan, robot):
+    mpc = brachia.Mpc(robot, tracking_plan)
+    res = brachia.track(robot, tracking_plan, controller=mpc)
+    rows = len(res.t)
+    assert rows == len(tracking_plan.t)
+    assert res.x.shape == (rows, 8) and res.tau.shape == (rows, 3) and res.ee.shape == (rows, 2)
+    np.testing.assert_array_equal(res.q, res.x[:, :4])
+    s = res.summary
+    assert s["ee_final_error_m"] < 0.01
+    np.testing.assert_allclose(res.ee[-1], [0.8, 0.0], atol=0.01)
+
+
+def test_track_equals_scenario_track(tracking_plan, scenario, robot):
+    mpc = brachia.Mpc(robot, tracking_plan, scenario.mpc_settings)
+    ours = brachia.track(robot, tracking_plan, controller=mpc)
+    cli = scenario.track(reference=tracking_plan)
+    assert cli.tracked
+    np.testing.assert_array_equal(ours.x, cli.x)
+    np.testing.assert_array_equal(ours.tau, cli.tau)
+    assert cli.report["controller"] == "mpc" and cli.report["plant"] == "model"
+    assert cli.report["ee_final_error_m"] == pytest.approx(ours.summary["ee_final_error_m"])
+
+
+def test_stepwise_loop_equals_track(tracking_plan, robot):
+    """Mpc.control and ModelPlant.step driven from Python equal the Rust closed loop."""
+    steps, dt = 150, 1e-3
+    x0 = np.concatenate([tracking_plan.q[0], tracking_plan.qd[0]])
+    mpc = brachia.Mpc(robot, tracking_plan)
+    plant = brachia.ModelPlant(robot, x0)
+    taus = []
+    for k in range(steps):
+        tau = mpc.control(plant.time, plant.state())
+        tau = np.clip(tau, robot.tau_min, robot.tau_max)
+        taus.append(tau)
+        plant.step(tau, dt)
+    res = brachia.track(robot, tracking_plan, controller=brachia.Mpc(robot, tracking_plan), duration=steps * dt)
+    np.testing.assert_allclose(np.array(taus), res.tau[:steps], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(plant.state(), res.x[-1], rtol=0, atol=1e-12)
+
+
+def test_set_reference_restarts_cold(tracking_plan, robot):
+    x = np.concatenate([tracking_plan.q[0], tracking_plan.qd[0]])
+    fresh = brachia.Mpc(robot, tracking_plan).control(0.0, x)
+    mpc = brachia.Mpc(robot, tracking_plan)
+    for k in range(20):
+        mpc.control(k * 1e-3, tracking_plan.trajectory.state_at(k * 1e-3))
+    held = brachia.Trajectory(
+        tracking_plan.t, np.repeat(tracking_plan.q[:1], len(tracking_plan.t), 0),
+        np.zeros_like(tracking_plan.qd), np.zeros_like(tracking_plan.tau),
+    )
+    mpc.set_reference(held)
+    assert mpc.reference.duration == pytest.approx(tracking_plan.swing_time)
+    mpc.set_reference(tracking_plan)
+    np.testing.assert_allclose(mpc.control(0.0, x), fresh, rtol=0, atol=1e-12)
+
+
+def test_track_on_the_rapier_plant(tracking_plan, robot):
+    x0 = np.concatenate([tracking_plan.q[0], tracking_plan.qd[0]])
+    plant = brachia.RapierPlant(robot, x0, substeps=2)
+    res = brachia.track(robot, tracking_plan, controller="pd", plant=plant, duration=0.3)
+    assert len(res.t) == 301
+    assert plant.time == pytest.approx(0.3)
+    np.testing.assert_allclose(plant.state(), res.x[-1], atol=1e-12)
+    assert res.summary["joint_rms_error_rad"] < 0.1
+
+
+def test_rust_step_times(tracking_plan, robot):
+    t = brachia.rust_mpc_step_times(robot, tracking_plan, steps=5)
+    assert t.shape == (5,) and np.all(t > 0)
