@@ -51,6 +51,9 @@ pub enum ObstacleGuess {
 pub enum GuessStrategy {
     /// The smooth step to the target pose (it cleared the obstacles, or continuation was off).
     SmoothStep,
+    /// A detour guess: the obstacle-free plan deformed around the obstacles
+    /// ([`super::detour`]).
+    Detour,
     /// Continuation on the obstacle radii.
     Continuation,
 }
@@ -71,6 +74,10 @@ pub struct GuessReport {
     pub solve_time_s: f64,
     /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
     pub scales: Vec<f64>,
+    /// The detour seeds, best score first, and which were tried (empty when the smooth step
+    /// converged).
+    #[serde(default)]
+    pub seeds: Vec<super::detour::SeedReport>,
 }
 
 /// What blocks a swing that no strategy planned: the clearance row with the largest violation over
@@ -219,6 +226,7 @@ pub(super) fn plan_around_obstacles(
         iterations: 0,
         solve_time_s: 0.0,
         scales: vec![],
+        seeds: vec![],
     };
     // the smooth step first, always: where it converged before, the plan is the same
     let mut best: Option<Plan> = {
@@ -243,6 +251,24 @@ pub(super) fn plan_around_obstacles(
         let p = best.unwrap_or(free);
         return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
     }
+    // detour seeds, best score first, each solved at full radius until one converges
+    rep.strategy = GuessStrategy::Detour;
+    let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
+    rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
+    for (i, (_, g)) in seeds.iter().enumerate() {
+        let p = plan_single(robot, task, settings, nlp, Some(g))?;
+        count(&mut rep, &p);
+        rep.seeds[i].converged = Some(p.converged());
+        if p.converged() {
+            return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+        }
+        if best.as_ref().is_none_or(|b| {
+            p.violations.clearance < b.violations.clearance
+        }) {
+            best = Some(p);
+        }
+    }
+    rep.strategy = GuessStrategy::Continuation;
     rep.scales.push(0.0);
     let step_nlp = NlpSettings {
         max_iter: nlp.max_iter.min(STEP_MAX_ITER),
