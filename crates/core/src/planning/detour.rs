@@ -44,6 +44,9 @@ const MAX_STEP: f64 = 0.2;
 /// Weight of the first joint in the "folding" seeds (the others weigh 1).
 const HOLD_WEIGHT: f64 = 20.0;
 
+/// Two seeds whose knots agree to this, rad, are one seed (the better scored is kept).
+pub const SAME_PATH_RAD: f64 = 1e-6;
+
 /// How a detour seed was made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -219,7 +222,8 @@ impl<'a> Tracker<'a> {
 
 /// The detour seeds of the obstacle-free plan `free` (its knots; `q0` its start pose) against
 /// `obstacles`, best score first, each with the guess trajectory to plan from. Seeds whose start
-/// (forward) or final (backward) pose is inside the barrier's domain only; none when neither is.
+/// (forward) or final (backward) pose is inside the barrier's domain only; none when neither is. Seeds
+/// that tracked the same path (to [`SAME_PATH_RAD`]) as a better one are dropped.
 pub fn detour_seeds(
     robot: &Robot,
     obstacles: &[Circle],
@@ -232,12 +236,8 @@ pub fn detour_seeds(
     if len < 2 || obstacles.is_empty() {
         return Ok(out);
     }
-    let cf = ClearanceFn::new(
-        robot,
-        obstacles,
-        settings.obstacle_margin + EXTRA_CLEARANCE,
-    )?
-    .with_self_collision(true);
+    let cf = ClearanceFn::new(robot, obstacles, settings.obstacle_margin + EXTRA_CLEARANCE)?
+        .with_self_collision(true);
     let b = &settings.bounds;
     let mut lo = vec![-b.q_rel_max; n];
     let mut hi = vec![b.q_rel_max; n];
@@ -311,5 +311,37 @@ pub fn detour_seeds(
         ));
     }
     out.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
-    Ok(out)
+    // a seed that tracked the same path as a better one (the obstacle never touched the weighted
+    // joints' choice) is not worth a solve
+    let mut kept: Vec<(SeedReport, Trajectory)> = Vec::with_capacity(out.len());
+    for (r, g) in out {
+        let same = kept.iter().any(|(_, h)| {
+            g.q.iter()
+                .zip(&h.q)
+                .all(|(a, b)| (a - b).abs() <= SAME_PATH_RAD)
+        });
+        if !same {
+            kept.push((r, g));
+        }
+    }
+    Ok(kept)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cholesky_solve;
+
+    #[test]
+    fn cholesky_solves_a_known_system_and_refuses_an_indefinite_one() {
+        // h = [[4, 2, 0], [2, 3, 1], [0, 1, 2]], x = [1, -2, 3] -> b = h x
+        let h = [4.0, 2.0, 0.0, 2.0, 3.0, 1.0, 0.0, 1.0, 2.0];
+        let mut b = [0.0, -1.0, 4.0];
+        let mut hh = h;
+        assert!(cholesky_solve(&mut hh, &mut b, 3));
+        for (got, want) in b.iter().zip([1.0, -2.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{b:?}");
+        }
+        let mut bad = [1.0, 2.0, 2.0, 1.0];
+        assert!(!cholesky_solve(&mut bad, &mut [1.0, 1.0], 2));
+    }
 }

@@ -262,9 +262,10 @@ pub(super) fn plan_around_obstacles(
         if p.converged() {
             return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
         }
-        if best.as_ref().is_none_or(|b| {
-            p.violations.clearance < b.violations.clearance
-        }) {
+        if best
+            .as_ref()
+            .is_none_or(|b| p.violations.clearance < b.violations.clearance)
+        {
             best = Some(p);
         }
     }
