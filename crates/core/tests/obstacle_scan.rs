@@ -138,7 +138,7 @@ fn detour_seeds_go_around_obstacles_the_unobstructed_swing_sweeps() {
     let (s, nlp) = settings();
     let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
     let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
-    let (n, len) = (robot.n, base.points.len());
+    let len = base.points.len();
     let b = &s.bounds;
     // #1, #2, #4, #8: links 2 and 3 sweep through the obstacle's centre
     for i in [0, 1, 3, 7] {

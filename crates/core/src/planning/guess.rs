@@ -1,19 +1,23 @@
-//! Plans that do not fail on obstacles: a collision-free initial guess by continuation on the obstacle
-//! radii, and a diagnosis of what blocks the swing when no strategy converges.
+//! Plans that do not fail on obstacles: collision-free initial guesses (detour seeds, continuation on
+//! the obstacle radii), and a diagnosis of what blocks the swing when no strategy converges.
 //!
 //! The default guess (a smooth step to an inverse-kinematics target pose, [`super::planner`]) ignores the
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
 //! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
 //! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
-//! 2. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
+//! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
+//!    obstacles by barrier tracking, best score first), each solved at full radius from its guess,
+//!    stopping at the first that converges;
+//! 3. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
 //!    from the previous converged plan (`s` doubles its step after a success, halves it after a
 //!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
 //!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
 //!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
-//!    free end: avoiding it changes the whole swing, not a neighbourhood of it.
+//!    free end: avoiding it changes the whole swing, not a neighbourhood of it (which is what the
+//!    detour seeds of step 2 do).
 //!
-//! The guess of step 2 is the previous plan's own knots (or collocation points), so the strategy works
-//! for every transcription and backend. Units: m, s.
+//! The guesses of steps 2 and 3 are trajectories (a plan's knots or collocation points), so the
+//! strategies work for every transcription and backend. Units: m, s.
 
 use super::nlp::NlpSettings;
 use super::planner::{plan_single, target_pose, Plan, SwingTask};
@@ -39,8 +43,8 @@ pub const STEP_MAX_ITER: usize = 60;
 pub enum ObstacleGuess {
     /// The smooth step to the target pose only, as without obstacles (one solve).
     Direct,
-    /// The smooth step; when that solve fails, continuation on the obstacle radii from an
-    /// obstacle-free plan (see the module docs). Default.
+    /// The smooth step; when that solve fails, the detour seeds, then continuation on the obstacle
+    /// radii, both from an obstacle-free plan (see the module docs). Default.
     #[default]
     Continuation,
 }
