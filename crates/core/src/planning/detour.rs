@@ -44,7 +44,7 @@ const MAX_STEP: f64 = 0.2;
 /// Weight of the first joint in the "folding" seeds (the others weigh 1).
 const HOLD_WEIGHT: f64 = 20.0;
 
-/// Two seeds whose knots agree to this, rad, are one seed (the better scored is kept).
+/// Two seeds whose knots agree to this, rad, are one seed (the one tried first is kept).
 pub const SAME_PATH_RAD: f64 = 1e-6;
 
 /// How a detour seed was made.
@@ -221,9 +221,10 @@ impl<'a> Tracker<'a> {
 }
 
 /// The detour seeds of the obstacle-free plan `free` (its knots; `q0` its start pose) against
-/// `obstacles`, best score first, each with the guess trajectory to plan from. Seeds whose start
+/// `obstacles`, in the order to try them (forward-fold, forward, backward-fold, backward), each with
+/// the guess trajectory to plan from. Seeds whose start
 /// (forward) or final (backward) pose is inside the barrier's domain only; none when neither is. Seeds
-/// that tracked the same path (to [`SAME_PATH_RAD`]) as a better one are dropped.
+/// that tracked the same path (to [`SAME_PATH_RAD`]) as an earlier one are dropped.
 pub fn detour_seeds(
     robot: &Robot,
     obstacles: &[Circle],
@@ -310,8 +311,16 @@ pub fn detour_seeds(
             g,
         ));
     }
-    out.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
-    // a seed that tracked the same path as a better one (the obstacle never touched the weighted
+    // a fixed order, measured (docs/planner.md, "The scan"): the forward seeds first (they start at
+    // the start pose), the folding one before the plain one; the score did not predict the winner
+    let rank = |k: SeedKind| match k {
+        SeedKind::ForwardFold => 0,
+        SeedKind::Forward => 1,
+        SeedKind::BackwardFold => 2,
+        SeedKind::Backward => 3,
+    };
+    out.sort_by_key(|(r, _)| rank(r.kind));
+    // a seed that tracked the same path as an earlier one (the obstacle never touched the weighted
     // joints' choice) is not worth a solve
     let mut kept: Vec<(SeedReport, Trajectory)> = Vec::with_capacity(out.len());
     for (r, g) in out {

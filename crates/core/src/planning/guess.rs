@@ -6,7 +6,7 @@
 //! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
 //! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
 //! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
-//!    obstacles by barrier tracking, best score first), each solved at full radius from its guess,
+//!    obstacles by barrier tracking, in a fixed measured order), each solved at full radius from its guess,
 //!    stopping at the first that converges;
 //! 3. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
 //!    from the previous converged plan (`s` doubles its step after a success, halves it after a
@@ -78,7 +78,7 @@ pub struct GuessReport {
     pub solve_time_s: f64,
     /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
     pub scales: Vec<f64>,
-    /// The detour seeds, best score first, and which were tried (empty when the smooth step
+    /// The detour seeds, in the order tried, and which were tried (empty when the smooth step
     /// converged).
     #[serde(default)]
     pub seeds: Vec<super::detour::SeedReport>,
@@ -255,13 +255,19 @@ pub(super) fn plan_around_obstacles(
         let p = best.unwrap_or(free);
         return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
     }
-    // detour seeds, best score first, each solved at full radius until one converges
+    // detour seeds in order, each solved at full radius until one converges
     rep.strategy = GuessStrategy::Detour;
     let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     for (i, (_, g)) in seeds.iter().enumerate() {
-        let p = plan_single(robot, task, settings, nlp, Some(g))?;
+        let mut p = plan_single(robot, task, settings, nlp, Some(g))?;
         count(&mut rep, &p);
+        // a seed solve that ran out of iterations, not of ideas, resumes once from where it stopped
+        if p.status == super::nlp::SolveStatus::MaxIterations {
+            let resumed = plan_single(robot, task, settings, nlp, Some(&p.points))?;
+            count(&mut rep, &resumed);
+            p = resumed;
+        }
         rep.seeds[i].converged = Some(p.converged());
         if p.converged() {
             return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
