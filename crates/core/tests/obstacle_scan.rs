@@ -212,3 +212,41 @@ fn detour_seeds_go_around_obstacles_the_unobstructed_swing_sweeps() {
         .unwrap()
         .is_empty());
 }
+
+#[test]
+fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    // #19 of the scan: link 4 at 1.73 s; the smooth step's solve fails, the continuation never
+    // converged here (docs/planner.md), the forward-fold detour seed does
+    let pl = places[18];
+    let task = SwingTask {
+        obstacles: vec![pl.obstacle],
+        ..tracking()
+    };
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(p.converged(), "{:?}", p.failure_message());
+    let g = p.guess.as_ref().unwrap();
+    assert_eq!(g.strategy, GuessStrategy::Detour, "{g:?}");
+    assert!(!g.smooth_step_clear && g.scales.is_empty());
+    let won: Vec<_> = g
+        .seeds
+        .iter()
+        .filter(|r| r.converged == Some(true))
+        .collect();
+    assert_eq!(won.len(), 1, "{g:?}");
+    // every seed before the winner was tried and failed, none after it was tried
+    let at = g
+        .seeds
+        .iter()
+        .position(|r| r.converged == Some(true))
+        .unwrap();
+    assert!(g.seeds[..at].iter().all(|r| r.converged == Some(false)));
+    assert!(g.seeds[at + 1..].iter().all(|r| r.converged.is_none()));
+    assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
+    assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
+    assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
+    assert!(p.blockage.is_none());
+}
