@@ -272,12 +272,8 @@ pub(super) fn plan_around_obstacles(
         if p.converged() {
             return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
         }
-        if best
-            .as_ref()
-            .is_none_or(|b| p.violations.clearance < b.violations.clearance)
-        {
-            best = Some(p);
-        }
+        // a failed seed's plan is not the one returned: the smooth step's attempt (`best`) shows the
+        // obstacle cutting through the swing, which is what the diagnosis names
     }
     rep.strategy = GuessStrategy::Continuation;
     rep.scales.push(0.0);
