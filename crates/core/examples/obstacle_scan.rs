@@ -1,8 +1,10 @@
 //! The obstacle scan of docs/planner.md ("Obstacles on the path"): one 0.08 m obstacle at a link's
 //! midpoint on the unobstructed tracking swing (scenarios/tracking.toml, multiple shooting, 10 ms knots),
 //! planned by multiple shooting on `ocp` (continuation guess, the default) and, as the baseline, by
-//! Hermite-Simpson on pounce from the smooth-step guess alone (`obstacle_guess = "direct"`). Prints a
-//! Markdown table. `cargo run --release -p brachia --example obstacle_scan [-- --no-pounce]`.
+//! Hermite-Simpson on pounce from the smooth-step guess alone (`obstacle_guess = "direct"`; with
+//! `--hs-default` the default guess strategies, detour seeds and continuation). Prints a Markdown table.
+//! `cargo run --release -p brachia --example obstacle_scan [-- --no-pounce | --pounce-only] [--hs-default]
+//! [--only 1,4,7]` (placement numbers, 1-based).
 //! Units: m, s.
 
 use brachia::model::Robot;
@@ -16,7 +18,15 @@ fn cell(p: &Plan, wall: f64) -> String {
     let strat = p
         .guess
         .as_ref()
-        .map(|g| format!("{:?} ({} solves)", g.strategy, g.solves))
+        .map(|g| {
+            let won = g
+                .seeds
+                .iter()
+                .find(|s| s.converged == Some(true))
+                .map(|s| format!(", seed {:?}", s.kind))
+                .unwrap_or_default();
+            format!("{:?}{won} ({} solves)", g.strategy, g.solves)
+        })
         .unwrap_or_default();
     format!(
         "{} | {} | {:.2} | {strat}",
@@ -29,6 +39,14 @@ fn cell(p: &Plan, wall: f64) -> String {
 fn main() -> Result<(), brachia::Error> {
     let pounce = !std::env::args().any(|a| a == "--no-pounce");
     let run_ocp = !std::env::args().any(|a| a == "--pounce-only");
+    let hs_default = std::env::args().any(|a| a == "--hs-default");
+    let args: Vec<String> = std::env::args().collect();
+    let only: Vec<usize> = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|i| args.get(i + 1))
+        .map(|v| v.split(',').filter_map(|x| x.parse().ok()).collect())
+        .unwrap_or_default();
     let robot = Robot::paper();
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
@@ -48,7 +66,11 @@ fn main() -> Result<(), brachia::Error> {
     let hs = PlannerSettings {
         transcription: Transcription::HermiteSimpson,
         knot_dt: 0.01,
-        obstacle_guess: ObstacleGuess::Direct,
+        obstacle_guess: if hs_default {
+            ObstacleGuess::Continuation
+        } else {
+            ObstacleGuess::Direct
+        },
         ..Default::default()
     };
     let base = plan(&robot, &task, &ms, &ocp)?;
@@ -57,6 +79,9 @@ fn main() -> Result<(), brachia::Error> {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (mut n_ocp, mut n_hs) = (0, 0);
     for (i, pl) in places.iter().enumerate() {
+        if !only.is_empty() && !only.contains(&(i + 1)) {
+            continue;
+        }
         let tk = SwingTask {
             obstacles: vec![pl.obstacle],
             ..task.clone()
@@ -67,13 +92,11 @@ fn main() -> Result<(), brachia::Error> {
             let wb = t0.elapsed().as_secs_f64();
             n_hs += usize::from(b.converged());
             println!(
-                "| {} | {:.3} | {} | pounce HS direct: {} | {} | {:.2} |",
+                "| {} | {:.3} | {} | pounce HS: {} |",
                 i + 1,
                 pl.time_s,
                 pl.link + 1,
-                if b.converged() { "yes" } else { "**no**" },
-                b.iterations,
-                wb
+                cell(&b, wb)
             );
             continue;
         }
@@ -111,8 +134,9 @@ fn main() -> Result<(), brachia::Error> {
     }
     println!();
     println!(
-        "ocp (multiple shooting, continuation): {n_ocp}/{} converged; pounce (Hermite-Simpson, direct): {}",
+        "ocp (multiple shooting, default guess): {n_ocp}/{} converged; pounce (Hermite-Simpson, {}): {}",
         places.len(),
+        if hs_default { "default guess" } else { "direct" },
         if pounce {
             format!("{n_hs}/{}", places.len())
         } else {

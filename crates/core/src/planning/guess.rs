@@ -1,19 +1,23 @@
-//! Plans that do not fail on obstacles: a collision-free initial guess by continuation on the obstacle
-//! radii, and a diagnosis of what blocks the swing when no strategy converges.
+//! Plans that do not fail on obstacles: collision-free initial guesses (detour seeds, continuation on
+//! the obstacle radii), and a diagnosis of what blocks the swing when no strategy converges.
 //!
 //! The default guess (a smooth step to an inverse-kinematics target pose, [`super::planner`]) ignores the
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
 //! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
 //! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
-//! 2. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
+//! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
+//!    obstacles by barrier tracking, in a fixed measured order), each solved at full radius from its guess,
+//!    stopping at the first that converges;
+//! 3. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
 //!    from the previous converged plan (`s` doubles its step after a success, halves it after a
 //!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
 //!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
 //!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
-//!    free end: avoiding it changes the whole swing, not a neighbourhood of it.
+//!    free end: avoiding it changes the whole swing, not a neighbourhood of it (which is what the
+//!    detour seeds of step 2 do).
 //!
-//! The guess of step 2 is the previous plan's own knots (or collocation points), so the strategy works
-//! for every transcription and backend. Units: m, s.
+//! The guesses of steps 2 and 3 are trajectories (a plan's knots or collocation points), so the
+//! strategies work for every transcription and backend. Units: m, s.
 
 use super::nlp::NlpSettings;
 use super::planner::{plan_single, target_pose, Plan, SwingTask};
@@ -39,8 +43,8 @@ pub const STEP_MAX_ITER: usize = 60;
 pub enum ObstacleGuess {
     /// The smooth step to the target pose only, as without obstacles (one solve).
     Direct,
-    /// The smooth step; when that solve fails, continuation on the obstacle radii from an
-    /// obstacle-free plan (see the module docs). Default.
+    /// The smooth step; when that solve fails, the detour seeds, then continuation on the obstacle
+    /// radii, both from an obstacle-free plan (see the module docs). Default.
     #[default]
     Continuation,
 }
@@ -51,6 +55,9 @@ pub enum ObstacleGuess {
 pub enum GuessStrategy {
     /// The smooth step to the target pose (it cleared the obstacles, or continuation was off).
     SmoothStep,
+    /// A detour guess: the obstacle-free plan deformed around the obstacles
+    /// ([`super::detour`]).
+    Detour,
     /// Continuation on the obstacle radii.
     Continuation,
 }
@@ -71,6 +78,10 @@ pub struct GuessReport {
     pub solve_time_s: f64,
     /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
     pub scales: Vec<f64>,
+    /// The detour seeds, in the order tried, and which were tried (empty when the smooth step
+    /// converged).
+    #[serde(default)]
+    pub seeds: Vec<super::detour::SeedReport>,
 }
 
 /// What blocks a swing that no strategy planned: the clearance row with the largest violation over
@@ -219,6 +230,7 @@ pub(super) fn plan_around_obstacles(
         iterations: 0,
         solve_time_s: 0.0,
         scales: vec![],
+        seeds: vec![],
     };
     // the smooth step first, always: where it converged before, the plan is the same
     let mut best: Option<Plan> = {
@@ -243,6 +255,27 @@ pub(super) fn plan_around_obstacles(
         let p = best.unwrap_or(free);
         return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
     }
+    // detour seeds in order, each solved at full radius until one converges
+    rep.strategy = GuessStrategy::Detour;
+    let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
+    rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
+    for (i, (_, g)) in seeds.iter().enumerate() {
+        let mut p = plan_single(robot, task, settings, nlp, Some(g))?;
+        count(&mut rep, &p);
+        // a seed solve that ran out of iterations, not of ideas, resumes once from where it stopped
+        if p.status == super::nlp::SolveStatus::MaxIterations {
+            let resumed = plan_single(robot, task, settings, nlp, Some(&p.points))?;
+            count(&mut rep, &resumed);
+            p = resumed;
+        }
+        rep.seeds[i].converged = Some(p.converged());
+        if p.converged() {
+            return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+        }
+        // a failed seed's plan is not the one returned: the smooth step's attempt (`best`) shows the
+        // obstacle cutting through the swing, which is what the diagnosis names
+    }
+    rep.strategy = GuessStrategy::Continuation;
     rep.scales.push(0.0);
     let step_nlp = NlpSettings {
         max_iter: nlp.max_iter.min(STEP_MAX_ITER),

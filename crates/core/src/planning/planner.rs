@@ -827,9 +827,9 @@ pub(super) fn solve_with_retry(
 /// [`WARM_START_MU_INIT`].
 ///
 /// Without a guess, on a task whose obstacles are avoided, the initial guess comes from
-/// [`crate::planning::guess`] (`settings.obstacle_guess`): continuation on the obstacle radii when the
-/// smooth step cuts through an obstacle; the plan then reports the strategy and the summed cost of
-/// every solve, and names what blocks the swing when nothing converged.
+/// [`crate::planning::guess`] (`settings.obstacle_guess`): detour seeds, then continuation on the
+/// obstacle radii, when the solve from the smooth step fails; the plan then reports the strategy and
+/// the summed cost of every solve, and names what blocks the swing when nothing converged.
 pub fn plan_with_guess(
     robot: &Robot,
     task: &SwingTask,

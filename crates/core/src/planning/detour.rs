@@ -1,0 +1,356 @@
+//! Detour guesses: collision-free deformations of the obstacle-free swing, for obstacles that swing
+//! sweeps through (docs/planner.md, "Obstacles on the path").
+//!
+//! A planar chain hanging from the grip cannot let an obstacle it sweeps slip past a link: the obstacle
+//! has to pass the chain's free end, so avoiding it changes the homotopy class of the whole swing (the
+//! chain folds or bends around it), which neither a local deformation nor a growing radius finds. A
+//! detour guess follows the obstacle-free plan's knots `q*_k` one after the other and keeps the chain out
+//! of the obstacles: knot k is the minimiser of the barrier problem
+//!
+//! `phi(q) = 1/2 sum_i w_i (q_i - q*_k,i)^2 - mu sum_r ln g_r(q) - mu sum_b ln s_b(q)`,
+//!
+//! started from knot k-1's pose, where `g_r` are the clearance rows (surface distance minus the
+//! required clearance: link radius, obstacle radius, the planner's margin plus [`EXTRA_CLEARANCE`];
+//! self-collision rows included) and `s_b` the slacks of the joint bounds. Damped Gauss-Newton steps
+//! (exact first derivatives of the rows through [`crate::ad::Diff`]) with a line search that keeps every
+//! row positive never let the chain cross an obstacle, so the tracked pose slides around it: the
+//! tracked path is collision-free by construction and as close to the unobstructed swing as the
+//! barrier lets it be. Which way the chain goes around depends on where tracking starts, so the seeds
+//! track forwards (from the start pose) and backwards (from the unobstructed swing's final pose, which
+//! clears the obstacles), each with two joint weightings (equal, and the first joint held close so that
+//! the distal links fold instead). A seed whose tracked path does not end where the swing must
+//! (the start pose for a backward seed, the final pose for a forward one) scores worse.
+//!
+//! The guess's velocities are the unobstructed plan's plus the slope of the deformation between
+//! neighbouring knots (the velocity of the guess's own piecewise-linear path); its torques are the
+//! unobstructed plan's. The dynamics defects that leaves are the solver's to close. Units: m, s, rad.
+
+use super::planner::DistanceClearanceFn;
+use super::settings::PlannerSettings;
+use crate::ad::{Diff, LocalFn};
+use crate::error::Result;
+use crate::model::{Circle, ClearanceFn, Robot};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+
+/// Clearance a detour guess keeps beyond the planner's margin, m (room for the interior point).
+pub const EXTRA_CLEARANCE: f64 = 0.01;
+/// Barrier weight `mu` of the tracking problem (rad^2; the rows are in m).
+const MU: f64 = 1e-4;
+/// Gauss-Newton iterations per knot.
+const ITERS_PER_KNOT: usize = 60;
+/// Largest step of one iteration, rad (infinity norm).
+const MAX_STEP: f64 = 0.2;
+/// Weight of the first joint in the "folding" seeds (the others weigh 1).
+const HOLD_WEIGHT: f64 = 20.0;
+
+/// Two seeds whose knots agree to this, rad, are one seed (the one tried first is kept).
+pub const SAME_PATH_RAD: f64 = 1e-6;
+
+/// How a detour seed was made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SeedKind {
+    /// Tracked from the start pose forwards in time, equal joint weights.
+    Forward,
+    /// Tracked forwards, the first joint held close to the unobstructed swing (the distal links fold).
+    ForwardFold,
+    /// Tracked from the unobstructed swing's final pose backwards in time, equal joint weights.
+    Backward,
+    /// Tracked backwards, the first joint held close.
+    BackwardFold,
+}
+
+/// One detour seed: its kind, its score (lower first) and, once tried, whether the plan from it
+/// converged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SeedReport {
+    /// How the seed was made.
+    pub kind: SeedKind,
+    /// Mean squared deviation from the unobstructed knots plus the squared mismatch at the two ends
+    /// (the start pose and the unobstructed final pose), rad^2.
+    pub score: f64,
+    /// Smallest clearance row of the seed's knots (surface distance minus the planner's
+    /// required clearance), m; >= [`EXTRA_CLEARANCE`] minus the barrier's slack.
+    pub min_clearance_m: f64,
+    /// Whether the plan from this seed converged (`None`: not tried).
+    pub converged: Option<bool>,
+}
+
+/// Dense Cholesky solve of `h x = b` in place (`h` n x n row-major, symmetric positive definite);
+/// false when a pivot is not positive.
+fn cholesky_solve(h: &mut [f64], b: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        let mut d = h[j * n + j];
+        for k in 0..j {
+            d -= h[j * n + k] * h[j * n + k];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return false;
+        }
+        let d = d.sqrt();
+        h[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = h[i * n + j];
+            for k in 0..j {
+                s -= h[i * n + k] * h[j * n + k];
+            }
+            h[i * n + j] = s / d;
+        }
+    }
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= h[i * n + k] * b[k];
+        }
+        b[i] = s / h[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= h[k * n + i] * b[k];
+        }
+        b[i] = s / h[i * n + i];
+    }
+    true
+}
+
+/// The barrier tracker: the clearance rows, their derivatives and the joint bounds.
+struct Tracker<'a> {
+    rows: DistanceClearanceFn<'a>,
+    diff: Diff<DistanceClearanceFn<'a>>,
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+    g: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+impl<'a> Tracker<'a> {
+    fn new(rows: DistanceClearanceFn<'a>, lo: Vec<f64>, hi: Vec<f64>) -> Self {
+        let (m, n) = (rows.n_out(), rows.n_in());
+        Tracker {
+            diff: Diff::new(&rows),
+            rows,
+            lo,
+            hi,
+            g: vec![0.0; m],
+            jac: vec![0.0; m * n],
+        }
+    }
+
+    /// `phi(q)` for target `qt` and weights `w`; `None` outside the barrier's domain.
+    fn phi(&mut self, q: &[f64], qt: &[f64], w: &[f64]) -> Option<f64> {
+        self.diff.value(&self.rows, q, &mut self.g);
+        let mut v = 0.0;
+        for (i, qi) in q.iter().enumerate() {
+            let (s_lo, s_hi) = (qi - self.lo[i], self.hi[i] - qi);
+            if s_lo <= 0.0 || s_hi <= 0.0 {
+                return None;
+            }
+            v += 0.5 * w[i] * (qi - qt[i]).powi(2) - MU * (s_lo.ln() + s_hi.ln());
+        }
+        for g in &self.g {
+            if *g <= 0.0 {
+                return None;
+            }
+            v -= MU * g.ln();
+        }
+        Some(v)
+    }
+
+    /// Move `q` (inside the domain) to the barrier minimiser near it for target `qt`.
+    fn settle(&mut self, q: &mut [f64], qt: &[f64], w: &[f64]) {
+        let n = q.len();
+        let m = self.g.len();
+        let (mut grad, mut h, mut trial) = (vec![0.0; n], vec![0.0; n * n], vec![0.0; n]);
+        for _ in 0..ITERS_PER_KNOT {
+            let Some(p0) = self.phi(q, qt, w) else {
+                return;
+            };
+            self.diff
+                .jacobian(&self.rows, q, &mut self.g, &mut self.jac);
+            h.iter_mut().for_each(|v| *v = 0.0);
+            for i in 0..n {
+                let (s_lo, s_hi) = (q[i] - self.lo[i], self.hi[i] - q[i]);
+                grad[i] = w[i] * (q[i] - qt[i]) - MU / s_lo + MU / s_hi;
+                h[i * n + i] = w[i] + MU / (s_lo * s_lo) + MU / (s_hi * s_hi);
+            }
+            for r in 0..m {
+                let (g, jr) = (self.g[r], &self.jac[r * n..(r + 1) * n]);
+                let c = MU / (g * g);
+                for i in 0..n {
+                    grad[i] -= MU / g * jr[i];
+                    for j in 0..n {
+                        h[i * n + j] += c * jr[i] * jr[j];
+                    }
+                }
+            }
+            let gnorm = grad.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            if gnorm < 1e-9 {
+                return;
+            }
+            let mut step: Vec<f64> = grad.iter().map(|v| -v).collect();
+            if !cholesky_solve(&mut h, &mut step, n) {
+                return;
+            }
+            let big = step.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            if big > MAX_STEP {
+                step.iter_mut().for_each(|v| *v *= MAX_STEP / big);
+            }
+            let slope: f64 = grad.iter().zip(&step).map(|(a, b)| a * b).sum();
+            let mut alpha = 1.0;
+            let mut moved = false;
+            while alpha > 1e-6 {
+                for i in 0..n {
+                    trial[i] = q[i] + alpha * step[i];
+                }
+                if let Some(p1) = self.phi(&trial, qt, w) {
+                    if p1 <= p0 + 1e-4 * alpha * slope {
+                        q.copy_from_slice(&trial);
+                        moved = true;
+                        break;
+                    }
+                }
+                alpha *= 0.5;
+            }
+            if !moved {
+                return;
+            }
+        }
+    }
+}
+
+/// The detour seeds of the obstacle-free plan `free` (its knots; `q0` its start pose) against
+/// `obstacles`, in the order to try them (forward-fold, forward, backward-fold, backward), each with
+/// the guess trajectory to plan from. Seeds whose start
+/// (forward) or final (backward) pose is inside the barrier's domain only; none when neither is. Seeds
+/// that tracked the same path (to [`SAME_PATH_RAD`]) as an earlier one are dropped.
+pub fn detour_seeds(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+) -> Result<Vec<(SeedReport, Trajectory)>> {
+    let n = robot.n;
+    let len = free.len();
+    let mut out = vec![];
+    if len < 2 || obstacles.is_empty() {
+        return Ok(out);
+    }
+    let cf = ClearanceFn::new(robot, obstacles, settings.obstacle_margin + EXTRA_CLEARANCE)?
+        .with_self_collision(true);
+    let b = &settings.bounds;
+    let mut lo = vec![-b.q_rel_max; n];
+    let mut hi = vec![b.q_rel_max; n];
+    (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
+    // the bounds' own slack for the barrier: the start pose may sit on a bound
+    for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
+        *l -= 1e-3;
+        *h += 1e-3;
+    }
+    let mut tr = Tracker::new(DistanceClearanceFn::new(cf), lo, hi);
+    let plain = vec![1.0; n];
+    let mut fold = vec![1.0; n];
+    fold[0] = HOLD_WEIGHT;
+    let margin = settings.obstacle_margin;
+    let check = ClearanceFn::new(robot, obstacles, margin)?.with_self_collision(true);
+    for kind in [
+        SeedKind::Forward,
+        SeedKind::ForwardFold,
+        SeedKind::Backward,
+        SeedKind::BackwardFold,
+    ] {
+        let w = match kind {
+            SeedKind::Forward | SeedKind::Backward => &plain,
+            SeedKind::ForwardFold | SeedKind::BackwardFold => &fold,
+        };
+        let backward = matches!(kind, SeedKind::Backward | SeedKind::BackwardFold);
+        let order: Vec<usize> = if backward {
+            (0..len).rev().collect()
+        } else {
+            (0..len).collect()
+        };
+        let mut q = free.q(order[0]).to_vec();
+        if tr.phi(&q, &q.clone(), w).is_none() {
+            continue;
+        }
+        let mut path = vec![0.0; len * n];
+        for &k in &order {
+            tr.settle(&mut q, free.q(k), w);
+            path[k * n..(k + 1) * n].copy_from_slice(&q);
+        }
+        let dev = |k: usize| -> f64 {
+            (0..n)
+                .map(|i| (path[k * n + i] - free.q[k * n + i]).powi(2))
+                .sum()
+        };
+        let score = (0..len).map(dev).sum::<f64>() / len as f64 + dev(0) + dev(len - 1);
+        let min_clearance_m = (0..len)
+            .map(|k| check.min_clearance(&path[k * n..(k + 1) * n]) - margin)
+            .fold(f64::INFINITY, f64::min);
+        let mut g = Trajectory::new(n);
+        for k in 0..len {
+            let (a, c) = (k.saturating_sub(1), (k + 1).min(len - 1));
+            let dt = free.t[c] - free.t[a];
+            let qd: Vec<f64> = (0..n)
+                .map(|i| {
+                    let da = path[a * n + i] - free.q[a * n + i];
+                    let dc = path[c * n + i] - free.q[c * n + i];
+                    free.qd[k * n + i] + (dc - da) / dt
+                })
+                .collect();
+            g.push(free.t[k], &path[k * n..(k + 1) * n], &qd, free.tau(k));
+        }
+        out.push((
+            SeedReport {
+                kind,
+                score,
+                min_clearance_m,
+                converged: None,
+            },
+            g,
+        ));
+    }
+    // a fixed order, measured (docs/planner.md, "The scan"): the forward seeds first (they start at
+    // the start pose), the folding one before the plain one; the score did not predict the winner
+    let rank = |k: SeedKind| match k {
+        SeedKind::ForwardFold => 0,
+        SeedKind::Forward => 1,
+        SeedKind::BackwardFold => 2,
+        SeedKind::Backward => 3,
+    };
+    out.sort_by_key(|(r, _)| rank(r.kind));
+    // a seed that tracked the same path as an earlier one (the obstacle never touched the weighted
+    // joints' choice) is not worth a solve
+    let mut kept: Vec<(SeedReport, Trajectory)> = Vec::with_capacity(out.len());
+    for (r, g) in out {
+        let same = kept.iter().any(|(_, h)| {
+            g.q.iter()
+                .zip(&h.q)
+                .all(|(a, b)| (a - b).abs() <= SAME_PATH_RAD)
+        });
+        if !same {
+            kept.push((r, g));
+        }
+    }
+    Ok(kept)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cholesky_solve;
+
+    #[test]
+    fn cholesky_solves_a_known_system_and_refuses_an_indefinite_one() {
+        // h = [[4, 2, 0], [2, 3, 1], [0, 1, 2]], x = [1, -2, 3] -> b = h x
+        let h = [4.0, 2.0, 0.0, 2.0, 3.0, 1.0, 0.0, 1.0, 2.0];
+        let mut b = [0.0, -1.0, 4.0];
+        let mut hh = h;
+        assert!(cholesky_solve(&mut hh, &mut b, 3));
+        for (got, want) in b.iter().zip([1.0, -2.0, 3.0]) {
+            assert!((got - want).abs() < 1e-12, "{b:?}");
+        }
+        let mut bad = [1.0, 2.0, 2.0, 1.0];
+        assert!(!cholesky_solve(&mut bad, &mut [1.0, 1.0], 2));
+    }
+}
