@@ -55,7 +55,7 @@ fn mpc_control_step_does_not_allocate() {
                 let mut x0 = start_state();
                 x0[1] += 0.05;
                 let mut plant = ModelPlant::new(robot.clone(), &x0);
-                let mut mpc = Mpc::new(&robot, &tr, settings).unwrap();
+                let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
                 let mut x = vec![0.0; 8];
                 let mut tau = vec![0.0; 3];
                 let mut counted = 0;

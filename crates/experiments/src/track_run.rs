@@ -72,16 +72,17 @@ impl PlantWorld {
 }
 
 /// Build the controller of `kind` for `reference`.
-pub fn make_controller<'a>(
+pub fn make_controller(
     kind: ControllerKind,
-    ls: &'a LoadedScenario,
-    reference: &'a Trajectory,
-) -> Result<Box<dyn Controller + 'a>, Error> {
+    ls: &LoadedScenario,
+    reference: &Trajectory,
+) -> Result<Box<dyn Controller>, Error> {
     let t = &ls.scenario.tracking;
+    let (robot, reference) = (ls.robot.clone(), reference.clone());
     Ok(match kind {
-        ControllerKind::Mpc => Box::new(Mpc::new(&ls.robot, reference, t.mpc.clone())?),
-        ControllerKind::Pd => Box::new(Pd::new(&ls.robot, reference, t.pd.clone())?),
-        ControllerKind::OpenLoop => Box::new(OpenLoop::new(&ls.robot, reference)?),
+        ControllerKind::Mpc => Box::new(Mpc::new(robot, reference, t.mpc.clone())?),
+        ControllerKind::Pd => Box::new(Pd::new(robot, reference, t.pd.clone())?),
+        ControllerKind::OpenLoop => Box::new(OpenLoop::new(robot, reference)?),
     })
 }
 
