@@ -4,9 +4,9 @@
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute, the rest relative), torques of
 //! joints 2..n in N m, clamped to the robot's limits.
 
+use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::Robot;
-use crate::sim::{ControlInfo, Controller};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -64,6 +64,9 @@ impl Controller for OpenLoop {
     }
     fn name(&self) -> &'static str {
         "open-loop"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        OpenLoop::set_reference(self, reference)
     }
 }
 
@@ -223,5 +226,8 @@ impl Controller for Pd {
     }
     fn name(&self) -> &'static str {
         "pd"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        Pd::set_reference(self, reference)
     }
 }

@@ -23,9 +23,9 @@
 //! control step does not allocate.
 
 use super::boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
+use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::{LinearModel, Linearizer, Robot};
-use crate::sim::{ControlInfo, Controller};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -992,5 +992,8 @@ impl Controller for Mpc {
 
     fn name(&self) -> &'static str {
         "mpc"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        Mpc::set_reference(self, reference)
     }
 }
