@@ -42,7 +42,7 @@ fn mpc_qps() -> QpSequence {
     x0[1] += 0.1;
     x0[2] -= 0.1;
     let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut mpc = Mpc::new(&robot, &tr, MpcSettings::default()).unwrap();
+    let mut mpc = Mpc::new(robot.clone(), tr.clone(), MpcSettings::default()).unwrap();
     let mut out = Vec::new();
     let (mut x, mut tau) = (vec![0.0; 8], vec![0.0; 3]);
     for _ in 0..300 {

@@ -16,7 +16,7 @@ fn states(robot: &brachia::Robot, tr: &brachia::trajectory::Trajectory) -> Vec<(
     x0[1] += 0.1;
     x0[2] -= 0.1;
     let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut mpc = Mpc::new(robot, tr, MpcSettings::default()).unwrap();
+    let mut mpc = Mpc::new(robot.clone(), tr.clone(), MpcSettings::default()).unwrap();
     let (mut x, mut tau) = (vec![0.0; 8], vec![0.0; 3]);
     let mut out = Vec::new();
     for _ in 0..1500 {
@@ -50,7 +50,7 @@ fn bench(c: &mut Criterion) {
         ),
     ];
     for (name, settings) in variants {
-        let mut mpc = Mpc::new(&robot, &tr, settings).unwrap();
+        let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
         let mut tau = vec![0.0; 3];
         // Manual percentiles over 3 passes of the run.
         let mut us = Vec::with_capacity(3 * xs.len());

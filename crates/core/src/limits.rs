@@ -44,6 +44,10 @@ pub const MAX_RUN_DURATION_S: f64 = 600.0;
 /// Most control steps of one closed-loop run (`duration / control_dt`): 600 000 (600 s at 1 kHz).
 pub const MAX_RUN_STEPS: usize = 600_000;
 
+/// Largest sensor-noise standard deviation of [`crate::sim::NoiseSettings`] (rad for angles, rad/s
+/// for rates; `[tracking] noise_q_std`, `noise_qd_std`).
+pub const MAX_NOISE_STD: f64 = 10.0;
+
 /// Longest hold after a planned swing (`[tracking] hold_s`), s.
 pub const MAX_HOLD_S: f64 = 60.0;
 

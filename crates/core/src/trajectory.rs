@@ -122,6 +122,56 @@ impl Trajectory {
         }
     }
 
+    /// Planned torque at time `t` (linear interpolation, held past the ends), written into `out`
+    /// (n - 1 values, N m). The one torque interpolation of the controllers and the runner.
+    pub fn tau_at(&self, t: f64, out: &mut [f64]) {
+        let nu = self.n - 1;
+        let (k, r) = self.locate(t);
+        let k1 = (k + 1).min(self.len() - 1);
+        for j in 0..nu {
+            let a = self.tau[k * nu + j];
+            let b = self.tau[k1 * nu + j];
+            out[j] = a + r * (b - a);
+        }
+    }
+
+    /// Check that this trajectory can be tracked by `robot`: the same number of links, at least one
+    /// sample, and the `q`, `qd`, `tau` arrays sized for `len` samples (its fields are public, so a
+    /// hand-built value may be inconsistent). Every controller and the runner call this on their
+    /// reference.
+    pub fn check_reference(&self, robot: &Robot) -> Result<()> {
+        if self.n != robot.n {
+            return Err(Error::Dimension {
+                what: "reference links".into(),
+                expected: robot.n,
+                got: self.n,
+            });
+        }
+        if self.is_empty() {
+            return Err(Error::invalid(
+                "reference",
+                "len",
+                0,
+                "the reference needs at least one sample",
+            ));
+        }
+        let len = self.len();
+        for (what, expected, got) in [
+            ("reference q values", len * self.n, self.q.len()),
+            ("reference qd values", len * self.n, self.qd.len()),
+            ("reference tau values", len * (self.n - 1), self.tau.len()),
+        ] {
+            if got != expected {
+                return Err(Error::Dimension {
+                    what: what.into(),
+                    expected,
+                    got,
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Segment index and fraction for time `t` (clamped).
     pub fn locate(&self, t: f64) -> (usize, f64) {
         let len = self.len();

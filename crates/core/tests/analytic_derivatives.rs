@@ -297,7 +297,7 @@ fn mpc_linearisation_equals_the_ad_jacobian() {
         let (nx, nu, nz) = (2 * n, n - 1, 3 * n - 1);
         let f = DynamicsFn { robot: &robot };
         let mut diff = Diff::new(&f);
-        let mut lin = Linearizer::new(&robot);
+        let mut lin = Linearizer::new(robot.clone());
         let mut lm = LinearModel::zeros(n);
         for z in zs {
             lin.linearize_into(&z[..nx], &z[nx..], &mut lm);

@@ -155,7 +155,7 @@ fn unconstrained_mpc_equals_lqr_euler() {
         prediction: Prediction::Model,
         ..MpcSettings::default()
     };
-    let mut mpc = Mpc::new(&robot, &tr, settings.clone()).unwrap();
+    let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings.clone()).unwrap();
     let (nx, nu) = (robot.nx(), robot.nu());
     for &t in &[0.0, 0.41, 1.3] {
         mpc.reset();
@@ -167,7 +167,7 @@ fn unconstrained_mpc_equals_lqr_euler() {
         assert_eq!(info.active, 0, "bounds must not bind in this test");
 
         // Independent model: linearise at (x0, planned torque at t) as the MPC does on a cold call.
-        let mut lin = Linearizer::new(&robot);
+        let mut lin = Linearizer::new(robot.clone());
         let mut lm = LinearModel::zeros(robot.n);
         let u_lin: Vec<f64> = planned_tau(&tr, t).iter().copied().collect();
         lin.linearize_into(&x0, &u_lin, &mut lm);
@@ -214,7 +214,7 @@ fn unconstrained_mpc_equals_lqr_zoh_ltv() {
         horizon: 15,
         ..MpcSettings::default()
     };
-    let mut mpc = Mpc::new(&robot, &tr, settings.clone()).unwrap();
+    let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings.clone()).unwrap();
     let (nx, nu) = (robot.nx(), robot.nu());
     let t = 0.7;
     let x0 = perturbed(&tr, t);
@@ -223,7 +223,7 @@ fn unconstrained_mpc_equals_lqr_zoh_ltv() {
     assert_eq!(mpc.last_qp_info().unwrap().active, 0);
 
     // ZOH check: exp(dt [A B F; 0 0 0]).
-    let mut lin = Linearizer::new(&robot);
+    let mut lin = Linearizer::new(robot.clone());
     let mut lm = LinearModel::zeros(robot.n);
     let u_lin: Vec<f64> = planned_tau(&tr, t).iter().copied().collect();
     lin.linearize_into(&x0, &u_lin, &mut lm);
@@ -295,7 +295,7 @@ fn ee_error(log: &ClosedLoopLog) -> f64 {
 
 fn run_mpc(robot: &Robot, tr: &Trajectory, x0: &[f64], settings: MpcSettings) -> ClosedLoopLog {
     let mut plant = ModelPlant::new(robot.clone(), x0);
-    let mut mpc = Mpc::new(robot, tr, settings).unwrap();
+    let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
     let rs = RunSettings {
         duration_s: 1.5,
         ..RunSettings::default()
@@ -330,7 +330,7 @@ fn mpc_tracks_a_feasible_reference() {
 
     // Open loop from the perturbed start drifts much further.
     let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut ol = OpenLoop::new(&robot, &tr).unwrap();
+    let mut ol = OpenLoop::new(robot.clone(), tr.clone()).unwrap();
     let log_ol =
         run_closed_loop(&mut plant, &mut ol, &tr, &robot, &RunSettings::default()).unwrap();
     assert!(ee_error(&log_ol) > 5.0 * sp.ee_final_error_m);
@@ -342,7 +342,7 @@ fn open_loop_replay_reproduces_the_reference() {
     let robot = paper_robot(5.0);
     let tr = model_reference(&robot, &start_state(), 1.5);
     let mut plant = ModelPlant::new(robot.clone(), &start_state());
-    let mut ol = OpenLoop::new(&robot, &tr).unwrap();
+    let mut ol = OpenLoop::new(robot.clone(), tr.clone()).unwrap();
     let log = run_closed_loop(&mut plant, &mut ol, &tr, &robot, &RunSettings::default()).unwrap();
     assert_eq!(log.len(), tr.len());
     let mut worst: f64 = 0.0;
@@ -388,10 +388,10 @@ fn pd_corrects_actuated_joint_errors() {
             .fold(0.0, f64::max)
     };
     let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut ol = OpenLoop::new(&robot, &tr).unwrap();
+    let mut ol = OpenLoop::new(robot.clone(), tr.clone()).unwrap();
     let log_ol = run_closed_loop(&mut plant, &mut ol, &tr, &robot, &rs).unwrap();
     let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut pd = Pd::new(&robot, &tr, PdSettings::default()).unwrap();
+    let mut pd = Pd::new(robot.clone(), tr.clone(), PdSettings::default()).unwrap();
     let log_pd = run_closed_loop(&mut plant, &mut pd, &tr, &robot, &rs).unwrap();
     assert!(act_err(&log_pd) < 0.5 * act_err(&log_ol));
     assert!(pd.name() == "pd" && log_pd.controller == "pd");
@@ -540,7 +540,7 @@ fn report_mpc_variants() {
             );
         }
         let mut plant = ModelPlant::new(robot.clone(), &xs);
-        let mut pd = Pd::new(&robot, &tr, PdSettings::default()).unwrap();
+        let mut pd = Pd::new(robot.clone(), tr.clone(), PdSettings::default()).unwrap();
         let m = run_closed_loop(&mut plant, &mut pd, &tr, &robot, &RunSettings::default())
             .unwrap()
             .summary();
@@ -549,7 +549,7 @@ fn report_mpc_variants() {
             m.ee_final_error_m, m.ee_error_max_m, m.joint_rms_error_rad
         );
         let mut plant = ModelPlant::new(robot.clone(), &xs);
-        let mut ol = OpenLoop::new(&robot, &tr).unwrap();
+        let mut ol = OpenLoop::new(robot.clone(), tr.clone()).unwrap();
         let m = run_closed_loop(&mut plant, &mut ol, &tr, &robot, &RunSettings::default())
             .unwrap()
             .summary();

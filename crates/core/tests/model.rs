@@ -291,7 +291,7 @@ fn linearization_matches_finite_differences_of_f() {
     for robot in robots() {
         let n = robot.n;
         let (nx, nu) = (2 * n, n - 1);
-        let mut lin = Linearizer::new(&robot);
+        let mut lin = Linearizer::new(robot.clone());
         let mut model = LinearModel::zeros(n);
         for _ in 0..10 {
             let (q, qd, tau) = random_state(&mut rng, n);

@@ -11,22 +11,19 @@ use brachia::control::{Discretization, Linearization, Mpc, MpcSettings, TorqueRe
 use brachia::sim::{Controller, ModelPlant, Plant};
 use common::*;
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 struct Counting;
 
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
-
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        let _ = MINE.try_with(|c| c.set(c.get() + 1));
         System.alloc(layout)
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
         System.dealloc(ptr, layout)
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::SeqCst);
+        let _ = MINE.try_with(|c| c.set(c.get() + 1));
         System.realloc(ptr, layout, new_size)
     }
 }
@@ -34,12 +31,22 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
+thread_local! {
+    /// Allocations made by this thread (the harness runs tests in threads of their own).
+    static MINE: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Allocations made so far by the calling thread.
+fn allocs() -> usize {
+    MINE.with(|c| c.get())
+}
+
 #[test]
 fn mpc_control_step_does_not_allocate() {
     // The counter sees allocations at all.
-    let before = ALLOCS.load(Ordering::SeqCst);
+    let before = allocs();
     let v = std::hint::black_box(vec![1u8; 16]);
-    assert!(ALLOCS.load(Ordering::SeqCst) > before && v.len() == 16);
+    assert!(allocs() > before && v.len() == 16);
 
     let robot = paper_robot(5.0);
     let tr = model_reference(&robot, &start_state(), 0.5);
@@ -55,16 +62,16 @@ fn mpc_control_step_does_not_allocate() {
                 let mut x0 = start_state();
                 x0[1] += 0.05;
                 let mut plant = ModelPlant::new(robot.clone(), &x0);
-                let mut mpc = Mpc::new(&robot, &tr, settings).unwrap();
+                let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
                 let mut x = vec![0.0; 8];
                 let mut tau = vec![0.0; 3];
                 let mut counted = 0;
                 for _ in 0..200 {
                     plant.state(&mut x);
                     let t = plant.time();
-                    let before = ALLOCS.load(Ordering::SeqCst);
+                    let before = allocs();
                     mpc.control(t, &x, &mut tau);
-                    counted += ALLOCS.load(Ordering::SeqCst) - before;
+                    counted += allocs() - before;
                     plant.step(&tau, 1e-3);
                 }
                 assert_eq!(
@@ -76,4 +83,42 @@ fn mpc_control_step_does_not_allocate() {
             }
         }
     }
+}
+
+/// A [`ClosedLoop::step`] of the MPC on a noisy model plant does not allocate either (the log is
+/// reserved at construction), and swapping the plan with an `Arc` between steps does not allocate.
+#[test]
+fn closed_loop_step_and_set_reference_do_not_allocate() {
+    use brachia::sim::{ClosedLoop, NoiseSettings, Noisy, RunSettings};
+    use std::sync::Arc;
+    let robot = Arc::new(paper_robot(5.0));
+    let tr = Arc::new(model_reference(&robot, &start_state(), 0.5));
+    let plant = Noisy::new(
+        ModelPlant::new(Arc::clone(&robot), &start_state()),
+        NoiseSettings {
+            q_std: 1e-3,
+            qd_std: 1e-2,
+            seed: 1,
+        },
+    )
+    .unwrap();
+    let mpc = Mpc::new(Arc::clone(&robot), Arc::clone(&tr), MpcSettings::default()).unwrap();
+    let rs = RunSettings {
+        duration_s: 0.2,
+        ..RunSettings::default()
+    };
+    let mut cl = ClosedLoop::new(plant, mpc, Arc::clone(&robot), Arc::clone(&tr), &rs).unwrap();
+    let before = allocs();
+    let mut steps = 0;
+    while cl.step().is_some() {
+        steps += 1;
+        if steps == 100 {
+            cl.set_reference(Arc::clone(&tr)).unwrap();
+        }
+    }
+    let counted = allocs() - before;
+    assert_eq!(steps, 200);
+    assert_eq!(counted, 0, "allocations in ClosedLoop::step");
+    let log = cl.finish();
+    assert_eq!(log.len(), 201);
 }

@@ -13,7 +13,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
 use brachia::control::{Mpc, OpenLoop, Pd};
 use brachia::sim::{
-    run_closed_loop, ClosedLoopLog, Controller, ModelPlant, Plant, RunSettings, RunSummary,
+    run_closed_loop, ClosedLoopLog, Controller, ModelPlant, NoiseSettings, Noisy, Plant,
+    RunSettings, RunSummary,
 };
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
@@ -72,16 +73,17 @@ impl PlantWorld {
 }
 
 /// Build the controller of `kind` for `reference`.
-pub fn make_controller<'a>(
+pub fn make_controller(
     kind: ControllerKind,
-    ls: &'a LoadedScenario,
-    reference: &'a Trajectory,
-) -> Result<Box<dyn Controller + 'a>, Error> {
+    ls: &LoadedScenario,
+    reference: &Trajectory,
+) -> Result<Box<dyn Controller>, Error> {
     let t = &ls.scenario.tracking;
+    let (robot, reference) = (ls.robot.clone(), reference.clone());
     Ok(match kind {
-        ControllerKind::Mpc => Box::new(Mpc::new(&ls.robot, reference, t.mpc.clone())?),
-        ControllerKind::Pd => Box::new(Pd::new(&ls.robot, reference, t.pd.clone())?),
-        ControllerKind::OpenLoop => Box::new(OpenLoop::new(&ls.robot, reference)?),
+        ControllerKind::Mpc => Box::new(Mpc::new(robot, reference, t.mpc.clone())?),
+        ControllerKind::Pd => Box::new(Pd::new(robot, reference, t.pd.clone())?),
+        ControllerKind::OpenLoop => Box::new(OpenLoop::new(robot, reference)?),
     })
 }
 
@@ -190,11 +192,18 @@ pub fn track_plan(
     let settings = RunSettings {
         duration_s: reference.duration() + sc.tracking.hold_s,
         control_dt: sc.tracking.control_dt,
-        noise_q_std: sc.tracking.noise_q_std,
-        noise_qd_std: sc.tracking.noise_qd_std,
+    };
+    let noise = NoiseSettings {
+        q_std: sc.tracking.noise_q_std,
+        qd_std: sc.tracking.noise_qd_std,
         seed: sc.tracking.seed,
     };
-    let log = run_closed_loop(plant_ref, ctrl.as_mut(), &reference, &ls.robot, &settings)?;
+    let log = if noise.is_zero() {
+        run_closed_loop(plant_ref, ctrl.as_mut(), &reference, &ls.robot, &settings)?
+    } else {
+        let mut noisy = Noisy::new(&mut *plant_ref, noise)?;
+        run_closed_loop(&mut noisy, ctrl.as_mut(), &reference, &ls.robot, &settings)?
+    };
     let (controller_name, plant_name) = (ctrl.name(), plant_ref.name());
     drop(ctrl);
     if let Some(p) = &rapier {

@@ -4,63 +4,59 @@
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute, the rest relative), torques of
 //! joints 2..n in N m, clamped to the robot's limits.
 
+use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::Robot;
-use crate::sim::{ControlInfo, Controller};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
-/// Planned torque of `reference` at time `t` (linear interpolation, held past the ends) into `out`.
-fn planned_tau(reference: &Trajectory, t: f64, out: &mut [f64]) {
-    let nu = reference.n - 1;
-    let (k, r) = reference.locate(t);
-    let k1 = (k + 1).min(reference.len() - 1);
-    for j in 0..nu {
-        let a = reference.tau[k * nu + j];
-        let b = reference.tau[k1 * nu + j];
-        out[j] = a + r * (b - a);
-    }
-}
-
-fn check_reference(robot: &Robot, reference: &Trajectory) -> Result<()> {
-    if reference.n != robot.n {
-        return Err(Error::Dimension {
-            what: "reference links".into(),
-            expected: robot.n,
-            got: reference.n,
-        });
-    }
-    if reference.is_empty() {
-        return Err(Error::invalid(
-            "reference",
-            "len",
-            0,
-            "the reference needs at least one sample",
-        ));
-    }
-    Ok(())
-}
-
-/// Replays the planned torques of a reference, ignoring the measured state.
+/// Replays the planned torques of a reference, ignoring the measured state. Owns shared handles to
+/// its robot and reference; [`OpenLoop::set_reference`] swaps the plan.
 #[derive(Debug, Clone)]
-pub struct OpenLoop<'a> {
-    robot: &'a Robot,
-    reference: &'a Trajectory,
+pub struct OpenLoop {
+    robot: Arc<Robot>,
+    reference: Arc<Trajectory>,
 }
 
-impl<'a> OpenLoop<'a> {
-    /// Replay `reference.tau` (linearly interpolated in time, held after the end).
-    pub fn new(robot: &'a Robot, reference: &'a Trajectory) -> Result<Self> {
-        check_reference(robot, reference)?;
+impl OpenLoop {
+    /// Replay `reference.tau` (linearly interpolated in time, held after the end). `robot` and
+    /// `reference` may be owned values or `Arc`s shared with other users.
+    pub fn new(
+        robot: impl Into<Arc<Robot>>,
+        reference: impl Into<Arc<Trajectory>>,
+    ) -> Result<Self> {
+        let (robot, reference) = (robot.into(), reference.into());
+        reference.check_reference(&robot)?;
         Ok(OpenLoop { robot, reference })
     }
+
+    /// Replay another plan from the next call on (checked like in [`OpenLoop::new`]; on error the
+    /// current plan is kept). Passing an `Arc` does not allocate; an owned `Trajectory` is moved into
+    /// one new `Arc`.
+    pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
+        let reference = reference.into();
+        reference.check_reference(&self.robot)?;
+        self.reference = reference;
+        Ok(())
+    }
+
+    /// The plan being replayed.
+    pub fn reference(&self) -> &Arc<Trajectory> {
+        &self.reference
+    }
+
+    /// The robot controlled.
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.robot
+    }
 }
 
-impl Controller for OpenLoop<'_> {
+impl Controller for OpenLoop {
     fn control(&mut self, t: f64, _x: &[f64], tau: &mut [f64]) -> ControlInfo {
         let nu = self.robot.nu();
         let mut tmp = [0.0; crate::model::MAX_LINKS];
-        planned_tau(self.reference, t, &mut tmp[..nu]);
+        self.reference.tau_at(t, &mut tmp[..nu]);
         for (j, o) in tau.iter_mut().enumerate().take(nu) {
             *o = tmp[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
         }
@@ -68,6 +64,9 @@ impl Controller for OpenLoop<'_> {
     }
     fn name(&self) -> &'static str {
         "open-loop"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        OpenLoop::set_reference(self, reference)
     }
 }
 
@@ -152,35 +151,66 @@ impl PdSettings {
 
 /// `tau_j = tau^d_j + kp_j (q^d_{j+1} - q_{j+1}) + kd_j (qd^d_{j+1} - qd_{j+1})` on the actuated joints
 /// (the passive joint 1 is not fed back), clamped to the limits.
+/// Owns shared handles to its robot and reference; [`Pd::set_reference`] swaps the plan.
 #[derive(Debug, Clone)]
-pub struct Pd<'a> {
-    robot: &'a Robot,
-    reference: &'a Trajectory,
+pub struct Pd {
+    robot: Arc<Robot>,
+    reference: Arc<Trajectory>,
     settings: PdSettings,
     xref: Vec<f64>,
 }
 
-impl<'a> Pd<'a> {
-    /// A PD tracker of `reference`.
-    pub fn new(robot: &'a Robot, reference: &'a Trajectory, settings: PdSettings) -> Result<Self> {
-        check_reference(robot, reference)?;
+impl Pd {
+    /// A PD tracker of `reference`. `robot` and `reference` may be owned values or shared `Arc`s.
+    pub fn new(
+        robot: impl Into<Arc<Robot>>,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: PdSettings,
+    ) -> Result<Self> {
+        let (robot, reference) = (robot.into(), reference.into());
+        reference.check_reference(&robot)?;
         settings.validate(robot.n)?;
         Ok(Pd {
-            robot,
-            reference,
             settings: settings.resolved(robot.n),
             xref: vec![0.0; robot.nx()],
+            robot,
+            reference,
         })
+    }
+
+    /// Track another plan from the next call on (checked like in [`Pd::new`]; on error the current
+    /// plan is kept). Passing an `Arc` does not allocate; an owned `Trajectory` is moved into one new
+    /// `Arc`.
+    pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
+        let reference = reference.into();
+        reference.check_reference(&self.robot)?;
+        self.reference = reference;
+        Ok(())
+    }
+
+    /// The plan being tracked.
+    pub fn reference(&self) -> &Arc<Trajectory> {
+        &self.reference
+    }
+
+    /// The robot controlled.
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.robot
+    }
+
+    /// The gains in use (empty gains of the settings filled with the per-link defaults).
+    pub fn settings(&self) -> &PdSettings {
+        &self.settings
     }
 }
 
-impl Controller for Pd<'_> {
+impl Controller for Pd {
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
         let n = self.robot.n;
         let nu = n - 1;
         let mut ff = [0.0; crate::model::MAX_LINKS];
         if self.settings.feedforward {
-            planned_tau(self.reference, t, &mut ff[..nu]);
+            self.reference.tau_at(t, &mut ff[..nu]);
         }
         self.reference.state_at(t, &mut self.xref);
         let valid = x.len() == 2 * n;
@@ -196,5 +226,8 @@ impl Controller for Pd<'_> {
     }
     fn name(&self) -> &'static str {
         "pd"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        Pd::set_reference(self, reference)
     }
 }

@@ -756,7 +756,7 @@ mod tests {
             plant.step(&tau, 1e-3);
         }
         // track it from a perturbed start and record every 25th QP
-        let mut mpc = Mpc::new(&robot, &reference, MpcSettings::default()).unwrap();
+        let mut mpc = Mpc::new(robot.clone(), reference.clone(), MpcSettings::default()).unwrap();
         let mut plant =
             ModelPlant::new(robot.clone(), &[-2.25, 0.1, -1.6, 0.05, 0.0, 0.0, 0.0, 0.0]);
         let (mut tau, mut checked, mut active) = ([0.0; 3], 0, 0);

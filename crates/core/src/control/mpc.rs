@@ -23,11 +23,12 @@
 //! control step does not allocate.
 
 use super::boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
+use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::{LinearModel, Linearizer, Robot};
-use crate::sim::{ControlInfo, Controller};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// How the continuous linear model is turned into a discrete one over `dt_mpc`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -347,12 +348,15 @@ pub struct StageModel<'m> {
     pub fy: &'m [f64],
 }
 
-/// The linear MPC controller; see the module docs. Borrows the robot and the reference.
-pub struct Mpc<'a> {
-    robot: &'a Robot,
-    reference: &'a Trajectory,
+/// The linear MPC controller; see the module docs. Owns shared handles to the robot and the reference
+/// (`Arc`), so it can be kept across calls, moved between threads and re-targeted with
+/// [`Mpc::set_reference`].
+#[derive(Debug, Clone)]
+pub struct Mpc {
+    robot: Arc<Robot>,
+    reference: Arc<Trajectory>,
     settings: MpcSettings,
-    lin: Linearizer<'a>,
+    lin: Linearizer,
     lm: LinearModel,
     expm: Expm,
     /// Number of distinct stage models (1 for `Measured`, N for `AlongReference`).
@@ -405,27 +409,20 @@ pub struct Mpc<'a> {
     last_qp: Option<BoxQpInfo>,
 }
 
-impl<'a> Mpc<'a> {
+impl Mpc {
     /// An MPC tracking `reference` (states and planned torques, any sampling; usually 1 ms) for `robot`.
-    pub fn new(robot: &'a Robot, reference: &'a Trajectory, settings: MpcSettings) -> Result<Self> {
+    /// `robot` and `reference` may be owned values or `Arc`s shared with other users. All buffers are
+    /// allocated here.
+    pub fn new(
+        robot: impl Into<Arc<Robot>>,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: MpcSettings,
+    ) -> Result<Self> {
+        let (robot, reference): (Arc<Robot>, Arc<Trajectory>) = (robot.into(), reference.into());
         let n = robot.n;
         settings.validate(n)?;
         let settings = settings.resolved(n);
-        if reference.n != n {
-            return Err(Error::Dimension {
-                what: "reference links".into(),
-                expected: n,
-                got: reference.n,
-            });
-        }
-        if reference.is_empty() {
-            return Err(Error::invalid(
-                "reference",
-                "len",
-                0,
-                "the reference needs at least one sample",
-            ));
-        }
+        reference.check_reference(&robot)?;
         let (nx, nu, hn) = (2 * n, n - 1, settings.horizon);
         let nu_all = hn * nu;
         let n_models = match settings.linearization {
@@ -445,9 +442,9 @@ impl<'a> Mpc<'a> {
         let mut qp = BoxQp::new(nu_all);
         qp.settings = settings.qp;
         Ok(Mpc {
+            lin: Linearizer::new(Arc::clone(&robot)),
             robot,
             reference,
-            lin: Linearizer::new(robot),
             lm: LinearModel::zeros(n),
             expm: Expm::new(nx + nu + 1, nx),
             n_models,
@@ -491,6 +488,30 @@ impl<'a> Mpc<'a> {
     /// The settings in use.
     pub fn settings(&self) -> &MpcSettings {
         &self.settings
+    }
+
+    /// Track another plan from the next call on, without rebuilding the controller: the reference is
+    /// checked like in [`Mpc::new`] (same number of links, at least one sample, consistent arrays; on
+    /// error the current plan is kept). The MPC's buffers are sized by the horizon, not by the
+    /// reference, so any length fits; passing an `Arc` does not allocate (an owned `Trajectory` is
+    /// moved into one new `Arc`). The warm start (the previous solution, shifted by the elapsed time)
+    /// and the last applied torque are kept, which suits a re-plan from the current state; call
+    /// [`Mpc::reset`] as well to start cold.
+    pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
+        let reference = reference.into();
+        reference.check_reference(&self.robot)?;
+        self.reference = reference;
+        Ok(())
+    }
+
+    /// The plan being tracked.
+    pub fn reference(&self) -> &Arc<Trajectory> {
+        &self.reference
+    }
+
+    /// The robot controlled.
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.robot
     }
 
     /// Forget the previous solution and the last applied torque (next call starts cold, linearising
@@ -550,15 +571,7 @@ impl<'a> Mpc<'a> {
 
     /// Planned torque at time t (linear interpolation, held past the ends), written into `out`.
     fn tau_at(&self, t: f64, out: &mut [f64]) {
-        let tr = self.reference;
-        let nu = tr.n - 1;
-        let (k, r) = tr.locate(t);
-        let k1 = (k + 1).min(tr.len() - 1);
-        for j in 0..nu {
-            let a = tr.tau[k * nu + j];
-            let b = tr.tau[k1 * nu + j];
-            out[j] = a + r * (b - a);
-        }
+        self.reference.tau_at(t, out);
     }
 
     /// Linearise at `(x, u)` and discretise into model slot `m`.
@@ -944,7 +957,7 @@ fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usiz
     }
 }
 
-impl Controller for Mpc<'_> {
+impl Controller for Mpc {
     /// One MPC step. A measured state of the wrong length or with NaNs yields the planned torque
     /// (clamped) and 0 iterations; a QP that does not reach `Solved` still returns a feasible input
     /// (see [`Mpc::last_qp_info`]).
@@ -979,5 +992,8 @@ impl Controller for Mpc<'_> {
 
     fn name(&self) -> &'static str {
         "mpc"
+    }
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        Mpc::set_reference(self, reference)
     }
 }

@@ -11,6 +11,7 @@
 use super::{DynamicsDerivatives, Robot, Scratch};
 use crate::ad::LocalFn;
 use crate::math::Scalar;
+use std::sync::Arc;
 
 /// Forward dynamics as a [`LocalFn`]: `z = [q (n), qd (n), tau (n-1)] -> qdd (n)`.
 #[derive(Debug, Clone, Copy)]
@@ -61,9 +62,11 @@ pub struct LinearModel {
 }
 
 /// Reusable evaluator of [`LinearModel`]s for one robot (analytic Jacobian of qdd): allocates at
-/// construction only.
-pub struct Linearizer<'a> {
-    robot: &'a Robot,
+/// construction only. Owns a shared handle to its robot (`Arc<Robot>`), so it can be kept across
+/// calls and moved between threads.
+#[derive(Debug, Clone)]
+pub struct Linearizer {
+    robot: Arc<Robot>,
     dd: DynamicsDerivatives,
     z: Vec<f64>,
     qdd: Vec<f64>,
@@ -71,18 +74,24 @@ pub struct Linearizer<'a> {
     jee: Vec<f64>,
 }
 
-impl<'a> Linearizer<'a> {
-    /// Buffers for `robot`.
-    pub fn new(robot: &'a Robot) -> Self {
+impl Linearizer {
+    /// Buffers for `robot` (a `Robot` or an `Arc<Robot>` shared with other users).
+    pub fn new(robot: impl Into<Arc<Robot>>) -> Self {
+        let robot: Arc<Robot> = robot.into();
         let n = robot.n;
         Linearizer {
-            robot,
-            dd: DynamicsDerivatives::new(robot),
+            dd: DynamicsDerivatives::new(&robot),
             z: vec![0.0; 3 * n - 1],
             qdd: vec![0.0; n],
             jac: vec![0.0; n * (3 * n - 1)],
             jee: vec![0.0; 2 * n],
+            robot,
         }
+    }
+
+    /// The robot linearised.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
     }
 
     /// Exact Jacobian of qdd with respect to `[q, qd, tau]`, row-major n x (3n-1), and qdd itself.
@@ -92,7 +101,7 @@ impl<'a> Linearizer<'a> {
         self.z[n..2 * n].copy_from_slice(qd);
         self.z[2 * n..].copy_from_slice(tau);
         self.dd
-            .jacobian(self.robot, &self.z, &mut self.qdd, &mut self.jac);
+            .jacobian(&self.robot, &self.z, &mut self.qdd, &mut self.jac);
         (&self.qdd, &self.jac)
     }
 

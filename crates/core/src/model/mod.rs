@@ -14,4 +14,4 @@ pub use dynamics::{
     cholesky_factor_in_place, cholesky_solve_factored, cholesky_solve_in_place, Scratch,
 };
 pub use kinematics::P2;
-pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS};
+pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS, PAPER_TOML};

@@ -210,6 +210,9 @@ pub struct Robot {
     pub(crate) total_mass: f64,
 }
 
+/// The text of the paper's parameter file, bundled inside the crate so that it packages on its own.
+pub const PAPER_TOML: &str = include_str!("../../params/paper.toml");
+
 impl Robot {
     /// Validate `params` and precompute the model coefficients.
     pub fn from_params(params: RobotParams, source_name: &str) -> Result<Self> {
@@ -257,9 +260,10 @@ impl Robot {
         Self::from_params(p, &path.display().to_string())
     }
 
-    /// The paper's robot (Table I), from the bundled `params/paper.toml`.
+    /// The paper's robot (Table I), from the copy of `params/paper.toml` bundled in the crate
+    /// (`crates/core/params/paper.toml`; a test checks both copies are identical).
     pub fn paper() -> Self {
-        let text = include_str!("../../../../params/paper.toml");
+        let text = PAPER_TOML;
         let p =
             RobotParams::from_toml_str(text, "params/paper.toml").expect("bundled params parse");
         Self::from_params(p, "params/paper.toml").expect("bundled params are valid")

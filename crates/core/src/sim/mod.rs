@@ -1,15 +1,20 @@
-//! Plants (what a controller runs against), controllers, and the closed-loop runner.
+//! Plants (what a controller runs against), plant wrappers that add disturbances, and the closed loop.
 //!
 //! A [`Plant`] reports the measured state in the paper's convention (`x = [q, qd]`, q1 absolute, the
 //! rest relative; rad, rad/s) and advances under joint torques (N m, joints 2..n) held for one control
-//! period. A [`Controller`] maps time and measured state to torques. The runner, not the controllers,
-//! keeps the logs.
+//! period. A [`Controller`] (defined in [`crate::control`], re-exported here) maps time and measured
+//! state to torques. [`ClosedLoop`] runs one control period per [`ClosedLoop::step`];
+//! [`run_closed_loop`] runs it to the end. The loop, not the controllers, keeps the logs.
+//! Disturbances are plant wrappers: [`Noisy`] adds seeded Gaussian sensor noise.
 
 mod model_plant;
+mod noisy;
 mod runner;
 
+pub use crate::control::{ControlInfo, Controller};
 pub use model_plant::ModelPlant;
-pub use runner::{run_closed_loop, ClosedLoopLog, RunSettings, RunSummary};
+pub use noisy::{NoiseSettings, Noisy};
+pub use runner::{run_closed_loop, ClosedLoop, ClosedLoopLog, RunSettings, RunSummary, StepInfo};
 
 /// Something a controller can drive: a simulator of the model, a physics engine, a wrapper adding noise.
 pub trait Plant {
@@ -17,8 +22,13 @@ pub trait Plant {
     fn n_links(&self) -> usize;
     /// Simulated time, s.
     fn time(&self) -> f64;
-    /// Measured state `[q (n), qd (n)]`, written into `x` (2n).
+    /// Measured state `[q (n), qd (n)]`, written into `x` (2n): what a controller sees.
     fn state(&self, x: &mut [f64]);
+    /// True state `[q (n), qd (n)]`, written into `x` (2n): what the loop logs. The same as
+    /// [`Plant::state`] unless a wrapper corrupts the measurement (e.g. [`Noisy`]).
+    fn true_state(&self, x: &mut [f64]) {
+        self.state(x)
+    }
     /// Apply `tau` (n - 1 values, N m; the plant clamps them to its torque limits) for `dt` seconds.
     fn step(&mut self, tau: &[f64], dt: f64);
     /// Total mechanical energy of the robot, J (for drift checks).
@@ -27,17 +37,52 @@ pub trait Plant {
     fn name(&self) -> &'static str;
 }
 
-/// Diagnostics of one control step.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ControlInfo {
-    /// Iterations of the inner solver (0 for controllers without one).
-    pub iterations: usize,
+/// A mutable borrow of a plant is a plant (so a loop can drive a plant the caller keeps).
+impl<P: Plant + ?Sized> Plant for &mut P {
+    fn n_links(&self) -> usize {
+        (**self).n_links()
+    }
+    fn time(&self) -> f64 {
+        (**self).time()
+    }
+    fn state(&self, x: &mut [f64]) {
+        (**self).state(x)
+    }
+    fn true_state(&self, x: &mut [f64]) {
+        (**self).true_state(x)
+    }
+    fn step(&mut self, tau: &[f64], dt: f64) {
+        (**self).step(tau, dt)
+    }
+    fn energy(&self) -> f64 {
+        (**self).energy()
+    }
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
 }
 
-/// A feedback law evaluated once per control period.
-pub trait Controller {
-    /// Torques for joints 2..n (n - 1 values, N m) at time `t` (s) for measured state `x` (2n).
-    fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo;
-    /// A short name for reports (`mpc`, `pd`, `open-loop`).
-    fn name(&self) -> &'static str;
+/// A boxed plant is a plant (so a loop can hold a plant chosen at run time).
+impl<P: Plant + ?Sized> Plant for Box<P> {
+    fn n_links(&self) -> usize {
+        (**self).n_links()
+    }
+    fn time(&self) -> f64 {
+        (**self).time()
+    }
+    fn state(&self, x: &mut [f64]) {
+        (**self).state(x)
+    }
+    fn true_state(&self, x: &mut [f64]) {
+        (**self).true_state(x)
+    }
+    fn step(&mut self, tau: &[f64], dt: f64) {
+        (**self).step(tau, dt)
+    }
+    fn energy(&self) -> f64 {
+        (**self).energy()
+    }
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
 }

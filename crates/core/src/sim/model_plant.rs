@@ -5,11 +5,12 @@
 use super::Plant;
 use crate::integrate::Rk4;
 use crate::model::Robot;
+use std::sync::Arc;
 
 /// RK4 simulation of the model; `substeps` RK4 steps per call to [`Plant::step`].
 #[derive(Debug, Clone)]
 pub struct ModelPlant {
-    robot: Robot,
+    robot: Arc<Robot>,
     rk4: Rk4,
     x: Vec<f64>,
     t: f64,
@@ -19,8 +20,13 @@ pub struct ModelPlant {
 }
 
 impl ModelPlant {
-    /// A plant starting at `x0 = [q, qd]` at t = 0.
-    pub fn new(robot: Robot, x0: &[f64]) -> Self {
+    /// A plant starting at `x0 = [q, qd]` at t = 0. `robot` may be an owned `Robot` or a shared
+    /// `Arc<Robot>`.
+    ///
+    /// # Panics
+    /// When `x0` does not hold 2n values (a programmer's error).
+    pub fn new(robot: impl Into<Arc<Robot>>, x0: &[f64]) -> Self {
+        let robot: Arc<Robot> = robot.into();
         assert_eq!(x0.len(), robot.nx(), "x0 must hold [q, qd]");
         ModelPlant {
             rk4: Rk4::new(&robot),

@@ -1,20 +1,20 @@
-//! The closed-loop runner: a controller drives a plant at a fixed control period; the runner (not the
-//! controller) keeps the log.
+//! The closed loop: a controller drives a plant at a fixed control period; the loop (not the
+//! controller) keeps the log. [`ClosedLoop::step`] runs one period; [`run_closed_loop`] runs to the end.
 //!
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute from +x, the rest relative),
 //! torques `tau` of joints 2..n (N m), EE position `[x, y]` (m, grip frame, gravity along -y), time in s.
-//! At step k (time `t_k = k control_dt`) the controller sees the measured state (true state plus
-//! optional Gaussian sensor noise) and its torque, clamped to the robot's limits, is held over
+//! At step k (time `t_k`, the plant's time) the controller sees the plant's measured state
+//! ([`Plant::state`]; wrap the plant in [`super::Noisy`] for sensor noise), the log records the true
+//! state ([`Plant::true_state`]), and the torque, clamped to the robot's limits, is held over
 //! `[t_k, t_k + control_dt)`.
 
 use super::{Controller, Plant};
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Settings of a closed-loop run.
@@ -25,12 +25,6 @@ pub struct RunSettings {
     pub duration_s: f64,
     /// Control period, s. Default 0.001 (1 kHz).
     pub control_dt: f64,
-    /// Standard deviation of the Gaussian noise added to measured joint angles, rad. Default 0.
-    pub noise_q_std: f64,
-    /// Standard deviation of the Gaussian noise added to measured joint velocities, rad/s. Default 0.
-    pub noise_qd_std: f64,
-    /// Seed of the noise generator (ChaCha8). Default 0.
-    pub seed: u64,
 }
 
 impl Default for RunSettings {
@@ -38,14 +32,16 @@ impl Default for RunSettings {
         RunSettings {
             duration_s: 1.5,
             control_dt: 0.001,
-            noise_q_std: 0.0,
-            noise_qd_std: 0.0,
-            seed: 0,
         }
     }
 }
 
 impl RunSettings {
+    /// Number of control steps: `duration_s / control_dt`, rounded (call after [`RunSettings::validate`]).
+    pub fn steps(&self) -> usize {
+        (self.duration_s / self.control_dt).round() as usize
+    }
+
     /// Check the values.
     pub fn validate(&self) -> Result<()> {
         let src = "RunSettings";
@@ -64,14 +60,6 @@ impl RunSettings {
                 self.control_dt,
                 "must be > 0",
             ));
-        }
-        for (name, v) in [
-            ("noise_q_std", self.noise_q_std),
-            ("noise_qd_std", self.noise_qd_std),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(Error::invalid(src, name, v, "must be finite and >= 0"));
-            }
         }
         let dmax = crate::limits::MAX_RUN_DURATION_S;
         if self.duration_s > dmax {
@@ -284,16 +272,217 @@ impl ClosedLoopLog {
     }
 }
 
-/// A standard normal sample (Box-Muller).
-fn normal(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
-    let u2: f64 = rng.gen_range(0.0..1.0);
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+/// Diagnostics of one [`ClosedLoop::step`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepInfo {
+    /// Time at the start of the step (the plant's), s.
+    pub t: f64,
+    /// Iterations reported by the controller.
+    pub iterations: usize,
+    /// Wall time of the controller call, microseconds.
+    pub control_us: f64,
+}
+
+/// A controller driving a plant one control period at a time, logging every period.
+///
+/// Built with the run's settings (duration and control period); the log's memory is reserved at
+/// construction, so a step allocates nothing beyond what the plant and controller do. Between steps
+/// the caller may inspect or change the plant and the controller ([`ClosedLoop::plant_mut`],
+/// [`ClosedLoop::controller_mut`]) or swap the plan ([`ClosedLoop::set_reference`]).
+/// [`ClosedLoop::finish`] appends the final state and returns the log.
+#[derive(Debug)]
+pub struct ClosedLoop<P, C> {
+    plant: P,
+    controller: C,
+    robot: Arc<Robot>,
+    reference: Arc<Trajectory>,
+    control_dt: f64,
+    steps: usize,
+    done: usize,
+    log: ClosedLoopLog,
+    x: Vec<f64>,
+    xm: Vec<f64>,
+    xr: Vec<f64>,
+    tau: Vec<f64>,
+}
+
+impl<P: Plant, C: Controller> ClosedLoop<P, C> {
+    /// A loop of `controller` on `plant` for `settings.duration_s` at `settings.control_dt`, logging
+    /// against `reference` (sampled by linear interpolation at the control instants, held after its
+    /// end). The plant's current state and time are the start; times in the log are the plant's.
+    /// `robot` (the controller's model: torque limits, EE positions of the log) and `reference` may
+    /// be owned values or shared `Arc`s.
+    pub fn new(
+        plant: P,
+        controller: C,
+        robot: impl Into<Arc<Robot>>,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: &RunSettings,
+    ) -> Result<Self> {
+        settings.validate()?;
+        let (robot, reference): (Arc<Robot>, Arc<Trajectory>) = (robot.into(), reference.into());
+        let n = robot.n;
+        if plant.n_links() != n {
+            return Err(Error::Dimension {
+                what: "plant links".into(),
+                expected: n,
+                got: plant.n_links(),
+            });
+        }
+        reference.check_reference(&robot)?;
+        let (nx, nu) = (2 * n, n - 1);
+        let steps = settings.steps();
+        let rows = steps + 1;
+        let log = ClosedLoopLog {
+            n,
+            plant: plant.name().into(),
+            controller: controller.name().into(),
+            t: Vec::with_capacity(rows),
+            x: Vec::with_capacity(rows * nx),
+            tau: Vec::with_capacity(rows * nu),
+            ee: Vec::with_capacity(rows),
+            ref_x: Vec::with_capacity(rows * nx),
+            ref_ee: Vec::with_capacity(rows),
+            control_us: Vec::with_capacity(rows),
+            iterations: Vec::with_capacity(rows),
+        };
+        Ok(ClosedLoop {
+            plant,
+            controller,
+            robot,
+            reference,
+            control_dt: settings.control_dt,
+            steps,
+            done: 0,
+            log,
+            x: vec![0.0; nx],
+            xm: vec![0.0; nx],
+            xr: vec![0.0; nx],
+            tau: vec![0.0; nu],
+        })
+    }
+
+    /// Log the plant's true state and the reference at the plant's time into a new row.
+    fn log_state(&mut self) -> f64 {
+        let n = self.robot.n;
+        let t = self.plant.time();
+        self.plant.true_state(&mut self.x);
+        self.reference.state_at(t, &mut self.xr);
+        let log = &mut self.log;
+        log.t.push(t);
+        log.x.extend_from_slice(&self.x);
+        log.ee.push(self.robot.ee_position(&self.x[..n]));
+        log.ref_x.extend_from_slice(&self.xr);
+        log.ref_ee.push(self.robot.ee_position(&self.xr[..n]));
+        t
+    }
+
+    /// One control period: measure, control, clamp to the robot's torque limits, advance the plant,
+    /// log. `None` (nothing done) once the run's duration is reached.
+    pub fn step(&mut self) -> Option<StepInfo> {
+        if self.done >= self.steps {
+            return None;
+        }
+        let t = self.log_state();
+        self.plant.state(&mut self.xm);
+        let start = Instant::now();
+        let info = self.controller.control(t, &self.xm, &mut self.tau);
+        let us = start.elapsed().as_secs_f64() * 1e6;
+        for (j, v) in self.tau.iter_mut().enumerate() {
+            *v = v.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+        }
+        self.log.tau.extend_from_slice(&self.tau);
+        self.log.control_us.push(us);
+        self.log.iterations.push(info.iterations);
+        self.plant.step(&self.tau, self.control_dt);
+        self.done += 1;
+        Some(StepInfo {
+            t,
+            iterations: info.iterations,
+            control_us: us,
+        })
+    }
+
+    /// Step until the run's duration is reached.
+    pub fn run(&mut self) {
+        while self.step().is_some() {}
+    }
+
+    /// True once the run's duration is reached.
+    pub fn is_done(&self) -> bool {
+        self.done >= self.steps
+    }
+
+    /// Steps taken so far.
+    pub fn steps_done(&self) -> usize {
+        self.done
+    }
+
+    /// Steps of the whole run (`duration_s / control_dt`, rounded).
+    pub fn steps_total(&self) -> usize {
+        self.steps
+    }
+
+    /// The torque applied over the last step (zeros before the first), N m.
+    pub fn last_tau(&self) -> &[f64] {
+        &self.tau
+    }
+
+    /// The log so far: one row per step taken (the final state is appended by
+    /// [`ClosedLoop::finish`]).
+    pub fn log(&self) -> &ClosedLoopLog {
+        &self.log
+    }
+
+    /// Log against another plan from the next step on and hand it to the controller
+    /// ([`Controller::set_reference`]); checked first, and on error neither is changed.
+    pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
+        let reference = reference.into();
+        reference.check_reference(&self.robot)?;
+        self.controller.set_reference(Arc::clone(&reference))?;
+        self.reference = reference;
+        Ok(())
+    }
+
+    /// The plant.
+    pub fn plant(&self) -> &P {
+        &self.plant
+    }
+
+    /// The plant, mutable (e.g. to push it between steps).
+    pub fn plant_mut(&mut self) -> &mut P {
+        &mut self.plant
+    }
+
+    /// The controller.
+    pub fn controller(&self) -> &C {
+        &self.controller
+    }
+
+    /// The controller, mutable.
+    pub fn controller_mut(&mut self) -> &mut C {
+        &mut self.controller
+    }
+
+    /// Append the final state (its torque repeats the last applied one, its timing entries are zero)
+    /// and return the log, the plant and the controller.
+    pub fn into_parts(mut self) -> (P, C, ClosedLoopLog) {
+        self.log_state();
+        self.log.tau.extend_from_slice(&self.tau);
+        self.log.control_us.push(0.0);
+        self.log.iterations.push(0);
+        (self.plant, self.controller, self.log)
+    }
+
+    /// Append the final state (see [`ClosedLoop::into_parts`]) and return the log.
+    pub fn finish(self) -> ClosedLoopLog {
+        self.into_parts().2
+    }
 }
 
 /// Run `ctrl` on `plant` for `settings.duration_s` at `settings.control_dt`, logging against
-/// `reference` (sampled by linear interpolation at the control instants, held after its end).
-/// The plant's current state and time are the start; times in the log are the plant's times.
+/// `reference`: [`ClosedLoop`] stepped to the end. The plant's current state and time are the start;
+/// times in the log are the plant's times.
 pub fn run_closed_loop(
     plant: &mut dyn Plant,
     ctrl: &mut dyn Controller,
@@ -301,80 +490,7 @@ pub fn run_closed_loop(
     robot: &Robot,
     settings: &RunSettings,
 ) -> Result<ClosedLoopLog> {
-    settings.validate()?;
-    let n = robot.n;
-    for (what, got) in [
-        ("plant links", plant.n_links()),
-        ("reference links", reference.n),
-    ] {
-        if got != n {
-            return Err(Error::Dimension {
-                what: what.into(),
-                expected: n,
-                got,
-            });
-        }
-    }
-    if reference.is_empty() {
-        return Err(Error::invalid(
-            "reference",
-            "len",
-            0,
-            "the reference needs at least one sample",
-        ));
-    }
-    let (nx, nu) = (2 * n, n - 1);
-    let steps = (settings.duration_s / settings.control_dt).round() as usize;
-    let rows = steps + 1;
-    let mut log = ClosedLoopLog {
-        n,
-        plant: plant.name().into(),
-        controller: ctrl.name().into(),
-        t: Vec::with_capacity(rows),
-        x: Vec::with_capacity(rows * nx),
-        tau: Vec::with_capacity(rows * nu),
-        ee: Vec::with_capacity(rows),
-        ref_x: Vec::with_capacity(rows * nx),
-        ref_ee: Vec::with_capacity(rows),
-        control_us: Vec::with_capacity(rows),
-        iterations: Vec::with_capacity(rows),
-    };
-    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
-    let (mut x, mut xm, mut xr) = (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
-    let mut tau = vec![0.0; nu];
-    let noisy = settings.noise_q_std > 0.0 || settings.noise_qd_std > 0.0;
-    for k in 0..rows {
-        let t = plant.time();
-        plant.state(&mut x);
-        reference.state_at(t, &mut xr);
-        log.t.push(t);
-        log.x.extend_from_slice(&x);
-        log.ee.push(robot.ee_position(&x[..n]));
-        log.ref_x.extend_from_slice(&xr);
-        log.ref_ee.push(robot.ee_position(&xr[..n]));
-        if k == steps {
-            log.tau.extend_from_slice(&tau);
-            log.control_us.push(0.0);
-            log.iterations.push(0);
-            break;
-        }
-        xm.copy_from_slice(&x);
-        if noisy {
-            for i in 0..n {
-                xm[i] += settings.noise_q_std * normal(&mut rng);
-                xm[n + i] += settings.noise_qd_std * normal(&mut rng);
-            }
-        }
-        let start = Instant::now();
-        let info = ctrl.control(t, &xm, &mut tau);
-        let us = start.elapsed().as_secs_f64() * 1e6;
-        for j in 0..nu {
-            tau[j] = tau[j].clamp(robot.tau_min[j], robot.tau_max[j]);
-        }
-        log.tau.extend_from_slice(&tau);
-        log.control_us.push(us);
-        log.iterations.push(info.iterations);
-        plant.step(&tau, settings.control_dt);
-    }
-    Ok(log)
+    let mut cl = ClosedLoop::new(plant, ctrl, robot.clone(), reference.clone(), settings)?;
+    cl.run();
+    Ok(cl.finish())
 }
