@@ -152,7 +152,10 @@ fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {
         std::fs::read_to_string(figs.join("mine.png")).unwrap(),
         "my figure"
     );
-    assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), summary_before);
+    assert_eq!(
+        std::fs::read(out.join("summary.json")).unwrap(),
+        summary_before
+    );
     let manifest = std::fs::read_to_string(out.join(brachia_experiments::MANIFEST)).unwrap();
     assert!(manifest.contains("figures/fig5_tracking_joints.png"));
     assert!(!manifest.contains("mine.png"));
@@ -175,7 +178,10 @@ fn report_refuses_a_folder_that_is_not_a_run_and_writes_nothing() {
     let o = brachia().arg("report").arg(dir.path()).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains(".brachia-run") && err.contains("missing"), "{err}");
+    assert!(
+        err.contains(".brachia-run") && err.contains("missing"),
+        "{err}"
+    );
     let names: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .flatten()

@@ -23,7 +23,10 @@ fn same_json(a: &Value, b: &Value, at: &str) {
     match (a, b) {
         (Value::Number(x), Value::Number(y)) => {
             let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
-            assert!((x - y).abs() <= 1e-12 * x.abs().max(1.0), "{at}: {x} vs {y}");
+            assert!(
+                (x - y).abs() <= 1e-12 * x.abs().max(1.0),
+                "{at}: {x} vs {y}"
+            );
         }
         (Value::Object(x), Value::Object(y)) => {
             assert_eq!(x.len(), y.len(), "{at}: keys differ");
@@ -58,7 +61,11 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     plan.folder.write(&pdir).unwrap();
     // the plan folder alone, read from another working place: scenario.toml names params.toml beside it
     let back = PlanFolder::read(&pdir).unwrap();
-    same_json(&back.report.to_json(), &plan.report.to_json(), "plan report");
+    same_json(
+        &back.report.to_json(),
+        &plan.report.to_json(),
+        "plan report",
+    );
     assert_eq!(back.scenario.scenario.task, ls.scenario.task);
     assert_eq!(back.scenario.robot.params, ls.robot.params);
     let (a, b) = (&back.trajectory, &plan.plan.trajectory);
@@ -83,9 +90,16 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     let tdir = dir.path().join("track");
     run.folder.write(&tdir).unwrap();
     let back = TrackFolder::read(&tdir).unwrap();
-    same_json(&back.report.to_json(), &run.report.to_json(), "track report");
+    same_json(
+        &back.report.to_json(),
+        &run.report.to_json(),
+        "track report",
+    );
     let (l, m) = (&back.log, &run.log);
-    assert_eq!((l.n, &l.controller, &l.plant), (m.n, &m.controller, &m.plant));
+    assert_eq!(
+        (l.n, &l.controller, &l.plant),
+        (m.n, &m.controller, &m.plant)
+    );
     close(&l.t, &m.t, 1e-6, "log t");
     close(&l.x, &m.x, 1e-9, "log x");
     close(&l.tau, &m.tau, 1e-9, "log tau");
@@ -123,7 +137,10 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     lines[3] = good.rsplit_once(',').unwrap().0.to_string();
     std::fs::write(&log, lines.join("\n")).unwrap();
     let err = TrackFolder::read(&tdir).unwrap_err().to_string();
-    assert!(err.contains("line 4, ref_ee_y") && err.contains("too few"), "{err}");
+    assert!(
+        err.contains("line 4, ref_ee_y") && err.contains("too few"),
+        "{err}"
+    );
     std::fs::write(&log, &text).unwrap();
     let contacts = tdir.join("contacts.csv");
     let ctext = std::fs::read_to_string(&contacts).unwrap();
@@ -135,7 +152,10 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     );
     std::fs::remove_file(tdir.join("report.json")).unwrap();
     let err = TrackFolder::read(&tdir).unwrap_err().to_string();
-    assert!(err.contains("report.json") && err.contains("missing"), "{err}");
+    assert!(
+        err.contains("report.json") && err.contains("missing"),
+        "{err}"
+    );
     std::fs::remove_file(pdir.join("params.toml")).unwrap();
     let err = PlanFolder::read(&pdir).unwrap_err().to_string();
     assert!(err.contains("params.toml"), "{err}");

@@ -19,8 +19,8 @@ mod report;
 mod study;
 
 use crate::plan_run::{run_plan, PlanRun};
-use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
 use crate::read::{PlanFolder, TrackFolder};
+use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
 use crate::track_run::{run_track, track_plan, TrackOutcome, TrackRun};
 use crate::ExpError;
 use figures::FigureDir;

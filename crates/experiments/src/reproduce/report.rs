@@ -272,7 +272,10 @@ pub(crate) fn draw_plan_run(p: &crate::PlanFolder, figs: &mut FigureDir) -> Vec<
 /// animation (`track_stick`, `track.gif`). Returns the figures that failed.
 pub(crate) fn draw_track_run(t: &crate::TrackFolder, figs: &mut FigureDir) -> Vec<String> {
     let rep = &t.report;
-    let title = format!("{} on the {} plant ({})", rep.controller, rep.plant, rep.scenario);
+    let title = format!(
+        "{} on the {} plant ({})",
+        rep.controller, rep.plant, rep.scenario
+    );
     let runs = [(controller_label(&rep.controller), t)];
     let mut out = vec![
         (
