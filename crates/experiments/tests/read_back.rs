@@ -74,12 +74,12 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     close(&a.qd, &b.qd, 1e-9, "qd");
     close(&a.tau, &b.tau, 1e-9, "tau");
 
-    // track it open loop on the rapier plant: the ball is hit, so contacts and ball tracks are written
+    // track it with the MPC on the rapier plant: the ball is hit, so contacts and ball tracks are written
     let rep = plan.report.clone();
     let reference = plan.plan.trajectory.clone();
     let run = track_plan(
         &ls,
-        ControllerKind::OpenLoop,
+        ControllerKind::Mpc,
         PlantKind::Rapier,
         Some(plan),
         reference,
