@@ -6,6 +6,7 @@
 
 mod io;
 mod plan;
+mod report;
 mod reproduce;
 mod simulate;
 mod track;
@@ -31,6 +32,9 @@ enum Command {
     Track(track::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),
+    /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
+    /// planning, no simulation).
+    Report(report::Args),
 }
 
 /// An error of a command: bad input (exit 2), a failure after the inputs were accepted (exit 1) or an
@@ -68,6 +72,7 @@ fn main() -> ExitCode {
         Command::Plan(a) => plan::run(a),
         Command::Track(a) => track::run(a),
         Command::Reproduce(a) => reproduce::run(a),
+        Command::Report(a) => report::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -3,6 +3,7 @@
 use crate::CliError;
 use brachia_experiments::{
     check_out_dir, read_plan_folder, run_track, ControllerKind, PlantKind, RunFolder, Scenario,
+    TrackOutcome,
 };
 use std::path::PathBuf;
 
@@ -63,7 +64,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
     };
     check_out_dir(&a.out, a.force)?;
     match run_track(&ls, controller, plant, reference)? {
-        Ok(run) => {
+        TrackOutcome::Tracked(run) => {
             run.folder.write(&a.out)?;
             let s = &run.summary;
             eprintln!(
@@ -81,7 +82,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
             }
             Ok(())
         }
-        Err(plan_run) => {
+        TrackOutcome::PlanFailed(plan_run) => {
             let mut folder = RunFolder::default();
             for name in plan_run.folder.names() {
                 if let Some(data) = plan_run.folder.get(name) {

@@ -120,6 +120,81 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
             }
         }
     }
+    redraw_from_the_run_folders(&out, &md);
+}
+
+/// Issue 12: `brachia report` redraws every figure and REPORT.md of the reproduction from its run folders
+/// (no planning, no simulation): figures deleted, REPORT.md comes back byte-identical, every linked
+/// figure is back, and the user's file among the figures is kept.
+fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {
+    let figs = out.join("figures");
+    let drawn: Vec<String> = std::fs::read_dir(&figs)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .filter(|n| n != "mine.png")
+        .collect();
+    assert!(drawn.len() >= 20, "{drawn:?}");
+    for n in &drawn {
+        std::fs::remove_file(figs.join(n)).unwrap();
+    }
+    std::fs::remove_file(out.join("REPORT.md")).unwrap();
+    let summary_before = std::fs::read(out.join("summary.json")).unwrap();
+    let t0 = std::time::Instant::now();
+    let o = brachia().arg("report").arg(out).output().unwrap();
+    let secs = t0.elapsed().as_secs_f64();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read_to_string(out.join("REPORT.md")).unwrap(), md);
+    for n in &drawn {
+        assert!(figs.join(n).is_file(), "report did not redraw {n}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(figs.join("mine.png")).unwrap(),
+        "my figure"
+    );
+    assert_eq!(
+        std::fs::read(out.join("summary.json")).unwrap(),
+        summary_before
+    );
+    let manifest = std::fs::read_to_string(out.join(brachia_experiments::MANIFEST)).unwrap();
+    assert!(manifest.contains("figures/fig5_tracking_joints.png"));
+    assert!(!manifest.contains("mine.png"));
+    let names: Vec<String> = std::fs::read_dir(out)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.contains("partial")),
+        "a staging folder was left: {names:?}"
+    );
+    eprintln!("brachia report redrew {} files in {secs:.1} s", drawn.len());
+}
+
+#[test]
+fn report_refuses_a_folder_that_is_not_a_run_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("notes.txt"), "mine").unwrap();
+    let o = brachia().arg("report").arg(dir.path()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(".brachia-run") && err.contains("missing"),
+        "{err}"
+    );
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert_eq!(names, ["notes.txt"]);
+    // a manifest alone is not enough: the reproduction's summary.json is named
+    std::fs::write(dir.path().join(brachia_experiments::MANIFEST), "# x\n").unwrap();
+    let o = brachia().arg("report").arg(dir.path()).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("summary.json"), "{err}");
+    assert!(!dir.path().join("figures").exists());
 }
 
 #[test]

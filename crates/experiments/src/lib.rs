@@ -10,6 +10,7 @@
 
 pub mod parameter_study;
 pub mod plan_run;
+pub mod read;
 pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
@@ -20,10 +21,13 @@ pub use parameter_study::{
     ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
 };
 pub use plan_run::solver_work_text;
-pub use plan_run::{plan_report, run_plan, PlanRun};
+pub use plan_run::{plan_report, run_plan, PlanReport, PlanRun, PARAMS_FILE};
+pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
-pub use track_run::{read_plan_folder, run_track, track_plan, PlantWorld, TrackRun};
+pub use track_run::{
+    read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
+};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

@@ -1,17 +1,28 @@
 //! A planning run: solve the scenario's swing and fill the run folder
-//! (`knots.csv`, `trajectory.csv`, `scenario.toml`, `report.json`).
+//! (`knots.csv`, `trajectory.csv`, `scenario.toml` with the resolved inputs, `params.toml` with the
+//! robot it names, `report.json` = [`PlanReport`]).
 
 use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
-use brachia::planning::{plan, Plan, SwingTime};
+use brachia::planning::profile::Clamped;
+use brachia::planning::{
+    plan, Backend, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime, TimeSplit,
+    Transcription, Violations,
+};
+use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
+
+/// The robot parameters file of a plan's run folder (the resolved `scenario.toml` names it).
+pub const PARAMS_FILE: &str = "params.toml";
 
 /// The outcome of [`run_plan`].
 #[derive(Debug, Clone)]
 pub struct PlanRun {
     /// The plan (converged or not).
     pub plan: Plan,
+    /// Its report (the run folder's `report.json`).
+    pub report: PlanReport,
     /// The run folder's files.
     pub folder: RunFolder,
 }
@@ -21,13 +32,17 @@ pub struct PlanRun {
 /// pounce 10 it 0.52 s; attempt 2 (adopted, adaptive, solved): pounce 143 it 5.61 s | 153
 /// iterations in 6.13 s: callbacks 4.20 s, linear algebra 1.51 s, line search and rest 0.42 s`.
 pub fn solver_work_text(p: &Plan) -> String {
+    work_text(&p.solves, p.iterations, p.solve_time_s, &p.time_split)
+}
+
+fn work_text(solves: &[SolveAttempt], iterations: usize, time_s: f64, t: &TimeSplit) -> String {
     let snake = |v: &Value| match v {
         Value::String(s) => s.clone(),
         Value::Object(m) => m.keys().next().cloned().unwrap_or_default(),
         other => other.to_string(),
     };
     let mut s = String::new();
-    for (k, a) in p.solves.iter().enumerate() {
+    for (k, a) in solves.iter().enumerate() {
         let _ = write!(
             s,
             "{}attempt {} ({}{}, {}):",
@@ -53,61 +68,150 @@ pub fn solver_work_text(p: &Plan) -> String {
             );
         }
     }
-    let t = &p.time_split;
     let _ = write!(
         s,
         " | {} iterations in {:.2} s: callbacks {:.2} s, linear algebra {:.2} s, line search and rest {:.2} s",
-        p.iterations, p.solve_time_s, t.callbacks_s, t.linear_algebra_s, t.line_search_and_other_s
+        iterations, time_s, t.callbacks_s, t.linear_algebra_s, t.line_search_and_other_s
     );
     s
 }
 
-/// The plan's machine-readable report (the `report.json` of `brachia plan`). `iterations` and
-/// `solve_time_s` are totals over every solver attempt and every pass of the backend inside it
-/// (adopted or not); `solves` lists them, `time_split_s` splits the time (see
-/// `brachia::planning::TimeSplit`).
+/// The plan's machine-readable report: the `report.json` of `brachia plan` (and the `plan` entry of a
+/// track run's report). Units: s, m, rad, N m, J. `iterations` and `solve_time_s` are totals over every
+/// solver attempt and every pass of the backend inside it (adopted or not); `solves` lists them,
+/// `time_split_s` splits the time (see `brachia::planning::TimeSplit`). Written with its keys sorted;
+/// read back by [`crate::read::PlanFolder::read`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanReport {
+    /// The scenario's name.
+    pub scenario: String,
+    /// The solver's outcome (of the adopted attempt).
+    pub status: SolveStatus,
+    /// True when the status counts as converged.
+    pub converged: bool,
+    /// The backend's name (`pounce`, `ripopt`, `ocp`).
+    pub solver: String,
+    /// Solver iterations over every attempt and pass.
+    pub iterations: usize,
+    /// Solver calls.
+    pub attempts: usize,
+    /// Backend passes over every attempt.
+    pub passes: usize,
+    /// Solve wall time over every attempt, s.
+    pub solve_time_s: f64,
+    /// Where that time went, s.
+    pub time_split_s: TimeSplit,
+    /// Every solver call, adopted or not.
+    pub solves: Vec<SolveAttempt>,
+    /// Wall time per kind of NLP callback, s.
+    pub callback_time_s: CallbackTimings,
+    /// The planner's cost at the plan.
+    pub objective: f64,
+    /// Energy of the plan, paper eq. (18), J.
+    pub energy_j: f64,
+    /// Positive work of the actuated joints, J.
+    pub positive_work_j: f64,
+    /// The largest of `violations`.
+    pub max_violation: f64,
+    /// Largest violation per kind of constraint.
+    pub violations: Violations,
+    /// EE position at the end of the plan, m.
+    pub ee_final: [f64; 2],
+    /// Its distance to the target bar, m.
+    pub ee_final_error_m: f64,
+    /// Swing time T, s.
+    pub swing_time_s: f64,
+    /// T_freefall when the swing time was `auto`, s.
+    pub freefall_time_s: Option<f64>,
+    /// Knots of the grid (`intervals + 1`).
+    pub knots: usize,
+    /// Intervals N of the grid.
+    pub intervals: usize,
+    /// Collocation points (knots and, for Hermite-Simpson, midpoints).
+    pub collocation_points: usize,
+    /// Knot spacing, s.
+    pub knot_dt_s: f64,
+    /// The transcription.
+    pub transcription: Transcription,
+    /// The NLP backend as the scenario chose it.
+    pub backend: Backend,
+    /// EE distance to the bar at T of the open-loop replay of the plan's torques, m.
+    pub replay_ee_error_m: f64,
+    /// The torque profile that replay used (the transcription's).
+    pub replay_torque_profile: Transcription,
+    /// Last time of the 1 ms trajectory, s.
+    pub trajectory_end_s: Option<f64>,
+    /// How far resampling clamped the 1 ms trajectory into the bounds.
+    pub trajectory_clamped: Clamped,
+    /// Smallest link-to-obstacle clearance of the 1 ms plan, m (`None` without obstacles).
+    pub min_obstacle_clearance_m: Option<f64>,
+}
+
+impl PlanReport {
+    /// The report of plan `p` of scenario `ls`.
+    pub fn new(ls: &LoadedScenario, p: &Plan) -> Self {
+        let t = ls.scenario.task.target;
+        let v = &p.violations;
+        let max_violation = v
+            .dynamics
+            .max(v.ee_position)
+            .max(v.ee_velocity)
+            .max(v.clearance)
+            .max(v.bounds);
+        PlanReport {
+            scenario: ls.scenario.name.clone(),
+            status: p.status.clone(),
+            converged: p.converged(),
+            solver: p.backend.name().to_string(),
+            iterations: p.iterations,
+            attempts: p.attempts,
+            passes: p.solves.iter().map(|a| a.passes.len()).sum::<usize>(),
+            solve_time_s: p.solve_time_s,
+            time_split_s: p.time_split,
+            solves: p.solves.clone(),
+            callback_time_s: p.callback_timings,
+            objective: p.objective,
+            energy_j: p.energy_j,
+            positive_work_j: p.positive_work_j,
+            max_violation,
+            violations: *v,
+            ee_final: p.ee_final,
+            ee_final_error_m: (p.ee_final[0] - t[0]).hypot(p.ee_final[1] - t[1]),
+            swing_time_s: p.swing_time_s,
+            freefall_time_s: p.freefall_time_s,
+            knots: p.layout.intervals + 1,
+            intervals: p.layout.intervals,
+            collocation_points: p.layout.points,
+            knot_dt_s: p.layout.h,
+            transcription: ls.scenario.planner.transcription,
+            backend: ls.scenario.solver.backend,
+            replay_ee_error_m: p.replay_ee_error_m,
+            replay_torque_profile: ls.scenario.planner.transcription,
+            trajectory_end_s: p.trajectory.t.last().copied(),
+            trajectory_clamped: p.resample_clamped,
+            min_obstacle_clearance_m: p.min_obstacle_clearance_m,
+        }
+    }
+
+    /// The solver's work in one line, as [`solver_work_text`] gives it for the plan.
+    pub fn solver_work_text(&self) -> String {
+        work_text(
+            &self.solves,
+            self.iterations,
+            self.solve_time_s,
+            &self.time_split_s,
+        )
+    }
+
+    /// The report as JSON (keys sorted, as `report.json` holds it).
+    pub fn to_json(&self) -> Value {
+        serde_json::to_value(self).unwrap_or(Value::Null)
+    }
+}
+
+/// The plan's machine-readable report as JSON (the `report.json` of `brachia plan`); see [`PlanReport`].
 pub fn plan_report(ls: &LoadedScenario, p: &Plan) -> Value {
-    let t = ls.scenario.task.target;
-    let v = &p.violations;
-    let max_violation = v
-        .dynamics
-        .max(v.ee_position)
-        .max(v.ee_velocity)
-        .max(v.clearance)
-        .max(v.bounds);
-    json!({
-        "scenario": ls.scenario.name,
-        "status": p.status,
-        "converged": p.converged(),
-        "solver": p.backend.name(),
-        "iterations": p.iterations,
-        "attempts": p.attempts,
-        "passes": p.solves.iter().map(|a| a.passes.len()).sum::<usize>(),
-        "solve_time_s": p.solve_time_s,
-        "time_split_s": p.time_split,
-        "solves": p.solves,
-        "callback_time_s": p.callback_timings,
-        "objective": p.objective,
-        "energy_j": p.energy_j,
-        "positive_work_j": p.positive_work_j,
-        "max_violation": max_violation,
-        "violations": v,
-        "ee_final": p.ee_final,
-        "ee_final_error_m": (p.ee_final[0] - t[0]).hypot(p.ee_final[1] - t[1]),
-        "swing_time_s": p.swing_time_s,
-        "freefall_time_s": p.freefall_time_s,
-        "knots": p.layout.intervals + 1,
-        "intervals": p.layout.intervals,
-        "collocation_points": p.layout.points,
-        "knot_dt_s": p.layout.h,
-        "transcription": ls.scenario.planner.transcription,
-        "backend": ls.scenario.solver.backend,
-        "replay_ee_error_m": p.replay_ee_error_m,
-        "replay_torque_profile": ls.scenario.planner.transcription,
-        "trajectory_end_s": p.trajectory.t.last(),
-        "trajectory_clamped": p.resample_clamped,
-        "min_obstacle_clearance_m": p.min_obstacle_clearance_m,
-    })
+    PlanReport::new(ls, p).to_json()
 }
 
 /// Plan the scenario and prepare its run folder. Errors only on bad input; a solve that does not
@@ -131,7 +235,17 @@ pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
     );
     folder.add("trajectory.csv", p.trajectory.to_csv(&ls.robot, &[]));
     // resolved inputs
+    // the robot's parameters beside the resolved scenario, so the folder reads back anywhere
     let mut resolved = sc.clone();
+    resolved.params = PARAMS_FILE.into();
+    folder.add(
+        PARAMS_FILE,
+        format!(
+            "# Robot parameters of this run (from {}). Units: m, kg, kg m^2, N m.\n{}",
+            sc.params.display(),
+            toml::to_string(&ls.robot.params).unwrap_or_default()
+        ),
+    );
     resolved.planner.swing_time = SwingTime::Seconds(p.swing_time_s);
     resolved.planner.q1_diag = sc.planner.q1(ls.robot.n);
     resolved.planner.r1_diag = sc.planner.r1(ls.robot.n);
@@ -148,6 +262,11 @@ pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
     );
     text.push_str(&toml::to_string(&resolved).unwrap_or_default());
     folder.add("scenario.toml", text);
-    folder.add_json("report.json", &plan_report(ls, &p));
-    Ok(PlanRun { plan: p, folder })
+    let report = PlanReport::new(ls, &p);
+    folder.add_json("report.json", &report.to_json());
+    Ok(PlanRun {
+        plan: p,
+        report,
+        folder,
+    })
 }

@@ -182,6 +182,21 @@ pub fn read_manifest(dir: &Path) -> Option<BTreeSet<PathBuf>> {
     )
 }
 
+/// Rewrite the manifest of the run folder `dir` to list `files` (paths relative to `dir`), through a
+/// temporary file renamed into place.
+pub(crate) fn write_manifest(dir: &Path, files: &BTreeSet<PathBuf>) -> Result<(), ExpError> {
+    let mut text = String::from(MANIFEST_HEADER);
+    text.push('\n');
+    for f in files {
+        text.push_str(&f.to_string_lossy());
+        text.push('\n');
+    }
+    let tmp = dir.join(format!("{MANIFEST}.partial"));
+    std::fs::write(&tmp, text).map_err(|e| werr(&tmp, e))?;
+    let path = dir.join(MANIFEST);
+    std::fs::rename(&tmp, &path).map_err(|e| werr(&path, e))
+}
+
 /// Refuse an output folder before any work: a path that exists but is not a folder, a non-empty folder
 /// that is not a brachia run folder (unless `force`), or a place where nothing can be written.
 pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {

@@ -8,7 +8,7 @@
 //! `obstacles.csv`: `t,obstacle_0_x,obstacle_0_y,...` (obstacle ids: the task's obstacles first, then the
 //! plant's).
 
-use crate::plan_run::{run_plan, PlanRun};
+use crate::plan_run::{run_plan, PlanReport, PlanRun};
 use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
 use brachia::control::{Mpc, OpenLoop, Pd};
@@ -19,8 +19,69 @@ use brachia::sim::{
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
 use brachia_rapier::{Circle, ContactBody, ContactEvent, Obstacle, RapierPlant};
-use serde_json::{json, Value};
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
+
+/// A track run's machine-readable report (its `report.json`). Units: s, m, N m, N s, J. The closed
+/// loop's [`RunSummary`] is flattened into the top level (`ee_final_error_m`, `energy_j`, ...); `plan` is
+/// the report of the plan that was tracked. Written with its keys sorted; read back by
+/// [`crate::read::TrackFolder::read`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrackReport {
+    /// The scenario's name.
+    pub scenario: String,
+    /// The controller's name (`mpc`, `pd`, `open-loop`).
+    pub controller: String,
+    /// The plant's name (`model`, `rapier`).
+    pub plant: String,
+    /// Factor on the plant's link masses and inertias.
+    pub plant_mass_scale: f64,
+    /// Integration sub-steps per control period.
+    pub plant_substeps: usize,
+    /// Energy of the reference, paper eq. (18), J.
+    pub planned_energy_j: f64,
+    /// The target bar, m.
+    pub target: [f64; 2],
+    /// The obstacles of the plant's world in id order (the task's first; empty on the model plant).
+    pub plant_obstacles: Vec<Obstacle>,
+    /// Time of the first contact, s.
+    pub first_contact_s: Option<f64>,
+    /// Number of contact events (rows of `contacts.csv`).
+    pub contact_events: usize,
+    /// Sum of the contact impulses, N s.
+    pub contact_impulse_n_s: f64,
+    /// The tracked plan's report.
+    pub plan: PlanReport,
+    /// The closed loop's metrics.
+    #[serde(flatten)]
+    pub summary: RunSummary,
+}
+
+impl TrackReport {
+    /// The report as JSON (keys sorted, as `report.json` holds it).
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// What [`run_track`] did: tracked a plan, or stopped because the plan it made did not converge.
+#[derive(Debug, Clone)]
+pub enum TrackOutcome {
+    /// The plan was tracked.
+    Tracked(Box<TrackRun>),
+    /// The plan did not converge; nothing was tracked.
+    PlanFailed(Box<PlanRun>),
+}
+
+impl TrackOutcome {
+    /// The track run, or the plan run that failed.
+    pub fn into_tracked(self) -> Result<TrackRun, Box<PlanRun>> {
+        match self {
+            TrackOutcome::Tracked(r) => Ok(*r),
+            TrackOutcome::PlanFailed(p) => Err(p),
+        }
+    }
+}
 
 /// Outcome of [`run_track`].
 #[derive(Debug, Clone)]
@@ -28,7 +89,9 @@ pub struct TrackRun {
     /// The plan that was tracked (absent when the reference was read from a folder).
     pub plan: Option<PlanRun>,
     /// The plan's machine-readable report (the `plan` entry of `report.json`).
-    pub plan_report: Value,
+    pub plan_report: PlanReport,
+    /// The run's report (`report.json`).
+    pub report: TrackReport,
     /// The reference (1 ms).
     pub reference: Trajectory,
     /// The closed-loop log.
@@ -112,26 +175,27 @@ fn check_plant(ls: &LoadedScenario, plant: PlantKind) -> Result<(), Error> {
 }
 
 /// Plan (unless `reference` is given), then track with `controller` on `plant`. Errors on bad input; a plan
-/// that does not converge is returned with no closed loop run (`Ok(Err(plan_run))`).
+/// that does not converge is returned with no closed loop run ([`TrackOutcome::PlanFailed`]).
 pub fn run_track(
     ls: &LoadedScenario,
     controller: ControllerKind,
     plant: PlantKind,
-    reference: Option<(Trajectory, Value)>,
-) -> Result<Result<TrackRun, Box<PlanRun>>, Error> {
+    reference: Option<(Trajectory, PlanReport)>,
+) -> Result<TrackOutcome, Error> {
     check_plant(ls, plant)?;
-    match reference {
-        Some((r, rep)) => track_plan(ls, controller, plant, None, r, rep).map(Ok),
+    let run = match reference {
+        Some((r, rep)) => track_plan(ls, controller, plant, None, r, rep)?,
         None => {
             let run = run_plan(ls)?;
             if !run.plan.converged() {
-                return Ok(Err(Box::new(run)));
+                return Ok(TrackOutcome::PlanFailed(Box::new(run)));
             }
-            let rep = crate::plan_run::plan_report(ls, &run.plan);
+            let rep = run.report.clone();
             let r = run.plan.trajectory.clone();
-            track_plan(ls, controller, plant, Some(run), r, rep).map(Ok)
+            track_plan(ls, controller, plant, Some(run), r, rep)?
         }
-    }
+    };
+    Ok(TrackOutcome::Tracked(Box::new(run)))
 }
 
 /// Track `reference` (whose plan report is `plan_report`) with `controller` on `plant`; `plan` is the run
@@ -142,7 +206,7 @@ pub fn track_plan(
     plant: PlantKind,
     plan: Option<PlanRun>,
     reference: Trajectory,
-    plan_report: Value,
+    plan_report: PlanReport,
 ) -> Result<TrackRun, Error> {
     check_plant(ls, plant)?;
     let sc = &ls.scenario;
@@ -218,26 +282,22 @@ pub fn track_plan(
         folder.add("contacts.csv", world.contacts_csv());
         folder.add("obstacles.csv", p.obstacle_track_csv());
     }
-    let mut report = json!({
-        "scenario": sc.name,
-        "controller": controller_name,
-        "plant": plant_name,
-        "plant_mass_scale": sc.plant.mass_scale,
-        "plant_substeps": sc.plant.substeps,
-        "planned_energy_j": planned_energy,
-        "target": sc.task.target,
-        "plant_obstacles": world.obstacles,
-        "first_contact_s": world.first_contact_s(),
-        "contact_events": world.contacts.len(),
-        "contact_impulse_n_s": world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
-        "plan": plan_report.clone(),
-    });
-    if let (Value::Object(m), Ok(Value::Object(s))) = (&mut report, serde_json::to_value(summary)) {
-        for (k, v) in s {
-            m.insert(k, v);
-        }
-    }
-    folder.add_json("report.json", &report);
+    let report = TrackReport {
+        scenario: sc.name.clone(),
+        controller: controller_name.to_string(),
+        plant: plant_name.to_string(),
+        plant_mass_scale: sc.plant.mass_scale,
+        plant_substeps: sc.plant.substeps,
+        planned_energy_j: planned_energy,
+        target: sc.task.target,
+        plant_obstacles: world.obstacles.clone(),
+        first_contact_s: world.first_contact_s(),
+        contact_events: world.contacts.len(),
+        contact_impulse_n_s: world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
+        plan: plan_report.clone(),
+        summary,
+    };
+    folder.add_json("report.json", &report.to_json());
     if let Some(p) = &plan {
         for name in p.folder.names() {
             if let Some(data) = p.folder.get(name) {
@@ -248,6 +308,7 @@ pub fn track_plan(
     Ok(TrackRun {
         plan,
         plan_report,
+        report,
         reference,
         log,
         summary,
@@ -263,16 +324,14 @@ const START_TOLERANCE: f64 = 1e-6;
 /// Read a plan folder written by `brachia plan` (its `trajectory.csv` and `report.json`) and check it
 /// against the scenario `ls` before anything is tracked: the header names the scenario robot's joints
 /// (`t,q1..qn,qd1..qdn,tau2..taun,...`), every value is finite, times start at 0 and increase strictly,
-/// the swing lasts at most [`brachia::limits::MAX_SWING_TIME_S`], and the first sample is the scenario's
-/// start state (`task.q0`, `task.qd0`). Files are read with a size cap.
+/// the swing lasts at most [`brachia::limits::MAX_SWING_TIME_S`] (see
+/// [`crate::read::read_plan_trajectory`]), the first sample is the scenario's start state (`task.q0`,
+/// `task.qd0`) and `report.json` is a [`PlanReport`]. Files are read with a size cap.
 pub fn read_plan_folder(
     dir: &std::path::Path,
     ls: &LoadedScenario,
-) -> Result<(Trajectory, Value), Error> {
-    use brachia::limits;
+) -> Result<(Trajectory, PlanReport), Error> {
     let n = ls.robot.n;
-    let tfile = dir.join("trajectory.csv");
-    let tpath = tfile.display().to_string();
     if !dir.is_dir() {
         return Err(Error::invalid(
             dir.display().to_string(),
@@ -281,95 +340,8 @@ pub fn read_plan_folder(
             "must be a plan folder written by `brachia plan` (trajectory.csv, report.json)",
         ));
     }
-    let text = limits::read_text_capped(&tfile, limits::MAX_CSV_BYTES, "trajectory.csv")?;
-    let header = text.lines().next().unwrap_or("");
-    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-    let links = cols
-        .iter()
-        .filter(|c| {
-            c.strip_prefix('q')
-                .is_some_and(|r| r.parse::<usize>().is_ok())
-        })
-        .count();
-    let mut want = vec!["t".to_string()];
-    want.extend((1..=n).map(|i| format!("q{i}")));
-    want.extend((1..=n).map(|i| format!("qd{i}")));
-    want.extend((2..=n).map(|i| format!("tau{i}")));
-    if links != n || cols.len() < want.len() || cols[..want.len()] != want[..] {
-        return Err(Error::invalid(
-            &tpath,
-            "header",
-            header.chars().take(120).collect::<String>(),
-            format!(
-                "the plan is for a {links}-link robot, the scenario's robot ({}) has {n} links: \
-                 expected {},...",
-                ls.scenario.params.display(),
-                want.join(",")
-            ),
-        ));
-    }
-    let traj = Trajectory::from_csv(&text, n, &tpath)?;
-    if traj.len() < 2 {
-        return Err(Error::invalid(
-            &tpath,
-            "rows",
-            traj.len(),
-            "a plan needs at least two samples",
-        ));
-    }
-    let per_row = [
-        ("q", &traj.q, n),
-        ("qd", &traj.qd, n),
-        ("tau", &traj.tau, n - 1),
-    ];
-    for (name, v, w) in per_row {
-        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-            let (row, col) = (i / w.max(1), i % w.max(1));
-            let j = if name == "tau" { col + 2 } else { col + 1 };
-            return Err(Error::invalid(
-                &tpath,
-                format!("line {}, {name}{j}", row + 2),
-                x,
-                "every value of a plan must be finite",
-            ));
-        }
-    }
-    if let Some((k, x)) = traj.t.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-        return Err(Error::invalid(
-            &tpath,
-            format!("line {}, t", k + 2),
-            x,
-            "every value of a plan must be finite",
-        ));
-    }
-    if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
-        return Err(Error::invalid(
-            &tpath,
-            format!("line {}, t", k + 2),
-            traj.t[k],
-            format!(
-                "times must increase strictly (previous row: {})",
-                traj.t[k - 1]
-            ),
-        ));
-    }
-    if traj.t[0].abs() > 1e-9 {
-        return Err(Error::invalid(
-            &tpath,
-            "line 2, t",
-            traj.t[0],
-            "a plan starts at t = 0",
-        ));
-    }
-    let tmax = limits::MAX_SWING_TIME_S;
-    if traj.duration() > tmax {
-        return Err(Error::invalid(
-            &tpath,
-            "t",
-            traj.duration(),
-            format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
-        ));
-    }
+    let whose = format!("the scenario's robot ({})", ls.scenario.params.display());
+    let traj = crate::read::read_plan_trajectory(&dir.join("trajectory.csv"), n, &whose)?;
     let task = &ls.scenario.task;
     let qd0 = if task.qd0.is_empty() {
         vec![0.0; n]
@@ -395,11 +367,6 @@ pub fn read_plan_folder(
             ));
         }
     }
-    let rpath = dir.join("report.json");
-    let rtext = limits::read_text_capped(&rpath, limits::MAX_JSON_BYTES, "report.json")?;
-    let rep: Value = serde_json::from_str(&rtext).map_err(|e| Error::Parse {
-        path: rpath.clone(),
-        message: e.to_string(),
-    })?;
+    let rep: PlanReport = crate::read::read_json(&dir.join("report.json"))?;
     Ok((traj, rep))
 }

@@ -22,6 +22,7 @@ fn plan_and_track(name: &str, links: usize) {
     assert_eq!(ls.robot.n, links);
     let mpc = run_track(&ls, ControllerKind::Mpc, PlantKind::Model, None)
         .unwrap()
+        .into_tracked()
         .unwrap_or_else(|p| panic!("{name}: the plan did not converge: {:?}", p.plan.status));
     let plan = mpc.plan.as_ref().expect("planned here");
     assert!(plan.plan.converged());

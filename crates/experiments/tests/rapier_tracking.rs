@@ -19,6 +19,7 @@ fn scenario(name: &str) -> LoadedScenario {
 fn track_all(ls: &LoadedScenario, controllers: &[ControllerKind]) -> Vec<TrackRun> {
     let first = run_track(ls, controllers[0], PlantKind::Rapier, None)
         .unwrap()
+        .into_tracked()
         .expect("the plan converges");
     let mut runs = vec![first];
     for &c in &controllers[1..] {

@@ -294,7 +294,7 @@ pub struct CollocationNlp<D: LocalFn, T: LocalFn, P: LocalFn = NoPath> {
 }
 
 /// Wall time spent in each kind of callback of a [`CollocationNlp`], s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CallbackTimings {
     /// Objective and gradient.
     pub objective_s: f64,

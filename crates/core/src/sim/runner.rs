@@ -233,30 +233,27 @@ impl ClosedLoopLog {
         s
     }
 
+    /// The columns of [`ClosedLoopLog::to_csv`] for `n` links.
+    fn csv_columns(n: usize) -> Vec<String> {
+        let mut c = vec!["t".to_string()];
+        c.extend((1..=n).map(|i| format!("q{i}")));
+        c.extend((1..=n).map(|i| format!("qd{i}")));
+        c.extend((2..=n).map(|i| format!("tau{i}")));
+        c.extend(["ee_x".to_string(), "ee_y".to_string()]);
+        c.extend((1..=n).map(|i| format!("ref_q{i}")));
+        c.extend((1..=n).map(|i| format!("ref_qd{i}")));
+        c.extend(["ref_ee_x".to_string(), "ref_ee_y".to_string()]);
+        c
+    }
+
     /// CSV text with header
     /// `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,ref_q1..ref_qn,ref_qd1..ref_qdn,ref_ee_x,ref_ee_y`
     /// (SI units: s, rad, rad/s, N m, m).
     pub fn to_csv(&self) -> String {
         let n = self.n;
         let mut s = String::with_capacity(self.len() * 400);
-        s.push('t');
-        for i in 1..=n {
-            let _ = write!(s, ",q{i}");
-        }
-        for i in 1..=n {
-            let _ = write!(s, ",qd{i}");
-        }
-        for i in 2..=n {
-            let _ = write!(s, ",tau{i}");
-        }
-        s.push_str(",ee_x,ee_y");
-        for i in 1..=n {
-            let _ = write!(s, ",ref_q{i}");
-        }
-        for i in 1..=n {
-            let _ = write!(s, ",ref_qd{i}");
-        }
-        s.push_str(",ref_ee_x,ref_ee_y\n");
+        s.push_str(&Self::csv_columns(n).join(","));
+        s.push('\n');
         for k in 0..self.len() {
             let _ = write!(s, "{:.6}", self.t[k]);
             for v in self.x(k).iter().chain(self.tau(k)) {
@@ -269,6 +266,96 @@ impl ClosedLoopLog {
             let _ = writeln!(s, ",{:.9},{:.9}", self.ref_ee[k][0], self.ref_ee[k][1]);
         }
         s
+    }
+
+    /// Parse CSV text written by [`ClosedLoopLog::to_csv`]; `source_name` names it in errors. The header
+    /// must be `to_csv`'s for some number of links n >= 2, every row has every column, every value is
+    /// finite and times increase strictly; errors name the line, the column and the value. The CSV does
+    /// not hold the plant and controller names, the controller's wall times or its iterations: they
+    /// are left empty (`plant`, `controller`, `control_us`, `iterations`). The caller caps the text's
+    /// size (`brachia::limits::read_text_capped`); nothing is allocated beyond what the text holds.
+    pub fn from_csv(text: &str, source_name: &str) -> Result<Self> {
+        let mut lines = text.lines();
+        let header = lines.next().unwrap_or("");
+        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+        let n = cols
+            .iter()
+            .filter(|c| {
+                c.strip_prefix('q')
+                    .is_some_and(|r| r.parse::<usize>().is_ok())
+            })
+            .count();
+        let want = Self::csv_columns(n);
+        if n < 2 || cols != want {
+            return Err(Error::invalid(
+                source_name,
+                "header",
+                header.chars().take(160).collect::<String>(),
+                "expected t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,ref_q1..ref_qn,ref_qd1..ref_qdn,\
+                 ref_ee_x,ref_ee_y (the header of a closed_loop.csv, n >= 2 links)",
+            ));
+        }
+        let mut log = ClosedLoopLog {
+            n,
+            ..ClosedLoopLog::default()
+        };
+        let mut row = Vec::with_capacity(want.len());
+        for (li, line) in lines.enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let at = |col: &str| format!("line {}, {col}", li + 2);
+            row.clear();
+            for (j, v) in line.split(',').enumerate() {
+                let Some(name) = want.get(j) else {
+                    return Err(Error::invalid(
+                        source_name,
+                        at("row"),
+                        line.chars().take(160).collect::<String>(),
+                        format!("too many columns (the header has {})", want.len()),
+                    ));
+                };
+                let x: f64 = v
+                    .trim()
+                    .parse()
+                    .map_err(|e| Error::invalid(source_name, at(name), v, format!("{e}")))?;
+                if !x.is_finite() {
+                    return Err(Error::invalid(
+                        source_name,
+                        at(name),
+                        v,
+                        "every value must be finite",
+                    ));
+                }
+                row.push(x);
+            }
+            if row.len() < want.len() {
+                return Err(Error::invalid(
+                    source_name,
+                    at(&want[row.len()]),
+                    "missing",
+                    format!("too few columns (the header has {})", want.len()),
+                ));
+            }
+            if let Some(&prev) = log.t.last() {
+                if row[0] <= prev {
+                    return Err(Error::invalid(
+                        source_name,
+                        at("t"),
+                        row[0],
+                        format!("times must increase strictly (previous row: {prev})"),
+                    ));
+                }
+            }
+            let (ee, r) = (1 + 3 * n - 1, 3 + 3 * n - 1);
+            log.t.push(row[0]);
+            log.x.extend_from_slice(&row[1..1 + 2 * n]);
+            log.tau.extend_from_slice(&row[1 + 2 * n..ee]);
+            log.ee.push([row[ee], row[ee + 1]]);
+            log.ref_x.extend_from_slice(&row[r..r + 2 * n]);
+            log.ref_ee.push([row[r + 2 * n], row[r + 2 * n + 1]]);
+        }
+        Ok(log)
     }
 }
 

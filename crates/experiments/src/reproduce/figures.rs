@@ -4,8 +4,8 @@
 //! Conventions: SI units (s, m, rad, rad/s, N m, J); the grip bar at the origin, y up. Each static figure
 //! is a PNG with an SVG beside it; animations are GIFs.
 
-use crate::plan_run::PlanRun;
-use crate::track_run::{PlantWorld, TrackRun};
+use crate::read::TrackFolder;
+use crate::track_run::PlantWorld;
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
 use brachia_plot::{
@@ -121,12 +121,13 @@ pub(crate) fn joint_tracking(
     figs: &mut FigureDir,
     name: &str,
     title: &str,
-    run: &TrackRun,
+    run: &TrackFolder,
 ) -> Result<(), PlotError> {
     let log = &run.log;
     let n = log.n;
     let t = log.t.clone();
-    let r = &run.reference;
+    let empty = Trajectory::new(n);
+    let r = run.plan.as_ref().map_or(&empty, |p| &p.trajectory);
     let mut q = Vec::new();
     let mut qd = Vec::new();
     for i in 0..n {
@@ -167,15 +168,18 @@ pub(crate) fn joint_tracking(
     }
     let mut tau = Vec::new();
     for j in 0..n - 1 {
-        tau.push(
-            Series::new(
-                format!("tau{} desired", j + 2),
-                r.t.clone(),
-                column(&r.tau, n - 1, j),
-            )
-            .dashed()
-            .colour(j + 1),
-        );
+        // the planned torque, when the run folder holds its plan
+        if !r.t.is_empty() {
+            tau.push(
+                Series::new(
+                    format!("tau{} desired", j + 2),
+                    r.t.clone(),
+                    column(&r.tau, n - 1, j),
+                )
+                .dashed()
+                .colour(j + 1),
+            );
+        }
         tau.push(
             Series::new(
                 format!("tau{} MPC", j + 2),
@@ -215,7 +219,7 @@ pub(crate) fn tracked_stick(
     name: &str,
     title: &str,
     robot: &Robot,
-    run: &TrackRun,
+    run: &TrackFolder,
     target: [f64; 2],
 ) -> Result<(), PlotError> {
     let (fixed, balls) = world_drawing(&run.world);
@@ -247,7 +251,7 @@ pub(crate) fn ee_path(
     figs: &mut FigureDir,
     name: &str,
     title: &str,
-    runs: &[(&str, &TrackRun)],
+    runs: &[(&str, &TrackFolder)],
     target: [f64; 2],
 ) -> Result<(), PlotError> {
     let Some((_, first)) = runs.first() else {
@@ -283,7 +287,7 @@ pub(crate) fn ee_error(
     figs: &mut FigureDir,
     name: &str,
     title: &str,
-    runs: &[(&str, &TrackRun)],
+    runs: &[(&str, &TrackFolder)],
     contact_s: Option<f64>,
 ) -> Result<(), PlotError> {
     let mut ex = Vec::new();
@@ -353,7 +357,7 @@ pub(crate) fn tracked_gif(
     name: &str,
     title: &str,
     robot: &Robot,
-    run: &TrackRun,
+    run: &TrackFolder,
     target: [f64; 2],
 ) -> Result<(), PlotError> {
     let (fixed, balls) = world_drawing(&run.world);
@@ -371,14 +375,14 @@ pub(crate) fn planned_gif(
     name: &str,
     title: &str,
     robot: &Robot,
-    plan: &PlanRun,
+    traj: &Trajectory,
     target: [f64; 2],
     obstacles: &[brachia::model::Circle],
 ) -> Result<(), PlotError> {
     animate_gif(
         figs.gif(name),
         robot,
-        &plan.plan.trajectory,
+        traj,
         &anim_options(title, target, task_obstacles(obstacles), Vec::new()),
     )
 }

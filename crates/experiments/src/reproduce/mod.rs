@@ -19,8 +19,9 @@ mod report;
 mod study;
 
 use crate::plan_run::{run_plan, PlanRun};
+use crate::read::{PlanFolder, TrackFolder};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
-use crate::track_run::{run_track, track_plan, TrackRun};
+use crate::track_run::{run_track, track_plan, TrackOutcome, TrackRun};
 use crate::ExpError;
 use figures::FigureDir;
 use serde_json::{json, Value};
@@ -78,33 +79,33 @@ pub struct Reproduction {
     pub wall_s: f64,
 }
 
-/// The results of the tracking experiment (paper V-B).
+/// The tracking experiment (paper V-B), read from its run folders.
 pub(crate) struct Tracking {
+    /// The resolved scenario (`tracking/plan/scenario.toml`).
     pub(crate) ls: LoadedScenario,
-    /// MPC on the rapier plant (the paper's Webots run).
-    pub(crate) rapier: TrackRun,
-    /// MPC on the RK4 model plant (the same plan).
-    pub(crate) model: TrackRun,
+    /// MPC on the rapier plant (the paper's Webots run), `tracking/`.
+    pub(crate) rapier: TrackFolder,
+    /// MPC on the RK4 model plant (the same plan), `tracking-model/`.
+    pub(crate) model: TrackFolder,
 }
 
-/// The results of the obstacle experiment (paper V-C).
+/// The obstacle experiment (paper V-C), read from `obstacle/avoid/` and `obstacle/ignored/`.
 pub(crate) struct ObstacleRuns {
-    pub(crate) avoid: (LoadedScenario, PlanRun),
-    pub(crate) ignored: (LoadedScenario, PlanRun),
+    pub(crate) avoid: PlanFolder,
+    pub(crate) ignored: PlanFolder,
 }
 
-/// The results of the robustness experiment (paper V-D).
+/// The robustness experiment (paper V-D), read from its run folders.
 pub(crate) struct Robustness {
+    /// The resolved scenario (`robustness/mpc/plan/scenario.toml`).
     pub(crate) ls: LoadedScenario,
-    /// MPC, PD, open loop on the rapier plant, the same plan.
-    pub(crate) runs: Vec<TrackRun>,
-    /// The scenario with the paper's ball placement.
-    pub(crate) paper_ls: LoadedScenario,
-    /// MPC with the paper's ball placement.
-    pub(crate) paper: Option<TrackRun>,
+    /// MPC, PD, open loop on the rapier plant, the same plan (`robustness/{mpc,pd,open-loop}/`).
+    pub(crate) runs: Vec<TrackFolder>,
+    /// MPC with the paper's ball placement (`robustness-paper/`), when its plan converged.
+    pub(crate) paper: Option<TrackFolder>,
 }
 
-/// Everything the report reads.
+/// Everything the report reads: the run folders of a reproduction and the facts of its run.
 #[derive(Default)]
 pub(crate) struct Results {
     pub(crate) tracking: Option<Tracking>,
@@ -113,6 +114,66 @@ pub(crate) struct Results {
     pub(crate) study: Option<crate::parameter_study::ParameterStudy>,
     pub(crate) quick: bool,
     pub(crate) wall_s: f64,
+    pub(crate) cores: usize,
+}
+
+/// The controllers of the robustness experiment, by run folder name.
+const ROBUSTNESS_RUNS: [&str; 3] = ["mpc", "pd", "open-loop"];
+
+impl Results {
+    /// Read the run folders of the reproduction in `dir` (an experiment whose folder holds no
+    /// `report.json` of its kind, because its plan did not converge, is absent).
+    fn read(dir: &Path) -> Result<Results, brachia::Error> {
+        let has = |p: &str| dir.join(p).join("report.json").is_file();
+        let scenario_of = |t: &TrackFolder| {
+            t.plan.as_ref().map(|p| p.scenario.clone()).ok_or_else(|| {
+                brachia::Error::invalid(
+                    t.dir.display().to_string(),
+                    "plan",
+                    "missing",
+                    "the run that planned holds its plan folder plan/",
+                )
+            })
+        };
+        let mut res = Results::default();
+        if has("tracking") && has("tracking-model") {
+            let rapier = TrackFolder::read(&dir.join("tracking"))?;
+            let model = TrackFolder::read(&dir.join("tracking-model"))?;
+            res.tracking = Some(Tracking {
+                ls: scenario_of(&rapier)?,
+                rapier,
+                model,
+            });
+        }
+        if has("obstacle/avoid") && has("obstacle/ignored") {
+            res.obstacle = Some(ObstacleRuns {
+                avoid: PlanFolder::read(&dir.join("obstacle/avoid"))?,
+                ignored: PlanFolder::read(&dir.join("obstacle/ignored"))?,
+            });
+        }
+        if has("robustness/mpc") {
+            let runs = ROBUSTNESS_RUNS
+                .iter()
+                .map(|c| TrackFolder::read(&dir.join("robustness").join(c)))
+                .collect::<Result<Vec<_>, _>>()?;
+            let paper = if has("robustness-paper") {
+                Some(TrackFolder::read(&dir.join("robustness-paper"))?)
+            } else {
+                None
+            };
+            res.robustness = Some(Robustness {
+                ls: scenario_of(&runs[0])?,
+                runs,
+                paper,
+            });
+        }
+        if has("parameter-study") {
+            res.study = Some(crate::read::read_parameter_study(
+                &dir.join("parameter-study"),
+            )?);
+        }
+        Ok(res)
+    }
 }
 
 fn load(opts: &ReproduceOptions, name: &str) -> Result<LoadedScenario, ExpError> {
@@ -131,7 +192,7 @@ fn plan_and_track(
     ls: &LoadedScenario,
     runs: &[(ControllerKind, PlantKind)],
 ) -> Result<Result<Vec<TrackRun>, Box<PlanRun>>, ExpError> {
-    let first = match run_track(ls, runs[0].0, runs[0].1, None)? {
+    let first = match run_track(ls, runs[0].0, runs[0].1, None)?.into_tracked() {
         Ok(r) => r,
         Err(p) => return Ok(Err(p)),
     };
@@ -168,10 +229,6 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     let out = stage.as_path();
     let mut failures = Vec::new();
     let mut files = Vec::new();
-    let mut res = Results {
-        quick: opts.quick,
-        ..Results::default()
-    };
 
     // V-B: tracking, MPC on the physics engine and on the model
     match plan_and_track(
@@ -181,16 +238,9 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
             (ControllerKind::Mpc, PlantKind::Model),
         ],
     )? {
-        Ok(mut runs) => {
-            let model = runs.pop().expect("two runs");
-            let rapier = runs.pop().expect("two runs");
-            write(&rapier.folder, &out.join("tracking"), &mut files)?;
-            write(&model.folder, &out.join("tracking-model"), &mut files)?;
-            res.tracking = Some(Tracking {
-                ls: ls_track.clone(),
-                rapier,
-                model,
-            });
+        Ok(runs) => {
+            write(&runs[0].folder, &out.join("tracking"), &mut files)?;
+            write(&runs[1].folder, &out.join("tracking-model"), &mut files)?;
         }
         Err(p) => {
             write(&p.folder, &out.join("tracking/plan"), &mut files)?;
@@ -217,10 +267,6 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
             ));
         }
     }
-    res.obstacle = Some(ObstacleRuns {
-        avoid: (ls_avoid, avoid),
-        ignored: (ls_ignored, ignored),
-    });
 
     // V-D: robustness, a ball on the path, MPC and the baselines on the physics engine
     match plan_and_track(
@@ -239,31 +285,23 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
                     &mut files,
                 )?;
             }
-            let paper = match run_track(
+            match run_track(
                 &ls_robust_paper,
                 ControllerKind::Mpc,
                 PlantKind::Rapier,
                 None,
             )? {
-                Ok(r) => {
+                TrackOutcome::Tracked(r) => {
                     write(&r.folder, &out.join("robustness-paper"), &mut files)?;
-                    Some(r)
                 }
-                Err(p) => {
+                TrackOutcome::PlanFailed(p) => {
                     write(&p.folder, &out.join("robustness-paper/plan"), &mut files)?;
                     failures.push(format!(
                         "robustness (paper placement): the planner did not converge ({:?})",
                         p.plan.status
                     ));
-                    None
                 }
-            };
-            res.robustness = Some(Robustness {
-                ls: ls_robust,
-                runs,
-                paper_ls: ls_robust_paper,
-                paper,
-            });
+            }
         }
         Err(p) => {
             write(&p.folder, &out.join("robustness/mpc/plan"), &mut files)?;
@@ -289,20 +327,17 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
             st.cells.len()
         ));
     }
-    res.study = Some(st);
+    drop(st);
 
-    // figures, animations, the report
-    let fig_dir = out.join("figures");
-    std::fs::create_dir_all(&fig_dir).map_err(|source| ExpError::Write {
-        path: fig_dir.clone(),
-        source,
-    })?;
-    let mut figs = FigureDir::new(&fig_dir);
-    let fig_failures = report::draw_figures(&res, &mut figs);
-    failures.extend(fig_failures);
-    // a figure that failed was never written (the folder started empty)
-    figs.written.retain(|p| p.is_file());
-    files.extend(figs.written.iter().cloned());
+    // figures, animations, the report: drawn from the run folders just written, as `brachia report`
+    // redraws them
+    let mut res = Results::read(out)?;
+    res.quick = opts.quick;
+    res.cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
+    let (failures, figs) = draw_figures_into(&res, failures, out)?;
+    files.extend(figs);
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);
     let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
@@ -337,6 +372,210 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     })
 }
 
+/// Draw every figure and animation of `res` into `out/figures/` (created); returns `failures` with the
+/// figures that could not be drawn appended, and the figure files written.
+fn draw_figures_into(
+    res: &Results,
+    mut failures: Vec<String>,
+    out: &Path,
+) -> Result<(Vec<String>, Vec<PathBuf>), ExpError> {
+    let fig_dir = out.join("figures");
+    std::fs::create_dir_all(&fig_dir).map_err(|source| ExpError::Write {
+        path: fig_dir.clone(),
+        source,
+    })?;
+    let mut figs = FigureDir::new(&fig_dir);
+    failures.extend(report::draw_figures(res, &mut figs));
+    // a figure that failed was never written (the folder started empty)
+    figs.written.retain(|p| p.is_file());
+    Ok((failures, figs.written))
+}
+
+/// What [`redraw`] wrote.
+#[derive(Debug, Clone)]
+pub struct Redraw {
+    /// The figures and REPORT.md, in place.
+    pub files: Vec<PathBuf>,
+    /// The failures REPORT.md lists: the reproduction's own (from `summary.json`) and the figures that
+    /// could not be drawn now.
+    pub failures: Vec<String>,
+}
+
+/// A folder that is not a reproduction: `dir` and what it lacks.
+fn not_a_reproduction(dir: &Path, missing: &str) -> ExpError {
+    ExpError::Input(brachia::Error::invalid(
+        dir.display().to_string(),
+        missing,
+        "missing",
+        format!(
+            "a folder written by `brachia reproduce` holds {} and summary.json (or give a `brachia \
+             plan` or `brachia track` run folder)",
+            crate::MANIFEST
+        ),
+    ))
+}
+
+/// Redraw every figure and animation (`figures/`) and `REPORT.md` of the reproduction folder `dir` from
+/// its run folders, without planning or simulating (or, for a single `brachia plan` / `brachia track` run
+/// folder, draw its figures into its `figures/`); `summary.json` gives the run's mode, wall time,
+/// cores, failures and warnings (it is not rewritten). Refused before anything is written when `dir` is
+/// not a reproduction folder (no manifest or no `summary.json`) or a run folder does not read back.
+/// Staged: everything is drawn into a hidden folder inside `dir`, then each file is renamed into place;
+/// the figures of the previous drawing that are not drawn again are removed (only those its manifest
+/// lists), the user's files are never touched.
+pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
+    if !dir.is_dir() {
+        return Err(not_a_reproduction(dir, "(the folder itself)"));
+    }
+    let single = dir.join("report.json").is_file() && !dir.join("summary.json").is_file();
+    if single && dir.join(crate::MANIFEST).is_file() {
+        return redraw_run(dir);
+    }
+    for need in [crate::MANIFEST, "summary.json"] {
+        if !dir.join(need).is_file() {
+            return Err(not_a_reproduction(dir, need));
+        }
+    }
+    let spath = dir.join("summary.json");
+    let sum: Value = crate::read::read_json(&spath)?;
+    let field = |k: &str| {
+        sum.get(k).ok_or_else(|| {
+            ExpError::Input(brachia::Error::invalid(
+                spath.display().to_string(),
+                k,
+                "missing",
+                "summary.json of `brachia reproduce` has mode, wall_time_s, cores, failures, warnings",
+            ))
+        })
+    };
+    let texts = |v: &Value| -> Vec<String> {
+        v.as_array()
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(String::from))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let quick = field("mode")?.as_str() == Some("quick");
+    let wall_s = field("wall_time_s")?.as_f64().unwrap_or(0.0);
+    let cores = field("cores")?.as_u64().unwrap_or(1) as usize;
+    let run_failures: Vec<String> = texts(field("failures")?)
+        .into_iter()
+        .filter(|f| !f.starts_with("figure "))
+        .collect();
+    let warnings = texts(field("warnings")?);
+    let mut res = Results::read(dir)?;
+    res.quick = quick;
+    res.wall_s = wall_s;
+    res.cores = cores;
+    // staged: draw into a hidden folder inside dir, then rename each file into place
+    let stage = redraw_stage(dir)?;
+    let _cleanup = RemoveOnDrop(stage.clone());
+    let (failures, drawn) = draw_figures_into(&res, run_failures, &stage)?;
+    let md = report::markdown(
+        &res,
+        &failures,
+        &warnings,
+        Path::new("figures"),
+        report::Target::Report,
+    );
+    let mut top = crate::RunFolder::default();
+    top.add("REPORT.md", md);
+    top.write_into(&stage)?;
+    let files = put_in_place(dir, &stage, &drawn, true)?;
+    Ok(Redraw { files, failures })
+}
+
+/// Move the figures `drawn` (in `stage/figures/`, each PNG with its SVG) into `dir/figures/` and, with
+/// `report_md`, `stage/REPORT.md` to `dir/REPORT.md`; remove the figures the manifest of `dir` lists that
+/// were not drawn again, and list the new ones.
+fn put_in_place(
+    dir: &Path,
+    stage: &Path,
+    drawn: &[PathBuf],
+    report_md: bool,
+) -> Result<Vec<PathBuf>, ExpError> {
+    let werr = |path: &Path, source| ExpError::Write {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut listed = crate::run_folder::read_manifest(dir).unwrap_or_default();
+    let figures = dir.join("figures");
+    std::fs::create_dir_all(&figures).map_err(|e| werr(&figures, e))?;
+    let mut files = Vec::new();
+    let mut now = std::collections::BTreeSet::new();
+    for f in drawn {
+        let name = Path::new("figures").join(f.file_name().unwrap_or_default());
+        let to = dir.join(&name);
+        std::fs::rename(f, &to).map_err(|e| werr(&to, e))?;
+        // the SVG drawn beside a PNG
+        let svg = f.with_extension("svg");
+        if svg.is_file() {
+            let sname = name.with_extension("svg");
+            let sto = dir.join(&sname);
+            std::fs::rename(&svg, &sto).map_err(|e| werr(&sto, e))?;
+            now.insert(sname);
+        }
+        now.insert(name);
+        files.push(to);
+    }
+    // the previous drawing's figures that were not drawn again (listed in the manifest: ours)
+    for old in listed
+        .iter()
+        .filter(|p| p.starts_with("figures") && !now.contains(*p))
+    {
+        let p = dir.join(old);
+        if p.is_file() {
+            std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
+        }
+    }
+    listed.retain(|p| !p.starts_with("figures"));
+    listed.extend(now);
+    if report_md {
+        listed.insert(PathBuf::from("REPORT.md"));
+        let to = dir.join("REPORT.md");
+        std::fs::rename(stage.join("REPORT.md"), &to).map_err(|e| werr(&to, e))?;
+        files.push(to);
+    }
+    crate::run_folder::write_manifest(dir, &listed)?;
+    Ok(files)
+}
+
+/// A fresh hidden staging folder inside `dir` for [`redraw`].
+fn redraw_stage(dir: &Path) -> Result<PathBuf, ExpError> {
+    let stage = dir.join(format!(".report.partial-{}", std::process::id()));
+    if stage.exists() {
+        std::fs::remove_dir_all(&stage).map_err(|source| ExpError::Write {
+            path: stage.clone(),
+            source,
+        })?;
+    }
+    Ok(stage)
+}
+
+/// [`redraw`] of a single `brachia plan` or `brachia track` run folder: its figures into `dir/figures/`
+/// (a plan: stick diagram and animation; a track run: joints, EE path and error, and, when it planned,
+/// stick diagram and animation).
+fn redraw_run(dir: &Path) -> Result<Redraw, ExpError> {
+    let stage = redraw_stage(dir)?;
+    let _cleanup = RemoveOnDrop(stage.clone());
+    let fig_dir = stage.join("figures");
+    std::fs::create_dir_all(&fig_dir).map_err(|source| ExpError::Write {
+        path: fig_dir.clone(),
+        source,
+    })?;
+    let mut figs = FigureDir::new(&fig_dir);
+    let failures = if dir.join("closed_loop.csv").is_file() {
+        report::draw_track_run(&TrackFolder::read(dir)?, &mut figs)
+    } else {
+        report::draw_plan_run(&PlanFolder::read(dir)?, &mut figs)
+    };
+    figs.written.retain(|p| p.is_file());
+    let files = put_in_place(dir, &stage, &figs.written, false)?;
+    Ok(Redraw { files, failures })
+}
+
 /// Removes a staging folder when a run stops early (an error or a panic); a no-op once the folder has
 /// been renamed into place.
 struct RemoveOnDrop(PathBuf);
@@ -354,6 +593,6 @@ pub(crate) fn summary_skeleton(res: &Results) -> Value {
     json!({
         "mode": if res.quick { "quick" } else { "full" },
         "wall_time_s": res.wall_s,
-        "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        "cores": res.cores,
     })
 }

@@ -109,20 +109,19 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
         );
     }
     if let Some(o) = &res.obstacle {
-        for (ls, p, name, title) in [
+        for (p, name, title) in [
             (
-                &o.ignored.0,
-                &o.ignored.1,
+                &o.ignored,
                 "fig7a_obstacle_ignored",
                 "Obstacle (V-C): planned without avoidance",
             ),
             (
-                &o.avoid.0,
-                &o.avoid.1,
+                &o.avoid,
                 "fig7b_obstacle_avoided",
                 "Obstacle (V-C): planned with avoidance",
             ),
         ] {
+            let (ls, traj) = (&p.scenario, &p.trajectory);
             let task = &ls.scenario.task;
             check(
                 name,
@@ -131,7 +130,7 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
                     name,
                     title,
                     &ls.robot,
-                    &p.plan.trajectory,
+                    traj,
                     task.target,
                     &task.obstacles,
                 ),
@@ -141,7 +140,15 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
                 .trim_start_matches("fig7b_");
             check(
                 gif,
-                figures::planned_gif(figs, gif, title, &ls.robot, p, task.target, &task.obstacles),
+                figures::planned_gif(
+                    figs,
+                    gif,
+                    title,
+                    &ls.robot,
+                    traj,
+                    task.target,
+                    &task.obstacles,
+                ),
             );
         }
     }
@@ -161,7 +168,7 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
             "fig8a",
             figures::tracked_stick(figs, "fig8a_robustness_stick", &title, robot, mpc, target),
         );
-        let runs: Vec<(&str, &crate::TrackRun)> = r
+        let runs: Vec<(&str, &crate::TrackFolder)> = r
             .runs
             .iter()
             .map(|x| (controller_label(&x.log.controller), x))
@@ -199,7 +206,7 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
         if let Some(p) = &r.paper {
             let title = format!(
                 "Robustness (V-D) with the paper's ball at {}: {}",
-                ball_at(&r.paper_ls),
+                paper_ball(p),
                 match p.world.first_contact_s() {
                     None => "never touched".to_string(),
                     Some(t) => format!("first touched at {t:.3} s"),
@@ -219,6 +226,91 @@ pub(crate) fn draw_figures(res: &Results, figs: &mut FigureDir) -> Vec<String> {
         }
     }
     failed
+}
+
+/// The figures of one `brachia plan` run folder: its stick diagram and animation (`plan_stick`,
+/// `plan.gif`). Returns the figures that failed.
+pub(crate) fn draw_plan_run(p: &crate::PlanFolder, figs: &mut FigureDir) -> Vec<String> {
+    let (ls, title) = (&p.scenario, format!("Plan of {}", p.report.scenario));
+    let task = &ls.scenario.task;
+    let mut failed = Vec::new();
+    for (what, r) in [
+        (
+            "plan_stick",
+            figures::planned_stick(
+                figs,
+                "plan_stick",
+                &title,
+                &ls.robot,
+                &p.trajectory,
+                task.target,
+                &task.obstacles,
+            ),
+        ),
+        (
+            "plan.gif",
+            figures::planned_gif(
+                figs,
+                "plan",
+                &title,
+                &ls.robot,
+                &p.trajectory,
+                task.target,
+                &task.obstacles,
+            ),
+        ),
+    ] {
+        if let Err(e) = r {
+            failed.push(format!("figure {what}: {e}"));
+        }
+    }
+    failed
+}
+
+/// The figures of one `brachia track` run folder: joints, EE path and EE error (`track_joints`,
+/// `track_ee_path`, `track_ee_error`) and, when it planned (its robot is in `plan/`), the stick diagram and
+/// animation (`track_stick`, `track.gif`). Returns the figures that failed.
+pub(crate) fn draw_track_run(t: &crate::TrackFolder, figs: &mut FigureDir) -> Vec<String> {
+    let rep = &t.report;
+    let title = format!(
+        "{} on the {} plant ({})",
+        rep.controller, rep.plant, rep.scenario
+    );
+    let runs = [(controller_label(&rep.controller), t)];
+    let mut out = vec![
+        (
+            "track_joints",
+            figures::joint_tracking(figs, "track_joints", &title, t),
+        ),
+        (
+            "track_ee_path",
+            figures::ee_path(figs, "track_ee_path", &title, &runs, rep.target),
+        ),
+        (
+            "track_ee_error",
+            figures::ee_error(
+                figs,
+                "track_ee_error",
+                &title,
+                &runs,
+                t.world.first_contact_s(),
+            ),
+        ),
+    ];
+    if let Some(p) = &t.plan {
+        let robot = &p.scenario.robot;
+        out.push((
+            "track_stick",
+            figures::tracked_stick(figs, "track_stick", &title, robot, t, rep.target),
+        ));
+        out.push((
+            "track.gif",
+            figures::tracked_gif(figs, "track", &title, robot, t, rep.target),
+        ));
+    }
+    out.into_iter()
+        .filter_map(|(what, r)| r.err().map(|e| format!("figure {what}: {e}")))
+        .collect()
 }
 
 /// "a free 0.4 kg ball (radius 0.05 m, no gravity, restitution 0.3) at (0.02, -0.44)" for the first ball
@@ -255,6 +347,11 @@ fn ball_at(ls: &crate::scenario::LoadedScenario) -> String {
     })
 }
 
+/// [`ball_at`] of the scenario a track run planned with (`-` when it did not plan).
+fn paper_ball(p: &crate::TrackFolder) -> String {
+    p.plan.as_ref().map_or("-".into(), |x| ball_at(&x.scenario))
+}
+
 fn controller_label(name: &str) -> &'static str {
     match name {
         "mpc" => "MPC",
@@ -274,14 +371,14 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
         m.insert("parameter_study".into(), super::study::summary(st));
     }
     if let Some(t) = &res.tracking {
-        let plan = t.rapier.plan.as_ref().map(|p| &p.plan);
+        let plan = t.rapier.plan.as_ref().map(|p| &p.report);
         m.insert(
             "tracking".into(),
             json!({
                 "plan_solve_time_s": plan.map(|p| p.solve_time_s),
                 "plan_iterations": plan.map(|p| p.iterations),
-                "plan_solver": plan.map(|p| p.backend.name()),
-                "plan_time_split_s": plan.map(|p| p.time_split),
+                "plan_solver": plan.map(|p| &p.solver),
+                "plan_time_split_s": plan.map(|p| p.time_split_s),
                 "plan_solves": plan.map(|p| &p.solves),
                 "plan_replay_ee_error_m": plan.map(|p| p.replay_ee_error_m),
                 "swing_time_s": plan.map(|p| p.swing_time_s),
@@ -293,22 +390,23 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
         );
     }
     if let Some(o) = &res.obstacle {
-        let one = |p: &crate::PlanRun| {
+        let one = |p: &crate::PlanFolder| {
+            let p = &p.report;
             json!({
-                "converged": p.plan.converged(),
-                "status": p.plan.status,
-                "min_clearance_m": p.plan.min_obstacle_clearance_m,
-                "energy_j": p.plan.energy_j,
-                "solve_time_s": p.plan.solve_time_s,
-                "iterations": p.plan.iterations,
-                "solver": p.plan.backend.name(),
-                "time_split_s": p.plan.time_split,
-                "solves": p.plan.solves,
+                "converged": p.converged,
+                "status": p.status,
+                "min_clearance_m": p.min_obstacle_clearance_m,
+                "energy_j": p.energy_j,
+                "solve_time_s": p.solve_time_s,
+                "iterations": p.iterations,
+                "solver": p.solver,
+                "time_split_s": p.time_split_s,
+                "solves": p.solves,
             })
         };
         m.insert(
             "obstacle".into(),
-            json!({ "avoid": one(&o.avoid.1), "ignored": one(&o.ignored.1) }),
+            json!({ "avoid": one(&o.avoid), "ignored": one(&o.ignored) }),
         );
     }
     if let Some(r) = &res.robustness {
@@ -328,8 +426,8 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
     s
 }
 
-fn track_summary(r: &crate::TrackRun) -> Value {
-    let s = &r.summary;
+fn track_summary(r: &crate::TrackFolder) -> Value {
+    let s = &r.report.summary;
     json!({
         "controller": r.log.controller,
         "plant": r.log.plant,
@@ -349,17 +447,17 @@ fn track_summary(r: &crate::TrackRun) -> Value {
 
 /// A plan's solver work (every attempt and pass, totals, time split) and what it hands on: the
 /// open-loop replay of its own torque profile and its 1 ms trajectory.
-fn plan_text(p: &brachia::planning::Plan) -> String {
-    let c = &p.resample_clamped;
+fn plan_text(p: &crate::PlanReport) -> String {
+    let c = &p.trajectory_clamped;
     format!(
         "the planner's solver ({}): {}. Open-loop replay of the {:?} torque profile from the start \
          state ends {:.2e} m from the bar; the 1 ms trajectory ends at T = {:.4} s and was clamped into \
          the bounds by at most {:.1e} rad, {:.1e} rad/s, {:.1e} N m.",
-        p.backend.name(),
-        crate::solver_work_text(p),
-        p.layout.transcription,
+        p.solver,
+        p.solver_work_text(),
+        p.replay_torque_profile,
         p.replay_ee_error_m,
-        p.trajectory.t.last().copied().unwrap_or(0.0),
+        p.trajectory_end_s.unwrap_or(0.0),
         c.q_rad,
         c.qd_rad_s,
         c.tau_nm
@@ -394,8 +492,8 @@ fn rows(res: &Results) -> Vec<Row> {
         })
     };
     if let Some(t) = &res.tracking {
-        let plan = t.rapier.plan.as_ref().map(|x| &x.plan);
-        let (sr, sm) = (&t.rapier.summary, &t.model.summary);
+        let plan = t.rapier.plan.as_ref().map(|x| &x.report);
+        let (sr, sm) = (&t.rapier.report.summary, &t.model.report.summary);
         row(
             "plan time (V-B swing)",
             format!("<= {:.0} ms (SNOPT)", p.plan_time_s * 1e3),
@@ -405,19 +503,19 @@ fn rows(res: &Results) -> Vec<Row> {
                 plan.map_or(0, |x| x.iterations),
                 plan.map_or(String::new(), |x| format!(
                     "; callbacks {:.0} ms, linear algebra {:.0} ms, line search and rest {:.0} ms",
-                    x.time_split.callbacks_s * 1e3,
-                    x.time_split.linear_algebra_s * 1e3,
-                    x.time_split.line_search_and_other_s * 1e3
+                    x.time_split_s.callbacks_s * 1e3,
+                    x.time_split_s.linear_algebra_s * 1e3,
+                    x.time_split_s.line_search_and_other_s * 1e3
                 ))
             ),
             &format!(
                 "{} interior point with the exact sparse Hessian, every attempt and pass counted (section B); \
                  {:?} at {} s knots ({} collocation points; the paper's Euler mesh has one per knot); see \
                  docs/benchmarks.md",
-                plan.map_or("pounce", |x| x.backend.name()),
+                plan.map_or("pounce", |x| x.solver.as_str()),
                 t.ls.scenario.planner.transcription,
                 t.ls.scenario.planner.knot_dt,
-                plan.map_or(0, |x| x.layout.points)
+                plan.map_or(0, |x| x.collocation_points)
             ),
         );
         row(
@@ -479,8 +577,8 @@ fn rows(res: &Results) -> Vec<Row> {
             "contact / no contact (Fig. 7)".into(),
             format!(
                 "{} m / {} m",
-                num(o.ignored.1.plan.min_obstacle_clearance_m, 3),
-                num(o.avoid.1.plan.min_obstacle_clearance_m, 3)
+                num(o.ignored.report.min_obstacle_clearance_m, 3),
+                num(o.avoid.report.min_obstacle_clearance_m, 3)
             ),
             "smallest surface distance between any link capsule and the obstacle over the 1 ms plan \
              (negative = penetration)",
@@ -502,7 +600,7 @@ fn rows(res: &Results) -> Vec<Row> {
                 format!(
                     "{} {:.2e} m",
                     controller_label(&x.log.controller),
-                    x.summary.ee_final_error_m
+                    x.report.summary.ee_final_error_m
                 )
             })
             .collect();
@@ -569,7 +667,7 @@ pub(crate) fn markdown(
          on {} cores. {}\n",
         if res.quick { " --quick" } else { "" },
         res.wall_s,
-        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        res.cores,
         match target {
             Target::Report => "Every number below comes from the run folders beside this file; \
                                `summary.json` has them in machine-readable form.",
@@ -608,7 +706,7 @@ pub(crate) fn markdown(
             t.ls.scenario.task.target[0],
             t.ls.scenario.task.target[1]
         );
-        if let Some(p) = t.rapier.plan.as_ref().map(|x| &x.plan) {
+        if let Some(p) = t.rapier.plan.as_ref().map(|x| &x.report) {
             let _ = writeln!(s, "{}\n", plan_text(p));
         }
         image(
@@ -633,7 +731,7 @@ pub(crate) fn markdown(
              avoidance every link keeps at least {} m (the margin is {} m). Energy {} J without, {} J with \
              avoidance (`obstacle/ignored/`, `obstacle/avoid/`).\n",
             o.avoid
-                .0
+                .scenario
                 .scenario
                 .task
                 .obstacles
@@ -641,19 +739,19 @@ pub(crate) fn markdown(
                 .map(|c| format!("radius {} m at ({}, {})", c.radius, c.center[0], c.center[1]))
                 .collect::<Vec<_>>()
                 .join(", "),
-            o.avoid.0.scenario.task.target[0],
-            o.avoid.0.scenario.task.target[1],
-            num(o.ignored.1.plan.min_obstacle_clearance_m, 3),
-            num(o.avoid.1.plan.min_obstacle_clearance_m, 3),
-            o.avoid.0.scenario.planner.obstacle_margin,
-            num(Some(o.ignored.1.plan.energy_j), 3),
-            num(Some(o.avoid.1.plan.energy_j), 3),
+            o.avoid.scenario.scenario.task.target[0],
+            o.avoid.scenario.scenario.task.target[1],
+            num(o.ignored.report.min_obstacle_clearance_m, 3),
+            num(o.avoid.report.min_obstacle_clearance_m, 3),
+            o.avoid.scenario.scenario.planner.obstacle_margin,
+            num(Some(o.ignored.report.energy_j), 3),
+            num(Some(o.avoid.report.energy_j), 3),
         );
         let _ = writeln!(
             s,
             "With avoidance: {}\n\nWithout: {}\n",
-            plan_text(&o.avoid.1.plan),
-            plan_text(&o.ignored.1.plan)
+            plan_text(&o.avoid.report),
+            plan_text(&o.ignored.report)
         );
         image(
             &mut s,
@@ -678,15 +776,15 @@ pub(crate) fn markdown(
             ball_text(&r.ls),
             num(mpc.world.first_contact_s(), 3),
             mpc.world.contacts.len(),
-            mpc.summary.ee_final_error_m,
-            mpc.summary.ee_error_max_m,
+            mpc.report.summary.ee_final_error_m,
+            mpc.report.summary.ee_error_max_m,
             r.runs[1..]
                 .iter()
                 .map(|x| format!(
                     "{} ends {:.2e} m from the bar (largest error {:.2e} m)",
                     controller_label(&x.log.controller),
-                    x.summary.ee_final_error_m,
-                    x.summary.ee_error_max_m
+                    x.report.summary.ee_final_error_m,
+                    x.report.summary.ee_error_max_m
                 ))
                 .collect::<Vec<_>>()
                 .join("; ")
@@ -697,12 +795,12 @@ pub(crate) fn markdown(
                 "With the paper's placement, {}, the ball is {} (final EE error {:.2e} m; `robustness-paper/`). \
                  The planned swing starts below the bar and moves down and forward, away from that point \
                  (docs/rapier.md measures 0.28 m between it and the nearest link axis).\n",
-                ball_at(&r.paper_ls),
+                paper_ball(p),
                 match p.world.first_contact_s() {
                     None => "never touched".to_string(),
                     Some(t) => format!("first touched at {t:.3} s"),
                 },
-                p.summary.ee_final_error_m
+                p.report.summary.ee_final_error_m
             );
         }
         image(

@@ -1,0 +1,507 @@
+//! Reading run folders back: the data a figure or a report needs, loaded from what `brachia plan`,
+//! `brachia track` and the parameter study wrote, checked before it is used.
+//!
+//! Every file is read with a size cap ([`brachia::limits`]); a missing file, a header that is not the
+//! writer's, a value that does not parse, a non-finite number or times that do not increase is an
+//! [`Error::InvalidValue`] naming the file, the field (line and column), the value and the rule. Nothing
+//! here plans or simulates.
+//!
+//! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
+//! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`ClosedLoopLog::to_csv`];
+//! `contacts.csv` `t,link,body,impulse`; `obstacles.csv` `t,obstacle_0_x,obstacle_0_y,...`.
+
+use crate::parameter_study::{
+    BaseParams, ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
+};
+use crate::plan_run::PlanReport;
+use crate::scenario::{LoadedScenario, Scenario, Uses};
+use crate::track_run::{PlantWorld, TrackReport};
+use brachia::limits;
+use brachia::model::RobotParams;
+use brachia::planning::SolveStatus;
+use brachia::sim::ClosedLoopLog;
+use brachia::trajectory::Trajectory;
+use brachia::{Error, Robot};
+use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
+use serde::de::DeserializeOwned;
+use std::path::{Path, PathBuf};
+
+/// `dir/name`, refused (naming `what` the folder should be) when it is not a file.
+fn need(dir: &Path, name: &str, what: &str) -> Result<PathBuf, Error> {
+    let p = dir.join(name);
+    if p.is_file() {
+        Ok(p)
+    } else {
+        Err(Error::invalid(
+            dir.display().to_string(),
+            name,
+            "missing",
+            format!("{what} holds {name}"),
+        ))
+    }
+}
+
+/// Read and parse a JSON file (at most [`limits::MAX_JSON_BYTES`]).
+pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
+    let text = limits::read_text_capped(path, limits::MAX_JSON_BYTES, "JSON file")?;
+    serde_json::from_str(&text).map_err(|e| Error::Parse {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// Read a plan's 1 ms `trajectory.csv` for an `n`-link robot (`whose` names the robot in the message):
+/// the header names its joints (`t,q1..qn,qd1..qdn,tau2..taun,...`), every value is finite, times start
+/// at 0 and increase strictly, at least two rows, and the swing lasts at most
+/// [`limits::MAX_SWING_TIME_S`].
+pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajectory, Error> {
+    let tpath = file.display().to_string();
+    let text = limits::read_text_capped(file, limits::MAX_CSV_BYTES, "trajectory.csv")?;
+    let header = text.lines().next().unwrap_or("");
+    let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+    let links = cols
+        .iter()
+        .filter(|c| {
+            c.strip_prefix('q')
+                .is_some_and(|r| r.parse::<usize>().is_ok())
+        })
+        .count();
+    let mut want = vec!["t".to_string()];
+    want.extend((1..=n).map(|i| format!("q{i}")));
+    want.extend((1..=n).map(|i| format!("qd{i}")));
+    want.extend((2..=n).map(|i| format!("tau{i}")));
+    if links != n || cols.len() < want.len() || cols[..want.len()] != want[..] {
+        return Err(Error::invalid(
+            &tpath,
+            "header",
+            header.chars().take(120).collect::<String>(),
+            format!(
+                "the plan is for a {links}-link robot, {whose} has {n} links: expected {},...",
+                want.join(",")
+            ),
+        ));
+    }
+    let traj = Trajectory::from_csv(&text, n, &tpath)?;
+    if traj.len() < 2 {
+        return Err(Error::invalid(
+            &tpath,
+            "rows",
+            traj.len(),
+            "a plan needs at least two samples",
+        ));
+    }
+    let per_row = [
+        ("q", &traj.q, n),
+        ("qd", &traj.qd, n),
+        ("tau", &traj.tau, n - 1),
+    ];
+    for (name, v, w) in per_row {
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            let (row, col) = (i / w.max(1), i % w.max(1));
+            let j = if name == "tau" { col + 2 } else { col + 1 };
+            return Err(Error::invalid(
+                &tpath,
+                format!("line {}, {name}{j}", row + 2),
+                x,
+                "every value of a plan must be finite",
+            ));
+        }
+    }
+    if let Some((k, x)) = traj.t.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+        return Err(Error::invalid(
+            &tpath,
+            format!("line {}, t", k + 2),
+            x,
+            "every value of a plan must be finite",
+        ));
+    }
+    if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
+        return Err(Error::invalid(
+            &tpath,
+            format!("line {}, t", k + 2),
+            traj.t[k],
+            format!(
+                "times must increase strictly (previous row: {})",
+                traj.t[k - 1]
+            ),
+        ));
+    }
+    if traj.t[0].abs() > 1e-9 {
+        return Err(Error::invalid(
+            &tpath,
+            "line 2, t",
+            traj.t[0],
+            "a plan starts at t = 0",
+        ));
+    }
+    let tmax = limits::MAX_SWING_TIME_S;
+    if traj.duration() > tmax {
+        return Err(Error::invalid(
+            &tpath,
+            "t",
+            traj.duration(),
+            format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
+        ));
+    }
+    Ok(traj)
+}
+
+/// A plan's run folder read back (`brachia plan`, or the `plan/` of a track run).
+#[derive(Debug, Clone)]
+pub struct PlanFolder {
+    /// The folder.
+    pub dir: PathBuf,
+    /// The resolved scenario (`scenario.toml`) with its robot (`params.toml` beside it).
+    pub scenario: LoadedScenario,
+    /// `report.json`.
+    pub report: PlanReport,
+    /// The 1 ms trajectory (`trajectory.csv`).
+    pub trajectory: Trajectory,
+}
+
+const PLAN_FOLDER: &str = "a plan folder written by `brachia plan` (scenario.toml, params.toml, \
+                           trajectory.csv, report.json)";
+
+impl PlanFolder {
+    /// Read the plan folder `dir`: its resolved `scenario.toml` (loaded and validated like any scenario;
+    /// its robot is the `params` file it names, `params.toml` in the folder), `report.json` and
+    /// `trajectory.csv` (checked by [`read_plan_trajectory`]).
+    pub fn read(dir: &Path) -> Result<Self, Error> {
+        let sfile = need(dir, "scenario.toml", PLAN_FOLDER)?;
+        let rfile = need(dir, "report.json", PLAN_FOLDER)?;
+        let tfile = need(dir, "trajectory.csv", PLAN_FOLDER)?;
+        let scenario = Scenario::load_for(&sfile, Uses::Plan)?;
+        let report: PlanReport = read_json(&rfile)?;
+        let whose = format!("the robot of {}", sfile.display());
+        let trajectory = read_plan_trajectory(&tfile, scenario.robot.n, &whose)?;
+        Ok(PlanFolder {
+            dir: dir.to_path_buf(),
+            scenario,
+            report,
+            trajectory,
+        })
+    }
+}
+
+/// A track run's folder read back (`brachia track`).
+#[derive(Debug, Clone)]
+pub struct TrackFolder {
+    /// The folder.
+    pub dir: PathBuf,
+    /// `report.json`.
+    pub report: TrackReport,
+    /// `closed_loop.csv`, with the plant and controller names of the report (no controller timings).
+    pub log: ClosedLoopLog,
+    /// The plant's world: the report's obstacles, `contacts.csv` and `obstacles.csv` (empty when absent,
+    /// as on the model plant).
+    pub world: PlantWorld,
+    /// The plan under `plan/`, when this run planned it.
+    pub plan: Option<PlanFolder>,
+}
+
+const TRACK_FOLDER: &str =
+    "a track folder written by `brachia track` (report.json, closed_loop.csv)";
+
+impl TrackFolder {
+    /// Read the track folder `dir`: `report.json`, `closed_loop.csv` ([`ClosedLoopLog::from_csv`]),
+    /// `contacts.csv` and `obstacles.csv` when present, and the plan folder `plan/` when present.
+    pub fn read(dir: &Path) -> Result<Self, Error> {
+        let rfile = need(dir, "report.json", TRACK_FOLDER)?;
+        let lfile = need(dir, "closed_loop.csv", TRACK_FOLDER)?;
+        let report: TrackReport = read_json(&rfile)?;
+        let text = limits::read_text_capped(&lfile, limits::MAX_CSV_BYTES, "closed_loop.csv")?;
+        let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())?;
+        log.controller = report.controller.clone();
+        log.plant = report.plant.clone();
+        let mut world = PlantWorld {
+            obstacles: report.plant_obstacles.clone(),
+            ..PlantWorld::default()
+        };
+        let cfile = dir.join("contacts.csv");
+        if cfile.is_file() {
+            world.contacts = read_contacts(&cfile, log.n, world.obstacles.len())?;
+        }
+        let ofile = dir.join("obstacles.csv");
+        if ofile.is_file() {
+            world.track = read_obstacle_track(&ofile, &world.obstacles)?;
+        }
+        let plan = if dir.join("plan").is_dir() {
+            Some(PlanFolder::read(&dir.join("plan"))?)
+        } else {
+            None
+        };
+        Ok(TrackFolder {
+            dir: dir.to_path_buf(),
+            report,
+            log,
+            world,
+            plan,
+        })
+    }
+}
+
+/// Split a CSV file into its header and its non-empty rows (each with its 1-based line number), the
+/// header checked against `header`.
+fn csv_rows<'a>(
+    text: &'a str,
+    file: &str,
+    header: &str,
+) -> Result<Vec<(usize, Vec<&'a str>)>, Error> {
+    let mut lines = text.lines();
+    let got = lines.next().unwrap_or("").trim();
+    if got != header {
+        return Err(Error::invalid(
+            file,
+            "header",
+            got.chars().take(160).collect::<String>(),
+            format!("expected {header}"),
+        ));
+    }
+    Ok(lines
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| (i + 2, l.split(',').map(str::trim).collect()))
+        .collect())
+}
+
+/// A finite number of a CSV cell.
+fn number(file: &str, line: usize, col: &str, v: &str) -> Result<f64, Error> {
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(_) => Err(Error::invalid(
+            file,
+            format!("line {line}, {col}"),
+            v,
+            "must be finite",
+        )),
+        Err(e) => Err(Error::invalid(
+            file,
+            format!("line {line}, {col}"),
+            v,
+            e.to_string(),
+        )),
+    }
+}
+
+/// `contacts.csv` of an `n`-link robot in a world of `obstacles` obstacles.
+fn read_contacts(path: &Path, n: usize, obstacles: usize) -> Result<Vec<ContactEvent>, Error> {
+    let file = path.display().to_string();
+    let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, "contacts.csv")?;
+    let mut out = Vec::new();
+    for (line, row) in csv_rows(&text, &file, "t,link,body,impulse")? {
+        if row.len() != 4 {
+            return Err(Error::invalid(
+                &file,
+                format!("line {line}"),
+                row.join(","),
+                "expected 4 columns: t,link,body,impulse",
+            ));
+        }
+        let link = row[1].parse::<usize>().ok().filter(|l| (1..=n).contains(l));
+        let Some(link) = link else {
+            return Err(Error::invalid(
+                &file,
+                format!("line {line}, link"),
+                row[1],
+                format!("a link number 1..{n}"),
+            ));
+        };
+        let id = |p: &str, max: usize| {
+            row[2]
+                .strip_prefix(p)
+                .and_then(|r| r.parse::<usize>().ok())
+                .filter(|&i| i < max)
+        };
+        let body = if let Some(i) = id("obstacle_", obstacles) {
+            ContactBody::Obstacle(i)
+        } else if let Some(j) = id("link_", n + 1).filter(|&j| j >= 1) {
+            ContactBody::Link(j - 1)
+        } else {
+            return Err(Error::invalid(
+                &file,
+                format!("line {line}, body"),
+                row[2],
+                format!(
+                    "obstacle_<id> with id 0..{} (the report's plant_obstacles) or link_<j> with j 1..{n}",
+                    obstacles.saturating_sub(1)
+                ),
+            ));
+        };
+        out.push(ContactEvent {
+            t: number(&file, line, "t", row[0])?,
+            link: link - 1,
+            body,
+            impulse: number(&file, line, "impulse", row[3])?,
+        });
+    }
+    Ok(out)
+}
+
+/// `obstacles.csv`: one column pair per obstacle of the report.
+fn read_obstacle_track(path: &Path, obstacles: &[Obstacle]) -> Result<Vec<Vec<f64>>, Error> {
+    let file = path.display().to_string();
+    let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, "obstacles.csv")?;
+    let mut header = String::from("t");
+    for i in 0..obstacles.len() {
+        header.push_str(&format!(",obstacle_{i}_x,obstacle_{i}_y"));
+    }
+    let cols: Vec<&str> = header.split(',').collect();
+    let mut out = Vec::new();
+    for (line, row) in csv_rows(&text, &file, &header)? {
+        if row.len() != cols.len() {
+            return Err(Error::invalid(
+                &file,
+                format!("line {line}"),
+                row.join(","),
+                format!("expected {} columns: {header}", cols.len()),
+            ));
+        }
+        let vals = row
+            .iter()
+            .zip(&cols)
+            .map(|(v, c)| number(&file, line, c, v))
+            .collect::<Result<Vec<f64>, Error>>()?;
+        out.push(vals);
+    }
+    Ok(out)
+}
+
+/// The part of the parameter study's `report.json` a reader needs.
+#[derive(serde::Deserialize)]
+struct StudyReport {
+    settings: ParameterStudySettings,
+    start_q: Vec<f64>,
+    rows: Vec<StudyRow>,
+    cells: usize,
+    stick_r2: Vec<StudyStick>,
+    wall_time_s: f64,
+}
+
+#[derive(serde::Deserialize)]
+struct StudyStick {
+    r2: f64,
+    swing_time_s: f64,
+    status: SolveStatus,
+    energy_j: Option<f64>,
+}
+
+const STUDY_FOLDER: &str = "a parameter-study folder (report.json, cells.csv, stick_r2_*.csv)";
+
+/// A solver status from its snake-case name as `cells.csv` writes it (the text of a status that carries
+/// one is not in the CSV: it reads back empty).
+fn status_from_name(name: &str) -> Option<SolveStatus> {
+    serde_json::from_value(serde_json::Value::String(name.into()))
+        .ok()
+        .or_else(|| serde_json::from_value(serde_json::json!({ name: "" })).ok())
+}
+
+/// Read a parameter study's run folder (as [`crate::parameter_study_folder`] writes it): the settings,
+/// rows and stick-diagram swings of `report.json`, every cell of `cells.csv` (in row-major order, one per
+/// r2 and offset of the settings) and each stick swing's robot and trajectory.
+pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
+    let rfile = need(dir, "report.json", STUDY_FOLDER)?;
+    let cfile = need(dir, "cells.csv", STUDY_FOLDER)?;
+    let rep: StudyReport = read_json(&rfile)?;
+    let base = match &rep.settings.base_params {
+        BaseParams::Inline(p) => p.clone(),
+        other => {
+            return Err(Error::invalid(
+                rfile.display().to_string(),
+                "settings.base_params",
+                format!("{other:?}"),
+                "a study's report holds its base parameters inline",
+            ))
+        }
+    };
+    let (nr, no) = (rep.settings.r2.len(), rep.settings.offsets_s.len());
+    if rep.rows.len() != nr || rep.cells != nr * no {
+        return Err(Error::invalid(
+            rfile.display().to_string(),
+            "rows, cells",
+            format!("{} rows, {} cells", rep.rows.len(), rep.cells),
+            format!("the settings' grid has {nr} r2 x {no} offsets"),
+        ));
+    }
+    let file = cfile.display().to_string();
+    let text = limits::read_text_capped(&cfile, limits::MAX_CSV_BYTES, "cells.csv")?;
+    let header = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
+                  iterations,solve_time_s,start";
+    let rows = csv_rows(&text, &file, header)?;
+    if rows.len() != rep.cells {
+        return Err(Error::invalid(
+            &file,
+            "rows",
+            rows.len(),
+            format!("report.json has {} cells", rep.cells),
+        ));
+    }
+    let mut cells = Vec::with_capacity(rows.len());
+    for (line, row) in rows {
+        if row.len() != 11 {
+            return Err(Error::invalid(
+                &file,
+                format!("line {line}"),
+                row.join(","),
+                format!("expected 11 columns: {header}"),
+            ));
+        }
+        let num = |i: usize, c: &str| number(&file, line, c, row[i]);
+        let opt = |i: usize, c: &str| {
+            if row[i].is_empty() {
+                Ok(None)
+            } else {
+                num(i, c).map(Some)
+            }
+        };
+        let bad = |c: &str, v: &str, rule: &str| {
+            Error::invalid(&file, format!("line {line}, {c}"), v, rule)
+        };
+        cells.push(StudyCell {
+            r2: num(0, "r2")?,
+            offset_s: num(1, "offset_s")?,
+            swing_time_s: num(2, "swing_time_s")?,
+            status: status_from_name(row[3])
+                .ok_or_else(|| bad("status", row[3], "a solver status (solved, ...)"))?,
+            converged: row[4]
+                .parse()
+                .map_err(|_| bad("converged", row[4], "true or false"))?,
+            energy_j: opt(5, "energy_j")?,
+            positive_work_j: opt(6, "positive_work_j")?,
+            objective: opt(7, "objective")?,
+            iterations: row[8]
+                .parse()
+                .map_err(|_| bad("iterations", row[8], "a whole number"))?,
+            solve_time_s: num(9, "solve_time_s")?,
+            start: serde_json::from_value(serde_json::Value::String(row[10].into()))
+                .map_err(|_| bad("start", row[10], "cold, warm or cold-after-warm"))?,
+        });
+    }
+    let mut sticks = Vec::with_capacity(rep.stick_r2.len());
+    for s in &rep.stick_r2 {
+        let tag = crate::parameter_study::r2_tag(s.r2);
+        let pfile = need(dir, &format!("stick_r2_{tag}_params.toml"), STUDY_FOLDER)?;
+        let tfile = need(dir, &format!("stick_r2_{tag}.csv"), STUDY_FOLDER)?;
+        let ptext = limits::read_text_capped(&pfile, limits::MAX_TOML_BYTES, "TOML file")?;
+        let params = RobotParams::from_toml_str(&ptext, &pfile.display().to_string())?;
+        let robot = Robot::from_params(params, &pfile.display().to_string())?;
+        let whose = format!("the robot of {}", pfile.display());
+        let trajectory = read_plan_trajectory(&tfile, robot.n, &whose)?;
+        sticks.push(StickDiagram {
+            r2: s.r2,
+            robot,
+            swing_time_s: s.swing_time_s,
+            status: s.status.clone(),
+            energy_j: s.energy_j,
+            trajectory,
+        });
+    }
+    Ok(ParameterStudy {
+        settings: rep.settings,
+        base,
+        start_q: rep.start_q,
+        rows: rep.rows,
+        cells,
+        sticks,
+        wall_time_s: rep.wall_time_s,
+    })
+}

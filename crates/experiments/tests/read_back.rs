@@ -1,0 +1,162 @@
+//! Issue 12: run folders read back. A plan folder and a track folder (rapier plant, a ball that is hit:
+//! contacts and obstacle tracks) are written, read with `PlanFolder::read` / `TrackFolder::read`, and
+//! the data must equal what was written (to the CSVs' 9 decimals, times to 6); damaged files are refused
+//! with the file, the field and the value named.
+
+use brachia_experiments::{
+    run_plan, track_plan, ControllerKind, PlanFolder, PlantKind, Scenario, TrackFolder,
+};
+use serde_json::Value;
+use std::path::Path;
+
+/// The robustness scenario (a ball on the path) on a coarse grid: a plan in about a second.
+fn scenario() -> brachia_experiments::scenario::LoadedScenario {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robustness.toml");
+    let mut ls = Scenario::load(&path).unwrap();
+    ls.scenario.planner.knot_dt = 0.04;
+    ls.scenario.planner.transcription = brachia::planning::Transcription::Trapezoidal;
+    ls
+}
+
+/// Two JSON values equal up to a relative 1e-12 on numbers (a float's text may read back one ulp off).
+fn same_json(a: &Value, b: &Value, at: &str) {
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+            assert!(
+                (x - y).abs() <= 1e-12 * x.abs().max(1.0),
+                "{at}: {x} vs {y}"
+            );
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            assert_eq!(x.len(), y.len(), "{at}: keys differ");
+            for (k, v) in x {
+                same_json(v, &y[k], &format!("{at}.{k}"));
+            }
+        }
+        (Value::Array(x), Value::Array(y)) => {
+            assert_eq!(x.len(), y.len(), "{at}: lengths differ");
+            for (i, (u, v)) in x.iter().zip(y).enumerate() {
+                same_json(u, v, &format!("{at}[{i}]"));
+            }
+        }
+        _ => assert_eq!(a, b, "{at}"),
+    }
+}
+
+fn close(a: &[f64], b: &[f64], tol: f64, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}: lengths");
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!((x - y).abs() <= tol, "{what}[{i}]: {x} vs {y}");
+    }
+}
+
+#[test]
+fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
+    let ls = scenario();
+    let plan = run_plan(&ls).unwrap();
+    assert!(plan.plan.converged(), "{:?}", plan.plan.status);
+    let dir = tempfile::tempdir().unwrap();
+    let pdir = dir.path().join("plan");
+    plan.folder.write(&pdir).unwrap();
+    // the plan folder alone, read from another working place: scenario.toml names params.toml beside it
+    let back = PlanFolder::read(&pdir).unwrap();
+    same_json(
+        &back.report.to_json(),
+        &plan.report.to_json(),
+        "plan report",
+    );
+    assert_eq!(back.scenario.scenario.task, ls.scenario.task);
+    assert_eq!(back.scenario.robot.params, ls.robot.params);
+    let (a, b) = (&back.trajectory, &plan.plan.trajectory);
+    close(&a.t, &b.t, 1e-6, "t");
+    close(&a.q, &b.q, 1e-9, "q");
+    close(&a.qd, &b.qd, 1e-9, "qd");
+    close(&a.tau, &b.tau, 1e-9, "tau");
+
+    // track it with the MPC on the rapier plant: the ball is hit, so contacts and ball tracks are written
+    let rep = plan.report.clone();
+    let reference = plan.plan.trajectory.clone();
+    let run = track_plan(
+        &ls,
+        ControllerKind::Mpc,
+        PlantKind::Rapier,
+        Some(plan),
+        reference,
+        rep,
+    )
+    .unwrap();
+    assert!(!run.world.contacts.is_empty(), "the ball is never touched");
+    let tdir = dir.path().join("track");
+    run.folder.write(&tdir).unwrap();
+    let back = TrackFolder::read(&tdir).unwrap();
+    same_json(
+        &back.report.to_json(),
+        &run.report.to_json(),
+        "track report",
+    );
+    let (l, m) = (&back.log, &run.log);
+    assert_eq!(
+        (l.n, &l.controller, &l.plant),
+        (m.n, &m.controller, &m.plant)
+    );
+    close(&l.t, &m.t, 1e-6, "log t");
+    close(&l.x, &m.x, 1e-9, "log x");
+    close(&l.tau, &m.tau, 1e-9, "log tau");
+    close(&l.ref_x, &m.ref_x, 1e-9, "log ref_x");
+    let flat = |v: &[[f64; 2]]| v.iter().flatten().copied().collect::<Vec<_>>();
+    close(&flat(&l.ee), &flat(&m.ee), 1e-9, "log ee");
+    close(&flat(&l.ref_ee), &flat(&m.ref_ee), 1e-9, "log ref_ee");
+    let (w, v) = (&back.world, &run.world);
+    assert_eq!(w.obstacles, v.obstacles);
+    assert_eq!(w.contacts.len(), v.contacts.len());
+    for (c, d) in w.contacts.iter().zip(&v.contacts) {
+        assert_eq!((c.link, c.body), (d.link, d.body));
+        assert!((c.t - d.t).abs() < 1e-6 && (c.impulse - d.impulse).abs() < 1e-9);
+    }
+    assert_eq!(w.track.len(), v.track.len());
+    for (r, s) in w.track.iter().zip(&v.track) {
+        close(r, s, 1e-6, "obstacle track");
+    }
+    assert!(back.plan.is_some(), "plan/ is read with the track folder");
+
+    // damage: a non-finite value, a short row, a missing report, a bad contact body
+    let log = tdir.join("closed_loop.csv");
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let good = lines[3].clone();
+    let mut cols: Vec<&str> = good.split(',').collect();
+    cols[2] = "NaN";
+    lines[3] = cols.join(",");
+    std::fs::write(&log, lines.join("\n")).unwrap();
+    let err = TrackFolder::read(&tdir).unwrap_err().to_string();
+    assert!(
+        err.contains("closed_loop.csv") && err.contains("line 4, q2") && err.contains("NaN"),
+        "{err}"
+    );
+    lines[3] = good.rsplit_once(',').unwrap().0.to_string();
+    std::fs::write(&log, lines.join("\n")).unwrap();
+    let err = TrackFolder::read(&tdir).unwrap_err().to_string();
+    assert!(
+        err.contains("line 4, ref_ee_y") && err.contains("too few"),
+        "{err}"
+    );
+    std::fs::write(&log, &text).unwrap();
+    let contacts = tdir.join("contacts.csv");
+    let ctext = std::fs::read_to_string(&contacts).unwrap();
+    std::fs::write(&contacts, ctext.replacen("obstacle_0", "obstacle_7", 1)).unwrap();
+    let err = TrackFolder::read(&tdir).unwrap_err().to_string();
+    assert!(
+        err.contains("contacts.csv") && err.contains("body") && err.contains("obstacle_7"),
+        "{err}"
+    );
+    std::fs::remove_file(tdir.join("report.json")).unwrap();
+    let err = TrackFolder::read(&tdir).unwrap_err().to_string();
+    assert!(
+        err.contains("report.json") && err.contains("missing"),
+        "{err}"
+    );
+    std::fs::remove_file(pdir.join("params.toml")).unwrap();
+    let err = PlanFolder::read(&pdir).unwrap_err().to_string();
+    assert!(err.contains("params.toml"), "{err}");
+}
