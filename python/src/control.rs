@@ -5,9 +5,8 @@
 //! a dict and/or keyword arguments with the fields of `brachia::control::MpcSettings` (a scenario's
 //! `[tracking.mpc]`); fields left out keep the Rust defaults.
 //!
-//! The library's `Mpc<'a>` borrows the robot and the reference; [`MpcCell`] owns both beside it (a
-//! self-referential cell from `self_cell`, no unsafe code here). `set_reference` rebuilds the cell with
-//! the same settings.
+//! The library's `Mpc` owns its robot and reference (`Arc`s), so this class holds it directly;
+//! `set_reference` swaps the plan in place (`brachia::control::Mpc::set_reference`).
 
 use crate::convert::{arr1, bad, read_vector, rs, settings_from, to_py};
 use crate::model::{Robot, Trajectory};
@@ -18,37 +17,6 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::Arc;
 use std::time::Instant;
-
-/// What an [`MpcCell`] owns: the robot and the reference the controller borrows.
-pub(crate) struct MpcOwner {
-    robot: Arc<brachia::Robot>,
-    reference: Arc<brachia::trajectory::Trajectory>,
-}
-
-/// The borrowing controller.
-type MpcOf<'a> = brachia::control::Mpc<'a>;
-
-self_cell::self_cell!(
-    /// An `Mpc` with the robot and the reference it borrows.
-    pub(crate) struct MpcCell {
-        owner: MpcOwner,
-        #[not_covariant]
-        dependent: MpcOf,
-    }
-);
-
-impl MpcCell {
-    /// Build the controller for `reference`.
-    pub(crate) fn build(
-        robot: Arc<brachia::Robot>,
-        reference: Arc<brachia::trajectory::Trajectory>,
-        settings: MpcSettings,
-    ) -> brachia::Result<Self> {
-        MpcCell::try_new(MpcOwner { robot, reference }, |o| {
-            brachia::control::Mpc::new(&o.robot, &o.reference, settings)
-        })
-    }
-}
 
 /// The reference of a `Plan` or a `Trajectory`.
 pub(crate) fn reference_of(
@@ -74,8 +42,7 @@ pub(crate) fn reference_of(
 /// ``discretization``, ``torque_reference``, ``linearization``, ``prediction``, ``qp``).
 #[pyclass(module = "brachia")]
 pub struct Mpc {
-    pub(crate) cell: MpcCell,
-    settings: MpcSettings,
+    pub(crate) inner: brachia::control::Mpc,
     x: Vec<f64>,
     tau: Vec<f64>,
 }
@@ -83,12 +50,7 @@ pub struct Mpc {
 impl Mpc {
     /// The controller, to run in a closed loop.
     pub(crate) fn with_controller<R>(&mut self, f: impl FnOnce(&mut dyn Controller) -> R) -> R {
-        self.cell.with_dependent_mut(|_, m| f(m))
-    }
-
-    /// The robot it was built for.
-    pub(crate) fn robot(&self) -> &Arc<brachia::Robot> {
-        &self.cell.borrow_owner().robot
+        f(&mut self.inner)
     }
 }
 
@@ -105,10 +67,10 @@ impl Mpc {
         let settings: MpcSettings = settings_from(settings, kwargs, "mpc settings")?;
         let reference = reference_of(reference)?;
         let n = robot.inner.n;
-        let cell = MpcCell::build(robot.inner.clone(), reference, settings.clone()).map_err(rs)?;
+        let inner =
+            brachia::control::Mpc::new(robot.inner.clone(), reference, settings).map_err(rs)?;
         Ok(Mpc {
-            cell,
-            settings,
+            inner,
             x: vec![0.0; 2 * n],
             tau: vec![0.0; n - 1],
         })
@@ -132,44 +94,40 @@ impl Mpc {
             &format!("[q, qd] of the {n}-link robot"),
             &mut self.x,
         )?;
-        let (xs, tau) = (&self.x, &mut self.tau);
-        self.cell.with_dependent_mut(|_, m| m.control(t, xs, tau));
+        self.inner.control(t, &self.x, &mut self.tau);
         arr1(py, &self.tau)
     }
 
     /// Track a new reference (a ``Plan`` or a ``Trajectory`` of the same robot) with the same
-    /// settings; the next call starts cold.
+    /// settings, without rebuilding the controller; a reference that does not fit the robot
+    /// raises ``BrachiaError`` and the old one is kept.
     fn set_reference(&mut self, reference: &Bound<'_, PyAny>) -> PyResult<()> {
         let reference = reference_of(reference)?;
-        let robot = self.robot().clone();
-        self.cell = MpcCell::build(robot, reference, self.settings.clone()).map_err(rs)?;
-        Ok(())
+        self.inner.set_reference(reference).map_err(rs)
     }
 
     /// Forget the previous solution and the last applied torque (the next call starts cold).
     fn reset(&mut self) {
-        self.cell.with_dependent_mut(|_, m| m.reset());
+        self.inner.reset();
     }
 
     /// The settings in use (per-link defaults filled in) as a dict.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let s = self.cell.with_dependent(|_, m| m.settings().clone());
-        to_py(py, &s)
+        to_py(py, self.inner.settings())
     }
 
     /// Iterations of the last QP solve (``None`` before the first call).
     #[getter]
     fn last_qp_iterations(&self) -> Option<usize> {
-        self.cell
-            .with_dependent(|_, m| m.last_qp_info().map(|i| i.iterations))
+        self.inner.last_qp_info().map(|i| i.iterations)
     }
 
     /// The reference being tracked.
     #[getter]
     fn reference(&self) -> Trajectory {
         Trajectory {
-            inner: self.cell.borrow_owner().reference.clone(),
+            inner: self.inner.reference().clone(),
         }
     }
 }
@@ -197,20 +155,19 @@ pub(crate) fn rust_mpc_step_times<'py>(
     let settings: MpcSettings = settings_from(settings, None, "mpc settings")?;
     let reference = reference_of(reference)?;
     let n = robot.inner.n;
-    let mut cell = MpcCell::build(robot.inner.clone(), reference.clone(), settings).map_err(rs)?;
+    let mut m =
+        brachia::control::Mpc::new(robot.inner.clone(), reference.clone(), settings).map_err(rs)?;
     let mut times = vec![0.0; steps];
     let mut x = vec![0.0; 2 * n];
     let mut tau = vec![0.0; n - 1];
     py.detach(|| {
-        cell.with_dependent_mut(|_, m| {
-            for (k, out) in times.iter_mut().enumerate() {
-                let t = k as f64 * dt;
-                reference.state_at(t, &mut x);
-                let start = Instant::now();
-                m.control(t, &x, &mut tau);
-                *out = start.elapsed().as_secs_f64();
-            }
-        })
+        for (k, out) in times.iter_mut().enumerate() {
+            let t = k as f64 * dt;
+            reference.state_at(t, &mut x);
+            let start = Instant::now();
+            m.control(t, &x, &mut tau);
+            *out = start.elapsed().as_secs_f64();
+        }
     });
     arr1(py, &times)
 }

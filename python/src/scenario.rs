@@ -7,7 +7,9 @@ use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;
 use brachia_experiments::scenario::LoadedScenario;
-use brachia_experiments::{run_plan, run_track, ControllerKind, PlantKind, RunFolder, Uses};
+use brachia_experiments::{
+    run_plan, run_track, ControllerKind, PlanReport, PlantKind, RunFolder, TrackOutcome, Uses,
+};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -143,13 +145,21 @@ impl Scenario {
             Some(name) => plant_kind(name)?,
             None => ls.scenario.plant.kind,
         };
-        let given = reference.map(|r| {
-            let r = r.get();
-            ((*r.trajectory).clone(), r.report.clone())
-        });
+        let given = match reference {
+            Some(r) => {
+                let r = r.get();
+                let report: PlanReport = serde_json::from_value(r.report.clone()).map_err(|e| {
+                    bad(format!(
+                        "reference: its report is not a brachia plan report: {e}"
+                    ))
+                })?;
+                Some(((*r.trajectory).clone(), report))
+            }
+            None => None,
+        };
         let out = py.detach(|| run_track(ls, c, p, given)).map_err(rs)?;
         match out {
-            Ok(run) => {
+            TrackOutcome::Tracked(run) => {
                 let report = folder_report(&run.folder);
                 let plan = match run.plan {
                     Some(pr) => {
@@ -167,7 +177,7 @@ impl Scenario {
                     Some(run.folder),
                 ))
             }
-            Err(pr) => {
+            TrackOutcome::PlanFailed(pr) => {
                 let rep = folder_report(&pr.folder);
                 let plan = Plan::new(self.robot.clone(), pr.plan, rep, Some(pr.folder));
                 Ok(TrackResult::new(

@@ -10,7 +10,10 @@ use crate::convert::{arr1, arr2, bad, exp, read_vector, rs, settings_from, to_py
 use crate::model::Robot;
 use crate::planning::Plan;
 use brachia::control::{OpenLoop, Pd, PdSettings};
-use brachia::sim::{run_closed_loop, ClosedLoopLog, Controller, Plant, RunSettings, RunSummary};
+use brachia::sim::{
+    run_closed_loop, ClosedLoopLog, Controller, NoiseSettings, Noisy, Plant, RunSettings,
+    RunSummary,
+};
 use brachia_experiments::RunFolder;
 use brachia_rapier::{ContactBody, Obstacle, RapierSettings};
 use pyo3::prelude::*;
@@ -429,13 +432,21 @@ pub(crate) fn track(
     let settings = RunSettings {
         duration_s: duration.unwrap_or_else(|| reference.duration()),
         control_dt,
-        noise_q_std,
-        noise_qd_std,
-        seed,
     };
     settings.validate().map_err(rs)?;
+    let noise = NoiseSettings {
+        q_std: noise_q_std,
+        qd_std: noise_qd_std,
+        seed,
+    };
+    noise.validate().map_err(rs)?;
     let run = |plant: &mut dyn Plant, ctrl: &mut dyn Controller| -> PyResult<ClosedLoopLog> {
-        run_closed_loop(plant, ctrl, &reference, &r, &settings).map_err(rs)
+        if noise.q_std == 0.0 && noise.qd_std == 0.0 {
+            run_closed_loop(plant, ctrl, &reference, &r, &settings).map_err(rs)
+        } else {
+            let mut noisy = Noisy::new(plant, noise).map_err(rs)?;
+            run_closed_loop(&mut noisy, ctrl, &reference, &r, &settings).map_err(rs)
+        }
     };
     let with_controller = |plant: &mut dyn Plant| -> PyResult<ClosedLoopLog> {
         match controller.filter(|c| !c.is_none()) {
@@ -449,16 +460,16 @@ pub(crate) fn track(
                 })?;
                 match name.as_str() {
                     "mpc" => {
-                        let mut m = brachia::control::Mpc::new(&r, &reference, Default::default())
+                        let mut m = brachia::control::Mpc::new(r.clone(), reference.clone(), Default::default())
                             .map_err(rs)?;
                         run(plant, &mut m)
                     }
                     "pd" => {
-                        let mut m = Pd::new(&r, &reference, PdSettings::default()).map_err(rs)?;
+                        let mut m = Pd::new(r.clone(), reference.clone(), PdSettings::default()).map_err(rs)?;
                         run(plant, &mut m)
                     }
                     "open-loop" => {
-                        let mut m = OpenLoop::new(&r, &reference).map_err(rs)?;
+                        let mut m = OpenLoop::new(r.clone(), reference.clone()).map_err(rs)?;
                         run(plant, &mut m)
                     }
                     other => Err(bad(format!(
@@ -468,7 +479,8 @@ pub(crate) fn track(
             }
             None => {
                 let mut m =
-                    brachia::control::Mpc::new(&r, &reference, Default::default()).map_err(rs)?;
+                    brachia::control::Mpc::new(r.clone(), reference.clone(), Default::default())
+                        .map_err(rs)?;
                 run(plant, &mut m)
             }
         }
