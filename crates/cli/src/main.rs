@@ -9,6 +9,7 @@ mod plan;
 mod reproduce;
 mod simulate;
 mod track;
+mod traverse;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -29,6 +30,8 @@ enum Command {
     Plan(plan::Args),
     /// Plan (or read a plan) and track it in closed loop at 1 kHz (MPC, PD or open loop).
     Track(track::Args),
+    /// Traverse a ladder: plan and track every swing, switching the grip at every bar (model plant).
+    Traverse(traverse::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),
 }
@@ -67,6 +70,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Plan(a) => plan::run(a),
         Command::Track(a) => track::run(a),
+        Command::Traverse(a) => traverse::run(a),
         Command::Reproduce(a) => reproduce::run(a),
     };
     match result {
