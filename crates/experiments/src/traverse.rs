@@ -182,6 +182,34 @@ fn positive_work(log: &ClosedLoopLog) -> f64 {
         .sum()
 }
 
+/// Margin by which the q1 range of a later swing is widened past its start angle, rad.
+pub const Q1_WIDEN_MARGIN: f64 = 0.1;
+
+/// A later swing starts where the last one left the chain: its link 1 (the old link n) may point above
+/// the bar, and its joint rates may exceed `planner.bounds.qd_max` a little (the rate bound is then
+/// raised to 1.05 times the largest start rate). Take the start angle's representative (mod 2 pi) nearest `planner.bounds.q1` and, when it
+/// lies outside, widen the range to include it with [`Q1_WIDEN_MARGIN`] to spare.
+fn widen_q1(sc: &mut crate::scenario::Scenario) {
+    let tau = std::f64::consts::TAU;
+    let [lo, hi] = sc.planner.bounds.q1;
+    let q1 = sc.task.q0[0];
+    let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
+    let best = [q1 - tau, q1, q1 + tau]
+        .into_iter()
+        .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b });
+    sc.task.q0[0] = best;
+    sc.planner.bounds.q1 = [
+        lo.min(best - Q1_WIDEN_MARGIN),
+        hi.max(best + Q1_WIDEN_MARGIN),
+    ];
+    // the tracked swing may end a little past the planner's joint-rate bound
+    let qd = sc.task.qd0.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    let b = &mut sc.planner.bounds;
+    if qd > b.qd_max {
+        b.qd_max = (qd * 1.05).min(brachia::limits::MAX_RATE_RAD_S);
+    }
+}
+
 /// Run the traverse of `ll` on the model plant. Errors only on bad input found at run time that no
 /// status describes; planning failures, refused start states and missed captures are statuses.
 pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
@@ -198,8 +226,12 @@ pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
     let mut status = TraverseStatus::Completed;
     for k in 0..bars.len() - 1 {
         let robot = &chains[k % 2];
+        let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
+        if k > 0 {
+            widen_q1(&mut swing_sc);
+        }
         let ls = LoadedScenario {
-            scenario: crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1),
+            scenario: swing_sc,
             robot: robot.clone(),
             path: ll.path.clone(),
         };
@@ -207,7 +239,13 @@ pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
             swing: k,
             message: e.to_string(),
         };
-        if let Err(e) = validate_task(robot, &ls.scenario.task, &sc.planner, &src, "swing.") {
+        if let Err(e) = validate_task(
+            robot,
+            &ls.scenario.task,
+            &ls.scenario.planner,
+            &src,
+            "swing.",
+        ) {
             status = refused(e);
             break;
         }
