@@ -10,6 +10,7 @@ mod report;
 mod reproduce;
 mod simulate;
 mod track;
+mod traverse;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -30,6 +31,8 @@ enum Command {
     Plan(plan::Args),
     /// Plan (or read a plan) and track it in closed loop at 1 kHz (MPC, PD or open loop).
     Track(track::Args),
+    /// Traverse a ladder: plan and track every swing, switching the grip at every bar (model plant).
+    Traverse(traverse::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),
     /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
@@ -71,6 +74,7 @@ fn main() -> ExitCode {
         Command::Simulate(a) => simulate::run(a),
         Command::Plan(a) => plan::run(a),
         Command::Track(a) => track::run(a),
+        Command::Traverse(a) => traverse::run(a),
         Command::Reproduce(a) => reproduce::run(a),
         Command::Report(a) => report::run(a),
     };

@@ -8,6 +8,7 @@
 //! Conventions as in `brachia`: SI units; q1 absolute from +x, q2..qn relative; `x = [q, qd]`; torques of
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
+pub mod ladder;
 pub mod parameter_study;
 pub mod plan_run;
 pub mod read;
@@ -15,7 +16,9 @@ pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
 pub mod track_run;
+pub mod traverse;
 
+pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{
     parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams, CellStart,
     ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
@@ -28,6 +31,7 @@ pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };
+pub use traverse::{run_traverse, SwingRecord, Traverse, TraverseStatus};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

@@ -306,7 +306,7 @@ impl Scenario {
 
 impl LoadedScenario {
     /// Check the `[tracking]` and `[plant]` sections for a swing of `swing_time` seconds.
-    fn check_tracking(&self, swing_time: f64) -> Result<(), Error> {
+    pub(crate) fn check_tracking(&self, swing_time: f64) -> Result<(), Error> {
         let (sc, n) = (&self.scenario, self.robot.n);
         let src = self.path.display().to_string();
         let rename = |e: Error, section: &str| in_section(e, &src, section);

@@ -12,6 +12,7 @@
 //! | [`time_series`] | stacked panels of curves over a shared x axis (q / qd / tau, desired dashed vs tracked solid) |
 //! | [`line_plot`] | one panel of y(x) curves with markers (parameter sweeps) |
 //! | [`xy_path`] | end-effector paths in the plane, bars, target and obstacles, equal axis scale |
+//! | [`pose_diagram`] | poses given in world coordinates (a traverse whose grip changes), light to dark |
 //! | [`stick_diagram`] | the robot every `every_s` seconds, light (start) to dark (end), equal axis scale |
 //! | [`heatmap`] | a value over a 2-D grid, colour bar, values printed, failed cells hatched |
 //! | [`animate_gif`] | the moving stick figure with bars, target, obstacles, balls and a time stamp |
@@ -30,6 +31,7 @@ mod axes;
 mod error;
 mod heatmap;
 mod output;
+mod poses;
 mod series;
 mod spatial;
 mod style;
@@ -37,6 +39,7 @@ mod style;
 pub use anim::{animate_gif, frame_times, AnimOptions, MAX_FRAMES};
 pub use error::PlotError;
 pub use heatmap::{heatmap, Heatmap};
+pub use poses::{pose_diagram, PoseFigure, MAX_POSES};
 pub use series::{line_plot, time_series, LinePlot, LineStyle, Panel, Series, TimeSeriesFigure};
 pub use spatial::{stick_diagram, xy_path, BallSample, Obstacle, StickOptions, XyPathFigure};
 pub use style::{equal_aspect, format_number, series_colour, time_colour, value_colour};

@@ -6,6 +6,7 @@ mod derivatives;
 mod dynamics;
 mod kinematics;
 mod params;
+mod reroot;
 
 pub use analytic::DynamicsDerivatives;
 pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
@@ -15,3 +16,4 @@ pub use dynamics::{
 };
 pub use kinematics::P2;
 pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS, PAPER_TOML};
+pub use reroot::{reroot_state, reroot_tau, switch_grip, GripSwitch};

@@ -1,0 +1,54 @@
+//! `brachia traverse`: plan and track a whole ladder traverse (grip switching at every bar) on the
+//! model plant, into a staged run folder (see `brachia_experiments::traverse`).
+
+use crate::CliError;
+use brachia_experiments::{check_out_dir, run_traverse, LadderScenario};
+use std::path::PathBuf;
+
+/// Arguments of `brachia traverse`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Traverse scenario file (TOML with a [ladder] section), e.g. scenarios/ladder-even.toml.
+    #[arg(long)]
+    scenario: PathBuf,
+    /// Output folder: traverse.csv, report.json, scenario.toml, traverse_stick.png/.svg,
+    /// energy_per_swing.png/.svg.
+    #[arg(long)]
+    out: PathBuf,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
+}
+
+/// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
+/// complete (its folder is still written), 3 on a write failure.
+pub fn run(a: Args) -> Result<(), CliError> {
+    let ll = LadderScenario::load(&a.scenario)?;
+    check_out_dir(&a.out, a.force)?;
+    let tr = run_traverse(&ll)?;
+    tr.folder(&ll)?.write(&a.out)?;
+    for s in &tr.swings {
+        eprintln!(
+            "traverse: swing {} (bar {} -> {}): energy {:.3} J, positive work {:.3} J, {:.3} s, \
+             capture error {:.2e} m, switch residual {:.2e} m/s",
+            s.swing,
+            s.from_bar,
+            s.to_bar,
+            s.energy_j,
+            s.positive_work_j,
+            s.duration_s,
+            s.capture_error_m,
+            s.switch_residual_m_s
+        );
+    }
+    if tr.status.completed() {
+        eprintln!("traverse: {}", tr.status);
+        Ok(())
+    } else {
+        Err(CliError::Failed(format!(
+            "{}; the run folder is in {}",
+            tr.status,
+            a.out.display()
+        )))
+    }
+}

@@ -1,0 +1,384 @@
+//! Ladders: bars as data, reach checks up front, and the traverse scenario file (`brachia traverse`).
+//!
+//! Conventions (as in `brachia`): **world frame** x right, y up, gravity along -y, metres; bar 0 is where
+//! the robot starts (its grip), the last bar is the goal. Angles: `q[0]` absolute angle of link 1 from +x,
+//! `q[1..]` relative; the start state `ladder.q0`, `ladder.qd0` is given in the grip frame of bar 0 with
+//! the chain as written in the parameters file (link 1 at the grip). SI units throughout.
+//!
+//! ```toml
+//! params = "../params/paper.toml"
+//! [ladder]
+//! bars = [{ x = 0.0, y = 0.0 }, { x = 1.0, y = 0.0 }, { x = 2.0, y = 0.1 }]   # or [[ladder.bars]] tables
+//! q0 = [-2.35, 0.0, -1.55, 0.0]    # optional: default = the swing hand on a virtual bar behind bar 0
+//! capture_radius = 0.02            # m (default 0.02)
+//! capture_speed = 0.1              # m/s (default 0.1)
+//! obstacles = [{ center = [1.5, -0.3], radius = 0.08 }]   # world frame
+//! [planner]    # as in every scenario (swing_time "auto" = 2 T_freefall per swing)
+//! [solver]
+//! [tracking]
+//! [plant]      # kind = "model" (the traverse runs on the model plant)
+//! ```
+//!
+//! **Reach rule** (checked before anything is planned, an error names the bar): the distance between
+//! consecutive bars must lie in `[MIN_SPACING_OF_SPAN, MAX_SPACING_OF_SPAN]` times the arm span (sum of
+//! the link lengths), for the chain as it will hang (the span is the same both ways round). The upper
+//! limit keeps the chain away from the stretched, singular pose where the capture impulse is undefined;
+//! the lower one refuses swings shorter than a quarter span, which are not brachiation (the hands would
+//! collide).
+
+use crate::scenario::{
+    in_section, parse_toml, read_text, LoadedScenario, PlantKind, PlantSettings, Scenario,
+    TrackingSettings,
+};
+use brachia::model::Circle;
+use brachia::planning::planner::ik_from_seed;
+use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
+use brachia::{Error, Robot};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Smallest bar spacing, as a fraction of the arm span.
+pub const MIN_SPACING_OF_SPAN: f64 = 0.25;
+/// Largest bar spacing, as a fraction of the arm span.
+pub const MAX_SPACING_OF_SPAN: f64 = 0.95;
+/// Most bars of a ladder (bounds the traverse log: every swing is at most
+/// [`brachia::limits::MAX_RUN_STEPS`] control steps).
+pub const MAX_BARS: usize = 16;
+
+/// One bar, world frame, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bar {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+}
+
+impl Bar {
+    /// `[x, y]`.
+    pub fn p(&self) -> [f64; 2] {
+        [self.x, self.y]
+    }
+}
+
+fn default_capture_radius() -> f64 {
+    0.02
+}
+
+fn default_capture_speed() -> f64 {
+    0.1
+}
+
+/// The `[ladder]` section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ladder {
+    /// Bars in traverse order (at least 2, at most [`MAX_BARS`]); the robot starts on bar 0.
+    pub bars: Vec<Bar>,
+    /// Start joint angles at bar 0 (n values, rad); empty = the default hang: the swing hand on a
+    /// virtual bar mirrored behind bar 0 (`bar0 - (bar1 - bar0)`), found by inverse kinematics.
+    #[serde(default)]
+    pub q0: Vec<f64>,
+    /// Start joint velocities (n values, rad/s); empty = at rest.
+    #[serde(default)]
+    pub qd0: Vec<f64>,
+    /// Obstacles, world frame (the planner avoids them on every swing).
+    #[serde(default)]
+    pub obstacles: Vec<Circle>,
+    /// Capture radius: the hand closes on the bar when it ends its swing within this distance, m.
+    /// Default 0.02.
+    #[serde(default = "default_capture_radius")]
+    pub capture_radius: f64,
+    /// Capture speed: the largest hand speed at which the grip can close, m/s. Default 0.1.
+    #[serde(default = "default_capture_speed")]
+    pub capture_speed: f64,
+}
+
+/// A traverse scenario as written in a TOML file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LadderScenario {
+    /// A name for reports (default: the file stem).
+    #[serde(default)]
+    pub name: String,
+    /// Robot parameters file, relative to the scenario file.
+    pub params: PathBuf,
+    /// The bars, start state, obstacles and capture rule.
+    pub ladder: Ladder,
+    /// Planner settings (every swing).
+    #[serde(default)]
+    pub planner: PlannerSettings,
+    /// NLP solver settings.
+    #[serde(default)]
+    pub solver: NlpSettings,
+    /// Closed-loop settings (every swing).
+    #[serde(default)]
+    pub tracking: TrackingSettings,
+    /// The plant.
+    #[serde(default)]
+    pub plant: PlantSettings,
+}
+
+/// A traverse scenario with its robot loaded, its start state resolved and every check passed.
+#[derive(Debug, Clone)]
+pub struct LoadedLadder {
+    /// The scenario (`params` resolved against the scenario's folder).
+    pub scenario: LadderScenario,
+    /// The validated robot (link 1 at bar 0).
+    pub robot: Robot,
+    /// Where it was read from.
+    pub path: PathBuf,
+    /// The start state `[q0, qd0]` at bar 0 (default hang filled in).
+    pub x0: Vec<f64>,
+}
+
+/// Check the bars: count, finite values, and the reach rule between consecutive bars.
+pub fn check_bars(robot: &Robot, bars: &[Bar], src: &str) -> Result<(), Error> {
+    if bars.len() < 2 || bars.len() > MAX_BARS {
+        return Err(Error::invalid(
+            src,
+            "ladder.bars",
+            format!("{} bars", bars.len()),
+            format!("a ladder needs between 2 and {MAX_BARS} bars"),
+        ));
+    }
+    for (i, b) in bars.iter().enumerate() {
+        for (name, v) in [("x", b.x), ("y", b.y)] {
+            if !(v.is_finite() && v.abs() <= 1e3) {
+                return Err(Error::invalid(
+                    src,
+                    format!("ladder.bars[{i}].{name}"),
+                    v,
+                    "must be finite and within 1000 m",
+                ));
+            }
+        }
+    }
+    let span = robot.reach();
+    let (lo, hi) = (MIN_SPACING_OF_SPAN * span, MAX_SPACING_OF_SPAN * span);
+    for i in 1..bars.len() {
+        let d = (bars[i].x - bars[i - 1].x).hypot(bars[i].y - bars[i - 1].y);
+        if d > hi {
+            return Err(Error::invalid(
+                src,
+                format!("ladder.bars[{i}]"),
+                format!("({}, {})", bars[i].x, bars[i].y),
+                format!(
+                    "is {d:.3} m from bar {}: out of reach (the arm span is {span:.3} m; bars may be \
+                     at most {MAX_SPACING_OF_SPAN} x span = {hi:.3} m apart)",
+                    i - 1
+                ),
+            ));
+        }
+        if d < lo {
+            return Err(Error::invalid(
+                src,
+                format!("ladder.bars[{i}]"),
+                format!("({}, {})", bars[i].x, bars[i].y),
+                format!(
+                    "is {d:.3} m from bar {}: too close (bars must be at least \
+                     {MIN_SPACING_OF_SPAN} x span = {lo:.3} m apart; the arm span is {span:.3} m)",
+                    i - 1
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The default hang at bar 0: the swing hand on a virtual bar `bar0 - (bar1 - bar0)`, in the grip
+/// frame; inverse kinematics from a V-shaped seed (the chain dips below the bars). `None` when no pose
+/// within the planner's bounds reaches it.
+pub fn default_hang(robot: &Robot, bars: &[Bar], settings: &PlannerSettings) -> Option<Vec<f64>> {
+    let n = robot.n;
+    let target = [bars[0].x - bars[1].x, bars[0].y - bars[1].y];
+    let dir = target[1].atan2(target[0]);
+    let sgn = if target[0] < 0.0 { 1.0 } else { -1.0 };
+    let alpha = 0.8;
+    let mut seed = vec![0.0; n];
+    seed[0] = wrap(dir + sgn * alpha);
+    seed[n / 2] = -2.0 * sgn * alpha;
+    let q = ik_from_seed(robot, &seed, target)?;
+    let q: Vec<f64> = q.into_iter().map(wrap).collect();
+    let b = &settings.bounds;
+    let inside =
+        q[0] >= b.q1[0] && q[0] <= b.q1[1] && q[1..].iter().all(|v| v.abs() <= b.q_rel_max);
+    inside.then_some(q)
+}
+
+/// Wrap an angle into (-pi, pi].
+fn wrap(a: f64) -> f64 {
+    let (pi, tau) = (std::f64::consts::PI, std::f64::consts::TAU);
+    let mut v = a % tau;
+    if v <= -pi {
+        v += tau;
+    } else if v > pi {
+        v -= tau;
+    }
+    v
+}
+
+/// The swing time of a swing from `q0` to `target` (grip frame) under `settings`: the given seconds,
+/// or 2 T_freefall towards the midpoint between the EE and the target.
+pub fn swing_time(
+    robot: &Robot,
+    q0: &[f64],
+    target: [f64; 2],
+    settings: &PlannerSettings,
+) -> Result<f64, Error> {
+    match settings.swing_time {
+        SwingTime::Seconds(t) => Ok(t),
+        SwingTime::Auto(_) => {
+            let ee = robot.ee_position(q0);
+            Ok(2.0 * freefall_time(robot, q0, 0.5 * (ee[0] + target[0]))?)
+        }
+    }
+}
+
+impl LadderScenario {
+    /// Read a traverse scenario, load its robot and check everything that can be checked before
+    /// planning: the settings sections, the bars (count, values, the reach rule), the capture rule, the
+    /// start state (or the default hang), the first swing's task and closed-loop limits. Errors name the
+    /// file, the field as written (`ladder.bars[3]`, `ladder.q0[1]`), the value and the rule.
+    pub fn load(path: &Path) -> Result<LoadedLadder, Error> {
+        let text = read_text(path)?;
+        let src = path.display().to_string();
+        let mut sc: LadderScenario = parse_toml(&text, &src)?;
+        if sc.name.is_empty() {
+            sc.name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().to_string())
+                .unwrap_or_default();
+        }
+        let base = path.parent().unwrap_or(Path::new("."));
+        sc.params = base.join(&sc.params);
+        let robot = Robot::from_toml_file(&sc.params)?;
+        let n = robot.n;
+        let rename = |e: Error, section: &str| in_section(e, &src, section);
+        sc.planner
+            .validate(n, &src)
+            .map_err(|e| rename(e, "planner"))?;
+        sc.solver.validate().map_err(|e| rename(e, "solver"))?;
+        let l = &sc.ladder;
+        check_bars(&robot, &l.bars, &src)?;
+        for (field, v, max) in [
+            ("ladder.capture_radius", l.capture_radius, 1.0),
+            ("ladder.capture_speed", l.capture_speed, 10.0),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                return Err(Error::invalid(
+                    &src,
+                    field,
+                    v,
+                    format!("must be in (0, {max}]"),
+                ));
+            }
+        }
+        if sc.plant.kind != PlantKind::Model {
+            return Err(Error::invalid(
+                &src,
+                "plant.kind",
+                "\"rapier\"",
+                "a traverse runs on the model plant (plant.kind = \"model\"); grip constraints on \
+                 the rapier plant are not implemented yet (docs/ladders.md)",
+            ));
+        }
+        if !sc.plant.obstacles.is_empty() {
+            return Err(Error::invalid(
+                &src,
+                "plant.obstacles",
+                format!("{} obstacles", sc.plant.obstacles.len()),
+                "the model plant simulates no contacts; put obstacles in ladder.obstacles",
+            ));
+        }
+        let q0 = if l.q0.is_empty() {
+            default_hang(&robot, &l.bars, &sc.planner).ok_or_else(|| {
+                Error::invalid(
+                    &src,
+                    "ladder.q0",
+                    "[] (the default hang)",
+                    "no pose within planner.bounds puts the swing hand on the virtual bar behind \
+                     bar 0; give ladder.q0",
+                )
+            })?
+        } else {
+            l.q0.clone()
+        };
+        let first = swing_scenario(&sc, &q0, &l.qd0, [0.0, 0.0], 1);
+        let qd0 =
+            brachia::planning::validate_task(&robot, &first.task, &sc.planner, &src, "ladder.")
+                .map_err(|e| match e {
+                    // the first swing's target is bar 1: name it
+                    Error::InvalidValue {
+                        source_name,
+                        field,
+                        value,
+                        reason,
+                    } if field == "ladder.target" => Error::InvalidValue {
+                        source_name,
+                        field: "ladder.bars[1]".into(),
+                        value,
+                        reason,
+                    },
+                    other => other,
+                })?;
+        let t = swing_time(&robot, &q0, first.task.target, &sc.planner).map_err(|e| match e {
+            Error::InfeasibleTask(m) => Error::invalid(
+                &src,
+                "planner.swing_time",
+                "\"auto\"",
+                format!("{m} (first swing); give swing_time in seconds"),
+            ),
+            other => rename(other, "planner"),
+        })?;
+        sc.planner.grid(t, &src).map_err(|e| rename(e, "planner"))?;
+        let ls = LoadedScenario {
+            scenario: first,
+            robot: robot.clone(),
+            path: path.to_path_buf(),
+        };
+        ls.check_tracking(t)?;
+        let x0 = [q0, qd0].concat();
+        Ok(LoadedLadder {
+            scenario: sc,
+            robot,
+            path: path.to_path_buf(),
+            x0,
+        })
+    }
+}
+
+/// The one-swing scenario of the swing to bar `to` from state `(q0, qd0)` with the grip at `grip`
+/// (world): the target and the obstacles moved into the grip frame, every other section shared.
+pub fn swing_scenario(
+    sc: &LadderScenario,
+    q0: &[f64],
+    qd0: &[f64],
+    grip: [f64; 2],
+    to: usize,
+) -> Scenario {
+    let b = sc.ladder.bars[to];
+    Scenario {
+        name: format!("{} swing to bar {to}", sc.name),
+        params: sc.params.clone(),
+        task: SwingTask {
+            q0: q0.to_vec(),
+            qd0: qd0.to_vec(),
+            target: [b.x - grip[0], b.y - grip[1]],
+            obstacles: sc
+                .ladder
+                .obstacles
+                .iter()
+                .map(|o| Circle {
+                    center: [o.center[0] - grip[0], o.center[1] - grip[1]],
+                    radius: o.radius,
+                })
+                .collect(),
+        },
+        planner: sc.planner.clone(),
+        solver: sc.solver.clone(),
+        tracking: sc.tracking.clone(),
+        plant: sc.plant.clone(),
+    }
+}

@@ -1,0 +1,594 @@
+//! A ladder traverse on the model plant: plan each swing from the state the last one left, track it with
+//! the scenario's controller, capture the bar, switch the grip (re-root the chain), go on.
+//!
+//! Conventions (as in `brachia`): world frame x right, y up, gravity along -y; within a swing the chain
+//! is in its grip frame, link 1 at the current grip (`q[0]` absolute, the rest relative; SI units).
+//! **Hands**: hand A is the end of the parameters file's link 1, hand B the end of its link n. Swings 0,
+//! 2, 4, ... hang from hand A (the chain as written), swings 1, 3, ... from hand B (the chain re-rooted,
+//! [`brachia::model::switch_grip`]).
+//!
+//! **Capture rule**: a swing ends after its planned time (plus `tracking.hold_s`); the hand captures the
+//! bar when it is then within `ladder.capture_radius` of it and slower than `ladder.capture_speed`.
+//! The new grip is where the hand closed (within the capture radius of the bar); a remaining hand speed
+//! is stopped by the capture impulse (reported as the switch residual and the energy it takes). A miss
+//! ends the run with [`TraverseStatus::CaptureMissed`], naming the swing and the miss.
+//!
+//! `traverse.csv` header: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y` (the current chain, its grip frame),
+//! then `swing,holding_hand,grip_bar,grip_x,grip_y,hand_a_x,hand_a_y,p1_x,p1_y,...,hand_b_x,hand_b_y`:
+//! the swing index, the hand that holds (`0` = A, `1` = B), the bar it holds, the grip and every joint
+//! of the chain in world coordinates in the parameters file's order (hand A first). Time runs on over
+//! the whole traverse; the last row of a swing and the first of the next share their time and positions
+//! (velocities differ by the capture impulse, if any).
+
+use crate::ladder::LoadedLadder;
+use crate::plan_run::run_plan;
+use crate::run_folder::RunFolder;
+use crate::scenario::LoadedScenario;
+use crate::track_run::{make_controller, plant_robot};
+use brachia::model::switch_grip;
+use brachia::planning::validate_task;
+use brachia::sim::{run_closed_loop, ClosedLoopLog, ModelPlant, NoiseSettings, Noisy, RunSettings};
+use brachia::{Error, Robot};
+use serde::Serialize;
+use serde_json::json;
+use std::fmt::Write as _;
+
+/// One swing of a traverse.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SwingRecord {
+    /// Swing index (0 = from bar 0 to bar 1).
+    pub swing: usize,
+    /// The bar held during the swing.
+    pub from_bar: usize,
+    /// The bar caught at its end.
+    pub to_bar: usize,
+    /// The hand that holds: 0 = hand A (link 1 of the parameters file), 1 = hand B.
+    pub holding_hand: usize,
+    /// The grip, world, m.
+    pub grip: [f64; 2],
+    /// Start time within the traverse, s.
+    pub t_start_s: f64,
+    /// Duration of the swing (planned swing time plus hold), s.
+    pub duration_s: f64,
+    /// The planned swing time T, s.
+    pub swing_time_s: f64,
+    /// Planner status.
+    pub plan_converged: bool,
+    /// Planner iterations (all attempts).
+    pub plan_iterations: usize,
+    /// Planner wall time, s.
+    pub plan_time_s: f64,
+    /// Energy of the plan, paper eq. 18, J.
+    pub planned_energy_j: f64,
+    /// Energy of the tracked swing, paper eq. 18 (`sum_k tau_k . (q_{k+1} - q_k)` over the actuated
+    /// joints), J.
+    pub energy_j: f64,
+    /// Positive work of the actuated joints in the tracked swing, J.
+    pub positive_work_j: f64,
+    /// Largest EE distance from the reference during the swing, m.
+    pub ee_error_max_m: f64,
+    /// Distance of the hand from the bar at the end of the swing, m.
+    pub capture_error_m: f64,
+    /// The switch residual: the hand's speed when it closed, m/s.
+    pub switch_residual_m_s: f64,
+    /// Kinetic energy taken by the capture impulse, J.
+    pub capture_impact_j: f64,
+    /// True when the hand caught the bar within the capture rule.
+    pub captured: bool,
+    /// Closed-loop wall time of the swing (controller and plant), s.
+    pub track_time_s: f64,
+}
+
+/// How a traverse ended.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum TraverseStatus {
+    /// Every bar was caught.
+    Completed,
+    /// The state a swing starts from is refused by the planner's checks (bounds, reach, obstacles).
+    StartRefused {
+        /// The swing.
+        swing: usize,
+        /// Why.
+        message: String,
+    },
+    /// The planner did not converge on a swing.
+    PlanFailed {
+        /// The swing.
+        swing: usize,
+        /// The planner's account.
+        message: String,
+    },
+    /// The hand missed the bar.
+    CaptureMissed {
+        /// The swing.
+        swing: usize,
+        /// The bar it aimed at.
+        bar: usize,
+        /// Distance of the hand from the bar, m.
+        miss_m: f64,
+        /// Speed of the hand, m/s.
+        speed_m_s: f64,
+        /// The capture radius, m.
+        capture_radius_m: f64,
+        /// The capture speed, m/s.
+        capture_speed_m_s: f64,
+    },
+    /// The grip switch failed (the chain stretched straight).
+    SwitchFailed {
+        /// The swing.
+        swing: usize,
+        /// Why.
+        message: String,
+    },
+}
+
+impl TraverseStatus {
+    /// True for [`TraverseStatus::Completed`].
+    pub fn completed(&self) -> bool {
+        matches!(self, TraverseStatus::Completed)
+    }
+}
+
+impl std::fmt::Display for TraverseStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TraverseStatus::Completed => write!(f, "completed: every bar caught"),
+            TraverseStatus::StartRefused { swing, message } => {
+                write!(f, "swing {swing}: its start state is refused: {message}")
+            }
+            TraverseStatus::PlanFailed { swing, message } => write!(f, "swing {swing}: {message}"),
+            TraverseStatus::CaptureMissed {
+                swing,
+                bar,
+                miss_m,
+                speed_m_s,
+                capture_radius_m,
+                capture_speed_m_s,
+            } => write!(
+                f,
+                "swing {swing}: the hand missed bar {bar} by {miss_m:.4} m at {speed_m_s:.4} m/s \
+                 (capture radius {capture_radius_m} m, capture speed {capture_speed_m_s} m/s)"
+            ),
+            TraverseStatus::SwitchFailed { swing, message } => {
+                write!(f, "swing {swing}: {message}")
+            }
+        }
+    }
+}
+
+/// The outcome of [`run_traverse`].
+#[derive(Debug, Clone)]
+pub struct Traverse {
+    /// How it ended.
+    pub status: TraverseStatus,
+    /// Every swing that was tracked (a failed capture is the last one).
+    pub swings: Vec<SwingRecord>,
+    /// The closed-loop log of each tracked swing (its chain's grip frame).
+    pub logs: Vec<ClosedLoopLog>,
+    /// The chain as written and re-rooted (swing k uses `chains[k % 2]`).
+    pub chains: [Robot; 2],
+}
+
+/// Positive work of the actuated joints in a log, J (held torques: `sum_k max(0, tau_k,j dq_j)`).
+fn positive_work(log: &ClosedLoopLog) -> f64 {
+    let n = log.n;
+    (0..log.len().saturating_sub(1))
+        .map(|k| {
+            (0..n - 1)
+                .map(|j| (log.tau(k)[j] * (log.x(k + 1)[j + 1] - log.x(k)[j + 1])).max(0.0))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// Margin by which the q1 range of a later swing is widened past its start angle, rad.
+pub const Q1_WIDEN_MARGIN: f64 = 0.1;
+
+/// A later swing starts where the last one left the chain: its link 1 (the old link n) may point above
+/// the bar, and its joint rates may exceed `planner.bounds.qd_max` a little (the rate bound is then
+/// raised to 1.05 times the largest start rate). Take the start angle's representative (mod 2 pi) nearest `planner.bounds.q1` and, when it
+/// lies outside, widen the range to include it with [`Q1_WIDEN_MARGIN`] to spare.
+fn widen_q1(sc: &mut crate::scenario::Scenario) {
+    let tau = std::f64::consts::TAU;
+    let [lo, hi] = sc.planner.bounds.q1;
+    let q1 = sc.task.q0[0];
+    let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
+    let best = [q1 - tau, q1, q1 + tau]
+        .into_iter()
+        .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b });
+    sc.task.q0[0] = best;
+    sc.planner.bounds.q1 = [
+        lo.min(best - Q1_WIDEN_MARGIN),
+        hi.max(best + Q1_WIDEN_MARGIN),
+    ];
+    // the tracked swing may end a little past the planner's joint-rate bound
+    let qd = sc.task.qd0.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    let b = &mut sc.planner.bounds;
+    if qd > b.qd_max {
+        b.qd_max = (qd * 1.05).min(brachia::limits::MAX_RATE_RAD_S);
+    }
+}
+
+/// Run the traverse of `ll` on the model plant. Errors only on bad input found at run time that no
+/// status describes; planning failures, refused start states and missed captures are statuses.
+pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
+    let sc = &ll.scenario;
+    let bars = &sc.ladder.bars;
+    let n = ll.robot.n;
+    let chains = [ll.robot.clone(), ll.robot.rerooted()?];
+    let src = ll.path.display().to_string();
+    let mut x = ll.x0.clone();
+    let mut grip = bars[0].p();
+    let mut t_start = 0.0;
+    let mut swings = Vec::new();
+    let mut logs = Vec::new();
+    let mut status = TraverseStatus::Completed;
+    for k in 0..bars.len() - 1 {
+        let robot = &chains[k % 2];
+        let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
+        if k > 0 {
+            widen_q1(&mut swing_sc);
+        }
+        let ls = LoadedScenario {
+            scenario: swing_sc,
+            robot: robot.clone(),
+            path: ll.path.clone(),
+        };
+        let refused = |e: Error| TraverseStatus::StartRefused {
+            swing: k,
+            message: e.to_string(),
+        };
+        if let Err(e) = validate_task(
+            robot,
+            &ls.scenario.task,
+            &ls.scenario.planner,
+            &src,
+            "swing.",
+        ) {
+            status = refused(e);
+            break;
+        }
+        let planned = match run_plan(&ls) {
+            Ok(p) => p,
+            Err(e) => {
+                status = refused(e);
+                break;
+            }
+        };
+        let p = &planned.plan;
+        if !p.converged() {
+            status = TraverseStatus::PlanFailed {
+                swing: k,
+                message: p.failure_message().unwrap_or_default(),
+            };
+            break;
+        }
+        if let Err(e) = ls.check_tracking(p.swing_time_s) {
+            status = refused(e);
+            break;
+        }
+        let reference = &p.trajectory;
+        let mut plant = ModelPlant::new(plant_robot(&ls)?, &x);
+        plant.substeps = sc.plant.substeps;
+        let mut ctrl = make_controller(sc.tracking.controller, &ls, reference)?;
+        let settings = RunSettings {
+            duration_s: reference.duration() + sc.tracking.hold_s,
+            control_dt: sc.tracking.control_dt,
+        };
+        let noise = NoiseSettings {
+            q_std: sc.tracking.noise_q_std,
+            qd_std: sc.tracking.noise_qd_std,
+            seed: sc.tracking.seed.wrapping_add(k as u64),
+        };
+        let clock = std::time::Instant::now();
+        let log = if noise.is_zero() {
+            run_closed_loop(&mut plant, ctrl.as_mut(), reference, robot, &settings)?
+        } else {
+            let mut noisy = Noisy::new(&mut plant, noise)?;
+            run_closed_loop(&mut noisy, ctrl.as_mut(), reference, robot, &settings)?
+        };
+        let track_time_s = clock.elapsed().as_secs_f64();
+        drop(ctrl);
+        let summary = log.summary();
+        let xe = log.x(log.len() - 1).to_vec();
+        let ee = robot.ee_position(&xe[..n]);
+        let v = robot.ee_velocity(&xe[..n], &xe[n..]);
+        let bar = bars[k + 1].p();
+        let miss = (grip[0] + ee[0] - bar[0]).hypot(grip[1] + ee[1] - bar[1]);
+        let speed = v[0].hypot(v[1]);
+        let captured = miss <= sc.ladder.capture_radius && speed <= sc.ladder.capture_speed;
+        let duration = log.t[log.len() - 1] - log.t[0];
+        let mut rec = SwingRecord {
+            swing: k,
+            from_bar: k,
+            to_bar: k + 1,
+            holding_hand: k % 2,
+            grip,
+            t_start_s: t_start,
+            duration_s: duration,
+            swing_time_s: p.swing_time_s,
+            plan_converged: true,
+            plan_iterations: p.iterations,
+            plan_time_s: p.solve_time_s,
+            planned_energy_j: p.energy_j,
+            energy_j: summary.energy_j,
+            positive_work_j: positive_work(&log),
+            ee_error_max_m: summary.ee_error_max_m,
+            capture_error_m: miss,
+            switch_residual_m_s: speed,
+            capture_impact_j: 0.0,
+            captured,
+            track_time_s,
+        };
+        logs.push(log);
+        if !captured {
+            swings.push(rec);
+            status = TraverseStatus::CaptureMissed {
+                swing: k,
+                bar: k + 1,
+                miss_m: miss,
+                speed_m_s: speed,
+                capture_radius_m: sc.ladder.capture_radius,
+                capture_speed_m_s: sc.ladder.capture_speed,
+            };
+            break;
+        }
+        match switch_grip(robot, grip, &xe) {
+            Ok(s) => {
+                rec.capture_impact_j = s.impact_energy_j;
+                x = s.x;
+                grip = s.grip;
+            }
+            Err(e) => {
+                swings.push(rec);
+                status = TraverseStatus::SwitchFailed {
+                    swing: k,
+                    message: e.to_string(),
+                };
+                break;
+            }
+        }
+        swings.push(rec);
+        t_start += duration;
+    }
+    Ok(Traverse {
+        status,
+        swings,
+        logs,
+        chains,
+    })
+}
+
+impl Traverse {
+    /// World joint positions of row `row` of swing `k`'s log, in the parameters file's order (hand A
+    /// first): n + 1 points.
+    pub fn world_joints(&self, k: usize, row: usize) -> Vec<[f64; 2]> {
+        let robot = &self.chains[k % 2];
+        let n = robot.n;
+        let grip = self.swings[k].grip;
+        let mut p = vec![[0.0; 2]; n + 1];
+        robot.joint_positions(&self.logs[k].x(row)[..n], &mut p);
+        let mut w: Vec<[f64; 2]> = p.iter().map(|v| [v[0] + grip[0], v[1] + grip[1]]).collect();
+        if k % 2 == 1 {
+            w.reverse();
+        }
+        w
+    }
+
+    /// `traverse.csv` (see the module docs for the header).
+    pub fn to_csv(&self) -> String {
+        let n = self.chains[0].n;
+        let mut s = String::from("t");
+        for name in ["q", "qd"] {
+            for i in 1..=n {
+                let _ = write!(s, ",{name}{i}");
+            }
+        }
+        for i in 2..=n {
+            let _ = write!(s, ",tau{i}");
+        }
+        s.push_str(",ee_x,ee_y,swing,holding_hand,grip_bar,grip_x,grip_y,hand_a_x,hand_a_y");
+        for i in 1..n {
+            let _ = write!(s, ",p{i}_x,p{i}_y");
+        }
+        s.push_str(",hand_b_x,hand_b_y\n");
+        for (k, log) in self.logs.iter().enumerate() {
+            let rec = &self.swings[k];
+            let t0 = rec.t_start_s - log.t[0];
+            for row in 0..log.len() {
+                let _ = write!(s, "{:.6}", t0 + log.t[row]);
+                for v in log.x(row).iter().chain(log.tau(row)) {
+                    let _ = write!(s, ",{v:.9}");
+                }
+                let ee = log.ee[row];
+                let _ = write!(
+                    s,
+                    ",{:.9},{:.9},{k},{},{},{:.9},{:.9}",
+                    ee[0], ee[1], rec.holding_hand, rec.from_bar, rec.grip[0], rec.grip[1]
+                );
+                for p in self.world_joints(k, row) {
+                    let _ = write!(s, ",{:.9},{:.9}", p[0], p[1]);
+                }
+                s.push('\n');
+            }
+        }
+        s
+    }
+
+    /// The machine-readable report: per swing (energy by eq. 18, positive work, duration, capture error,
+    /// switch residual, ...) and totals.
+    pub fn report(&self, ll: &LoadedLadder) -> serde_json::Value {
+        let sum = |f: fn(&SwingRecord) -> f64| self.swings.iter().map(f).sum::<f64>();
+        let max = |f: fn(&SwingRecord) -> f64| self.swings.iter().map(f).fold(0.0, f64::max);
+        let sim_s = sum(|s| s.duration_s);
+        let wall_s = sum(|s| s.plan_time_s + s.track_time_s);
+        json!({
+            "scenario": ll.scenario.name,
+            "robot": ll.robot.params.name,
+            "links": ll.robot.n,
+            "plant": "model",
+            "controller": ll.scenario.tracking.controller,
+            "status": self.status,
+            "message": self.status.to_string(),
+            "completed": self.status.completed(),
+            "bars": ll.scenario.ladder.bars,
+            "capture_radius_m": ll.scenario.ladder.capture_radius,
+            "capture_speed_m_s": ll.scenario.ladder.capture_speed,
+            "obstacles": ll.scenario.ladder.obstacles,
+            "start_state": ll.x0,
+            "swings": self.swings,
+            "totals": {
+                "swings_tracked": self.swings.len(),
+                "bars_caught": self.swings.iter().filter(|s| s.captured).count(),
+                "energy_j": sum(|s| s.energy_j),
+                "planned_energy_j": sum(|s| s.planned_energy_j),
+                "positive_work_j": sum(|s| s.positive_work_j),
+                "duration_s": sim_s,
+                "capture_error_max_m": max(|s| s.capture_error_m),
+                "switch_residual_max_m_s": max(|s| s.switch_residual_m_s),
+                "capture_impact_j": sum(|s| s.capture_impact_j),
+                "plan_time_s": sum(|s| s.plan_time_s),
+                "track_time_s": sum(|s| s.track_time_s),
+                "wall_time_s": wall_s,
+                "real_time_factor": if wall_s > 0.0 { sim_s / wall_s } else { 0.0 },
+            },
+        })
+    }
+
+    /// The run folder: `traverse.csv`, `report.json`, `scenario.toml` (the resolved inputs) and the
+    /// figures `traverse_stick.png/.svg` (every 0.25 s, world frame) and `energy_per_swing.png/.svg`.
+    /// Figures are rendered into a private temporary folder and queued like every other file.
+    pub fn folder(&self, ll: &LoadedLadder) -> Result<RunFolder, crate::ExpError> {
+        let mut folder = RunFolder::default();
+        folder.add("traverse.csv", self.to_csv());
+        folder.add_json("report.json", &self.report(ll));
+        let mut resolved = ll.scenario.clone();
+        let n = ll.robot.n;
+        resolved.ladder.q0 = ll.x0[..n].to_vec();
+        resolved.ladder.qd0 = ll.x0[n..].to_vec();
+        folder.add(
+            "scenario.toml",
+            format!(
+                "# Resolved inputs of this traverse (start state filled in).\n{}",
+                toml::to_string(&resolved).unwrap_or_default()
+            ),
+        );
+        if self.logs.is_empty() {
+            return Ok(folder);
+        }
+        let tmp = std::env::temp_dir().join(format!(
+            ".brachia-traverse-{}-{}",
+            std::process::id(),
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0)
+        ));
+        let werr = |e: std::io::Error| crate::ExpError::Write {
+            path: tmp.clone(),
+            source: e,
+        };
+        std::fs::create_dir_all(&tmp).map_err(werr)?;
+        let drawn = self.draw(ll, &tmp);
+        let mut result = Ok(());
+        if drawn.is_ok() {
+            for name in [
+                "traverse_stick.png",
+                "traverse_stick.svg",
+                "energy_per_swing.png",
+                "energy_per_swing.svg",
+            ] {
+                match std::fs::read(tmp.join(name)) {
+                    Ok(data) => folder.add(name, data),
+                    Err(e) => {
+                        result = Err(werr(e));
+                        break;
+                    }
+                }
+            }
+        }
+        let _ = std::fs::remove_dir_all(&tmp);
+        drawn.map_err(|e| crate::ExpError::Write {
+            path: e.path().to_path_buf(),
+            source: std::io::Error::other(e.to_string()),
+        })?;
+        result.map(|()| folder)
+    }
+
+    fn draw(
+        &self,
+        ll: &LoadedLadder,
+        dir: &std::path::Path,
+    ) -> Result<(), brachia_plot::PlotError> {
+        use brachia_plot::{line_plot, pose_diagram, LinePlot, Obstacle, PoseFigure, Series};
+        let bars: Vec<[f64; 2]> = ll.scenario.ladder.bars.iter().map(|b| b.p()).collect();
+        let mut fig = PoseFigure {
+            title: format!("{}: traverse, every 0.25 s", ll.scenario.name),
+            target: bars.last().copied(),
+            bars,
+            obstacles: ll
+                .scenario
+                .ladder
+                .obstacles
+                .iter()
+                .map(|o| Obstacle {
+                    center: o.center,
+                    radius: o.radius.max(1e-3),
+                })
+                .collect(),
+            ..PoseFigure::default()
+        };
+        let mut next = 0.0;
+        for (k, log) in self.logs.iter().enumerate() {
+            let t0 = self.swings[k].t_start_s - log.t[0];
+            for row in 0..log.len() {
+                let t = t0 + log.t[row];
+                let joints = self.world_joints(k, row);
+                // the swinging hand: hand B on even swings, hand A on odd ones
+                let hand = if k % 2 == 0 {
+                    joints[joints.len() - 1]
+                } else {
+                    joints[0]
+                };
+                if row % 10 == 0 {
+                    fig.trail.push(hand);
+                }
+                let last = k + 1 == self.logs.len() && row + 1 == log.len();
+                if t >= next - 1e-9 || last {
+                    fig.poses.push((t, joints));
+                    next = t + 0.25;
+                }
+            }
+        }
+        pose_diagram(dir.join("traverse_stick.png"), &fig)?;
+        let idx: Vec<f64> = self.swings.iter().map(|s| s.swing as f64).collect();
+        line_plot(
+            dir.join("energy_per_swing.png"),
+            &LinePlot {
+                title: format!("{}: energy per swing", ll.scenario.name),
+                x_label: "swing".into(),
+                y_label: "energy (J)".into(),
+                series: vec![
+                    Series::new(
+                        "tracked, eq. 18",
+                        idx.clone(),
+                        self.swings.iter().map(|s| s.energy_j).collect(),
+                    ),
+                    Series::new(
+                        "planned, eq. 18",
+                        idx.clone(),
+                        self.swings.iter().map(|s| s.planned_energy_j).collect(),
+                    )
+                    .dashed(),
+                    Series::new(
+                        "positive work",
+                        idx,
+                        self.swings.iter().map(|s| s.positive_work_j).collect(),
+                    ),
+                ],
+                size: None,
+            },
+        )
+    }
+}
