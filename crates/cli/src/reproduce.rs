@@ -2,6 +2,8 @@
 
 use crate::CliError;
 use brachia_experiments::reproduce::{reproduce, ReproduceOptions};
+use brachia_experiments::Progress;
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
 /// Arguments of `brachia reproduce`.
@@ -33,11 +35,27 @@ pub fn run(a: Args) -> Result<(), CliError> {
     let opts = ReproduceOptions {
         scenarios: a.scenarios,
         quick: a.quick,
-        progress: !a.no_progress,
         results_page: a.results_page,
         force: a.force,
     };
-    let rep = reproduce(&opts, &a.out)?;
+    let bar = if a.no_progress {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg} (eta {eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let show = |p: Progress| {
+        bar.set_length(p.total);
+        bar.set_message(p.what);
+        bar.set_position(bar.position().max(p.done));
+    };
+    let rep = reproduce(&opts, &a.out, &show);
+    bar.finish_and_clear();
+    let rep = rep?;
     eprintln!(
         "reproduce: {} files in {} after {:.0} s; report {}",
         rep.files.len(),

@@ -37,7 +37,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             other => return Err(format!("unknown argument {other}").into()),
         }
     }
-    let study = run_parameter_study(&s, progress)?;
+    let show = |p: brachia_experiments::Progress| {
+        if progress {
+            eprint!("\r{}/{} {}", p.done, p.total, p.what);
+        }
+    };
+    let study = run_parameter_study(&s, &show)?;
+    if progress {
+        eprintln!();
+    }
     println!(
         "{} cells, {} failed, wall time {:.1} s, start q = {:?}",
         study.cells.len(),

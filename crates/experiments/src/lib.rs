@@ -11,6 +11,7 @@
 pub mod ladder;
 pub mod parameter_study;
 pub mod plan_run;
+pub mod progress;
 pub mod read;
 pub mod reproduce;
 pub mod run_folder;
@@ -25,6 +26,7 @@ pub use parameter_study::{
 };
 pub use plan_run::solver_work_text;
 pub use plan_run::{plan_report, run_plan, PlanReport, PlanRun, PARAMS_FILE};
+pub use progress::{no_progress, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};

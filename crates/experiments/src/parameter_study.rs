@@ -26,6 +26,7 @@
 //!
 //! Units: m, kg, kg m^2, s, rad, N m, J.
 
+use crate::progress::{Progress, ProgressFn};
 use crate::run_folder::RunFolder;
 use crate::scenario::{in_section, parse_toml, read_text};
 use brachia::model::{Robot, RobotParams};
@@ -34,12 +35,12 @@ use brachia::planning::{
 };
 use brachia::trajectory::Trajectory;
 use brachia::Error;
-use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Names the settings in error messages when they do not come from a file.
@@ -563,14 +564,14 @@ fn run_row(
     task: &SwingTask,
     settings: &ParameterStudySettings,
     keep_centre: bool,
-    bar: &ProgressBar,
+    tick: &(dyn Fn() + Sync),
 ) -> Result<RowResult, Error> {
     let offs = &settings.offsets_s;
     let c = centre_index(offs);
     let mut cells: Vec<Option<StudyCell>> = vec![None; offs.len()];
     let solve = |j: usize, guess: Option<&Trajectory>| {
         let r = solve_cell(setup, task, settings, setup.t_nominal + offs[j], guess);
-        bar.inc(1);
+        tick();
         r
     };
     // A planner error of one cell (e.g. no joint configuration reaches the target at that swing time)
@@ -667,12 +668,12 @@ fn row_setup(
 
 /// Run the study: every cell of `settings.r2 x settings.offsets_s` in parallel rows (rayon's global
 /// pool: all cores, or `RAYON_NUM_THREADS`), plus the stick-diagram swings of `settings.stick_r2`.
-/// `progress` shows an indicatif bar on stderr (one tick per solve; it hides itself when stderr is not
-/// a terminal). Errors on bad settings or base parameters and on a swing time `T + offset <= 0`, before
+/// `progress` is called once per finished solve (from the worker threads) with the count so far and
+/// the total; pass [`crate::no_progress`] to ignore it. Errors on bad settings or base parameters and on a swing time `T + offset <= 0`, before
 /// anything is solved; cells that do not converge are results, not errors.
 pub fn run_parameter_study(
     settings: &ParameterStudySettings,
-    progress: bool,
+    progress: ProgressFn<'_>,
 ) -> Result<ParameterStudy, Error> {
     let wall = Instant::now();
     settings.validate()?;
@@ -712,16 +713,14 @@ pub fn run_parameter_study(
         }
     }
     let total = (setups.len() * settings.offsets_s.len() + extra.len()) as u64;
-    let bar = if progress {
-        ProgressBar::new(total)
-    } else {
-        ProgressBar::hidden()
+    let done = AtomicU64::new(0);
+    let tick = || {
+        progress(Progress {
+            done: done.fetch_add(1, Ordering::Relaxed) + 1,
+            total,
+            what: "parameter-study solves",
+        })
     };
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} solves (eta {eta})")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
     let task = task(&start_q, settings.target);
     // Longest swings first: they have the most knots and iterations, and a long row started last
     // would leave the other cores idle at the end.
@@ -732,7 +731,7 @@ pub fn run_parameter_study(
         .with_max_len(1)
         .map(|&i| {
             let s = &setups[i];
-            run_row(s, &task, settings, wants_stick(s.r2), &bar).map(|r| (i, r))
+            run_row(s, &task, settings, wants_stick(s.r2), &tick).map(|r| (i, r))
         })
         .collect::<Result<_, _>>()?;
     let mut rows: Vec<Option<RowResult>> = (0..setups.len()).map(|_| None).collect();
@@ -744,7 +743,7 @@ pub fn run_parameter_study(
         .par_iter()
         .filter_map(|s| {
             let solved = solve_cell(s, &task, settings, s.t_nominal, None);
-            bar.inc(1);
+            tick();
             let (p, _, _, _) = solved.ok()?;
             Some(StickDiagram {
                 r2: s.r2,
@@ -756,7 +755,6 @@ pub fn run_parameter_study(
             })
         })
         .collect();
-    bar.finish_and_clear();
     let mut summaries = Vec::with_capacity(rows.len());
     let mut cells = Vec::with_capacity(total as usize);
     let mut grid_sticks = Vec::new();

@@ -4,10 +4,11 @@
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SolveStatus};
 use brachia_experiments::{
-    parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams,
-    ParameterStudySettings,
+    no_progress, parameter_study_folder, run_parameter_study, scaled_params, start_pose,
+    BaseParams, ParameterStudySettings, Progress,
 };
 use std::path::PathBuf;
+use std::sync::Mutex;
 
 fn paper() -> RobotParams {
     Robot::paper().params
@@ -103,8 +104,16 @@ fn small_grid_runs_and_fills_the_run_folder() {
         stick_r2: vec![0.3, 0.7],
         ..quick(vec![0.3, 0.7], vec![-0.2, 0.0, 0.2])
     };
-    let study = run_parameter_study(&s, false).unwrap();
+    let heard = Mutex::new(Vec::<Progress>::new());
+    let record = |p: Progress| heard.lock().unwrap().push(p);
+    let study = run_parameter_study(&s, &record).unwrap();
     assert_eq!(study.cells.len(), 6);
+    // one report per solve (6 cells; both stick swings are grid centres), counting 1..=6
+    let mut heard = heard.into_inner().unwrap();
+    heard.sort_by_key(|p| p.done);
+    let done: Vec<u64> = heard.iter().map(|p| p.done).collect();
+    assert_eq!(done, (1..=6).collect::<Vec<u64>>());
+    assert!(heard.iter().all(|p| p.total == 6 && !p.what.is_empty()));
     assert_eq!(study.rows.len(), 2);
     for (i, &r2) in s.r2.iter().enumerate() {
         let row = &study.rows[i];
@@ -194,7 +203,7 @@ fn failed_cells_are_kept_with_their_status_and_no_energy() {
         stick_r2: vec![0.5],
         ..quick(vec![0.5], vec![-0.1, 0.0, 0.1])
     };
-    let study = run_parameter_study(&s, false).unwrap();
+    let study = run_parameter_study(&s, &no_progress).unwrap();
     assert_eq!(study.cells.len(), 3);
     assert_eq!(study.failed_cells(), 3);
     for c in &study.cells {
@@ -293,19 +302,23 @@ fn bad_settings_name_the_field() {
     for (s, field) in cases {
         let e = s.validate().unwrap_err().to_string();
         assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
-        let e = run_parameter_study(&s, false).unwrap_err().to_string();
+        let e = run_parameter_study(&s, &no_progress)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
     }
     // a swing time T + offset <= 0 is refused before solving
     let s = quick(vec![0.5], vec![-10.0, 0.0]);
-    let e = run_parameter_study(&s, false).unwrap_err().to_string();
+    let e = run_parameter_study(&s, &no_progress)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("`offsets_s[0]`"), "{e}");
     // a missing base parameters file
     let s = ParameterStudySettings {
         base_params: BaseParams::File(PathBuf::from("/nonexistent/params.toml")),
         ..quick(vec![0.5], vec![0.0])
     };
-    assert!(run_parameter_study(&s, false).is_err());
+    assert!(run_parameter_study(&s, &no_progress).is_err());
 }
 
 #[test]
@@ -346,7 +359,7 @@ fn cells_the_planner_refuses_are_failed_cells_not_a_failed_study() {
         stick_r2: vec![0.25],
         ..quick(vec![0.3, 0.5], vec![-0.1, 0.0])
     };
-    let study = run_parameter_study(&s, false).expect("the study itself runs");
+    let study = run_parameter_study(&s, &no_progress).expect("the study itself runs");
     assert_eq!(study.cells.len(), 4);
     assert_eq!(study.failed_cells(), 4);
     for c in &study.cells {

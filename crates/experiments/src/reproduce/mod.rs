@@ -19,6 +19,7 @@ mod report;
 mod study;
 
 use crate::plan_run::{run_plan, PlanRun};
+use crate::progress::ProgressFn;
 use crate::read::{PlanFolder, TrackFolder};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
 use crate::track_run::{run_track, track_plan, TrackOutcome, TrackRun};
@@ -39,9 +40,6 @@ pub struct ReproduceOptions {
     /// A coarse parameter-study grid that CI can afford (the other experiments are unchanged).
     /// Default false.
     pub quick: bool,
-    /// Show a progress bar for the parameter study (hidden anyway when stderr is not a terminal).
-    /// Default true.
-    pub progress: bool,
     /// Also write the results page (e.g. `docs/results.md`) with the key figures copied into a folder
     /// named after it (`docs/results/`). Default none.
     pub results_page: Option<PathBuf>,
@@ -55,7 +53,6 @@ impl Default for ReproduceOptions {
         ReproduceOptions {
             scenarios: PathBuf::from("scenarios"),
             quick: false,
-            progress: true,
             results_page: None,
             force: false,
         }
@@ -207,8 +204,13 @@ fn plan_and_track(
 
 /// Run every experiment, write `out`, and return the summary. Errors on bad input (a scenario that does
 /// not load) or when a file cannot be written; solver failures are collected in
-/// [`Reproduction::failures`] instead.
-pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, ExpError> {
+/// [`Reproduction::failures`] instead. `progress` hears of every parameter-study solve (the long part);
+/// pass [`crate::no_progress`] to ignore it.
+pub fn reproduce(
+    opts: &ReproduceOptions,
+    out: &Path,
+    progress: ProgressFn<'_>,
+) -> Result<Reproduction, ExpError> {
     let start = Instant::now();
     // load every scenario first: bad input stops the run before anything is computed or written
     let ls_track = load(opts, "tracking.toml")?;
@@ -313,7 +315,7 @@ pub fn reproduce(opts: &ReproduceOptions, out: &Path) -> Result<Reproduction, Ex
     }
 
     // V-A: the parameter study (the longest part)
-    let st = crate::parameter_study::run_parameter_study(&study_settings, opts.progress)?;
+    let st = crate::parameter_study::run_parameter_study(&study_settings, progress)?;
     write(
         &crate::parameter_study::parameter_study_folder(&st),
         &out.join("parameter-study"),
