@@ -178,7 +178,7 @@ class Mpc:
     def control(self, t: float, x: ArrayLike) -> Array:
         """Torques of joints 2..n, shape (n - 1,), for state x = [q, qd] at time t."""
     def set_reference(self, reference: Union[Plan, Trajectory]) -> None:
-        """Track a new reference with the same settings."""
+        """Track a new reference with the same settings, in place (the QP warm start is kept)."""
     def reset(self) -> None:
         """Forget the previous solution (next call starts cold)."""
     @property

@@ -120,7 +120,7 @@ def test_stepwise_loop_equals_track(tracking_plan, robot):
     np.testing.assert_allclose(plant.state(), res.x[-1], rtol=0, atol=1e-12)
 
 
-def test_set_reference_restarts_cold(tracking_plan, robot):
+def test_set_reference_swaps_the_plan_in_place(tracking_plan, robot):
     x = np.concatenate([tracking_plan.q[0], tracking_plan.qd[0]])
     fresh = brachia.Mpc(robot, tracking_plan).control(0.0, x)
     mpc = brachia.Mpc(robot, tracking_plan)
@@ -132,7 +132,13 @@ def test_set_reference_restarts_cold(tracking_plan, robot):
     )
     mpc.set_reference(held)
     assert mpc.reference.duration == pytest.approx(tracking_plan.swing_time)
+    # tracking the held pose asks for other torques than the plan at the same state
+    assert np.max(np.abs(mpc.control(0.0, x) - fresh)) > 1e-3
     mpc.set_reference(tracking_plan)
+    # the warm start is kept across the swap: the same QP optimum, to the QP's tolerance
+    np.testing.assert_allclose(mpc.control(0.0, x), fresh, rtol=0, atol=1e-8)
+    # reset() forgets it: then the controller acts exactly as a fresh one
+    mpc.reset()
     np.testing.assert_allclose(mpc.control(0.0, x), fresh, rtol=0, atol=1e-12)
 
 
