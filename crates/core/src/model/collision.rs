@@ -334,7 +334,7 @@ impl LocalFn for ClearanceFn<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::ad::{as_f64_fn, Diff};
     use crate::fdcheck::{assert_hessian, assert_jacobian};
@@ -368,7 +368,7 @@ mod tests {
     }
 
     /// A 5-link robot with unequal lengths and radii, to catch index mix-ups.
-    fn odd_robot() -> Robot {
+    pub(crate) fn odd_robot() -> Robot {
         let links = (0..5)
             .map(|i| LinkParams {
                 length: 0.2 + 0.07 * i as f64,

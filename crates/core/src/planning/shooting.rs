@@ -33,7 +33,7 @@ use super::planner::DistanceClearanceFn;
 use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
-use crate::model::{DynamicsDerivatives, DynamicsFn, Robot, Scratch};
+use crate::model::{ClearanceDerivatives, DynamicsDerivatives, DynamicsFn, Robot, Scratch};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -176,7 +176,7 @@ impl Ctx<'_> {
 /// Per-stage scratch, allocated once.
 struct StageWork<'a, D> {
     dynamics: D,
-    clear: Option<Diff<DistanceClearanceFn<'a>>>,
+    clear: Option<ClearanceDerivatives<'a>>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
@@ -213,7 +213,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
         let nc = ctx.n_clear;
         StageWork {
             dynamics: D::new(robot),
-            clear: ctx.clearance.as_ref().map(Diff::new),
+            clear: ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives),
             rec_z: vec![0.0; nz],
             rec_valid: false,
             y: vec![0.0; ne * nz],
@@ -365,17 +365,17 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                 ev.jac_f.copy_from_slice(&self.xsens);
             }
         }
-        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
+        if let (Some(cd), true) = (&self.clear, k >= 1) {
             let nc = ctx.n_clear;
             let nzk = ev.grad.len();
             if first {
-                cd.jacobian(cf, &x[..n], &mut ev.c, &mut self.cjac);
+                cd.jacobian(&x[..n], &mut ev.c, &mut self.cjac);
                 ev.jac_c.fill(0.0);
                 for r in 0..nc {
                     ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
                 }
             } else {
-                cd.value(cf, &x[..n], &mut ev.c);
+                cd.value(&x[..n], &mut ev.c);
             }
         }
     }
@@ -460,8 +460,8 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
         for j in 0..u.len() {
             hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
         }
-        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
-            cd.hessian_weighted(cf, &x[..n], mu, &mut self.chess);
+        if let (Some(cd), true) = (&self.clear, k >= 1) {
+            cd.hessian_weighted(&x[..n], mu, &mut self.chess);
             for a in 0..n {
                 for b in 0..n {
                     hess[a * nzk + b] += self.chess[a * n + b];
