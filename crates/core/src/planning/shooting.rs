@@ -54,6 +54,12 @@ pub trait PointDynamics<'a>: Send + Sized {
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]);
     /// Hessian of `w . qdd(y)` (w: n weights).
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]);
+    /// [`Self::hessian_weighted`] where `y` may be the input of this object's last
+    /// [`Self::jacobian`] call (`value` calls in between allowed), whose work an implementation may
+    /// reuse; it must check that `y` is that input. The default recomputes.
+    fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.hessian_weighted(y, w, hess);
+    }
 }
 
 /// [`PointDynamics`] by forward-mode automatic differentiation ([`DynamicsFn`] through [`Diff`]).
@@ -87,6 +93,9 @@ pub struct AnalyticDynamics<'a> {
     robot: &'a Robot,
     ws: Scratch<f64>,
     d: DynamicsDerivatives,
+    /// Input of the last `jacobian` call (`d` still holds its factorisation), if any.
+    jac_y: Vec<f64>,
+    jac_valid: bool,
 }
 
 impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
@@ -95,6 +104,8 @@ impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
             robot,
             ws: Scratch::new(robot.n),
             d: DynamicsDerivatives::new(robot),
+            jac_y: vec![0.0; 3 * robot.n - 1],
+            jac_valid: false,
         }
     }
     fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
@@ -104,9 +115,20 @@ impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
     }
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.d.jacobian(self.robot, y, qdd, jac);
+        self.jac_y.copy_from_slice(y);
+        self.jac_valid = true;
     }
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         self.d.hessian_weighted(self.robot, y, w, hess);
+        self.jac_y.copy_from_slice(y);
+        self.jac_valid = true;
+    }
+    fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        if self.jac_valid && self.jac_y == y {
+            self.d.hessian_weighted_after_jacobian(self.robot, w, hess);
+        } else {
+            self.hessian_weighted(y, w, hess);
+        }
     }
 }
 
@@ -175,7 +197,9 @@ impl Ctx<'_> {
 
 /// Per-stage scratch, allocated once.
 struct StageWork<'a, D> {
-    dynamics: D,
+    /// One per RK4 evaluation of the stage, so that the Hessian reuses each evaluation's
+    /// factorisation and first derivatives from the forward pass.
+    dynamics: Vec<D>,
     clear: Option<ClearanceDerivatives<'a>>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
@@ -212,7 +236,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
         StageWork {
-            dynamics: D::new(robot),
+            dynamics: (0..ne).map(|_| D::new(robot)).collect(),
             clear: ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives),
             rec_z: vec![0.0; nz],
             rec_valid: false,
@@ -280,7 +304,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                         sens[(nx + m) * nz + nx + m] = 1.0;
                     }
                     let jq = &mut self.jq[i * n * nz..(i + 1) * n * nz];
-                    self.dynamics.jacobian(y, &mut self.qdd, jq);
+                    self.dynamics[i].jacobian(y, &mut self.qdd, jq);
                     // K_j = [S_i rows n..2n ; Jq S_i]
                     let kz = &mut self.kz[j * nx * nz..(j + 1) * nx * nz];
                     kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
@@ -298,7 +322,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                         }
                     }
                 } else {
-                    self.dynamics.value(y, &mut self.qdd);
+                    self.dynamics[i].value(y, &mut self.qdd);
                 }
                 let k = &mut self.kv[j * nx..(j + 1) * nx];
                 k[..n].copy_from_slice(&y[n..nx]);
@@ -432,7 +456,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                     }
                     // S_i^T [Hess (w_v . qdd)(y_i)] S_i
                     let y = &self.y[i * nz..(i + 1) * nz];
-                    self.dynamics.hessian_weighted(
+                    self.dynamics[i].hessian_weighted_reuse(
                         y,
                         &self.w[j * nx + n..(j + 1) * nx],
                         &mut self.hbuf,
