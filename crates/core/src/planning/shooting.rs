@@ -10,7 +10,8 @@
 //! - **Cost** (paper eq. 5 as a quadrature): `l_k = w_k ||qd_k||^2_Q1 + h ||u_k||^2_R1` with trapezoid
 //!   weights `w_k = h / 2` at the two ends and `h` inside (no torque term at k = K).
 //! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`]
-//!   (obstacles and non-adjacent links), when there are any.
+//!   (obstacles and non-adjacent links), when there are any; their value, Jacobian and weighted
+//!   Hessian in closed form ([`crate::model::ClearanceDerivatives`], AD the test oracle).
 //! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
 //!   [`Bounds`]; torques from the robot's limits.
 //! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
@@ -23,7 +24,9 @@
 //! acceleration output (a reverse sweep through the RK4 stages). Every other operation in `Phi` is
 //! linear, so nothing else contributes. Per-point derivatives of qdd come through [`PointDynamics`]:
 //! [`AnalyticDynamics`] (closed form, the default) or [`AdDynamics`] (forward-mode AD through
-//! [`crate::ad::Diff`], the test oracle).
+//! [`crate::ad::Diff`], the test oracle). Each RK4 evaluation of a stage has its own [`PointDynamics`],
+//! so the Hessian at the point of the last first-order evaluation reuses that evaluation's
+//! factorisation and first derivatives ([`PointDynamics::hessian_weighted_reuse`]).
 //!
 //! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. Stages are evaluated in
 //! parallel with rayon when the horizon has at least `parallel_min_stages` stages.
@@ -308,17 +311,18 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                     // K_j = [S_i rows n..2n ; Jq S_i]
                     let kz = &mut self.kz[j * nx * nz..(j + 1) * nx * nz];
                     kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
+                    // the input rows of S_i are [0 I]: their products are the input columns of Jq
                     for r in 0..n {
+                        let jr = &jq[r * nz..(r + 1) * nz];
                         let out = &mut kz[(n + r) * nz..(n + r + 1) * nz];
                         out.fill(0.0);
-                        for c in 0..nz {
-                            let a = jq[r * nz + c];
-                            if a != 0.0 {
-                                let srow = &sens[c * nz..(c + 1) * nz];
-                                for b in 0..nz {
-                                    out[b] += a * srow[b];
-                                }
+                        for (&a, srow) in jr[..nx].iter().zip(sens.chunks_exact(nz)) {
+                            for (o, &sv) in out.iter_mut().zip(srow) {
+                                *o += a * sv;
                             }
+                        }
+                        for (o, &a) in out[nx..].iter_mut().zip(&jr[nx..]) {
+                            *o += a;
                         }
                     }
                 } else {
