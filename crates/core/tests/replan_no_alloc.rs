@@ -39,15 +39,20 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// Warm-up re-plans, then the allocations of as many more.
-fn count_replan_allocations(parallel_min_stages: usize) -> usize {
-    let robot = Robot::paper();
-    let task = SwingTask {
+/// The tracking scenario's task (params/paper.toml robot; rad, m).
+fn tracking_task() -> SwingTask {
+    SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
         target: [0.8, 0.0],
         obstacles: vec![],
-    };
+    }
+}
+
+/// Warm-up re-plans, then the allocations of as many more.
+fn count_replan_allocations(parallel_min_stages: usize) -> usize {
+    let robot = Robot::paper();
+    let task = tracking_task();
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.01,
@@ -95,12 +100,7 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
 /// obstacles (one near the swing's path, one far) and self-collision, started from a plan's knots.
 fn count_cold_solve_allocations_with_clearances() -> usize {
     let robot = Robot::paper();
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = tracking_task();
     let s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.03,

@@ -158,25 +158,21 @@ impl<'a> ClearanceDerivatives<'a> {
                 let (ea, eb) = (sub(a1, a0), sub(b1, b0));
                 let free_a = (a, 1.0);
                 let free_b = (b, -1.0);
-                let interior = |pc: PointSegmentPiece| pc == PointSegmentPiece::Interior;
                 let (free, n_free) = match r.piece {
                     P::Interior => ([free_a, free_b], 2),
-                    P::A0 => (
-                        [free_b, free_b],
-                        interior(point_segment_closest(a0, b0, b1).piece) as usize,
-                    ),
-                    P::A1 => (
-                        [free_b, free_b],
-                        interior(point_segment_closest(a1, b0, b1).piece) as usize,
-                    ),
-                    P::B0 => (
-                        [free_a, free_a],
-                        interior(point_segment_closest(b0, a0, a1).piece) as usize,
-                    ),
-                    P::B1 => (
-                        [free_a, free_a],
-                        interior(point_segment_closest(b1, a0, a1).piece) as usize,
-                    ),
+                    // an endpoint against the other link: that link's parameter is free when the
+                    // endpoint projects strictly inside it
+                    endpoint => {
+                        let (pt, s0, s1, fr) = match endpoint {
+                            P::A0 => (a0, b0, b1, free_b),
+                            P::A1 => (a1, b0, b1, free_b),
+                            P::B0 => (b0, a0, a1, free_a),
+                            _ => (b1, a0, a1, free_a),
+                        };
+                        let inside =
+                            point_segment_closest(pt, s0, s1).piece == PointSegmentPiece::Interior;
+                        ([fr, fr], inside as usize)
+                    }
                 };
                 Row {
                     d2: r.dist2,
@@ -341,17 +337,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use std::collections::HashSet;
 
-    const OBS: [Circle; 3] = [
-        Circle::PAPER,
-        Circle {
-            center: [-0.3, -0.4],
-            radius: 0.07,
-        },
-        Circle {
-            center: [0.1, 0.05],
-            radius: 0.0,
-        },
-    ];
+    use crate::model::collision::tests::TEST_OBSTACLES as OBS;
 
     /// The pieces a configuration selects: per row, (segment piece or point piece, free parameters).
     fn pieces(d: &ClearanceDerivatives, q: &[f64]) -> Vec<(String, usize)> {
