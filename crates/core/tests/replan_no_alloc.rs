@@ -1,15 +1,20 @@
 //! A warm re-plan of the persistent planner does not allocate: a counting global allocator (this test
 //! binary only) sees zero allocations across re-plans (stages evaluated serially, or in parallel with
 //! the planner on a rayon worker) from disturbed states and restores of the
-//! checkpoint, after the first ones (the solver's filter and rayon's pool grow once).
+//! checkpoint, after the first ones (the solver's filter and rayon's pool grow once); and repeated
+//! cold solves of the shooting problem with obstacle and self-collision rows (closed-form clearance
+//! derivatives) on one `OcpSolver` allocate nothing after the first solve.
 
 // A global allocator needs `unsafe impl GlobalAlloc`; it only forwards to `System`.
 #![allow(unsafe_code)]
 
-use brachia::model::Robot;
+use brachia::model::{Circle, ClearanceFn, Robot};
+use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
-    Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
+    plan, Backend, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
+    Transcription,
 };
+use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStatus};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -34,15 +39,20 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// Warm-up re-plans, then the allocations of as many more.
-fn count_replan_allocations(parallel_min_stages: usize) -> usize {
-    let robot = Robot::paper();
-    let task = SwingTask {
+/// The tracking scenario's task (params/paper.toml robot; rad, m).
+fn tracking_task() -> SwingTask {
+    SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
         target: [0.8, 0.0],
         obstacles: vec![],
-    };
+    }
+}
+
+/// Warm-up re-plans, then the allocations of as many more.
+fn count_replan_allocations(parallel_min_stages: usize) -> usize {
+    let robot = Robot::paper();
+    let task = tracking_task();
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.01,
@@ -86,6 +96,71 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
     allocs
 }
 
+/// Allocations of two cold solves, after a first one, of the 30 ms shooting problem with two
+/// obstacles (one near the swing's path, one far) and self-collision, started from a plan's knots.
+fn count_cold_solve_allocations_with_clearances() -> usize {
+    let robot = Robot::paper();
+    let task = tracking_task();
+    let s = PlannerSettings {
+        transcription: Transcription::MultipleShooting,
+        knot_dt: 0.03,
+        ..Default::default()
+    };
+    let nlp = NlpSettings {
+        backend: Backend::Ocp,
+        ..Default::default()
+    };
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(p.converged());
+    let k_last = p.layout.intervals;
+    let spec = SwingOcpSpec {
+        intervals: k_last,
+        swing_time_s: p.swing_time_s,
+        substeps: 1,
+        q1_diag: vec![0.01; 4],
+        r1_diag: vec![1.0; 3],
+        x_start: [p.points.q(0), p.points.qd(0)].concat(),
+        target: task.target,
+        bounds: Default::default(),
+        parallel_min_stages: usize::MAX,
+    };
+    let obstacles = [
+        Circle {
+            center: [0.0, -0.9],
+            radius: 0.05,
+        },
+        Circle {
+            center: [0.0, 1.0],
+            radius: 0.1,
+        },
+    ];
+    let cf = ClearanceFn::new(&robot, &obstacles, 0.01).unwrap();
+    let mut ocp: SwingOcp =
+        SwingOcp::new(&robot, spec, Some(DistanceClearanceFn::new(cf))).unwrap();
+    assert_eq!(ocp.n_clearance(), 4 * 2 + 3);
+    for k in 0..=k_last {
+        ocp.guess_mut().x[k] = [p.points.q(k), p.points.qd(k)].concat();
+        if k < k_last {
+            ocp.guess_mut().u[k] = p.points.tau(k).to_vec();
+        }
+    }
+    let mut solver = OcpSolver::new(ocp.dims()).unwrap();
+    let settings = OcpSettings::default();
+    let first = solver.solve(&mut ocp, &settings);
+    assert_eq!(first.status, OcpStatus::Solved, "{first:?}");
+    let before = ALLOCS.load(Ordering::SeqCst);
+    let mut iters = 0;
+    for _ in 0..2 {
+        let st = solver.solve(&mut ocp, &settings);
+        assert_eq!(st.status, OcpStatus::Solved);
+        assert_eq!(st.iterations, first.iterations);
+        iters += st.iterations;
+    }
+    let allocs = ALLOCS.load(Ordering::SeqCst) - before;
+    assert!(iters > 0);
+    allocs
+}
+
 #[test]
 fn warm_replan_does_not_allocate() {
     // The counter sees allocations at all.
@@ -110,5 +185,11 @@ fn warm_replan_does_not_allocate() {
     assert_eq!(
         allocs, 0,
         "parallel: {allocs} allocations over 4 warm re-plans"
+    );
+    // cold solves of the shooting problem with clearance rows, on the calling thread
+    let allocs = count_cold_solve_allocations_with_clearances();
+    assert_eq!(
+        allocs, 0,
+        "cold solves with clearances: {allocs} allocations over 2 solves"
     );
 }

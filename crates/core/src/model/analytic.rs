@@ -410,6 +410,14 @@ impl DynamicsDerivatives {
         self.fill_hessian(robot, w, hess);
     }
 
+    /// The weighted Hessian at the `z` of this object's last [`Self::jacobian`] call (its
+    /// factorisation and first derivatives are still in the buffers): [`Self::hessian_weighted`]
+    /// without redoing them. Calling it after anything but `jacobian` at that `z` gives wrong results;
+    /// callers that cannot guarantee it use `hessian_weighted`.
+    pub fn hessian_weighted_after_jacobian(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64]) {
+        self.fill_hessian(robot, w, hess);
+    }
+
     /// Both at once when a caller needs Jacobian and weighted Hessian at the same z (shares the factorisation).
     pub fn jacobian_and_hessian(
         &mut self,

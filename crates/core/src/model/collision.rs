@@ -334,7 +334,7 @@ impl LocalFn for ClearanceFn<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::ad::{as_f64_fn, Diff};
     use crate::fdcheck::{assert_hessian, assert_jacobian};
@@ -367,8 +367,21 @@ mod tests {
         Robot::from_params(params, "<test>").unwrap()
     }
 
+    /// Three obstacles: the paper's, one elsewhere, and a point (radius 0).
+    pub(crate) const TEST_OBSTACLES: [Circle; 3] = [
+        Circle::PAPER,
+        Circle {
+            center: [-0.3, -0.4],
+            radius: 0.07,
+        },
+        Circle {
+            center: [0.1, 0.05],
+            radius: 0.0,
+        },
+    ];
+
     /// A 5-link robot with unequal lengths and radii, to catch index mix-ups.
-    fn odd_robot() -> Robot {
+    pub(crate) fn odd_robot() -> Robot {
         let links = (0..5)
             .map(|i| LinkParams {
                 length: 0.2 + 0.07 * i as f64,
@@ -702,17 +715,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(12);
         for robot in [paper_robot(), odd_robot()] {
             let n = robot.n;
-            let obs = [
-                Circle::PAPER,
-                Circle {
-                    center: [-0.3, -0.4],
-                    radius: 0.07,
-                },
-                Circle {
-                    center: [0.1, 0.05],
-                    radius: 0.0,
-                },
-            ];
+            let obs = TEST_OBSTACLES;
             for (self_coll, links) in [
                 (true, LinkSet::ALL),
                 (false, LinkSet::ALL),

@@ -1,6 +1,7 @@
 //! The robot model: parameters, kinematics, dynamics and their exact derivatives.
 
 mod analytic;
+mod clearance_derivatives;
 mod collision;
 mod derivatives;
 mod dynamics;
@@ -9,6 +10,7 @@ mod params;
 mod reroot;
 
 pub use analytic::DynamicsDerivatives;
+pub use clearance_derivatives::{ClearanceDerivatives, ClearanceForm};
 pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
 pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
 pub use dynamics::{

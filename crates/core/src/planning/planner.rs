@@ -58,6 +58,15 @@ impl<'a> DistanceClearanceFn<'a> {
             .collect();
         DistanceClearanceFn { inner, thresholds }
     }
+
+    /// The closed-form derivatives of these rows (the production path; this `LocalFn` through AD is
+    /// their test oracle).
+    pub fn derivatives(&self) -> crate::model::ClearanceDerivatives<'a> {
+        crate::model::ClearanceDerivatives::new(
+            self.inner,
+            crate::model::ClearanceForm::Distance { eps: DIST_EPS },
+        )
+    }
 }
 
 impl LocalFn for DistanceClearanceFn<'_> {

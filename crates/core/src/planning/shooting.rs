@@ -10,7 +10,8 @@
 //! - **Cost** (paper eq. 5 as a quadrature): `l_k = w_k ||qd_k||^2_Q1 + h ||u_k||^2_R1` with trapezoid
 //!   weights `w_k = h / 2` at the two ends and `h` inside (no torque term at k = K).
 //! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`]
-//!   (obstacles and non-adjacent links), when there are any.
+//!   (obstacles and non-adjacent links), when there are any; their value, Jacobian and weighted
+//!   Hessian in closed form ([`crate::model::ClearanceDerivatives`], AD the test oracle).
 //! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
 //!   [`Bounds`]; torques from the robot's limits.
 //! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
@@ -23,7 +24,9 @@
 //! acceleration output (a reverse sweep through the RK4 stages). Every other operation in `Phi` is
 //! linear, so nothing else contributes. Per-point derivatives of qdd come through [`PointDynamics`]:
 //! [`AnalyticDynamics`] (closed form, the default) or [`AdDynamics`] (forward-mode AD through
-//! [`crate::ad::Diff`], the test oracle).
+//! [`crate::ad::Diff`], the test oracle). Each RK4 evaluation of a stage has its own [`PointDynamics`],
+//! so the Hessian at the point of the last first-order evaluation reuses that evaluation's
+//! factorisation and first derivatives ([`PointDynamics::hessian_weighted_reuse`]).
 //!
 //! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. Stages are evaluated in
 //! parallel with rayon when the horizon has at least `parallel_min_stages` stages.
@@ -33,7 +36,7 @@ use super::planner::DistanceClearanceFn;
 use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
-use crate::model::{DynamicsDerivatives, DynamicsFn, Robot, Scratch};
+use crate::model::{ClearanceDerivatives, DynamicsDerivatives, DynamicsFn, Robot, Scratch};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -54,6 +57,12 @@ pub trait PointDynamics<'a>: Send + Sized {
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]);
     /// Hessian of `w . qdd(y)` (w: n weights).
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]);
+    /// [`Self::hessian_weighted`] where `y` may be the input of this object's last
+    /// [`Self::jacobian`] call (`value` calls in between allowed), whose work an implementation may
+    /// reuse; it must check that `y` is that input. The default recomputes.
+    fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        self.hessian_weighted(y, w, hess);
+    }
 }
 
 /// [`PointDynamics`] by forward-mode automatic differentiation ([`DynamicsFn`] through [`Diff`]).
@@ -87,6 +96,9 @@ pub struct AnalyticDynamics<'a> {
     robot: &'a Robot,
     ws: Scratch<f64>,
     d: DynamicsDerivatives,
+    /// Input of the last `jacobian` call (`d` still holds its factorisation), if any.
+    jac_y: Vec<f64>,
+    jac_valid: bool,
 }
 
 impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
@@ -95,6 +107,8 @@ impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
             robot,
             ws: Scratch::new(robot.n),
             d: DynamicsDerivatives::new(robot),
+            jac_y: vec![0.0; 3 * robot.n - 1],
+            jac_valid: false,
         }
     }
     fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
@@ -104,9 +118,20 @@ impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
     }
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.d.jacobian(self.robot, y, qdd, jac);
+        self.jac_y.copy_from_slice(y);
+        self.jac_valid = true;
     }
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         self.d.hessian_weighted(self.robot, y, w, hess);
+        self.jac_y.copy_from_slice(y);
+        self.jac_valid = true;
+    }
+    fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
+        if self.jac_valid && self.jac_y == y {
+            self.d.hessian_weighted_after_jacobian(self.robot, w, hess);
+        } else {
+            self.hessian_weighted(y, w, hess);
+        }
     }
 }
 
@@ -175,8 +200,10 @@ impl Ctx<'_> {
 
 /// Per-stage scratch, allocated once.
 struct StageWork<'a, D> {
-    dynamics: D,
-    clear: Option<Diff<DistanceClearanceFn<'a>>>,
+    /// One per RK4 evaluation of the stage, so that the Hessian reuses each evaluation's
+    /// factorisation and first derivatives from the forward pass.
+    dynamics: Vec<D>,
+    clear: Option<ClearanceDerivatives<'a>>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
@@ -212,8 +239,8 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
         StageWork {
-            dynamics: D::new(robot),
-            clear: ctx.clearance.as_ref().map(Diff::new),
+            dynamics: (0..ne).map(|_| D::new(robot)).collect(),
+            clear: ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives),
             rec_z: vec![0.0; nz],
             rec_valid: false,
             y: vec![0.0; ne * nz],
@@ -280,25 +307,26 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                         sens[(nx + m) * nz + nx + m] = 1.0;
                     }
                     let jq = &mut self.jq[i * n * nz..(i + 1) * n * nz];
-                    self.dynamics.jacobian(y, &mut self.qdd, jq);
+                    self.dynamics[i].jacobian(y, &mut self.qdd, jq);
                     // K_j = [S_i rows n..2n ; Jq S_i]
                     let kz = &mut self.kz[j * nx * nz..(j + 1) * nx * nz];
                     kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
+                    // the input rows of S_i are [0 I]: their products are the input columns of Jq
                     for r in 0..n {
+                        let jr = &jq[r * nz..(r + 1) * nz];
                         let out = &mut kz[(n + r) * nz..(n + r + 1) * nz];
                         out.fill(0.0);
-                        for c in 0..nz {
-                            let a = jq[r * nz + c];
-                            if a != 0.0 {
-                                let srow = &sens[c * nz..(c + 1) * nz];
-                                for b in 0..nz {
-                                    out[b] += a * srow[b];
-                                }
+                        for (&a, srow) in jr[..nx].iter().zip(sens.chunks_exact(nz)) {
+                            for (o, &sv) in out.iter_mut().zip(srow) {
+                                *o += a * sv;
                             }
+                        }
+                        for (o, &a) in out[nx..].iter_mut().zip(&jr[nx..]) {
+                            *o += a;
                         }
                     }
                 } else {
-                    self.dynamics.value(y, &mut self.qdd);
+                    self.dynamics[i].value(y, &mut self.qdd);
                 }
                 let k = &mut self.kv[j * nx..(j + 1) * nx];
                 k[..n].copy_from_slice(&y[n..nx]);
@@ -365,17 +393,17 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                 ev.jac_f.copy_from_slice(&self.xsens);
             }
         }
-        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
+        if let (Some(cd), true) = (&self.clear, k >= 1) {
             let nc = ctx.n_clear;
             let nzk = ev.grad.len();
             if first {
-                cd.jacobian(cf, &x[..n], &mut ev.c, &mut self.cjac);
+                cd.jacobian(&x[..n], &mut ev.c, &mut self.cjac);
                 ev.jac_c.fill(0.0);
                 for r in 0..nc {
                     ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
                 }
             } else {
-                cd.value(cf, &x[..n], &mut ev.c);
+                cd.value(&x[..n], &mut ev.c);
             }
         }
     }
@@ -432,7 +460,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
                     }
                     // S_i^T [Hess (w_v . qdd)(y_i)] S_i
                     let y = &self.y[i * nz..(i + 1) * nz];
-                    self.dynamics.hessian_weighted(
+                    self.dynamics[i].hessian_weighted_reuse(
                         y,
                         &self.w[j * nx + n..(j + 1) * nx],
                         &mut self.hbuf,
@@ -460,8 +488,8 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
         for j in 0..u.len() {
             hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
         }
-        if let (Some(cf), Some(cd), true) = (&ctx.clearance, &mut self.clear, k >= 1) {
-            cd.hessian_weighted(cf, &x[..n], mu, &mut self.chess);
+        if let (Some(cd), true) = (&self.clear, k >= 1) {
+            cd.hessian_weighted(&x[..n], mu, &mut self.chess);
             for a in 0..n {
                 for b in 0..n {
                     hess[a * nzk + b] += self.chess[a * n + b];
