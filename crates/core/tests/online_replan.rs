@@ -118,6 +118,7 @@ fn settings() -> ReplanSettings {
     ReplanSettings {
         threshold_m: 0.01,
         latency_s: Some(0.02),
+        predict_dt_s: 0.01,
         ..Default::default()
     }
 }
@@ -127,12 +128,20 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
     let robot = Arc::new(Robot::paper());
     let (p, reference) = planner(&robot);
     let (t_hit, dqd) = (1.3, [0.0, 0.6, -0.6, 0.6]);
-    let mut mpc = Mpc::new(Arc::clone(&robot), Arc::clone(&reference), MpcSettings::default())
-        .unwrap();
+    let mut mpc = Mpc::new(
+        Arc::clone(&robot),
+        Arc::clone(&reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
     let plain = run(&robot, &reference, &mut mpc, t_hit, &dqd);
 
-    let mpc = Mpc::new(Arc::clone(&robot), Arc::clone(&reference), MpcSettings::default())
-        .unwrap();
+    let mpc = Mpc::new(
+        Arc::clone(&robot),
+        Arc::clone(&reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
     let mut rp = Replanning::new(mpc, p, Arc::clone(&reference), settings()).unwrap();
     let with = run(&robot, &reference, &mut rp, t_hit, &dqd);
     let ev = rp.events();
@@ -147,7 +156,10 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
     assert!(ev.iter().any(|e| e.adopted && e.t_switch_s.is_some()));
     for e in ev.iter().filter(|e| e.adopted) {
         let sw = e.t_switch_s.unwrap();
-        assert!(sw >= e.t_trigger_s + 0.02 - 1e-9 && sw < e.t_trigger_s + 0.0215, "{e:?}");
+        assert!(
+            sw >= e.t_trigger_s + 0.02 - 1e-9 && sw < e.t_trigger_s + 0.0215,
+            "{e:?}"
+        );
     }
 }
 
@@ -155,8 +167,12 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
 fn no_replan_on_the_undisturbed_swing() {
     let robot = Arc::new(Robot::paper());
     let (p, reference) = planner(&robot);
-    let mpc = Mpc::new(Arc::clone(&robot), Arc::clone(&reference), MpcSettings::default())
-        .unwrap();
+    let mpc = Mpc::new(
+        Arc::clone(&robot),
+        Arc::clone(&reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
     let mut rp = Replanning::new(mpc, p, Arc::clone(&reference), settings()).unwrap();
     let err = run(&robot, &reference, &mut rp, 10.0, &[0.0; 4]);
     assert!(rp.events().is_empty(), "{:#?}", rp.events());
@@ -199,12 +215,21 @@ fn replanning_refuses_bad_settings_and_an_unplanned_planner() {
         knot_dt: 0.03,
         ..Default::default()
     };
-    let unplanned = OwnedSwingPlanner::new(Arc::clone(&robot), task, &s, &NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    })
+    let unplanned = OwnedSwingPlanner::new(
+        Arc::clone(&robot),
+        task,
+        &s,
+        &NlpSettings {
+            backend: Backend::Ocp,
+            ..Default::default()
+        },
+    )
     .unwrap();
-    let mpc = Mpc::new(Arc::clone(&robot), Arc::clone(&reference), MpcSettings::default())
-        .unwrap();
+    let mpc = Mpc::new(
+        Arc::clone(&robot),
+        Arc::clone(&reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
     assert!(Replanning::new(mpc, unplanned, reference, ReplanSettings::default()).is_err());
 }
