@@ -171,7 +171,6 @@ pub struct Replanning<C> {
     reference: Arc<Trajectory>,
     settings: ReplanSettings,
     t_final: f64,
-    target: [f64; 2],
     pending: Option<(f64, Arc<Trajectory>)>,
     events: Vec<ReplanEvent>,
     next_check: f64,
@@ -206,7 +205,6 @@ impl<C: Controller> Replanning<C> {
             ));
         }
         let t_final = planner.swing_time();
-        let target = planner.target();
         let t_ref = reference.t[reference.len() - 1];
         if (t_ref - t_final).abs() > 1e-6 {
             return Err(Error::invalid(
@@ -225,7 +223,6 @@ impl<C: Controller> Replanning<C> {
             planner,
             reference,
             t_final,
-            target,
             pending: None,
             events: Vec::with_capacity(settings.max_replans),
             next_check: f64::NEG_INFINITY,
