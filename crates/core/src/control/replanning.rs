@@ -62,7 +62,7 @@ pub struct ReplanSettings {
     pub latency_s: Option<f64>,
     /// Knot interval of the re-planning mesh that [`Replanning::build`] plans on, s (the planner
     /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's
-    /// swing replays to 0.1 mm at 30 ms knots, within the 1 mm bar).
+    /// swing planned at 30 ms knots replays within the 1 mm bar).
     pub knot_dt_s: f64,
 }
 
