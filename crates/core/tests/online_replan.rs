@@ -59,7 +59,8 @@ impl Plant for Kicked {
     }
 }
 
-fn planner(robot: &Arc<Robot>) -> (OwnedSwingPlanner, Arc<Trajectory>) {
+/// The planner of the tracking swing on the 30 ms re-planning mesh, not planned yet.
+fn unplanned(robot: &Arc<Robot>) -> OwnedSwingPlanner {
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
@@ -75,7 +76,11 @@ fn planner(robot: &Arc<Robot>) -> (OwnedSwingPlanner, Arc<Trajectory>) {
         backend: Backend::Ocp,
         ..Default::default()
     };
-    let mut p = OwnedSwingPlanner::new(Arc::clone(robot), task, &s, &nlp).unwrap();
+    OwnedSwingPlanner::new(Arc::clone(robot), task, &s, &nlp).unwrap()
+}
+
+fn planner(robot: &Arc<Robot>) -> (OwnedSwingPlanner, Arc<Trajectory>) {
+    let mut p = unplanned(robot);
     let plan = p.plan().unwrap();
     assert!(plan.converged(), "{:?}", plan.status);
     assert!(plan.replay_ee_error_m < 1e-3, "{}", plan.replay_ee_error_m);
@@ -114,6 +119,16 @@ fn run<C: Controller>(
     (ee[0] - 0.8).hypot(ee[1])
 }
 
+/// The default MPC tracking `reference`.
+fn tracker(robot: &Arc<Robot>, reference: &Arc<Trajectory>) -> Mpc {
+    Mpc::new(
+        Arc::clone(robot),
+        Arc::clone(reference),
+        MpcSettings::default(),
+    )
+    .unwrap()
+}
+
 fn settings() -> ReplanSettings {
     ReplanSettings {
         threshold_m: 0.01,
@@ -128,20 +143,10 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
     let robot = Arc::new(Robot::paper());
     let (p, reference) = planner(&robot);
     let (t_hit, dqd) = (1.3, [0.0, 0.6, -0.6, 0.6]);
-    let mut mpc = Mpc::new(
-        Arc::clone(&robot),
-        Arc::clone(&reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
+    let mut mpc = tracker(&robot, &reference);
     let plain = run(&robot, &reference, &mut mpc, t_hit, &dqd);
 
-    let mpc = Mpc::new(
-        Arc::clone(&robot),
-        Arc::clone(&reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
+    let mpc = tracker(&robot, &reference);
     let mut rp = Replanning::new(mpc, p, Arc::clone(&reference), settings()).unwrap();
     let with = run(&robot, &reference, &mut rp, t_hit, &dqd);
     let ev = rp.events();
@@ -167,12 +172,7 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
 fn no_replan_on_the_undisturbed_swing() {
     let robot = Arc::new(Robot::paper());
     let (p, reference) = planner(&robot);
-    let mpc = Mpc::new(
-        Arc::clone(&robot),
-        Arc::clone(&reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
+    let mpc = tracker(&robot, &reference);
     let mut rp = Replanning::new(mpc, p, Arc::clone(&reference), settings()).unwrap();
     let err = run(&robot, &reference, &mut rp, 10.0, &[0.0; 4]);
     assert!(rp.events().is_empty(), "{:#?}", rp.events());
@@ -204,32 +204,7 @@ fn replanning_refuses_bad_settings_and_an_unplanned_planner() {
         assert!(bad.validate("test").is_err(), "{bad:?}");
     }
     drop(p);
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let unplanned = OwnedSwingPlanner::new(
-        Arc::clone(&robot),
-        task,
-        &s,
-        &NlpSettings {
-            backend: Backend::Ocp,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let mpc = Mpc::new(
-        Arc::clone(&robot),
-        Arc::clone(&reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
+    let unplanned = unplanned(&robot);
+    let mpc = tracker(&robot, &reference);
     assert!(Replanning::new(mpc, unplanned, reference, ReplanSettings::default()).is_err());
 }

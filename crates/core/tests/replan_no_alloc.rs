@@ -39,9 +39,9 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// Warm-up re-plans, then the allocations of as many more.
-fn count_replan_allocations(parallel_min_stages: usize) -> usize {
-    let robot = Robot::paper();
+/// The tracking swing's task, multiple-shooting settings at `knot_dt` with the stage-parallelism
+/// threshold, and the Riccati backend.
+fn problem(knot_dt: f64, parallel_min_stages: usize) -> (SwingTask, PlannerSettings, NlpSettings) {
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
@@ -50,7 +50,7 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
     };
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
-        knot_dt: 0.01,
+        knot_dt,
         ..Default::default()
     };
     s.shooting.parallel_min_stages = parallel_min_stages;
@@ -58,6 +58,13 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
         backend: Backend::Ocp,
         ..Default::default()
     };
+    (task, s, nlp)
+}
+
+/// Warm-up re-plans, then the allocations of as many more.
+fn count_replan_allocations(parallel_min_stages: usize) -> usize {
+    let robot = Robot::paper();
+    let (task, s, nlp) = problem(0.01, parallel_min_stages);
     let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
     assert!(planner.plan_outcome().unwrap().converged());
     let k = 60;
@@ -95,22 +102,7 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
 /// the allocations of four miss predictions of a `Replanning` holding it.
 fn count_owned_allocations() -> (usize, usize) {
     let robot = Arc::new(Robot::paper());
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
-    let mut s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    s.shooting.parallel_min_stages = usize::MAX;
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
+    let (task, s, nlp) = problem(0.03, usize::MAX);
     let mut p = OwnedSwingPlanner::new(Arc::clone(&robot), task, &s, &nlp).unwrap();
     let reference = Arc::new(p.plan().unwrap().trajectory);
     let k = 20;
