@@ -1,22 +1,27 @@
 //! A warm re-plan of the persistent planner does not allocate: a counting global allocator (this test
 //! binary only) sees zero allocations across re-plans (stages evaluated serially, or in parallel with
 //! the planner on a rayon worker) from disturbed states and restores of the
-//! checkpoint, after the first ones (the solver's filter and rayon's pool grow once); and repeated
-//! cold solves of the shooting problem with obstacle and self-collision rows (closed-form clearance
-//! derivatives) on one `OcpSolver` allocate nothing after the first solve.
+//! checkpoint, after the first ones (the solver's filter and rayon's pool grow once). The same for the
+//! owned planner on the 30 ms re-planning mesh (`OwnedSwingPlanner`) and for the capture-miss
+//! prediction of `control::Replanning`; and repeated cold solves of the shooting problem with obstacle and
+//! self-collision rows (closed-form clearance derivatives) on one `OcpSolver` allocate nothing after the
+//! first solve. One `#[test]`: the counter is global to the binary.
 
 // A global allocator needs `unsafe impl GlobalAlloc`; it only forwards to `System`.
 #![allow(unsafe_code)]
 
+use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
-    plan, Backend, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
+    plan, Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner,
+    SwingTask,
     Transcription,
 };
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStatus};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 struct Counting;
 
@@ -39,23 +44,18 @@ unsafe impl GlobalAlloc for Counting {
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// The tracking scenario's task (params/paper.toml robot; rad, m).
-fn tracking_task() -> SwingTask {
-    SwingTask {
+/// The tracking swing's task, multiple-shooting settings at `knot_dt` with the stage-parallelism
+/// threshold, and the Riccati backend.
+fn problem(knot_dt: f64, parallel_min_stages: usize) -> (SwingTask, PlannerSettings, NlpSettings) {
+    let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
         target: [0.8, 0.0],
         obstacles: vec![],
-    }
-}
-
-/// Warm-up re-plans, then the allocations of as many more.
-fn count_replan_allocations(parallel_min_stages: usize) -> usize {
-    let robot = Robot::paper();
-    let task = tracking_task();
+    };
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
-        knot_dt: 0.01,
+        knot_dt,
         ..Default::default()
     };
     s.shooting.parallel_min_stages = parallel_min_stages;
@@ -63,6 +63,13 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
         backend: Backend::Ocp,
         ..Default::default()
     };
+    (task, s, nlp)
+}
+
+/// Warm-up re-plans, then the allocations of as many more.
+fn count_replan_allocations(parallel_min_stages: usize) -> usize {
+    let robot = Robot::paper();
+    let (task, s, nlp) = problem(0.01, parallel_min_stages);
     let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
     assert!(planner.plan_outcome().unwrap().converged());
     let k = 60;
@@ -96,20 +103,60 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
     allocs
 }
 
+/// The owned planner on the 30 ms mesh: warm-up re-plans, then the allocations of four more; then
+/// the allocations of four miss predictions of a `Replanning` holding it.
+fn count_owned_allocations() -> (usize, usize) {
+    let robot = Arc::new(Robot::paper());
+    let (task, s, nlp) = problem(0.03, usize::MAX);
+    let mut p = OwnedSwingPlanner::new(Arc::clone(&robot), task, &s, &nlp).unwrap();
+    let reference = Arc::new(p.plan().unwrap().trajectory);
+    let k = 20;
+    let (t_now, x_nom, cp) = p.with(|p| (p.knot_time(k), p.knots().x[k].clone(), p.checkpoint()));
+    let shifts: [[f64; 2]; 4] = [[0.05, -0.3], [-0.08, 0.4], [0.02, 0.1], [-0.03, -0.45]];
+    let mut x = x_nom.clone();
+    let mut run = |p: &mut OwnedSwingPlanner, d: &[f64; 2]| {
+        assert!(p.with(|p| p.restore(&cp)).unwrap().converged());
+        for i in 0..4 {
+            x[i] = x_nom[i] + d[0] * if i % 2 == 0 { 1.0 } else { -1.0 };
+            x[4 + i] = x_nom[4 + i] + d[1];
+        }
+        let out = p.replan(t_now, &x).unwrap();
+        assert!(out.converged(), "{:?}", out.status);
+    };
+    for d in &shifts[..2] {
+        run(&mut p, d);
+    }
+    let before = ALLOCS.load(Ordering::SeqCst);
+    for d in &shifts {
+        run(&mut p, d);
+    }
+    let replans = ALLOCS.load(Ordering::SeqCst) - before;
+
+    let mpc = Mpc::new(
+        Arc::clone(&robot),
+        Arc::clone(&reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
+    let mut rp =
+        Replanning::new(mpc, p, Arc::clone(&reference), ReplanSettings::default()).unwrap();
+    let mut xs = x_nom.clone();
+    let before = ALLOCS.load(Ordering::SeqCst);
+    let mut total = 0.0;
+    for d in &shifts {
+        xs[5] = x_nom[5] + d[1];
+        total += rp.predict_miss(t_now, &xs);
+    }
+    let predictions = ALLOCS.load(Ordering::SeqCst) - before;
+    assert!(total > 0.0 && total.is_finite());
+    (replans, predictions)
+}
+
 /// Allocations of two cold solves, after a first one, of the 30 ms shooting problem with two
 /// obstacles (one near the swing's path, one far) and self-collision, started from a plan's knots.
 fn count_cold_solve_allocations_with_clearances() -> usize {
     let robot = Robot::paper();
-    let task = tracking_task();
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
+    let (task, s, nlp) = problem(0.03, usize::MAX);
     let p = plan(&robot, &task, &s, &nlp).unwrap();
     assert!(p.converged());
     let k_last = p.layout.intervals;
@@ -185,6 +232,16 @@ fn warm_replan_does_not_allocate() {
     assert_eq!(
         allocs, 0,
         "parallel: {allocs} allocations over 4 warm re-plans"
+    );
+    // the owned planner on the re-planning mesh, and the miss prediction
+    let (replans, predictions) = count_owned_allocations();
+    assert_eq!(
+        replans, 0,
+        "owned: {replans} allocations over 4 warm re-plans"
+    );
+    assert_eq!(
+        predictions, 0,
+        "{predictions} allocations over 4 miss predictions"
     );
     // cold solves of the shooting problem with clearance rows, on the calling thread
     let allocs = count_cold_solve_allocations_with_clearances();

@@ -18,6 +18,7 @@
 //! backend = "pounce"                    # pounce | ripopt | ocp (multiple-shooting only)
 //! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
 //! controller = "mpc"                    # mpc | pd | open-loop
+//! replan = { threshold_m = 0.01, latency_s = 0.02 }  # MPC + online re-planning (docs/replanning.md)
 //! [plant]                               # see PlantSettings
 //! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
 //! substeps = 1
@@ -25,7 +26,7 @@
 //! obstacles = [{ kind = "ball", center = [0.02, -0.44], radius = 0.05, mass = 0.4, restitution = 0.3, gravity = false }]
 //! ```
 
-use brachia::control::{MpcSettings, PdSettings};
+use brachia::control::{MpcSettings, PdSettings, ReplanSettings};
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::{Error, Robot};
@@ -103,6 +104,9 @@ pub struct TrackingSettings {
     pub noise_qd_std: f64,
     /// Noise seed.
     pub seed: u64,
+    /// Online re-planning around the MPC (see `brachia::control::ReplanSettings`,
+    /// docs/replanning.md); absent: none. Only with `controller = "mpc"`.
+    pub replan: Option<ReplanSettings>,
 }
 
 impl Default for TrackingSettings {
@@ -116,6 +120,7 @@ impl Default for TrackingSettings {
             noise_q_std: 0.0,
             noise_qd_std: 0.0,
             seed: 0,
+            replan: None,
         }
     }
 }
@@ -319,6 +324,18 @@ impl LoadedScenario {
             .validate(n)
             .map_err(|e| rename(e, "tracking.pd"))?;
         let t = &sc.tracking;
+        if let Some(r) = &t.replan {
+            r.validate(&src).map_err(|e| rename(e, "tracking.replan"))?;
+            if t.controller != ControllerKind::Mpc {
+                return Err(Error::invalid(
+                    &src,
+                    "tracking.replan",
+                    format!("controller {:?}", t.controller),
+                    "online re-planning wraps the MPC only: set tracking.controller = \"mpc\" or \
+                     remove tracking.replan",
+                ));
+            }
+        }
         for (field, v) in [
             ("tracking.hold_s", t.hold_s),
             ("tracking.noise_q_std", t.noise_q_std),

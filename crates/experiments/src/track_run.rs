@@ -11,7 +11,7 @@
 use crate::plan_run::{run_plan, PlanReport, PlanRun};
 use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
-use brachia::control::{Mpc, OpenLoop, Pd};
+use brachia::control::{Mpc, OpenLoop, Pd, ReplanEvent, Replanning};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, ModelPlant, NoiseSettings, Noisy, Plant,
     RunSettings, RunSummary,
@@ -52,6 +52,17 @@ pub struct TrackReport {
     pub contact_impulse_n_s: f64,
     /// The tracked plan's report.
     pub plan: PlanReport,
+    /// Online re-planning (`[tracking] replan`): whether it ran, and every re-plan (trigger time,
+    /// predicted miss, status, iterations, solve and wall time, latency, switch time). Absent in
+    /// reports written before re-planning existed.
+    #[serde(default)]
+    pub replanning: bool,
+    /// Number of re-plans (`replans.len()`).
+    #[serde(default)]
+    pub replan_count: usize,
+    /// The re-plans, in time order.
+    #[serde(default)]
+    pub replans: Vec<ReplanEvent>,
     /// The closed loop's metrics.
     #[serde(flatten)]
     pub summary: RunSummary,
@@ -252,7 +263,34 @@ pub fn track_plan(
             rapier.insert(p)
         }
     };
-    let mut ctrl = make_controller(controller, ls, &reference)?;
+    let base = make_controller(controller, ls, &reference)?;
+    let (mut replanning, mut plain) = match (&sc.tracking.replan, controller) {
+        (Some(rs), ControllerKind::Mpc) => (
+            Some(Replanning::build(
+                base,
+                ls.robot.clone(),
+                &sc.task,
+                &sc.planner,
+                &sc.solver,
+                reference.clone(),
+                rs.clone(),
+            )?),
+            None,
+        ),
+        _ => (None, Some(base)),
+    };
+    let ctrl: &mut dyn Controller = match (&mut replanning, &mut plain) {
+        (Some(r), _) => r,
+        (None, Some(p)) => p.as_mut(),
+        (None, None) => {
+            return Err(Error::invalid(
+                "tracking",
+                "controller",
+                "none",
+                "no controller was built",
+            ))
+        }
+    };
     let settings = RunSettings {
         duration_s: reference.duration() + sc.tracking.hold_s,
         control_dt: sc.tracking.control_dt,
@@ -263,13 +301,16 @@ pub fn track_plan(
         seed: sc.tracking.seed,
     };
     let log = if noise.is_zero() {
-        run_closed_loop(plant_ref, ctrl.as_mut(), &reference, &ls.robot, &settings)?
+        run_closed_loop(plant_ref, &mut *ctrl, &reference, &ls.robot, &settings)?
     } else {
         let mut noisy = Noisy::new(&mut *plant_ref, noise)?;
-        run_closed_loop(&mut noisy, ctrl.as_mut(), &reference, &ls.robot, &settings)?
+        run_closed_loop(&mut noisy, &mut *ctrl, &reference, &ls.robot, &settings)?
     };
     let (controller_name, plant_name) = (ctrl.name(), plant_ref.name());
-    drop(ctrl);
+    let replans = replanning
+        .as_ref()
+        .map(|r| r.events().to_vec())
+        .unwrap_or_default();
     if let Some(p) = &rapier {
         world.contacts = p.contacts().to_vec();
         world.track = p.obstacle_track().map(<[f64]>::to_vec).collect();
@@ -295,6 +336,9 @@ pub fn track_plan(
         contact_events: world.contacts.len(),
         contact_impulse_n_s: world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
         plan: plan_report.clone(),
+        replanning: replanning.is_some(),
+        replan_count: replans.len(),
+        replans,
         summary,
     };
     folder.add_json("report.json", &report.to_json());

@@ -1,5 +1,6 @@
-//! Feedback controllers and their solvers: the box QP, the linear MPC of the paper's Section IV, and
-//! baselines, and the [`Controller`] trait they all implement.
+//! Feedback controllers and their solvers: the box QP, the linear MPC of the paper's Section IV,
+//! baselines, online re-planning around a tracking controller ([`Replanning`]), and the
+//! [`Controller`] trait they all implement.
 //!
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute from +x, the rest relative),
 //! input `u = tau` = torques of joints 2..n (N m), gravity along -y.
@@ -13,9 +14,11 @@ use std::sync::Arc;
 pub use boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
 pub mod baselines;
 pub mod mpc;
+pub mod replanning;
 
 pub use baselines::{OpenLoop, Pd, PdSettings};
 pub use mpc::{Discretization, Linearization, Mpc, MpcSettings, Prediction, TorqueReference};
+pub use replanning::{ReplanEvent, ReplanSettings, Replanning};
 
 /// Diagnostics of one control step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -32,4 +32,4 @@ pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcr
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
-pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};
+pub use swing_planner::{Checkpoint, OwnedSwingPlanner, ReplanOutcome, SwingPlanner};

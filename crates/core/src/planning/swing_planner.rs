@@ -25,6 +25,7 @@ use super::shooting::SwingOcp;
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, WarmDuals};
+use std::sync::Arc;
 
 /// How one (re-)plan ended, without allocating: the solver's status and diagnostics and the grid of
 /// the solution (read the knots with [`SwingPlanner::knots`]).
@@ -149,6 +150,16 @@ impl<'a> SwingPlanner<'a> {
             x_full,
             last: None,
         })
+    }
+
+    /// True once a solve converged (a re-plan has a solution to shift from).
+    pub fn has_plan(&self) -> bool {
+        self.has_prev
+    }
+
+    /// The robot planned for.
+    pub fn robot(&self) -> &Robot {
+        self.robot
     }
 
     /// Settings of the warm solves (warm start on, the stored multipliers, `mu_init` from the NLP
@@ -429,4 +440,108 @@ fn shift(prev: &Checkpoint, t_now: f64, h: f64, x_now: &[f64], dst: &mut Primal)
         }
     }
     dst.x[0].copy_from_slice(x_now);
+}
+
+/// What an [`OwnedSwingPlanner`] owns and its [`SwingPlanner`] borrows.
+struct PlannerOwner {
+    robot: Arc<Robot>,
+    task: SwingTask,
+}
+
+type BorrowingPlanner<'a> = SwingPlanner<'a>;
+
+self_cell::self_cell!(
+    struct PlannerCell {
+        owner: PlannerOwner,
+        #[not_covariant]
+        dependent: BorrowingPlanner,
+    }
+);
+
+/// A [`SwingPlanner`] that owns its robot (an `Arc`, shared with a controller) and its task, so that
+/// a controller can hold one across calls, move it between threads and keep it for its life (the
+/// persistent planner of issue 12 item 1). Run any [`SwingPlanner`] method through
+/// [`OwnedSwingPlanner::with`]; the common ones are forwarded. Nothing is allocated beyond what
+/// [`SwingPlanner::new`] allocates.
+pub struct OwnedSwingPlanner {
+    cell: PlannerCell,
+}
+
+impl OwnedSwingPlanner {
+    /// Build the problem of `task` for `robot` once (as [`SwingPlanner::new`], same errors).
+    pub fn new(
+        robot: impl Into<Arc<Robot>>,
+        task: SwingTask,
+        settings: &PlannerSettings,
+        nlp: &NlpSettings,
+    ) -> Result<Self> {
+        let owner = PlannerOwner {
+            robot: robot.into(),
+            task,
+        };
+        let cell = PlannerCell::try_new(owner, |o| {
+            SwingPlanner::new(&o.robot, &o.task, settings, nlp)
+        })?;
+        Ok(OwnedSwingPlanner { cell })
+    }
+
+    /// Run `f` on the borrowing planner inside.
+    pub fn with<R>(&mut self, f: impl FnOnce(&mut SwingPlanner<'_>) -> R) -> R {
+        self.cell.with_dependent_mut(|_, p| f(p))
+    }
+
+    /// Read-only access to the planner inside.
+    pub fn with_ref<R>(&self, f: impl FnOnce(&SwingPlanner<'_>) -> R) -> R {
+        self.cell.with_dependent(|_, p| f(p))
+    }
+
+    /// The robot (shared).
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.cell.borrow_owner().robot
+    }
+
+    /// The task the planner was built for (its target as built; see [`SwingPlanner::set_target`]).
+    pub fn task(&self) -> &SwingTask {
+        &self.cell.borrow_owner().task
+    }
+
+    /// [`SwingPlanner::plan`].
+    pub fn plan(&mut self) -> Result<Plan> {
+        self.with(|p| p.plan())
+    }
+
+    /// [`SwingPlanner::replan`] (no allocation).
+    pub fn replan(&mut self, t_now: f64, x_now: &[f64]) -> Result<ReplanOutcome> {
+        self.with(|p| p.replan(t_now, x_now))
+    }
+
+    /// [`SwingPlanner::current_plan`] (allocates).
+    pub fn current_plan(&mut self) -> Result<Plan> {
+        self.with(|p| p.current_plan())
+    }
+
+    /// [`SwingPlanner::has_plan`].
+    pub fn has_plan(&self) -> bool {
+        self.with_ref(|p| p.has_plan())
+    }
+
+    /// [`SwingPlanner::swing_time`], s.
+    pub fn swing_time(&self) -> f64 {
+        self.with_ref(|p| p.swing_time())
+    }
+
+    /// [`SwingPlanner::target`], m.
+    pub fn target(&self) -> [f64; 2] {
+        self.with_ref(|p| p.target())
+    }
+}
+
+impl std::fmt::Debug for OwnedSwingPlanner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("OwnedSwingPlanner")
+            .field("intervals", &self.with_ref(|p| p.intervals()))
+            .field("swing_time", &self.swing_time())
+            .field("has_plan", &self.has_plan())
+            .finish()
+    }
 }

@@ -1,0 +1,430 @@
+//! Online re-planning around a tracking controller (issue 13 item 3; docs/replanning.md).
+//!
+//! [`Replanning`] holds a persistent planner ([`OwnedSwingPlanner`], usually on a coarse mesh) and a
+//! tracking controller (usually the [`crate::control::Mpc`]). Every `check_period_s` it predicts the
+//! capture miss: a rollout of the model from the measured state to the swing's end time T under the
+//! tracked reference's feed-forward torque (RK4 steps of `predict_dt_s`, the torque of each step the
+//! reference's at the step's midpoint, clamped to the robot's limits), and the distance of the
+//! rollout's final end-effector position from that of the same rollout started at the reference's own
+//! state at that time. The difference of two rollouts on the same steps cancels the rollout's own
+//! discretisation error (the steps do not align with the plan's torque steps: a 10 ms rollout of the
+//! paper's swing from its exact start misses the bar by 7 cm, 1 ms steps by 1.8 mm); the reference
+//! itself reaches the bar. When the predicted miss exceeds
+//! `threshold_m` (and a re-plan is allowed: at most `max_replans`, `min_spacing_s` after the last
+//! trigger, `min_remaining_s` before T, none pending), it re-plans from the measured state at that
+//! time to the same bar over the remaining time, warm-started from the planner's current solution
+//! ([`crate::planning::SwingPlanner::replan`]). The tracking controller keeps tracking the old plan
+//! until the new one is "ready": `latency_s` after the trigger (configured, which makes runs
+//! reproducible; by default the measured wall time of the re-plan, which is not). The switch happens
+//! at the first control step at or after that time (the latency rounded up to control periods),
+//! through [`Controller::set_reference`]. A re-plan that does not converge (or misses the bar by more
+//! than 1 mm) is recorded and not adopted.
+//!
+//! Units: s, m, rad, rad/s, N m; state `x = [q (n), qd (n)]`, torques of joints 2..n. The plan's
+//! times are absolute (the new plan's samples start at the trigger time).
+
+use super::{ControlInfo, Controller};
+use crate::error::{Error, Result};
+use crate::integrate::Rk4;
+use crate::model::Robot;
+use crate::planning::{
+    Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SolveStatus, SwingTask, Transcription,
+};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Most re-plans one run may do (`max_replans` is refused above it; the event log is allocated once).
+pub const MAX_REPLANS: usize = 100;
+
+/// A re-planned swing must end this close to the bar to be adopted, m.
+const ADOPT_EE_ERROR_M: f64 = 1e-3;
+
+/// Settings of [`Replanning`] (scenario section `[tracking] replan = { ... }`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReplanSettings {
+    /// Re-plan when the predicted capture miss exceeds this, m. Default 0.01.
+    pub threshold_m: f64,
+    /// How often the miss is predicted, s. Default 0.01.
+    pub check_period_s: f64,
+    /// RK4 step of the prediction rollout, s. Default 0.01.
+    pub predict_dt_s: f64,
+    /// Most re-plans per run (at most [`MAX_REPLANS`]). Default 3.
+    pub max_replans: usize,
+    /// Least time between two re-plan triggers, s. Default 0.1.
+    pub min_spacing_s: f64,
+    /// No re-plan with less than this left before T, s. Default 0.15.
+    pub min_remaining_s: f64,
+    /// Time from a re-plan's trigger to the switch of references, s; `None` (default): the measured
+    /// wall time of the re-plan (solve and plan building), which makes a run irreproducible.
+    pub latency_s: Option<f64>,
+    /// Knot interval of the re-planning mesh that [`Replanning::build`] plans on, s (the planner
+    /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's
+    /// swing planned at 30 ms knots replays within the 1 mm bar).
+    pub knot_dt_s: f64,
+}
+
+impl Default for ReplanSettings {
+    fn default() -> Self {
+        ReplanSettings {
+            threshold_m: 0.01,
+            check_period_s: 0.01,
+            predict_dt_s: 0.01,
+            max_replans: 3,
+            min_spacing_s: 0.1,
+            min_remaining_s: 0.15,
+            latency_s: None,
+            knot_dt_s: 0.03,
+        }
+    }
+}
+
+impl ReplanSettings {
+    /// Check the values; `src` names the source (file or section) in errors.
+    pub fn validate(&self, src: &str) -> Result<()> {
+        let pos = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(src, field, v, "must be finite and > 0"))
+            }
+        };
+        pos("threshold_m", self.threshold_m)?;
+        pos("check_period_s", self.check_period_s)?;
+        pos("predict_dt_s", self.predict_dt_s)?;
+        let nonneg = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(src, field, v, "must be finite and >= 0"))
+            }
+        };
+        nonneg("min_spacing_s", self.min_spacing_s)?;
+        nonneg("min_remaining_s", self.min_remaining_s)?;
+        if !(self.knot_dt_s.is_finite() && self.knot_dt_s > 0.0 && self.knot_dt_s <= 0.1) {
+            return Err(Error::invalid(
+                src,
+                "knot_dt_s",
+                self.knot_dt_s,
+                "must be in (0, 0.1] s",
+            ));
+        }
+        if let Some(l) = self.latency_s {
+            nonneg("latency_s", l)?;
+        }
+        if self.max_replans > MAX_REPLANS {
+            return Err(Error::invalid(
+                src,
+                "max_replans",
+                self.max_replans,
+                format!(
+                    "must be at most {MAX_REPLANS} (brachia::control::replanning::MAX_REPLANS)"
+                ),
+            ));
+        }
+        // the rollout covers at most the swing; a step below 0.1 ms is refused (cost per check)
+        if self.predict_dt_s < 1e-4 {
+            return Err(Error::invalid(
+                src,
+                "predict_dt_s",
+                self.predict_dt_s,
+                "must be >= 1e-4 s",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One re-plan of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReplanEvent {
+    /// Time of the trigger (the re-plan starts from the state measured then), s.
+    pub t_trigger_s: f64,
+    /// The predicted capture miss that triggered it, m.
+    pub predicted_miss_m: f64,
+    /// How the solve ended.
+    pub status: SolveStatus,
+    /// Interior-point iterations.
+    pub iterations: usize,
+    /// Wall time of the solver, s.
+    pub solve_time_s: f64,
+    /// Wall time of the whole re-plan (solve and building the 1 ms plan), s.
+    pub wall_time_s: f64,
+    /// Latency modelled from trigger to switch (configured or `wall_time_s`), s.
+    pub latency_s: f64,
+    /// When the tracking controller switched to the new plan, s; `None` when it did not (not
+    /// adopted, or the run ended first).
+    pub t_switch_s: Option<f64>,
+    /// The re-planned swing's final end-effector distance from the bar, m.
+    pub plan_ee_error_m: f64,
+    /// Whether the plan was adopted (converged and within 1 mm of the bar).
+    pub adopted: bool,
+}
+
+/// A tracking controller with online re-planning; see the module docs.
+pub struct Replanning<C> {
+    inner: C,
+    planner: OwnedSwingPlanner,
+    robot: Arc<Robot>,
+    reference: Arc<Trajectory>,
+    settings: ReplanSettings,
+    t_final: f64,
+    pending: Option<(f64, Arc<Trajectory>)>,
+    events: Vec<ReplanEvent>,
+    next_check: f64,
+    last_trigger: Option<f64>,
+    last_miss: f64,
+    rk4: Rk4,
+    xr: Vec<f64>,
+    ur: Vec<f64>,
+}
+
+impl<C: Controller> Replanning<C> {
+    /// Wrap `inner`, which tracks `reference` (absolute times; its end is the swing's T), with
+    /// `planner` (planned already: its current solution is the warm start of the first re-plan; the
+    /// same swing time and target as the reference). Errors on invalid settings, a planner without a
+    /// plan, or a reference that does not fit the planner's robot.
+    pub fn new(
+        inner: C,
+        planner: OwnedSwingPlanner,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: ReplanSettings,
+    ) -> Result<Self> {
+        settings.validate("replanning")?;
+        let reference = reference.into();
+        let robot = Arc::clone(planner.robot());
+        reference.check_reference(&robot)?;
+        if !planner.has_plan() {
+            return Err(Error::invalid(
+                "replanning",
+                "planner",
+                "no plan",
+                "plan the swing before wrapping the controller (OwnedSwingPlanner::plan)",
+            ));
+        }
+        let t_final = planner.swing_time();
+        let t_ref = reference.t[reference.len() - 1];
+        if (t_ref - t_final).abs() > 1e-6 {
+            return Err(Error::invalid(
+                "replanning",
+                "reference",
+                format!("ends at {t_ref} s"),
+                format!("must end at the planner's swing time T = {t_final} s"),
+            ));
+        }
+        Ok(Replanning {
+            inner,
+            rk4: Rk4::new(&robot),
+            xr: vec![0.0; robot.nx()],
+            ur: vec![0.0; robot.nu()],
+            robot,
+            planner,
+            reference,
+            t_final,
+            pending: None,
+            events: Vec::with_capacity(settings.max_replans),
+            next_check: f64::NEG_INFINITY,
+            last_trigger: None,
+            last_miss: 0.0,
+            settings,
+        })
+    }
+
+    /// Build the planner of `task` for `robot` on the re-planning mesh (`settings.knot_dt_s`,
+    /// multiple shooting, the Riccati backend; the rest of `planner` and `nlp` as given), plan the
+    /// swing cold, and wrap `inner` (which tracks `reference`). Errors as [`Replanning::new`], on
+    /// invalid planner settings, or when the cold plan does not converge.
+    pub fn build(
+        inner: C,
+        robot: impl Into<Arc<Robot>>,
+        task: &SwingTask,
+        planner: &PlannerSettings,
+        nlp: &NlpSettings,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: ReplanSettings,
+    ) -> Result<Self> {
+        settings.validate("replanning")?;
+        let ps = PlannerSettings {
+            transcription: Transcription::MultipleShooting,
+            knot_dt: settings.knot_dt_s,
+            ..planner.clone()
+        };
+        let nlp = NlpSettings {
+            backend: Backend::Ocp,
+            ..nlp.clone()
+        };
+        let mut p = OwnedSwingPlanner::new(robot, task.clone(), &ps, &nlp)?;
+        let out = p.with(|p| p.plan_outcome())?;
+        if !out.converged() {
+            return Err(Error::invalid(
+                "replanning",
+                "planner",
+                format!("{:?}", out.status),
+                "the cold plan on the re-planning mesh did not converge",
+            ));
+        }
+        Self::new(inner, p, reference, settings)
+    }
+
+    /// The re-plans so far.
+    pub fn events(&self) -> &[ReplanEvent] {
+        &self.events
+    }
+
+    /// The last predicted capture miss, m (0 before the first check).
+    pub fn last_predicted_miss_m(&self) -> f64 {
+        self.last_miss
+    }
+
+    /// The plan being tracked.
+    pub fn reference(&self) -> &Arc<Trajectory> {
+        &self.reference
+    }
+
+    /// The tracking controller.
+    pub fn inner(&self) -> &C {
+        &self.inner
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &ReplanSettings {
+        &self.settings
+    }
+
+    /// Back to the tracking controller, the planner and the re-plans.
+    pub fn into_parts(self) -> (C, OwnedSwingPlanner, Vec<ReplanEvent>) {
+        (self.inner, self.planner, self.events)
+    }
+
+    /// The predicted capture miss from `x` at `t` (see the module docs), m. Does not allocate.
+    pub fn predict_miss(&mut self, t: f64, x: &[f64]) -> f64 {
+        let n = self.robot.n;
+        self.xr.copy_from_slice(x);
+        self.rollout(t);
+        let ee = self.robot.ee_position(&self.xr[..n]);
+        self.reference.state_at(t, &mut self.xr);
+        self.rollout(t);
+        let ee_ref = self.robot.ee_position(&self.xr[..n]);
+        let d = (ee[0] - ee_ref[0]).hypot(ee[1] - ee_ref[1]);
+        if d.is_finite() {
+            d
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// `xr` from `t` to T under the reference's feed-forward torque (RK4, `predict_dt_s` steps).
+    fn rollout(&mut self, t: f64) {
+        let mut s = t;
+        while s < self.t_final - 1e-12 {
+            let h = self.settings.predict_dt_s.min(self.t_final - s);
+            self.reference.tau_at(s + 0.5 * h, &mut self.ur);
+            for (j, u) in self.ur.iter_mut().enumerate() {
+                *u = u.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            }
+            self.rk4.step(&self.robot, &mut self.xr, &self.ur, h);
+            s += h;
+        }
+    }
+
+    fn may_replan(&self, t: f64) -> bool {
+        self.pending.is_none()
+            && self.events.len() < self.settings.max_replans
+            && self
+                .last_trigger
+                .is_none_or(|t0| t - t0 >= self.settings.min_spacing_s - 1e-12)
+            && self.t_final - t >= self.settings.min_remaining_s
+    }
+
+    fn replan(&mut self, t: f64, x: &[f64], miss: f64) {
+        self.last_trigger = Some(t);
+        let start = Instant::now();
+        let out = self.planner.replan(t, x);
+        let (status, iterations, solve_time_s, plan_err, mut traj) = match out {
+            Ok(o) => {
+                let ok = o.converged() && o.ee_error_m <= ADOPT_EE_ERROR_M;
+                let traj = if ok {
+                    self.planner.current_plan().ok().map(|p| p.trajectory)
+                } else {
+                    None
+                };
+                (o.status, o.iterations, o.solve_time_s, o.ee_error_m, traj)
+            }
+            Err(e) => (
+                SolveStatus::Other(e.to_string()),
+                0,
+                0.0,
+                f64::INFINITY,
+                None,
+            ),
+        };
+        let wall = start.elapsed().as_secs_f64();
+        let latency = self.settings.latency_s.unwrap_or(wall);
+        if let Some(tr) = traj.as_mut() {
+            for s in tr.t.iter_mut() {
+                *s += t;
+            }
+        }
+        let adopted = traj.is_some();
+        if let Some(tr) = traj {
+            self.pending = Some((t + latency, Arc::new(tr)));
+        }
+        self.events.push(ReplanEvent {
+            t_trigger_s: t,
+            predicted_miss_m: miss,
+            status,
+            iterations,
+            solve_time_s,
+            wall_time_s: wall,
+            latency_s: latency,
+            t_switch_s: None,
+            plan_ee_error_m: plan_err,
+            adopted,
+        });
+    }
+}
+
+impl<C: Controller> Controller for Replanning<C> {
+    /// Switch to a ready plan, predict the miss (every `check_period_s`) and re-plan past the
+    /// threshold, then the tracking controller's torque. A measured state of the wrong length or
+    /// with NaNs goes to the tracking controller unchecked.
+    fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
+        if let Some((ready, _)) = &self.pending {
+            if t >= *ready - 1e-9 {
+                let (_, tr) = self.pending.take().expect("pending plan");
+                if self.inner.set_reference(Arc::clone(&tr)).is_ok() {
+                    self.reference = tr;
+                    if let Some(e) = self.events.last_mut() {
+                        e.t_switch_s = Some(t);
+                    }
+                }
+            }
+        }
+        let valid = x.len() == self.robot.nx() && x.iter().all(|v| v.is_finite());
+        if valid && t >= self.next_check - 1e-9 {
+            self.next_check = t + self.settings.check_period_s;
+            if self.t_final - t > 0.0 {
+                let miss = self.predict_miss(t, x);
+                self.last_miss = miss;
+                if miss > self.settings.threshold_m && self.may_replan(t) {
+                    self.replan(t, x, miss);
+                }
+            }
+        }
+        self.inner.control(t, x, tau)
+    }
+
+    fn name(&self) -> &'static str {
+        "replanning"
+    }
+
+    /// Track another plan (the planner keeps shifting from its own solution).
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        self.inner.set_reference(Arc::clone(&reference))?;
+        self.reference = reference;
+        self.pending = None;
+        Ok(())
+    }
+}
