@@ -117,6 +117,42 @@ fn non_convergence_writes_the_report_and_exits_1() {
 }
 
 #[test]
+fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    // the obstacle's surface 0.01 m below the bar: the last link (radius 0.02 m, margin 0.01 m) ends
+    // there, so no swing can (a coarse, short solve: it fails whatever the solver does)
+    let text = format!(
+        "params = {:?}\n[task]\nq0 = [-2.35, 0.0, -1.55, 0.0]\ntarget = [0.8, 0.0]\n\
+         obstacles = [{{ center = [0.8, -0.09], radius = 0.08 }}]\n[planner]\nknot_dt = 0.05\n\
+         transcription = \"multiple-shooting\"\n[solver]\nbackend = \"ocp\"\nmax_iter = 40\n",
+        root().join("params/paper.toml")
+    );
+    let sc = dir.path().join("bar.toml");
+    std::fs::write(&sc, text).unwrap();
+    let out = dir.path().join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario"])
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("did not converge") && err.contains("infeasible"), "{err}");
+    assert!(err.contains("obstacle 0 vs link 4: closest"), "{err}");
+    let r = report(&out);
+    assert_eq!(r["converged"], false);
+    let b = &r["blockage"];
+    assert_eq!(b["infeasible"], true, "{b}");
+    assert_eq!(b["bar_overlaps"], true, "{b}");
+    let c = b["clearances"].as_array().unwrap();
+    assert_eq!(c.len(), 4, "{b}");
+    assert_eq!((&c[3]["obstacle"], &c[3]["link"]), (&0.into(), &3.into()));
+    assert_eq!(c[3]["violated"], true, "{b}");
+}
+
+#[test]
 fn bad_scenarios_exit_2_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let base = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
