@@ -139,7 +139,10 @@ fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("did not converge") && err.contains("infeasible"), "{err}");
+    assert!(
+        err.contains("did not converge") && err.contains("infeasible"),
+        "{err}"
+    );
     assert!(err.contains("obstacle 0 vs link 4: closest"), "{err}");
     let r = report(&out);
     assert_eq!(r["converged"], false);

@@ -310,7 +310,10 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
     assert!(last.min_clearance_m < s.obstacle_margin);
     assert!(last.time_s > 0.5 * p.swing_time_s, "{last:?}");
     let msg = p.failure_message().unwrap();
-    assert!(msg.contains("infeasible") && msg.contains("obstacle 0 blocks link"), "{msg}");
+    assert!(
+        msg.contains("infeasible") && msg.contains("obstacle 0 blocks link"),
+        "{msg}"
+    );
     // the same task without the obstacle on the bar is not refused as infeasible
     let ok = SwingTask {
         obstacles: vec![brachia::model::Circle {

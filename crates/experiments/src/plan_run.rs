@@ -6,8 +6,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
-    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime, TimeSplit,
-    Transcription, Violations,
+    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime,
+    TimeSplit, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};

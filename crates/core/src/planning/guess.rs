@@ -271,10 +271,13 @@ pub fn diagnose(
         .collect();
     clearances.sort_by_key(|c| (c.obstacle, c.link));
     // the worst row; ties go to the first in row order
-    let Some(w) = clearances.iter().fold(None::<&LinkClearance>, |b, c| match b {
-        Some(b) if b.min_clearance_m <= c.min_clearance_m => Some(b),
-        _ => Some(c),
-    }) else {
+    let Some(w) = clearances
+        .iter()
+        .fold(None::<&LinkClearance>, |b, c| match b {
+            Some(b) if b.min_clearance_m <= c.min_clearance_m => Some(b),
+            _ => Some(c),
+        })
+    else {
         return Ok(None);
     };
     let (link, obstacle, time_s, dmin) = (w.link, w.obstacle, w.time_s, w.min_clearance_m);
