@@ -3,6 +3,7 @@
 mod common;
 
 use common::{brachia, report, root};
+use std::path::PathBuf;
 
 #[test]
 fn plan_writes_the_run_folder_contract() {
@@ -84,6 +85,22 @@ fn plan_writes_the_run_folder_contract() {
     );
 }
 
+/// Write scenario `text` as `dir/name`, run `brachia plan` on it into `dir/plan`: its output and the
+/// folder.
+fn plan_in(dir: &std::path::Path, name: &str, text: &str) -> (std::process::Output, PathBuf) {
+    let sc = dir.join(name);
+    std::fs::write(&sc, text).unwrap();
+    let out = dir.join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario"])
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    (o, out)
+}
+
 #[test]
 fn non_convergence_writes_the_report_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();
@@ -94,16 +111,7 @@ fn non_convergence_writes_the_report_and_exits_1() {
             &format!("params = {:?}", root().join("params/paper.toml")),
         )
         .replace("backend = \"pounce\"", "backend = \"pounce\"\nmax_iter = 2");
-    let sc = dir.path().join("short.toml");
-    std::fs::write(&sc, text).unwrap();
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario"])
-        .arg(&sc)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let (o, out) = plan_in(dir.path(), "short.toml", &text);
     assert_eq!(
         o.status.code(),
         Some(1),
@@ -127,16 +135,7 @@ fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
          transcription = \"multiple-shooting\"\n[solver]\nbackend = \"ocp\"\nmax_iter = 40\n",
         root().join("params/paper.toml")
     );
-    let sc = dir.path().join("bar.toml");
-    std::fs::write(&sc, text).unwrap();
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario"])
-        .arg(&sc)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let (o, out) = plan_in(dir.path(), "bar.toml", &text);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
