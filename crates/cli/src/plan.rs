@@ -48,9 +48,16 @@ pub fn run(a: Args) -> Result<(), CliError> {
     } else if p.converged() {
         Ok(())
     } else {
+        if let Some(b) = &p.blockage {
+            for c in b.clearances.iter().filter(|c| c.violated) {
+                eprintln!("plan: {c}");
+            }
+        }
+        let msg = p
+            .failure_message()
+            .unwrap_or_else(|| format!("the planner did not converge ({:?})", p.status));
         Err(CliError::Failed(format!(
-            "the planner did not converge (status {:?}); the report is in {}",
-            p.status,
+            "{msg}; the report (blockage in report.json) is in {}",
             a.out.display()
         )))
     }

@@ -3,6 +3,7 @@
 mod common;
 
 use common::{brachia, report, root};
+use std::path::PathBuf;
 
 #[test]
 fn plan_writes_the_run_folder_contract() {
@@ -84,6 +85,22 @@ fn plan_writes_the_run_folder_contract() {
     );
 }
 
+/// Write scenario `text` as `dir/name`, run `brachia plan` on it into `dir/plan`: its output and the
+/// folder.
+fn plan_in(dir: &std::path::Path, name: &str, text: &str) -> (std::process::Output, PathBuf) {
+    let sc = dir.join(name);
+    std::fs::write(&sc, text).unwrap();
+    let out = dir.join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario"])
+        .arg(&sc)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    (o, out)
+}
+
 #[test]
 fn non_convergence_writes_the_report_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();
@@ -94,16 +111,7 @@ fn non_convergence_writes_the_report_and_exits_1() {
             &format!("params = {:?}", root().join("params/paper.toml")),
         )
         .replace("backend = \"pounce\"", "backend = \"pounce\"\nmax_iter = 2");
-    let sc = dir.path().join("short.toml");
-    std::fs::write(&sc, text).unwrap();
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario"])
-        .arg(&sc)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let (o, out) = plan_in(dir.path(), "short.toml", &text);
     assert_eq!(
         o.status.code(),
         Some(1),
@@ -114,6 +122,36 @@ fn non_convergence_writes_the_report_and_exits_1() {
     let r = report(&out);
     assert_eq!(r["converged"], false);
     assert_eq!(r["status"], "max_iterations");
+}
+
+#[test]
+fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    // the obstacle's surface 0.01 m below the bar: the last link (radius 0.02 m, margin 0.01 m) ends
+    // there, so no swing can (a coarse, short solve: it fails whatever the solver does)
+    let text = format!(
+        "params = {:?}\n[task]\nq0 = [-2.35, 0.0, -1.55, 0.0]\ntarget = [0.8, 0.0]\n\
+         obstacles = [{{ center = [0.8, -0.09], radius = 0.08 }}]\n[planner]\nknot_dt = 0.05\n\
+         transcription = \"multiple-shooting\"\n[solver]\nbackend = \"ocp\"\nmax_iter = 40\n",
+        root().join("params/paper.toml")
+    );
+    let (o, out) = plan_in(dir.path(), "bar.toml", &text);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("did not converge") && err.contains("infeasible"),
+        "{err}"
+    );
+    assert!(err.contains("obstacle 0 vs link 4: closest"), "{err}");
+    let r = report(&out);
+    assert_eq!(r["converged"], false);
+    let b = &r["blockage"];
+    assert_eq!(b["infeasible"], true, "{b}");
+    assert_eq!(b["bar_overlaps"], true, "{b}");
+    let c = b["clearances"].as_array().unwrap();
+    assert_eq!(c.len(), 4, "{b}");
+    assert_eq!((&c[3]["obstacle"], &c[3]["link"]), (&0.into(), &3.into()));
+    assert_eq!(c[3]["violated"], true, "{b}");
 }
 
 #[test]

@@ -126,6 +126,30 @@ fn the_diagnosis_names_the_link_the_obstacle_blocks() {
         msg.contains(&format!("obstacle 0 blocks link {}", pl.link + 1)),
         "{msg}"
     );
+    // every link's closest approach to the obstacle, with its time, against a brute-force scan
+    assert_eq!(b.clearances.len(), robot.n, "{b:?}");
+    let cf = ClearanceFn::new(&robot, &task.obstacles, 0.0)
+        .unwrap()
+        .with_self_collision(false);
+    let mut d = vec![0.0; robot.n];
+    for (link, c) in b.clearances.iter().enumerate() {
+        assert_eq!((c.obstacle, c.link), (0, link));
+        let (mut best, mut at) = (f64::INFINITY, 0.0);
+        for k in 0..base.points.len() {
+            cf.surface_distances(base.points.q(k), &mut d);
+            if d[link] < best {
+                (best, at) = (d[link], base.points.t[k]);
+            }
+        }
+        assert_eq!((c.min_clearance_m, c.time_s), (best, at), "{c:?}");
+        assert_eq!(c.violated, best < s.obstacle_margin);
+    }
+    let blocked = &b.clearances[pl.link];
+    assert!(blocked.violated && blocked.time_s == b.time_s);
+    assert!((b.violation_m - (s.obstacle_margin - blocked.min_clearance_m)).abs() < 1e-15);
+    // the links above the grip's first link clear it: link 1 never comes near
+    assert!(!b.clearances[0].violated, "{:?}", b.clearances[0]);
+    assert!(!b.infeasible);
     // no obstacle, no diagnosis
     assert!(diagnose(&robot, &tracking(), &s, &base.points, None)
         .unwrap()
@@ -249,4 +273,57 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
     assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
     assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
     assert!(p.blockage.is_none());
+}
+
+#[test]
+fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
+    let robot = Robot::paper();
+    let (mut s, mut nlp) = settings();
+    // a coarse mesh and a short solve: the task fails whatever the solver does
+    s.knot_dt = 0.05;
+    nlp.max_iter = 40;
+    // the obstacle's surface is 0.01 m below the bar (the target is not inside it): the last link,
+    // which ends at the bar, needs its radius 0.02 m plus the margin 0.01 m
+    let o = brachia::model::Circle {
+        center: [0.8, -0.09],
+        radius: 0.08,
+    };
+    let task = SwingTask {
+        obstacles: vec![o],
+        ..tracking()
+    };
+    assert_eq!(
+        brachia::planning::guess::obstacle_on_bar(&robot, &task, s.obstacle_margin),
+        Some(0)
+    );
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(!p.converged());
+    let g = p.guess.as_ref().unwrap();
+    // no detour seed or continuation is tried: one solve (its attempts) and no seeds
+    assert_eq!(g.strategy, GuessStrategy::SmoothStep);
+    assert!(g.seeds.is_empty() && g.scales.is_empty(), "{g:?}");
+    let b = p.blockage.as_ref().expect("a diagnosis");
+    assert!(b.infeasible && b.bar_overlaps, "{b:?}");
+    // the last link is the one it blocks, at the end of the swing where the link reaches the bar
+    let last = &b.clearances[robot.n - 1];
+    assert!(last.violated, "{last:?}");
+    assert!(last.min_clearance_m < s.obstacle_margin);
+    assert!(last.time_s > 0.5 * p.swing_time_s, "{last:?}");
+    let msg = p.failure_message().unwrap();
+    assert!(
+        msg.contains("infeasible") && msg.contains("obstacle 0 blocks link"),
+        "{msg}"
+    );
+    // the same task without the obstacle on the bar is not refused as infeasible
+    let ok = SwingTask {
+        obstacles: vec![brachia::model::Circle {
+            center: [0.8, -0.2],
+            radius: 0.08,
+        }],
+        ..tracking()
+    };
+    assert_eq!(
+        brachia::planning::guess::obstacle_on_bar(&robot, &ok, s.obstacle_margin),
+        None
+    );
 }

@@ -6,8 +6,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
-    plan, Backend, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime, TimeSplit,
-    Transcription, Violations,
+    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime,
+    TimeSplit, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -145,6 +145,10 @@ pub struct PlanReport {
     pub trajectory_clamped: Clamped,
     /// Smallest link-to-obstacle clearance of the 1 ms plan, m (`None` without obstacles).
     pub min_obstacle_clearance_m: Option<f64>,
+    /// When the plan failed on a task with obstacles: which obstacle blocks which link, and every
+    /// obstacle's closest approach to every link with its time (`brachia::planning::Blockage`).
+    #[serde(default)]
+    pub blockage: Option<Blockage>,
 }
 
 impl PlanReport {
@@ -190,6 +194,7 @@ impl PlanReport {
             trajectory_end_s: p.trajectory.t.last().copied(),
             trajectory_clamped: p.resample_clamped,
             min_obstacle_clearance_m: p.min_obstacle_clearance_m,
+            blockage: p.blockage.clone(),
         }
     }
 

@@ -61,6 +61,32 @@ pub enum SeedKind {
     BackwardFold,
 }
 
+impl SeedKind {
+    /// The order seeds are tried in, measured (docs/planner.md, "The scan"): the forward seeds first
+    /// (they start at the start pose), the folding one before the plain one; the score did not
+    /// predict the winner.
+    pub const ORDER: [SeedKind; 4] = [
+        SeedKind::ForwardFold,
+        SeedKind::Forward,
+        SeedKind::BackwardFold,
+        SeedKind::Backward,
+    ];
+
+    /// Whether the seed is tracked from the final pose backwards in time.
+    pub fn backward(self) -> bool {
+        matches!(self, SeedKind::Backward | SeedKind::BackwardFold)
+    }
+
+    /// The tracking weights of the seed for an n-link chain.
+    pub fn weights(self, n: usize) -> Vec<f64> {
+        let mut w = vec![1.0; n];
+        if matches!(self, SeedKind::ForwardFold | SeedKind::BackwardFold) {
+            w[0] = HOLD_WEIGHT;
+        }
+        w
+    }
+}
+
 /// One detour seed: its kind, its score (lower first) and, once tried, whether the plan from it
 /// converged.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -220,6 +246,87 @@ impl<'a> Tracker<'a> {
     }
 }
 
+/// One barrier-tracked path: the obstacle-free plan's knots `free` followed forwards (from its start
+/// pose) or `backward` (from its final pose) with joint weights `w` (n values), keeping
+/// `extra_clearance` (m) beyond the planner's margin. Returns the seed's report (kind `kind`, not tried)
+/// and its guess trajectory, or `None` when the pose tracking starts from is outside the barrier's
+/// domain.
+pub fn track_seed(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    kind: SeedKind,
+    w: &[f64],
+    extra_clearance: f64,
+) -> Result<Option<(SeedReport, Trajectory)>> {
+    let n = robot.n;
+    let len = free.len();
+    if len < 2 || obstacles.is_empty() {
+        return Ok(None);
+    }
+    let cf = ClearanceFn::new(robot, obstacles, settings.obstacle_margin + extra_clearance)?
+        .with_self_collision(true);
+    let b = &settings.bounds;
+    let mut lo = vec![-b.q_rel_max; n];
+    let mut hi = vec![b.q_rel_max; n];
+    (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
+    // the bounds' own slack for the barrier: the start pose may sit on a bound
+    for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
+        *l -= 1e-3;
+        *h += 1e-3;
+    }
+    let mut tr = Tracker::new(DistanceClearanceFn::new(cf), lo, hi);
+    let margin = settings.obstacle_margin;
+    let check = ClearanceFn::new(robot, obstacles, margin)?.with_self_collision(true);
+    let backward = kind.backward();
+    let order: Vec<usize> = if backward {
+        (0..len).rev().collect()
+    } else {
+        (0..len).collect()
+    };
+    let mut q = free.q(order[0]).to_vec();
+    if tr.phi(&q, &q.clone(), w).is_none() {
+        return Ok(None);
+    }
+    let mut path = vec![0.0; len * n];
+    for &k in &order {
+        tr.settle(&mut q, free.q(k), w);
+        path[k * n..(k + 1) * n].copy_from_slice(&q);
+    }
+    let dev = |k: usize| -> f64 {
+        (0..n)
+            .map(|i| (path[k * n + i] - free.q[k * n + i]).powi(2))
+            .sum()
+    };
+    let score = (0..len).map(dev).sum::<f64>() / len as f64 + dev(0) + dev(len - 1);
+    let min_clearance_m = (0..len)
+        .map(|k| check.min_clearance(&path[k * n..(k + 1) * n]) - margin)
+        .fold(f64::INFINITY, f64::min);
+    let mut g = Trajectory::new(n);
+    for k in 0..len {
+        let (a, c) = (k.saturating_sub(1), (k + 1).min(len - 1));
+        let dt = free.t[c] - free.t[a];
+        let qd: Vec<f64> = (0..n)
+            .map(|i| {
+                let da = path[a * n + i] - free.q[a * n + i];
+                let dc = path[c * n + i] - free.q[c * n + i];
+                free.qd[k * n + i] + (dc - da) / dt
+            })
+            .collect();
+        g.push(free.t[k], &path[k * n..(k + 1) * n], &qd, free.tau(k));
+    }
+    Ok(Some((
+        SeedReport {
+            kind,
+            score,
+            min_clearance_m,
+            converged: None,
+        },
+        g,
+    )))
+}
+
 /// The detour seeds of the obstacle-free plan `free` (its knots; `q0` its start pose) against
 /// `obstacles`, in the order to try them (forward-fold, forward, backward-fold, backward), each with
 /// the guess trajectory to plan from. Seeds whose start
@@ -232,94 +339,20 @@ pub fn detour_seeds(
     free: &Trajectory,
 ) -> Result<Vec<(SeedReport, Trajectory)>> {
     let n = robot.n;
-    let len = free.len();
     let mut out = vec![];
-    if len < 2 || obstacles.is_empty() {
-        return Ok(out);
-    }
-    let cf = ClearanceFn::new(robot, obstacles, settings.obstacle_margin + EXTRA_CLEARANCE)?
-        .with_self_collision(true);
-    let b = &settings.bounds;
-    let mut lo = vec![-b.q_rel_max; n];
-    let mut hi = vec![b.q_rel_max; n];
-    (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
-    // the bounds' own slack for the barrier: the start pose may sit on a bound
-    for (l, h) in lo.iter_mut().zip(hi.iter_mut()) {
-        *l -= 1e-3;
-        *h += 1e-3;
-    }
-    let mut tr = Tracker::new(DistanceClearanceFn::new(cf), lo, hi);
-    let plain = vec![1.0; n];
-    let mut fold = vec![1.0; n];
-    fold[0] = HOLD_WEIGHT;
-    let margin = settings.obstacle_margin;
-    let check = ClearanceFn::new(robot, obstacles, margin)?.with_self_collision(true);
-    for kind in [
-        SeedKind::Forward,
-        SeedKind::ForwardFold,
-        SeedKind::Backward,
-        SeedKind::BackwardFold,
-    ] {
-        let w = match kind {
-            SeedKind::Forward | SeedKind::Backward => &plain,
-            SeedKind::ForwardFold | SeedKind::BackwardFold => &fold,
-        };
-        let backward = matches!(kind, SeedKind::Backward | SeedKind::BackwardFold);
-        let order: Vec<usize> = if backward {
-            (0..len).rev().collect()
-        } else {
-            (0..len).collect()
-        };
-        let mut q = free.q(order[0]).to_vec();
-        if tr.phi(&q, &q.clone(), w).is_none() {
-            continue;
+    for kind in SeedKind::ORDER {
+        if let Some(s) = track_seed(
+            robot,
+            obstacles,
+            settings,
+            free,
+            kind,
+            &kind.weights(n),
+            EXTRA_CLEARANCE,
+        )? {
+            out.push(s);
         }
-        let mut path = vec![0.0; len * n];
-        for &k in &order {
-            tr.settle(&mut q, free.q(k), w);
-            path[k * n..(k + 1) * n].copy_from_slice(&q);
-        }
-        let dev = |k: usize| -> f64 {
-            (0..n)
-                .map(|i| (path[k * n + i] - free.q[k * n + i]).powi(2))
-                .sum()
-        };
-        let score = (0..len).map(dev).sum::<f64>() / len as f64 + dev(0) + dev(len - 1);
-        let min_clearance_m = (0..len)
-            .map(|k| check.min_clearance(&path[k * n..(k + 1) * n]) - margin)
-            .fold(f64::INFINITY, f64::min);
-        let mut g = Trajectory::new(n);
-        for k in 0..len {
-            let (a, c) = (k.saturating_sub(1), (k + 1).min(len - 1));
-            let dt = free.t[c] - free.t[a];
-            let qd: Vec<f64> = (0..n)
-                .map(|i| {
-                    let da = path[a * n + i] - free.q[a * n + i];
-                    let dc = path[c * n + i] - free.q[c * n + i];
-                    free.qd[k * n + i] + (dc - da) / dt
-                })
-                .collect();
-            g.push(free.t[k], &path[k * n..(k + 1) * n], &qd, free.tau(k));
-        }
-        out.push((
-            SeedReport {
-                kind,
-                score,
-                min_clearance_m,
-                converged: None,
-            },
-            g,
-        ));
     }
-    // a fixed order, measured (docs/planner.md, "The scan"): the forward seeds first (they start at
-    // the start pose), the folding one before the plain one; the score did not predict the winner
-    let rank = |k: SeedKind| match k {
-        SeedKind::ForwardFold => 0,
-        SeedKind::Forward => 1,
-        SeedKind::BackwardFold => 2,
-        SeedKind::Backward => 3,
-    };
-    out.sort_by_key(|(r, _)| rank(r.kind));
     // a seed that tracked the same path as an earlier one (the obstacle never touched the weighted
     // joints' choice) is not worth a solve
     let mut kept: Vec<(SeedReport, Trajectory)> = Vec::with_capacity(out.len());

@@ -84,8 +84,40 @@ pub struct GuessReport {
     pub seeds: Vec<super::detour::SeedReport>,
 }
 
+/// The closest approach of one link to one obstacle over a plan's attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LinkClearance {
+    /// 0-based obstacle index (position in the task's list).
+    pub obstacle: usize,
+    /// 0-based link index.
+    pub link: usize,
+    /// Smallest surface distance between the link's capsule and the obstacle over the attempt's
+    /// points, m (margin not subtracted; negative: they overlap).
+    pub min_clearance_m: f64,
+    /// Time of that point, s.
+    pub time_s: f64,
+    /// The clearance is below the planner's margin (the constraint is violated there).
+    pub violated: bool,
+}
+
+impl fmt::Display for LinkClearance {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "obstacle {} vs link {}: closest {:.4} m at t = {:.3} s{}",
+            self.obstacle,
+            self.link + 1,
+            self.min_clearance_m,
+            self.time_s,
+            if self.violated { " (violated)" } else { "" }
+        )
+    }
+}
+
 /// What blocks a swing that no strategy planned: the clearance row with the largest violation over
-/// the best attempt, and whether the start pose or the obstacle-free swing's final pose overlaps it.
+/// the attempt returned, every obstacle's closest approach to every link along it, and whether the
+/// start pose, the obstacle-free swing's final pose or the target bar is within the margin of the
+/// obstacle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Blockage {
     /// 0-based link index.
@@ -103,6 +135,14 @@ pub struct Blockage {
     pub final_pose_overlaps: Option<bool>,
     /// The obstacle's surface is within the link radius plus the margin of the target bar.
     pub bar_overlaps: bool,
+    /// The task is infeasible for certain: some obstacle's surface is within the last link's radius
+    /// plus the margin of the target bar, so no pose that grasps the bar clears it (the planner then
+    /// tries no other guess after the first solve).
+    #[serde(default)]
+    pub infeasible: bool,
+    /// Every obstacle's closest approach to every link along the attempt, obstacle-major then link.
+    #[serde(default)]
+    pub clearances: Vec<LinkClearance>,
 }
 
 impl fmt::Display for Blockage {
@@ -124,8 +164,25 @@ impl fmt::Display for Blockage {
         if self.bar_overlaps {
             write!(f, "; it touches the target bar")?;
         }
+        if self.infeasible {
+            write!(
+                f,
+                " (infeasible: an obstacle is within the last link's radius plus the margin of the bar)"
+            )?;
+        }
         Ok(())
     }
+}
+
+/// Index of the first obstacle whose surface is within the last link's radius plus the margin of
+/// the target bar: the last link ends at the bar, so no grasping pose clears it (the task is
+/// infeasible).
+pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<usize> {
+    let r_last = robot.radius[robot.n - 1];
+    task.obstacles.iter().position(|o| {
+        (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
+            < r_last + margin
+    })
 }
 
 /// Add the cost of `p` to the totals of `r`.
@@ -172,7 +229,8 @@ fn smooth_step_is_clear(
     Ok(clear)
 }
 
-/// The worst obstacle row of `points` against the task's obstacles (margin as in `settings`).
+/// The worst obstacle row of `points` against the task's obstacles (margin as in `settings`), with
+/// every obstacle's closest approach to every link.
 pub fn diagnose(
     robot: &Robot,
     task: &SwingTask,
@@ -185,17 +243,44 @@ pub fn diagnose(
     }
     let margin = settings.obstacle_margin;
     let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
-    let mut worst: Option<(ClearancePair, f64, f64)> = None;
+    let pairs = cf.pairs();
+    let mut d = vec![0.0; pairs.len()];
+    // per row (link-major, obstacle inner): the smallest distance and its time
+    let mut closest = vec![(f64::INFINITY, 0.0); pairs.len()];
     for k in 0..points.len() {
-        if let Some((pair, d)) = cf.min_clearance_pair(points.q(k)) {
-            if worst.is_none_or(|(_, w, _)| d < w) {
-                worst = Some((pair, d, points.t[k]));
+        cf.surface_distances(points.q(k), &mut d);
+        for (c, v) in closest.iter_mut().zip(&d) {
+            if *v < c.0 {
+                *c = (*v, points.t[k]);
             }
         }
     }
-    let Some((ClearancePair::LinkObstacle { link, obstacle }, d, time_s)) = worst else {
+    let mut clearances: Vec<LinkClearance> = pairs
+        .iter()
+        .zip(&closest)
+        .filter_map(|(p, &(m, t))| match *p {
+            ClearancePair::LinkObstacle { link, obstacle } => Some(LinkClearance {
+                obstacle,
+                link,
+                min_clearance_m: m,
+                time_s: t,
+                violated: m < margin,
+            }),
+            ClearancePair::LinkLink { .. } => None,
+        })
+        .collect();
+    clearances.sort_by_key(|c| (c.obstacle, c.link));
+    // the worst row; ties go to the first in row order
+    let Some(w) = clearances
+        .iter()
+        .fold(None::<&LinkClearance>, |b, c| match b {
+            Some(b) if b.min_clearance_m <= c.min_clearance_m => Some(b),
+            _ => Some(c),
+        })
+    else {
         return Ok(None);
     };
+    let (link, obstacle, time_s, dmin) = (w.link, w.obstacle, w.time_s, w.min_clearance_m);
     let one = [task.obstacles[obstacle]];
     let cf1 = ClearanceFn::new(robot, &one, 0.0)?.with_self_collision(false);
     let o = &task.obstacles[obstacle];
@@ -205,10 +290,12 @@ pub fn diagnose(
         link,
         obstacle,
         time_s,
-        violation_m: margin - d,
+        violation_m: margin - dmin,
         start_overlaps: cf1.min_clearance(&task.q0) < margin,
         final_pose_overlaps: free_final_pose.map(|q| cf1.min_clearance(q) < margin),
         bar_overlaps: bar < r_last + margin,
+        infeasible: obstacle_on_bar(robot, task, margin).is_some(),
+        clearances,
     }))
 }
 
@@ -236,7 +323,11 @@ pub(super) fn plan_around_obstacles(
     let mut best: Option<Plan> = {
         let p = plan_single(robot, task, settings, nlp, None)?;
         count(&mut rep, &p);
-        if p.converged() || settings.obstacle_guess == ObstacleGuess::Direct {
+        // an obstacle on the bar: no guess can help, the first solve's attempt is diagnosed
+        if p.converged()
+            || settings.obstacle_guess == ObstacleGuess::Direct
+            || obstacle_on_bar(robot, task, settings.obstacle_margin).is_some()
+        {
             return Ok(finish(robot, task, settings, p, rep, None));
         }
         Some(p)

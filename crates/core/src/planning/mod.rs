@@ -19,7 +19,7 @@ pub mod shooting;
 pub mod swing_planner;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
-pub use guess::{Blockage, GuessReport, GuessStrategy, ObstacleGuess};
+pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use nlp::{PassStats, TimeSplit};
 pub use ocp_nlp::{AdapterTimings, OcpNlp};
