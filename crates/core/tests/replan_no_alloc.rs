@@ -14,9 +14,8 @@ use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
-    plan, Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner,
-    SwingTask,
-    Transcription,
+    plan, Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SwingOcp, SwingOcpSpec,
+    SwingPlanner, SwingTask, Transcription,
 };
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStatus};
 use std::alloc::{GlobalAlloc, Layout, System};
