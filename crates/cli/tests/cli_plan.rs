@@ -93,7 +93,7 @@ fn non_convergence_writes_the_report_and_exits_1() {
             "params = \"../params/paper.toml\"",
             &format!("params = {:?}", root().join("params/paper.toml")),
         )
-        .replace("backend = \"pounce\"", "backend = \"pounce\"\nmax_iter = 2");
+        .replace("backend = \"ocp\"", "backend = \"ocp\"\nmax_iter = 2");
     let sc = dir.path().join("short.toml");
     std::fs::write(&sc, text).unwrap();
     let out = dir.path().join("plan");
@@ -130,10 +130,10 @@ fn bad_scenarios_exit_2_and_write_nothing() {
             base.replace("target = [0.8, 0.0]", "target = [3.0, 0.0]"),
             "reaches at most",
         ),
-        (base.replace("knot_dt = 0.01", "knot_dt = -0.01"), "knot_dt"),
+        (base.replace("knot_dt = 0.03", "knot_dt = -0.01"), "knot_dt"),
         (
             base.replace(
-                "transcription = \"hermite-simpson\"",
+                "transcription = \"multiple-shooting\"",
                 "transcription = \"rk45\"",
             ),
             "transcription",

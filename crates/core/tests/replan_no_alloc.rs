@@ -46,6 +46,10 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.01,
+        shooting: brachia::planning::ShootingSettings {
+            substeps: 1,
+            ..Default::default()
+        },
         ..Default::default()
     };
     s.shooting.parallel_min_stages = parallel_min_stages;

@@ -111,11 +111,14 @@ pub struct ParameterStudySettings {
     pub stick_r2: Vec<f64>,
     /// Warm-start each cell from its converged neighbour in the row. Default true.
     pub warm_start: bool,
-    /// Planner settings for every cell: `knot_dt` (default 0.01 s as in the paper; 0.02-0.05 for a
-    /// quick run), `transcription` (default Hermite-Simpson), weights, bounds. `swing_time` must stay
-    /// `"auto"`: the study sets each cell's swing time.
+    /// Planner settings for every cell: `knot_dt` (default 0.03 s, the planner's; 0.04-0.05 for a
+    /// quick run), `transcription` (default `multiple-shooting`, RK4 with held torques), weights,
+    /// bounds: [`PlannerSettings::default`] unless given. `swing_time` must stay `"auto"`: the study
+    /// sets each cell's swing time.
     pub planner: PlannerSettings,
-    /// NLP solver settings for every cell.
+    /// Solver settings for every cell (default `backend = "ocp"`, the Riccati interior-point solver).
+    /// The paper's path is `transcription = "hermite-simpson"` with `backend = "pounce"`; `ocp` with a
+    /// collocation transcription is refused by `validate()`.
     pub solver: NlpSettings,
 }
 
@@ -844,7 +847,9 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
             c.iterations,
             c.solve_time_s,
             c.start.name(),
-            c.replay_ee_error_m.map(|v| format!("{v:e}")).unwrap_or_default()
+            c.replay_ee_error_m
+                .map(|v| format!("{v:e}"))
+                .unwrap_or_default()
         );
     }
     folder.add("cells.csv", csv);

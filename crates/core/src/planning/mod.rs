@@ -30,6 +30,7 @@ pub use planner::{
 };
 pub use settings::{
     Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription, DEFAULT_KNOT_DT_S,
+    DEFAULT_SHOOTING_SUBSTEPS,
 };
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
