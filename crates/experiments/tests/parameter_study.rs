@@ -307,7 +307,7 @@ fn bad_settings_name_the_field() {
                 },
                 ..ok.clone()
             },
-            "solver.backend",
+            "solver.backend, planner.transcription",
         ),
     ];
     for (s, field) in cases {
