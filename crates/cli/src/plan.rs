@@ -41,7 +41,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
         Err(CliError::Failed(format!(
             "the planner converged, but replaying its torques open loop misses the bar by {:.3} m \
              (more than {REPLAY_TRUST_M} m): the collocation grid is too coarse to trust (use a smaller \
-             planner.knot_dt or hermite-simpson); the report is in {}",
+             planner.knot_dt, more planner.shooting.substeps or hermite-simpson); the report is in {}",
             p.replay_ee_error_m,
             a.out.display()
         )))

@@ -110,7 +110,7 @@ fn non_convergence_writes_the_report_and_exits_1() {
             "params = \"../params/paper.toml\"",
             &format!("params = {:?}", root().join("params/paper.toml")),
         )
-        .replace("backend = \"pounce\"", "backend = \"pounce\"\nmax_iter = 2");
+        .replace("backend = \"ocp\"", "backend = \"ocp\"\nmax_iter = 2");
     let (o, out) = plan_in(dir.path(), "short.toml", &text);
     assert_eq!(
         o.status.code(),
@@ -168,10 +168,10 @@ fn bad_scenarios_exit_2_and_write_nothing() {
             base.replace("target = [0.8, 0.0]", "target = [3.0, 0.0]"),
             "reaches at most",
         ),
-        (base.replace("knot_dt = 0.01", "knot_dt = -0.01"), "knot_dt"),
+        (base.replace("knot_dt = 0.03", "knot_dt = -0.01"), "knot_dt"),
         (
             base.replace(
-                "transcription = \"hermite-simpson\"",
+                "transcription = \"multiple-shooting\"",
                 "transcription = \"rk45\"",
             ),
             "transcription",

@@ -187,7 +187,7 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
             let t = std::fs::read_to_string(d.join("tracking.toml")).unwrap();
             std::fs::write(
                 d.join("tracking.toml"),
-                t.replace("knot_dt = 0.01", "knot_dt = 1e-5"),
+                t.replace("knot_dt = 0.03", "knot_dt = 1e-5"),
             )
             .unwrap();
         }

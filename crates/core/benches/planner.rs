@@ -53,6 +53,11 @@ fn settings(tr: Transcription, b: Backend) -> (PlannerSettings, NlpSettings) {
     (
         PlannerSettings {
             transcription: tr,
+            knot_dt: 0.01,
+            shooting: brachia::planning::ShootingSettings {
+                substeps: 1,
+                ..Default::default()
+            },
             ..Default::default()
         },
         NlpSettings {
@@ -220,7 +225,8 @@ fn report(robot: &Robot) {
 }
 
 /// Coarser shooting meshes of the manual pass: (knot_dt s, RK4 substeps).
-const COARSE: [(f64, usize); 4] = [(0.02, 1), (0.02, 2), (0.03, 1), (0.03, 2)];
+/// (0.03, 3) is the planner's default mesh.
+const COARSE: [(f64, usize); 5] = [(0.02, 1), (0.02, 2), (0.03, 1), (0.03, 2), (0.03, 3)];
 
 /// The headline configuration in the criterion group: 30 ms knots, one RK4 step per interval.
 const HEADLINE: (f64, usize) = (0.03, 1);

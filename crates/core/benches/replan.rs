@@ -42,6 +42,10 @@ fn settings() -> (PlannerSettings, NlpSettings) {
                 .ok()
                 .and_then(|v| v.parse().ok())
                 .unwrap_or(0.03),
+            shooting: brachia::planning::ShootingSettings {
+                substeps: 1,
+                ..Default::default()
+            },
             ..Default::default()
         },
         NlpSettings {

@@ -57,10 +57,18 @@ fn main() -> Result<(), brachia::Error> {
     let ms = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.01,
+        shooting: brachia::planning::ShootingSettings {
+            substeps: 1,
+            ..Default::default()
+        },
         ..Default::default()
     };
     let ocp = NlpSettings {
         backend: Backend::Ocp,
+        ..Default::default()
+    };
+    let pounce = NlpSettings {
+        backend: Backend::Pounce,
         ..Default::default()
     };
     let hs = PlannerSettings {
@@ -88,7 +96,7 @@ fn main() -> Result<(), brachia::Error> {
         };
         if !run_ocp {
             let t0 = Instant::now();
-            let b = plan(&robot, &tk, &hs, &NlpSettings::default())?;
+            let b = plan(&robot, &tk, &hs, &pounce)?;
             let wb = t0.elapsed().as_secs_f64();
             n_hs += usize::from(b.converged());
             println!(
@@ -106,7 +114,7 @@ fn main() -> Result<(), brachia::Error> {
         n_ocp += usize::from(a.converged());
         let b = if pounce {
             let t0 = Instant::now();
-            let b = plan(&robot, &tk, &hs, &NlpSettings::default())?;
+            let b = plan(&robot, &tk, &hs, &pounce)?;
             let wb = t0.elapsed().as_secs_f64();
             n_hs += usize::from(b.converged());
             format!(

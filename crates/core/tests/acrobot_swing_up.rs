@@ -234,7 +234,13 @@ fn the_swing_up_reaches_the_same_optimum_on_ocp_and_pounce() {
     assert!(tau_peak <= TAU_MAX + 1e-9, "{tau_peak}");
 
     let mut nlp = OcpNlp::new(Acrobot::new());
-    let sol = solve(&mut nlp, &NlpSettings::default());
+    let sol = solve(
+        &mut nlp,
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
+    );
     assert!(sol.status.is_converged(), "{:?}", sol.status);
     assert!(
         (st.objective - sol.objective).abs() <= 1e-6 * sol.objective.abs(),

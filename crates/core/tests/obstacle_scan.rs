@@ -25,6 +25,10 @@ fn settings() -> (PlannerSettings, NlpSettings) {
         PlannerSettings {
             transcription: Transcription::MultipleShooting,
             knot_dt: 0.01,
+            shooting: brachia::planning::ShootingSettings {
+                substeps: 1,
+                ..Default::default()
+            },
             ..Default::default()
         },
         NlpSettings {

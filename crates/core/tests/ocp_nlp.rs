@@ -136,7 +136,13 @@ fn coarse_swing(robot: &Robot) -> SwingOcp<'_> {
 fn pounce_solves_a_coarse_swing_and_the_ocp_solver_agrees() {
     let robot = Robot::paper();
     let mut nlp = OcpNlp::new(coarse_swing(&robot));
-    let sol = solve(&mut nlp, &NlpSettings::default());
+    let sol = solve(
+        &mut nlp,
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
+    );
     assert_eq!(sol.status, SolveStatus::Solved, "{}", sol.backend_status);
     assert!(sol.max_constraint_violation < 1e-8);
 

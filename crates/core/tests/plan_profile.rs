@@ -37,7 +37,10 @@ fn plan_with(s: &PlannerSettings) -> Plan {
         &Robot::paper(),
         &tracking_task(),
         s,
-        &NlpSettings::default(),
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
     )
     .unwrap();
     assert!(p.converged(), "{:?}", p.status);

@@ -1,12 +1,31 @@
 //! The planner on the paper's scenarios (Section V-B and V-C): convergence, accuracy, obstacle
 //! clearance, an independent recomputation of the defects, agreement of the two NLP backends.
-//! Units: m, rad, s, N m.
+//! The collocation tests pin the paper's path (Hermite-Simpson at 10 ms knots on pounce), the
+//! cross-check of the default (multiple shooting on `ocp`, tests/planner_shooting.rs); the obstacle
+//! and refusal tests run on the defaults. Units: m, rad, s, N m.
 
 use brachia::model::{Circle, Robot};
 use brachia::planning::{plan, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
 use brachia::Error;
 
 const Q0: [f64; 4] = [-2.35, 0.0, -1.55, 0.0];
+
+/// The paper's transcription: Hermite-Simpson at 10 ms knots.
+fn hs() -> PlannerSettings {
+    PlannerSettings {
+        transcription: Transcription::HermiteSimpson,
+        knot_dt: 0.01,
+        ..Default::default()
+    }
+}
+
+/// pounce, the collocation backend.
+fn pounce() -> NlpSettings {
+    NlpSettings {
+        backend: Backend::Pounce,
+        ..Default::default()
+    }
+}
 
 fn tracking_task() -> SwingTask {
     SwingTask {
@@ -32,13 +51,7 @@ fn obstacle_task() -> SwingTask {
 #[test]
 fn tracking_scenario_converges_to_the_bar() {
     let robot = Robot::paper();
-    let p = plan(
-        &robot,
-        &tracking_task(),
-        &PlannerSettings::default(),
-        &NlpSettings::default(),
-    )
-    .unwrap();
+    let p = plan(&robot, &tracking_task(), &hs(), &pounce()).unwrap();
     assert!(p.converged(), "{:?}", p.status);
     assert!(
         p.violations.ee_position < 1e-3,
@@ -93,13 +106,7 @@ fn hermite_simpson_defects_hold_when_recomputed_independently() {
     // Recompute the Simpson and Hermite conditions from the plan's points with the model's forward
     // dynamics, independently of the transcription's row tables.
     let robot = Robot::paper();
-    let p = plan(
-        &robot,
-        &tracking_task(),
-        &PlannerSettings::default(),
-        &NlpSettings::default(),
-    )
-    .unwrap();
+    let p = plan(&robot, &tracking_task(), &hs(), &pounce()).unwrap();
     let h = p.layout.h;
     let pts = &p.points;
     let f = |k: usize| robot.forward_dynamics(pts.q(k), pts.qd(k), pts.tau(k));
@@ -164,7 +171,7 @@ fn both_backends_agree_on_the_tracking_plan() {
         transcription: Transcription::Trapezoidal,
         ..Default::default()
     };
-    let a = plan(&robot, &tracking_task(), &s, &NlpSettings::default()).unwrap();
+    let a = plan(&robot, &tracking_task(), &s, &pounce()).unwrap();
     let b = plan(
         &robot,
         &tracking_task(),
@@ -201,9 +208,9 @@ fn transcriptions_rank_by_dynamic_consistency() {
     ] {
         let s = PlannerSettings {
             transcription: tr,
-            ..Default::default()
+            ..hs()
         };
-        let p = plan(&robot, &tracking_task(), &s, &NlpSettings::default()).unwrap();
+        let p = plan(&robot, &tracking_task(), &s, &pounce()).unwrap();
         assert!(p.converged(), "{tr:?}: {:?}", p.status);
         errs.push(p.replay_ee_error_m);
     }

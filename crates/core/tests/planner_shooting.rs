@@ -24,6 +24,10 @@ fn shooting(knot_dt: f64) -> PlannerSettings {
     PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt,
+        shooting: brachia::planning::ShootingSettings {
+            substeps: 1,
+            ..Default::default()
+        },
         ..Default::default()
     }
 }
@@ -164,8 +168,12 @@ fn obstacle_is_avoided_by_multiple_shooting() {
 #[test]
 fn ocp_with_a_collocation_rule_is_refused_naming_both_fields() {
     let robot = Robot::paper();
-    let s = PlannerSettings::default(); // hermite-simpson
-    let e = plan(&robot, &tracking_task(), &s, &backend(Backend::Ocp)).unwrap_err();
+    let s = PlannerSettings {
+        transcription: Transcription::HermiteSimpson,
+        ..Default::default()
+    };
+    // the default backend is ocp: a collocation rule alone is refused before any work
+    let e = plan(&robot, &tracking_task(), &s, &NlpSettings::default()).unwrap_err();
     let msg = e.to_string();
     assert!(matches!(e, Error::InvalidValue { .. }), "{e}");
     assert!(
@@ -176,6 +184,28 @@ fn ocp_with_a_collocation_rule_is_refused_naming_both_fields() {
         msg.contains("hermite-simpson") && msg.contains("multiple-shooting"),
         "{msg}"
     );
+}
+
+#[test]
+fn the_defaults_plan_by_multiple_shooting_on_ocp_within_the_replay_bar() {
+    let (s, n) = (PlannerSettings::default(), NlpSettings::default());
+    assert_eq!(s.transcription, Transcription::MultipleShooting);
+    assert_eq!(n.backend, Backend::Ocp);
+    assert_eq!(s.knot_dt, brachia::planning::DEFAULT_KNOT_DT_S);
+    // an empty settings file gives the same defaults
+    let e: PlannerSettings = toml::from_str("").unwrap();
+    assert_eq!(e, s);
+    let robot = Robot::paper();
+    let p = plan(&robot, &tracking_task(), &s, &n).unwrap();
+    assert!(p.converged(), "{:?}", p.status);
+    assert_eq!(p.backend, Backend::Ocp);
+    assert_eq!(
+        p.layout.intervals,
+        (p.swing_time_s / s.knot_dt).round() as usize
+    );
+    // the accuracy bar of the default mesh: the independent replay of the plan's torques misses the
+    // bar by at most 1 mm (measured 5e-7 m, docs/benchmarks.md)
+    assert!(p.replay_ee_error_m < 1e-4, "replay {}", p.replay_ee_error_m);
 }
 
 #[test]

@@ -55,6 +55,10 @@ fn problem(knot_dt: f64, parallel_min_stages: usize) -> (SwingTask, PlannerSetti
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt,
+        shooting: brachia::planning::ShootingSettings {
+            substeps: 1,
+            ..Default::default()
+        },
         ..Default::default()
     };
     s.shooting.parallel_min_stages = parallel_min_stages;

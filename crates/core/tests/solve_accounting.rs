@@ -79,7 +79,13 @@ fn assert_adds_up(sol: &brachia::planning::NlpSolution) {
 fn the_scale_audit_resolve_is_counted_beside_the_first_pass() {
     // c = 1e-3: the objective's gradient scale is 6e-3, so pounce's scale audit re-solves the
     // converged problem with the objective scaled up. Its statistics then count the re-solve only.
-    let sol = solve(&mut Tiny { c: 1e-3 }, &NlpSettings::default());
+    let sol = solve(
+        &mut Tiny { c: 1e-3 },
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
+    );
     assert!(sol.status.is_converged(), "{:?}", sol.status);
     assert!((sol.x[0] - 0.5).abs() < 1e-6 && (sol.x[1] - 0.5).abs() < 1e-6);
     assert_adds_up(&sol);
@@ -93,7 +99,13 @@ fn the_scale_audit_resolve_is_counted_beside_the_first_pass() {
     let returned = sol.passes.iter().find(|p| p.returned).unwrap();
     assert!(sol.iterations > returned.iterations);
     // the same problem at an ordinary scale is one pass
-    let one = solve(&mut Tiny { c: 1.0 }, &NlpSettings::default());
+    let one = solve(
+        &mut Tiny { c: 1.0 },
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
+    );
     assert_adds_up(&one);
     assert_eq!(one.passes.len(), 1);
     assert!(one.passes[0].returned && one.iterations == one.passes[0].iterations);
@@ -131,6 +143,7 @@ fn a_retry_that_is_not_adopted_still_counts() {
         ..Default::default()
     };
     let nlp = NlpSettings {
+        backend: Backend::Pounce,
         max_iter: 8,
         ..Default::default()
     };

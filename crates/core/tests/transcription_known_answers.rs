@@ -154,7 +154,13 @@ fn decay_final_velocity(tr: Transcription, intervals: usize) -> f64 {
         None::<NoPath>,
     );
     assert_eq!(nlp.n_terminal(), 0);
-    let sol = solve(&mut nlp, &NlpSettings::default());
+    let sol = solve(
+        &mut nlp,
+        &NlpSettings {
+            backend: brachia::planning::Backend::Pounce,
+            ..NlpSettings::default()
+        },
+    );
     assert!(sol.status.is_converged(), "{tr:?}: {:?}", sol.status);
     sol.x[layout.var(layout.points - 1, 1)]
 }

@@ -260,6 +260,7 @@ impl LadderScenario {
             .validate(n, &src)
             .map_err(|e| rename(e, "planner"))?;
         sc.solver.validate().map_err(|e| rename(e, "solver"))?;
+        sc.planner.check_backend(&sc.solver, &src)?;
         let l = &sc.ladder;
         check_bars(&robot, &l.bars, &src)?;
         for (field, v, max) in [

@@ -111,11 +111,14 @@ pub struct ParameterStudySettings {
     pub stick_r2: Vec<f64>,
     /// Warm-start each cell from its converged neighbour in the row. Default true.
     pub warm_start: bool,
-    /// Planner settings for every cell: `knot_dt` (default 0.01 s as in the paper; 0.02-0.05 for a
-    /// quick run), `transcription` (default Hermite-Simpson), weights, bounds. `swing_time` must stay
-    /// `"auto"`: the study sets each cell's swing time.
+    /// Planner settings for every cell: `knot_dt` (default 0.03 s, the planner's; 0.04-0.05 for a
+    /// quick run), `transcription` (default `multiple-shooting`, RK4 with held torques), weights,
+    /// bounds: [`PlannerSettings::default`] unless given. `swing_time` must stay `"auto"`: the study
+    /// sets each cell's swing time.
     pub planner: PlannerSettings,
-    /// NLP solver settings for every cell.
+    /// Solver settings for every cell (default `backend = "ocp"`, the Riccati interior-point solver).
+    /// The paper's path is `transcription = "hermite-simpson"` with `backend = "pounce"`; `ocp` with a
+    /// collocation transcription is refused by `validate()`.
     pub solver: NlpSettings,
 }
 
@@ -246,6 +249,7 @@ impl ParameterStudySettings {
         self.solver
             .validate()
             .map_err(|e| in_section(e, src, "solver"))?;
+        self.planner.check_backend(&self.solver, src)?;
         if let BaseParams::Inline(p) = &self.base_params {
             p.validate(src)
                 .map_err(|e| in_section(e, src, "base_params.inline"))?;
@@ -378,6 +382,9 @@ pub struct StudyCell {
     pub solve_time_s: f64,
     /// How the solve started.
     pub start: CellStart,
+    /// Independent open-loop replay of the adopted plan's own torque profile: distance of the end
+    /// effector from the bar at T, m (`None` for a cell the planner refused).
+    pub replay_ee_error_m: Option<f64>,
 }
 
 /// Per-r2 summary.
@@ -522,6 +529,7 @@ fn make_cell(
         iterations,
         solve_time_s,
         start,
+        replay_ee_error_m: Some(p.replay_ee_error_m),
     }
 }
 
@@ -540,6 +548,7 @@ fn refused_cell(setup: &RowSetup, offset_s: f64, e: &Error) -> StudyCell {
         iterations: 0,
         solve_time_s: 0.0,
         start: CellStart::Cold,
+        replay_ee_error_m: None,
     }
 }
 
@@ -809,8 +818,9 @@ pub(crate) fn r2_tag(r2: f64) -> String {
 
 /// The run folder of a study:
 /// - `cells.csv`: one row per cell, header
-///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start`
-///   (energy, work and objective empty for a cell that did not converge);
+///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m`
+///   (energy, work and objective empty for a cell that did not converge, the replay miss for a cell
+///   the planner refused);
 /// - `freefall.csv`: per r2, `r2,l1_m,l2_m,l3_m,l4_m,freefall_time_s,swing_time_s,energy_at_t_j,
 ///   argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells`;
 /// - `report.json`: the settings (with the base parameters resolved), the start pose, the per-r2
@@ -820,12 +830,12 @@ pub(crate) fn r2_tag(r2: f64) -> String {
 pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
     let mut folder = RunFolder::default();
     let mut csv = String::from(
-        "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start\n",
+        "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m\n",
     );
     for c in &study.cells {
         let _ = writeln!(
             csv,
-            "{},{},{:.6},{},{},{},{},{},{},{:.4},{}",
+            "{},{},{:.6},{},{},{},{},{},{},{:.4},{},{}",
             c.r2,
             c.offset_s,
             c.swing_time_s,
@@ -836,7 +846,10 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
             opt(c.objective),
             c.iterations,
             c.solve_time_s,
-            c.start.name()
+            c.start.name(),
+            c.replay_ee_error_m
+                .map(|v| format!("{v:e}"))
+                .unwrap_or_default()
         );
     }
     folder.add("cells.csv", csv);

@@ -425,7 +425,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
     let file = cfile.display().to_string();
     let text = limits::read_text_capped(&cfile, limits::MAX_CSV_BYTES, "cells.csv")?;
     let header = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
-                  iterations,solve_time_s,start";
+                  iterations,solve_time_s,start,replay_ee_error_m";
     let rows = csv_rows(&text, &file, header)?;
     if rows.len() != rep.cells {
         return Err(Error::invalid(
@@ -437,12 +437,12 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
     }
     let mut cells = Vec::with_capacity(rows.len());
     for (line, row) in rows {
-        if row.len() != 11 {
+        if row.len() != 12 {
             return Err(Error::invalid(
                 &file,
                 format!("line {line}"),
                 row.join(","),
-                format!("expected 11 columns: {header}"),
+                format!("expected 12 columns: {header}"),
             ));
         }
         let num = |i: usize, c: &str| number(&file, line, c, row[i]);
@@ -474,6 +474,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
             solve_time_s: num(9, "solve_time_s")?,
             start: serde_json::from_value(serde_json::Value::String(row[10].into()))
                 .map_err(|_| bad("start", row[10], "cold, warm or cold-after-warm"))?,
+            replay_ee_error_m: opt(11, "replay_ee_error_m")?,
         });
     }
     let mut sticks = Vec::with_capacity(rep.stick_r2.len());

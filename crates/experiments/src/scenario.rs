@@ -9,13 +9,13 @@
 //! obstacles = [{ center = [0.55, -0.2], radius = 0.1 }]
 //! [planner]                             # every field optional; see brachia::planning::PlannerSettings
 //! swing_time = "auto"                   # or seconds
-//! knot_dt = 0.01
-//! transcription = "hermite-simpson"     # euler | trapezoidal | hermite-simpson | multiple-shooting
+//! knot_dt = 0.03                        # default 0.03 (shooting); the paper's 0.01 for collocation
+//! transcription = "multiple-shooting"   # (default) | euler | trapezoidal | hermite-simpson
 //! q1_diag = [0.01, 0.01, 0.01, 0.01]
 //! r1_diag = [1.0, 1.0, 1.0]
 //! avoid_obstacles = true
 //! [solver]                              # see brachia::planning::NlpSettings
-//! backend = "pounce"                    # pounce | ripopt | ocp (multiple-shooting only)
+//! backend = "ocp"                       # ocp (default; multiple-shooting only) | pounce | ripopt
 //! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
 //! controller = "mpc"                    # mpc | pd | open-loop
 //! replan = { threshold_m = 0.01, latency_s = 0.02 }  # MPC + online re-planning (docs/replanning.md)
@@ -276,6 +276,7 @@ impl Scenario {
             .validate(robot.n, &src)
             .map_err(|e| rename(e, "planner"))?;
         sc.solver.validate().map_err(|e| rename(e, "solver"))?;
+        sc.planner.check_backend(&sc.solver, &src)?;
         brachia::planning::validate_task(&robot, &sc.task, &sc.planner, &src, "task.")?;
         let swing_time = match sc.planner.swing_time {
             SwingTime::Seconds(t) => t,

@@ -298,6 +298,17 @@ fn bad_settings_name_the_field() {
             },
             "target",
         ),
+        (
+            // the default backend (ocp) solves multiple shooting only
+            ParameterStudySettings {
+                planner: PlannerSettings {
+                    transcription: brachia::planning::Transcription::HermiteSimpson,
+                    ..Default::default()
+                },
+                ..ok.clone()
+            },
+            "solver.backend, planner.transcription",
+        ),
     ];
     for (s, field) in cases {
         let e = s.validate().unwrap_err().to_string();

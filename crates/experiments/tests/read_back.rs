@@ -15,6 +15,7 @@ fn scenario() -> brachia_experiments::scenario::LoadedScenario {
     let mut ls = Scenario::load(&path).unwrap();
     ls.scenario.planner.knot_dt = 0.04;
     ls.scenario.planner.transcription = brachia::planning::Transcription::Trapezoidal;
+    ls.scenario.solver.backend = brachia::planning::Backend::Pounce;
     ls
 }
 

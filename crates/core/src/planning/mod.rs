@@ -28,7 +28,10 @@ pub use planner::{
     freefall_time, plan, plan_with_guess, validate_task, Plan, SwingTask, Violations,
     WARM_START_MU_INIT,
 };
-pub use settings::{Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription};
+pub use settings::{
+    Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription, DEFAULT_KNOT_DT_S,
+    DEFAULT_SHOOTING_SUBSTEPS,
+};
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };

@@ -1,5 +1,7 @@
 //! The sparse NLP seam: one problem trait, one settings struct, one [`solve`] function, two
-//! interior-point backends behind it (pounce-rs, the default, and ripopt, the cross-check).
+//! interior-point backends behind it (pounce-rs and ripopt, the cross-check). The settings' default
+//! backend is `ocp`, the planner's stage-structured solver, which [`solve`] refuses: a general NLP
+//! names `backend: Backend::Pounce` (or `Ripopt`).
 //!
 //! ## The problem
 //! ```text
@@ -85,15 +87,16 @@ pub trait SparseNlp {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// pounce-rs 0.14: a pure-Rust port of IPOPT (same options, same iteration path). Default.
-    #[default]
+    /// pounce-rs 0.14: a pure-Rust port of IPOPT (same options, same iteration path). The backend of
+    /// the collocation rules and of general sparse NLPs ([`solve`]); a cross-check of `ocp`.
     Pounce,
     /// ripopt 0.8: an independent pure-Rust IPOPT-style solver, used as a cross-check.
     Ripopt,
     /// brachia-ocp: the stage-structured interior-point solver with a Riccati KKT step. It solves
     /// optimal-control problems, not general sparse NLPs: the planner uses it with
     /// `transcription = "multiple-shooting"` only, and [`solve`] refuses it with
-    /// [`SolveStatus::InvalidSettings`].
+    /// [`SolveStatus::InvalidSettings`] (give a general NLP `backend: Backend::Pounce`). Default.
+    #[default]
     Ocp,
 }
 
@@ -123,7 +126,8 @@ pub enum MuStrategy {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NlpSettings {
-    /// Solver backend. Default [`Backend::Pounce`].
+    /// Solver backend. Default [`Backend::Ocp`] (the planner's multiple shooting); collocation and
+    /// general NLPs need [`Backend::Pounce`] or [`Backend::Ripopt`].
     pub backend: Backend,
     /// Maximum number of interior-point iterations (0 allowed: evaluate the start only).
     /// Default 500.
@@ -161,7 +165,7 @@ pub struct NlpSettings {
 impl Default for NlpSettings {
     fn default() -> Self {
         NlpSettings {
-            backend: Backend::Pounce,
+            backend: Backend::Ocp,
             max_iter: 500,
             tol: 1e-8,
             constr_viol_tol: 1e-8,

@@ -186,17 +186,11 @@ pub(super) fn setup_shooting<'a>(
     guess: Option<&Trajectory>,
 ) -> Result<ShootingSetup<'a>> {
     if settings.transcription != Transcription::MultipleShooting {
-        let name = serde_json::to_value(settings.transcription)
-            .ok()
-            .and_then(|v| v.as_str().map(str::to_string))
-            .unwrap_or_default();
-        return Err(Error::invalid(
-            "planner",
-            "solver.backend, planner.transcription",
-            format!("\"ocp\" with \"{name}\""),
-            "the ocp backend solves the stage-structured problem only: set planner.transcription = \
-             \"multiple-shooting\", or choose backend \"pounce\" or \"ripopt\" for collocation",
-        ));
+        let ocp = NlpSettings {
+            backend: Backend::Ocp,
+            ..NlpSettings::default()
+        };
+        settings.check_backend(&ocp, "planner")?;
     }
     if let Some(g) = guess {
         check_guess(robot, g)?;

@@ -849,6 +849,7 @@ pub fn plan_with_guess(
     if guess.is_none() && settings.avoid_obstacles && !task.obstacles.is_empty() {
         settings.validate(robot.n, "planner")?;
         nlp.validate()?;
+        settings.check_backend(nlp, "planner")?;
         check_task(robot, task, settings)?;
         return super::guess::plan_around_obstacles(robot, task, settings, nlp);
     }
@@ -866,6 +867,7 @@ pub(super) fn plan_single(
 ) -> Result<Plan> {
     settings.validate(robot.n, "planner")?;
     nlp.validate()?;
+    settings.check_backend(nlp, "planner")?;
     if let Some(g) = guess {
         check_guess(robot, g)?;
     }

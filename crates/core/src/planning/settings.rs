@@ -17,12 +17,13 @@ pub enum Transcription {
     /// Trapezoidal rule on `[qd, qdd]`; torque linear between knots.
     Trapezoidal,
     /// Hermite-Simpson (separated form: midpoint states and torques are variables); torque quadratic.
-    #[default]
+    /// Solved by pounce or ripopt (the paper's rule; a cross-check of the default).
     HermiteSimpson,
     /// RK4 multiple shooting (`"multiple-shooting"`): states and torques at the knots, torque held
     /// over each interval, `x_{k+1} = Phi(x_k, u_k)` by [`ShootingSettings::substeps`] RK4 steps. A
     /// stage-structured problem ([`crate::planning::SwingOcp`]): solved by the `ocp` backend (Riccati
-    /// interior point) or by pounce / ripopt through [`crate::planning::OcpNlp`].
+    /// interior point, the default) or by pounce / ripopt through [`crate::planning::OcpNlp`]. Default.
+    #[default]
     MultipleShooting,
 }
 
@@ -30,8 +31,9 @@ pub enum Transcription {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ShootingSettings {
-    /// RK4 steps per shooting interval (>= 1). Default 1 (at 10 ms knots one step reaches the bar to
-    /// a fraction of a millimetre; docs/planner.md).
+    /// RK4 steps per shooting interval (>= 1). Default [`DEFAULT_SHOOTING_SUBSTEPS`] = 3: with the
+    /// default 30 ms knots, RK4 steps of 10 ms, the step the paper's knots have (one step per 30 ms
+    /// interval misses the bar by up to 2 cm on the long swings of the parameter study; docs/planner.md).
     pub substeps: usize,
     /// Evaluate the stages in parallel (rayon) when the problem has at least this many stages;
     /// 0 = always, a huge value = never. Default 64 (measured break-even on 2 cores: docs/planner.md).
@@ -41,15 +43,24 @@ pub struct ShootingSettings {
 impl Default for ShootingSettings {
     fn default() -> Self {
         ShootingSettings {
-            substeps: 1,
+            substeps: DEFAULT_SHOOTING_SUBSTEPS,
             parallel_min_stages: 64,
         }
     }
 }
 
+/// Default RK4 steps per shooting interval (see [`ShootingSettings::substeps`]).
+pub const DEFAULT_SHOOTING_SUBSTEPS: usize = 3;
+
 /// Largest number of RK4 steps per multiple-shooting interval (each costs a dynamics evaluation and
 /// its derivatives per stage and iteration; 100 steps of a 10 ms interval are 0.1 ms each).
 pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
+
+/// Default knot spacing, s: 30 ms shooting intervals of [`DEFAULT_SHOOTING_SUBSTEPS`] RK4 steps each
+/// (10 ms steps, the paper's knot spacing, with the torque held over 30 ms). The plan's own torques,
+/// replayed open loop, reach the bar to well under the 1 mm bar on every scenario and study cell, with
+/// a third of the stages of 10 ms knots (docs/interpretations.md, docs/planner.md).
+pub const DEFAULT_KNOT_DT_S: f64 = 0.03;
 
 /// The swing time T.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -105,7 +116,9 @@ impl Default for Bounds {
 pub struct PlannerSettings {
     /// Swing time: `"auto"` (2 T_freefall) or seconds.
     pub swing_time: SwingTime,
-    /// Knot spacing, s (default 0.01); the number of intervals is `round(T / knot_dt)`.
+    /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
+    /// 1 mm replay bar; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
+    /// the number of intervals is `round(T / knot_dt)`.
     pub knot_dt: f64,
     /// Collocation rule.
     pub transcription: Transcription,
@@ -134,7 +147,7 @@ impl Default for PlannerSettings {
     fn default() -> Self {
         PlannerSettings {
             swing_time: SwingTime::default(),
-            knot_dt: 0.01,
+            knot_dt: DEFAULT_KNOT_DT_S,
             transcription: Transcription::default(),
             q1_diag: vec![],
             r1_diag: vec![],
@@ -277,6 +290,28 @@ impl PlannerSettings {
             ));
         }
         Ok(n.unwrap_or(lo))
+    }
+
+    /// Check that the solver backend `nlp.backend` can solve this transcription: `ocp` solves multiple
+    /// shooting only (collocation needs pounce or ripopt). `src` names the origin in the error.
+    pub fn check_backend(&self, nlp: &crate::planning::NlpSettings, src: &str) -> Result<()> {
+        if nlp.backend == crate::planning::Backend::Ocp
+            && self.transcription != Transcription::MultipleShooting
+        {
+            let name = serde_json::to_value(self.transcription)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default();
+            return Err(Error::invalid(
+                src,
+                "solver.backend, planner.transcription",
+                format!("\"ocp\" with \"{name}\""),
+                "the ocp backend (the default) solves the stage-structured problem only: set \
+                 planner.transcription = \"multiple-shooting\" (the default), or choose backend \
+                 \"pounce\" or \"ripopt\" for collocation",
+            ));
+        }
+        Ok(())
     }
 
     /// Q1 diagonal with defaults filled in.

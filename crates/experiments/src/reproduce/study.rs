@@ -13,28 +13,28 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Iteration cap of one solve in the study. Converged cells need 15-60 iterations (cold) and fewer
-/// warm-started; the cells that do not converge (the r2 = 0.9 row with Table I's scaled inertias) would
-/// otherwise run to the solver's default 500 iterations in each of up to four solves per cell (warm, its
-/// adaptive-barrier retry, cold, its retry) and dominate the run time.
+/// Iteration cap of one solve in the study. Converged cells need 10-40 iterations on `ocp` (fewer
+/// warm-started); a cell that does not converge would otherwise run to the solver's default 500
+/// iterations in each of its attempts (warm, cold, other guesses) and dominate the run time.
 const STUDY_MAX_ITER: usize = 200;
 
-/// The study the reproduction runs: the paper's 9 x 11 grid at its 10 ms knots on the robot of the
-/// tracking scenario with the trapezoidal rule (2.5x faster than Hermite-Simpson, 3 mm open-loop replay
-/// error on the V-B swing: enough to compare energies across the grid), or (`quick`) 3 r2 x 3 swing times
-/// at 40 ms knots.
+/// The study the reproduction runs: the paper's 9 x 11 grid on the robot of the tracking scenario with
+/// the tracking scenario's planner mesh and solver (multiple shooting on `ocp` by default;
+/// docs/parameter-study.md), or (`quick`) 3 r2 x 3 swing times.
 pub(crate) fn settings(tracking: &LoadedScenario, quick: bool) -> ParameterStudySettings {
+    let sc = &tracking.scenario;
     let mut s = ParameterStudySettings {
-        base_params: BaseParams::File(tracking.scenario.params.clone()),
-        solver: tracking.scenario.solver.clone(),
+        base_params: BaseParams::File(sc.params.clone()),
+        solver: sc.solver.clone(),
         ..ParameterStudySettings::default()
     };
-    s.planner.transcription = brachia::planning::Transcription::Trapezoidal;
+    s.planner.transcription = sc.planner.transcription;
+    s.planner.knot_dt = sc.planner.knot_dt;
+    s.planner.shooting = sc.planner.shooting.clone();
     s.solver.max_iter = STUDY_MAX_ITER;
     if quick {
         s.r2 = vec![0.2, 0.5, 0.8];
         s.offsets_s = vec![-0.5, 0.0, 0.5];
-        s.planner.knot_dt = 0.04;
     }
     s
 }
