@@ -37,7 +37,7 @@ fn cell(p: &Plan, wall: f64) -> String {
 }
 
 fn main() -> Result<(), brachia::Error> {
-    let pounce = !std::env::args().any(|a| a == "--no-pounce");
+    let run_pounce = !std::env::args().any(|a| a == "--no-pounce");
     let run_ocp = !std::env::args().any(|a| a == "--pounce-only");
     let hs_default = std::env::args().any(|a| a == "--hs-default");
     let args: Vec<String> = std::env::args().collect();
@@ -112,7 +112,7 @@ fn main() -> Result<(), brachia::Error> {
         let a = plan(&robot, &tk, &ms, &ocp)?;
         let wa = t0.elapsed().as_secs_f64();
         n_ocp += usize::from(a.converged());
-        let b = if pounce {
+        let b = if run_pounce {
             let t0 = Instant::now();
             let b = plan(&robot, &tk, &hs, &pounce)?;
             let wb = t0.elapsed().as_secs_f64();
@@ -145,7 +145,7 @@ fn main() -> Result<(), brachia::Error> {
         "ocp (multiple shooting, default guess): {n_ocp}/{} converged; pounce (Hermite-Simpson, {}): {}",
         places.len(),
         if hs_default { "default guess" } else { "direct" },
-        if pounce {
+        if run_pounce {
             format!("{n_hs}/{}", places.len())
         } else {
             "not run".into()
