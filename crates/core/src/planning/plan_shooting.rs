@@ -547,11 +547,13 @@ mod tests {
             ..Default::default()
         };
         for knot_dt in [0.01, 0.03] {
-            let s = PlannerSettings {
+            // one RK4 step per interval: the replay below integrates the knots' held torques with 1
+            let mut s = PlannerSettings {
                 transcription: Transcription::MultipleShooting,
                 knot_dt,
                 ..Default::default()
             };
+            s.shooting.substeps = 1;
             let p = plan(&robot, &task, &s, &nlp).unwrap();
             assert!(p.converged(), "{:?}", p.status);
             let dims = brachia_ocp::OcpDims {
