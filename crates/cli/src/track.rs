@@ -2,8 +2,8 @@
 
 use crate::{check_cancel, exp_error, CliError};
 use brachia_experiments::{
-    check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind, PlantKind, RunFolder, Scenario,
-    TrackOutcome,
+    check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind, PlantKind, RunFolder,
+    Scenario, TrackOutcome,
 };
 use std::path::PathBuf;
 

@@ -21,8 +21,9 @@ pub mod traverse;
 
 pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{
-    parameter_study_folder, run_parameter_study, run_parameter_study_cancellable, scaled_params, start_pose, BaseParams, CellStart,
-    ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
+    parameter_study_folder, run_parameter_study, run_parameter_study_cancellable, scaled_params,
+    start_pose, BaseParams, CellStart, ParameterStudy, ParameterStudySettings, StickDiagram,
+    StudyCell, StudyRow,
 };
 pub use plan_run::solver_work_text;
 pub use plan_run::{plan_report, run_plan, PlanReport, PlanRun, PARAMS_FILE};

@@ -27,9 +27,9 @@
 //! Units: m, kg, kg m^2, s, rad, N m, J.
 
 use crate::progress::{CancelToken, Progress, ProgressFn};
-use crate::ExpError;
 use crate::run_folder::RunFolder;
 use crate::scenario::{in_section, parse_toml, read_text};
+use crate::ExpError;
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{
     freefall_time, plan_with_guess, NlpSettings, PlannerSettings, SolveStatus, SwingTask, SwingTime,

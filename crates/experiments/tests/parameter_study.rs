@@ -358,7 +358,11 @@ fn a_cancelled_reproduction_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rep");
     std::fs::create_dir_all(&out).unwrap();
-    std::fs::write(out.join(brachia_experiments::MANIFEST), "# brachia run folder\nold.txt\n").unwrap();
+    std::fs::write(
+        out.join(brachia_experiments::MANIFEST),
+        "# brachia run folder\nold.txt\n",
+    )
+    .unwrap();
     std::fs::write(out.join("old.txt"), "previous results").unwrap();
     let opts = brachia_experiments::reproduce::ReproduceOptions {
         scenarios: root.join("scenarios"),
@@ -367,9 +371,13 @@ fn a_cancelled_reproduction_writes_nothing() {
     };
     let cancel = CancelToken::new();
     cancel.cancel();
-    let r = brachia_experiments::reproduce::reproduce_cancellable(&opts, &out, &no_progress, &cancel);
+    let r =
+        brachia_experiments::reproduce::reproduce_cancellable(&opts, &out, &no_progress, &cancel);
     assert!(matches!(r, Err(ExpError::Cancelled)), "{:?}", r.err());
-    assert_eq!(std::fs::read_to_string(out.join("old.txt")).unwrap(), "previous results");
+    assert_eq!(
+        std::fs::read_to_string(out.join("old.txt")).unwrap(),
+        "previous results"
+    );
     let names: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .flatten()

@@ -341,11 +341,8 @@ pub fn reproduce_cancellable(
     cancel.check()?;
 
     // V-A: the parameter study (the longest part)
-    let st = crate::parameter_study::run_parameter_study_cancellable(
-        &study_settings,
-        progress,
-        cancel,
-    )?;
+    let st =
+        crate::parameter_study::run_parameter_study_cancellable(&study_settings, progress, cancel)?;
     write(
         &crate::parameter_study::parameter_study_folder(&st),
         &out.join("parameter-study"),
