@@ -357,6 +357,8 @@ fn try_wait4(pid: i32) -> Option<(Option<i32>, libc::rusage)> {
 
 /// Run brachia with `args` under the virtual-memory cap; `sigint_after` sends it SIGINT (as Ctrl-C
 /// does) after that long; `limit` is the hang limit.
+// the child is reaped by `try_wait4` (libc::wait4), which clippy cannot see
+#[allow(clippy::zombie_processes)]
 fn run_limited(
     args: &[String],
     cwd: &Path,
