@@ -2,7 +2,8 @@
 //!
 //! Exit codes (docs/limits.md): 0 success, results to be trusted; 1 a solver or run failure (a plan that
 //! did not converge: its report is still written); 2 bad input, refused before any work (nothing is
-//! written); 3 an I/O failure after the inputs were accepted (a file could not be written).
+//! written); 3 an I/O failure after the inputs were accepted (a file could not be written); 130 stopped
+//! by Ctrl-C (SIGINT): nothing was written, the previous results are as they were.
 
 mod io;
 mod plan;
@@ -12,6 +13,7 @@ mod simulate;
 mod track;
 mod traverse;
 
+use brachia_experiments::{CancelToken, ExpError};
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -50,6 +52,40 @@ pub enum CliError {
     Failed(String),
     /// A file could not be written after the work was done: exit code 3.
     Io(String),
+    /// Stopped by Ctrl-C before the results were written: exit code 130, nothing written.
+    Interrupted(String),
+}
+
+/// Exit code of a run stopped by Ctrl-C (SIGINT): 128 + 2, as a shell reports a process it killed.
+pub const EXIT_INTERRUPTED: u8 = 130;
+
+/// `Err(CliError::Interrupted)` naming `out` once Ctrl-C was pressed: called before a result is
+/// written, so an interrupted command leaves `out` as it was.
+pub fn check_cancel(cancel: &CancelToken, out: &std::path::Path) -> Result<(), CliError> {
+    if cancel.is_cancelled() {
+        Err(interrupted(out))
+    } else {
+        Ok(())
+    }
+}
+
+fn interrupted(out: &std::path::Path) -> CliError {
+    CliError::Interrupted(format!(
+        "interrupted (Ctrl-C): nothing was written; {} is as it was",
+        out.display()
+    ))
+}
+
+/// Map a library error of a command writing to `out`: a cancelled run and a write failure name `out`.
+pub fn exp_error(out: &std::path::Path) -> impl Fn(ExpError) -> CliError + '_ {
+    move |e| match e {
+        ExpError::Cancelled => interrupted(out),
+        ExpError::Write { .. } => CliError::Io(format!(
+            "could not write the results into {}: {e}",
+            out.display()
+        )),
+        other => other.into(),
+    }
 }
 
 impl From<brachia::Error> for CliError {
@@ -60,8 +96,8 @@ impl From<brachia::Error> for CliError {
 
 impl From<brachia_experiments::ExpError> for CliError {
     fn from(e: brachia_experiments::ExpError) -> Self {
-        use brachia_experiments::ExpError;
         match e {
+            ExpError::Cancelled => CliError::Interrupted(e.to_string()),
             ExpError::Write { .. } => CliError::Io(format!("could not write the results: {e}")),
             other => CliError::Input(other.to_string()),
         }
@@ -70,12 +106,26 @@ impl From<brachia_experiments::ExpError> for CliError {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Ctrl-C: the first press sets the cancel flag, which the work checks between its units (a solve,
+    // an experiment, a swing, a thousand simulation rows) and then stops without writing anything; a
+    // second press stops at once (the staging folder is left hidden, removed by the next run)
+    let cancel = CancelToken::new();
+    let sigint = signal_hook::consts::SIGINT;
+    let handler = signal_hook::flag::register_conditional_shutdown(
+        sigint,
+        i32::from(EXIT_INTERRUPTED),
+        cancel.flag(),
+    )
+    .and_then(|_| signal_hook::flag::register(sigint, cancel.flag()));
+    if let Err(e) = handler {
+        eprintln!("brachia: note: no Ctrl-C handler ({e}); Ctrl-C stops at once");
+    }
     let result = match cli.command {
-        Command::Simulate(a) => simulate::run(a),
-        Command::Plan(a) => plan::run(a),
-        Command::Track(a) => track::run(a),
-        Command::Traverse(a) => traverse::run(a),
-        Command::Reproduce(a) => reproduce::run(a),
+        Command::Simulate(a) => simulate::run(a, &cancel),
+        Command::Plan(a) => plan::run(a, &cancel),
+        Command::Track(a) => track::run(a, &cancel),
+        Command::Traverse(a) => traverse::run(a, &cancel),
+        Command::Reproduce(a) => reproduce::run(a, &cancel),
         Command::Report(a) => report::run(a),
     };
     match result {
@@ -91,6 +141,10 @@ fn main() -> ExitCode {
         Err(CliError::Io(msg)) => {
             eprintln!("error: {msg}");
             ExitCode::from(3)
+        }
+        Err(CliError::Interrupted(msg)) => {
+            eprintln!("error: {msg}");
+            ExitCode::from(EXIT_INTERRUPTED)
         }
     }
 }

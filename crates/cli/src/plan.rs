@@ -1,7 +1,7 @@
 //! `brachia plan`: plan the scenario's swing and write its run folder.
 
-use crate::CliError;
-use brachia_experiments::{check_out_dir, run_plan, Scenario, Uses};
+use crate::{check_cancel, exp_error, CliError};
+use brachia_experiments::{check_out_dir, run_plan, CancelToken, Scenario, Uses};
 use std::path::PathBuf;
 
 /// Largest open-loop replay error (EE distance to the bar, m) of a plan reported as a success; a larger
@@ -23,11 +23,12 @@ pub struct Args {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let ls = Scenario::load_for(&a.scenario, Uses::Plan)?;
     check_out_dir(&a.out, a.force)?;
     let run = run_plan(&ls)?;
-    run.folder.write(&a.out)?;
+    check_cancel(cancel, &a.out)?;
+    run.folder.write(&a.out).map_err(exp_error(&a.out))?;
     let p = &run.plan;
     eprintln!(
         "plan: {:?}; {}; energy {:.3} J; EE final error {:.2e} m; replay error {:.2e} m",

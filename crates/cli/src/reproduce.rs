@@ -1,8 +1,8 @@
 //! `brachia reproduce`: every experiment of the paper's Section V, figures, animations and a report.
 
-use crate::CliError;
-use brachia_experiments::reproduce::{reproduce, ReproduceOptions};
-use brachia_experiments::Progress;
+use crate::{exp_error, CliError};
+use brachia_experiments::reproduce::{reproduce_cancellable, ReproduceOptions};
+use brachia_experiments::{CancelToken, Progress};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -31,7 +31,7 @@ pub struct Args {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let opts = ReproduceOptions {
         scenarios: a.scenarios,
         quick: a.quick,
@@ -53,9 +53,9 @@ pub fn run(a: Args) -> Result<(), CliError> {
         bar.set_message(p.what);
         bar.set_position(bar.position().max(p.done));
     };
-    let rep = reproduce(&opts, &a.out, &show);
+    let rep = reproduce_cancellable(&opts, &a.out, &show, cancel);
     bar.finish_and_clear();
-    let rep = rep?;
+    let rep = rep.map_err(exp_error(&a.out))?;
     eprintln!(
         "reproduce: {} files in {} after {:.0} s; report {}",
         rep.files.len(),

@@ -1,12 +1,12 @@
 //! `brachia simulate`: the passive chain (zero torque) on the RK4 model plant, 1 ms rows.
 
 use crate::io::parse_list;
-use crate::CliError;
+use crate::{check_cancel, exp_error, CliError};
 use brachia::limits;
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
-use brachia_experiments::{check_out_dir, RunFolder};
+use brachia_experiments::{check_out_dir, CancelToken, RunFolder};
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -40,7 +40,7 @@ pub struct Args {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let robot = Robot::from_toml_file(&a.params)?;
     let n = robot.n;
     let q0 = parse_list("--q0", &a.q0, n)?;
@@ -107,6 +107,9 @@ pub fn run(a: Args) -> Result<(), CliError> {
     let mut x = vec![0.0; 2 * n];
     let tau = vec![0.0; n - 1];
     for k in 0..=steps {
+        if k % 1024 == 0 {
+            check_cancel(cancel, &a.out)?;
+        }
         plant.state(&mut x);
         if let Some(v) = x.iter().find(|v| !v.is_finite()) {
             return Err(CliError::Failed(format!(
@@ -142,6 +145,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
             "energy_drift_max_rel": if e0 != 0.0 { drift / e0.abs() } else { drift },
         }),
     );
-    out.write(&a.out)?;
+    check_cancel(cancel, &a.out)?;
+    out.write(&a.out).map_err(exp_error(&a.out))?;
     Ok(())
 }

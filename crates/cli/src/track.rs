@@ -1,9 +1,9 @@
 //! `brachia track`: plan (or read a plan) and track it in closed loop at 1 kHz.
 
-use crate::CliError;
+use crate::{check_cancel, exp_error, CliError};
 use brachia_experiments::{
-    check_out_dir, read_plan_folder, run_track, ControllerKind, PlantKind, RunFolder, Scenario,
-    TrackOutcome,
+    check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind, PlantKind, RunFolder,
+    Scenario, TrackOutcome,
 };
 use std::path::PathBuf;
 
@@ -45,7 +45,7 @@ enum PlantArg {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let ls = Scenario::load(&a.scenario)?;
     let controller = match a.controller {
         Some(ControllerArg::Mpc) => ControllerKind::Mpc,
@@ -63,9 +63,11 @@ pub fn run(a: Args) -> Result<(), CliError> {
         None => None,
     };
     check_out_dir(&a.out, a.force)?;
-    match run_track(&ls, controller, plant, reference)? {
+    let outcome = run_track(&ls, controller, plant, reference)?;
+    check_cancel(cancel, &a.out)?;
+    match outcome {
         TrackOutcome::Tracked(run) => {
-            run.folder.write(&a.out)?;
+            run.folder.write(&a.out).map_err(exp_error(&a.out))?;
             let s = &run.summary;
             eprintln!(
                 "track: EE final error {:.2e} m (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
@@ -89,7 +91,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
                     folder.add(&format!("plan/{name}"), data.to_vec());
                 }
             }
-            folder.write(&a.out)?;
+            folder.write(&a.out).map_err(exp_error(&a.out))?;
             Err(CliError::Failed(format!(
                 "the planner did not converge (status {:?}); nothing was tracked; the plan's report is in {}",
                 plan_run.plan.status,

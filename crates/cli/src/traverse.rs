@@ -1,8 +1,8 @@
 //! `brachia traverse`: plan and track a whole ladder traverse (grip switching at every bar) on the
 //! model plant, into a staged run folder (see `brachia_experiments::traverse`).
 
-use crate::CliError;
-use brachia_experiments::{check_out_dir, run_traverse, LadderScenario};
+use crate::{check_cancel, exp_error, CliError};
+use brachia_experiments::{check_out_dir, run_traverse_cancellable, CancelToken, LadderScenario};
 use std::path::PathBuf;
 
 /// Arguments of `brachia traverse`.
@@ -22,11 +22,13 @@ pub struct Args {
 
 /// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
 /// complete (its folder is still written), 3 on a write failure.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let ll = LadderScenario::load(&a.scenario)?;
     check_out_dir(&a.out, a.force)?;
-    let tr = run_traverse(&ll)?;
-    tr.folder(&ll)?.write(&a.out)?;
+    let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
+    let folder = tr.folder(&ll)?;
+    check_cancel(cancel, &a.out)?;
+    folder.write(&a.out).map_err(exp_error(&a.out))?;
     for s in &tr.swings {
         eprintln!(
             "traverse: swing {} (bar {} -> {}): energy {:.3} J, positive work {:.3} J, {:.3} s, \

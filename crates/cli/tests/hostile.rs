@@ -7,7 +7,16 @@
 //! `{S}` the case's scenario (a copy of `scenarios/tracking.toml` with the edits `S:old=>new`, `S+line`,
 //! or another base `S=path`), `{P}` its robot (a copy of `params/paper.toml` with `P:` / `P+` / `P=`
 //! edits), `{OUT}` an output folder in the case's temporary folder `{T}`, `{H}` the corpus folder, `{R}`
-//! the repository root. `pre:NAME` prepares the case (see `prepare`); `\n` in an edit is a newline.
+//! the repository root. `pre:NAME` prepares the case (see `prepare`); `\n` in an edit is a newline;
+//! `sigint:MS` sends SIGINT (Ctrl-C) after MS ms; `fsize:BLOCKS` runs under `ulimit -f BLOCKS`, so that
+//! writing the results fails (an I/O failure, exit 3).
+//!
+//! Bars (issue 11), measured per case from the child's own resource use (`wait4`): every refusal
+//! (exit 2) uses at most 1 s of CPU time and 200 MB of peak resident memory; every case ends within its
+//! time limit (10 s; 60 s for a case interrupted by SIGINT). The test prints the medians and maxima.
+
+// `wait4` (the child's peak RSS and CPU time) and `kill` (SIGINT) are libc calls; nothing else is unsafe.
+#![allow(unsafe_code)]
 
 mod common;
 
@@ -19,6 +28,13 @@ use std::time::{Duration, Instant};
 
 /// Time limit of one case (a refusal takes milliseconds; this only catches hangs).
 const CASE_LIMIT: Duration = Duration::from_secs(10);
+/// Time limit of a case interrupted by SIGINT (the work stops after its current unit).
+const INTERRUPT_LIMIT: Duration = Duration::from_secs(60);
+/// The bar of every refusal (exit 2): at most this much CPU time (user + system) of the child, s. CPU
+/// time rather than wall time, because the wall time of a loaded CI machine measures the machine.
+const REFUSAL_CPU_S: f64 = 1.0;
+/// The bar of every refusal: at most this peak resident memory of the child, MB.
+const REFUSAL_RSS_MB: f64 = 200.0;
 /// Virtual-memory cap of one case, kB (`ulimit -v`): allocation sized by unchecked input fails at once.
 const MEMORY_CAP_KB: u64 = 1_500_000;
 
@@ -191,9 +207,106 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
             )
             .unwrap();
         }
+        // a ladder of 17 bars (one more than the limit), 1 m apart
+        "seventeenbars" => {
+            let bars: Vec<String> = (0..17)
+                .map(|i| format!("{{ x = {i}.0, y = 0.0 }}"))
+                .collect();
+            let text = format!(
+                "params = {:?}\n[ladder]\nbars = [{}]\n",
+                env.p.display().to_string(),
+                bars.join(", ")
+            );
+            std::fs::write(&env.s, text).unwrap();
+        }
+        // a ladder of a million bars (over the 1 MB size cap of a scenario)
+        "millionbars" => {
+            let mut text = format!(
+                "params = {:?}\n[ladder]\nbars = [\n",
+                env.p.display().to_string()
+            );
+            for i in 0..1_000_000 {
+                text.push_str(&format!("{{ x = {i}.0, y = 0.0 }},\n"));
+            }
+            text.push_str("]\n");
+            std::fs::write(&env.s, text).unwrap();
+        }
+        "emptydir" => std::fs::create_dir_all(env.t.join("empty")).unwrap(),
+        // a symlink to itself
+        "symlinkloop" => {
+            std::os::unix::fs::symlink(env.t.join("loop"), env.t.join("loop")).unwrap()
+        }
+        // a reproduction folder whose summary.json is damaged, lacks a field, or is 1 GB (sparse)
+        "repcorrupt" | "repmissingfield" | "rephuge" => {
+            let d = env.t.join("rep");
+            file(
+                d.join(".brachia-run"),
+                b"# brachia run folder\nsummary.json\n",
+            );
+            match name {
+                "repcorrupt" => file(d.join("summary.json"), b"{\"mode\": \"quick\", \"wall"),
+                "repmissingfield" => file(d.join("summary.json"), b"{\"wall_time_s\": 1.0}\n"),
+                _ => sparse(&d.join("summary.json")),
+            }
+        }
+        // OUT is the folder of a previous brachia run, with one file of the user's own
+        "prevrun" => {
+            file(
+                env.out.join(".brachia-run"),
+                b"# brachia run folder\ntrajectory.csv\nreport.json\n",
+            );
+            file(env.out.join("trajectory.csv"), b"t,q1\n0,0\n");
+            file(env.out.join("report.json"), b"{\"previous\": true}\n");
+            file(env.out.join("notes.txt"), b"the user's own notes\n");
+        }
+        // {T}/run: a copy of the corpus' plan run folder with one file damaged: `run:FILE=HOW`
+        other if other.starts_with("run:") => {
+            let (f, how) = other["run:".len()..].split_once('=').expect("run:FILE=HOW");
+            let src = env.h.join("runs/plan");
+            let d = env.t.join("run");
+            for e in std::fs::read_dir(&src).unwrap().flatten() {
+                let name = e.file_name().to_string_lossy().to_string();
+                if name == f {
+                    continue;
+                }
+                file(d.join(&name), &std::fs::read(e.path()).unwrap());
+            }
+            let target = d.join(f);
+            let orig = std::fs::read_to_string(src.join(f)).unwrap_or_default();
+            match how {
+                "missing" => {}
+                "garbage" => file(target, b"\x01garbage, not what it should be {[\n"),
+                "1g" => sparse(&target),
+                "loop" => std::os::unix::fs::symlink(&target, &target).unwrap(),
+                "nan" => {
+                    // the third sample's q2 is NaN
+                    let mut lines: Vec<String> = orig.lines().map(String::from).collect();
+                    let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
+                    cells[2] = "nan".into();
+                    lines[3] = cells.join(",");
+                    file(target, (lines.join("\n") + "\n").as_bytes());
+                }
+                "nanmass" => {
+                    let i = orig.find("mass = ").expect("mass in params.toml") + "mass = ".len();
+                    let j = i + orig[i..].find('\n').unwrap_or(0);
+                    let text = format!("{}nan{}", &orig[..i], &orig[j..]);
+                    file(target, text.as_bytes());
+                }
+                other => panic!("unknown damage {other}"),
+            }
+        }
         other => panic!("unknown preparation {other}"),
     }
     keep
+}
+
+/// A sparse file of 1 GB (no disk used): it must be refused by its size, not read.
+fn sparse(path: &Path) {
+    if let Some(d) = path.parent() {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let f = std::fs::File::create(path).unwrap();
+    f.set_len(1 << 30).unwrap();
 }
 
 /// Names in `dir` that a run leaves behind when it is interrupted or fails half-way.
@@ -219,14 +332,51 @@ struct Outcome {
     code: Option<i32>,
     stderr: String,
     elapsed: Duration,
+    /// User plus system CPU time of the child (wait4's rusage), s.
+    cpu_s: f64,
+    /// Peak resident set of the child (wait4's rusage `ru_maxrss`), MB.
+    peak_rss_mb: f64,
     timed_out: bool,
 }
 
-fn run_limited(args: &[String], cwd: &Path) -> Outcome {
+/// Reap `pid` without blocking: `Some((exit code, rusage))` once it has exited. `wait4` rather than
+/// std's `Child::wait`, because it also returns the child's own resource use (peak RSS, CPU time).
+fn try_wait4(pid: i32) -> Option<(Option<i32>, libc::rusage)> {
+    let mut status: libc::c_int = 0;
+    // SAFETY: an all-zero rusage is a valid value of this plain C struct
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: `pid` is our own child, not yet reaped; both pointers are to live locals
+    let r = unsafe { libc::wait4(pid, &mut status, libc::WNOHANG, &mut usage) };
+    if r == pid {
+        let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
+        Some((code, usage))
+    } else {
+        None
+    }
+}
+
+/// Run brachia with `args` under the virtual-memory cap; `sigint_after` sends it SIGINT (as Ctrl-C
+/// does) after that long; `limit` is the hang limit.
+// the child is reaped by `try_wait4` (libc::wait4), which clippy cannot see
+#[allow(clippy::zombie_processes)]
+fn run_limited(
+    args: &[String],
+    cwd: &Path,
+    sigint_after: Option<Duration>,
+    fsize_blocks: Option<u64>,
+    limit: Duration,
+) -> Outcome {
     let start = Instant::now();
+    // a file-size limit (`ulimit -f`, 512-byte blocks) makes larger writes fail with EFBIG; SIGXFSZ is
+    // ignored so the write returns the error instead of killing the process
+    let fsize = fsize_blocks
+        .map(|b| format!("trap '' XFSZ; ulimit -f {b}; "))
+        .unwrap_or_default();
     let mut child = Command::new("sh")
         .arg("-c")
-        .arg(format!("ulimit -v {MEMORY_CAP_KB}; exec \"$0\" \"$@\""))
+        .arg(format!(
+            "ulimit -v {MEMORY_CAP_KB}; {fsize}exec \"$0\" \"$@\""
+        ))
         .arg(env!("CARGO_BIN_EXE_brachia"))
         .args(args)
         .current_dir(cwd)
@@ -235,6 +385,7 @@ fn run_limited(args: &[String], cwd: &Path) -> Outcome {
         .stderr(Stdio::piped())
         .spawn()
         .expect("spawn brachia");
+    let pid = child.id() as i32;
     let mut stderr = child.stderr.take().expect("stderr");
     let reader = std::thread::spawn(move || {
         let mut s = String::new();
@@ -242,27 +393,44 @@ fn run_limited(args: &[String], cwd: &Path) -> Outcome {
         s
     });
     let mut timed_out = false;
-    let status = loop {
-        if let Some(st) = child.try_wait().expect("wait") {
-            break st;
+    let mut signalled = false;
+    let (code, usage) = loop {
+        if let Some(done) = try_wait4(pid) {
+            break done;
         }
-        if start.elapsed() > CASE_LIMIT {
+        if let Some(after) = sigint_after {
+            if !signalled && start.elapsed() >= after {
+                // SAFETY: `pid` is our child and has not been reaped (try_wait4 said so)
+                unsafe { libc::kill(pid, libc::SIGINT) };
+                signalled = true;
+            }
+        }
+        if start.elapsed() > limit && !timed_out {
             let _ = child.kill();
             timed_out = true;
-            break child.wait().expect("wait");
         }
         std::thread::sleep(Duration::from_millis(2));
     };
     let elapsed = start.elapsed();
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     Outcome {
-        code: status.code(),
+        code,
         stderr: reader.join().unwrap_or_default(),
         elapsed,
+        cpu_s: secs(usage.ru_utime) + secs(usage.ru_stime),
+        peak_rss_mb: usage.ru_maxrss as f64 / 1024.0,
         timed_out,
     }
 }
 
-fn run_case(case: &Case, h: &Path) -> Result<Duration, String> {
+/// What one case measured.
+struct Measured {
+    elapsed: Duration,
+    cpu_s: f64,
+    peak_rss_mb: f64,
+}
+
+fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
     let tmp = tempfile::tempdir().unwrap();
     let t = tmp.path().to_path_buf();
     let env = Env {
@@ -276,8 +444,15 @@ fn run_case(case: &Case, h: &Path) -> Result<Duration, String> {
     let mut scen = std::fs::read_to_string(env.r.join("scenarios/tracking.toml")).unwrap();
     let mut params = std::fs::read_to_string(env.r.join("params/paper.toml")).unwrap();
     let mut pres = Vec::new();
+    let mut sigint_after = None;
+    let mut fsize = None;
     for e in &case.edits {
-        if let Some(rest) = e.strip_prefix("S=") {
+        if let Some(b) = e.strip_prefix("fsize:") {
+            fsize = Some(b.parse().expect("fsize:BLOCKS"));
+        } else if let Some(ms) = e.strip_prefix("sigint:") {
+            let ms: u64 = ms.parse().expect("sigint:MS");
+            sigint_after = Some(Duration::from_millis(ms));
+        } else if let Some(rest) = e.strip_prefix("S=") {
             scen = std::fs::read_to_string(env.subst(rest)).unwrap();
         } else if let Some(rest) = e.strip_prefix("P=") {
             params = std::fs::read_to_string(env.subst(rest)).unwrap();
@@ -303,7 +478,12 @@ fn run_case(case: &Case, h: &Path) -> Result<Duration, String> {
     }
     let out_existed = env.out.exists();
     let args: Vec<String> = case.cmd.split_whitespace().map(|a| env.subst(a)).collect();
-    let o = run_limited(&args, &env.r);
+    let limit = if sigint_after.is_some() {
+        INTERRUPT_LIMIT
+    } else {
+        CASE_LIMIT
+    };
+    let o = run_limited(&args, &env.r, sigint_after, fsize, limit);
     let err = &o.stderr;
     let fail = |why: String| {
         Err(format!(
@@ -312,7 +492,7 @@ fn run_case(case: &Case, h: &Path) -> Result<Duration, String> {
         ))
     };
     if o.timed_out {
-        return fail(format!("no answer within {CASE_LIMIT:?} (a hang)"));
+        return fail(format!("no answer within {limit:?} (a hang)"));
     }
     for bad in [
         "panicked",
@@ -352,7 +532,26 @@ fn run_case(case: &Case, h: &Path) -> Result<Duration, String> {
     if !left.is_empty() {
         return fail(format!("left behind: {left:?}"));
     }
-    Ok(o.elapsed)
+    // the bars of a refusal (issue 11): CPU time and peak memory of the child itself
+    if case.exit == 2 {
+        if o.cpu_s > REFUSAL_CPU_S {
+            return fail(format!(
+                "the refusal took {:.3} s of CPU time (more than {REFUSAL_CPU_S} s)",
+                o.cpu_s
+            ));
+        }
+        if o.peak_rss_mb > REFUSAL_RSS_MB {
+            return fail(format!(
+                "the refusal peaked at {:.1} MB resident (more than {REFUSAL_RSS_MB} MB)",
+                o.peak_rss_mb
+            ));
+        }
+    }
+    Ok(Measured {
+        elapsed: o.elapsed,
+        cpu_s: o.cpu_s,
+        peak_rss_mb: o.peak_rss_mb,
+    })
 }
 
 #[test]
@@ -367,43 +566,76 @@ fn every_hostile_input_is_refused_fast_and_cleanly() {
     for c in &cases {
         assert!(ids.insert(c.id.clone()), "duplicate case id {}", c.id);
     }
-    // two workers: the cases are independent
-    let chunks: Vec<Vec<&Case>> = (0..2)
-        .map(|w| cases.iter().skip(w).step_by(2).collect())
-        .collect();
-    let results: Vec<(String, Result<Duration, String>)> = std::thread::scope(|s| {
-        let hs: Vec<_> = chunks
-            .iter()
-            .map(|chunk| {
-                let h = &h;
+    // two workers pull cases from a shared queue: the cases are independent
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let wall = Instant::now();
+    let mut results: Vec<(usize, Result<Measured, String>)> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..2)
+            .map(|_| {
+                let (h, next, cases) = (&h, &next, &cases);
                 s.spawn(move || {
-                    chunk
-                        .iter()
-                        .map(|c| (c.id.clone(), run_case(c, h)))
-                        .collect::<Vec<_>>()
+                    let mut out = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(c) = cases.get(i) else { break };
+                        out.push((i, run_case(c, h)));
+                    }
+                    out
                 })
             })
             .collect();
         hs.into_iter().flat_map(|j| j.join().unwrap()).collect()
     });
+    results.sort_by_key(|r| r.0);
+    let results: Vec<(String, Result<Measured, String>)> = results
+        .into_iter()
+        .map(|(i, r)| (cases[i].id.clone(), r))
+        .collect();
     let failures: Vec<String> = results
         .iter()
         .filter_map(|(id, r)| r.as_ref().err().map(|e| format!("case {id}: {e}")))
         .collect();
-    let slowest = results
+    // the statistics of the refusals (exit 2); the write-failure and Ctrl-C cases do real work
+    let refusals: std::collections::HashSet<&str> = cases
         .iter()
-        .filter_map(|(id, r)| r.as_ref().ok().map(|d| (*d, id.clone())))
-        .max();
+        .filter(|c| c.exit == 2)
+        .map(|c| c.id.as_str())
+        .collect();
+    let ok: Vec<(&String, &Measured)> = results
+        .iter()
+        .filter(|(id, _)| refusals.contains(id.as_str()))
+        .filter_map(|(id, r)| r.as_ref().ok().map(|m| (id, m)))
+        .collect();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    let max_by = |f: &dyn Fn(&Measured) -> f64| {
+        ok.iter()
+            .map(|(id, m)| (f(m), (*id).clone()))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap_or_default()
+    };
+    let (cpu_max, cpu_id) = max_by(&|m| m.cpu_s);
+    let (rss_max, rss_id) = max_by(&|m| m.peak_rss_mb);
+    let (wall_max, wall_id) = max_by(&|m| m.elapsed.as_secs_f64());
+    eprintln!(
+        "hostile corpus: {} cases ({} refusals) in {:.1} s (2 workers); per refusal: wall median \
+         {:.3} s, max {:.3} s ({wall_id}); CPU median {:.3} s, max {cpu_max:.3} s ({cpu_id}); peak RSS \
+         median {:.1} MB, max {rss_max:.1} MB ({rss_id})",
+        cases.len(),
+        refusals.len(),
+        wall.elapsed().as_secs_f64(),
+        median(ok.iter().map(|(_, m)| m.elapsed.as_secs_f64()).collect()),
+        wall_max,
+        median(ok.iter().map(|(_, m)| m.cpu_s).collect()),
+        median(ok.iter().map(|(_, m)| m.peak_rss_mb).collect()),
+    );
     assert!(
         failures.is_empty(),
         "{} of {} hostile cases failed:\n{}",
         failures.len(),
         cases.len(),
         failures.join("\n")
-    );
-    let (d, id) = slowest.unwrap();
-    assert!(
-        d < Duration::from_secs(3),
-        "slowest refusal: {id} took {d:?}"
     );
 }

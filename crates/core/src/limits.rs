@@ -76,8 +76,9 @@ pub const MAX_ANGLE_RAD: f64 = 4.0 * std::f64::consts::PI;
 /// Largest absolute joint velocity of a start state, rad/s.
 pub const MAX_RATE_RAD_S: f64 = 1000.0;
 
-/// Read a text file of at most `cap` bytes; a larger file (or an endless one such as `/dev/zero`) is
-/// refused after reading `cap + 1` bytes. `what` names the kind of file in the message.
+/// Read a text file of at most `cap` bytes; a larger regular file is refused by its size before anything
+/// is read, and an endless one (such as `/dev/zero`) after reading `cap + 1` bytes. `what` names the kind
+/// of file in the message.
 pub fn read_text_capped(path: &Path, cap: u64, what: &str) -> Result<String> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
@@ -91,16 +92,24 @@ pub fn read_text_capped(path: &Path, cap: u64, what: &str) -> Result<String> {
             "must be a file",
         ));
     }
+    let too_big = |size: String| {
+        Error::invalid(
+            path.display().to_string(),
+            what,
+            size,
+            format!("a {what} may have at most {cap} bytes (brachia::limits)"),
+        )
+    };
     let f = std::fs::File::open(path).map_err(io)?;
+    if let Ok(m) = f.metadata() {
+        if m.is_file() && m.len() > cap {
+            return Err(too_big(format!("{} bytes", m.len())));
+        }
+    }
     let mut buf = Vec::new();
     f.take(cap + 1).read_to_end(&mut buf).map_err(io)?;
     if buf.len() as u64 > cap {
-        return Err(Error::invalid(
-            path.display().to_string(),
-            what,
-            format!("more than {cap} bytes"),
-            format!("a {what} may have at most {cap} bytes (brachia::limits)"),
-        ));
+        return Err(too_big(format!("more than {cap} bytes")));
     }
     String::from_utf8(buf).map_err(|e| {
         Error::invalid(

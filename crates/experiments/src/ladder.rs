@@ -45,14 +45,42 @@ pub const MAX_SPACING_OF_SPAN: f64 = 0.95;
 /// [`brachia::limits::MAX_RUN_STEPS`] control steps).
 pub const MAX_BARS: usize = 16;
 
-/// One bar, world frame, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One bar, world frame, m. Written `{ x = 1.0, y = 0.0 }`, or `[1.0, 0.0]` with exactly two values (a
+/// third value is an error, not dropped).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Bar {
     /// x, m.
     pub x: f64,
     /// y, m.
     pub y: f64,
+}
+
+impl<'de> Deserialize<'de> for Bar {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Xy {
+            x: f64,
+            y: f64,
+        }
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Bar;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a bar { x = .., y = .. } or [x, y]")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Bar, A::Error> {
+                let xy = Xy::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(Bar { x: xy.x, y: xy.y })
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<Bar, A::Error> {
+                let [x, y] =
+                    brachia::serde_exact::pair(serde::de::value::SeqAccessDeserializer::new(seq))?;
+                Ok(Bar { x, y })
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 impl Bar {

@@ -21,19 +21,20 @@ pub mod traverse;
 
 pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{
-    parameter_study_folder, run_parameter_study, scaled_params, start_pose, BaseParams, CellStart,
-    ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
+    parameter_study_folder, run_parameter_study, run_parameter_study_cancellable, scaled_params,
+    start_pose, BaseParams, CellStart, ParameterStudy, ParameterStudySettings, StickDiagram,
+    StudyCell, StudyRow,
 };
 pub use plan_run::solver_work_text;
 pub use plan_run::{plan_report, run_plan, PlanReport, PlanRun, PARAMS_FILE};
-pub use progress::{no_progress, Progress, ProgressFn};
+pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };
-pub use traverse::{run_traverse, SwingRecord, Traverse, TraverseStatus};
+pub use traverse::{run_traverse, run_traverse_cancellable, SwingRecord, Traverse, TraverseStatus};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]
@@ -51,6 +52,10 @@ pub enum ExpError {
         /// Why it cannot be used.
         reason: String,
     },
+    /// The work was cancelled ([`CancelToken`], e.g. Ctrl-C) before it finished: nothing was written,
+    /// the previous results are as they were.
+    #[error("interrupted: nothing was written; the previous results are as they were")]
+    Cancelled,
     /// Writing the run folder failed.
     #[error("{path}: {source}")]
     Write {

@@ -26,9 +26,10 @@
 //!
 //! Units: m, kg, kg m^2, s, rad, N m, J.
 
-use crate::progress::{Progress, ProgressFn};
+use crate::progress::{CancelToken, Progress, ProgressFn};
 use crate::run_folder::RunFolder;
 use crate::scenario::{in_section, parse_toml, read_text};
+use crate::ExpError;
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{
     freefall_time, plan_with_guess, NlpSettings, PlannerSettings, SolveStatus, SwingTask, SwingTime,
@@ -81,7 +82,9 @@ impl BaseParams {
                 src,
                 "links",
                 format!("{} links", p.links.len()),
-                "the parameter study scales a 4-link robot (two arms of two links)",
+                "the parameter study needs a 4-link robot: it varies r2 = L1 / (L1 + L2) of two \
+                 arms of two links each (docs/parameter-study.md); plan, track and simulate take any \
+                 2..=12 links",
             ));
         }
         Ok(p)
@@ -574,11 +577,16 @@ fn run_row(
     settings: &ParameterStudySettings,
     keep_centre: bool,
     tick: &(dyn Fn() + Sync),
+    stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<RowResult, Error> {
     let offs = &settings.offsets_s;
     let c = centre_index(offs);
     let mut cells: Vec<Option<StudyCell>> = vec![None; offs.len()];
     let solve = |j: usize, guess: Option<&Trajectory>| {
+        // once cancelled, the remaining cells are skipped (the whole study is then discarded)
+        if stop() {
+            return Err(Error::InfeasibleTask("cancelled".into()));
+        }
         let r = solve_cell(setup, task, settings, setup.t_nominal + offs[j], guess);
         tick();
         r
@@ -684,6 +692,30 @@ pub fn run_parameter_study(
     settings: &ParameterStudySettings,
     progress: ProgressFn<'_>,
 ) -> Result<ParameterStudy, Error> {
+    let never = || false;
+    // `never` is never set, so the study always finishes
+    study(settings, progress, &never)?
+        .ok_or_else(|| Error::InfeasibleTask("the parameter study was cancelled".into()))
+}
+
+/// [`run_parameter_study`] that can be cancelled: `cancel` is checked before every solve; once it is
+/// set the remaining cells are skipped and the study ends with [`ExpError::Cancelled`] (nothing of it
+/// is returned). A solve already running finishes first.
+pub fn run_parameter_study_cancellable(
+    settings: &ParameterStudySettings,
+    progress: ProgressFn<'_>,
+    cancel: &CancelToken,
+) -> Result<ParameterStudy, ExpError> {
+    let stop = || cancel.is_cancelled();
+    study(settings, progress, &stop)?.ok_or(ExpError::Cancelled)
+}
+
+/// The study; `None` when `stop` said so before it finished.
+fn study(
+    settings: &ParameterStudySettings,
+    progress: ProgressFn<'_>,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Result<Option<ParameterStudy>, Error> {
     let wall = Instant::now();
     settings.validate()?;
     let base = settings.base_params.load()?;
@@ -740,9 +772,12 @@ pub fn run_parameter_study(
         .with_max_len(1)
         .map(|&i| {
             let s = &setups[i];
-            run_row(s, &task, settings, wants_stick(s.r2), &tick).map(|r| (i, r))
+            run_row(s, &task, settings, wants_stick(s.r2), &tick, stop).map(|r| (i, r))
         })
         .collect::<Result<_, _>>()?;
+    if stop() {
+        return Ok(None);
+    }
     let mut rows: Vec<Option<RowResult>> = (0..setups.len()).map(|_| None).collect();
     for (i, r) in solved {
         rows[i] = Some(r);
@@ -751,6 +786,9 @@ pub fn run_parameter_study(
     let extra_sticks: Vec<StickDiagram> = extra
         .par_iter()
         .filter_map(|s| {
+            if stop() {
+                return None;
+            }
             let solved = solve_cell(s, &task, settings, s.t_nominal, None);
             tick();
             let (p, _, _, _) = solved.ok()?;
@@ -787,7 +825,10 @@ pub fn run_parameter_study(
             }
         }
     }
-    Ok(ParameterStudy {
+    if stop() {
+        return Ok(None);
+    }
+    Ok(Some(ParameterStudy {
         settings: settings.clone(),
         base,
         start_q,
@@ -795,7 +836,7 @@ pub fn run_parameter_study(
         cells,
         sticks,
         wall_time_s: wall.elapsed().as_secs_f64(),
-    })
+    }))
 }
 
 /// The snake_case name of a status (`solved`, `max_iterations`, `evaluation_error`, ...).

@@ -213,6 +213,24 @@ fn widen_q1(sc: &mut crate::scenario::Scenario) {
 /// Run the traverse of `ll` on the model plant. Errors only on bad input found at run time that no
 /// status describes; planning failures, refused start states and missed captures are statuses.
 pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
+    let never = || false;
+    // `never` is never set, so the traverse always finishes
+    traverse(ll, &never)?.ok_or_else(|| Error::InfeasibleTask("the traverse was cancelled".into()))
+}
+
+/// [`run_traverse`] that can be cancelled: `cancel` is checked before every swing (a swing already
+/// planning or tracking finishes first); once it is set the traverse ends with
+/// [`crate::ExpError::Cancelled`] and nothing of it is returned.
+pub fn run_traverse_cancellable(
+    ll: &LoadedLadder,
+    cancel: &crate::CancelToken,
+) -> Result<Traverse, crate::ExpError> {
+    let stop = || cancel.is_cancelled();
+    traverse(ll, &stop)?.ok_or(crate::ExpError::Cancelled)
+}
+
+/// The traverse; `None` when `stop` said so before it finished.
+fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
     let sc = &ll.scenario;
     let bars = &sc.ladder.bars;
     let n = ll.robot.n;
@@ -225,6 +243,9 @@ pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
     let mut logs = Vec::new();
     let mut status = TraverseStatus::Completed;
     for k in 0..bars.len() - 1 {
+        if stop() {
+            return Ok(None);
+        }
         let robot = &chains[k % 2];
         let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
         if k > 0 {
@@ -352,12 +373,15 @@ pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
         swings.push(rec);
         t_start += duration;
     }
-    Ok(Traverse {
+    if stop() {
+        return Ok(None);
+    }
+    Ok(Some(Traverse {
         status,
         swings,
         logs,
         chains,
-    })
+    }))
 }
 
 impl Traverse {

@@ -4,8 +4,8 @@
 use brachia::model::{Robot, RobotParams};
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SolveStatus};
 use brachia_experiments::{
-    no_progress, parameter_study_folder, run_parameter_study, scaled_params, start_pose,
-    BaseParams, ParameterStudySettings, Progress,
+    no_progress, parameter_study_folder, run_parameter_study, run_parameter_study_cancellable,
+    scaled_params, start_pose, BaseParams, CancelToken, ExpError, ParameterStudySettings, Progress,
 };
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -330,6 +330,94 @@ fn bad_settings_name_the_field() {
         ..quick(vec![0.5], vec![0.0])
     };
     assert!(run_parameter_study(&s, &no_progress).is_err());
+}
+
+#[test]
+fn a_cancelled_study_stops_between_solves_and_returns_nothing() {
+    // issue 11: a cancel flag set from the progress callback after the first solve; the rest of the
+    // grid (3 x 2 cells, one row per worker) is skipped, the study ends with Cancelled
+    let s = quick(vec![0.3, 0.5, 0.7], vec![0.0, 0.2]);
+    let cancel = CancelToken::new();
+    let solves = std::sync::atomic::AtomicU64::new(0);
+    let stop_after_first = |_: Progress| {
+        solves.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        cancel.cancel();
+    };
+    let r = run_parameter_study_cancellable(&s, &stop_after_first, &cancel);
+    assert!(matches!(r, Err(ExpError::Cancelled)), "{r:?}");
+    let n = solves.into_inner();
+    // each worker finishes the solve it had started, then stops
+    assert!((1..6).contains(&n), "{n} of 6 solves ran");
+    // a flag set before the start: nothing is solved at all
+    let cancel = CancelToken::new();
+    cancel.cancel();
+    let heard = std::sync::atomic::AtomicU64::new(0);
+    let count = |_: Progress| {
+        heard.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    };
+    let r = run_parameter_study_cancellable(&s, &count, &cancel);
+    assert!(matches!(r, Err(ExpError::Cancelled)), "{r:?}");
+    assert_eq!(heard.into_inner(), 0);
+}
+
+#[test]
+fn a_cancelled_reproduction_writes_nothing() {
+    // the flag is set before the start: the scenarios load, the output place is checked, then the run
+    // stops; neither the output folder nor its staging folder is left behind, a previous run's files
+    // are untouched
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(
+        out.join(brachia_experiments::MANIFEST),
+        "# brachia run folder\nold.txt\n",
+    )
+    .unwrap();
+    std::fs::write(out.join("old.txt"), "previous results").unwrap();
+    let opts = brachia_experiments::reproduce::ReproduceOptions {
+        scenarios: root.join("scenarios"),
+        quick: true,
+        ..Default::default()
+    };
+    let cancel = CancelToken::new();
+    cancel.cancel();
+    let r =
+        brachia_experiments::reproduce::reproduce_cancellable(&opts, &out, &no_progress, &cancel);
+    assert!(matches!(r, Err(ExpError::Cancelled)), "{:?}", r.err());
+    assert_eq!(
+        std::fs::read_to_string(out.join("old.txt")).unwrap(),
+        "previous results"
+    );
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().to_string())
+        .collect();
+    assert_eq!(names, vec!["rep".to_string()]);
+}
+
+#[test]
+fn a_base_robot_without_two_two_link_arms_is_refused_before_solving() {
+    // issue 11: the study's scaling rule is defined for two arms of two links; a 3- or 6-link base is
+    // refused with the rule, naming the file, before anything is solved
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    for (file, n) in [("params/three-link.toml", 3), ("params/six-link.toml", 6)] {
+        let path = root.join(file);
+        let s = ParameterStudySettings {
+            base_params: BaseParams::File(path.clone()),
+            ..quick(vec![0.5], vec![0.0])
+        };
+        let e = run_parameter_study(&s, &no_progress)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&path.display().to_string())
+                && e.contains(&format!("{n} links"))
+                && e.contains("needs a 4-link robot"),
+            "{e}"
+        );
+    }
 }
 
 #[test]

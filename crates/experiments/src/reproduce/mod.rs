@@ -19,7 +19,7 @@ mod report;
 mod study;
 
 use crate::plan_run::{run_plan, PlanRun};
-use crate::progress::ProgressFn;
+use crate::progress::{CancelToken, ProgressFn};
 use crate::read::{PlanFolder, TrackFolder};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
 use crate::track_run::{run_track, track_plan, TrackOutcome, TrackRun};
@@ -188,6 +188,7 @@ fn write(folder: &crate::RunFolder, dir: &Path, files: &mut Vec<PathBuf>) -> Res
 fn plan_and_track(
     ls: &LoadedScenario,
     runs: &[(ControllerKind, PlantKind)],
+    cancel: &CancelToken,
 ) -> Result<Result<Vec<TrackRun>, Box<PlanRun>>, ExpError> {
     let first = match run_track(ls, runs[0].0, runs[0].1, None)?.into_tracked() {
         Ok(r) => r,
@@ -195,6 +196,7 @@ fn plan_and_track(
     };
     let mut out = Vec::with_capacity(runs.len());
     for &(c, p) in &runs[1..] {
+        cancel.check()?;
         let (r, rep) = (first.reference.clone(), first.plan_report.clone());
         out.push(track_plan(ls, c, p, None, r, rep)?);
     }
@@ -210,6 +212,19 @@ pub fn reproduce(
     opts: &ReproduceOptions,
     out: &Path,
     progress: ProgressFn<'_>,
+) -> Result<Reproduction, ExpError> {
+    reproduce_cancellable(opts, out, progress, &CancelToken::new())
+}
+
+/// [`reproduce`] that can be cancelled: `cancel` is checked between the experiments and before every
+/// parameter-study solve. Once it is set the run stops with [`ExpError::Cancelled`]: the staging folder
+/// is removed, nothing is renamed into place, `out` (and the results page) stay as they were. A solve
+/// or closed loop already running finishes first.
+pub fn reproduce_cancellable(
+    opts: &ReproduceOptions,
+    out: &Path,
+    progress: ProgressFn<'_>,
+    cancel: &CancelToken,
 ) -> Result<Reproduction, ExpError> {
     let start = Instant::now();
     // load every scenario first: bad input stops the run before anything is computed or written
@@ -231,6 +246,7 @@ pub fn reproduce(
     let out = stage.as_path();
     let mut failures = Vec::new();
     let mut files = Vec::new();
+    cancel.check()?;
 
     // V-B: tracking, MPC on the physics engine and on the model
     match plan_and_track(
@@ -239,6 +255,7 @@ pub fn reproduce(
             (ControllerKind::Mpc, PlantKind::Rapier),
             (ControllerKind::Mpc, PlantKind::Model),
         ],
+        cancel,
     )? {
         Ok(runs) => {
             write(&runs[0].folder, &out.join("tracking"), &mut files)?;
@@ -253,8 +270,11 @@ pub fn reproduce(
         }
     }
 
+    cancel.check()?;
+
     // V-C: obstacle avoidance, with and without
     let avoid = run_plan(&ls_avoid)?;
+    cancel.check()?;
     let ignored = run_plan(&ls_ignored)?;
     write(&avoid.folder, &out.join("obstacle/avoid"), &mut files)?;
     write(&ignored.folder, &out.join("obstacle/ignored"), &mut files)?;
@@ -270,6 +290,8 @@ pub fn reproduce(
         }
     }
 
+    cancel.check()?;
+
     // V-D: robustness, a ball on the path, MPC and the baselines on the physics engine
     match plan_and_track(
         &ls_robust,
@@ -278,6 +300,7 @@ pub fn reproduce(
             (ControllerKind::Pd, PlantKind::Rapier),
             (ControllerKind::OpenLoop, PlantKind::Rapier),
         ],
+        cancel,
     )? {
         Ok(runs) => {
             for r in &runs {
@@ -287,6 +310,7 @@ pub fn reproduce(
                     &mut files,
                 )?;
             }
+            cancel.check()?;
             match run_track(
                 &ls_robust_paper,
                 ControllerKind::Mpc,
@@ -314,8 +338,11 @@ pub fn reproduce(
         }
     }
 
+    cancel.check()?;
+
     // V-A: the parameter study (the longest part)
-    let st = crate::parameter_study::run_parameter_study(&study_settings, progress)?;
+    let st =
+        crate::parameter_study::run_parameter_study_cancellable(&study_settings, progress, cancel)?;
     write(
         &crate::parameter_study::parameter_study_folder(&st),
         &out.join("parameter-study"),
@@ -355,6 +382,7 @@ pub fn reproduce(
     top.add("REPORT.md", md);
     top.write_into(out)?;
     files.extend(top.names().map(|n| out.join(n)));
+    cancel.check()?;
     crate::run_folder::install(out, final_out)?;
     let files: Vec<PathBuf> = files
         .iter()
