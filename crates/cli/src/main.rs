@@ -4,6 +4,7 @@
 //! did not converge: its report is still written); 2 bad input, refused before any work (nothing is
 //! written); 3 an I/O failure after the inputs were accepted (a file could not be written).
 
+mod benchmark;
 mod io;
 mod plan;
 mod report;
@@ -35,6 +36,8 @@ enum Command {
     Traverse(traverse::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),
+    /// The robustness benchmark: every controller under every disturbance, swept and mixed.
+    Benchmark(benchmark::Args),
     /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
     /// planning, no simulation).
     Report(report::Args),
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
         Command::Traverse(a) => traverse::run(a),
         Command::Reproduce(a) => reproduce::run(a),
         Command::Report(a) => report::run(a),
+        Command::Benchmark(a) => benchmark::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
