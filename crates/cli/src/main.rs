@@ -5,6 +5,7 @@
 //! written); 3 an I/O failure after the inputs were accepted (a file could not be written); 130 stopped
 //! by Ctrl-C (SIGINT): nothing was written, the previous results are as they were.
 
+mod benchmark;
 mod io;
 mod plan;
 mod report;
@@ -37,6 +38,8 @@ enum Command {
     Traverse(traverse::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),
+    /// The robustness benchmark: every controller under every disturbance, swept and mixed.
+    Benchmark(benchmark::Args),
     /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
     /// planning, no simulation).
     Report(report::Args),
@@ -127,6 +130,7 @@ fn main() -> ExitCode {
         Command::Traverse(a) => traverse::run(a, &cancel),
         Command::Reproduce(a) => reproduce::run(a, &cancel),
         Command::Report(a) => report::run(a),
+        Command::Benchmark(a) => benchmark::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

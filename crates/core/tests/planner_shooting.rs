@@ -64,10 +64,26 @@ fn ocp_backend_plans_the_tracking_swing_and_its_torques_reach_the_bar() {
     assert!((tr.t[1] - tr.t[0] - 1e-3).abs() < 1e-12);
     assert_eq!(*tr.t.last().unwrap(), p.swing_time_s);
     let h = p.layout.h;
-    for j in (0..tr.len() - 1).step_by(37) {
-        let k = ((tr.t[j] / h).floor() as usize).min(k_last - 1);
-        assert_eq!(tr.tau(j), p.points.tau(k), "sample {j} at {}", tr.t[j]);
+    // sample j holds the mean of the held torques over its period [t_j, t_j+1) (docs/conventions.md)
+    let mut straddling = 0;
+    for j in 0..tr.len() - 1 {
+        let (t0, t1) = (tr.t[j], tr.t[j + 1]);
+        let (ka, kb) = (
+            ((t0 / h).floor() as usize).min(k_last - 1),
+            ((t1 / h).floor() as usize).min(k_last - 1),
+        );
+        for i in 0..3 {
+            let want = if ka == kb {
+                p.points.tau(ka)[i]
+            } else {
+                straddling += 1;
+                let tk = kb as f64 * h;
+                ((tk - t0) * p.points.tau(ka)[i] + (t1 - tk) * p.points.tau(kb)[i]) / (t1 - t0)
+            };
+            assert!((tr.tau(j)[i] - want).abs() < 1e-9, "sample {j} at {t0}");
+        }
     }
+    assert!(straddling > 0);
     // it passes through the knots it starts from and ends at the final knot (to integration error)
     let last = tr.len() - 1;
     for i in 0..4 {

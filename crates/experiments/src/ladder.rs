@@ -409,5 +409,6 @@ pub fn swing_scenario(
         solver: sc.solver.clone(),
         tracking: sc.tracking.clone(),
         plant: sc.plant.clone(),
+        disturbances: Default::default(),
     }
 }

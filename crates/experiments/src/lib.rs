@@ -8,6 +8,7 @@
 //! Conventions as in `brachia`: SI units; q1 absolute from +x, q2..qn relative; `x = [q, qd]`; torques of
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
+pub mod benchmark;
 pub mod ladder;
 pub mod parameter_study;
 pub mod plan_run;
@@ -19,6 +20,9 @@ pub mod scenario;
 pub mod track_run;
 pub mod traverse;
 
+pub use benchmark::{
+    run_benchmark, run_benchmark_on, Benchmark, BenchmarkOutcome, BenchmarkSettings,
+};
 pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{
     parameter_study_folder, run_parameter_study, run_parameter_study_cancellable, scaled_params,

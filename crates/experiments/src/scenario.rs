@@ -24,11 +24,17 @@
 //! substeps = 1
 //! # in the plant only (the planner never sees them): free balls and fixed circles
 //! obstacles = [{ kind = "ball", center = [0.02, -0.44], radius = 0.05, mass = 0.4, restitution = 0.3, gravity = false }]
+//! [disturbances]                        # see brachia::sim::Disturbances and docs/robustness.md
+//! mass_scale = [1.1, 0.9, 1.0, 1.0]     # per-link factors (also com_scale, inertia_scale, length_scale)
+//! actuation_delay_s = 0.005             # also measurement_delay_s
+//! motor_time_constant_s = 0.01
+//! pushes = [{ t_s = 0.5, link = 4, point_m = 0.3, impulse_n_s = [0.0, 0.2] }]
 //! ```
 
 use brachia::control::{MpcSettings, PdSettings, ReplanSettings};
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
+use brachia::sim::Disturbances;
 use brachia::{Error, Robot};
 use brachia_rapier::{Obstacle, RapierSettings};
 use serde::{Deserialize, Serialize};
@@ -57,6 +63,9 @@ pub struct Scenario {
     /// The plant the controller runs against.
     #[serde(default)]
     pub plant: PlantSettings,
+    /// What differs between the planner's world and the plant's (docs/robustness.md).
+    #[serde(default)]
+    pub disturbances: Disturbances,
 }
 
 /// Which controller tracks the plan.
@@ -430,6 +439,22 @@ impl LoadedScenario {
         for (i, o) in pl.obstacles.iter().enumerate() {
             o.validate(&src, i).map_err(|e| rename(e, "plant"))?;
         }
+        let d = &sc.disturbances;
+        d.validate(n, t.control_dt, &src)
+            .map_err(|e| rename(e, "disturbances"))?;
+        if (d.noise_q_std > 0.0 || d.noise_qd_std > 0.0)
+            && (t.noise_q_std > 0.0 || t.noise_qd_std > 0.0)
+        {
+            return Err(Error::invalid(
+                &src,
+                "disturbances.noise_q_std",
+                d.noise_q_std,
+                "sensor noise is given twice: use [disturbances] noise_q_std / noise_qd_std or \
+                 [tracking] noise_q_std / noise_qd_std, not both",
+            ));
+        }
+        let params = d.plant_params(&self.robot.params.clone().with_mass_scale(pl.mass_scale));
+        Robot::from_params(params, &src).map_err(|e| rename(e, "disturbances"))?;
         Ok(())
     }
 }

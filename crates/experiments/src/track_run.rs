@@ -13,8 +13,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
 use brachia::control::{Mpc, OpenLoop, Pd, ReplanEvent, Replanning};
 use brachia::sim::{
-    run_closed_loop, ClosedLoopLog, Controller, ModelPlant, NoiseSettings, Noisy, Plant,
-    RunSettings, RunSummary,
+    run_closed_loop, ClosedLoopLog, Controller, Disturbances, ModelPlant, NoiseSettings, Noisy,
+    Plant, RunSettings, RunSummary,
 };
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
@@ -50,6 +50,9 @@ pub struct TrackReport {
     pub contact_events: usize,
     /// Sum of the contact impulses, N s.
     pub contact_impulse_n_s: f64,
+    /// The scenario's `[disturbances]` (all defaults when it has none).
+    #[serde(default)]
+    pub disturbances: Disturbances,
     /// The tracked plan's report.
     pub plan: PlanReport,
     /// Online re-planning (`[tracking] replan`): whether it ran, and every re-plan (trigger time,
@@ -161,14 +164,16 @@ pub fn make_controller(
     })
 }
 
-/// The plant's robot: the planner's robot with the scenario's mass mismatch.
+/// The plant's robot: the planner's robot with the scenario's mass mismatch (`[plant] mass_scale`, then
+/// the per-link factors of `[disturbances]`).
 pub fn plant_robot(ls: &LoadedScenario) -> Result<Robot, Error> {
     let p = ls
         .robot
         .params
         .clone()
         .with_mass_scale(ls.scenario.plant.mass_scale);
-    Robot::from_params(p, "plant (scenario [plant])")
+    let p = ls.scenario.disturbances.plant_params(&p);
+    Robot::from_params(p, "plant (scenario [plant] and [disturbances])")
 }
 
 /// Refuse a plant that cannot run the scenario (the model plant simulates no contacts), before planning.
@@ -222,7 +227,9 @@ pub fn track_plan(
     check_plant(ls, plant)?;
     let sc = &ls.scenario;
     let probot = plant_robot(ls)?;
-    let x0 = [reference.q(0), reference.qd(0)].concat();
+    let x0 = sc
+        .disturbances
+        .start_state(&[reference.q(0), reference.qd(0)].concat());
     let mut world = PlantWorld::default();
     let mut rapier = None;
     let mut model = None;
@@ -300,11 +307,20 @@ pub fn track_plan(
         qd_std: sc.tracking.noise_qd_std,
         seed: sc.tracking.seed,
     };
-    let log = if noise.is_zero() {
-        run_closed_loop(plant_ref, &mut *ctrl, &reference, &ls.robot, &settings)?
-    } else {
-        let mut noisy = Noisy::new(&mut *plant_ref, noise)?;
-        run_closed_loop(&mut noisy, &mut *ctrl, &reference, &ls.robot, &settings)?
+    let log = {
+        let mut wrapped = sc
+            .disturbances
+            .wrap(Box::new(&mut *plant_ref), settings.control_dt)?;
+        if !noise.is_zero() {
+            wrapped = Box::new(Noisy::new(wrapped, noise)?);
+        }
+        run_closed_loop(
+            wrapped.as_mut(),
+            &mut *ctrl,
+            &reference,
+            &ls.robot,
+            &settings,
+        )?
     };
     let (controller_name, plant_name) = (ctrl.name(), plant_ref.name());
     let replans = replanning
@@ -335,6 +351,7 @@ pub fn track_plan(
         first_contact_s: world.first_contact_s(),
         contact_events: world.contacts.len(),
         contact_impulse_n_s: world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
+        disturbances: sc.disturbances.clone(),
         plan: plan_report.clone(),
         replanning: replanning.is_some(),
         replan_count: replans.len(),

@@ -5,7 +5,7 @@
 
 use crate::obstacle::{ContactBody, ContactEvent, Obstacle};
 use crate::settings::RapierSettings;
-use brachia::sim::Plant;
+use brachia::sim::{Plant, StepClock};
 use brachia::{Error, Result, Robot};
 use rapier2d_f64::prelude::*;
 
@@ -55,7 +55,9 @@ pub struct RapierPlant {
     /// `[t, x_0, y_0, x_1, y_1, ...]` (s, m), obstacles in id order.
     track: Vec<f64>,
     tau: Vec<f64>,
-    t: f64,
+    clock: StepClock,
+    /// Pushes to apply over the next step: (link, impulse N s, point in the grip frame m).
+    pushes: Vec<(usize, [f64; 2], [f64; 2])>,
 }
 
 impl std::fmt::Debug for RapierPlant {
@@ -63,7 +65,7 @@ impl std::fmt::Debug for RapierPlant {
         f.debug_struct("RapierPlant")
             .field("n_links", &self.robot.n)
             .field("settings", &self.settings)
-            .field("t", &self.t)
+            .field("t", &self.clock.time())
             .field("obstacles", &self.obstacles.len())
             .field("contacts", &self.contacts.len())
             .finish()
@@ -262,7 +264,8 @@ impl RapierPlant {
             contacts: Vec::new(),
             pending: Vec::new(),
             track: Vec::new(),
-            t: 0.0,
+            clock: StepClock::new(0.0),
+            pushes: Vec::new(),
         })
     }
 
@@ -385,7 +388,7 @@ impl RapierPlant {
         if self.obstacles.is_empty() {
             return;
         }
-        self.track.push(self.t);
+        self.track.push(self.clock.time());
         for id in 0..self.obstacles.len() {
             let p = self.obstacle_position(id).unwrap_or([f64::NAN; 2]);
             self.track.extend_from_slice(&p);
@@ -515,7 +518,7 @@ impl Plant for RapierPlant {
     }
 
     fn time(&self) -> f64 {
-        self.t
+        self.clock.time()
     }
 
     /// `[q, qd]` from the multibody's joint coordinates (continuous, never wrapped) and relative joint
@@ -558,6 +561,17 @@ impl Plant for RapierPlant {
         for &h in &self.links {
             if let Some(rb) = self.world.bodies.get_mut(h) {
                 rb.reset_torques(false);
+                rb.reset_forces(false);
+            }
+        }
+        // a push is the force impulse / dt held over this control period, at its point
+        for (link, j, p) in self.pushes.drain(..) {
+            if let Some(rb) = self.world.bodies.get_mut(self.links[link]) {
+                rb.add_force_at_point(
+                    Vector::new(j[0] / dt, j[1] / dt),
+                    Vector::new(p[0], p[1]),
+                    true,
+                );
             }
         }
         for j in 0..self.tau.len() {
@@ -578,8 +592,8 @@ impl Plant for RapierPlant {
             self.world.step();
             self.collect_contacts();
         }
-        self.t += dt;
-        let t = self.t;
+        self.clock.advance(dt);
+        let t = self.clock.time();
         self.contacts.extend(
             self.pending
                 .drain(..)
@@ -591,6 +605,33 @@ impl Plant for RapierPlant {
                 }),
         );
         self.record_obstacles();
+    }
+
+    /// A push is applied by the engine as the force `impulse / dt` at the point (grip frame, where
+    /// it is at the start of the period), held over the next control period of length `dt`.
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
+        let n = self.robot.n;
+        if link >= n || !point_m.is_finite() || !impulse.iter().all(|v| v.is_finite()) {
+            return Err(Error::invalid(
+                "RapierPlant",
+                "push",
+                format!("link {link}, point {point_m} m, impulse {impulse:?}"),
+                format!("needs a link 0..{n} and finite values"),
+            ));
+        }
+        let mut x = vec![0.0; 2 * n];
+        self.state(&mut x);
+        let mut joints = vec![[0.0; 2]; n + 1];
+        self.robot.joint_positions(&x[..n], &mut joints);
+        let mut th = vec![0.0; n];
+        self.robot.absolute_angles(&x[..n], &mut th);
+        let (sn, co) = th[link].sin_cos();
+        let p = [
+            joints[link][0] + point_m * co,
+            joints[link][1] + point_m * sn,
+        ];
+        self.pushes.push((link, impulse, p));
+        Ok(())
     }
 
     /// Kinetic plus potential energy of the links (obstacles excluded), J, from the engine's body

@@ -407,8 +407,8 @@ fn violations(ocp: &mut SwingOcp, z: &Primal) -> Violations {
 /// by RK4 in equal steps of at most `max_step`, the samples inside a step by the cubic Hermite
 /// interpolant of the state and its derivative `f(x, u)` at the step's two ends (error O(step^4): below
 /// 1e-9 rad and 1e-7 rad/s at 2.5 ms on the tracking swing, tested); samples at `j dt` and a last one
-/// exactly at `t_final`. The torque of a sample is the one held over the interval that starts at or
-/// before it.
+/// exactly at `t_final`. The torque of a sample is the mean of the held torques over its period
+/// `[t_j, t_j+1)` ([`hold_means`]; the last sample's, the one held at `t_final`).
 pub(super) fn held_torque_trajectory(
     robot: &Robot,
     z: &Primal,
@@ -486,7 +486,39 @@ pub(super) fn held_torque_trajectory(
             f0.copy_from_slice(k4);
         }
     }
+    hold_means(&mut out, z, h);
     out
+}
+
+/// Replace each sample's torque by the mean of the held profile over its period `[t_j, t_j+1)`
+/// (interval k holds `u_k` over `[k h, (k + 1) h)`, the last interval from then on): the torque a
+/// zero-order hold must apply over the period (docs/conventions.md). The last sample keeps its own.
+fn hold_means(out: &mut Trajectory, z: &Primal, h: f64) {
+    let (nu, k_max) = (out.n - 1, z.u.len().saturating_sub(2));
+    let u_at = |k: usize| &z.u[k.min(k_max)];
+    let mut acc = [0.0; crate::model::MAX_LINKS];
+    for j in 0..out.len().saturating_sub(1) {
+        let (t0, t1) = (out.t[j], out.t[j + 1]);
+        acc[..nu].fill(0.0);
+        let mut a = t0;
+        let mut k = ((t0 / h).floor().max(0.0) as usize).min(k_max);
+        while a < t1 {
+            let b = if k >= k_max {
+                t1
+            } else {
+                t1.min((k + 1) as f64 * h)
+            };
+            for (i, v) in acc[..nu].iter_mut().enumerate() {
+                *v += (b - a) * u_at(k)[i];
+            }
+            a = b;
+            k += 1;
+        }
+        let tau = &mut out.tau[j * nu..(j + 1) * nu];
+        for (i, v) in tau.iter_mut().enumerate() {
+            *v = acc[i] / (t1 - t0);
+        }
+    }
 }
 
 /// Replay the held torque profile open loop on the model plant from the start state, without

@@ -1,0 +1,100 @@
+//! `brachia benchmark`: the robustness benchmark of a scenario (library:
+//! `brachia_experiments::benchmark`; docs/robustness.md).
+
+use crate::CliError;
+use brachia_experiments::{
+    check_out_dir, run_benchmark, BenchmarkOutcome, BenchmarkSettings, Progress, Scenario,
+};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+/// Arguments of `brachia benchmark`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario file (TOML), e.g. scenarios/tracking.toml: the plan, the controllers' settings, the
+    /// sweeps' plant; its [disturbances] are the base every level adds to.
+    #[arg(long)]
+    scenario: PathBuf,
+    /// Output folder: runs.csv, scorecard.json, summary.md, success_<disturbance>.png.
+    #[arg(long)]
+    out: PathBuf,
+    /// 3 levels per disturbance and 6 Monte Carlo runs (CI) instead of 21 and 200.
+    #[arg(long)]
+    quick: bool,
+    /// Worker threads (default: all cores); results do not depend on it.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Levels per disturbance (overrides --quick's and the full run's).
+    #[arg(long)]
+    levels: Option<usize>,
+    /// Monte Carlo runs (overrides --quick's and the full run's).
+    #[arg(long)]
+    monte_carlo: Option<usize>,
+    /// Only this sweep (repeatable), e.g. --sweep actuation_delay.
+    #[arg(long)]
+    sweep: Vec<String>,
+    /// Only this controller (repeatable): mpc, pd, open-loop.
+    #[arg(long)]
+    controller: Vec<String>,
+    /// No progress bar.
+    #[arg(long)]
+    no_progress: bool,
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    force: bool,
+}
+
+/// Run the command.
+pub fn run(a: Args) -> Result<(), CliError> {
+    let ls = Scenario::load(&a.scenario)?;
+    let mut s = if a.quick {
+        BenchmarkSettings::quick()
+    } else {
+        BenchmarkSettings::full()
+    };
+    s.jobs = a.jobs;
+    s.levels = a.levels.unwrap_or(s.levels);
+    s.monte_carlo_runs = a.monte_carlo.unwrap_or(s.monte_carlo_runs);
+    s.only_sweeps = a.sweep;
+    s.only_controllers = a.controller;
+    s.validate()?;
+    check_out_dir(&a.out, a.force)?;
+    let bar = if a.no_progress {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg} (eta {eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    let show = |p: Progress| {
+        bar.set_length(p.total);
+        bar.set_message(p.what);
+        bar.set_position(bar.position().max(p.done));
+    };
+    let out = run_benchmark(&ls, &s, &show);
+    bar.finish_and_clear();
+    match out? {
+        BenchmarkOutcome::Done(b) => {
+            b.write(&a.out)?;
+            eprintln!(
+                "benchmark: {} runs in {:.1} s; summary {}",
+                b.rows.len(),
+                b.wall_time_s,
+                a.out.join("summary.md").display()
+            );
+            for c in &b.scores {
+                eprintln!(
+                    "benchmark: {}: robustness score {:.3}, success {:.1} %",
+                    c.controller, c.robustness_score, c.overall.success_pct
+                );
+            }
+            Ok(())
+        }
+        BenchmarkOutcome::PlanFailed(status) => Err(CliError::Failed(format!(
+            "the planner did not converge (status {status}); nothing was benchmarked"
+        ))),
+    }
+}

@@ -1,0 +1,926 @@
+//! The robustness benchmark (`brachia benchmark`): one plan of a scenario, tracked by every controller
+//! of [`controllers`] under every disturbance of [`sweeps`] at RealAIGym-style levels, plus a Monte
+//! Carlo mix on the rapier plant; scored and written into a run folder.
+//!
+//! - **Sweeps**: each disturbance alone at `levels` evenly spaced levels from 0 (nominal) to its
+//!   maximum (21 levels in the full run, 3 with `quick`), on the scenario's plant.
+//! - **Monte Carlo**: each link's mass x U(0.85, 1.15), sensor noise sigma_q = 0.002 rad, and a free
+//!   0.05-0.5 kg ball (radius 0.05 m, no gravity, restitution 0.3) on the planned EE path, on the
+//!   rapier plant (200 runs in the full run, 6 with `quick`).
+//! - **Success** ([`SUCCESS_RADIUS_M`]): the plant's EE (its own, possibly mismatched, geometry) ends
+//!   within 2 cm of the bar at the end of the planned swing.
+//! - **Seeds**: run i of a sweep or of the Monte Carlo draws from ChaCha8 seeded by a fixed function of
+//!   (disturbance, level) or of i, the same for every controller; results do not depend on `jobs`.
+//!
+//! Files: `runs.csv` (`controller,disturbance,level,seed,success,final_error_m,energy_j,
+//! peak_torque_nm,smoothness_nm`), `scorecard.json`, `summary.md`, `success_<disturbance>.png/.svg`.
+//! Units: s, m, rad, rad/s, N m, N s, J, kg. See docs/robustness.md.
+
+use crate::plan_run::run_plan;
+use crate::progress::{Progress, ProgressFn};
+use crate::run_folder::{install, stage_for, RunFolder};
+use crate::scenario::{LoadedScenario, PlantKind};
+use crate::ExpError;
+use brachia::control::{Mpc, OpenLoop, Pd};
+use brachia::sim::{run_closed_loop, Controller, Disturbances, ModelPlant, Push, RunSettings};
+use brachia::trajectory::Trajectory;
+use brachia::{Error, Robot};
+use brachia_rapier::{Ball, Circle, Obstacle, RapierPlant};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The success rule: final EE within this distance of the bar, m.
+pub const SUCCESS_RADIUS_M: f64 = 0.02;
+
+/// Most sweep levels per disturbance.
+pub const MAX_LEVELS: usize = 101;
+
+/// Most Monte Carlo runs.
+pub const MAX_MONTE_CARLO_RUNS: usize = 10_000;
+
+/// Builds a controller for the benchmark: the scenario (robot, tracking settings) and the plan.
+pub type BuildController =
+    fn(&LoadedScenario, &Arc<Trajectory>) -> Result<Box<dyn Controller>, Error>;
+
+/// One controller of the benchmark: a name for reports and how to build it.
+#[derive(Debug, Clone, Copy)]
+pub struct ControllerEntry {
+    /// Name in `runs.csv` and the scorecard.
+    pub name: &'static str,
+    /// Builds a fresh controller for one run.
+    pub build: BuildController,
+}
+
+/// Every controller the benchmark runs: one line each (a new controller is one more entry).
+pub fn controllers() -> Vec<ControllerEntry> {
+    vec![
+        ControllerEntry {
+            name: "mpc",
+            build: |ls, r| {
+                let s = ls.scenario.tracking.mpc.clone();
+                Ok(Box::new(Mpc::new(ls.robot.clone(), Arc::clone(r), s)?))
+            },
+        },
+        ControllerEntry {
+            name: "pd",
+            build: |ls, r| {
+                let s = ls.scenario.tracking.pd.clone();
+                Ok(Box::new(Pd::new(ls.robot.clone(), Arc::clone(r), s)?))
+            },
+        },
+        ControllerEntry {
+            name: "open-loop",
+            build: |ls, r| Ok(Box::new(OpenLoop::new(ls.robot.clone(), Arc::clone(r))?)),
+        },
+    ]
+}
+
+/// Sets a disturbance at `level` (in the sweep's unit) for the robot and swing of `ctx`.
+pub type ApplyLevel = fn(&mut Disturbances, f64, &SweepContext);
+
+/// What a sweep may need to set its disturbance.
+#[derive(Debug, Clone)]
+pub struct SweepContext {
+    /// The planner's robot.
+    pub robot: Robot,
+    /// Duration of the planned swing, s.
+    pub swing_time_s: f64,
+}
+
+/// One disturbance swept over levels `0..=max` (evenly spaced).
+#[derive(Debug, Clone, Copy)]
+pub struct Sweep {
+    /// Name in `runs.csv` and the scorecard.
+    pub name: &'static str,
+    /// What the level means, with its unit.
+    pub level: &'static str,
+    /// The largest level.
+    pub max: f64,
+    /// Sets the disturbance.
+    pub apply: ApplyLevel,
+}
+
+fn all_links(v: f64, ctx: &SweepContext) -> Vec<f64> {
+    vec![v; ctx.robot.n]
+}
+
+/// Every disturbance the benchmark sweeps, with its range (docs/robustness.md lists them).
+pub fn sweeps() -> Vec<Sweep> {
+    vec![
+        Sweep {
+            name: "mass",
+            level: "relative increase of every link mass",
+            max: 0.5,
+            apply: |d, l, c| d.mass_scale = all_links(1.0 + l, c),
+        },
+        Sweep {
+            name: "com",
+            level: "relative increase of every COM distance",
+            max: 0.4,
+            apply: |d, l, c| d.com_scale = all_links(1.0 + l, c),
+        },
+        Sweep {
+            name: "inertia",
+            level: "relative increase of every link inertia",
+            max: 1.0,
+            apply: |d, l, c| d.inertia_scale = all_links(1.0 + l, c),
+        },
+        Sweep {
+            name: "length",
+            level: "relative increase of every link length",
+            max: 0.2,
+            apply: |d, l, c| d.length_scale = all_links(1.0 + l, c),
+        },
+        Sweep {
+            name: "coulomb",
+            level: "Coulomb friction, N m",
+            max: 0.5,
+            apply: |d, l, _| d.coulomb_nm = l,
+        },
+        Sweep {
+            name: "viscous",
+            level: "viscous damping, N m s/rad",
+            max: 0.2,
+            apply: |d, l, _| d.viscous_nm_s = l,
+        },
+        Sweep {
+            name: "noise_q",
+            level: "sensor noise on q, rad (std)",
+            max: 0.02,
+            apply: |d, l, _| d.noise_q_std = l,
+        },
+        Sweep {
+            name: "noise_qd",
+            level: "sensor noise on qd, rad/s (std)",
+            max: 0.5,
+            apply: |d, l, _| d.noise_qd_std = l,
+        },
+        Sweep {
+            name: "measurement_delay",
+            level: "measurement delay, s",
+            max: 0.02,
+            apply: |d, l, _| d.measurement_delay_s = l,
+        },
+        Sweep {
+            name: "actuation_delay",
+            level: "actuation delay, s",
+            max: 0.02,
+            apply: |d, l, _| d.actuation_delay_s = l,
+        },
+        Sweep {
+            name: "torque_noise",
+            level: "torque noise, N m (std)",
+            max: 2.0,
+            apply: |d, l, _| d.torque_noise_std = l,
+        },
+        Sweep {
+            name: "motor_lag",
+            level: "motor time constant, s",
+            max: 0.05,
+            apply: |d, l, _| d.motor_time_constant_s = l,
+        },
+        Sweep {
+            name: "torque_limit",
+            level: "fraction of the torque limit removed",
+            max: 0.8,
+            apply: |d, l, c| {
+                let lim = c
+                    .robot
+                    .tau_max
+                    .iter()
+                    .chain(c.robot.tau_min.iter())
+                    .fold(f64::INFINITY, |m, v| m.min(v.abs()));
+                d.torque_limit_nm = Some((1.0 - l) * lim);
+            },
+        },
+        Sweep {
+            name: "start_offset",
+            level: "offset of every start angle, rad",
+            max: 0.1,
+            apply: |d, l, c| {
+                let n = c.robot.n;
+                let mut o = vec![0.0; 2 * n];
+                o[..n].fill(l);
+                d.start_offset = o;
+            },
+        },
+        Sweep {
+            name: "push",
+            level: "downward impulse at mid-swing on the last link's midpoint, N s",
+            max: 0.5,
+            apply: |d, l, c| {
+                let n = c.robot.n;
+                d.pushes = if l > 0.0 {
+                    vec![Push {
+                        t_s: 0.5 * c.swing_time_s,
+                        link: n,
+                        point_m: 0.5 * c.robot.len[n - 1],
+                        impulse_n_s: [0.0, -l],
+                    }]
+                } else {
+                    Vec::new()
+                };
+            },
+        },
+    ]
+}
+
+/// Settings of a benchmark run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchmarkSettings {
+    /// Levels per disturbance (>= 2; 21 full, 3 quick).
+    pub levels: usize,
+    /// Monte Carlo runs (0 skips it; 200 full, 6 quick).
+    pub monte_carlo_runs: usize,
+    /// Worker threads (None: rayon's default, all cores).
+    pub jobs: Option<usize>,
+    /// Only these sweeps (names of [`sweeps`]); empty: all.
+    pub only_sweeps: Vec<String>,
+    /// Only these controllers (names of [`controllers`]); empty: all.
+    pub only_controllers: Vec<String>,
+    /// Base seed of the Monte Carlo draws and the sweeps' noise.
+    pub seed: u64,
+}
+
+impl BenchmarkSettings {
+    /// The full benchmark: 21 levels, 200 Monte Carlo runs.
+    pub fn full() -> Self {
+        BenchmarkSettings {
+            levels: 21,
+            monte_carlo_runs: 200,
+            jobs: None,
+            only_sweeps: Vec::new(),
+            only_controllers: Vec::new(),
+            seed: 0,
+        }
+    }
+
+    /// The quick benchmark (CI): 3 levels, 6 Monte Carlo runs.
+    pub fn quick() -> Self {
+        BenchmarkSettings {
+            levels: 3,
+            monte_carlo_runs: 6,
+            ..Self::full()
+        }
+    }
+
+    /// Check the values (counts bounded, names known).
+    pub fn validate(&self) -> Result<(), Error> {
+        let src = "benchmark settings";
+        if !(2..=MAX_LEVELS).contains(&self.levels) {
+            return Err(Error::invalid(
+                src,
+                "levels",
+                self.levels,
+                format!("must be 2..={MAX_LEVELS}"),
+            ));
+        }
+        if self.monte_carlo_runs > MAX_MONTE_CARLO_RUNS {
+            return Err(Error::invalid(
+                src,
+                "monte_carlo_runs",
+                self.monte_carlo_runs,
+                format!("must be at most {MAX_MONTE_CARLO_RUNS}"),
+            ));
+        }
+        if let Some(j) = self.jobs {
+            if !(1..=1024).contains(&j) {
+                return Err(Error::invalid(src, "jobs", j, "must be 1..=1024"));
+            }
+        }
+        let sw: Vec<&str> = sweeps().iter().map(|s| s.name).collect();
+        if let Some(s) = self.only_sweeps.iter().find(|s| !sw.contains(&s.as_str())) {
+            return Err(Error::invalid(
+                src,
+                "sweep",
+                s,
+                format!("unknown; the sweeps are {}", sw.join(", ")),
+            ));
+        }
+        let cs: Vec<&str> = controllers().iter().map(|c| c.name).collect();
+        if let Some(c) = self
+            .only_controllers
+            .iter()
+            .find(|c| !cs.contains(&c.as_str()))
+        {
+            return Err(Error::invalid(
+                src,
+                "controller",
+                c,
+                format!("unknown; the controllers are {}", cs.join(", ")),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One run of the benchmark (a row of `runs.csv`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BenchRow {
+    /// Controller name.
+    pub controller: String,
+    /// Disturbance (a sweep's name, or `monte_carlo`).
+    pub disturbance: String,
+    /// Level in the sweep's unit (the Monte Carlo run index for `monte_carlo`).
+    pub level: f64,
+    /// Seed of the run's random draws.
+    pub seed: u64,
+    /// Final EE within [`SUCCESS_RADIUS_M`] of the bar.
+    pub success: bool,
+    /// Final EE distance to the bar, m.
+    pub final_error_m: f64,
+    /// Paper eq. (18) of the applied (commanded) torques, J.
+    pub energy_j: f64,
+    /// Largest |commanded torque|, N m.
+    pub peak_torque_nm: f64,
+    /// RMS of the step-to-step change of the commanded torque, N m.
+    pub smoothness_nm: f64,
+}
+
+/// Scores of one controller on one disturbance (or overall).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Score {
+    /// Runs scored.
+    pub runs: usize,
+    /// Runs that succeeded, %.
+    pub success_pct: f64,
+    /// Mean energy, J.
+    pub energy_j: f64,
+    /// Largest peak torque, N m.
+    pub peak_torque_nm: f64,
+    /// Mean smoothness, N m.
+    pub smoothness_nm: f64,
+    /// Mean final error, m.
+    pub final_error_m: f64,
+}
+
+/// One controller's scorecard.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ControllerScore {
+    /// Controller name.
+    pub controller: String,
+    /// Per disturbance (sweeps, then `monte_carlo`).
+    pub per_disturbance: Vec<(String, Score)>,
+    /// Over every run.
+    pub overall: Score,
+    /// RealAIGym-style robustness score: the mean over the sweeps of the fraction of levels that
+    /// succeeded, in [0, 1].
+    pub robustness_score: f64,
+}
+
+/// The benchmark's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Benchmark {
+    /// Scenario name.
+    pub scenario: String,
+    /// Levels per disturbance.
+    pub levels: usize,
+    /// Monte Carlo runs.
+    pub monte_carlo_runs: usize,
+    /// The success rule, m.
+    pub success_radius_m: f64,
+    /// The sweeps: name, level meaning, levels.
+    pub sweeps: Vec<(String, String, Vec<f64>)>,
+    /// Every run, in a fixed order (sweeps by controller, disturbance, level; then the Monte Carlo).
+    pub rows: Vec<BenchRow>,
+    /// Per controller.
+    pub scores: Vec<ControllerScore>,
+    /// Wall time of the simulations, s.
+    pub wall_time_s: f64,
+}
+
+/// One job: which controller, which disturbances, on which plant, with which balls.
+struct Job {
+    controller: usize,
+    disturbance: String,
+    level: f64,
+    seed: u64,
+    dist: Disturbances,
+    plant: PlantKind,
+    balls: Vec<Obstacle>,
+    probot: Robot,
+}
+
+/// SplitMix64 of `x`: decorrelated seeds from small integers.
+fn mix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Distance from point `p` to segment `a`-`b`, m.
+fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let s = if l2 > 0.0 {
+        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - s * dx).hypot(p[1] - a[1] - s * dy)
+}
+
+/// The Monte Carlo draws of run `i`: per-link mass factors, and a ball on the planned EE path at a
+/// time in [0.2 T, 0.8 T] that does not touch the robot's start pose (up to 50 draws).
+fn monte_carlo_draw(
+    robot: &Robot,
+    reference: &Trajectory,
+    seed: u64,
+) -> (Disturbances, Vec<Obstacle>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let n = robot.n;
+    let mass_scale: Vec<f64> = (0..n).map(|_| rng.gen_range(0.85..1.15)).collect();
+    let mass = rng.gen_range(0.05..0.5);
+    let radius = 0.05;
+    let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+    robot.link_segments(reference.q(0), &mut segs);
+    let t_end = reference.duration();
+    let mut center = None;
+    for _ in 0..50 {
+        let t = rng.gen_range(0.2..0.8) * t_end;
+        let (k, _) = reference.locate(t);
+        let c = robot.ee_position(reference.q(k));
+        let clear = segs
+            .iter()
+            .enumerate()
+            .all(|(i, (a, b))| seg_dist(c, *a, *b) > radius + robot.radius[i] + 0.01);
+        if clear {
+            center = Some(c);
+            break;
+        }
+    }
+    let balls = center
+        .map(|c| {
+            vec![Obstacle::Ball(Ball {
+                center: c,
+                radius,
+                mass,
+                restitution: 0.3,
+                gravity: false,
+            })]
+        })
+        .unwrap_or_default();
+    let d = Disturbances {
+        mass_scale,
+        noise_q_std: 0.002,
+        seed,
+        ..Disturbances::default()
+    };
+    (d, balls)
+}
+
+/// Run one job: plant, wrappers, controller, closed loop, scores.
+fn run_job(
+    ls: &LoadedScenario,
+    reference: &Arc<Trajectory>,
+    entry: &ControllerEntry,
+    job: &Job,
+) -> Result<BenchRow, Error> {
+    let sc = &ls.scenario;
+    let dt = sc.tracking.control_dt;
+    let x0 = job
+        .dist
+        .start_state(&[reference.q(0), reference.qd(0)].concat());
+    let settings = RunSettings {
+        duration_s: reference.duration(),
+        control_dt: dt,
+    };
+    let mut ctrl = (entry.build)(ls, reference)?;
+    let log = match job.plant {
+        PlantKind::Model => {
+            let mut p = ModelPlant::new(job.probot.clone(), &x0);
+            p.substeps = sc.plant.substeps;
+            let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
+            run_closed_loop(w.as_mut(), ctrl.as_mut(), reference, &ls.robot, &settings)?
+        }
+        PlantKind::Rapier => {
+            let mut p = RapierPlant::new(&job.probot, &x0, &sc.plant.rapier())?;
+            for c in &sc.task.obstacles {
+                p.add_obstacle(&Obstacle::Circle(Circle {
+                    center: c.center,
+                    radius: c.radius,
+                }))?;
+            }
+            for o in sc.plant.obstacles.iter().chain(&job.balls) {
+                p.add_obstacle(o)?;
+            }
+            let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
+            run_closed_loop(w.as_mut(), ctrl.as_mut(), reference, &ls.robot, &settings)?
+        }
+    };
+    let n = ls.robot.n;
+    let last = log.len() - 1;
+    let ee = job.probot.ee_position(&log.x(last)[..n]);
+    let target = sc.task.target;
+    let err = (ee[0] - target[0]).hypot(ee[1] - target[1]);
+    let s = log.summary();
+    let nu = n - 1;
+    let mut sq = 0.0;
+    for k in 1..last {
+        for j in 0..nu {
+            let d = log.tau(k)[j] - log.tau(k - 1)[j];
+            sq += d * d;
+        }
+    }
+    let smooth = if last > 1 {
+        (sq / ((last - 1) * nu) as f64).sqrt()
+    } else {
+        0.0
+    };
+    Ok(BenchRow {
+        controller: entry.name.to_string(),
+        disturbance: job.disturbance.clone(),
+        level: job.level,
+        seed: job.seed,
+        success: err.is_finite() && err <= SUCCESS_RADIUS_M,
+        final_error_m: err,
+        energy_j: s.energy_j,
+        peak_torque_nm: s.tau_min.abs().max(s.tau_max.abs()),
+        smoothness_nm: smooth,
+    })
+}
+
+/// Levels `0, max / (levels - 1), ..., max`.
+pub fn levels(max: f64, levels: usize) -> Vec<f64> {
+    (0..levels)
+        .map(|i| max * i as f64 / (levels - 1) as f64)
+        .collect()
+}
+
+fn score(rows: &[&BenchRow]) -> Score {
+    let m = rows.len().max(1) as f64;
+    Score {
+        runs: rows.len(),
+        success_pct: 100.0 * rows.iter().filter(|r| r.success).count() as f64 / m,
+        energy_j: rows.iter().map(|r| r.energy_j).sum::<f64>() / m,
+        peak_torque_nm: rows.iter().map(|r| r.peak_torque_nm).fold(0.0, f64::max),
+        smoothness_nm: rows.iter().map(|r| r.smoothness_nm).sum::<f64>() / m,
+        final_error_m: rows.iter().map(|r| r.final_error_m).sum::<f64>() / m,
+    }
+}
+
+/// What [`run_benchmark`] did.
+#[derive(Debug, Clone)]
+pub enum BenchmarkOutcome {
+    /// The benchmark ran.
+    Done(Box<Benchmark>),
+    /// The scenario's plan did not converge (its status): nothing was run.
+    PlanFailed(String),
+}
+
+/// Plan the scenario, then run the benchmark (see the module docs). `progress` is called once per
+/// finished run (from the worker threads). Errors on bad settings or scenario before any run; a plan
+/// that does not converge is [`BenchmarkOutcome::PlanFailed`].
+pub fn run_benchmark(
+    ls: &LoadedScenario,
+    settings: &BenchmarkSettings,
+    progress: ProgressFn<'_>,
+) -> Result<BenchmarkOutcome, Error> {
+    settings.validate()?;
+    let plan = run_plan(ls)?;
+    if !plan.plan.converged() {
+        return Ok(BenchmarkOutcome::PlanFailed(format!(
+            "{:?}",
+            plan.plan.status
+        )));
+    }
+    let reference = Arc::new(plan.plan.trajectory.clone());
+    let b = run_benchmark_on(ls, reference, settings, progress)?;
+    Ok(BenchmarkOutcome::Done(Box::new(b)))
+}
+
+/// The benchmark of a given plan `reference` (1 ms samples of a converged plan of `ls`).
+pub fn run_benchmark_on(
+    ls: &LoadedScenario,
+    reference: Arc<Trajectory>,
+    settings: &BenchmarkSettings,
+    progress: ProgressFn<'_>,
+) -> Result<Benchmark, Error> {
+    settings.validate()?;
+    let sc = &ls.scenario;
+    let n = ls.robot.n;
+    let ctx = SweepContext {
+        robot: ls.robot.clone(),
+        swing_time_s: reference.duration(),
+    };
+    let entries: Vec<ControllerEntry> = controllers()
+        .into_iter()
+        .filter(|c| {
+            settings.only_controllers.is_empty()
+                || settings.only_controllers.iter().any(|o| o == c.name)
+        })
+        .collect();
+    let chosen: Vec<Sweep> = sweeps()
+        .into_iter()
+        .filter(|s| {
+            settings.only_sweeps.is_empty() || settings.only_sweeps.iter().any(|o| o == s.name)
+        })
+        .collect();
+    let base_params = ls.robot.params.clone().with_mass_scale(sc.plant.mass_scale);
+    let src = format!("benchmark of {}", ls.path.display());
+    let make_robot = |d: &Disturbances| -> Result<Robot, Error> {
+        d.validate(n, sc.tracking.control_dt, &src)?;
+        Robot::from_params(d.plant_params(&base_params), &src)
+    };
+    // every job, checked, before any simulation
+    let mut jobs = Vec::new();
+    let mut sweep_levels = Vec::new();
+    for (si, s) in chosen.iter().enumerate() {
+        let lv = levels(s.max, settings.levels);
+        for (li, &l) in lv.iter().enumerate() {
+            let seed = mix(settings.seed ^ mix(((si as u64) << 32) | li as u64));
+            let mut d = sc.disturbances.clone();
+            d.seed = seed;
+            (s.apply)(&mut d, l, &ctx);
+            let probot = make_robot(&d)?;
+            for ci in 0..entries.len() {
+                jobs.push(Job {
+                    controller: ci,
+                    disturbance: s.name.to_string(),
+                    level: l,
+                    seed,
+                    dist: d.clone(),
+                    plant: sc.plant.kind,
+                    balls: Vec::new(),
+                    probot: probot.clone(),
+                });
+            }
+        }
+        sweep_levels.push((s.name.to_string(), s.level.to_string(), lv));
+    }
+    for i in 0..settings.monte_carlo_runs {
+        let seed = mix(settings.seed ^ mix(u64::MAX - i as u64));
+        let (d, balls) = monte_carlo_draw(&ls.robot, &reference, seed);
+        let probot = make_robot(&d)?;
+        for ci in 0..entries.len() {
+            jobs.push(Job {
+                controller: ci,
+                disturbance: "monte_carlo".into(),
+                level: i as f64,
+                seed,
+                dist: d.clone(),
+                plant: PlantKind::Rapier,
+                balls: balls.clone(),
+                probot: probot.clone(),
+            });
+        }
+    }
+    let total = jobs.len() as u64;
+    let done = AtomicU64::new(0);
+    let wall = Instant::now();
+    let work = || -> Result<Vec<BenchRow>, Error> {
+        jobs.par_iter()
+            .with_max_len(1)
+            .map(|job| {
+                let r = run_job(ls, &reference, &entries[job.controller], job);
+                progress(Progress {
+                    done: done.fetch_add(1, Ordering::Relaxed) + 1,
+                    total,
+                    what: "benchmark runs",
+                });
+                r
+            })
+            .collect()
+    };
+    let rows = match settings.jobs {
+        None => work()?,
+        Some(j) => rayon::ThreadPoolBuilder::new()
+            .num_threads(j)
+            .build()
+            .map_err(|e| Error::invalid("benchmark settings", "jobs", j, e.to_string()))?
+            .install(work)?,
+    };
+    let wall_time_s = wall.elapsed().as_secs_f64();
+    let mut scores = Vec::new();
+    for e in &entries {
+        let mine: Vec<&BenchRow> = rows.iter().filter(|r| r.controller == e.name).collect();
+        let mut per = Vec::new();
+        let mut frac = Vec::new();
+        for (name, _, _) in &sweep_levels {
+            let rs: Vec<&BenchRow> = mine
+                .iter()
+                .copied()
+                .filter(|r| &r.disturbance == name)
+                .collect();
+            let s = score(&rs);
+            frac.push(s.success_pct / 100.0);
+            per.push((name.clone(), s));
+        }
+        let mc: Vec<&BenchRow> = mine
+            .iter()
+            .copied()
+            .filter(|r| r.disturbance == "monte_carlo")
+            .collect();
+        if !mc.is_empty() {
+            per.push(("monte_carlo".into(), score(&mc)));
+        }
+        scores.push(ControllerScore {
+            controller: e.name.to_string(),
+            per_disturbance: per,
+            overall: score(&mine),
+            robustness_score: if frac.is_empty() {
+                0.0
+            } else {
+                frac.iter().sum::<f64>() / frac.len() as f64
+            },
+        });
+    }
+    Ok(Benchmark {
+        scenario: sc.name.clone(),
+        levels: settings.levels,
+        monte_carlo_runs: settings.monte_carlo_runs,
+        success_radius_m: SUCCESS_RADIUS_M,
+        sweeps: sweep_levels,
+        rows,
+        scores,
+        wall_time_s,
+    })
+}
+
+impl Benchmark {
+    /// `runs.csv`: one row per run.
+    pub fn runs_csv(&self) -> String {
+        let mut s = String::from(
+            "controller,disturbance,level,seed,success,final_error_m,energy_j,peak_torque_nm,smoothness_nm\n",
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{:.9},{:.9},{:.9},{:.9}",
+                r.controller,
+                r.disturbance,
+                r.level,
+                r.seed,
+                u8::from(r.success),
+                r.final_error_m,
+                r.energy_j,
+                r.peak_torque_nm,
+                r.smoothness_nm
+            );
+        }
+        s
+    }
+
+    /// `scorecard.json`: the scores and the benchmark's definition (no per-run rows, no wall time).
+    pub fn scorecard_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "scenario": self.scenario,
+            "levels": self.levels,
+            "monte_carlo_runs": self.monte_carlo_runs,
+            "success_radius_m": self.success_radius_m,
+            "sweeps": self.sweeps.iter().map(|(n, what, lv)| serde_json::json!({
+                "name": n, "level": what, "levels": lv,
+            })).collect::<Vec<_>>(),
+            "controllers": self.scores.iter().map(|c| serde_json::json!({
+                "controller": c.controller,
+                "robustness_score": c.robustness_score,
+                "overall": c.overall,
+                "per_disturbance": c.per_disturbance.iter()
+                    .map(|(n, s)| (n.clone(), serde_json::to_value(s).unwrap_or_default()))
+                    .collect::<serde_json::Map<_, _>>(),
+            })).collect::<Vec<_>>(),
+        })
+    }
+
+    /// `summary.md`: success % per disturbance and overall, energy, peak torque, smoothness,
+    /// robustness score.
+    pub fn summary_md(&self) -> String {
+        let mut s = format!(
+            "# Robustness benchmark: {}\n\n{} levels per disturbance, {} Monte Carlo runs (rapier plant: \
+             mass x U(0.85, 1.15) per link, sigma_q = 0.002 rad, a 0.05-0.5 kg ball on the path). \
+             Success: final EE within {} m of the bar. Robustness score: mean over the sweeps of the \
+             fraction of levels that succeeded (RealAIGym-style). Simulations took {:.1} s.\n\n",
+            self.scenario,
+            self.levels,
+            self.monte_carlo_runs,
+            self.success_radius_m,
+            self.wall_time_s
+        );
+        s.push_str("| controller | robustness score | success % (all runs) | energy (J) | peak torque (N m) | smoothness (N m) |\n|---|---|---|---|---|---|\n");
+        for c in &self.scores {
+            let _ = writeln!(
+                s,
+                "| {} | {:.3} | {:.1} | {:.3} | {:.2} | {:.4} |",
+                c.controller,
+                c.robustness_score,
+                c.overall.success_pct,
+                c.overall.energy_j,
+                c.overall.peak_torque_nm,
+                c.overall.smoothness_nm
+            );
+        }
+        s.push_str("\n## Success % per disturbance\n\n| disturbance | range |");
+        for c in &self.scores {
+            let _ = write!(s, " {} |", c.controller);
+        }
+        s.push_str("\n|---|---|");
+        for _ in &self.scores {
+            s.push_str("---|");
+        }
+        s.push('\n');
+        let mut names: Vec<(String, String)> = self
+            .sweeps
+            .iter()
+            .map(|(n, what, lv)| {
+                (
+                    n.clone(),
+                    format!("{what}: 0..{}", lv.last().copied().unwrap_or(0.0)),
+                )
+            })
+            .collect();
+        if self.monte_carlo_runs > 0 {
+            names.push(("monte_carlo".into(), "mixed, rapier plant".into()));
+        }
+        for (n, what) in &names {
+            let _ = write!(s, "| {n} | {what} |");
+            for c in &self.scores {
+                match c.per_disturbance.iter().find(|(m, _)| m == n) {
+                    Some((_, sc)) => {
+                        let _ = write!(s, " {:.1} |", sc.success_pct);
+                    }
+                    None => s.push_str(" - |"),
+                }
+            }
+            s.push('\n');
+        }
+        s.push_str("\nPlots: `success_<disturbance>.png` (success against level, one curve per controller).\n");
+        s
+    }
+
+    /// The run folder's files except the plots (`runs.csv`, `scorecard.json`, `summary.md`).
+    pub fn folder(&self) -> RunFolder {
+        let mut f = RunFolder::default();
+        f.add("runs.csv", self.runs_csv());
+        f.add_json("scorecard.json", &self.scorecard_json());
+        f.add("summary.md", self.summary_md());
+        f
+    }
+
+    /// Draw `success_<disturbance>.png/.svg` into `dir`: success (0 or 100 %) against level, one
+    /// curve per controller.
+    pub fn draw_plots(&self, dir: &Path) -> Result<(), ExpError> {
+        for (name, what, lv) in &self.sweeps {
+            let series = self
+                .scores
+                .iter()
+                .enumerate()
+                .map(|(ci, c)| {
+                    let y = lv
+                        .iter()
+                        .map(|&l| {
+                            let ok = self.rows.iter().any(|r| {
+                                r.controller == c.controller
+                                    && &r.disturbance == name
+                                    && r.level == l
+                                    && r.success
+                            });
+                            if ok {
+                                100.0
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect();
+                    brachia_plot::Series::new(c.controller.clone(), lv.clone(), y).colour(ci)
+                })
+                .collect();
+            let fig = brachia_plot::LinePlot {
+                title: format!("{}: success against {name}", self.scenario),
+                x_label: what.clone(),
+                y_label: "success (%)".into(),
+                series,
+                size: None,
+            };
+            let path = dir.join(format!("success_{name}.png"));
+            brachia_plot::line_plot(&path, &fig).map_err(|e| ExpError::Write {
+                path: path.clone(),
+                source: std::io::Error::other(e.to_string()),
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Write the run folder `dir` (staged next to it and renamed into place).
+    pub fn write(&self, dir: &Path) -> Result<(), ExpError> {
+        let stage = stage_for(dir)?;
+        let r = self
+            .folder()
+            .write_into(&stage)
+            .and_then(|()| self.draw_plots(&stage));
+        match r {
+            Ok(()) => install(&stage, dir),
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&stage);
+                Err(e)
+            }
+        }
+    }
+}
