@@ -17,7 +17,8 @@
 //! [solver]                              # see brachia::planning::NlpSettings
 //! backend = "pounce"                    # pounce | ripopt | ocp (multiple-shooting only)
 //! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
-//! controller = "mpc"                    # mpc | pd | open-loop
+//! controller = "mpc"                    # mpc | pd | open-loop | tvlqr
+//! kalman = true                         # feed it through the Kalman filter ([tracking.estimator])
 //! [plant]                               # see PlantSettings
 //! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
 //! substeps = 1
@@ -25,7 +26,7 @@
 //! obstacles = [{ kind = "ball", center = [0.02, -0.44], radius = 0.05, mass = 0.4, restitution = 0.3, gravity = false }]
 //! ```
 
-use brachia::control::{MpcSettings, PdSettings};
+use brachia::control::{EstimatorSettings, MpcSettings, PdSettings, TvlqrSettings};
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::{Error, Robot};
@@ -69,6 +70,8 @@ pub enum ControllerKind {
     Pd,
     /// Replay of the planned torques.
     OpenLoop,
+    /// Time-varying LQR along the plan (`[tracking.tvlqr]`).
+    Tvlqr,
 }
 
 /// Which plant the controller runs against.
@@ -92,6 +95,13 @@ pub struct TrackingSettings {
     pub mpc: MpcSettings,
     /// PD baseline settings.
     pub pd: PdSettings,
+    /// TVLQR baseline settings (`controller = "tvlqr"`).
+    pub tvlqr: TvlqrSettings,
+    /// Feed the controller through the Kalman filter along the plan (`[tracking.estimator]`: noise
+    /// model, known measurement and actuation delays). Default false.
+    pub kalman: bool,
+    /// Kalman filter settings (used when `kalman = true`).
+    pub estimator: EstimatorSettings,
     /// Time simulated after the end of the planned swing (the reference holds its final state), s.
     /// Default 0.
     pub hold_s: f64,
@@ -111,6 +121,9 @@ impl Default for TrackingSettings {
             controller: ControllerKind::Mpc,
             mpc: MpcSettings::default(),
             pd: PdSettings::default(),
+            tvlqr: TvlqrSettings::default(),
+            kalman: false,
+            estimator: EstimatorSettings::default(),
             hold_s: 0.0,
             control_dt: 0.001,
             noise_q_std: 0.0,
@@ -318,6 +331,14 @@ impl LoadedScenario {
             .pd
             .validate(n)
             .map_err(|e| rename(e, "tracking.pd"))?;
+        sc.tracking
+            .tvlqr
+            .validate(n)
+            .map_err(|e| rename(e, "tracking.tvlqr"))?;
+        sc.tracking
+            .estimator
+            .validate()
+            .map_err(|e| rename(e, "tracking.estimator"))?;
         let t = &sc.tracking;
         for (field, v) in [
             ("tracking.hold_s", t.hold_s),

@@ -94,6 +94,10 @@ pub struct MpcSettings {
     pub r_diag: Vec<f64>,
     /// Factor on Q2 and W at the last stage (>= 0). Default 5.
     pub terminal_factor: f64,
+    /// Diagonal of the input-rate weight (n - 1 values, 1/(N m)^2; >= 0): adds
+    /// `sum_{k=0}^{N-1} |u_k - u_{k-1}|^2_Rd` with `u_{-1}` the torque applied at the previous call.
+    /// Empty (the default) means no rate penalty.
+    pub rate_diag: Vec<f64>,
     /// Discretisation over `dt_mpc`. Default [`Discretization::Zoh`].
     pub discretization: Discretization,
     /// Torque penalty reference. Default [`TorqueReference::Planned`].
@@ -130,6 +134,7 @@ impl MpcSettings {
             w_diag: vec![2000.0, 2000.0],
             r_diag: vec![0.01; n.saturating_sub(1)],
             terminal_factor: 5.0,
+            rate_diag: Vec::new(),
             discretization: Discretization::Zoh,
             torque_reference: TorqueReference::Planned,
             linearization: Linearization::Measured,
@@ -216,6 +221,30 @@ impl MpcSettings {
                     "weights must be finite, >= 0 and <= 1e12",
                 ));
             }
+        }
+        if !s.rate_diag.is_empty() && s.rate_diag.len() != n.saturating_sub(1) {
+            return Err(Error::invalid(
+                src,
+                "rate_diag",
+                format!("{:?}", s.rate_diag),
+                format!(
+                    "needs {} values for the {n}-link robot (one per actuated joint), or none for \
+                     no rate penalty",
+                    n.saturating_sub(1)
+                ),
+            ));
+        }
+        if let Some(x) = s
+            .rate_diag
+            .iter()
+            .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
+        {
+            return Err(Error::invalid(
+                src,
+                "rate_diag",
+                x,
+                "weights must be finite, >= 0 and <= 1e12",
+            ));
         }
         if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
             return Err(Error::invalid(
@@ -928,6 +957,27 @@ impl Mpc {
             for a in 0..nu {
                 let d = j * nu + a;
                 self.h[d * nall + d] += r[a];
+            }
+        }
+
+        // Input-rate penalty sum_k |u_k - u_{k-1}|^2_Rd (u_{-1} = the last applied torque): a block
+        // tridiagonal term in H and -Rd u_{-1} in the first block of g.
+        if !self.settings.rate_diag.is_empty() {
+            let rd = &self.settings.rate_diag;
+            for k in 0..hn {
+                for a in 0..nu {
+                    let d = k * nu + a;
+                    let diag = if k + 1 < hn { 2.0 } else { 1.0 };
+                    self.h[d * nall + d] += diag * rd[a];
+                    if k + 1 < hn {
+                        let e = d + nu;
+                        self.h[d * nall + e] -= rd[a];
+                        self.h[e * nall + d] -= rd[a];
+                    }
+                }
+            }
+            for a in 0..nu {
+                self.g[a] -= rd[a] * self.tau_last[a];
             }
         }
 
