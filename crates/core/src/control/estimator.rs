@@ -176,7 +176,10 @@ impl<C: Controller> Estimated<C> {
             ));
         }
         let steps = |d: f64| (d / control_dt).round();
-        let (dm, da) = (steps(settings.measurement_delay_s), steps(settings.actuation_delay_s));
+        let (dm, da) = (
+            steps(settings.measurement_delay_s),
+            steps(settings.actuation_delay_s),
+        );
         // Bounded: total delay <= MAX_DELAY_S was checked; the period may be tiny, so cap the count.
         if dm + da > 100_000.0 {
             return Err(Error::invalid(

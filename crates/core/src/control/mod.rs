@@ -19,8 +19,8 @@ pub mod tvlqr;
 
 pub use baselines::{OpenLoop, Pd, PdSettings};
 pub use estimator::{Estimated, EstimatorSettings};
-pub use tvlqr::{Tvlqr, TvlqrSettings};
 pub use mpc::{Discretization, Linearization, Mpc, MpcSettings, Prediction, TorqueReference};
+pub use tvlqr::{Tvlqr, TvlqrSettings};
 
 /// Diagnostics of one control step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

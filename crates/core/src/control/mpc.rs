@@ -94,9 +94,9 @@ pub struct MpcSettings {
     pub r_diag: Vec<f64>,
     /// Factor on Q2 and W at the last stage (>= 0). Default 5.
     pub terminal_factor: f64,
-    /// Diagonal of the input-rate weight (n - 1 values, 1/(N m)^2; >= 0): adds
+    /// Diagonal of the input-rate weight Rd (n - 1 values, 1/(N m)^2; >= 0): adds
     /// `sum_{k=0}^{N-1} |u_k - u_{k-1}|^2_Rd` with `u_{-1}` the torque applied at the previous call.
-    /// Empty (the default) means no rate penalty.
+    /// Default `[0.1 x (n-1)]` (empty = the default; zeros switch the penalty off).
     pub rate_diag: Vec<f64>,
     /// Discretisation over `dt_mpc`. Default [`Discretization::Zoh`].
     pub discretization: Discretization,
@@ -111,12 +111,13 @@ pub struct MpcSettings {
 }
 
 impl Default for MpcSettings {
-    /// The defaults for any number of links: `q_diag` and `r_diag` empty (filled per link by
-    /// [`MpcSettings::resolved`] when the controller is built).
+    /// The defaults for any number of links: `q_diag`, `r_diag` and `rate_diag` empty (filled per
+    /// link by [`MpcSettings::resolved`] when the controller is built).
     fn default() -> Self {
         MpcSettings {
             q_diag: Vec::new(),
             r_diag: Vec::new(),
+            rate_diag: Vec::new(),
             ..Self::for_links(0)
         }
     }
@@ -134,7 +135,7 @@ impl MpcSettings {
             w_diag: vec![2000.0, 2000.0],
             r_diag: vec![0.01; n.saturating_sub(1)],
             terminal_factor: 5.0,
-            rate_diag: Vec::new(),
+            rate_diag: vec![0.1; n.saturating_sub(1)],
             discretization: Discretization::Zoh,
             torque_reference: TorqueReference::Planned,
             linearization: Linearization::Measured,
@@ -143,8 +144,8 @@ impl MpcSettings {
         }
     }
 
-    /// These settings with the empty weight vectors (`q_diag`, `r_diag`) filled with the per-link
-    /// defaults of [`MpcSettings::for_links`].
+    /// These settings with the empty weight vectors (`q_diag`, `r_diag`, `rate_diag`) filled with
+    /// the per-link defaults of [`MpcSettings::for_links`].
     pub fn resolved(&self, n: usize) -> Self {
         let d = Self::for_links(n);
         let mut s = self.clone();
@@ -153,6 +154,9 @@ impl MpcSettings {
         }
         if s.r_diag.is_empty() {
             s.r_diag = d.r_diag;
+        }
+        if s.rate_diag.is_empty() {
+            s.rate_diag = d.rate_diag;
         }
         s
     }
@@ -222,14 +226,14 @@ impl MpcSettings {
                 ));
             }
         }
-        if !s.rate_diag.is_empty() && s.rate_diag.len() != n.saturating_sub(1) {
+        if s.rate_diag.len() != n.saturating_sub(1) {
             return Err(Error::invalid(
                 src,
                 "rate_diag",
                 format!("{:?}", s.rate_diag),
                 format!(
                     "needs {} values for the {n}-link robot (one per actuated joint), or none for \
-                     no rate penalty",
+                     the default",
                     n.saturating_sub(1)
                 ),
             ));
@@ -962,7 +966,7 @@ impl Mpc {
 
         // Input-rate penalty sum_k |u_k - u_{k-1}|^2_Rd (u_{-1} = the last applied torque): a block
         // tridiagonal term in H and -Rd u_{-1} in the first block of g.
-        if !self.settings.rate_diag.is_empty() {
+        if self.settings.rate_diag.iter().any(|&v| v > 0.0) {
             let rd = &self.settings.rate_diag;
             for k in 0..hn {
                 for a in 0..nu {

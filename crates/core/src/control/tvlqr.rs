@@ -362,7 +362,11 @@ mod tests {
     /// discrete algebraic Riccati equation.
     #[test]
     fn scalar_riccati_matches_the_dare() {
-        for &(a, b, q, r) in &[(1.1, 0.5, 2.0, 0.3), (0.9, 1.0, 1.0, 1.0), (1.5, 0.2, 0.1, 5.0)] {
+        for &(a, b, q, r) in &[
+            (1.1, 0.5, 2.0, 0.3),
+            (0.9, 1.0, 1.0, 1.0),
+            (1.5, 0.2, 0.1, 5.0),
+        ] {
             let st = LqrStage {
                 a: DMatrix::from_element(1, 1, a),
                 b: DMatrix::from_element(1, 1, b),
