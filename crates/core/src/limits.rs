@@ -122,3 +122,22 @@ pub fn count(span: f64, step: f64, max: usize) -> Option<usize> {
         None
     }
 }
+
+/// Longest measurement or actuation delay of a disturbance wrapper ([`crate::sim::ActuationDelay`],
+/// [`crate::sim::MeasurementDelay`]), s: 1 s (the delay buffer holds `delay / control_dt` samples).
+pub const MAX_DELAY_S: f64 = 1.0;
+
+/// Most delay steps of a delay wrapper (`delay_s / control_dt`, rounded): 100 000.
+pub const MAX_DELAY_STEPS: usize = 100_000;
+
+/// Longest motor time constant of [`crate::sim::MotorLag`], s.
+pub const MAX_MOTOR_TAU_S: f64 = 10.0;
+
+/// Largest torque-noise standard deviation of [`crate::sim::TorqueNoise`], N m.
+pub const MAX_TORQUE_NOISE_NM: f64 = 100.0;
+
+/// Largest Coulomb friction (N m) or viscous damping (N m s/rad) of [`crate::sim::JointFriction`].
+pub const MAX_FRICTION: f64 = 100.0;
+
+/// Most impulsive pushes of one run ([`crate::sim::Pushes`]).
+pub const MAX_PUSHES: usize = 100;

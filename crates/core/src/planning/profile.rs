@@ -105,6 +105,64 @@ pub fn torque_at(
     torque_in(points, layout, rule, k, t, tau);
 }
 
+/// The mean over `[t0, t1]` of the torque `rule` assumes (clamped to `[0, T]` like [`torque_at`]),
+/// written into `tau` (n - 1): the one constant torque to hold over that period. Exact (Simpson's rule
+/// on each polynomial piece between the knots inside the period, degree <= 2). `t1 <= t0` gives
+/// [`torque_at`] at `t0`.
+pub fn torque_mean(
+    points: &Trajectory,
+    layout: &Layout,
+    rule: Transcription,
+    t0: f64,
+    t1: f64,
+    tau: &mut [f64],
+) {
+    let last = points.len() - 1;
+    let (t_start, t_end) = (points.t[0], points.t[last]);
+    if t1 <= t0 || t0 >= t_end || t1 <= t_start {
+        torque_at(points, layout, rule, t0, tau);
+        return;
+    }
+    let m = tau.len();
+    let mut acc = [0.0; crate::model::MAX_LINKS];
+    let (mut fa, mut fm, mut fb) = (
+        [0.0; crate::model::MAX_LINKS],
+        [0.0; crate::model::MAX_LINKS],
+        [0.0; crate::model::MAX_LINKS],
+    );
+    // the parts of [t0, t1] before the start and after the end hold the end values
+    for (t, w) in [(t_start, t_start - t0), (t_end, t1 - t_end)] {
+        if w > 0.0 {
+            torque_at(points, layout, rule, t, &mut fa[..m]);
+            for j in 0..m {
+                acc[j] += w * fa[j];
+            }
+        }
+    }
+    let (a0, b0) = (t0.max(t_start), t1.min(t_end));
+    let mut iv = interval_at(points, layout, a0);
+    let mut a = a0;
+    while a < b0 {
+        let b = b0.min(points.t[layout.knot(iv + 1)]);
+        if b > a {
+            torque_in(points, layout, rule, iv, a, &mut fa[..m]);
+            torque_in(points, layout, rule, iv, 0.5 * (a + b), &mut fm[..m]);
+            torque_in(points, layout, rule, iv, b, &mut fb[..m]);
+            for j in 0..m {
+                acc[j] += (b - a) / 6.0 * (fa[j] + 4.0 * fm[j] + fb[j]);
+            }
+        }
+        a = b;
+        if iv + 1 >= layout.intervals {
+            break;
+        }
+        iv += 1;
+    }
+    for j in 0..m {
+        tau[j] = acc[j] / (t1 - t0);
+    }
+}
+
 /// Replay a plan open loop: integrate the model (RK4, an independent path from the transcription's
 /// defects) from the first point's state under the torque profile `rule` assumes between the
 /// points, in equal steps of at most [`REPLAY_MAX_STEP_S`] on every interval (so Euler's jumps
@@ -181,7 +239,10 @@ pub struct Clamped {
 
 /// The plan's trajectory at the fixed period `dt`: samples at [`sample_times`] over `[0, T]` (the
 /// last exactly at T), states interpolated as `rule` implies (see the module docs) from the points
-/// and their accelerations `qdd` (row-major `points x n`), torques as `rule` assumes, then clamped
+/// and their accelerations `qdd` (row-major `points x n`), torques as the torque to hold over each
+/// sample period: sample k's torque is the mean of the profile `rule` assumes over `[t_k, t_k+1)`
+/// ([`torque_mean`]; the last sample's, the torque at T), so a zero-order hold of the samples, as the
+/// closed-loop runner applies them (docs/conventions.md), carries the plan's impulse; then clamped
 /// into the planner's bounds and the robot's torque limits. The points satisfy those bounds (the
 /// transcription imposes them there), but a polynomial between two points inside a bound can leave
 /// it: a cubic Hermite piece on `[t_a, t_b]` by at most `4/27 h (|s_a| + |s_b|)` (its slopes
@@ -204,7 +265,7 @@ pub fn resample(
     let mut out = Trajectory::new(n);
     let mut clamped = Clamped::default();
     let (mut q, mut qd, mut tau) = (vec![0.0; n], vec![0.0; n], vec![0.0; m]);
-    for &t in &times {
+    for (si, &t) in times.iter().enumerate() {
         // the piece of the point sequence holding t
         let seg = (points.t.partition_point(|&s| s <= t).max(1) - 1).min(last - 1);
         let (ta, tb) = (points.t[seg], points.t[seg + 1]);
@@ -223,7 +284,10 @@ pub fn resample(
                 }
             };
         }
-        torque_at(points, layout, rule, t, &mut tau);
+        match times.get(si + 1) {
+            Some(&t1) => torque_mean(points, layout, rule, t, t1, &mut tau),
+            None => torque_at(points, layout, rule, t, &mut tau),
+        }
         for i in 0..n {
             let (lo, hi) = if i == 0 {
                 (bounds.q1[0], bounds.q1[1])

@@ -5,13 +5,23 @@
 //! period. A [`Controller`] (defined in [`crate::control`], re-exported here) maps time and measured
 //! state to torques. [`ClosedLoop`] runs one control period per [`ClosedLoop::step`];
 //! [`run_closed_loop`] runs it to the end. The loop, not the controllers, keeps the logs.
-//! Disturbances are plant wrappers: [`Noisy`] adds seeded Gaussian sensor noise.
+//! Disturbances are plant wrappers: [`Noisy`] adds seeded Gaussian sensor noise, [`ActuationDelay`]
+//! and [`MotorLag`] change what a commanded torque does (see docs/robustness.md).
 
+mod clock;
+mod disturb;
+mod disturbances;
 mod model_plant;
 mod noisy;
 mod runner;
 
 pub use crate::control::{ControlInfo, Controller};
+pub use clock::StepClock;
+pub use disturb::{
+    delay_steps, point_jacobian, validate_pushes, ActuationDelay, JointFriction, MeasurementDelay,
+    MotorLag, Push, Pushes, TorqueLimit, TorqueNoise, FRICTION_SMOOTHING_RAD_S,
+};
+pub use disturbances::{Disturbances, MAX_MISMATCH_FACTOR, MAX_START_OFFSET_RAD};
 pub use model_plant::ModelPlant;
 pub use noisy::{NoiseSettings, Noisy};
 pub use runner::{run_closed_loop, ClosedLoop, ClosedLoopLog, RunSettings, RunSummary, StepInfo};
@@ -35,6 +45,18 @@ pub trait Plant {
     fn energy(&self) -> f64;
     /// A short name for reports (`model`, `rapier`).
     fn name(&self) -> &'static str;
+    /// An impulsive push, applied at the start of the next [`Plant::step`]: `impulse` (N s, grip
+    /// frame) at the point `point_m` metres along link `link` (0-based, from its proximal joint).
+    /// The default refuses: a plant that cannot be pushed says so.
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+        let _ = (link, point_m, impulse);
+        Err(crate::Error::invalid(
+            "plant",
+            "push",
+            self.name(),
+            "this plant cannot be pushed",
+        ))
+    }
 }
 
 /// A mutable borrow of a plant is a plant (so a loop can drive a plant the caller keeps).
@@ -60,6 +82,9 @@ impl<P: Plant + ?Sized> Plant for &mut P {
     fn name(&self) -> &'static str {
         (**self).name()
     }
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+        (**self).push(link, point_m, impulse)
+    }
 }
 
 /// A boxed plant is a plant (so a loop can hold a plant chosen at run time).
@@ -84,5 +109,8 @@ impl<P: Plant + ?Sized> Plant for Box<P> {
     }
     fn name(&self) -> &'static str {
         (**self).name()
+    }
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+        (**self).push(link, point_m, impulse)
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! State `[q, qd]` (rad, rad/s), torques of joints 2..n in N m, clamped to the robot's limits.
 
-use super::Plant;
+use super::{Plant, StepClock};
 use crate::integrate::Rk4;
 use crate::model::Robot;
 use std::sync::Arc;
@@ -13,7 +13,7 @@ pub struct ModelPlant {
     robot: Arc<Robot>,
     rk4: Rk4,
     x: Vec<f64>,
-    t: f64,
+    clock: StepClock,
     tau: Vec<f64>,
     /// RK4 steps per `step` call (default 1; at 1 ms one step conserves energy to ~1e-9 relative).
     pub substeps: usize,
@@ -31,7 +31,7 @@ impl ModelPlant {
         ModelPlant {
             rk4: Rk4::new(&robot),
             x: x0.to_vec(),
-            t: 0.0,
+            clock: StepClock::new(0.0),
             tau: vec![0.0; robot.nu()],
             robot,
             substeps: 1,
@@ -49,7 +49,7 @@ impl Plant for ModelPlant {
         self.robot.n
     }
     fn time(&self) -> f64 {
-        self.t
+        self.clock.time()
     }
     fn state(&self, x: &mut [f64]) {
         x.copy_from_slice(&self.x);
@@ -60,7 +60,7 @@ impl Plant for ModelPlant {
         }
         self.rk4
             .advance(&self.robot, &mut self.x, &self.tau, dt, self.substeps);
-        self.t += dt;
+        self.clock.advance(dt);
     }
     fn energy(&self) -> f64 {
         let n = self.robot.n;
@@ -68,5 +68,29 @@ impl Plant for ModelPlant {
     }
     fn name(&self) -> &'static str {
         "model"
+    }
+    /// An impulse changes the velocity at once: `M(q) dqd = J_p(q)^T impulse`, with `J_p` the
+    /// Jacobian of the pushed point ([`super::point_jacobian`]); the angles do not jump.
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+        let n = self.robot.n;
+        if link >= n || !point_m.is_finite() || !impulse.iter().all(|v| v.is_finite()) {
+            return Err(crate::Error::invalid(
+                "ModelPlant",
+                "push",
+                format!("link {link}, point {point_m} m, impulse {impulse:?}"),
+                format!("needs a link 0..{n} and finite values"),
+            ));
+        }
+        let mut jac = vec![0.0; 2 * n];
+        super::point_jacobian(&self.robot, &self.x[..n], link, point_m, &mut jac);
+        let mut m = self.robot.mass_matrix(&self.x[..n]);
+        let mut dqd: Vec<f64> = (0..n)
+            .map(|i| jac[i] * impulse[0] + jac[n + i] * impulse[1])
+            .collect();
+        crate::model::cholesky_solve_in_place(&mut m, n, &mut dqd);
+        for i in 0..n {
+            self.x[n + i] += dqd[i];
+        }
+        Ok(())
     }
 }

@@ -68,7 +68,7 @@ pub struct Noisy<P> {
 }
 
 /// A standard normal sample (Box-Muller).
-fn normal(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn normal(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.gen_range(f64::MIN_POSITIVE..1.0);
     let u2: f64 = rng.gen_range(0.0..1.0);
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
@@ -146,5 +146,8 @@ impl<P: Plant> Plant for Noisy<P> {
     /// The inner plant's name (noise is a disturbance, not another plant).
     fn name(&self) -> &'static str {
         self.inner.name()
+    }
+    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
+        self.inner.push(link, point_m, impulse)
     }
 }
