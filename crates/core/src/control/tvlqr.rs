@@ -231,7 +231,7 @@ fn compute_gains(robot: &Robot, reference: &Trajectory, s: &TvlqrSettings) -> Re
     let t_end = reference.duration();
     let t0 = reference.t[0];
     let count = (t_end / dt).ceil().max(1.0);
-    if !(count <= MAX_TVLQR_STAGES as f64) {
+    if !count.is_finite() || count > MAX_TVLQR_STAGES as f64 {
         return Err(Error::invalid(
             "TvlqrSettings",
             "dt",
