@@ -205,50 +205,14 @@ impl MpcSettings {
                 n.saturating_sub(1),
                 "n - 1 values, or none for the default",
             ),
+            (
+                "rate_diag",
+                &s.rate_diag,
+                n.saturating_sub(1),
+                "n - 1 values, or none for the default",
+            ),
         ] {
-            if v.len() != len {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    format!("{v:?}"),
-                    format!("needs {len} values for the {n}-link robot: {what}"),
-                ));
-            }
-            if let Some(x) = v
-                .iter()
-                .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
-            {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    x,
-                    "weights must be finite, >= 0 and <= 1e12",
-                ));
-            }
-        }
-        if s.rate_diag.len() != n.saturating_sub(1) {
-            return Err(Error::invalid(
-                src,
-                "rate_diag",
-                format!("{:?}", s.rate_diag),
-                format!(
-                    "needs {} values for the {n}-link robot (one per actuated joint), or none for \
-                     the default",
-                    n.saturating_sub(1)
-                ),
-            ));
-        }
-        if let Some(x) = s
-            .rate_diag
-            .iter()
-            .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
-        {
-            return Err(Error::invalid(
-                src,
-                "rate_diag",
-                x,
-                "weights must be finite, >= 0 and <= 1e12",
-            ));
+            check_weights(src, n, name, v, len, what)?;
         }
         if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
             return Err(Error::invalid(
@@ -271,6 +235,38 @@ impl MpcSettings {
         }
         self.qp.validate()
     }
+}
+
+/// A diagonal weight vector of a controller's settings: `len` values for the n-link robot (`what`
+/// says which), each finite, >= 0 and <= 1e12. Errors name `src` and the field `name`.
+pub(crate) fn check_weights(
+    src: &str,
+    n: usize,
+    name: &str,
+    v: &[f64],
+    len: usize,
+    what: &str,
+) -> Result<()> {
+    if v.len() != len {
+        return Err(Error::invalid(
+            src,
+            name,
+            format!("{v:?}"),
+            format!("needs {len} values for the {n}-link robot: {what}"),
+        ));
+    }
+    if let Some(x) = v
+        .iter()
+        .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
+    {
+        return Err(Error::invalid(
+            src,
+            name,
+            x,
+            "weights must be finite, >= 0 and <= 1e12",
+        ));
+    }
+    Ok(())
 }
 
 /// Matrix exponential workspace for the zero-order hold (allocated once).

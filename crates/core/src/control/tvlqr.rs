@@ -78,30 +78,22 @@ impl TvlqrSettings {
             return Err(Error::invalid(src, "dt", self.dt, "must be in [1e-4, 1] s"));
         }
         let s = self.resolved(n);
-        for (name, v, len) in [
-            ("q_diag", &s.q_diag, 2 * n),
-            ("w_diag", &s.w_diag, 2),
-            ("r_diag", &s.r_diag, n.saturating_sub(1)),
+        for (name, v, len, what) in [
+            (
+                "q_diag",
+                &s.q_diag,
+                2 * n,
+                "2n values (q then qd), or none for the default",
+            ),
+            ("w_diag", &s.w_diag, 2, "2 values (EE x, y)"),
+            (
+                "r_diag",
+                &s.r_diag,
+                n.saturating_sub(1),
+                "n - 1 values, or none for the default",
+            ),
         ] {
-            if v.len() != len {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    format!("{v:?}"),
-                    format!("needs {len} values for the {n}-link robot"),
-                ));
-            }
-            if let Some(x) = v
-                .iter()
-                .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
-            {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    x,
-                    "weights must be finite, >= 0 and <= 1e12",
-                ));
-            }
+            super::mpc::check_weights(src, n, name, v, len, what)?;
         }
         if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
             return Err(Error::invalid(
