@@ -38,7 +38,7 @@ pub(crate) fn reference_of(
 ///
 /// ``Mpc(robot, reference, settings=None, **kwargs)``: ``reference`` is a ``Plan`` or a
 /// ``Trajectory``; ``settings`` (dict) and keyword arguments are ``[tracking.mpc]`` fields
-/// (``horizon``, ``dt_mpc``, ``q_diag``, ``w_diag``, ``r_diag``, ``terminal_factor``,
+/// (``horizon``, ``dt_mpc``, ``q_diag``, ``w_diag``, ``r_diag``, ``rate_diag``, ``terminal_factor``,
 /// ``discretization``, ``torque_reference``, ``linearization``, ``prediction``, ``qp``).
 #[pyclass(module = "brachia")]
 pub struct Mpc {

@@ -37,8 +37,9 @@ fn controller_kind(name: &str) -> PyResult<ControllerKind> {
         "mpc" => Ok(ControllerKind::Mpc),
         "pd" => Ok(ControllerKind::Pd),
         "open-loop" => Ok(ControllerKind::OpenLoop),
+        "tvlqr" => Ok(ControllerKind::Tvlqr),
         other => Err(bad(format!(
-            "controller = {other:?}: expected \"mpc\", \"pd\" or \"open-loop\""
+            "controller = {other:?}: expected \"mpc\", \"pd\", \"open-loop\" or \"tvlqr\""
         ))),
     }
 }

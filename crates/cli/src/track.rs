@@ -36,6 +36,7 @@ enum ControllerArg {
     Mpc,
     Pd,
     OpenLoop,
+    Tvlqr,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -51,6 +52,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         Some(ControllerArg::Mpc) => ControllerKind::Mpc,
         Some(ControllerArg::Pd) => ControllerKind::Pd,
         Some(ControllerArg::OpenLoop) => ControllerKind::OpenLoop,
+        Some(ControllerArg::Tvlqr) => ControllerKind::Tvlqr,
         None => ls.scenario.tracking.controller,
     };
     let plant = match a.plant {

@@ -1,11 +1,16 @@
 //! A whole MPC control step (linearise + discretise + condense + QP) on the states of a closed-loop
-//! run from a perturbed start (4 links, default settings: horizon 20, dt_mpc 20 ms, ZOH). Criterion
-//! reports the mean per call over the sequence; a manual pass prints the median and p99 of single calls.
+//! run from a perturbed start (4 links, default settings: horizon 20, dt_mpc 20 ms, ZOH, rate
+//! penalty 0.1). Criterion reports the mean per call over the sequence; a manual pass prints the
+//! median and p99 of single calls. Also: the MPC without the rate penalty (the baseline of the same
+//! run), the MPC behind the Kalman filter (`Estimated<Mpc>`), and the TVLQR.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use brachia::control::{Discretization, Linearization, Mpc, MpcSettings};
+use brachia::control::{
+    Discretization, Estimated, EstimatorSettings, Linearization, Mpc, MpcSettings, Tvlqr,
+    TvlqrSettings,
+};
 use brachia::sim::{Controller, ModelPlant, Plant};
 use common::*;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
@@ -28,12 +33,38 @@ fn states(robot: &brachia::Robot, tr: &brachia::trajectory::Trajectory) -> Vec<(
     out
 }
 
+/// A controller that can start cold again (for repeated passes over the same states).
+trait Restart: Controller {
+    fn restart(&mut self);
+}
+impl Restart for Mpc {
+    fn restart(&mut self) {
+        self.reset();
+    }
+}
+impl Restart for Estimated<Mpc> {
+    fn restart(&mut self) {
+        self.reset();
+        self.inner_mut().reset();
+    }
+}
+impl Restart for Tvlqr {
+    fn restart(&mut self) {}
+}
+
 fn bench(c: &mut Criterion) {
     let robot = paper_robot(5.0);
     let tr = model_reference(&robot, &start_state(), 1.5);
     let xs = states(&robot, &tr);
     let variants = [
         ("mpc_step default (zoh, measured)", MpcSettings::default()),
+        (
+            "mpc_step no rate penalty",
+            MpcSettings {
+                rate_diag: vec![0.0; 3],
+                ..MpcSettings::default()
+            },
+        ),
         (
             "mpc_step euler",
             MpcSettings {
@@ -49,13 +80,30 @@ fn bench(c: &mut Criterion) {
             },
         ),
     ];
+    let mut controllers: Vec<(&str, Box<dyn Restart>)> = Vec::new();
     for (name, settings) in variants {
-        let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
+        controllers.push((
+            name,
+            Box::new(Mpc::new(robot.clone(), tr.clone(), settings).unwrap()),
+        ));
+    }
+    let mpc = Mpc::new(robot.clone(), tr.clone(), MpcSettings::default()).unwrap();
+    let kf = Estimated::new(
+        mpc,
+        robot.clone(),
+        tr.clone(),
+        EstimatorSettings::default(),
+        1e-3,
+    );
+    controllers.push(("mpc_step with kalman filter", Box::new(kf.unwrap())));
+    let lqr = Tvlqr::new(robot.clone(), tr.clone(), TvlqrSettings::default()).unwrap();
+    controllers.push(("tvlqr step", Box::new(lqr)));
+    for (name, mut mpc) in controllers {
         let mut tau = vec![0.0; 3];
         // Manual percentiles over 3 passes of the run.
         let mut us = Vec::with_capacity(3 * xs.len());
         for _ in 0..3 {
-            mpc.reset();
+            mpc.restart();
             for (t, x) in &xs {
                 let s = Instant::now();
                 mpc.control(*t, x, &mut tau);
@@ -71,12 +119,12 @@ fn bench(c: &mut Criterion) {
             us[us.len() - 1]
         );
         let mut k = 0;
-        mpc.reset();
+        mpc.restart();
         c.bench_function(name, |b| {
             b.iter(|| {
                 k = (k + 1) % xs.len();
                 if k == 0 {
-                    mpc.reset();
+                    mpc.restart();
                 }
                 black_box(mpc.control(xs[k].0, &xs[k].1, &mut tau))
             })

@@ -153,6 +153,8 @@ fn unconstrained_mpc_equals_lqr_euler() {
         linearization: Linearization::Measured,
         torque_reference: TorqueReference::Planned,
         prediction: Prediction::Model,
+        // The LQR below has no input-rate term.
+        rate_diag: vec![0.0; 3],
         ..MpcSettings::default()
     };
     let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings.clone()).unwrap();
@@ -212,6 +214,7 @@ fn unconstrained_mpc_equals_lqr_zoh_ltv() {
         linearization: Linearization::AlongReference,
         torque_reference: TorqueReference::Zero,
         horizon: 15,
+        rate_diag: vec![0.0; 3],
         ..MpcSettings::default()
     };
     let mut mpc = Mpc::new(robot.clone(), tr.clone(), settings.clone()).unwrap();

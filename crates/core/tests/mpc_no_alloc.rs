@@ -122,3 +122,42 @@ fn closed_loop_step_and_set_reference_do_not_allocate() {
     let log = cl.finish();
     assert_eq!(log.len(), 201);
 }
+
+/// The Kalman-filter wrapper around the MPC (with the input-rate penalty and delay prediction) and
+/// the TVLQR do not allocate per control call either.
+#[test]
+fn estimated_mpc_and_tvlqr_do_not_allocate() {
+    use brachia::control::{Estimated, EstimatorSettings, Tvlqr, TvlqrSettings};
+    let robot = paper_robot(5.0);
+    let tr = model_reference(&robot, &start_state(), 0.5);
+    let settings = MpcSettings {
+        rate_diag: vec![1.0; 3],
+        ..MpcSettings::default()
+    };
+    let mpc = Mpc::new(robot.clone(), tr.clone(), settings).unwrap();
+    let est = EstimatorSettings {
+        measurement_delay_s: 0.002,
+        actuation_delay_s: 0.005,
+        ..EstimatorSettings::default()
+    };
+    let kf = Estimated::new(mpc, robot.clone(), tr.clone(), est, 1e-3).unwrap();
+    let lqr = Tvlqr::new(robot.clone(), tr.clone(), TvlqrSettings::default()).unwrap();
+    let mut controllers: Vec<Box<dyn Controller>> = vec![Box::new(kf), Box::new(lqr)];
+    for c in controllers.iter_mut() {
+        let mut x0 = start_state();
+        x0[1] += 0.05;
+        let mut plant = ModelPlant::new(robot.clone(), &x0);
+        let (mut x, mut tau) = (vec![0.0; 8], vec![0.0; 3]);
+        let mut counted = 0;
+        for _ in 0..200 {
+            plant.state(&mut x);
+            let t = plant.time();
+            let before = allocs();
+            c.control(t, &x, &mut tau);
+            counted += allocs() - before;
+            plant.step(&tau, 1e-3);
+        }
+        assert_eq!(counted, 0, "{}: allocations in control()", c.name());
+        assert!(tau.iter().all(|v| v.is_finite()));
+    }
+}

@@ -17,7 +17,8 @@
 //! [solver]                              # see brachia::planning::NlpSettings
 //! backend = "ocp"                       # ocp (default; multiple-shooting only) | pounce | ripopt
 //! [tracking]                            # see TrackingSettings (controller, MPC and PD settings)
-//! controller = "mpc"                    # mpc | pd | open-loop
+//! controller = "mpc"                    # mpc | pd | open-loop | tvlqr
+//! kalman = true                         # feed it through the Kalman filter ([tracking.estimator])
 //! replan = { threshold_m = 0.01, latency_s = 0.02 }  # MPC + online re-planning (docs/replanning.md)
 //! [plant]                               # see PlantSettings
 //! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
@@ -31,7 +32,7 @@
 //! pushes = [{ t_s = 0.5, link = 4, point_m = 0.3, impulse_n_s = [0.0, 0.2] }]
 //! ```
 
-use brachia::control::{MpcSettings, PdSettings, ReplanSettings};
+use brachia::control::{EstimatorSettings, MpcSettings, PdSettings, ReplanSettings, TvlqrSettings};
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::sim::Disturbances;
@@ -79,6 +80,8 @@ pub enum ControllerKind {
     Pd,
     /// Replay of the planned torques.
     OpenLoop,
+    /// Time-varying LQR along the plan (`[tracking.tvlqr]`).
+    Tvlqr,
 }
 
 /// Which plant the controller runs against.
@@ -102,6 +105,13 @@ pub struct TrackingSettings {
     pub mpc: MpcSettings,
     /// PD baseline settings.
     pub pd: PdSettings,
+    /// TVLQR baseline settings (`controller = "tvlqr"`).
+    pub tvlqr: TvlqrSettings,
+    /// Feed the controller through the Kalman filter along the plan (`[tracking.estimator]`: noise
+    /// model, known measurement and actuation delays). Default false.
+    pub kalman: bool,
+    /// Kalman filter settings (used when `kalman = true`).
+    pub estimator: EstimatorSettings,
     /// Time simulated after the end of the planned swing (the reference holds its final state), s.
     /// Default 0.
     pub hold_s: f64,
@@ -124,6 +134,9 @@ impl Default for TrackingSettings {
             controller: ControllerKind::Mpc,
             mpc: MpcSettings::default(),
             pd: PdSettings::default(),
+            tvlqr: TvlqrSettings::default(),
+            kalman: false,
+            estimator: EstimatorSettings::default(),
             hold_s: 0.0,
             control_dt: 0.001,
             noise_q_std: 0.0,
@@ -333,6 +346,14 @@ impl LoadedScenario {
             .pd
             .validate(n)
             .map_err(|e| rename(e, "tracking.pd"))?;
+        sc.tracking
+            .tvlqr
+            .validate(n)
+            .map_err(|e| rename(e, "tracking.tvlqr"))?;
+        sc.tracking
+            .estimator
+            .validate()
+            .map_err(|e| rename(e, "tracking.estimator"))?;
         let t = &sc.tracking;
         if let Some(r) = &t.replan {
             r.validate(&src).map_err(|e| rename(e, "tracking.replan"))?;

@@ -11,7 +11,7 @@
 use crate::plan_run::{run_plan, PlanReport, PlanRun};
 use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
-use brachia::control::{Mpc, OpenLoop, Pd, ReplanEvent, Replanning};
+use brachia::control::{Estimated, Mpc, OpenLoop, Pd, ReplanEvent, Replanning, Tvlqr};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, Disturbances, ModelPlant, NoiseSettings, Noisy,
     Plant, RunSettings, RunSummary,
@@ -157,11 +157,26 @@ pub fn make_controller(
 ) -> Result<Box<dyn Controller>, Error> {
     let t = &ls.scenario.tracking;
     let (robot, reference) = (ls.robot.clone(), reference.clone());
-    Ok(match kind {
-        ControllerKind::Mpc => Box::new(Mpc::new(robot, reference, t.mpc.clone())?),
-        ControllerKind::Pd => Box::new(Pd::new(robot, reference, t.pd.clone())?),
-        ControllerKind::OpenLoop => Box::new(OpenLoop::new(robot, reference)?),
-    })
+    let c: Box<dyn Controller> = match kind {
+        ControllerKind::Mpc => Box::new(Mpc::new(robot.clone(), reference.clone(), t.mpc.clone())?),
+        ControllerKind::Pd => Box::new(Pd::new(robot.clone(), reference.clone(), t.pd.clone())?),
+        ControllerKind::OpenLoop => Box::new(OpenLoop::new(robot.clone(), reference.clone())?),
+        ControllerKind::Tvlqr => Box::new(Tvlqr::new(
+            robot.clone(),
+            reference.clone(),
+            t.tvlqr.clone(),
+        )?),
+    };
+    if t.kalman && kind != ControllerKind::OpenLoop {
+        return Ok(Box::new(Estimated::new(
+            c,
+            robot,
+            reference,
+            t.estimator,
+            t.control_dt,
+        )?));
+    }
+    Ok(c)
 }
 
 /// The plant's robot: the planner's robot with the scenario's mass mismatch (`[plant] mass_scale`, then

@@ -101,3 +101,52 @@ fn plan_validates_only_the_sections_it_uses() {
         "{e}"
     );
 }
+
+#[test]
+fn tracking_section_takes_tvlqr_and_the_kalman_filter() {
+    // `controller = "tvlqr"`, `kalman = true` and the [tracking.estimator] / [tracking.tvlqr] tables
+    // load; a bad value names its field; an unknown field is refused.
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let base = std::fs::read_to_string(root.join("scenarios/three-link.toml"))
+        .unwrap()
+        .replace(
+            "\"../params/three-link.toml\"",
+            &format!("{:?}", root.join("params/three-link.toml")),
+        );
+    let path = dir.path().join("s.toml");
+    let load = |extra: &str| {
+        std::fs::write(&path, format!("{base}\n{extra}")).unwrap();
+        Scenario::load_for(&path, Uses::Track)
+    };
+    let ls = load(
+        "[tracking]\ncontroller = \"tvlqr\"\nkalman = true\n[tracking.estimator]\n\
+         actuation_delay_s = 0.005\n[tracking.tvlqr]\ndt = 0.01\n",
+    )
+    .unwrap();
+    let t = &ls.scenario.tracking;
+    assert_eq!(t.controller, ControllerKind::Tvlqr);
+    assert!(t.kalman && t.estimator.actuation_delay_s == 0.005 && t.tvlqr.dt == 0.01);
+    for (extra, want) in [
+        (
+            "[tracking.estimator]\nmeas_q_std = 0.0\n",
+            "tracking.estimator.meas_q_std",
+        ),
+        (
+            "[tracking.estimator]\nactuation_delay_s = 2.0\n",
+            "tracking.estimator.actuation_delay_s",
+        ),
+        (
+            "[tracking.tvlqr]\nr_diag = [1.0]\n",
+            "tracking.tvlqr.r_diag",
+        ),
+        (
+            "[tracking.mpc]\nrate_diag = [-1.0, 0.0]\n",
+            "tracking.mpc.rate_diag",
+        ),
+        ("[tracking.estimator]\ndelay_ms = 5\n", "delay_ms"),
+    ] {
+        let e = load(extra).unwrap_err().to_string();
+        assert!(e.contains("s.toml") && e.contains(want), "{extra}: {e}");
+    }
+}

@@ -1,6 +1,7 @@
-//! Feedback controllers and their solvers: the box QP, the linear MPC of the paper's Section IV,
-//! baselines, online re-planning around a tracking controller ([`Replanning`]), and the
-//! [`Controller`] trait they all implement.
+//! Feedback controllers and their solvers: the box QP, the linear MPC of the paper's Section IV, a
+//! time-varying LQR along the plan, baselines, a Kalman-filter wrapper ([`Estimated`]) that feeds any
+//! of them a filtered, delay-compensated state, online re-planning around a tracking controller
+//! ([`Replanning`]), and the [`Controller`] trait they all implement.
 //!
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute from +x, the rest relative),
 //! input `u = tau` = torques of joints 2..n (N m), gravity along -y.
@@ -13,12 +14,16 @@ use std::sync::Arc;
 
 pub use boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
 pub mod baselines;
+pub mod estimator;
 pub mod mpc;
 pub mod replanning;
+pub mod tvlqr;
 
 pub use baselines::{OpenLoop, Pd, PdSettings};
+pub use estimator::{Estimated, EstimatorSettings};
 pub use mpc::{Discretization, Linearization, Mpc, MpcSettings, Prediction, TorqueReference};
 pub use replanning::{ReplanEvent, ReplanSettings, Replanning};
+pub use tvlqr::{Tvlqr, TvlqrSettings};
 
 /// Diagnostics of one control step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -94,6 +94,10 @@ pub struct MpcSettings {
     pub r_diag: Vec<f64>,
     /// Factor on Q2 and W at the last stage (>= 0). Default 5.
     pub terminal_factor: f64,
+    /// Diagonal of the input-rate weight Rd (n - 1 values, 1/(N m)^2; >= 0): adds
+    /// `sum_{k=0}^{N-1} |u_k - u_{k-1}|^2_Rd` with `u_{-1}` the torque applied at the previous call.
+    /// Default `[0.1 x (n-1)]` (empty = the default; zeros switch the penalty off).
+    pub rate_diag: Vec<f64>,
     /// Discretisation over `dt_mpc`. Default [`Discretization::Zoh`].
     pub discretization: Discretization,
     /// Torque penalty reference. Default [`TorqueReference::Planned`].
@@ -107,12 +111,13 @@ pub struct MpcSettings {
 }
 
 impl Default for MpcSettings {
-    /// The defaults for any number of links: `q_diag` and `r_diag` empty (filled per link by
-    /// [`MpcSettings::resolved`] when the controller is built).
+    /// The defaults for any number of links: `q_diag`, `r_diag` and `rate_diag` empty (filled per
+    /// link by [`MpcSettings::resolved`] when the controller is built).
     fn default() -> Self {
         MpcSettings {
             q_diag: Vec::new(),
             r_diag: Vec::new(),
+            rate_diag: Vec::new(),
             ..Self::for_links(0)
         }
     }
@@ -130,6 +135,7 @@ impl MpcSettings {
             w_diag: vec![2000.0, 2000.0],
             r_diag: vec![0.01; n.saturating_sub(1)],
             terminal_factor: 5.0,
+            rate_diag: vec![0.1; n.saturating_sub(1)],
             discretization: Discretization::Zoh,
             torque_reference: TorqueReference::Planned,
             linearization: Linearization::Measured,
@@ -138,8 +144,8 @@ impl MpcSettings {
         }
     }
 
-    /// These settings with the empty weight vectors (`q_diag`, `r_diag`) filled with the per-link
-    /// defaults of [`MpcSettings::for_links`].
+    /// These settings with the empty weight vectors (`q_diag`, `r_diag`, `rate_diag`) filled with
+    /// the per-link defaults of [`MpcSettings::for_links`].
     pub fn resolved(&self, n: usize) -> Self {
         let d = Self::for_links(n);
         let mut s = self.clone();
@@ -148,6 +154,9 @@ impl MpcSettings {
         }
         if s.r_diag.is_empty() {
             s.r_diag = d.r_diag;
+        }
+        if s.rate_diag.is_empty() {
+            s.rate_diag = d.rate_diag;
         }
         s
     }
@@ -196,26 +205,14 @@ impl MpcSettings {
                 n.saturating_sub(1),
                 "n - 1 values, or none for the default",
             ),
+            (
+                "rate_diag",
+                &s.rate_diag,
+                n.saturating_sub(1),
+                "n - 1 values, or none for the default",
+            ),
         ] {
-            if v.len() != len {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    format!("{v:?}"),
-                    format!("needs {len} values for the {n}-link robot: {what}"),
-                ));
-            }
-            if let Some(x) = v
-                .iter()
-                .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
-            {
-                return Err(Error::invalid(
-                    src,
-                    name,
-                    x,
-                    "weights must be finite, >= 0 and <= 1e12",
-                ));
-            }
+            check_weights(src, n, name, v, len, what)?;
         }
         if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
             return Err(Error::invalid(
@@ -238,6 +235,38 @@ impl MpcSettings {
         }
         self.qp.validate()
     }
+}
+
+/// A diagonal weight vector of a controller's settings: `len` values for the n-link robot (`what`
+/// says which), each finite, >= 0 and <= 1e12. Errors name `src` and the field `name`.
+pub(crate) fn check_weights(
+    src: &str,
+    n: usize,
+    name: &str,
+    v: &[f64],
+    len: usize,
+    what: &str,
+) -> Result<()> {
+    if v.len() != len {
+        return Err(Error::invalid(
+            src,
+            name,
+            format!("{v:?}"),
+            format!("needs {len} values for the {n}-link robot: {what}"),
+        ));
+    }
+    if let Some(x) = v
+        .iter()
+        .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
+    {
+        return Err(Error::invalid(
+            src,
+            name,
+            x,
+            "weights must be finite, >= 0 and <= 1e12",
+        ));
+    }
+    Ok(())
 }
 
 /// Matrix exponential workspace for the zero-order hold (allocated once).
@@ -928,6 +957,27 @@ impl Mpc {
             for a in 0..nu {
                 let d = j * nu + a;
                 self.h[d * nall + d] += r[a];
+            }
+        }
+
+        // Input-rate penalty sum_k |u_k - u_{k-1}|^2_Rd (u_{-1} = the last applied torque): a block
+        // tridiagonal term in H and -Rd u_{-1} in the first block of g.
+        if self.settings.rate_diag.iter().any(|&v| v > 0.0) {
+            let rd = &self.settings.rate_diag;
+            for k in 0..hn {
+                for a in 0..nu {
+                    let d = k * nu + a;
+                    let diag = if k + 1 < hn { 2.0 } else { 1.0 };
+                    self.h[d * nall + d] += diag * rd[a];
+                    if k + 1 < hn {
+                        let e = d + nu;
+                        self.h[d * nall + e] -= rd[a];
+                        self.h[e * nall + d] -= rd[a];
+                    }
+                }
+            }
+            for a in 0..nu {
+                self.g[a] -= rd[a] * self.tau_last[a];
             }
         }
 
