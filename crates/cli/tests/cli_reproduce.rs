@@ -59,6 +59,10 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
         "robustness-paper/report.json",
         "parameter-study/report.json",
         "parameter-study/cells.csv",
+        "ladder/report.json",
+        "ladder/traverse.csv",
+        "ladder/traverse.gif",
+        "ladder/energy_per_swing.png",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
@@ -106,6 +110,10 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
             < 0.01
     );
     assert_eq!(s["parameter_study"]["grid"], serde_json::json!([3, 3]));
+    // issue 14: the quick mode traverses the first three bars of the even ladder
+    assert_eq!(s["ladder"]["completed"], true, "{}", s["ladder"]);
+    assert_eq!(s["ladder"]["swings"].as_array().unwrap().len(), 2);
+    assert!(md.contains("## E. A ladder traverse"));
     // no temporary file left behind anywhere
     let mut stack = vec![out.clone()];
     while let Some(d) = stack.pop() {

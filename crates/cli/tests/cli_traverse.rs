@@ -45,9 +45,12 @@ fn traverse_writes_the_run_folder_of_a_short_ladder() {
         "traverse_stick.svg",
         "energy_per_swing.png",
         "energy_per_swing.svg",
+        "traverse.gif",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    let gif = std::fs::read(out.join("traverse.gif")).unwrap();
+    assert!(gif.starts_with(b"GIF89a"), "traverse.gif is a GIF");
     let r = report(&out);
     assert_eq!(r["completed"], true);
     assert_eq!(r["swings"].as_array().unwrap().len(), 2);

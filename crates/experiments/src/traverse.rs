@@ -182,6 +182,9 @@ fn positive_work(log: &ClosedLoopLog) -> f64 {
         .sum()
 }
 
+/// Frame rate of `traverse.gif`, frames per second.
+const GIF_FPS: f64 = 20.0;
+
 /// Margin by which the q1 range of a later swing is widened past its start angle, rad.
 pub const Q1_WIDEN_MARGIN: f64 = 0.1;
 
@@ -250,6 +253,9 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
         if k > 0 {
             widen_q1(&mut swing_sc);
+            // the plant starts where the plan does: q1 as the representative (mod 2 pi) the plan uses,
+            // or the controller would see a 2 pi error
+            x[0] = swing_sc.task.q0[0];
         }
         let ls = LoadedScenario {
             scenario: swing_sc,
@@ -481,7 +487,8 @@ impl Traverse {
     }
 
     /// The run folder: `traverse.csv`, `report.json`, `scenario.toml` (the resolved inputs) and the
-    /// figures `traverse_stick.png/.svg` (every 0.25 s, world frame) and `energy_per_swing.png/.svg`.
+    /// figures `traverse_stick.png/.svg` (every 0.25 s, world frame), `traverse.gif` (the whole
+    /// traverse in the world at 20 frames per second) and `energy_per_swing.png/.svg`.
     /// Figures are rendered into a private temporary folder and queued like every other file.
     pub fn folder(&self, ll: &LoadedLadder) -> Result<RunFolder, crate::ExpError> {
         let mut folder = RunFolder::default();
@@ -522,6 +529,7 @@ impl Traverse {
                 "traverse_stick.svg",
                 "energy_per_swing.png",
                 "energy_per_swing.svg",
+                "traverse.gif",
             ] {
                 match std::fs::read(tmp.join(name)) {
                     Ok(data) => folder.add(name, data),
@@ -545,7 +553,10 @@ impl Traverse {
         ll: &LoadedLadder,
         dir: &std::path::Path,
     ) -> Result<(), brachia_plot::PlotError> {
-        use brachia_plot::{line_plot, pose_diagram, LinePlot, Obstacle, PoseFigure, Series};
+        use brachia_plot::{
+            animate_poses_gif, line_plot, pose_diagram, AnimOptions, LinePlot, Obstacle,
+            PoseFigure, Series,
+        };
         let bars: Vec<[f64; 2]> = ll.scenario.ladder.bars.iter().map(|b| b.p()).collect();
         let mut fig = PoseFigure {
             title: format!("{}: traverse, every 0.25 s", ll.scenario.name),
@@ -564,6 +575,7 @@ impl Traverse {
             ..PoseFigure::default()
         };
         let mut next = 0.0;
+        let (mut frames, mut hands, mut next_frame) = (Vec::new(), Vec::new(), 0.0);
         for (k, log) in self.logs.iter().enumerate() {
             let t0 = self.swings[k].t_start_s - log.t[0];
             for row in 0..log.len() {
@@ -579,12 +591,31 @@ impl Traverse {
                     fig.trail.push(hand);
                 }
                 let last = k + 1 == self.logs.len() && row + 1 == log.len();
+                if t >= next_frame - 1e-9 || last {
+                    frames.push((t, joints.clone()));
+                    hands.push(hand);
+                    next_frame = t + 1.0 / GIF_FPS;
+                }
                 if t >= next - 1e-9 || last {
                     fig.poses.push((t, joints));
                     next = t + 0.25;
                 }
             }
         }
+        animate_poses_gif(
+            dir.join("traverse.gif"),
+            &frames,
+            &hands,
+            &AnimOptions {
+                fps: GIF_FPS,
+                size: (800, 400),
+                title: format!("{}: traverse", ll.scenario.name),
+                bars: fig.bars.clone(),
+                target: fig.target,
+                obstacles: fig.obstacles.clone(),
+                ..AnimOptions::default()
+            },
+        )?;
         pose_diagram(dir.join("traverse_stick.png"), &fig)?;
         let idx: Vec<f64> = self.swings.iter().map(|s| s.swing as f64).collect();
         line_plot(

@@ -121,6 +121,67 @@ fn a_five_link_robot_traverses_a_short_even_ladder_on_the_model_plant() {
     traverse(&params, &[(0.0, 0.0), (0.8, 0.0), (1.6, 0.0)], 5);
 }
 
+/// The first three bars of `scenarios/NAME` (its planner, solver and rest condition unchanged), with the
+/// params path made absolute, written into `dir`.
+fn three_bar_cut(dir: &Path, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("scenarios").join(name)).unwrap();
+    let mut v: toml::Table = text.parse().unwrap();
+    let params = root().join("params/paper.toml").display().to_string();
+    v.insert("params".into(), toml::Value::String(params));
+    let ladder = v["ladder"].as_table_mut().unwrap();
+    ladder["bars"].as_array_mut().unwrap().truncate(3);
+    let p = dir.join(name);
+    std::fs::write(&p, toml::to_string(&v).unwrap()).unwrap();
+    p
+}
+
+/// A 3-bar cut of a paper-robot ladder completes with every capture within 2 cm, the chain nearly at
+/// rest at every switch (the rest condition `planner.bounds.qd_end_max`), energy reported per swing.
+fn three_bar_cut_completes(name: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let ll =
+        LadderScenario::load(&three_bar_cut(dir.path(), name)).unwrap_or_else(|e| panic!("{e}"));
+    let rest = ll
+        .scenario
+        .planner
+        .bounds
+        .qd_end_max
+        .expect("a rest condition");
+    assert_eq!(ll.scenario.ladder.bars.len(), 3);
+    let tr = run_traverse(&ll).unwrap();
+    assert!(
+        tr.status.completed(),
+        "{name}: {} ({:?})",
+        tr.status,
+        tr.swings
+    );
+    assert_eq!(tr.swings.len(), 2);
+    let n = ll.robot.n;
+    for (k, s) in tr.swings.iter().enumerate() {
+        assert!(s.capture_error_m < 0.02, "{name} swing {k}: {s:?}");
+        assert!(s.switch_residual_m_s < 0.1, "{name} swing {k}: {s:?}");
+        assert!(s.energy_j.is_finite() && s.planned_energy_j.is_finite());
+        // the tracked chain ends near rest: every joint rate within twice the planned bound
+        let log = &tr.logs[k];
+        let xe = log.x(log.len() - 1);
+        let qd = xe[n..].iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        assert!(qd < 2.0 * rest, "{name} swing {k}: end rate {qd} rad/s");
+    }
+    let r = tr.report(&ll);
+    assert_eq!(r["totals"]["bars_caught"], 2);
+    assert!(r["swings"][1]["energy_j"].as_f64().is_some());
+}
+
+#[test]
+fn a_three_bar_cut_of_the_even_ladder_completes_under_the_rest_condition() {
+    three_bar_cut_completes("ladder-even.toml");
+}
+
+#[test]
+fn a_three_bar_cut_of_the_irregular_ladder_completes_under_the_rest_condition() {
+    three_bar_cut_completes("ladder-irregular.toml");
+}
+
 #[test]
 fn bars_out_of_reach_or_too_close_are_refused_before_planning_naming_the_bar() {
     let dir = tempfile::tempdir().unwrap();

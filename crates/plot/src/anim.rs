@@ -86,21 +86,7 @@ pub fn animate_gif(
     check_trajectory(robot, traj).map_err(bad)?;
     check_scene(&opts.bars, opts.target, &opts.obstacles).map_err(bad)?;
     check_balls(&opts.balls).map_err(bad)?;
-    if !(opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 100.0) {
-        return Err(bad(format!("fps must be in (0, 100], got {}", opts.fps)));
-    }
-    if !(opts.end_pause_s.is_finite() && opts.end_pause_s >= 0.0) {
-        return Err(bad(format!(
-            "end_pause_s must be >= 0, got {}",
-            opts.end_pause_s
-        )));
-    }
-    let (w, h) = opts.size;
-    if !(64..=2000).contains(&w) || !(64..=2000).contains(&h) {
-        return Err(bad(format!(
-            "frame size {w} x {h} outside 64..=2000 pixels"
-        )));
-    }
+    check_options(opts).map_err(bad)?;
     let (t0, t1) = (traj.t[0], traj.t[traj.len() - 1]);
     if (t1 - t0) * opts.fps > MAX_FRAMES as f64 {
         return Err(bad(format!(
@@ -115,13 +101,40 @@ pub fn animate_gif(
     let mut base = Scene::new(&opts.title, &opts.bars, opts.target, &opts.obstacles);
     base.fit(all_joint_points(robot, traj));
     base.fit(ball_extent(&opts.balls));
-    let bounds = base.bounds;
+    let frames = times.iter().map(|&t| Frame {
+        t,
+        joints: pose_at(robot, traj, t),
+        trail: if opts.trail {
+            ee_trail(robot, traj, t)
+        } else {
+            Vec::new()
+        },
+    });
+    encode_frames(path, base.bounds, t0, opts, frames)
+}
 
+/// One frame of [`encode_frames`]: its time, the joint positions, the trail so far (world, m).
+struct Frame {
+    t: f64,
+    joints: Vec<[f64; 2]>,
+    trail: Vec<[f64; 2]>,
+}
+
+/// Draw every frame into the shared view `bounds` and encode the looping GIF (time stamps from `t0`).
+fn encode_frames(
+    path: &Path,
+    bounds: Option<(f64, f64, f64, f64)>,
+    t0: f64,
+    opts: &AnimOptions,
+    frames: impl ExactSizeIterator<Item = Frame>,
+) -> Result<(), PlotError> {
+    let (w, h) = opts.size;
     let palette = palette();
     let encode_err = |e: gif::EncodingError| PlotError::Encode {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
+    let count = frames.len();
     let mut bytes = Vec::new();
     {
         let mut enc =
@@ -130,19 +143,17 @@ pub fn animate_gif(
         let delay = (100.0 / opts.fps).round().max(1.0) as u16;
         let pause = (opts.end_pause_s * 100.0).round().min(60000.0) as u16;
         let mut indices = vec![0u8; w as usize * h as usize];
-        for (fi, &t) in times.iter().enumerate() {
+        for (fi, fr) in frames.enumerate() {
             let mut scene = Scene::new(&opts.title, &opts.bars, opts.target, &opts.obstacles);
             scene.bounds = bounds;
-            if opts.trail {
-                scene.trail = ee_trail(robot, traj, t);
-            }
-            scene.poses.push((pose_at(robot, traj, t), ROBOT_COLOUR));
+            scene.trail = fr.trail;
+            scene.poses.push((fr.joints, ROBOT_COLOUR));
             for track in &opts.balls {
-                if let Some(b) = ball_at(track, t) {
+                if let Some(b) = ball_at(track, fr.t) {
                     scene.balls.push((b, RGBColor(180, 80, 0)));
                 }
             }
-            scene.stamp = Some(format!("t = {} s", format_stamp(t - t0)));
+            scene.stamp = Some(format!("t = {} s", format_stamp(fr.t - t0)));
             let rgb = render_rgb((w, h), &scene).map_err(|message| PlotError::Render {
                 path: path.to_path_buf(),
                 message,
@@ -150,7 +161,7 @@ pub fn animate_gif(
             for (i, px) in rgb.chunks_exact(3).enumerate() {
                 indices[i] = palette_index(px[0], px[1], px[2]);
             }
-            let last = fi + 1 == times.len();
+            let last = fi + 1 == count;
             let frame = gif::Frame {
                 width: w as u16,
                 height: h as u16,
@@ -167,6 +178,89 @@ pub fn animate_gif(
         enc.into_inner().map_err(encode_err)?;
     }
     write_atomic(&[(path, bytes.as_slice())])
+}
+
+/// Write an animated GIF of poses given in the world (`path` must end in `.gif`), looping forever:
+/// one frame per entry of `poses` (time s, joint positions m, in drawing order; the times ascending),
+/// with the trail of `hands` (one point per pose: the swinging hand, world) drawn up to each frame. For
+/// motions that no single [`Trajectory`] describes, e.g. a ladder traverse whose grip changes.
+/// `opts.fps` sets each frame's delay (the poses should be sampled at that rate); `opts.trail` switches
+/// the trail.
+///
+/// Errors: [`PlotError::InvalidData`] for no poses, non-finite points, `hands` of another length,
+/// times not ascending, more than [`MAX_FRAMES`] poses, fps or size out of range.
+pub fn animate_poses_gif(
+    path: impl AsRef<Path>,
+    poses: &[(f64, Vec<[f64; 2]>)],
+    hands: &[[f64; 2]],
+    opts: &AnimOptions,
+) -> Result<(), PlotError> {
+    let path = path.as_ref();
+    check_extension(path, "gif")?;
+    let bad = |reason: String| PlotError::InvalidData {
+        path: path.to_path_buf(),
+        reason,
+    };
+    check_options(opts).map_err(bad)?;
+    check_scene(&opts.bars, opts.target, &opts.obstacles).map_err(bad)?;
+    check_balls(&opts.balls).map_err(bad)?;
+    if poses.is_empty() || poses.len() > MAX_FRAMES {
+        return Err(bad(format!(
+            "{} poses: need 1 to {MAX_FRAMES}",
+            poses.len()
+        )));
+    }
+    if hands.len() != poses.len() {
+        return Err(bad(format!(
+            "{} hand points for {} poses",
+            hands.len(),
+            poses.len()
+        )));
+    }
+    let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+    if let Some((t, _)) = poses
+        .iter()
+        .find(|(t, j)| !t.is_finite() || j.is_empty() || !j.iter().all(finite))
+    {
+        return Err(bad(format!("the pose at t = {t} is empty or not finite")));
+    }
+    if !hands.iter().all(finite) {
+        return Err(bad("a hand point is not finite".into()));
+    }
+    if poses.windows(2).any(|w| w[1].0 < w[0].0) {
+        return Err(bad("pose times must ascend".into()));
+    }
+    let mut base = Scene::new(&opts.title, &opts.bars, opts.target, &opts.obstacles);
+    base.fit(poses.iter().flat_map(|(_, j)| j.iter().copied()));
+    base.fit(ball_extent(&opts.balls));
+    let frames = poses.iter().enumerate().map(|(i, (t, j))| Frame {
+        t: *t,
+        joints: j.clone(),
+        trail: if opts.trail {
+            hands[..=i].to_vec()
+        } else {
+            Vec::new()
+        },
+    });
+    encode_frames(path, base.bounds, poses[0].0, opts, frames)
+}
+
+/// Check fps, the end pause and the frame size of `opts`.
+fn check_options(opts: &AnimOptions) -> Result<(), String> {
+    if !(opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 100.0) {
+        return Err(format!("fps must be in (0, 100], got {}", opts.fps));
+    }
+    if !(opts.end_pause_s.is_finite() && opts.end_pause_s >= 0.0) {
+        return Err(format!(
+            "end_pause_s must be >= 0, got {}",
+            opts.end_pause_s
+        ));
+    }
+    let (w, h) = opts.size;
+    if !(64..=2000).contains(&w) || !(64..=2000).contains(&h) {
+        return Err(format!("frame size {w} x {h} outside 64..=2000 pixels"));
+    }
+    Ok(())
 }
 
 /// Colour of the robot in animation frames.

@@ -16,6 +16,7 @@
 //! | [`stick_diagram`] | the robot every `every_s` seconds, light (start) to dark (end), equal axis scale |
 //! | [`heatmap`] | a value over a 2-D grid, colour bar, values printed, failed cells hatched |
 //! | [`animate_gif`] | the moving stick figure with bars, target, obstacles, balls and a time stamp |
+//! | [`animate_poses_gif`] | the same from world poses (a traverse whose grip changes) |
 //!
 //! ## Conventions (as in `brachia`)
 //! Planar frame at the grip point, x right, y up, gravity along -y; `q[0]` is the absolute angle of
@@ -36,7 +37,7 @@ mod series;
 mod spatial;
 mod style;
 
-pub use anim::{animate_gif, frame_times, AnimOptions, MAX_FRAMES};
+pub use anim::{animate_gif, animate_poses_gif, frame_times, AnimOptions, MAX_FRAMES};
 pub use error::PlotError;
 pub use heatmap::{heatmap, Heatmap};
 pub use poses::{pose_diagram, PoseFigure, MAX_POSES};

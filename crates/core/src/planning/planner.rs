@@ -411,6 +411,7 @@ pub(super) fn variable_bounds(
     let b = &settings.bounds;
     let (mut lo, mut hi) = (vec![0.0; nv], vec![0.0; nv]);
     for p in 0..layout.points {
+        let qd = b.qd_bound(p + 1 == layout.points);
         for i in 0..n {
             let (l, h) = if i == 0 {
                 (b.q1[0], b.q1[1])
@@ -419,8 +420,8 @@ pub(super) fn variable_bounds(
             };
             lo[layout.var(p, i)] = l;
             hi[layout.var(p, i)] = h;
-            lo[layout.var(p, n + i)] = -b.qd_max;
-            hi[layout.var(p, n + i)] = b.qd_max;
+            lo[layout.var(p, n + i)] = -qd;
+            hi[layout.var(p, n + i)] = qd;
         }
         for j in 0..n - 1 {
             lo[layout.var(p, 2 * n + j)] = robot.tau_min[j];
@@ -618,9 +619,21 @@ pub(super) fn target_pose(
         .collect();
     let mut straight = vec![0.0; n];
     straight[0] = task.target[1].atan2(task.target[0]);
+    // fallback: the chain dipping below the line to the target (a start pose that points above the
+    // bar, as a re-rooted chain on a ladder may, mirrors to seeds above it)
+    let mut vee = straight.clone();
+    let sgn = if task.target[0] < 0.0 { 1.0 } else { -1.0 };
+    vee[0] = wrap(straight[0] + 0.8 * sgn);
+    vee[n / 2] = -1.6 * sgn;
     let b = &settings.bounds;
     let mut best: Option<(bool, f64, Vec<f64>)> = None;
-    for seed in [m, flipped, task.q0.clone(), straight] {
+    for (i, seed) in [m, flipped, task.q0.clone(), straight, vee]
+        .into_iter()
+        .enumerate()
+    {
+        if i == 4 && best.is_some() {
+            break;
+        }
         let Some(q) = ik_from_seed(robot, &seed, task.target) else {
             continue;
         };

@@ -98,6 +98,22 @@ pub struct Bounds {
     pub q_rel_max: f64,
     /// Largest |qd_i| of every joint, rad/s. Default 15.
     pub qd_max: f64,
+    /// Largest |qd_i| of every joint at the **last knot**, rad/s (the rest condition of a traverse:
+    /// the chain ends the swing nearly at rest, not only its EE, docs/interpretations.md). Default
+    /// none (only `qd_max`); when set, finite, > 0 and at most `qd_max`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub qd_end_max: Option<f64>,
+}
+
+impl Bounds {
+    /// The joint-rate bound at a knot: [`Bounds::qd_end_max`] at the last one (when set), else
+    /// [`Bounds::qd_max`].
+    pub fn qd_bound(&self, last: bool) -> f64 {
+        match (last, self.qd_end_max) {
+            (true, Some(v)) => v.min(self.qd_max),
+            _ => self.qd_max,
+        }
+    }
 }
 
 impl Default for Bounds {
@@ -106,6 +122,7 @@ impl Default for Bounds {
             q1: [-std::f64::consts::PI, 0.0],
             q_rel_max: 2.9,
             qd_max: 15.0,
+            qd_end_max: None,
         }
     }
 }
@@ -191,6 +208,17 @@ impl PlannerSettings {
         pos("output_dt", self.output_dt)?;
         pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
         pos("bounds.qd_max", self.bounds.qd_max)?;
+        if let Some(v) = self.bounds.qd_end_max {
+            pos("bounds.qd_end_max", v)?;
+            if v > self.bounds.qd_max {
+                return Err(Error::invalid(
+                    src,
+                    "bounds.qd_end_max",
+                    v,
+                    format!("must be at most bounds.qd_max = {}", self.bounds.qd_max),
+                ));
+            }
+        }
         if self.shooting.substeps == 0 || self.shooting.substeps > MAX_SHOOTING_SUBSTEPS {
             return Err(Error::invalid(
                 src,

@@ -884,9 +884,10 @@ impl<'a, D: PointDynamics<'a>> OcpProblem for SwingOcp<'a, D> {
                 b.x_lo[i] = -bd.q_rel_max;
                 b.x_hi[i] = bd.q_rel_max;
             }
+            let qd = bd.qd_bound(k == self.ctx.horizon);
             for i in 0..n {
-                b.x_lo[n + i] = -bd.qd_max;
-                b.x_hi[n + i] = bd.qd_max;
+                b.x_lo[n + i] = -qd;
+                b.x_hi[n + i] = qd;
             }
         }
         if k < self.ctx.horizon {

@@ -6,7 +6,9 @@
 //! - `figures/`: `fig3_*.png` .. `fig8_*.png` (each with an `.svg` beside it) and one GIF per swing;
 //! - one run folder per experiment (`parameter-study/`, `tracking/`, `tracking-model/`,
 //!   `obstacle/avoid/`, `obstacle/ignored/`, `robustness/{mpc,pd,open-loop}/`, `robustness-paper/`),
-//!   each with its resolved inputs, CSVs and `report.json`, as `brachia plan` / `brachia track` write them.
+//!   each with its resolved inputs, CSVs and `report.json`, as `brachia plan` / `brachia track` write them;
+//! - `ladder/`: the even ladder traversed on the model plant (issue 14, beyond the paper; `--quick`
+//!   traverses its first three bars), as `brachia traverse` writes it (`traverse.gif` among them).
 //!
 //! Everything is written into a staging folder next to `DIR` and renamed into place when complete
 //! ([`crate::run_folder`]): an interrupted run leaves the previous results as they were, and a re-run
@@ -109,10 +111,18 @@ pub(crate) struct Results {
     pub(crate) obstacle: Option<ObstacleRuns>,
     pub(crate) robustness: Option<Robustness>,
     pub(crate) study: Option<crate::parameter_study::ParameterStudy>,
+    /// The ladder traverse's `ladder/report.json`.
+    pub(crate) ladder: Option<Value>,
     pub(crate) quick: bool,
     pub(crate) wall_s: f64,
     pub(crate) cores: usize,
 }
+
+/// The ladder scenario of the reproduction (in [`ReproduceOptions::scenarios`]).
+const LADDER_SCENARIO: &str = "ladder-even.toml";
+
+/// Bars of the ladder traversed by `--quick` (two swings, one of each hand).
+const QUICK_BARS: usize = 3;
 
 /// The controllers of the robustness experiment, by run folder name.
 const ROBUSTNESS_RUNS: [&str; 3] = ["mpc", "pd", "open-loop"];
@@ -163,6 +173,25 @@ impl Results {
                 runs,
                 paper,
             });
+        }
+        if has("ladder") {
+            let path = dir.join("ladder/report.json");
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                brachia::Error::invalid(
+                    path.display().to_string(),
+                    "file",
+                    "unreadable",
+                    e.to_string(),
+                )
+            })?;
+            res.ladder = Some(serde_json::from_str(&text).map_err(|e| {
+                brachia::Error::invalid(
+                    path.display().to_string(),
+                    "json",
+                    "invalid",
+                    e.to_string(),
+                )
+            })?);
         }
         if has("parameter-study") {
             res.study = Some(crate::read::read_parameter_study(
@@ -233,6 +262,10 @@ pub fn reproduce_cancellable(
     let ls_ignored = load(opts, "obstacle-ignored.toml")?;
     let ls_robust = load(opts, "robustness.toml")?;
     let ls_robust_paper = load(opts, "robustness-paper.toml")?;
+    let mut ll_ladder = crate::LadderScenario::load(&opts.scenarios.join(LADDER_SCENARIO))?;
+    if opts.quick {
+        ll_ladder.scenario.ladder.bars.truncate(QUICK_BARS);
+    }
     let study_settings = study::settings(&ls_track, opts.quick);
     study_settings.validate()?;
     // the output places are checked before any work
@@ -339,6 +372,14 @@ pub fn reproduce_cancellable(
     }
 
     cancel.check()?;
+
+    // issue 14: a ladder traverse on the model plant
+    let tr = crate::run_traverse_cancellable(&ll_ladder, cancel)?;
+    write(&tr.folder(&ll_ladder)?, &out.join("ladder"), &mut files)?;
+    if !tr.status.completed() {
+        failures.push(format!("ladder: {}", tr.status));
+    }
+    drop(tr);
 
     // V-A: the parameter study (the longest part)
     let st =

@@ -409,6 +409,25 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
             json!({ "avoid": one(&o.avoid), "ignored": one(&o.ignored) }),
         );
     }
+    if let Some(l) = &res.ladder {
+        m.insert(
+            "ladder".into(),
+            json!({
+                "scenario": l["scenario"],
+                "completed": l["completed"],
+                "message": l["message"],
+                "bars": l["bars"].as_array().map(|b| b.len()),
+                "swings": l["swings"].as_array().map(|v| v.iter().map(|w| json!({
+                    "energy_j": w["energy_j"],
+                    "positive_work_j": w["positive_work_j"],
+                    "capture_error_m": w["capture_error_m"],
+                    "switch_residual_m_s": w["switch_residual_m_s"],
+                    "duration_s": w["duration_s"],
+                })).collect::<Vec<_>>()),
+                "totals": l["totals"],
+            }),
+        );
+    }
     if let Some(r) = &res.robustness {
         let mut runs = serde_json::Map::new();
         for x in &r.runs {
@@ -830,6 +849,9 @@ pub(crate) fn markdown(
             );
         }
     }
+    if let Some(l) = &res.ladder {
+        s.push_str(&ladder_markdown(l, target));
+    }
     s.push_str("## Animations\n\n");
     for (name, what) in ANIMATIONS {
         if target == Target::Page && !PAGE_ANIMATIONS.contains(&name) {
@@ -846,6 +868,47 @@ pub(crate) fn markdown(
          its CSVs (1 ms) and a `report.json`; the folders that planned also hold the plan's resolved inputs \
          (`scenario.toml`, under `plan/` for track runs), and the others track that same plan.\n",
     );
+    s
+}
+
+/// The ladder section of the report, from the traverse's `report.json` (docs/ladders.md).
+fn ladder_markdown(l: &Value, target: Target) -> String {
+    let mut s = String::new();
+    let f = |v: &Value, d: usize| num(v.as_f64(), d);
+    let _ = writeln!(
+        s,
+        "## E. A ladder traverse (beyond the paper)\n\n`{}`: {} bars on the model plant under MPC, \
+         the grip switching at every bar (docs/ladders.md). {}.\n\n\
+         | swing | energy eq. 18 (J) | positive work (J) | duration (s) | capture error (m) | switch residual (m/s) |\n\
+         |---|---|---|---|---|---|",
+        l["scenario"].as_str().unwrap_or("?"),
+        l["bars"].as_array().map_or(0, |b| b.len()),
+        l["message"].as_str().unwrap_or("?"),
+    );
+    for (k, w) in l["swings"].as_array().into_iter().flatten().enumerate() {
+        let _ = writeln!(
+            s,
+            "| {k} | {} | {} | {} | {:.1e} | {:.1e} |",
+            f(&w["energy_j"], 3),
+            f(&w["positive_work_j"], 3),
+            f(&w["duration_s"], 3),
+            w["capture_error_m"].as_f64().unwrap_or(f64::NAN),
+            w["switch_residual_m_s"].as_f64().unwrap_or(f64::NAN),
+        );
+    }
+    let t = &l["totals"];
+    let _ = writeln!(
+        s,
+        "\nTotal energy {} J over {} s; real-time factor {} (planning and tracking).\n",
+        f(&t["energy_j"], 3),
+        f(&t["duration_s"], 3),
+        f(&t["real_time_factor"], 2),
+    );
+    if target == Target::Report {
+        s.push_str(
+            "![energy per swing](ladder/energy_per_swing.png)\n\n[The whole traverse](ladder/traverse.gif)\n\n",
+        );
+    }
     s
 }
 
