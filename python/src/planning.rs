@@ -243,6 +243,7 @@ pub(crate) fn plan(
             solver: nlp,
             tracking: Default::default(),
             plant: Default::default(),
+            disturbances: Default::default(),
         },
         robot: (*r).clone(),
         path: Path::new("<python>").to_path_buf(),
