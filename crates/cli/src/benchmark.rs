@@ -5,7 +5,6 @@ use crate::CliError;
 use brachia_experiments::{
     check_out_dir, run_benchmark, BenchmarkOutcome, BenchmarkSettings, Progress, Scenario,
 };
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
 /// Arguments of `brachia benchmark`.
@@ -59,21 +58,8 @@ pub fn run(a: Args) -> Result<(), CliError> {
     s.only_controllers = a.controller;
     s.validate()?;
     check_out_dir(&a.out, a.force)?;
-    let bar = if a.no_progress {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(0)
-    };
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg} (eta {eta})")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    let show = |p: Progress| {
-        bar.set_length(p.total);
-        bar.set_message(p.what);
-        bar.set_position(bar.position().max(p.done));
-    };
+    let bar = crate::io::progress_bar(a.no_progress);
+    let show = |p: Progress| crate::io::show_progress(&bar, p);
     let out = run_benchmark(&ls, &s, &show);
     bar.finish_and_clear();
     match out? {

@@ -2,6 +2,31 @@
 //! written to a temporary name and renamed into place.)
 
 use crate::CliError;
+use brachia_experiments::Progress;
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// The terminal progress bar of the long commands (reproduce, benchmark), hidden under
+/// `--no-progress`. The library reports [`Progress`]; [`show_progress`] draws it.
+pub fn progress_bar(hidden: bool) -> ProgressBar {
+    let bar = if hidden {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(0)
+    };
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg} (eta {eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// Draw one progress report on `bar` (the position never moves back).
+pub fn show_progress(bar: &ProgressBar, p: Progress) {
+    bar.set_length(p.total);
+    bar.set_message(p.what);
+    bar.set_position(bar.position().max(p.done));
+}
 
 /// Parse a comma-separated list of numbers, e.g. `-2.35,0,-1.55,0`.
 pub fn parse_list(flag: &str, text: &str, expected: usize) -> Result<Vec<f64>, CliError> {

@@ -3,7 +3,6 @@
 use crate::{exp_error, CliError};
 use brachia_experiments::reproduce::{reproduce_cancellable, ReproduceOptions};
 use brachia_experiments::{CancelToken, Progress};
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
 /// Arguments of `brachia reproduce`.
@@ -38,21 +37,8 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         results_page: a.results_page,
         force: a.force,
     };
-    let bar = if a.no_progress {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(0)
-    };
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg} (eta {eta})")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    let show = |p: Progress| {
-        bar.set_length(p.total);
-        bar.set_message(p.what);
-        bar.set_position(bar.position().max(p.done));
-    };
+    let bar = crate::io::progress_bar(a.no_progress);
+    let show = |p: Progress| crate::io::show_progress(&bar, p);
     let rep = reproduce_cancellable(&opts, &a.out, &show, cancel);
     bar.finish_and_clear();
     let rep = rep.map_err(exp_error(&a.out))?;
