@@ -57,7 +57,8 @@ def test_robot_from_string_is_valid():
 def test_bad_scenario_field(tmp_path, root):
     text = (root / "scenarios" / "tracking.toml").read_text()
     text = text.replace('params = "../params/paper.toml"', f'params = "{root / "params" / "paper.toml"}"')
-    text = text.replace("knot_dt = 0.01", "knot_dt = -0.01")
+    assert "knot_dt = 0.03" in text
+    text = text.replace("knot_dt = 0.03", "knot_dt = -0.01")
     path = tmp_path / "bad-scenario.toml"
     path.write_text(text)
     with pytest.raises(brachia.BrachiaError) as e:
