@@ -21,7 +21,7 @@ use crate::progress::{Progress, ProgressFn};
 use crate::run_folder::{install, stage_for, RunFolder};
 use crate::scenario::{LoadedScenario, PlantKind};
 use crate::ExpError;
-use brachia::control::{Mpc, OpenLoop, Pd};
+use brachia::control::{Estimated, Mpc, OpenLoop, Pd, Tvlqr};
 use brachia::sim::{run_closed_loop, Controller, Disturbances, ModelPlant, Push, RunSettings};
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
@@ -78,6 +78,27 @@ pub fn controllers() -> Vec<ControllerEntry> {
         ControllerEntry {
             name: "open-loop",
             build: |ls, r| Ok(Box::new(OpenLoop::new(ls.robot.clone(), Arc::clone(r))?)),
+        },
+        ControllerEntry {
+            name: "tvlqr",
+            build: |ls, r| {
+                let s = ls.scenario.tracking.tvlqr.clone();
+                Ok(Box::new(Tvlqr::new(ls.robot.clone(), Arc::clone(r), s)?))
+            },
+        },
+        ControllerEntry {
+            name: "mpc+kalman",
+            build: |ls, r| {
+                let t = &ls.scenario.tracking;
+                let mpc = Mpc::new(ls.robot.clone(), Arc::clone(r), t.mpc.clone())?;
+                Ok(Box::new(Estimated::new(
+                    mpc,
+                    ls.robot.clone(),
+                    Arc::clone(r),
+                    t.estimator,
+                    t.control_dt,
+                )?))
+            },
         },
     ]
 }
