@@ -34,7 +34,7 @@ fn paper_robot() -> Robot {
 fn bench(c: &mut Criterion) {
     let robot = paper_robot();
     let obstacles = [Circle::PAPER];
-    let f = ClearanceFn::new(&robot, &obstacles, 0.01).expect("valid obstacles");
+    let f = ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).expect("valid obstacles");
     let (n, m) = (f.n_in(), f.n_out());
     let mut diff = Diff::new(&f);
     // a pose mid-swing, away from piece boundaries

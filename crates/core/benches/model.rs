@@ -45,7 +45,7 @@ fn bench(c: &mut Criterion) {
             )
         })
     });
-    let f = DynamicsFn { robot: &robot };
+    let f = DynamicsFn::new(robot.clone());
     let mut diff = Diff::new(&f);
     let z: Vec<f64> = q.iter().chain(&qd).chain(&tau).copied().collect();
     let mut jac = vec![0.0; 4 * f.n_in()];
@@ -84,7 +84,7 @@ fn bench(c: &mut Criterion) {
 
 /// The manual pass: medians in one process and the ratios AD / analytic.
 fn ratios(robot: &Robot, q: &[f64], qd: &[f64], tau: &[f64]) {
-    let f = DynamicsFn { robot };
+    let f = DynamicsFn::new(robot.clone());
     let nz = f.n_in();
     let z: Vec<f64> = q.iter().chain(qd).chain(tau).copied().collect();
     let w = [0.3, -1.2, 0.7, 0.1];

@@ -74,7 +74,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Seconds per stage of one first-order evaluation and one Hessian evaluation of the whole horizon
 /// (serial, or with rayon over the stages), at the plan's solution.
-fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan, parallel: bool) -> (f64, f64) {
+fn per_stage<D: PointDynamics>(robot: &Robot, p: &Plan, parallel: bool) -> (f64, f64) {
     let k_last = p.layout.intervals;
     let spec = SwingOcpSpec {
         intervals: k_last,
@@ -87,7 +87,7 @@ fn per_stage<'a, D: PointDynamics<'a>>(robot: &'a Robot, p: &Plan, parallel: boo
         bounds: Default::default(),
         parallel_min_stages: if parallel { 0 } else { usize::MAX },
     };
-    let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot, spec, None).unwrap();
+    let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot.clone(), spec, None).unwrap();
     let dims = ocp.dims().clone();
     let mut z = Primal::zeros(&dims);
     for k in 0..=k_last {

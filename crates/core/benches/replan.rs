@@ -87,7 +87,7 @@ fn quantile(v: &[f64], q: f64) -> f64 {
 
 /// An [`OcpNlp`] that offers given multipliers for a warm start.
 struct WarmNlp<'a> {
-    inner: OcpNlp<SwingOcp<'a>>,
+    inner: OcpNlp<SwingOcp>,
     lambda: &'a [f64],
     z_l: &'a [f64],
     z_u: &'a [f64],
@@ -136,14 +136,14 @@ impl SparseNlp for WarmNlp<'_> {
 }
 
 /// The re-plan problem for pounce: start `x`, the remaining time, K intervals, guess `z`.
-fn pounce_problem<'a>(
-    robot: &'a Robot,
+fn pounce_problem(
+    robot: &Robot,
     s: &PlannerSettings,
     k: usize,
     t_rem: f64,
     x: &[f64],
     z: &Primal,
-) -> OcpNlp<SwingOcp<'a>> {
+) -> OcpNlp<SwingOcp> {
     let n = robot.n;
     let spec = SwingOcpSpec {
         intervals: k,
@@ -156,7 +156,7 @@ fn pounce_problem<'a>(
         bounds: s.bounds.clone(),
         parallel_min_stages: s.shooting.parallel_min_stages,
     };
-    let mut ocp = SwingOcp::new(robot, spec, None).unwrap();
+    let mut ocp = SwingOcp::new(robot.clone(), spec, None).unwrap();
     let g = ocp.guess_mut();
     g.x.clone_from(&z.x);
     g.u.clone_from(&z.u);
@@ -167,7 +167,7 @@ fn bench(c: &mut Criterion) {
     let robot = Robot::paper();
     let task = task();
     let (s, nlp) = settings();
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     if let Some(mu) = std::env::var("BRACHIA_REPLAN_MU")
         .ok()
         .and_then(|v| v.parse().ok())

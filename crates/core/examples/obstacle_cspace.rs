@@ -26,7 +26,7 @@ fn reachable(
     tol: f64,
     qr: f64,
 ) -> (bool, usize) {
-    let cf = ClearanceFn::new(robot, o, 0.0)
+    let cf = ClearanceFn::new(robot.clone(), o, 0.0)
         .unwrap()
         .with_self_collision(true);
     let n1 = (std::f64::consts::PI / step).round() as usize + 1;

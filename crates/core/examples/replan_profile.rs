@@ -39,7 +39,7 @@ fn main() -> Result<(), brachia::Error> {
         backend: Backend::Ocp,
         ..Default::default()
     };
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp)?;
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
     let cold = planner.plan_outcome()?;
     println!(
         "cold: {} iterations, converged {}, miss {:.3e} m",

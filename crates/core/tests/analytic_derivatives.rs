@@ -133,7 +133,7 @@ fn qdd_is_the_forward_dynamics_bit_for_bit() {
 fn jacobian_matches_automatic_differentiation() {
     for (robot, zs) in cases(12, 3, 6) {
         let n = robot.n;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
         let mut dd = DynamicsDerivatives::new(&robot);
@@ -161,7 +161,7 @@ fn jacobian_matches_automatic_differentiation() {
 fn weighted_hessian_matches_automatic_differentiation() {
     for (robot, zs) in cases(13, 2, 3) {
         let n = robot.n;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
         let mut dd = DynamicsDerivatives::new(&robot);
@@ -184,7 +184,7 @@ fn weighted_hessian_matches_automatic_differentiation() {
 fn jacobian_matches_finite_differences() {
     for (robot, zs) in cases(14, 2, 4) {
         let n = robot.n;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let mut dd = DynamicsDerivatives::new(&robot);
         for z in zs {
             let mut qdd = vec![0.0; n];
@@ -204,7 +204,7 @@ fn weighted_hessian_matches_finite_differences_of_the_gradient() {
     for (robot, zs) in cases(15, 2, 3) {
         let n = robot.n;
         let nz = 3 * n - 1;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let mut dd = DynamicsDerivatives::new(&robot);
         let mut rng = ChaCha8Rng::seed_from_u64(100 + n as u64);
         for z in zs {
@@ -295,7 +295,7 @@ fn mpc_linearisation_equals_the_ad_jacobian() {
     for (robot, zs) in cases(18, 1, 3) {
         let n = robot.n;
         let (nx, nu, nz) = (2 * n, n - 1, 3 * n - 1);
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let mut diff = Diff::new(&f);
         let mut lin = Linearizer::new(robot.clone());
         let mut lm = LinearModel::zeros(n);

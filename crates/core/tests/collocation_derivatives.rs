@@ -8,19 +8,20 @@ use brachia::Robot;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-type SwingNlp<'a> = CollocationNlp<DynamicsFn<'a>, EeTerminalFn<'a>, NoPath>;
+type SwingNlp = CollocationNlp<DynamicsFn, EeTerminalFn, NoPath>;
 
-fn swing_nlp<'a>(
-    robot: &'a Robot,
+fn swing_nlp(
+    robot: &Robot,
     layout: Layout,
     target: [f64; 2],
     nv: usize,
     x: &[f64],
     w: (&[f64], &[f64]),
-) -> SwingNlp<'a> {
+) -> SwingNlp {
+    let robot = std::sync::Arc::new(robot.clone());
     CollocationNlp::new(
-        DynamicsFn { robot },
-        EeTerminalFn { robot },
+        DynamicsFn::new(std::sync::Arc::clone(&robot)),
+        EeTerminalFn::new(robot),
         layout,
         vec![target[0], target[1], 0.0, 0.0],
         (vec![-1e3; nv], vec![1e3; nv]),

@@ -215,7 +215,7 @@ fn dynamics_jacobian_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for robot in robots() {
         let n = robot.n;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let mut diff = Diff::new(&f);
         for _ in 0..20 {
             let (q, qd, tau) = random_state(&mut rng, n);
@@ -233,7 +233,7 @@ fn dynamics_weighted_hessian_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     for robot in robots() {
         let n = robot.n;
-        let f = DynamicsFn { robot: &robot };
+        let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
         for _ in 0..10 {

@@ -48,7 +48,7 @@ fn placements_lie_on_the_swing_and_clear_its_ends_and_the_bar() {
     assert!(places.len() >= 19, "{} placements", places.len());
     for pl in &places {
         let one = [pl.obstacle];
-        let cf = ClearanceFn::new(&robot, &one, 0.0)
+        let cf = ClearanceFn::new(robot.clone(), &one[..], 0.0)
             .unwrap()
             .with_self_collision(false);
         // on the path: the unobstructed swing overlaps it (its centre is on a link at t)
@@ -132,7 +132,7 @@ fn the_diagnosis_names_the_link_the_obstacle_blocks() {
     );
     // every link's closest approach to the obstacle, with its time, against a brute-force scan
     assert_eq!(b.clearances.len(), robot.n, "{b:?}");
-    let cf = ClearanceFn::new(&robot, &task.obstacles, 0.0)
+    let cf = ClearanceFn::new(robot.clone(), &task.obstacles[..], 0.0)
         .unwrap()
         .with_self_collision(false);
     let mut d = vec![0.0; robot.n];
@@ -173,7 +173,7 @@ fn detour_seeds_go_around_obstacles_the_unobstructed_swing_sweeps() {
         let obstacles = [places[i].obstacle];
         let seeds = detour_seeds(&robot, &obstacles, &s, &base.points).unwrap();
         assert!(seeds.len() >= 2, "#{}: {} seeds", i + 1, seeds.len());
-        let cf = ClearanceFn::new(&robot, &obstacles, 0.0).unwrap();
+        let cf = ClearanceFn::new(robot.clone(), &obstacles[..], 0.0).unwrap();
         // the measured order: forward-fold, forward, backward-fold, backward
         let kinds: Vec<SeedKind> = seeds.iter().map(|(r, _)| r.kind).collect();
         let rank = |k: &SeedKind| {

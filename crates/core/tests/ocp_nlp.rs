@@ -49,8 +49,8 @@ fn adapter_derivatives_match_finite_differences() {
         radius: 0.1,
     }];
     let make = || {
-        let cf = DistanceClearanceFn::new(ClearanceFn::new(&robot, &obstacles, 0.01).unwrap());
-        OcpNlp::new(SwingOcp::new(&robot, spec(3, 0.3), Some(cf)).unwrap())
+        let cf = DistanceClearanceFn::new(ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).unwrap());
+        OcpNlp::new(SwingOcp::new(robot.clone(), spec(3, 0.3), Some(cf)).unwrap())
     };
     let (mut nlp, mut probe) = (make(), make());
     let (nv, m) = (nlp.n_vars(), nlp.n_cons());
@@ -114,11 +114,11 @@ fn adapter_derivatives_match_finite_differences() {
 
 /// The coarse tracking swing (100 ms intervals) with the planner's guess: a smooth step to the
 /// inverse-kinematics target pose, torques zero.
-fn coarse_swing(robot: &Robot) -> SwingOcp<'_> {
+fn coarse_swing(robot: &Robot) -> SwingOcp {
     let start_ee = robot.ee_position(&Q0);
     let t = 2.0 * freefall_time(robot, &Q0, 0.5 * (start_ee[0] + TARGET[0])).unwrap();
     let k_last = (t / 0.1).round() as usize;
-    let mut ocp = SwingOcp::new(robot, spec(k_last, t), None).unwrap();
+    let mut ocp = SwingOcp::new(robot.clone(), spec(k_last, t), None).unwrap();
     let qt = ik_from_seed(robot, &mirrored_pose(&Q0), TARGET).unwrap();
     let g = ocp.guess_mut();
     for k in 1..=k_last {

@@ -10,7 +10,7 @@ use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::integrate::Rk4;
 use brachia::model::Robot;
 use brachia::planning::{
-    Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SwingTask, Transcription,
+    Backend, NlpSettings, SwingPlanner, PlannerSettings, SwingTask, Transcription,
 };
 use brachia::sim::{ClosedLoop, Controller, Plant, RunSettings};
 use brachia::trajectory::Trajectory;
@@ -60,7 +60,7 @@ impl Plant for Kicked {
 }
 
 /// The planner of the tracking swing on the 30 ms re-planning mesh, not planned yet.
-fn unplanned(robot: &Arc<Robot>) -> OwnedSwingPlanner {
+fn unplanned(robot: &Arc<Robot>) -> SwingPlanner {
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
         qd0: vec![],
@@ -76,10 +76,10 @@ fn unplanned(robot: &Arc<Robot>) -> OwnedSwingPlanner {
         backend: Backend::Ocp,
         ..Default::default()
     };
-    OwnedSwingPlanner::new(Arc::clone(robot), task, &s, &nlp).unwrap()
+    SwingPlanner::new(Arc::clone(robot), task, &s, &nlp).unwrap()
 }
 
-fn planner(robot: &Arc<Robot>) -> (OwnedSwingPlanner, Arc<Trajectory>) {
+fn planner(robot: &Arc<Robot>) -> (SwingPlanner, Arc<Trajectory>) {
     let mut p = unplanned(robot);
     let plan = p.plan().unwrap();
     assert!(plan.converged(), "{:?}", plan.status);

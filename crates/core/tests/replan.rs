@@ -72,7 +72,7 @@ fn warm_replans_from_disturbed_states_converge_reach_the_bar_and_beat_cold_start
     let robot = Robot::paper();
     let task = tracking_task();
     let (s, nlp) = settings();
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     let p = planner.plan().unwrap();
     assert!(p.converged(), "{:?}", p.status);
     assert!(p.replay_ee_error_m < 1e-3);
@@ -146,7 +146,7 @@ fn replan_of_the_undisturbed_state_keeps_the_plan_and_a_new_target_is_reached() 
     let robot = Robot::paper();
     let task = tracking_task();
     let (s, nlp) = settings();
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     let p = planner.plan().unwrap();
     // at a knot time the shifted solution's start is the plan's own knot
     let k = 60;
@@ -181,7 +181,7 @@ fn replan_refuses_misuse() {
     let robot = Robot::paper();
     let task = tracking_task();
     let (s, nlp) = settings();
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     let x = vec![0.0; 8];
     // before any plan
     assert!(matches!(

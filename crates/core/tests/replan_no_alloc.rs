@@ -2,7 +2,7 @@
 //! binary only) sees zero allocations across re-plans (stages evaluated serially, or in parallel with
 //! the planner on a rayon worker) from disturbed states and restores of the
 //! checkpoint, after the first ones (the solver's filter and rayon's pool grow once). The same for the
-//! owned planner on the 30 ms re-planning mesh (`OwnedSwingPlanner`) and for the capture-miss
+//! owned planner on the 30 ms re-planning mesh (`SwingPlanner`) and for the capture-miss
 //! prediction of `control::Replanning`; and repeated cold solves of the shooting problem with obstacle and
 //! self-collision rows (closed-form clearance derivatives) on one `OcpSolver` allocate nothing after the
 //! first solve. One `#[test]`: the counter is global to the binary.
@@ -14,8 +14,8 @@ use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
-    plan, Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SwingOcp, SwingOcpSpec,
-    SwingPlanner, SwingTask, Transcription,
+    plan, Backend, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
+    Transcription,
 };
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStatus};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -73,7 +73,7 @@ fn problem(knot_dt: f64, parallel_min_stages: usize) -> (SwingTask, PlannerSetti
 fn count_replan_allocations(parallel_min_stages: usize) -> usize {
     let robot = Robot::paper();
     let (task, s, nlp) = problem(0.01, parallel_min_stages);
-    let mut planner = SwingPlanner::new(&robot, &task, &s, &nlp).unwrap();
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     assert!(planner.plan_outcome().unwrap().converged());
     let k = 60;
     let t_now = planner.knot_time(k);
@@ -111,14 +111,14 @@ fn count_replan_allocations(parallel_min_stages: usize) -> usize {
 fn count_owned_allocations() -> (usize, usize) {
     let robot = Arc::new(Robot::paper());
     let (task, s, nlp) = problem(0.03, usize::MAX);
-    let mut p = OwnedSwingPlanner::new(Arc::clone(&robot), task, &s, &nlp).unwrap();
+    let mut p = SwingPlanner::new(Arc::clone(&robot), task, &s, &nlp).unwrap();
     let reference = Arc::new(p.plan().unwrap().trajectory);
     let k = 20;
-    let (t_now, x_nom, cp) = p.with(|p| (p.knot_time(k), p.knots().x[k].clone(), p.checkpoint()));
+    let (t_now, x_nom, cp) = (p.knot_time(k), p.knots().x[k].clone(), p.checkpoint());
     let shifts: [[f64; 2]; 4] = [[0.05, -0.3], [-0.08, 0.4], [0.02, 0.1], [-0.03, -0.45]];
     let mut x = x_nom.clone();
-    let mut run = |p: &mut OwnedSwingPlanner, d: &[f64; 2]| {
-        assert!(p.with(|p| p.restore(&cp)).unwrap().converged());
+    let mut run = |p: &mut SwingPlanner, d: &[f64; 2]| {
+        assert!(p.restore(&cp).unwrap().converged());
         for i in 0..4 {
             x[i] = x_nom[i] + d[0] * if i % 2 == 0 { 1.0 } else { -1.0 };
             x[4 + i] = x_nom[4 + i] + d[1];
@@ -184,9 +184,9 @@ fn count_cold_solve_allocations_with_clearances() -> usize {
             radius: 0.1,
         },
     ];
-    let cf = ClearanceFn::new(&robot, &obstacles, 0.01).unwrap();
+    let cf = ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).unwrap();
     let mut ocp: SwingOcp =
-        SwingOcp::new(&robot, spec, Some(DistanceClearanceFn::new(cf))).unwrap();
+        SwingOcp::new(robot.clone(), spec, Some(DistanceClearanceFn::new(cf))).unwrap();
     assert_eq!(ocp.n_clearance(), 4 * 2 + 3);
     for k in 0..=k_last {
         ocp.guess_mut().x[k] = [p.points.q(k), p.points.qd(k)].concat();

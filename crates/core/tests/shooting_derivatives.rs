@@ -52,14 +52,14 @@ const OBSTACLES: [Circle; 2] = [
     },
 ];
 
-fn problem<'a, D: PointDynamics<'a>>(
-    robot: &'a Robot,
+fn problem<D: PointDynamics>(
+    robot: &Robot,
     intervals: usize,
     substeps: usize,
-) -> SwingOcp<'a, D> {
+) -> SwingOcp<D> {
     let n = robot.n;
     let clearance = DistanceClearanceFn::new(
-        ClearanceFn::new(robot, &OBSTACLES, 0.01)
+        ClearanceFn::new(robot.clone(), &OBSTACLES[..], 0.01)
             .unwrap()
             .with_self_collision(true),
     );
@@ -74,7 +74,7 @@ fn problem<'a, D: PointDynamics<'a>>(
         bounds: Bounds::default(),
         parallel_min_stages: 3, // exercise the parallel path too
     };
-    SwingOcp::with_dynamics(robot, spec, Some(clearance)).unwrap()
+    SwingOcp::with_dynamics(robot.clone(), spec, Some(clearance)).unwrap()
 }
 
 fn random_point(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Primal {
@@ -168,7 +168,7 @@ fn stage_lagrangian_gradient(
     }
 }
 
-fn check_all_derivatives<'a, D: PointDynamics<'a>>(robot: &'a Robot, substeps: usize, seed: u64) {
+fn check_all_derivatives<D: PointDynamics>(robot: &Robot, substeps: usize, seed: u64) {
     let n = robot.n;
     let intervals = 3;
     let mut ocp: SwingOcp<D> = problem(robot, intervals, substeps);

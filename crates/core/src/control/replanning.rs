@@ -1,6 +1,6 @@
 //! Online re-planning around a tracking controller (issue 13 item 3; docs/replanning.md).
 //!
-//! [`Replanning`] holds a persistent planner ([`OwnedSwingPlanner`], usually on a coarse mesh) and a
+//! [`Replanning`] holds a persistent planner ([`SwingPlanner`], usually on a coarse mesh) and a
 //! tracking controller (usually the [`crate::control::Mpc`]). Every `check_period_s` it predicts the
 //! capture miss: a rollout of the model from the measured state to the swing's end time T under the
 //! tracked reference's feed-forward torque (RK4 steps of `predict_dt_s`, the torque of each step the
@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::integrate::Rk4;
 use crate::model::Robot;
 use crate::planning::{
-    Backend, NlpSettings, OwnedSwingPlanner, PlannerSettings, SolveStatus, SwingTask, Transcription,
+    Backend, NlpSettings, SwingPlanner, PlannerSettings, SolveStatus, SwingTask, Transcription,
 };
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -166,7 +166,7 @@ pub struct ReplanEvent {
 /// A tracking controller with online re-planning; see the module docs.
 pub struct Replanning<C> {
     inner: C,
-    planner: OwnedSwingPlanner,
+    planner: SwingPlanner,
     robot: Arc<Robot>,
     reference: Arc<Trajectory>,
     settings: ReplanSettings,
@@ -188,7 +188,7 @@ impl<C: Controller> Replanning<C> {
     /// plan, or a reference that does not fit the planner's robot.
     pub fn new(
         inner: C,
-        planner: OwnedSwingPlanner,
+        planner: SwingPlanner,
         reference: impl Into<Arc<Trajectory>>,
         settings: ReplanSettings,
     ) -> Result<Self> {
@@ -201,7 +201,7 @@ impl<C: Controller> Replanning<C> {
                 "replanning",
                 "planner",
                 "no plan",
-                "plan the swing before wrapping the controller (OwnedSwingPlanner::plan)",
+                "plan the swing before wrapping the controller (SwingPlanner::plan)",
             ));
         }
         let t_final = planner.swing_time();
@@ -255,8 +255,8 @@ impl<C: Controller> Replanning<C> {
             backend: Backend::Ocp,
             ..nlp.clone()
         };
-        let mut p = OwnedSwingPlanner::new(robot, task.clone(), &ps, &nlp)?;
-        let out = p.with(|p| p.plan_outcome())?;
+        let mut p = SwingPlanner::new(robot, task.clone(), &ps, &nlp)?;
+        let out = p.plan_outcome()?;
         if !out.converged() {
             return Err(Error::invalid(
                 "replanning",
@@ -294,7 +294,7 @@ impl<C: Controller> Replanning<C> {
     }
 
     /// Back to the tracking controller, the planner and the re-plans.
-    pub fn into_parts(self) -> (C, OwnedSwingPlanner, Vec<ReplanEvent>) {
+    pub fn into_parts(self) -> (C, SwingPlanner, Vec<ReplanEvent>) {
         (self.inner, self.planner, self.events)
     }
 

@@ -51,10 +51,11 @@ pub enum ClearanceForm {
 
 /// Closed-form value, Jacobian and weighted Hessian of the rows of a [`ClearanceFn`] in a
 /// [`ClearanceForm`]. Layouts as [`crate::ad::Diff`]: Jacobian row-major `rows x n`, Hessian full
-/// symmetric row-major `n x n`.
+/// symmetric row-major `n x n`. Owns its rows (a [`ClearanceFn`]: shared handles to the robot and
+/// the obstacles).
 #[derive(Debug, Clone)]
-pub struct ClearanceDerivatives<'a> {
-    f: ClearanceFn<'a>,
+pub struct ClearanceDerivatives {
+    f: ClearanceFn,
     form: ClearanceForm,
     pairs: Vec<ClearancePair>,
     thresholds: Vec<f64>,
@@ -92,10 +93,10 @@ fn dot_r90(a: [f64; 2], b: [f64; 2]) -> f64 {
     a[1] * b[0] - a[0] * b[1]
 }
 
-impl<'a> ClearanceDerivatives<'a> {
+impl ClearanceDerivatives {
     /// The rows of `f` (order and thresholds as [`ClearanceFn`]) in the given form. Allocates the row
     /// list once.
-    pub fn new(f: ClearanceFn<'a>, form: ClearanceForm) -> Self {
+    pub fn new(f: ClearanceFn, form: ClearanceForm) -> Self {
         let pairs = f.pairs();
         let thresholds = pairs.iter().map(|&p| f.threshold(p)).collect();
         ClearanceDerivatives {
@@ -316,7 +317,7 @@ impl<'a> ClearanceDerivatives<'a> {
     }
 }
 
-impl ClearanceDerivatives<'_> {
+impl ClearanceDerivatives {
     /// True when entry `(i, j)` of every row's Hessian is structurally zero (as
     /// [`LocalFn::hessian_entry_is_zero`] of [`ClearanceFn`]); [`Self::hessian_weighted`] leaves those
     /// entries exactly zero.
@@ -440,12 +441,12 @@ mod tests {
                 (true, LinkSet::ALL),
                 (true, LinkSet::from_indices(&[0, 2, 3], n).unwrap()),
             ] {
-                let f = ClearanceFn::new(&robot, &OBS, 0.02)
+                let f = ClearanceFn::new(robot.clone(), &OBS[..], 0.02)
                     .unwrap()
                     .with_self_collision(self_coll)
                     .with_links(links);
-                let squared = ClearanceDerivatives::new(f, ClearanceForm::Squared);
-                let dist_fn = DistanceClearanceFn::new(f);
+                let squared = ClearanceDerivatives::new(f.clone(), ClearanceForm::Squared);
+                let dist_fn = DistanceClearanceFn::new(f.clone());
                 let dist = dist_fn.derivatives();
                 for it in 0..60 {
                     let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.2..3.2)).collect();
@@ -486,10 +487,10 @@ mod tests {
         // same one-sided piece; finite differences do not apply there). Then 1e-2 rad off parallel
         // (a genuine interior minimum, smooth): also against finite differences.
         let robot = Robot::paper();
-        let f = ClearanceFn::new(&robot, &[], 0.0).unwrap();
-        let dist_fn = DistanceClearanceFn::new(f);
+        let f = ClearanceFn::new(robot.clone(), [], 0.0).unwrap();
+        let dist_fn = DistanceClearanceFn::new(f.clone());
         let (sq, dist) = (
-            ClearanceDerivatives::new(f, ClearanceForm::Squared),
+            ClearanceDerivatives::new(f.clone(), ClearanceForm::Squared),
             dist_fn.derivatives(),
         );
         let w = [0.7, -0.4, 1.3];
@@ -514,10 +515,10 @@ mod tests {
             center: [0.71, 0.1],
             radius: 0.05,
         }];
-        let f = ClearanceFn::new(&robot, &obs, 0.0)
+        let f = ClearanceFn::new(robot.clone(), &obs[..], 0.0)
             .unwrap()
             .with_self_collision(false);
-        let d = ClearanceDerivatives::new(f, ClearanceForm::Squared);
+        let d = ClearanceDerivatives::new(f.clone(), ClearanceForm::Squared);
         let n = robot.n;
         let row = 1; // link 2 vs obstacle 0
                      // find the switching angle of q[1] (q = [0, x, 0.4, 0]) by bisection on the piece

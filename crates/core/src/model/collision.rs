@@ -20,6 +20,7 @@ use crate::geometry::{point_segment_dist2, segment_segment_dist2};
 use crate::math::{c, Scalar};
 use serde::{Deserialize, Serialize};
 use std::fmt;
+use std::sync::Arc;
 
 /// A circular obstacle in the plane of the robot (a sphere cut by that plane).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -145,12 +146,15 @@ impl fmt::Display for ClearancePair {
 /// Units m^2. `g < 0` means the capsules (grown by `margin`) overlap. Use [`ClearanceFn::pairs`] /
 /// [`ClearanceFn::row_names`] to label rows. Derivatives through [`crate::ad::Diff`] are exact inside
 /// each smooth piece; see [`crate::geometry`] for where the pieces meet.
-#[derive(Debug, Clone, Copy)]
-pub struct ClearanceFn<'a> {
+///
+/// Owns shared handles to the robot and the obstacles (`Arc`), so the shooting problem and the
+/// persistent planner that hold its rows own their data; cloning one copies two pointers.
+#[derive(Debug, Clone)]
+pub struct ClearanceFn {
     /// The robot (link segments from [`Robot::link_segments`], capsule radii from `robot.radius`).
-    pub robot: &'a Robot,
+    pub robot: Arc<Robot>,
     /// The obstacles.
-    pub obstacles: &'a [Circle],
+    pub obstacles: Arc<[Circle]>,
     /// Extra clearance required between surfaces, m (>= 0).
     pub margin: f64,
     /// Whether the non-adjacent link pairs are checked.
@@ -159,10 +163,16 @@ pub struct ClearanceFn<'a> {
     pub links: LinkSet,
 }
 
-impl<'a> ClearanceFn<'a> {
+impl ClearanceFn {
     /// All links against `obstacles` with the given `margin` (m), self-collision on. Checks the obstacles
-    /// and the margin.
-    pub fn new(robot: &'a Robot, obstacles: &'a [Circle], margin: f64) -> Result<Self> {
+    /// and the margin. `robot`: a `Robot` or a shared `Arc<Robot>`; `obstacles`: a slice (copied
+    /// once), a `Vec` or a shared `Arc<[Circle]>`.
+    pub fn new(
+        robot: impl Into<Arc<Robot>>,
+        obstacles: impl Into<Arc<[Circle]>>,
+        margin: f64,
+    ) -> Result<Self> {
+        let (robot, obstacles) = (robot.into(), obstacles.into());
         for (k, o) in obstacles.iter().enumerate() {
             o.validate("<memory>", &format!("obstacles[{k}]"))?;
         }
@@ -296,7 +306,7 @@ impl<'a> ClearanceFn<'a> {
     }
 }
 
-impl LocalFn for ClearanceFn<'_> {
+impl LocalFn for ClearanceFn {
     type Scratch<T: Scalar> = Vec<(P2<T>, P2<T>)>;
 
     fn n_in(&self) -> usize {
@@ -445,7 +455,7 @@ pub(crate) mod tests {
                 radius: 0.05,
             },
         ];
-        let f = ClearanceFn::new(&robot, &obs, 0.01).unwrap();
+        let f = ClearanceFn::new(robot.clone(), &obs[..], 0.01).unwrap();
         let names = f.row_names();
         assert_eq!(f.n_out(), 4 * 2 + 3);
         assert_eq!(names.len(), f.n_out());
@@ -456,7 +466,7 @@ pub(crate) mod tests {
             &names[8..],
             ["link 1 vs link 3", "link 1 vs link 4", "link 2 vs link 4"]
         );
-        let g = f.with_self_collision(false);
+        let g = f.clone().with_self_collision(false);
         assert_eq!(g.n_out(), 8);
         let h = f.with_links(LinkSet::from_indices(&[0, 2, 3], 4).unwrap());
         assert_eq!(
@@ -472,9 +482,9 @@ pub(crate) mod tests {
                 "link 1 vs link 4"
             ]
         );
-        assert_eq!(ClearanceFn::new(&robot, &[], 0.0).unwrap().n_out(), 3);
+        assert_eq!(ClearanceFn::new(robot.clone(), [], 0.0).unwrap().n_out(), 3);
         assert_eq!(
-            ClearanceFn::new(&robot, &[], 0.0)
+            ClearanceFn::new(robot.clone(), [], 0.0)
                 .unwrap()
                 .with_self_collision(false)
                 .min_clearance(&[0.0; 4]),
@@ -490,7 +500,7 @@ pub(crate) mod tests {
             radius: 0.1,
         }];
         assert!(matches!(
-            ClearanceFn::new(&robot, &bad, 0.0),
+            ClearanceFn::new(robot.clone(), &bad[..], 0.0),
             Err(Error::InvalidValue { ref field, .. }) if field == "obstacles[0].center[0]"
         ));
         let bad = [
@@ -501,11 +511,11 @@ pub(crate) mod tests {
             },
         ];
         assert!(matches!(
-            ClearanceFn::new(&robot, &bad, 0.0),
+            ClearanceFn::new(robot.clone(), &bad[..], 0.0),
             Err(Error::InvalidValue { ref field, .. }) if field == "obstacles[1].radius"
         ));
-        assert!(ClearanceFn::new(&robot, &[], -0.01).is_err());
-        assert!(ClearanceFn::new(&robot, &[], f64::INFINITY).is_err());
+        assert!(ClearanceFn::new(robot.clone(), [], -0.01).is_err());
+        assert!(ClearanceFn::new(robot.clone(), [], f64::INFINITY).is_err());
         assert!(LinkSet::from_indices(&[4], 4).is_err());
         assert!(LinkSet::from_indices(&[3], 4).is_ok());
     }
@@ -535,7 +545,7 @@ pub(crate) mod tests {
                 },
             ];
             let margin = 0.013;
-            let f = ClearanceFn::new(&robot, &obs, margin).unwrap();
+            let f = ClearanceFn::new(robot.clone(), &obs[..], margin).unwrap();
             let pairs = f.pairs();
             let mut ws = f.scratch::<f64>();
             let mut g = vec![0.0; f.n_out()];
@@ -585,7 +595,7 @@ pub(crate) mod tests {
     fn paper_obstacle_hit_and_start_pose() {
         let robot = paper_robot();
         let obs = [Circle::PAPER];
-        let f = ClearanceFn::new(&robot, &obs, 0.0).unwrap();
+        let f = ClearanceFn::new(robot.clone(), &obs[..], 0.0).unwrap();
         // Links 1 and 2 straight towards the obstacle centre (0.55, -0.2): |c| = 0.585 lies between
         // L = 0.355 and 2L, so link 2 passes exactly through the centre.
         let th = (-0.2f64).atan2(0.55);
@@ -637,7 +647,7 @@ pub(crate) mod tests {
                 center: [x, dy],
                 radius: r_obs,
             }];
-            let f = ClearanceFn::new(&robot, &obs, 0.0)
+            let f = ClearanceFn::new(robot.clone(), &obs[..], 0.0)
                 .unwrap()
                 .with_self_collision(false);
             let mut g = [0.0; 4];
@@ -652,7 +662,7 @@ pub(crate) mod tests {
             assert!((f.min_clearance(&[0.0; 4]) - (dy - 0.07)).abs() < 1e-12);
         }
         // self-collision: fold link 2 back so that link 3 crosses link 1 -> g = -(2r)^2
-        let f = ClearanceFn::new(&robot, &[], 0.0).unwrap();
+        let f = ClearanceFn::new(robot.clone(), [], 0.0).unwrap();
         let q = [0.0, 2.5, 2.5, 0.0];
         let mut g = [0.0; 3];
         f.eval(&mut f.scratch(), &q, &mut g);
@@ -721,7 +731,7 @@ pub(crate) mod tests {
                 (false, LinkSet::ALL),
                 (true, LinkSet::from_indices(&[1, 3], n).unwrap()),
             ] {
-                let f = ClearanceFn::new(&robot, &obs, 0.02)
+                let f = ClearanceFn::new(robot.clone(), &obs[..], 0.02)
                     .unwrap()
                     .with_self_collision(self_coll)
                     .with_links(links);
@@ -762,12 +772,12 @@ pub(crate) mod tests {
         let robot = odd_robot();
         let n = robot.n;
         for obs in [&[][..], &[Circle::PAPER][..]] {
-            let f = ClearanceFn::new(&robot, obs, 0.0)
+            let f = ClearanceFn::new(robot.clone(), obs, 0.0)
                 .unwrap()
                 .with_links(LinkSet::from_indices(&[0, 2, 3], n).unwrap());
             // an unskipped reference: same rows, no declared zeros
-            struct Full<'a>(ClearanceFn<'a>);
-            impl LocalFn for Full<'_> {
+            struct Full(ClearanceFn);
+            impl LocalFn for Full {
                 type Scratch<T: Scalar> = Vec<(P2<T>, P2<T>)>;
                 fn n_in(&self) -> usize {
                     self.0.n_in()
@@ -782,7 +792,7 @@ pub(crate) mod tests {
                     self.0.eval(ws, z, out)
                 }
             }
-            let full = Full(f);
+            let full = Full(f.clone());
             let m = f.n_out();
             let q = [0.3, -1.1, 2.0, 0.4, -0.7];
             let mut skipped = 0;

@@ -13,14 +13,24 @@ use crate::ad::LocalFn;
 use crate::math::Scalar;
 use std::sync::Arc;
 
-/// Forward dynamics as a [`LocalFn`]: `z = [q (n), qd (n), tau (n-1)] -> qdd (n)`.
-#[derive(Debug, Clone, Copy)]
-pub struct DynamicsFn<'a> {
+/// Forward dynamics as a [`LocalFn`]: `z = [q (n), qd (n), tau (n-1)] -> qdd (n)`. Owns a shared
+/// handle to its robot, so the transcriptions and the shooting problem that hold one own their data.
+#[derive(Debug, Clone)]
+pub struct DynamicsFn {
     /// The robot.
-    pub robot: &'a Robot,
+    pub robot: Arc<Robot>,
 }
 
-impl LocalFn for DynamicsFn<'_> {
+impl DynamicsFn {
+    /// The forward dynamics of `robot` (a `Robot` or a shared `Arc<Robot>`).
+    pub fn new(robot: impl Into<Arc<Robot>>) -> Self {
+        DynamicsFn {
+            robot: robot.into(),
+        }
+    }
+}
+
+impl LocalFn for DynamicsFn {
     type Scratch<T: Scalar> = Scratch<T>;
 
     fn n_in(&self) -> usize {

@@ -18,17 +18,28 @@ use crate::ad::{Diff, LocalFn};
 use crate::math::Scalar;
 use crate::model::Robot;
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The swing's terminal constraint as a [`LocalFn`]: `[q, qd] (2n) -> [ee_x, ee_y, ee_vx, ee_vy]`
-/// (paper eqs. 8-9: final EE position on the bar, final EE velocity `J qd` zero).
-#[derive(Debug, Clone, Copy)]
-pub struct EeTerminalFn<'a> {
+/// (paper eqs. 8-9: final EE position on the bar, final EE velocity `J qd` zero). Owns a shared
+/// handle to its robot.
+#[derive(Debug, Clone)]
+pub struct EeTerminalFn {
     /// The robot.
-    pub robot: &'a Robot,
+    pub robot: Arc<Robot>,
 }
 
-impl LocalFn for EeTerminalFn<'_> {
+impl EeTerminalFn {
+    /// The terminal map of `robot` (a `Robot` or a shared `Arc<Robot>`).
+    pub fn new(robot: impl Into<Arc<Robot>>) -> Self {
+        EeTerminalFn {
+            robot: robot.into(),
+        }
+    }
+}
+
+impl LocalFn for EeTerminalFn {
     type Scratch<T: Scalar> = ();
     fn n_in(&self) -> usize {
         2 * self.robot.n

@@ -30,6 +30,7 @@ use super::settings::PlannerSettings;
 use crate::ad::{Diff, LocalFn};
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, Robot};
+use std::sync::Arc;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 
@@ -142,17 +143,17 @@ fn cholesky_solve(h: &mut [f64], b: &mut [f64], n: usize) -> bool {
 }
 
 /// The barrier tracker: the clearance rows, their derivatives and the joint bounds.
-struct Tracker<'a> {
-    rows: DistanceClearanceFn<'a>,
-    diff: Diff<DistanceClearanceFn<'a>>,
+struct Tracker {
+    rows: DistanceClearanceFn,
+    diff: Diff<DistanceClearanceFn>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     g: Vec<f64>,
     jac: Vec<f64>,
 }
 
-impl<'a> Tracker<'a> {
-    fn new(rows: DistanceClearanceFn<'a>, lo: Vec<f64>, hi: Vec<f64>) -> Self {
+impl Tracker {
+    fn new(rows: DistanceClearanceFn, lo: Vec<f64>, hi: Vec<f64>) -> Self {
         let (m, n) = (rows.n_out(), rows.n_in());
         Tracker {
             diff: Diff::new(&rows),
@@ -265,8 +266,14 @@ pub fn track_seed(
     if len < 2 || obstacles.is_empty() {
         return Ok(None);
     }
-    let cf = ClearanceFn::new(robot, obstacles, settings.obstacle_margin + extra_clearance)?
-        .with_self_collision(true);
+    let shared = Arc::new(robot.clone());
+    let obstacles: Arc<[Circle]> = obstacles.into();
+    let cf = ClearanceFn::new(
+        Arc::clone(&shared),
+        Arc::clone(&obstacles),
+        settings.obstacle_margin + extra_clearance,
+    )?
+    .with_self_collision(true);
     let b = &settings.bounds;
     let mut lo = vec![-b.q_rel_max; n];
     let mut hi = vec![b.q_rel_max; n];
@@ -278,7 +285,7 @@ pub fn track_seed(
     }
     let mut tr = Tracker::new(DistanceClearanceFn::new(cf), lo, hi);
     let margin = settings.obstacle_margin;
-    let check = ClearanceFn::new(robot, obstacles, margin)?.with_self_collision(true);
+    let check = ClearanceFn::new(shared, obstacles, margin)?.with_self_collision(true);
     let backward = kind.backward();
     let order: Vec<usize> = if backward {
         (0..len).rev().collect()

@@ -24,6 +24,7 @@ use super::planner::{plan_single, target_pose, Plan, SwingTask};
 use super::settings::PlannerSettings;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
+use std::sync::Arc;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -214,8 +215,12 @@ fn smooth_step_is_clear(
     task: &SwingTask,
     settings: &PlannerSettings,
 ) -> Result<bool> {
-    let cf = ClearanceFn::new(robot, &task.obstacles, settings.obstacle_margin)?
-        .with_self_collision(false);
+    let cf = ClearanceFn::new(
+        robot.clone(),
+        task.obstacles.as_slice(),
+        settings.obstacle_margin,
+    )?
+    .with_self_collision(false);
     let q_t = target_pose(robot, task, settings, Some(&cf))?;
     let mut q = vec![0.0; robot.n];
     let clear = (0..=100).all(|j| {
@@ -242,7 +247,9 @@ pub fn diagnose(
         return Ok(None);
     }
     let margin = settings.obstacle_margin;
-    let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+    let shared = Arc::new(robot.clone());
+    let cf = ClearanceFn::new(Arc::clone(&shared), task.obstacles.as_slice(), 0.0)?
+        .with_self_collision(false);
     let pairs = cf.pairs();
     let mut d = vec![0.0; pairs.len()];
     // per row (link-major, obstacle inner): the smallest distance and its time
@@ -282,7 +289,7 @@ pub fn diagnose(
     };
     let (link, obstacle, time_s, dmin) = (w.link, w.obstacle, w.time_s, w.min_clearance_m);
     let one = [task.obstacles[obstacle]];
-    let cf1 = ClearanceFn::new(robot, &one, 0.0)?.with_self_collision(false);
+    let cf1 = ClearanceFn::new(shared, one, 0.0)?.with_self_collision(false);
     let o = &task.obstacles[obstacle];
     let r_last = robot.radius[robot.n - 1];
     let bar = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius;
@@ -460,6 +467,7 @@ pub fn path_placements(
     let mut segs = vec![([0.0; 2], [0.0; 2]); n];
     let (q_start, q_end) = (points.q(0), points.q(points.len() - 1));
     let t_final = points.t[points.len() - 1];
+    let shared = Arc::new(robot.clone());
     let mut out = vec![];
     for j in 1..=times {
         let t = points.t[0] + (t_final - points.t[0]) * j as f64 / (times + 1) as f64;
@@ -470,8 +478,8 @@ pub fn path_placements(
                 center: [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])],
                 radius,
             };
-            let one = [obstacle];
-            let cf = ClearanceFn::new(robot, &one, 0.0)?.with_self_collision(false);
+            let cf = ClearanceFn::new(Arc::clone(&shared), [obstacle], 0.0)?
+                .with_self_collision(false);
             let bar =
                 (target[0] - obstacle.center[0]).hypot(target[1] - obstacle.center[1]) - radius;
             if cf.min_clearance(q_start) > margin

@@ -35,4 +35,4 @@ pub use settings::{
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
-pub use swing_planner::{Checkpoint, OwnedSwingPlanner, ReplanOutcome, SwingPlanner};
+pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};

@@ -19,6 +19,7 @@ use crate::integrate;
 use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::{hermite_basis, Trajectory};
+use std::sync::Arc;
 use brachia_ocp::{
     EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
     StageEval, TerminalEval,
@@ -95,7 +96,7 @@ pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
 /// settings and the guess and set the warm-start `mu_init`). Refuses `backend = "ocp"` with a
 /// collocation transcription.
 pub(super) fn plan_shooting(
-    robot: &Robot,
+    robot: &Arc<Robot>,
     task: &SwingTask,
     settings: &PlannerSettings,
     nlp: &NlpSettings,
@@ -157,9 +158,9 @@ pub(super) fn plan_shooting(
 }
 
 /// The multiple-shooting problem of a task, built with its initial guess, and its grid.
-pub(super) struct ShootingSetup<'a> {
+pub(super) struct ShootingSetup {
     /// The problem (guess set).
-    pub ocp: SwingOcp<'a>,
+    pub ocp: SwingOcp,
     /// The knot grid.
     pub layout: Layout,
     /// Swing time T, s.
@@ -179,12 +180,12 @@ pub(super) struct SolveSummary {
 
 /// Build the multiple-shooting problem of `task` with its initial guess (from `guess`, or the
 /// smoothstep towards the inverse-kinematics target pose). Refuses a collocation transcription.
-pub(super) fn setup_shooting<'a>(
-    robot: &'a Robot,
-    task: &'a SwingTask,
+pub(super) fn setup_shooting(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
     settings: &PlannerSettings,
     guess: Option<&Trajectory>,
-) -> Result<ShootingSetup<'a>> {
+) -> Result<ShootingSetup> {
     if settings.transcription != Transcription::MultipleShooting {
         let ocp = NlpSettings {
             backend: Backend::Ocp,
@@ -222,7 +223,7 @@ pub(super) fn setup_shooting<'a>(
         None
     } else {
         Some(
-            ClearanceFn::new(robot, obstacles, settings.obstacle_margin)?
+            ClearanceFn::new(Arc::clone(robot), obstacles, settings.obstacle_margin)?
                 .with_self_collision(settings.self_collision),
         )
     };
@@ -248,7 +249,7 @@ pub(super) fn setup_shooting<'a>(
         bounds: settings.bounds.clone(),
         parallel_min_stages: settings.shooting.parallel_min_stages,
     };
-    let mut ocp = SwingOcp::new(robot, spec, cf.map(DistanceClearanceFn::new))?;
+    let mut ocp = SwingOcp::new(Arc::clone(robot), spec, cf.map(DistanceClearanceFn::new))?;
     {
         let g = ocp.guess_mut();
         for k in 0..=intervals {

@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::model::{Circle, ClearanceFn, DynamicsFn, Robot};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// What to plan: where the robot starts, which bar it must reach, what is in the way.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -39,18 +40,20 @@ pub struct SwingTask {
 /// 2 d grad d`), which stalls the solver's restoration phase on initial guesses that cut through an
 /// obstacle; `sqrt(d^2 + eps^2)` keeps a unit-size gradient everywhere and differs from `d` by less
 /// than `eps^2 / (2 d)` (1e-12 / (2 d) m with eps = 1e-6) where it matters.
+///
+/// Owns its rows (a [`ClearanceFn`]: shared handles to the robot and the obstacles).
 #[derive(Debug, Clone)]
-pub struct DistanceClearanceFn<'a> {
-    inner: ClearanceFn<'a>,
+pub struct DistanceClearanceFn {
+    inner: ClearanceFn,
     thresholds: Vec<f64>,
 }
 
 /// Smoothing of the distance at d = 0, m.
 const DIST_EPS: f64 = 1e-6;
 
-impl<'a> DistanceClearanceFn<'a> {
+impl DistanceClearanceFn {
     /// Wrap `inner` (its rows, order and margin).
-    pub fn new(inner: ClearanceFn<'a>) -> Self {
+    pub fn new(inner: ClearanceFn) -> Self {
         let thresholds = inner
             .pairs()
             .into_iter()
@@ -61,16 +64,16 @@ impl<'a> DistanceClearanceFn<'a> {
 
     /// The closed-form derivatives of these rows (the production path; this `LocalFn` through AD is
     /// their test oracle).
-    pub fn derivatives(&self) -> crate::model::ClearanceDerivatives<'a> {
+    pub fn derivatives(&self) -> crate::model::ClearanceDerivatives {
         crate::model::ClearanceDerivatives::new(
-            self.inner,
+            self.inner.clone(),
             crate::model::ClearanceForm::Distance { eps: DIST_EPS },
         )
     }
 }
 
-impl LocalFn for DistanceClearanceFn<'_> {
-    type Scratch<T: crate::math::Scalar> = <ClearanceFn<'static> as LocalFn>::Scratch<T>;
+impl LocalFn for DistanceClearanceFn {
+    type Scratch<T: crate::math::Scalar> = <ClearanceFn as LocalFn>::Scratch<T>;
     fn n_in(&self) -> usize {
         self.inner.n_in()
     }
@@ -577,7 +580,8 @@ pub fn validate_task(
         }
     }
     if settings.avoid_obstacles && !task.obstacles.is_empty() {
-        let cf = ClearanceFn::new(robot, &task.obstacles, 0.0)?.with_self_collision(false);
+        let cf = ClearanceFn::new(robot.clone(), task.obstacles.as_slice(), 0.0)?
+            .with_self_collision(false);
         let c = cf.min_clearance(&task.q0);
         if c < 0.0 {
             return Err(Error::invalid(
@@ -768,7 +772,7 @@ pub(super) fn min_obstacle_clearance(
     if obstacles.is_empty() {
         return Ok(None);
     }
-    let cf = ClearanceFn::new(robot, obstacles, 0.0)?.with_self_collision(false);
+    let cf = ClearanceFn::new(robot.clone(), obstacles, 0.0)?.with_self_collision(false);
     Ok(Some(
         (0..trajectory.len())
             .map(|k| cf.min_clearance(trajectory.q(k)))
@@ -898,8 +902,10 @@ pub(super) fn plan_single(
     if settings.transcription == Transcription::MultipleShooting
         || nlp.backend == super::nlp::Backend::Ocp
     {
-        return super::plan_shooting::plan_shooting(robot, task, settings, nlp, guess);
+        return super::plan_shooting::plan_shooting(&Arc::new(robot.clone()), task, settings, nlp, guess);
     }
+    // the evaluators the problem holds share one copy of the robot
+    let shared = Arc::new(robot.clone());
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
     let start_ee = robot.ee_position(&task.q0);
@@ -921,7 +927,7 @@ pub(super) fn plan_single(
         None
     } else {
         Some(DistanceClearanceFn::new(
-            ClearanceFn::new(robot, obstacles, settings.obstacle_margin)?
+            ClearanceFn::new(Arc::clone(&shared), obstacles, settings.obstacle_margin)?
                 .with_self_collision(settings.self_collision),
         ))
     };
@@ -937,8 +943,8 @@ pub(super) fn plan_single(
     let (q1, r1) = (settings.q1(n), settings.r1(n));
     let target = vec![task.target[0], task.target[1], 0.0, 0.0];
     let mut problem = CollocationNlp::new(
-        DynamicsFn { robot },
-        EeTerminalFn { robot },
+        DynamicsFn::new(Arc::clone(&shared)),
+        EeTerminalFn::new(shared),
         layout,
         target,
         bounds.clone(),

@@ -42,15 +42,16 @@ use brachia_ocp::{
     StageEval, TerminalEval,
 };
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Exact derivatives of the forward dynamics `qdd(y)`, `y = [q (n), qd (n), tau (n - 1)]`, at one point:
 /// the seam through which the shooting problem gets them (automatic differentiation now, the closed
 /// form later; the AD path then stays as the test oracle). Layouts as [`crate::ad::Diff`]:
 /// Jacobian row-major `n x (3n - 1)`, Hessian full symmetric row-major `(3n - 1) x (3n - 1)`.
-pub trait PointDynamics<'a>: Send + Sized {
-    /// Buffers for `robot` (allocated once).
-    fn new(robot: &'a Robot) -> Self;
+pub trait PointDynamics: Send + Sized {
+    /// Buffers for `robot` (allocated once; the robot shared, not copied).
+    fn new(robot: &Arc<Robot>) -> Self;
     /// `qdd = f(y)`.
     fn value(&mut self, y: &[f64], qdd: &mut [f64]);
     /// `qdd = f(y)` and its Jacobian.
@@ -66,14 +67,14 @@ pub trait PointDynamics<'a>: Send + Sized {
 }
 
 /// [`PointDynamics`] by forward-mode automatic differentiation ([`DynamicsFn`] through [`Diff`]).
-pub struct AdDynamics<'a> {
-    f: DynamicsFn<'a>,
-    diff: Diff<DynamicsFn<'a>>,
+pub struct AdDynamics {
+    f: DynamicsFn,
+    diff: Diff<DynamicsFn>,
 }
 
-impl<'a> PointDynamics<'a> for AdDynamics<'a> {
-    fn new(robot: &'a Robot) -> Self {
-        let f = DynamicsFn { robot };
+impl PointDynamics for AdDynamics {
+    fn new(robot: &Arc<Robot>) -> Self {
+        let f = DynamicsFn::new(Arc::clone(robot));
         AdDynamics {
             diff: Diff::new(&f),
             f,
@@ -92,8 +93,8 @@ impl<'a> PointDynamics<'a> for AdDynamics<'a> {
 
 /// [`PointDynamics`] in closed form ([`DynamicsDerivatives`]); values by
 /// [`Robot::forward_dynamics_into`], the same arithmetic as [`crate::integrate::Rk4`]. The default.
-pub struct AnalyticDynamics<'a> {
-    robot: &'a Robot,
+pub struct AnalyticDynamics {
+    robot: Arc<Robot>,
     ws: Scratch<f64>,
     d: DynamicsDerivatives,
     /// Input of the last `jacobian` call (`d` still holds its factorisation), if any.
@@ -101,14 +102,14 @@ pub struct AnalyticDynamics<'a> {
     jac_valid: bool,
 }
 
-impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
-    fn new(robot: &'a Robot) -> Self {
+impl PointDynamics for AnalyticDynamics {
+    fn new(robot: &Arc<Robot>) -> Self {
         AnalyticDynamics {
-            robot,
             ws: Scratch::new(robot.n),
             d: DynamicsDerivatives::new(robot),
             jac_y: vec![0.0; 3 * robot.n - 1],
             jac_valid: false,
+            robot: Arc::clone(robot),
         }
     }
     fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
@@ -117,18 +118,18 @@ impl<'a> PointDynamics<'a> for AnalyticDynamics<'a> {
             .forward_dynamics_into(&mut self.ws, &y[..n], &y[n..2 * n], &y[2 * n..], qdd);
     }
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
-        self.d.jacobian(self.robot, y, qdd, jac);
+        self.d.jacobian(&self.robot, y, qdd, jac);
         self.jac_y.copy_from_slice(y);
         self.jac_valid = true;
     }
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
-        self.d.hessian_weighted(self.robot, y, w, hess);
+        self.d.hessian_weighted(&self.robot, y, w, hess);
         self.jac_y.copy_from_slice(y);
         self.jac_valid = true;
     }
     fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         if self.jac_valid && self.jac_y == y {
-            self.d.hessian_weighted_after_jacobian(self.robot, w, hess);
+            self.d.hessian_weighted_after_jacobian(&self.robot, w, hess);
         } else {
             self.hessian_weighted(y, w, hess);
         }
@@ -174,7 +175,7 @@ pub struct ShootingTimings {
 }
 
 /// Immutable data shared by the stages (read from every rayon worker).
-struct Ctx<'a> {
+struct Ctx {
     n: usize,
     nx: usize,
     nz: usize,
@@ -183,11 +184,11 @@ struct Ctx<'a> {
     substeps: usize,
     q1: Vec<f64>,
     r1: Vec<f64>,
-    clearance: Option<DistanceClearanceFn<'a>>,
+    clearance: Option<DistanceClearanceFn>,
     n_clear: usize,
 }
 
-impl Ctx<'_> {
+impl Ctx {
     /// Trapezoid weight of the state term at stage k.
     fn state_weight(&self, k: usize) -> f64 {
         if k == 0 || k == self.horizon {
@@ -199,11 +200,11 @@ impl Ctx<'_> {
 }
 
 /// Per-stage scratch, allocated once.
-struct StageWork<'a, D> {
+struct StageWork<D> {
     /// One per RK4 evaluation of the stage, so that the Hessian reuses each evaluation's
     /// factorisation and first derivatives from the forward pass.
     dynamics: Vec<D>,
-    clear: Option<ClearanceDerivatives<'a>>,
+    clear: Option<ClearanceDerivatives>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
@@ -233,8 +234,8 @@ struct StageWork<'a, D> {
     chess: Vec<f64>,
 }
 
-impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
-    fn new(robot: &'a Robot, ctx: &Ctx<'a>) -> Self {
+impl<D: PointDynamics> StageWork<D> {
+    fn new(robot: &Arc<Robot>, ctx: &Ctx) -> Self {
         let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
@@ -359,7 +360,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
     /// Cost, dynamics and clearance of stage k into `ev`.
     fn evaluate(
         &mut self,
-        ctx: &Ctx<'a>,
+        ctx: &Ctx,
         k: usize,
         x: &[f64],
         u: &[f64],
@@ -411,7 +412,7 @@ impl<'a, D: PointDynamics<'a>> StageWork<'a, D> {
     /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k).
     fn hessian(
         &mut self,
-        ctx: &Ctx<'a>,
+        ctx: &Ctx,
         k: usize,
         x: &[f64],
         u: &[f64],
@@ -603,9 +604,9 @@ fn sandwich_upper_body(
 
 /// The swing as an [`OcpProblem`] by multiple shooting (see the module docs). Generic over the source
 /// of the per-point dynamics derivatives.
-pub struct SwingOcp<'a, D: PointDynamics<'a> = AnalyticDynamics<'a>> {
-    ctx: Ctx<'a>,
-    work: Vec<StageWork<'a, D>>,
+pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
+    ctx: Ctx,
+    work: Vec<StageWork<D>>,
     dims: OcpDims,
     x_start: Vec<f64>,
     target: [f64; 2],
@@ -613,8 +614,8 @@ pub struct SwingOcp<'a, D: PointDynamics<'a> = AnalyticDynamics<'a>> {
     tau_lo: Vec<f64>,
     tau_hi: Vec<f64>,
     guess: Primal,
-    term_fn: EeTerminalFn<'a>,
-    term: Diff<EeTerminalFn<'a>>,
+    term_fn: EeTerminalFn,
+    term: Diff<EeTerminalFn>,
     term_val: Vec<f64>,
     term_hess: Vec<f64>,
     parallel: bool,
@@ -622,28 +623,29 @@ pub struct SwingOcp<'a, D: PointDynamics<'a> = AnalyticDynamics<'a>> {
     pub timings: ShootingTimings,
 }
 
-impl<'a> SwingOcp<'a> {
+impl SwingOcp {
     /// Build the problem for `robot` with the closed-form per-point derivatives ([`AnalyticDynamics`]; see
     /// [`SwingOcp::with_dynamics`] for the arguments and errors).
     pub fn new(
-        robot: &'a Robot,
+        robot: impl Into<Arc<Robot>>,
         spec: SwingOcpSpec,
-        clearance: Option<DistanceClearanceFn<'a>>,
+        clearance: Option<DistanceClearanceFn>,
     ) -> Result<Self> {
         Self::with_dynamics(robot, spec, clearance)
     }
 }
 
-impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
+impl<D: PointDynamics> SwingOcp<D> {
     /// Build the problem for `robot` with per-point derivatives from `D`. `clearance` gives the stage
     /// inequalities (rows on q_k, k >= 1; `None`: none). The initial guess is zero but for the start
     /// state (set it with [`SwingOcp::guess_mut`]). Errors on sizes that do not match the robot,
     /// `intervals` or `substeps` of 0, or a swing time that is not finite and positive.
     pub fn with_dynamics(
-        robot: &'a Robot,
+        robot: impl Into<Arc<Robot>>,
         spec: SwingOcpSpec,
-        clearance: Option<DistanceClearanceFn<'a>>,
+        clearance: Option<DistanceClearanceFn>,
     ) -> Result<Self> {
+        let robot: Arc<Robot> = robot.into();
         let n = robot.n;
         let (nx, nu) = (2 * n, n - 1);
         let src = "<shooting>";
@@ -708,18 +710,20 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
             stages,
             n_terminal: 4,
         };
-        let work = (0..=k_last).map(|_| StageWork::new(robot, &ctx)).collect();
+        let work = (0..=k_last).map(|_| StageWork::new(&robot, &ctx)).collect();
         let mut guess = Primal::zeros(&dims);
         guess.x[0].copy_from_slice(&spec.x_start);
-        let term_fn = EeTerminalFn { robot };
+        let tau_lo = robot.tau_min.clone();
+        let tau_hi = robot.tau_max.clone();
+        let term_fn = EeTerminalFn::new(robot);
         Ok(SwingOcp {
             ctx,
             work,
             x_start: spec.x_start,
             target: spec.target,
             bounds: spec.bounds,
-            tau_lo: robot.tau_min.clone(),
-            tau_hi: robot.tau_max.clone(),
+            tau_lo,
+            tau_hi,
             guess,
             term: Diff::new(&term_fn),
             term_fn,
@@ -729,6 +733,11 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
             dims,
             timings: ShootingTimings::default(),
         })
+    }
+
+    /// The robot (shared).
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.term_fn.robot
     }
 
     /// The initial guess handed to the solver (x_0 should stay the start state).
@@ -819,7 +828,7 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
         &mut self,
         z: &Primal,
         stages: &mut [StageEval],
-        op: impl Fn(&mut StageWork<'a, D>, &Ctx<'a>, usize, &[f64], &[f64], &mut StageEval) + Sync,
+        op: impl Fn(&mut StageWork<D>, &Ctx, usize, &[f64], &[f64], &mut StageEval) + Sync,
     ) {
         let ctx = &self.ctx;
         let threads = if self.parallel {
@@ -866,7 +875,7 @@ impl<'a, D: PointDynamics<'a>> SwingOcp<'a, D> {
     }
 }
 
-impl<'a, D: PointDynamics<'a>> OcpProblem for SwingOcp<'a, D> {
+impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
     fn dims(&self) -> &OcpDims {
         &self.dims
     }

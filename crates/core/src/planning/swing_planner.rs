@@ -64,16 +64,17 @@ pub struct Checkpoint {
     h: f64,
 }
 
-/// The persistent multiple-shooting planner (see the module docs). Borrows the robot and the task
-/// (the clearance rows borrow the obstacles); everything else is owned and allocated in
-/// [`SwingPlanner::new`].
-pub struct SwingPlanner<'a> {
-    robot: &'a Robot,
+/// The persistent multiple-shooting planner (see the module docs). Owns everything it uses: a shared
+/// handle to the robot (`Arc<Robot>`, shared with a controller), the task, the settings, the problem
+/// and the solver's workspace, all allocated in [`SwingPlanner::new`]; so a controller can hold one
+/// across calls and move it between threads (it is `Send`).
+pub struct SwingPlanner {
+    robot: Arc<Robot>,
     task: SwingTask,
     settings: PlannerSettings,
     cold: OcpSettings,
     warm: OcpSettings,
-    ocp: SwingOcp<'a>,
+    ocp: SwingOcp,
     solver: OcpSolver,
     layout: Layout,
     t_final: f64,
@@ -90,16 +91,18 @@ pub struct SwingPlanner<'a> {
     last: Option<(SolveStatus, OcpStats)>,
 }
 
-impl<'a> SwingPlanner<'a> {
-    /// Build the problem of `task` once (the multiple-shooting transcription of `settings`, whatever
-    /// its `transcription` field says; tolerances and limits from `nlp`). Errors as
-    /// [`super::plan_with_guess`] on invalid settings, tasks or dimensions.
+impl SwingPlanner {
+    /// Build the problem of `task` for `robot` (a `Robot` or a shared `Arc<Robot>`) once (the
+    /// multiple-shooting transcription of `settings`, whatever its `transcription` field says;
+    /// tolerances and limits from `nlp`). Errors as [`super::plan_with_guess`] on invalid settings,
+    /// tasks or dimensions.
     pub fn new(
-        robot: &'a Robot,
-        task: &'a SwingTask,
+        robot: impl Into<Arc<Robot>>,
+        task: SwingTask,
         settings: &PlannerSettings,
         nlp: &NlpSettings,
     ) -> Result<Self> {
+        let robot: Arc<Robot> = robot.into();
         let settings = PlannerSettings {
             transcription: super::settings::Transcription::MultipleShooting,
             ..settings.clone()
@@ -111,7 +114,7 @@ impl<'a> SwingPlanner<'a> {
             layout,
             t_final,
             freefall,
-        } = setup_shooting(robot, task, &settings, None)?;
+        } = setup_shooting(&robot, &task, &settings, None)?;
         let solver = OcpSolver::new(ocp.dims()).map_err(|e| {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
@@ -130,7 +133,7 @@ impl<'a> SwingPlanner<'a> {
         let x_full = ocp.start().to_vec();
         Ok(SwingPlanner {
             robot,
-            task: task.clone(),
+            task,
             settings,
             cold,
             warm,
@@ -157,9 +160,14 @@ impl<'a> SwingPlanner<'a> {
         self.has_prev
     }
 
-    /// The robot planned for.
-    pub fn robot(&self) -> &Robot {
-        self.robot
+    /// The robot planned for (shared).
+    pub fn robot(&self) -> &Arc<Robot> {
+        &self.robot
+    }
+
+    /// The task the planner was built for, its target the current one ([`SwingPlanner::set_target`]).
+    pub fn task(&self) -> &SwingTask {
+        &self.task
     }
 
     /// Settings of the warm solves (warm start on, the stored multipliers, `mu_init` from the NLP
@@ -269,7 +277,7 @@ impl<'a> SwingPlanner<'a> {
             ..self.layout
         };
         finish_plan(
-            self.robot,
+            &self.robot,
             &self.task,
             &self.settings,
             &layout,
@@ -440,108 +448,4 @@ fn shift(prev: &Checkpoint, t_now: f64, h: f64, x_now: &[f64], dst: &mut Primal)
         }
     }
     dst.x[0].copy_from_slice(x_now);
-}
-
-/// What an [`OwnedSwingPlanner`] owns and its [`SwingPlanner`] borrows.
-struct PlannerOwner {
-    robot: Arc<Robot>,
-    task: SwingTask,
-}
-
-type BorrowingPlanner<'a> = SwingPlanner<'a>;
-
-self_cell::self_cell!(
-    struct PlannerCell {
-        owner: PlannerOwner,
-        #[not_covariant]
-        dependent: BorrowingPlanner,
-    }
-);
-
-/// A [`SwingPlanner`] that owns its robot (an `Arc`, shared with a controller) and its task, so that
-/// a controller can hold one across calls, move it between threads and keep it for its life (the
-/// persistent planner of issue 12 item 1). Run any [`SwingPlanner`] method through
-/// [`OwnedSwingPlanner::with`]; the common ones are forwarded. Nothing is allocated beyond what
-/// [`SwingPlanner::new`] allocates.
-pub struct OwnedSwingPlanner {
-    cell: PlannerCell,
-}
-
-impl OwnedSwingPlanner {
-    /// Build the problem of `task` for `robot` once (as [`SwingPlanner::new`], same errors).
-    pub fn new(
-        robot: impl Into<Arc<Robot>>,
-        task: SwingTask,
-        settings: &PlannerSettings,
-        nlp: &NlpSettings,
-    ) -> Result<Self> {
-        let owner = PlannerOwner {
-            robot: robot.into(),
-            task,
-        };
-        let cell = PlannerCell::try_new(owner, |o| {
-            SwingPlanner::new(&o.robot, &o.task, settings, nlp)
-        })?;
-        Ok(OwnedSwingPlanner { cell })
-    }
-
-    /// Run `f` on the borrowing planner inside.
-    pub fn with<R>(&mut self, f: impl FnOnce(&mut SwingPlanner<'_>) -> R) -> R {
-        self.cell.with_dependent_mut(|_, p| f(p))
-    }
-
-    /// Read-only access to the planner inside.
-    pub fn with_ref<R>(&self, f: impl FnOnce(&SwingPlanner<'_>) -> R) -> R {
-        self.cell.with_dependent(|_, p| f(p))
-    }
-
-    /// The robot (shared).
-    pub fn robot(&self) -> &Arc<Robot> {
-        &self.cell.borrow_owner().robot
-    }
-
-    /// The task the planner was built for (its target as built; see [`SwingPlanner::set_target`]).
-    pub fn task(&self) -> &SwingTask {
-        &self.cell.borrow_owner().task
-    }
-
-    /// [`SwingPlanner::plan`].
-    pub fn plan(&mut self) -> Result<Plan> {
-        self.with(|p| p.plan())
-    }
-
-    /// [`SwingPlanner::replan`] (no allocation).
-    pub fn replan(&mut self, t_now: f64, x_now: &[f64]) -> Result<ReplanOutcome> {
-        self.with(|p| p.replan(t_now, x_now))
-    }
-
-    /// [`SwingPlanner::current_plan`] (allocates).
-    pub fn current_plan(&mut self) -> Result<Plan> {
-        self.with(|p| p.current_plan())
-    }
-
-    /// [`SwingPlanner::has_plan`].
-    pub fn has_plan(&self) -> bool {
-        self.with_ref(|p| p.has_plan())
-    }
-
-    /// [`SwingPlanner::swing_time`], s.
-    pub fn swing_time(&self) -> f64 {
-        self.with_ref(|p| p.swing_time())
-    }
-
-    /// [`SwingPlanner::target`], m.
-    pub fn target(&self) -> [f64; 2] {
-        self.with_ref(|p| p.target())
-    }
-}
-
-impl std::fmt::Debug for OwnedSwingPlanner {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("OwnedSwingPlanner")
-            .field("intervals", &self.with_ref(|p| p.intervals()))
-            .field("swing_time", &self.swing_time())
-            .field("has_plan", &self.has_plan())
-            .finish()
-    }
 }
