@@ -5,16 +5,9 @@
 use brachia::{Error, Result};
 use serde::{Deserialize, Serialize};
 
-/// A fixed circle (a static disc the robot can hit but not move).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Circle {
-    /// Centre `[x, y]`, m.
-    #[serde(deserialize_with = "brachia::serde_exact::pair")]
-    pub center: [f64; 2],
-    /// Radius, m (> 0).
-    pub radius: f64,
-}
+/// A fixed circle (a static disc the robot can hit but not move): the core's obstacle type, the one
+/// the planner avoids (its radius must be > 0 here, [`Obstacle::validate`]).
+pub use brachia::model::Circle;
 
 /// A free dynamic ball the robot can knock away.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -35,10 +35,7 @@ impl OpenLoop {
     /// current plan is kept). Passing an `Arc` does not allocate; an owned `Trajectory` is moved into
     /// one new `Arc`.
     pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
-        let reference = reference.into();
-        reference.check_reference(&self.robot)?;
-        self.reference = reference;
-        Ok(())
+        super::swap_reference(&self.robot, &mut self.reference, reference)
     }
 
     /// The plan being replayed.
@@ -182,10 +179,7 @@ impl Pd {
     /// plan is kept). Passing an `Arc` does not allocate; an owned `Trajectory` is moved into one new
     /// `Arc`.
     pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
-        let reference = reference.into();
-        reference.check_reference(&self.robot)?;
-        self.reference = reference;
-        Ok(())
+        super::swap_reference(&self.robot, &mut self.reference, reference)
     }
 
     /// The plan being tracked.

@@ -25,6 +25,89 @@ pub use mpc::{Discretization, Linearization, Mpc, MpcSettings, Prediction, Torqu
 pub use replanning::{ReplanEvent, ReplanSettings, Replanning};
 pub use tvlqr::{Tvlqr, TvlqrSettings};
 
+/// A diagonal weight vector of a controller's settings: `len` values for the n-link robot (`what`
+/// says which), each finite, >= 0 and <= 1e12. Errors name `src` and the field `name`.
+pub(crate) fn check_weights(
+    src: &str,
+    n: usize,
+    name: &str,
+    v: &[f64],
+    len: usize,
+    what: &str,
+) -> Result<()> {
+    if v.len() != len {
+        return Err(Error::invalid(
+            src,
+            name,
+            format!("{v:?}"),
+            format!("needs {len} values for the {n}-link robot: {what}"),
+        ));
+    }
+    if let Some(x) = v
+        .iter()
+        .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
+    {
+        return Err(Error::invalid(
+            src,
+            name,
+            x,
+            "weights must be finite, >= 0 and <= 1e12",
+        ));
+    }
+    Ok(())
+}
+
+/// The tracking weights the MPC and the TVLQR share, resolved (defaults filled): `[q_diag (2n: q then
+/// qd), w_diag (2: EE x, y), r_diag (n - 1)]`, each as [`check_weights`], and every `r_diag` entry > 0
+/// (`why_r_positive` says what that keeps). Errors name `src` and the field as written in a scenario.
+pub(crate) fn check_tracking_weights(
+    src: &str,
+    n: usize,
+    [q_diag, w_diag, r_diag]: [&[f64]; 3],
+    why_r_positive: &str,
+) -> Result<()> {
+    check_weights(
+        src,
+        n,
+        "q_diag",
+        q_diag,
+        2 * n,
+        "2n values (q then qd), or none for the default",
+    )?;
+    check_weights(src, n, "w_diag", w_diag, 2, "2 values (EE x, y)")?;
+    check_weights(
+        src,
+        n,
+        "r_diag",
+        r_diag,
+        n.saturating_sub(1),
+        "n - 1 values, or none for the default",
+    )?;
+    if let Some(x) = r_diag.iter().find(|x| **x <= 0.0) {
+        return Err(Error::invalid(
+            src,
+            "r_diag",
+            x,
+            format!("must be > 0 ({why_r_positive})"),
+        ));
+    }
+    Ok(())
+}
+
+/// Swap the reference a controller of `robot` tracks: `reference` checked against the robot first
+/// ([`Trajectory::check_reference`]), then moved into `slot` (an `Arc` swap, no allocation). The one
+/// body of every `set_reference`.
+pub(crate) fn swap_reference(
+    robot: &crate::model::Robot,
+    slot: &mut Arc<Trajectory>,
+    reference: impl Into<Arc<Trajectory>>,
+) -> Result<()> {
+    let reference = reference.into();
+    reference.check_reference(robot)?;
+    *slot = reference;
+    Ok(())
+}
+
 /// Diagnostics of one control step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ControlInfo {

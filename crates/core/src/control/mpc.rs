@@ -191,37 +191,20 @@ impl MpcSettings {
             ));
         }
         let s = self.resolved(n);
-        for (name, v, len, what) in [
-            (
-                "q_diag",
-                &s.q_diag,
-                2 * n,
-                "2n values (q then qd), or none for the default",
-            ),
-            ("w_diag", &s.w_diag, 2, "2 values (EE x, y)"),
-            (
-                "r_diag",
-                &s.r_diag,
-                n.saturating_sub(1),
-                "n - 1 values, or none for the default",
-            ),
-            (
-                "rate_diag",
-                &s.rate_diag,
-                n.saturating_sub(1),
-                "n - 1 values, or none for the default",
-            ),
-        ] {
-            check_weights(src, n, name, v, len, what)?;
-        }
-        if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
-            return Err(Error::invalid(
-                src,
-                "r_diag",
-                x,
-                "must be > 0 (keeps the QP strictly convex)",
-            ));
-        }
+        super::check_tracking_weights(
+            src,
+            n,
+            [&s.q_diag, &s.w_diag, &s.r_diag],
+            "keeps the QP strictly convex",
+        )?;
+        super::check_weights(
+            src,
+            n,
+            "rate_diag",
+            &s.rate_diag,
+            n.saturating_sub(1),
+            "n - 1 values, or none for the default",
+        )?;
         if !(self.terminal_factor.is_finite()
             && self.terminal_factor >= 0.0
             && self.terminal_factor <= 1e6)
@@ -235,38 +218,6 @@ impl MpcSettings {
         }
         self.qp.validate()
     }
-}
-
-/// A diagonal weight vector of a controller's settings: `len` values for the n-link robot (`what`
-/// says which), each finite, >= 0 and <= 1e12. Errors name `src` and the field `name`.
-pub(crate) fn check_weights(
-    src: &str,
-    n: usize,
-    name: &str,
-    v: &[f64],
-    len: usize,
-    what: &str,
-) -> Result<()> {
-    if v.len() != len {
-        return Err(Error::invalid(
-            src,
-            name,
-            format!("{v:?}"),
-            format!("needs {len} values for the {n}-link robot: {what}"),
-        ));
-    }
-    if let Some(x) = v
-        .iter()
-        .find(|x| !(x.is_finite() && **x >= 0.0 && **x <= 1e12))
-    {
-        return Err(Error::invalid(
-            src,
-            name,
-            x,
-            "weights must be finite, >= 0 and <= 1e12",
-        ));
-    }
-    Ok(())
 }
 
 /// Matrix exponential workspace for the zero-order hold (allocated once).
@@ -527,10 +478,7 @@ impl Mpc {
     /// and the last applied torque are kept, which suits a re-plan from the current state; call
     /// [`Mpc::reset`] as well to start cold.
     pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
-        let reference = reference.into();
-        reference.check_reference(&self.robot)?;
-        self.reference = reference;
-        Ok(())
+        super::swap_reference(&self.robot, &mut self.reference, reference)
     }
 
     /// The plan being tracked.

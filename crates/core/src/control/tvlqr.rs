@@ -78,31 +78,12 @@ impl TvlqrSettings {
             return Err(Error::invalid(src, "dt", self.dt, "must be in [1e-4, 1] s"));
         }
         let s = self.resolved(n);
-        for (name, v, len, what) in [
-            (
-                "q_diag",
-                &s.q_diag,
-                2 * n,
-                "2n values (q then qd), or none for the default",
-            ),
-            ("w_diag", &s.w_diag, 2, "2 values (EE x, y)"),
-            (
-                "r_diag",
-                &s.r_diag,
-                n.saturating_sub(1),
-                "n - 1 values, or none for the default",
-            ),
-        ] {
-            super::mpc::check_weights(src, n, name, v, len, what)?;
-        }
-        if let Some(x) = s.r_diag.iter().find(|x| **x <= 0.0) {
-            return Err(Error::invalid(
-                src,
-                "r_diag",
-                x,
-                "must be > 0 (keeps the Riccati step invertible)",
-            ));
-        }
+        super::check_tracking_weights(
+            src,
+            n,
+            [&s.q_diag, &s.w_diag, &s.r_diag],
+            "keeps the Riccati step invertible",
+        )?;
         if !(self.terminal_s.is_finite() && self.terminal_s >= 0.0 && self.terminal_s <= 1e6) {
             return Err(Error::invalid(
                 src,

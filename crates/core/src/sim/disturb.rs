@@ -99,34 +99,6 @@ impl<P: Plant> ActuationDelay<P> {
     }
 }
 
-/// Forward everything but `step` to `self.inner`.
-macro_rules! forward_plant {
-    () => {
-        fn n_links(&self) -> usize {
-            self.inner.n_links()
-        }
-        fn time(&self) -> f64 {
-            self.inner.time()
-        }
-        fn state(&self, x: &mut [f64]) {
-            self.inner.state(x)
-        }
-        fn true_state(&self, x: &mut [f64]) {
-            self.inner.true_state(x)
-        }
-        fn energy(&self) -> f64 {
-            self.inner.energy()
-        }
-        /// The inner plant's name (a disturbance is not another plant).
-        fn name(&self) -> &'static str {
-            self.inner.name()
-        }
-        fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
-            self.inner.push(link, point_m, impulse)
-        }
-    };
-}
-
 impl<P: Plant> Plant for ActuationDelay<P> {
     forward_plant!();
     fn step(&mut self, tau: &[f64], dt: f64) {
@@ -265,19 +237,11 @@ impl<P: Plant> MeasurementDelay<P> {
 }
 
 impl<P: Plant> Plant for MeasurementDelay<P> {
-    fn n_links(&self) -> usize {
-        self.inner.n_links()
-    }
-    fn time(&self) -> f64 {
-        self.inner.time()
-    }
+    forward_plant!(own_state);
     /// The inner plant's measurement of `delay` periods ago.
     fn state(&self, x: &mut [f64]) {
         let nx = x.len();
         x.copy_from_slice(&self.ring[self.head * nx..(self.head + 1) * nx]);
-    }
-    fn true_state(&self, x: &mut [f64]) {
-        self.inner.true_state(x)
     }
     fn step(&mut self, tau: &[f64], dt: f64) {
         self.inner.step(tau, dt);
@@ -286,15 +250,6 @@ impl<P: Plant> Plant for MeasurementDelay<P> {
         let (h, slots) = (self.head, self.delay + 1);
         self.inner.state(&mut self.ring[h * nx..(h + 1) * nx]);
         self.head = (h + 1) % slots;
-    }
-    fn energy(&self) -> f64 {
-        self.inner.energy()
-    }
-    fn name(&self) -> &'static str {
-        self.inner.name()
-    }
-    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
-        self.inner.push(link, point_m, impulse)
     }
 }
 

@@ -8,6 +8,39 @@
 //! Disturbances are plant wrappers: [`Noisy`] adds seeded Gaussian sensor noise, [`ActuationDelay`]
 //! and [`MotorLag`] change what a commanded torque does (see docs/robustness.md).
 
+/// Forward the [`Plant`] methods of a wrapper to `self.inner`: every one but `step`
+/// (`forward_plant!()`), or every one but `step` and `state` (`forward_plant!(own_state)`, for the
+/// wrappers that change what is measured). The one body of every plant wrapper.
+macro_rules! forward_plant {
+    () => {
+        forward_plant!(own_state);
+        fn state(&self, x: &mut [f64]) {
+            self.inner.state(x)
+        }
+    };
+    (own_state) => {
+        fn n_links(&self) -> usize {
+            self.inner.n_links()
+        }
+        fn time(&self) -> f64 {
+            self.inner.time()
+        }
+        fn true_state(&self, x: &mut [f64]) {
+            self.inner.true_state(x)
+        }
+        fn energy(&self) -> f64 {
+            self.inner.energy()
+        }
+        /// The inner plant's name (a disturbance is not another plant).
+        fn name(&self) -> &'static str {
+            self.inner.name()
+        }
+        fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+            self.inner.push(link, point_m, impulse)
+        }
+    };
+}
+
 mod clock;
 mod disturb;
 mod disturbances;

@@ -119,12 +119,7 @@ impl<P: Plant> Noisy<P> {
 }
 
 impl<P: Plant> Plant for Noisy<P> {
-    fn n_links(&self) -> usize {
-        self.inner.n_links()
-    }
-    fn time(&self) -> f64 {
-        self.inner.time()
-    }
+    forward_plant!(own_state);
     /// True state plus the current noise sample.
     fn state(&self, x: &mut [f64]) {
         self.inner.true_state(x);
@@ -132,22 +127,9 @@ impl<P: Plant> Plant for Noisy<P> {
             *v += e;
         }
     }
-    fn true_state(&self, x: &mut [f64]) {
-        self.inner.true_state(x)
-    }
     /// Advance the inner plant and draw the next noise sample.
     fn step(&mut self, tau: &[f64], dt: f64) {
         self.inner.step(tau, dt);
         self.draw();
-    }
-    fn energy(&self) -> f64 {
-        self.inner.energy()
-    }
-    /// The inner plant's name (noise is a disturbance, not another plant).
-    fn name(&self) -> &'static str {
-        self.inner.name()
-    }
-    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
-        self.inner.push(link, point_m, impulse)
     }
 }
