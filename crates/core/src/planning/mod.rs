@@ -1,11 +1,9 @@
-//! Offline swing planning by direct collocation (paper Section III): the sparse NLP seam ([`nlp`]) with
-//! its two backends, the transcriptions ([`collocation`]), the settings and the planner.
+//! Offline swing planning by direct collocation (paper Section III): the sparse NLP seam ([`nlp`], its two
+//! backends in its submodules), the transcriptions ([`collocation`]), the settings and the planner.
 //!
 //! Conventions follow the crate docs (SI units; `x = [q, qd]`, `q[0]` absolute, the rest relative;
 //! `u = tau` of joints 2..n; gravity along -y).
 
-mod backend_pounce;
-mod backend_ripopt;
 pub mod collocation;
 pub mod detour;
 pub mod guess;

@@ -32,6 +32,9 @@
 //! failure: during a line search the step is shortened; at the starting point the solve stops with
 //! [`SolveStatus::EvaluationError`].
 
+mod pounce;
+mod ripopt;
+
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
 
@@ -862,8 +865,8 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
     let backend_start = Instant::now();
     let mut outcome =
         match backend {
-            Backend::Pounce => super::backend_pounce::run(nlp, &prep, settings),
-            Backend::Ripopt => super::backend_ripopt::run(nlp, &prep, settings),
+            Backend::Pounce => pounce::run(nlp, &prep, settings),
+            Backend::Ripopt => ripopt::run(nlp, &prep, settings),
             Backend::Ocp => return fail(
                 SolveStatus::InvalidSettings(
                     "backend \"ocp\" solves stage-structured optimal-control problems only (the \

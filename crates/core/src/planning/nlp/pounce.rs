@@ -1,4 +1,4 @@
-//! The pounce-rs 0.14 backend of [`super::nlp::solve`] (IPOPT's algorithm, `IpoptApplication` +
+//! The pounce-rs 0.14 backend of [`super::solve`] (IPOPT's algorithm, `IpoptApplication` +
 //! `TNLP`).
 //!
 //! `IpoptApplication::optimize_tnlp` takes an `Rc<RefCell<dyn TNLP>>`, i.e. a `'static` problem,
@@ -27,7 +27,7 @@ use pounce_rs::{
     IpoptCq, IpoptData, IterStats, NlpInfo, Solution, SparsityRequest, StartingPoint, TNLP,
 };
 
-use super::nlp::{
+use super::{
     panic_text, BackendOutcome, Evaluator, IterFingerprint, MuStrategy, NlpSettings, Prepared,
     SolveStatus, SparseNlp,
 };

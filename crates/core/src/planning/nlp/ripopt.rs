@@ -1,4 +1,4 @@
-//! The ripopt 0.8 backend of [`super::nlp::solve`].
+//! The ripopt 0.8 backend of [`super::solve`].
 //!
 //! ripopt's `NlpProblem` takes `&self` in its callbacks and has no `'static` bound, so the user's
 //! problem is borrowed directly (through a `RefCell`) and evaluated on the calling thread.
@@ -21,7 +21,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use ripopt::{NlpProblem, SolveStatus as RipStatus, SolverOptions};
 
-use super::nlp::{
+use super::{
     panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus,
 };
 
@@ -144,7 +144,7 @@ fn map_status(s: RipStatus) -> SolveStatus {
 
 /// Run ripopt on the prepared problem. Panics (in ripopt or in the callbacks) become a status.
 pub(crate) fn run(
-    nlp: &mut dyn super::nlp::SparseNlp,
+    nlp: &mut dyn super::SparseNlp,
     prep: &Prepared,
     settings: &NlpSettings,
 ) -> BackendOutcome {
