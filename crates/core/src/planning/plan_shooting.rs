@@ -7,16 +7,16 @@ use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, freefall_time, guess_from_trajectory, min_obstacle_clearance,
+    check_guess, check_task, clearance_rows, guess_from_trajectory, swing_time, min_obstacle_clearance,
     smooth_step_guess, solve_with_retry, target_pose, variable_bounds, DistanceClearanceFn, Plan,
     SolveAttempt, SwingTask, Violations,
 };
 use super::profile::Clamped;
-use super::settings::{PlannerSettings, SwingTime, Transcription};
+use super::settings::{PlannerSettings, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
 use crate::error::{Error, Result};
 use crate::integrate;
-use crate::model::{Circle, ClearanceFn, Robot, Scratch};
+use crate::model::{Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::{hermite_basis, Trajectory};
 use std::sync::Arc;
@@ -198,14 +198,7 @@ pub(super) fn setup_shooting(
     }
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
-    let start_ee = robot.ee_position(&task.q0);
-    let (t_final, freefall) = match settings.swing_time {
-        SwingTime::Seconds(t) => (t, None),
-        SwingTime::Auto(_) => {
-            let tf = freefall_time(robot, &task.q0, 0.5 * (start_ee[0] + task.target[0]))?;
-            (2.0 * tf, Some(tf))
-        }
-    };
+    let (t_final, freefall) = swing_time(robot, task, settings)?;
     let intervals = ((t_final / settings.knot_dt).round() as usize).max(2);
     let layout = Layout::new(
         n,
@@ -214,19 +207,7 @@ pub(super) fn setup_shooting(
         t_final,
         Transcription::MultipleShooting,
     );
-    let obstacles: &[Circle] = if settings.avoid_obstacles {
-        &task.obstacles
-    } else {
-        &[]
-    };
-    let cf = if obstacles.is_empty() && !settings.self_collision {
-        None
-    } else {
-        Some(
-            ClearanceFn::new(Arc::clone(robot), obstacles, settings.obstacle_margin)?
-                .with_self_collision(settings.self_collision),
-        )
-    };
+    let cf = clearance_rows(robot, task, settings)?;
 
     // initial guess, on the knots (stacked [q, qd, tau] per knot as for collocation)
     let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);

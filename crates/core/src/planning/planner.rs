@@ -842,6 +842,46 @@ pub(super) fn solve_with_retry(
     (sol, solves)
 }
 
+/// The swing time T of `task` (s) and, when `settings.swing_time` is `"auto"`, the free-fall time
+/// `T_freefall` it is twice of (the locked chain falling until the EE passes the midpoint between its
+/// start and the target).
+pub(super) fn swing_time(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<(f64, Option<f64>)> {
+    Ok(match settings.swing_time {
+        SwingTime::Seconds(t) => (t, None),
+        SwingTime::Auto(_) => {
+            let start_ee = robot.ee_position(&task.q0);
+            let tf = freefall_time(robot, &task.q0, 0.5 * (start_ee[0] + task.target[0]))?;
+            (2.0 * tf, Some(tf))
+        }
+    })
+}
+
+/// The clearance rows the planner imposes on `task` (its obstacles when `settings.avoid_obstacles`,
+/// the non-adjacent link pairs when `settings.self_collision`, margin `settings.obstacle_margin`);
+/// `None` when there are none.
+pub(super) fn clearance_rows(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<Option<ClearanceFn>> {
+    let obstacles: &[Circle] = if settings.avoid_obstacles {
+        &task.obstacles
+    } else {
+        &[]
+    };
+    if obstacles.is_empty() && !settings.self_collision {
+        return Ok(None);
+    }
+    Ok(Some(
+        ClearanceFn::new(Arc::clone(robot), obstacles, settings.obstacle_margin)?
+            .with_self_collision(settings.self_collision),
+    ))
+}
+
 /// [`plan`] with an optional initial guess. `guess` is any trajectory of the robot (a neighbouring
 /// plan's `points` or `trajectory`, possibly of another swing time): its time axis is scaled linearly
 /// onto `[0, T]` of this problem and every collocation point takes q, qd (scaled by `T_guess / T`, so
@@ -908,29 +948,10 @@ pub(super) fn plan_single(
     let shared = Arc::new(robot.clone());
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
-    let start_ee = robot.ee_position(&task.q0);
-    let (t_final, freefall) = match settings.swing_time {
-        SwingTime::Seconds(t) => (t, None),
-        SwingTime::Auto(_) => {
-            let tf = freefall_time(robot, &task.q0, 0.5 * (start_ee[0] + task.target[0]))?;
-            (2.0 * tf, Some(tf))
-        }
-    };
+    let (t_final, freefall) = swing_time(robot, task, settings)?;
     let intervals = settings.grid(t_final, "planner")?;
     let layout = Layout::new(n, n - 1, intervals, t_final, settings.transcription);
-    let obstacles: &[Circle] = if settings.avoid_obstacles {
-        &task.obstacles
-    } else {
-        &[]
-    };
-    let path = if obstacles.is_empty() && !settings.self_collision {
-        None
-    } else {
-        Some(DistanceClearanceFn::new(
-            ClearanceFn::new(Arc::clone(&shared), obstacles, settings.obstacle_margin)?
-                .with_self_collision(settings.self_collision),
-        ))
-    };
+    let path = clearance_rows(&shared, task, settings)?.map(DistanceClearanceFn::new);
     let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);
     let mut x0 = vec![0.0; layout.n_vars()];
     if let Some(g) = guess {
