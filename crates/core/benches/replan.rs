@@ -408,7 +408,7 @@ fn bench(c: &mut Criterion) {
 }
 
 /// The start state of the planner's current solution.
-fn cp_start<'p>(planner: &'p SwingPlanner) -> &'p [f64] {
+fn cp_start(planner: &SwingPlanner) -> &[f64] {
     &planner.knots().x[0]
 }
 

@@ -49,7 +49,9 @@ fn adapter_derivatives_match_finite_differences() {
         radius: 0.1,
     }];
     let make = || {
-        let cf = DistanceClearanceFn::new(ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).unwrap());
+        let cf = DistanceClearanceFn::new(
+            ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).unwrap(),
+        );
         OcpNlp::new(SwingOcp::new(robot.clone(), spec(3, 0.3), Some(cf)).unwrap())
     };
     let (mut nlp, mut probe) = (make(), make());

@@ -10,7 +10,7 @@ use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::integrate::Rk4;
 use brachia::model::Robot;
 use brachia::planning::{
-    Backend, NlpSettings, SwingPlanner, PlannerSettings, SwingTask, Transcription,
+    Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
 };
 use brachia::sim::{ClosedLoop, Controller, Plant, RunSettings};
 use brachia::trajectory::Trajectory;

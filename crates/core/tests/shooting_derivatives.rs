@@ -52,11 +52,7 @@ const OBSTACLES: [Circle; 2] = [
     },
 ];
 
-fn problem<D: PointDynamics>(
-    robot: &Robot,
-    intervals: usize,
-    substeps: usize,
-) -> SwingOcp<D> {
+fn problem<D: PointDynamics>(robot: &Robot, intervals: usize, substeps: usize) -> SwingOcp<D> {
     let n = robot.n;
     let clearance = DistanceClearanceFn::new(
         ClearanceFn::new(robot.clone(), &OBSTACLES[..], 0.01)

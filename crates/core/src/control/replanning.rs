@@ -28,7 +28,7 @@ use crate::error::{Error, Result};
 use crate::integrate::Rk4;
 use crate::model::Robot;
 use crate::planning::{
-    Backend, NlpSettings, SwingPlanner, PlannerSettings, SolveStatus, SwingTask, Transcription,
+    Backend, NlpSettings, PlannerSettings, SolveStatus, SwingPlanner, SwingTask, Transcription,
 };
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};

@@ -30,9 +30,9 @@ use super::settings::PlannerSettings;
 use crate::ad::{Diff, LocalFn};
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, Robot};
-use std::sync::Arc;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// Clearance a detour guess keeps beyond the planner's margin, m (room for the interior point).
 pub const EXTRA_CLEARANCE: f64 = 0.01;

@@ -24,10 +24,10 @@ use super::planner::{plan_single, target_pose, Plan, SwingTask};
 use super::settings::PlannerSettings;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
-use std::sync::Arc;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::fmt;
+use std::sync::Arc;
 
 /// Smallest step of the radius scale before the continuation gives up.
 pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
@@ -478,8 +478,8 @@ pub fn path_placements(
                 center: [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])],
                 radius,
             };
-            let cf = ClearanceFn::new(Arc::clone(&shared), [obstacle], 0.0)?
-                .with_self_collision(false);
+            let cf =
+                ClearanceFn::new(Arc::clone(&shared), [obstacle], 0.0)?.with_self_collision(false);
             let bar =
                 (target[0] - obstacle.center[0]).hypot(target[1] - obstacle.center[1]) - radius;
             if cf.min_clearance(q_start) > margin

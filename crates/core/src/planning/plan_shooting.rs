@@ -7,9 +7,9 @@ use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, clearance_rows, guess_from_trajectory, swing_time, min_obstacle_clearance,
-    smooth_step_guess, solve_with_retry, target_pose, variable_bounds, DistanceClearanceFn, Plan,
-    SolveAttempt, SwingTask, Violations,
+    check_guess, check_task, clearance_rows, guess_from_trajectory, min_obstacle_clearance,
+    smooth_step_guess, solve_with_retry, swing_time, target_pose, variable_bounds,
+    DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
 };
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, Transcription};
@@ -19,11 +19,11 @@ use crate::integrate;
 use crate::model::{Robot, Scratch};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::{hermite_basis, Trajectory};
-use std::sync::Arc;
 use brachia_ocp::{
     EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
     StageEval, TerminalEval,
 };
+use std::sync::Arc;
 
 /// Largest RK4 step of the independent open-loop replay, s.
 pub const REPLAY_MAX_STEP_S: f64 = 2.5e-3;

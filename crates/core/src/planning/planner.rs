@@ -942,7 +942,13 @@ pub(super) fn plan_single(
     if settings.transcription == Transcription::MultipleShooting
         || nlp.backend == super::nlp::Backend::Ocp
     {
-        return super::plan_shooting::plan_shooting(&Arc::new(robot.clone()), task, settings, nlp, guess);
+        return super::plan_shooting::plan_shooting(
+            &Arc::new(robot.clone()),
+            task,
+            settings,
+            nlp,
+            guess,
+        );
     }
     // the evaluators the problem holds share one copy of the robot
     let shared = Arc::new(robot.clone());
