@@ -68,32 +68,6 @@ pub struct Checkpoint {
 /// handle to the robot (`Arc<Robot>`, shared with a controller), the task, the settings, the problem
 /// and the solver's workspace, all allocated in [`SwingPlanner::new`]; so a controller can hold one
 /// across calls and move it between threads (it is `Send`).
-///
-/// ```
-/// use brachia::planning::{NlpSettings, PlannerSettings, SwingPlanner, SwingTask};
-/// use brachia::Robot;
-/// use std::sync::Arc;
-///
-/// let robot = Arc::new(Robot::paper());
-/// let task = SwingTask {
-///     q0: vec![-2.35, 0.0, -1.55, 0.0],
-///     qd0: vec![],
-///     target: [0.8, 0.0],
-///     obstacles: vec![],
-/// };
-/// // the re-planning mesh: 30 ms knots
-/// let settings = PlannerSettings { knot_dt: 0.03, ..Default::default() };
-/// let mut planner = SwingPlanner::new(Arc::clone(&robot), task, &settings, &NlpSettings::default())?;
-/// let cold = planner.plan_outcome()?;
-/// assert!(cold.converged());
-/// // later in the swing, from a measured state (here the planned one at about 0.6 s, nudged)
-/// let k = (0.6 / cold.interval_s).round() as usize;
-/// let (t_now, mut x_now) = (planner.knot_time(k), planner.knots().x[k].clone());
-/// x_now[0] += 0.02;
-/// let warm = planner.replan(t_now, &x_now)?;
-/// assert!(warm.converged() && warm.ee_error_m < 1e-3);
-/// # Ok::<(), brachia::Error>(())
-/// ```
 pub struct SwingPlanner {
     robot: Arc<Robot>,
     task: SwingTask,
