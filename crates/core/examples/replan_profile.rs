@@ -1,11 +1,14 @@
-//! A fixed re-planning workload for instruction counts (callgrind): `replan_profile N` builds the
-//! persistent planner of the paper's tracking swing (`scenarios/tracking.toml`'s task; multiple
-//! shooting, 30 ms knots, one RK4 step per interval, the `ocp` backend), plans it cold once, then
-//! re-plans warm N times from the planned state at t = 0.6 s with a fixed disturbance (+0.05 rad on
-//! every joint, -0.2 rad/s on every joint velocity), restoring the undisturbed plan before each. It
-//! prints iterations and the end-effector miss. Differences of runs (N = 1 minus N = 0, and minus the
-//! restore alone, `N` negative: `-1` restores once without re-planning) isolate one warm re-plan.
-//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 1`.
+//! A fixed re-planning workload for instruction counts (callgrind): the warm re-plan set of
+//! `benches/replan.rs` (the tracking swing, multiple shooting, 30 ms knots, one RK4 step, K = 74; from
+//! the planned state at t = 0.6 s disturbed by uniform +-0.1 rad and +-0.5 rad/s per joint, 100
+//! seeded draws, those inside the bounds). `replan_profile N` re-plans the first N draws warm (each
+//! after restoring the undisturbed plan) and prints the iterations (mean, p99, max, the slowest
+//! draws). `replan_profile N cold` re-plans them cold. Differences of runs (N minus 0) drop the
+//! cold plan and the process start-up:
+//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 100`.
+//! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
+//! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered), `BRACHIA_REPLAN_ADAPTIVE=1`
+//! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol).
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
@@ -13,12 +16,16 @@ use brachia::planning::{
     Backend, NlpSettings, PlannerSettings, ShootingSettings, SwingPlanner, SwingTask, Transcription,
 };
 use brachia::Robot;
+use brachia_ocp::{MuStrategy, WarmDuals};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const T_NOW: f64 = 0.6;
 
 fn main() -> Result<(), brachia::Error> {
-    let arg: i64 = std::env::args()
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
+    let args: Vec<String> = std::env::args().collect();
+    let count: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
+    let warm = args.get(2).map(String::as_str) != Some("cold");
     let robot = Robot::paper();
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
@@ -40,34 +47,86 @@ fn main() -> Result<(), brachia::Error> {
         ..Default::default()
     };
     let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
-    let cold = planner.plan_outcome()?;
-    println!(
-        "cold: {} iterations, converged {}, miss {:.3e} m",
-        cold.iterations,
-        cold.converged(),
-        cold.ee_error_m
-    );
-    let t_now = 0.6;
-    let k = (t_now / cold.interval_s).round() as usize;
+    let env = |k: &str| std::env::var(k).ok();
+    let w = planner.warm_settings_mut();
+    if let Some(v) = env("BRACHIA_REPLAN_MU").and_then(|v| v.parse().ok()) {
+        w.mu_init = v;
+    }
+    if let Some(v) = env("BRACHIA_REPLAN_PUSH").and_then(|v| v.parse().ok()) {
+        w.warm_bound_push = v;
+    }
+    if let Some(v) = env("BRACHIA_REPLAN_TOL").and_then(|v| v.parse().ok()) {
+        w.tol = v;
+    }
+    match env("BRACHIA_REPLAN_DUALS").as_deref() {
+        Some("reset") => w.warm_duals = WarmDuals::Reset,
+        Some("centered") => w.warm_duals = WarmDuals::Centered,
+        _ => {}
+    }
+    if env("BRACHIA_REPLAN_ADAPTIVE").as_deref() == Some("1") {
+        w.mu_strategy = MuStrategy::Adaptive;
+    }
+    let p = planner.plan()?;
+    assert!(p.converged(), "{:?}", p.status);
+    let j = p
+        .trajectory
+        .t
+        .iter()
+        .position(|t| (t - T_NOW).abs() < 1e-9)
+        .expect("a sample at t = 0.6 s");
+    let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
     let n = robot.n;
-    let mut x: Vec<f64> = planner.knots().x[k].clone();
-    for (i, v) in x.iter_mut().enumerate() {
-        *v += if i < n { 0.05 } else { -0.2 };
-    }
-    let t_k = planner.knot_time(k);
+    let b = &s.bounds;
+    let mut rng = ChaCha8Rng::seed_from_u64(2026);
+    let states: Vec<Vec<f64>> = (0..100)
+        .map(|_| {
+            let mut y = x_nom.clone();
+            for i in 0..n {
+                y[i] += rng.gen_range(-0.1..0.1);
+                y[n + i] += rng.gen_range(-0.5..0.5);
+            }
+            y
+        })
+        .filter(|y| {
+            y[0] > b.q1[0]
+                && y[0] < b.q1[1]
+                && y[1..n].iter().all(|q| q.abs() < b.q_rel_max)
+                && y[n..].iter().all(|v| v.abs() < b.qd_max)
+        })
+        .collect();
     let cp = planner.checkpoint();
-    if arg < 0 {
+    let mut its = vec![];
+    let mut conv = 0;
+    let mut obj_sum = 0.0;
+    for x in states.iter().take(count) {
         planner.restore(&cp)?;
+        let o = if warm {
+            planner.replan(T_NOW, x)?
+        } else {
+            planner.replan_cold(T_NOW, x)?
+        };
+        conv += usize::from(o.converged() && o.ee_error_m < 1e-6);
+        obj_sum += o.objective;
+        its.push(o.iterations);
     }
-    for _ in 0..arg.max(0) {
-        planner.restore(&cp)?;
-        let w = planner.replan(t_k, &x)?;
-        println!(
-            "warm: {} iterations, converged {}, miss {:.3e} m",
-            w.iterations,
-            w.converged(),
-            w.ee_error_m
-        );
+    if its.is_empty() {
+        return Ok(());
     }
+    let m = its.len();
+    let mut sorted: Vec<(usize, usize)> = its.iter().copied().zip(0..).collect();
+    sorted.sort_by(|a, b| b.cmp(a));
+    let mut v = its.clone();
+    v.sort_unstable();
+    let p99 = v[((0.99 * m as f64).ceil() as usize).clamp(1, m) - 1];
+    println!(
+        "{} re-plans ({}): {conv} converged, iterations mean {:.2}, median {}, p99 {p99}, max {}, \
+         objective sum {obj_sum:.9}; slowest draws {:?}",
+        m,
+        if warm { "warm" } else { "cold" },
+        its.iter().sum::<usize>() as f64 / m as f64,
+        v[m / 2],
+        v[m - 1],
+        &sorted[..3.min(m)]
+    );
     Ok(())
 }

@@ -213,6 +213,10 @@ pub struct OcpStats {
     pub final_mu: f64,
     /// Number of factorisations with a Hessian regularisation delta_w > 0.
     pub regularizations: usize,
+    /// Number of Riccati factorisations with their inertia test (one per iteration when the first
+    /// attempt passes; more while the equality-row penalty or delta_w is searched).
+    #[serde(default)]
+    pub factorizations: usize,
     /// Time split.
     pub time: OcpTimings,
 }

@@ -421,6 +421,7 @@ impl OcpSolver {
             dual_infeasibility: 0.0,
             final_mu: mu,
             regularizations: 0,
+            factorizations: 0,
             time: OcpTimings::default(),
         };
         self.theta_current();
@@ -439,6 +440,7 @@ impl OcpSolver {
             dual_infeasibility: f64::NAN,
             final_mu: s.mu_init,
             regularizations: 0,
+            factorizations: 0,
             time: OcpTimings::default(),
         };
         if let Err(e) = s.validate() {
@@ -1121,6 +1123,7 @@ impl OcpSolver {
         }
         let lay = &self.lay;
         let mut ok = self.ric.factor_with_inertia(lay, 0.0, &self.reg);
+        stats.factorizations += 1;
         if !ok && use_penalty {
             let mut rho = if self.rho_eq_last == 0.0 {
                 RHO_EQ_0
@@ -1130,6 +1133,7 @@ impl OcpSolver {
             while !ok && rho <= RHO_EQ_MAX {
                 self.add_eq_penalty(rho - self.rho_eq);
                 ok = self.ric.factor_with_inertia(&self.lay, 0.0, &self.reg);
+                stats.factorizations += 1;
                 if ok {
                     self.rho_eq_last = rho;
                 } else {
@@ -1146,6 +1150,7 @@ impl OcpSolver {
             };
             loop {
                 ok = self.ric.factor_with_inertia(lay, delta_w, &self.reg);
+                stats.factorizations += 1;
                 if ok {
                     break;
                 }
@@ -1720,7 +1725,12 @@ impl OcpSolver {
         self.initialize(p, st, warm);
         self.has_iterate = true;
         self.delta_w_last = 0.0;
-        self.rho_eq_last = 0.0;
+        // a warm start keeps the equality-row penalty that last passed the inertia test: the
+        // penalty changes neither the step nor the inertia (docs/ocp.md section 5), and starting
+        // from 0 again costs the first iteration of every warm solve its failed factorisations
+        if !warm {
+            self.rho_eq_last = 0.0;
+        }
         if self.filter.capacity() < st.max_iter + 2 {
             self.filter.reserve(st.max_iter + 2);
             self.filter_orig.reserve(st.max_iter + 2);

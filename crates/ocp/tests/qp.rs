@@ -73,6 +73,35 @@ fn a_cost_concave_only_in_the_directions_the_terminal_rows_fix_needs_no_regulari
 }
 
 #[test]
+fn a_warm_solve_keeps_the_equality_row_penalty_of_the_last_solve() {
+    // The concave terminal cost above needs the equality-row penalty: a cold solve searches it
+    // (rho = 0, 1, 100, .. until the inertia test passes). A warm re-solve starts from the penalty
+    // that passed last (docs/ocp.md section 5), so its every factorisation passes at once.
+    let (kk, h, c) = (40, 0.05, 100.0);
+    let mut p = double_integrator(kk, h);
+    p.stages[kk].h = vec![-c, 0.0, 0.0, -c];
+    let (mut solver, cold) = solve(&mut p);
+    assert_eq!(cold.status, OcpStatus::Solved, "{cold:?}");
+    assert!(cold.factorizations > cold.iterations, "{cold:?}");
+    // a shifted start: the warm solve needs real iterations
+    p.stages[0].bounds.x_lo[1] = 0.3;
+    p.stages[0].bounds.x_hi[1] = 0.3;
+    let warm = solver.solve(
+        &mut p,
+        &OcpSettings {
+            warm_start: true,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(warm.status, OcpStatus::Solved, "{warm:?}");
+    assert!(warm.iterations >= 1, "{warm:?}");
+    assert_eq!(warm.factorizations, warm.iterations, "{warm:?}");
+    assert_eq!(warm.regularizations, 0, "{warm:?}");
+    let (_, cold2) = solve(&mut p);
+    assert!((warm.objective - cold2.objective).abs() < 1e-8 * cold2.objective.abs());
+}
+
+#[test]
 fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
     let (kk, h, w0) = (30, 0.05, 2.0);
     let mut p = double_integrator(kk, h);

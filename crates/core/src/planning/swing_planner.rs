@@ -119,11 +119,13 @@ impl SwingPlanner {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
         let cold = ocp_settings(nlp);
-        // the stored multipliers, a small barrier parameter and bound push: the fewest iterations
-        // of the variants measured in benches/replan.rs (docs/planner.md, "Re-planning")
+        // the stored multipliers, a small barrier parameter and bound push, the adaptive barrier
+        // update: the fewest iterations of the variants measured in benches/replan.rs and
+        // examples/replan_profile.rs (docs/planner.md, "Re-planning"; docs/ocp.md section 12)
         let warm = OcpSettings {
             warm_start: true,
             mu_init: nlp.mu_init.unwrap_or(WARM_START_MU_INIT),
+            mu_strategy: brachia_ocp::MuStrategy::Adaptive,
             warm_duals: WarmDuals::Stored,
             warm_bound_push: 1e-9,
             ..cold.clone()
@@ -171,7 +173,8 @@ impl SwingPlanner {
     }
 
     /// Settings of the warm solves (warm start on, the stored multipliers, `mu_init` from the NLP
-    /// settings or [`WARM_START_MU_INIT`], `warm_bound_push` 1e-9); edit to tune.
+    /// settings or [`WARM_START_MU_INIT`], `warm_bound_push` 1e-9, the adaptive barrier update);
+    /// edit to tune.
     pub fn warm_settings_mut(&mut self) -> &mut OcpSettings {
         &mut self.warm
     }
