@@ -1,5 +1,5 @@
 //! `brachia traverse`: plan and track a whole ladder traverse (grip switching at every bar) on the
-//! model plant, into a staged run folder (see `brachia_experiments::traverse`).
+//! scenario's plant (`[plant] kind`: the model, or rapier with the grip rebuilt at every bar), into a staged run folder (see `brachia_experiments::traverse`).
 
 use crate::{check_cancel, exp_error, CliError};
 use brachia_experiments::{check_out_dir, run_traverse_cancellable, CancelToken, LadderScenario};
@@ -12,7 +12,7 @@ pub struct Args {
     #[arg(long)]
     scenario: PathBuf,
     /// Output folder: traverse.csv, report.json, scenario.toml, traverse_stick.png/.svg,
-    /// energy_per_swing.png/.svg.
+    /// energy_per_swing.png/.svg, traverse.gif (rapier: also contacts.csv, obstacles.csv).
     #[arg(long)]
     out: PathBuf,
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).

@@ -16,7 +16,8 @@
 //! [planner]    # as in every scenario (swing_time "auto" = 2 T_freefall per swing)
 //! [solver]
 //! [tracking]
-//! [plant]      # kind = "model" (the traverse runs on the model plant)
+//! [plant]      # kind = "model" (RK4) or "rapier" (physics engine; obstacles = balls, world frame)
+//! [disturbances]  # mass_scale, com_scale, inertia_scale per link of the parameters file
 //! ```
 //!
 //! **Reach rule** (checked before anything is planned, an error names the bar): the distance between
@@ -33,6 +34,7 @@ use crate::scenario::{
 use brachia::model::Circle;
 use brachia::planning::planner::ik_from_seed;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
+use brachia::sim::Disturbances;
 use brachia::{Error, Robot};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -146,6 +148,42 @@ pub struct LadderScenario {
     /// The plant.
     #[serde(default)]
     pub plant: PlantSettings,
+    /// Plant-model mismatch over the whole traverse: only the per-link factors `mass_scale`,
+    /// `com_scale`, `inertia_scale` (link i of the parameters file, whichever hand holds).
+    #[serde(default)]
+    pub disturbances: Disturbances,
+}
+
+/// The `[disturbances]` a traverse accepts: per-link `mass_scale`, `com_scale`, `inertia_scale`
+/// (validated as in every scenario); any other field is refused, naming it.
+fn check_disturbances(d: &Disturbances, n: usize, control_dt: f64, src: &str) -> Result<(), Error> {
+    d.validate(n, control_dt, src)
+        .map_err(|e| in_section(e, src, "disturbances"))?;
+    let kept = Disturbances {
+        mass_scale: d.mass_scale.clone(),
+        com_scale: d.com_scale.clone(),
+        inertia_scale: d.inertia_scale.clone(),
+        ..Disturbances::default()
+    };
+    if *d != kept {
+        let (a, b) = (
+            serde_json::to_value(d).unwrap_or_default(),
+            serde_json::to_value(&kept).unwrap_or_default(),
+        );
+        let field = a
+            .as_object()
+            .and_then(|m| m.iter().find(|(k, v)| b.get(k.as_str()) != Some(v)))
+            .map(|(k, v)| (k.clone(), v.to_string()))
+            .unwrap_or_default();
+        return Err(Error::invalid(
+            src,
+            format!("disturbances.{}", field.0),
+            field.1,
+            "a traverse takes only the per-link factors mass_scale, com_scale and inertia_scale \
+             from [disturbances] (a ball hit: [plant] obstacles on the rapier plant)",
+        ));
+    }
+    Ok(())
 }
 
 /// A traverse scenario with its robot loaded, its start state resolved and every check passed.
@@ -304,23 +342,16 @@ impl LadderScenario {
                 ));
             }
         }
-        if sc.plant.kind != PlantKind::Model {
-            return Err(Error::invalid(
-                &src,
-                "plant.kind",
-                "\"rapier\"",
-                "a traverse runs on the model plant (plant.kind = \"model\"); grip constraints on \
-                 the rapier plant are not implemented yet (docs/ladders.md)",
-            ));
-        }
-        if !sc.plant.obstacles.is_empty() {
+        if sc.plant.kind == PlantKind::Model && !sc.plant.obstacles.is_empty() {
             return Err(Error::invalid(
                 &src,
                 "plant.obstacles",
                 format!("{} obstacles", sc.plant.obstacles.len()),
-                "the model plant simulates no contacts; put obstacles in ladder.obstacles",
+                "the model plant simulates no contacts: run them on the rapier plant \
+                 (plant.kind = \"rapier\"), or put obstacles the planner avoids in ladder.obstacles",
             ));
         }
+        check_disturbances(&sc.disturbances, n, sc.tracking.control_dt, &src)?;
         let q0 = if l.q0.is_empty() {
             default_hang(&robot, &l.bars, &sc.planner).ok_or_else(|| {
                 Error::invalid(

@@ -38,7 +38,9 @@ pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };
-pub use traverse::{run_traverse, run_traverse_cancellable, SwingRecord, Traverse, TraverseStatus};
+pub use traverse::{
+    run_traverse, run_traverse_cancellable, RegripRecord, SwingRecord, Traverse, TraverseStatus,
+};
 
 /// Errors of the experiment layer.
 #[derive(Debug, thiserror::Error)]

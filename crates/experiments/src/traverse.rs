@@ -24,11 +24,17 @@ use crate::ladder::LoadedLadder;
 use crate::plan_run::run_plan;
 use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
-use crate::track_run::{make_controller, plant_robot};
+use crate::scenario::PlantKind;
+use crate::track_run::{make_controller, plant_robot, PlantWorld};
+use brachia::control::Replanning;
 use brachia::model::switch_grip;
 use brachia::planning::validate_task;
-use brachia::sim::{run_closed_loop, ClosedLoopLog, ModelPlant, NoiseSettings, Noisy, RunSettings};
+use brachia::sim::{
+    run_closed_loop, ClosedLoopLog, Controller, ModelPlant, NoiseSettings, Noisy, Plant,
+    RunSettings,
+};
 use brachia::{Error, Robot};
+use brachia_rapier::{Circle, ContactBody, ContactEvent, Obstacle, RapierPlant, Regrip};
 use serde::Serialize;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -75,8 +81,61 @@ pub struct SwingRecord {
     pub capture_impact_j: f64,
     /// True when the hand caught the bar within the capture rule.
     pub captured: bool,
+    /// The grip switch in the rapier world at the end of the swing (absent on the model plant, where
+    /// the switch is the map alone, and when the bar was missed).
+    pub regrip: Option<RegripRecord>,
+    /// Contact events of the links in the swing (rapier plant; 0 on the model plant).
+    pub contact_events: usize,
+    /// Sum of the links' contact impulses in the swing, N s.
+    pub contact_impulse_n_s: f64,
+    /// Online re-plans in the swing (`[tracking] replan`).
+    pub replans: usize,
     /// Closed-loop wall time of the swing (controller and plant), s.
     pub track_time_s: f64,
+}
+
+/// A grip switch on the rapier plant, read from the engine's bodies before and after the chain was
+/// rebuilt at the new bar (world frame; joints in the parameters file's order, hand A first).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RegripRecord {
+    /// Largest distance of a joint before and after the rebuild, m.
+    pub position_residual_m: f64,
+    /// Distance of the closing hand from the new root joint before the switch, m.
+    pub grip_offset_m: f64,
+    /// Speed of the closing hand just before the switch, m/s.
+    pub ee_speed_m_s: f64,
+    /// Largest change of a joint's world velocity across the switch (the capture impulse), m/s.
+    pub velocity_change_m_s: f64,
+    /// Every joint's world position before and after, m.
+    pub joints_before: Vec<[f64; 2]>,
+    /// After.
+    pub joints_after: Vec<[f64; 2]>,
+    /// Every joint's world velocity before and after, m/s.
+    pub velocities_before: Vec<[f64; 2]>,
+    /// After.
+    pub velocities_after: Vec<[f64; 2]>,
+}
+
+impl RegripRecord {
+    /// From the plant's account of a switch of a chain holding with hand `hand` (0 = A, 1 = B).
+    fn new(r: Regrip, hand: usize) -> Self {
+        let order = |mut v: Vec<[f64; 2]>| {
+            if hand == 1 {
+                v.reverse();
+            }
+            v
+        };
+        RegripRecord {
+            position_residual_m: r.position_residual_m,
+            grip_offset_m: r.grip_offset_m,
+            ee_speed_m_s: r.ee_speed_before_m_s,
+            velocity_change_m_s: r.velocity_change_m_s,
+            joints_before: order(r.joints_before),
+            joints_after: order(r.joints_after),
+            velocities_before: order(r.velocities_before),
+            velocities_after: order(r.velocities_after),
+        }
+    }
 }
 
 /// How a traverse ended.
@@ -168,6 +227,12 @@ pub struct Traverse {
     pub logs: Vec<ClosedLoopLog>,
     /// The chain as written and re-rooted (swing k uses `chains[k % 2]`).
     pub chains: [Robot; 2],
+    /// The rapier world: its obstacles (the ladder's as fixed circles first, then the plant's),
+    /// every contact (links in the parameters file's order) and the obstacle track, stamped with the
+    /// traverse time. Empty on the model plant.
+    pub world: PlantWorld,
+    /// The plant's name (`model`, `rapier`).
+    pub plant: &'static str,
 }
 
 /// Positive work of the actuated joints in a log, J (held torques: `sum_k max(0, tau_k,j dq_j)`).
@@ -193,13 +258,8 @@ pub const Q1_WIDEN_MARGIN: f64 = 0.1;
 /// raised to 1.05 times the largest start rate). Take the start angle's representative (mod 2 pi) nearest `planner.bounds.q1` and, when it
 /// lies outside, widen the range to include it with [`Q1_WIDEN_MARGIN`] to spare.
 fn widen_q1(sc: &mut crate::scenario::Scenario) {
-    let tau = std::f64::consts::TAU;
     let [lo, hi] = sc.planner.bounds.q1;
-    let q1 = sc.task.q0[0];
-    let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
-    let best = [q1 - tau, q1, q1 + tau]
-        .into_iter()
-        .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b });
+    let best = q1_nearest(sc.task.q0[0], [lo, hi]);
     sc.task.q0[0] = best;
     sc.planner.bounds.q1 = [
         lo.min(best - Q1_WIDEN_MARGIN),
@@ -213,7 +273,79 @@ fn widen_q1(sc: &mut crate::scenario::Scenario) {
     }
 }
 
-/// Run the traverse of `ll` on the model plant. Errors only on bad input found at run time that no
+/// The representative of `q1` (mod 2 pi, one turn either way) nearest the range `[lo, hi]`.
+fn q1_nearest(q1: f64, [lo, hi]: [f64; 2]) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
+    [q1 - tau, q1, q1 + tau]
+        .into_iter()
+        .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b })
+}
+
+/// The rapier plant of a traverse: the plant's chain hanging from bar 0 in the world, the ladder's
+/// obstacles as fixed circles, then `[plant] obstacles` (world frame). Errors name the obstacle.
+fn rapier_world(
+    ll: &LoadedLadder,
+    robot: &Robot,
+    x0: &[f64],
+) -> Result<(RapierPlant, Vec<Obstacle>), Error> {
+    let sc = &ll.scenario;
+    let src = ll.path.display().to_string();
+    let mut p = RapierPlant::new_at(robot, sc.ladder.bars[0].p(), x0, &sc.plant.rapier())?;
+    let n_ladder = sc.ladder.obstacles.len();
+    let obstacles: Vec<Obstacle> = sc
+        .ladder
+        .obstacles
+        .iter()
+        .map(|c| {
+            Obstacle::Circle(Circle {
+                center: c.center,
+                radius: c.radius,
+            })
+        })
+        .chain(sc.plant.obstacles.iter().cloned())
+        .collect();
+    for (id, o) in obstacles.iter().enumerate() {
+        let field = if id < n_ladder {
+            format!("ladder.obstacles[{id}]")
+        } else {
+            format!("plant.obstacles[{}]", id - n_ladder)
+        };
+        let c = o.shape().0;
+        p.add_obstacle(o).map_err(|e| match e {
+            Error::InfeasibleTask(m) => Error::invalid(
+                &src,
+                field.clone(),
+                format!("center [{}, {}]", c[0], c[1]),
+                m,
+            ),
+            Error::InvalidValue { reason, value, .. } => {
+                Error::invalid(&src, field.clone(), value, reason)
+            }
+            other => other,
+        })?;
+    }
+    Ok((p, obstacles))
+}
+
+/// The plant's chains (the parameters file's robot with `[plant] mass_scale` and the
+/// `[disturbances]` factors, as written and re-rooted): per-link factors name the parameters
+/// file's links, whichever hand holds.
+fn plant_chains(ll: &LoadedLadder) -> Result<[Robot; 2], Error> {
+    let sc = &ll.scenario;
+    let n = ll.robot.n;
+    let mut first = crate::ladder::swing_scenario(sc, &ll.x0[..n], &ll.x0[n..], [0.0, 0.0], 1);
+    first.disturbances = sc.disturbances.clone();
+    let pr = plant_robot(&LoadedScenario {
+        scenario: first,
+        robot: ll.robot.clone(),
+        path: ll.path.clone(),
+    })?;
+    let rr = pr.rerooted()?;
+    Ok([pr, rr])
+}
+
+/// Run the traverse of `ll` on its plant (`[plant] kind`). Errors only on bad input found at run time that no
 /// status describes; planning failures, refused start states and missed captures are statuses.
 pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
     let never = || false;
@@ -238,9 +370,19 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
     let bars = &sc.ladder.bars;
     let n = ll.robot.n;
     let chains = [ll.robot.clone(), ll.robot.rerooted()?];
+    let pchains = plant_chains(ll)?;
     let src = ll.path.display().to_string();
     let mut x = ll.x0.clone();
     let mut grip = bars[0].p();
+    let mut world = PlantWorld::default();
+    let mut rapier = match sc.plant.kind {
+        PlantKind::Model => None,
+        PlantKind::Rapier => {
+            let (p, obstacles) = rapier_world(ll, &pchains[0], &x)?;
+            world.obstacles = obstacles;
+            Some(p)
+        }
+    };
     let mut t_start = 0.0;
     let mut swings = Vec::new();
     let mut logs = Vec::new();
@@ -252,9 +394,10 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let robot = &chains[k % 2];
         let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
         if k > 0 {
+            // the plant starts where the plan does: q1 as the representative (mod 2 pi) the plan uses
+            // (chosen at the switch, so the rapier chain is rebuilt with it), or the controller would
+            // see a 2 pi error
             widen_q1(&mut swing_sc);
-            // the plant starts where the plan does: q1 as the representative (mod 2 pi) the plan uses,
-            // or the controller would see a 2 pi error
             x[0] = swing_sc.task.q0[0];
         }
         let ls = LoadedScenario {
@@ -296,9 +439,40 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             break;
         }
         let reference = &p.trajectory;
-        let mut plant = ModelPlant::new(plant_robot(&ls)?, &x);
-        plant.substeps = sc.plant.substeps;
-        let mut ctrl = make_controller(sc.tracking.controller, &ls, reference)?;
+        let contacts_before = rapier.as_ref().map_or(0, |r| r.contacts().len());
+        let mut model = None;
+        let mut plain: Option<Box<dyn Controller>> = None;
+        let plant: &mut dyn Plant = match rapier.as_mut() {
+            Some(r) => r,
+            None => {
+                let mut m = ModelPlant::new(pchains[k % 2].clone(), &x);
+                m.substeps = sc.plant.substeps;
+                model.insert(m)
+            }
+        };
+        let base = make_controller(sc.tracking.controller, &ls, reference)?;
+        let mut replanning = match (&sc.tracking.replan, sc.tracking.controller) {
+            (Some(rs), crate::scenario::ControllerKind::Mpc) => Some(Replanning::build(
+                base,
+                robot.clone(),
+                &ls.scenario.task,
+                &ls.scenario.planner,
+                &ls.scenario.solver,
+                reference.clone(),
+                rs.clone(),
+            )?),
+            _ => {
+                plain = Some(base);
+                None
+            }
+        };
+        let ctrl: &mut dyn Controller = match (replanning.as_mut(), plain.as_mut()) {
+            (Some(r), _) => r,
+            (None, Some(c)) => c.as_mut(),
+            (None, None) => {
+                return Err(Error::InfeasibleTask("no controller was built".into()));
+            }
+        };
         let settings = RunSettings {
             duration_s: reference.duration() + sc.tracking.hold_s,
             control_dt: sc.tracking.control_dt,
@@ -310,13 +484,15 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         };
         let clock = std::time::Instant::now();
         let log = if noise.is_zero() {
-            run_closed_loop(&mut plant, ctrl.as_mut(), reference, robot, &settings)?
+            run_closed_loop(&mut *plant, &mut *ctrl, reference, robot, &settings)?
         } else {
-            let mut noisy = Noisy::new(&mut plant, noise)?;
-            run_closed_loop(&mut noisy, ctrl.as_mut(), reference, robot, &settings)?
+            let mut noisy = Noisy::new(&mut *plant, noise)?;
+            run_closed_loop(&mut noisy, &mut *ctrl, reference, robot, &settings)?
         };
         let track_time_s = clock.elapsed().as_secs_f64();
-        drop(ctrl);
+        let replans = replanning.as_ref().map_or(0, |r| r.events().len());
+        drop(replanning);
+        drop(plain);
         let summary = log.summary();
         let xe = log.x(log.len() - 1).to_vec();
         let ee = robot.ee_position(&xe[..n]);
@@ -346,8 +522,29 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             switch_residual_m_s: speed,
             capture_impact_j: 0.0,
             captured,
+            regrip: None,
+            contact_events: 0,
+            contact_impulse_n_s: 0.0,
+            replans,
             track_time_s,
         };
+        if let Some(r) = &rapier {
+            // the swing's contacts, links renumbered to the parameters file's order
+            for c in &r.contacts()[contacts_before..] {
+                let flip = |j: usize| if k % 2 == 1 { n - 1 - j } else { j };
+                let body = match c.body {
+                    ContactBody::Link(j) => ContactBody::Link(flip(j)),
+                    other => other,
+                };
+                rec.contact_events += 1;
+                rec.contact_impulse_n_s += c.impulse;
+                world.contacts.push(ContactEvent {
+                    link: flip(c.link),
+                    body,
+                    ..*c
+                });
+            }
+        }
         logs.push(log);
         if !captured {
             swings.push(rec);
@@ -361,11 +558,26 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             };
             break;
         }
-        match switch_grip(robot, grip, &xe) {
+        // the capture impulse with the plant's masses (the true robot stops the hand)
+        match switch_grip(&pchains[k % 2], grip, &xe) {
             Ok(s) => {
                 rec.capture_impact_j = s.impact_energy_j;
                 x = s.x;
+                x[0] = q1_nearest(x[0], sc.planner.bounds.q1);
                 grip = s.grip;
+                if let Some(r) = rapier.as_mut() {
+                    match r.regrip(&pchains[(k + 1) % 2], grip, &x) {
+                        Ok(g) => rec.regrip = Some(RegripRecord::new(g, k % 2)),
+                        Err(e) => {
+                            swings.push(rec);
+                            status = TraverseStatus::SwitchFailed {
+                                swing: k,
+                                message: e.to_string(),
+                            };
+                            break;
+                        }
+                    }
+                }
             }
             Err(e) => {
                 swings.push(rec);
@@ -382,11 +594,16 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
     if stop() {
         return Ok(None);
     }
+    if let Some(r) = &rapier {
+        world.track = r.obstacle_track().map(<[f64]>::to_vec).collect();
+    }
     Ok(Some(Traverse {
         status,
         swings,
         logs,
         chains,
+        world,
+        plant: if rapier.is_some() { "rapier" } else { "model" },
     }))
 }
 
@@ -404,6 +621,23 @@ impl Traverse {
             w.reverse();
         }
         w
+    }
+
+    /// `obstacles.csv` of a rapier traverse: `t,obstacle_0_x,obstacle_0_y,...` (traverse time s, world m).
+    pub fn obstacles_csv(&self) -> String {
+        let mut s = String::from("t");
+        for i in 0..self.world.obstacles.len() {
+            let _ = write!(s, ",obstacle_{i}_x,obstacle_{i}_y");
+        }
+        s.push('\n');
+        for row in &self.world.track {
+            let _ = write!(s, "{:.6}", row[0]);
+            for v in &row[1..] {
+                let _ = write!(s, ",{v:.9}");
+            }
+            s.push('\n');
+        }
+        s
     }
 
     /// `traverse.csv` (see the module docs for the header).
@@ -457,7 +691,12 @@ impl Traverse {
             "scenario": ll.scenario.name,
             "robot": ll.robot.params.name,
             "links": ll.robot.n,
-            "plant": "model",
+            "plant": self.plant,
+            "plant_substeps": ll.scenario.plant.substeps,
+            "plant_mass_scale": ll.scenario.plant.mass_scale,
+            "disturbances": ll.scenario.disturbances,
+            "plant_obstacles": self.world.obstacles,
+            "first_contact_s": self.world.first_contact_s(),
             "controller": ll.scenario.tracking.controller,
             "status": self.status,
             "message": self.status.to_string(),
@@ -478,6 +717,10 @@ impl Traverse {
                 "capture_error_max_m": max(|s| s.capture_error_m),
                 "switch_residual_max_m_s": max(|s| s.switch_residual_m_s),
                 "capture_impact_j": sum(|s| s.capture_impact_j),
+                "regrip_position_residual_max_m": self.swings.iter().filter_map(|s| s.regrip.as_ref()).map(|r| r.position_residual_m).fold(0.0, f64::max),
+                "contact_events": self.world.contacts.len(),
+                "contact_impulse_n_s": self.world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
+                "replans": self.swings.iter().map(|s| s.replans).sum::<usize>(),
                 "plan_time_s": sum(|s| s.plan_time_s),
                 "track_time_s": sum(|s| s.track_time_s),
                 "wall_time_s": wall_s,
@@ -494,6 +737,10 @@ impl Traverse {
         let mut folder = RunFolder::default();
         folder.add("traverse.csv", self.to_csv());
         folder.add_json("report.json", &self.report(ll));
+        if self.plant == "rapier" {
+            folder.add("contacts.csv", self.world.contacts_csv());
+            folder.add("obstacles.csv", self.obstacles_csv());
+        }
         let mut resolved = ll.scenario.clone();
         let n = ll.robot.n;
         resolved.ladder.q0 = ll.x0[..n].to_vec();

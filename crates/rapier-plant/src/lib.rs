@@ -27,5 +27,5 @@ mod plant;
 mod settings;
 
 pub use obstacle::{Ball, Circle, ContactBody, ContactEvent, Obstacle};
-pub use plant::{LinkMassProperties, RapierPlant};
+pub use plant::{LinkMassProperties, RapierPlant, Regrip, REGRIP_TOLERANCE_M};
 pub use settings::RapierSettings;
