@@ -113,7 +113,11 @@ fn mpc_reproduces_the_recorded_torques() {
     let mut rows = text.lines().skip(1).map(|l| {
         let f: Vec<&str> = l.split(',').collect();
         let v = |i: usize| f[i].parse::<f64>().unwrap();
-        (f[0].to_string(), f[1].parse::<usize>().unwrap(), [v(2), v(3), v(4)])
+        (
+            f[0].to_string(),
+            f[1].parse::<usize>().unwrap(),
+            [v(2), v(3), v(4)],
+        )
     });
     let mut tight_active = 0;
     for (name, limit, settings) in variants() {
