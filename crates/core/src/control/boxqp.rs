@@ -108,6 +108,8 @@ pub struct BoxQp {
     l: Vec<f64>,
     /// Free variables in factor order.
     free: Vec<usize>,
+    /// Variables on a bound (or fixed), in index order.
+    bound: Vec<usize>,
     nf: usize,
     state: Vec<u8>,
     rhs: Vec<f64>,
@@ -123,6 +125,7 @@ impl BoxQp {
             settings: BoxQpSettings::default(),
             l: vec![0.0; n_max * n_max],
             free: vec![0; n_max],
+            bound: vec![0; n_max],
             nf: 0,
             state: vec![FREE; n_max],
             rhs: vec![0.0; n_max],
@@ -197,8 +200,13 @@ impl BoxQp {
             }
             umax = umax.max(u[i].abs());
             gmax = gmax.max(g[i].abs());
-            for j in 0..n {
-                hmax = hmax.max(h[i * n + j].abs());
+            // H is symmetric: the upper triangle holds its largest entry. NaNs are skipped (as by
+            // `f64::max`).
+            for &v in &h[i * n + i..(i + 1) * n] {
+                let a = v.abs();
+                if a > hmax {
+                    hmax = a;
+                }
             }
         }
         let tol = self.settings.tol * (1.0 + gmax + hmax * umax);
@@ -217,14 +225,20 @@ impl BoxQp {
             }
             // 2. Equality-constrained minimiser on the free set.
             let nf = self.nf;
+            // The bound variables in index order.
+            let mut nb = 0;
+            for j in 0..n {
+                if self.state[j] != FREE {
+                    self.bound[nb] = j;
+                    nb += 1;
+                }
+            }
             for p in 0..nf {
                 let i = self.free[p];
                 let row = &h[i * n..(i + 1) * n];
                 let mut r = -g[i];
-                for j in 0..n {
-                    if self.state[j] != FREE {
-                        r -= row[j] * u[j];
-                    }
+                for &j in &self.bound[..nb] {
+                    r -= row[j] * u[j];
                 }
                 self.rhs[p] = r;
             }

@@ -282,9 +282,35 @@ impl Expm {
                 *acc += t;
             }
         }
+        // Squaring keeps the form [[E, F], [0, I]]: only the top rows change,
+        // [E F] <- [E E, E F + F] (the entries of the full product, summed in the same order).
+        self.tmp[top * m..].copy_from_slice(&self.sum[top * m..]);
         for _ in 0..s {
-            matmul(&self.sum, &self.sum, &mut self.tmp, m);
+            square_top_rows(&self.sum, &mut self.tmp, m, top);
             std::mem::swap(&mut self.sum, &mut self.tmp);
+        }
+    }
+}
+
+/// `c[..top] = (a a)[..top]` for an m x m row-major `a` whose rows top.. are those of the identity
+/// (rows top.. of c untouched): the full product's sum over k, whose terms k >= top reduce to
+/// `a[i][j]` at k = j and exact zeros otherwise.
+fn square_top_rows(a: &[f64], c: &mut [f64], m: usize, top: usize) {
+    for (ai, ci) in a[..top * m]
+        .chunks_exact(m)
+        .zip(c[..top * m].chunks_exact_mut(m))
+    {
+        ci.fill(0.0);
+        for (&v, bl) in ai[..top].iter().zip(a[..top * m].chunks_exact(m)) {
+            if v == 0.0 {
+                continue;
+            }
+            for (x, &y) in ci.iter_mut().zip(bl) {
+                *x += v * y;
+            }
+        }
+        for (x, &v) in ci[top..].iter_mut().zip(&ai[top..]) {
+            *x += v;
         }
     }
 }
@@ -306,11 +332,6 @@ fn mat_mul_rows(a: &[f64], b: &[f64], c: &mut [f64], m: usize, top: usize) {
             }
         }
     }
-}
-
-/// `c = a b`, all m x m row-major.
-fn matmul(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
-    mat_mul_rect(a, b, c, m, m, m);
 }
 
 /// Discrete affine model of one stage: `x_{k+1} = Ad x_k + Bd u_k + Fd`, `y_k = C x_k + fy`.
@@ -364,9 +385,14 @@ pub struct Mpc {
     e: Vec<f64>,
     /// Free response xi_k, k = 0..N ((N + 1) x nx).
     xi: Vec<f64>,
-    /// Gamma blocks: LTI `Phi_d = A^d B` (N blocks), LTV `Gamma_{j+1,i}` (N x N blocks).
+    /// Transposes of the model slots' `Ad` (nx x nx) and `Bd` (nu x nx), row-major: the products
+    /// below run over rows of length nx instead of nu.
+    adt: Vec<f64>,
+    bdt: Vec<f64>,
+    /// Gamma blocks, each stored transposed (nu x nx): LTI `Phi_d = A^d B` (N blocks), LTV
+    /// `Gamma_{j+1,i}` (N x N blocks).
     gam: Vec<f64>,
-    /// `P_{j+1} B_j` for j = 0..N-1 (N x nx x nu).
+    /// `(P_{j+1} B_j)^T = B_j^T P_{j+1}` for j = 0..N-1 (N x nu x nx).
     pb: Vec<f64>,
     /// Gamma blocks of one Hessian block column side by side (nx x N nu).
     gs: Vec<f64>,
@@ -430,6 +456,8 @@ impl Mpc {
             n_models,
             ad: vec![0.0; n_models * nx * nx],
             bd: vec![0.0; n_models * nx * nu],
+            adt: vec![0.0; n_models * nx * nx],
+            bdt: vec![0.0; n_models * nx * nu],
             fd_model: vec![0.0; n_models * nx],
             fd: vec![0.0; hn * nx],
             fy_stage: vec![0.0; hn * 2],
@@ -597,6 +625,16 @@ impl Mpc {
                     bd[i * nu..(i + 1) * nu].copy_from_slice(&s[i * me + nx..i * me + nx + nu]);
                     fd[i] = s[i * me + nx + nu];
                 }
+            }
+        }
+        let adt = &mut self.adt[m * nx * nx..(m + 1) * nx * nx];
+        let bdt = &mut self.bdt[m * nx * nu..(m + 1) * nx * nu];
+        for i in 0..nx {
+            for j in 0..nx {
+                adt[j * nx + i] = ad[i * nx + j];
+            }
+            for j in 0..nu {
+                bdt[j * nx + i] = bd[i * nu + j];
             }
         }
         self.cy[m * 2 * nx..(m + 1) * 2 * nx].copy_from_slice(&self.lm.c);
@@ -768,29 +806,30 @@ impl Mpc {
             }
         }
 
-        // Gamma blocks.
+        // Gamma blocks, transposed: Gamma^T_d = Gamma^T_{d-1} A^T runs over rows of length nx (the
+        // products and their order of summation per entry are those of A Gamma_{d-1}).
         match self.settings.linearization {
             Linearization::Measured => {
                 // Phi_0 = B, Phi_d = A Phi_{d-1}.
-                let (ad, bd) = (&self.ad[..nx * nx], &self.bd[..nx * nu]);
-                self.gam[..nx * nu].copy_from_slice(bd);
+                let (adt, bdt) = (&self.adt[..nx * nx], &self.bdt[..nx * nu]);
+                self.gam[..nx * nu].copy_from_slice(bdt);
                 for d in 1..hn {
                     let (prev, cur) = self.gam.split_at_mut(d * nx * nu);
                     let prev = &prev[(d - 1) * nx * nu..];
-                    mat_mul_rect(ad, prev, &mut cur[..nx * nu], nx, nx, nu);
+                    mat_mul_rect(prev, adt, &mut cur[..nx * nu], nu, nx, nx);
                 }
             }
             Linearization::AlongReference => {
                 // Gamma_{j+1,i} at block (j, i): Gamma_{i+1,i} = B_i, Gamma_{j+1,i} = A_j Gamma_{j,i}.
                 let blk = nx * nu;
                 for i in 0..hn {
-                    let bi = &self.bd[i * blk..(i + 1) * blk];
+                    let bi = &self.bdt[i * blk..(i + 1) * blk];
                     self.gam[(i * hn + i) * blk..(i * hn + i + 1) * blk].copy_from_slice(bi);
                     for j in i + 1..hn {
                         let (lo, hi) = self.gam.split_at_mut((j * hn + i) * blk);
                         let prev = &lo[((j - 1) * hn + i) * blk..((j - 1) * hn + i + 1) * blk];
-                        let aj = &self.ad[j * nx * nx..(j + 1) * nx * nx];
-                        mat_mul_rect(aj, prev, &mut hi[..blk], nx, nx, nu);
+                        let ajt = &self.adt[j * nx * nx..(j + 1) * nx * nx];
+                        mat_mul_rect(prev, ajt, &mut hi[..blk], nu, nx, nx);
                     }
                 }
             }
@@ -807,8 +846,11 @@ impl Mpc {
             let m = j.min(self.n_models - 1);
             let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
             let bd = &self.bd[m * nx * nu..(m + 1) * nx * nu];
+            let bdt = &self.bdt[m * nx * nu..(m + 1) * nx * nu];
+            // (P B)^T from the rows of P and of B^T (P_N = Qt_N is symmetric only to rounding, so
+            // the rows of P, not its columns, keep the sums of P B).
             let pb = &mut self.pb[j * nx * nu..(j + 1) * nx * nu];
-            mat_mul_rect(&self.p, bd, pb, nx, nx, nu);
+            mat_mul_transposed(&self.p, bdt, pb, nx, nx, nu);
             for a in 0..nu {
                 let mut v: f64 = 0.0;
                 for i in 0..nx {
@@ -863,9 +905,10 @@ impl Mpc {
         let lti = self.settings.linearization == Linearization::Measured;
         if lti {
             for c in 0..hn {
-                for k in 0..nx {
-                    self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
-                        .copy_from_slice(&self.gam[c * blk + k * nu..c * blk + (k + 1) * nu]);
+                for a in 0..nu {
+                    for k in 0..nx {
+                        self.gs[k * nall + c * nu + a] = self.gam[c * blk + a * nx + k];
+                    }
                 }
             }
         }
@@ -873,9 +916,10 @@ impl Mpc {
             if !lti {
                 for c in 0..=j {
                     let g0 = (j * hn + c) * blk;
-                    for k in 0..nx {
-                        self.gs[k * nall + c * nu..k * nall + (c + 1) * nu]
-                            .copy_from_slice(&self.gam[g0 + k * nu..g0 + (k + 1) * nu]);
+                    for a in 0..nu {
+                        for k in 0..nx {
+                            self.gs[k * nall + c * nu + a] = self.gam[g0 + a * nx + k];
+                        }
                     }
                 }
             }
@@ -885,7 +929,7 @@ impl Mpc {
                 let wb = &mut self.hw[b * nall..b * nall + len];
                 wb.fill(0.0);
                 for k in 0..nx {
-                    let pkb = pb[k * nu + b];
+                    let pkb = pb[b * nx + k];
                     for (x, &g) in wb.iter_mut().zip(&self.gs[k * nall..k * nall + len]) {
                         *x += g * pkb;
                     }
@@ -934,6 +978,23 @@ impl Mpc {
             .solve(&self.h, &self.g, &self.lb, &self.ub, &mut self.u);
         self.last_qp = Some(info);
         info
+    }
+}
+
+/// `c = (a b)^T` from `bt = b^T`, with a: r x k, bt: s x k, c: s x r, row-major: each entry is
+/// `sum_k a[i][k] b[k][j]` summed in the order of k, as in [`mat_mul_rect`].
+fn mat_mul_transposed(a: &[f64], bt: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
+    for (bj, cj) in bt[..s * k]
+        .chunks_exact(k)
+        .zip(c[..s * r].chunks_exact_mut(r))
+    {
+        for (ai, cji) in a[..r * k].chunks_exact(k).zip(cj.iter_mut()) {
+            let mut v = 0.0;
+            for (&x, &y) in ai.iter().zip(bj) {
+                v += x * y;
+            }
+            *cji = v;
+        }
     }
 }
 
