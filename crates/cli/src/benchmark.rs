@@ -32,15 +32,28 @@ pub struct Args {
     /// Only this sweep (repeatable), e.g. --sweep actuation_delay.
     #[arg(long)]
     sweep: Vec<String>,
-    /// Only this controller (repeatable): mpc, pd, open-loop.
+    /// Only this controller (repeatable): mpc, pd, open-loop, tvlqr, mpc+kalman, mpc+replan,
+    /// mpc+kalman+replan.
     #[arg(long)]
     controller: Vec<String>,
+    /// Only one part of the benchmark: the sweeps, or the Monte Carlo (e.g. --only monte-carlo).
+    #[arg(long, value_enum)]
+    only: Option<Part>,
     /// No progress bar.
     #[arg(long)]
     no_progress: bool,
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
     #[arg(long)]
     force: bool,
+}
+
+/// A part of the benchmark (`--only`).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum Part {
+    /// The disturbance sweeps (no Monte Carlo).
+    Sweeps,
+    /// The Monte Carlo (no sweeps).
+    MonteCarlo,
 }
 
 /// Run the command.
@@ -56,6 +69,11 @@ pub fn run(a: Args) -> Result<(), CliError> {
     s.monte_carlo_runs = a.monte_carlo.unwrap_or(s.monte_carlo_runs);
     s.only_sweeps = a.sweep;
     s.only_controllers = a.controller;
+    match a.only {
+        Some(Part::Sweeps) => s.monte_carlo_runs = 0,
+        Some(Part::MonteCarlo) => s.run_sweeps = false,
+        None => {}
+    }
     s.validate()?;
     check_out_dir(&a.out, a.force)?;
     let bar = crate::io::progress_bar(a.no_progress);

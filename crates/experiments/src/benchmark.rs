@@ -21,7 +21,9 @@ use crate::progress::{Progress, ProgressFn};
 use crate::run_folder::{install, stage_for, RunFolder};
 use crate::scenario::{LoadedScenario, PlantKind};
 use crate::ExpError;
-use brachia::control::{Estimated, Mpc, OpenLoop, Pd, Tvlqr};
+use brachia::control::{
+    Estimated, Mpc, OpenLoop, Pd, ReplanEvent, ReplanSettings, Replanning, Tvlqr,
+};
 use brachia::sim::{run_closed_loop, Controller, Disturbances, ModelPlant, Push, RunSettings};
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
@@ -45,9 +47,42 @@ pub const MAX_LEVELS: usize = 101;
 /// Most Monte Carlo runs.
 pub const MAX_MONTE_CARLO_RUNS: usize = 10_000;
 
+/// The modelled re-plan latency of the benchmark's re-planning entries, s, used when the scenario's
+/// `[tracking] replan` leaves `latency_s` unset (the measured wall time would make the benchmark
+/// depend on the machine and its load). 20 ms: the warm re-plan on the 30 ms mesh takes 7.96 ms
+/// (median) and 34.7 ms (p99) on the idle machine (docs/benchmarks.md, 100 disturbed starts), so
+/// 20 ms is about 2.5x the median, rounded to whole control periods.
+pub const REPLAN_LATENCY_S: f64 = 0.02;
+
+/// A controller built for one benchmark run: a plain one, or one with online re-planning (whose
+/// re-plans the run reports).
+pub enum BenchController {
+    /// Any controller.
+    Plain(Box<dyn Controller>),
+    /// A tracking controller wrapped by [`Replanning`].
+    Replanning(Box<Replanning<Box<dyn Controller>>>),
+}
+
+impl BenchController {
+    /// The controller the loop drives.
+    pub fn controller(&mut self) -> &mut dyn Controller {
+        match self {
+            BenchController::Plain(c) => c.as_mut(),
+            BenchController::Replanning(r) => r.as_mut(),
+        }
+    }
+
+    /// The re-plans of the run so far (none for a plain controller).
+    pub fn replans(&self) -> &[ReplanEvent] {
+        match self {
+            BenchController::Plain(_) => &[],
+            BenchController::Replanning(r) => r.events(),
+        }
+    }
+}
+
 /// Builds a controller for the benchmark: the scenario (robot, tracking settings) and the plan.
-pub type BuildController =
-    fn(&LoadedScenario, &Arc<Trajectory>) -> Result<Box<dyn Controller>, Error>;
+pub type BuildController = fn(&LoadedScenario, &Arc<Trajectory>) -> Result<BenchController, Error>;
 
 /// One controller of the benchmark: a name for reports and how to build it.
 #[derive(Debug, Clone, Copy)]
@@ -58,47 +93,105 @@ pub struct ControllerEntry {
     pub build: BuildController,
 }
 
+fn mpc(ls: &LoadedScenario, r: &Arc<Trajectory>) -> Result<Box<dyn Controller>, Error> {
+    let s = ls.scenario.tracking.mpc.clone();
+    Ok(Box::new(Mpc::new(ls.robot.clone(), Arc::clone(r), s)?))
+}
+
+fn mpc_kalman(ls: &LoadedScenario, r: &Arc<Trajectory>) -> Result<Box<dyn Controller>, Error> {
+    let t = &ls.scenario.tracking;
+    let mpc = Mpc::new(ls.robot.clone(), Arc::clone(r), t.mpc.clone())?;
+    Ok(Box::new(Estimated::new(
+        mpc,
+        ls.robot.clone(),
+        Arc::clone(r),
+        t.estimator,
+        t.control_dt,
+    )?))
+}
+
+/// The re-planning settings of the benchmark: the scenario's `[tracking] replan`, else the
+/// defaults; an unset latency becomes [`REPLAN_LATENCY_S`].
+pub fn replan_settings(ls: &LoadedScenario) -> ReplanSettings {
+    let mut s = ls.scenario.tracking.replan.clone().unwrap_or_default();
+    s.latency_s = Some(s.latency_s.unwrap_or(REPLAN_LATENCY_S));
+    s
+}
+
+/// `inner` (tracking `r`) wrapped by [`Replanning`] on the scenario's task and planner settings.
+fn with_replanning(
+    ls: &LoadedScenario,
+    r: &Arc<Trajectory>,
+    inner: Box<dyn Controller>,
+) -> Result<BenchController, Error> {
+    let sc = &ls.scenario;
+    Ok(BenchController::Replanning(Box::new(Replanning::build(
+        inner,
+        ls.robot.clone(),
+        &sc.task,
+        &sc.planner,
+        &sc.solver,
+        Arc::clone(r),
+        replan_settings(ls),
+    )?)))
+}
+
 /// Every controller the benchmark runs: one line each (a new controller is one more entry).
+///
+/// `mpc+kalman+replan` is `Replanning<Estimated<Mpc>>`: the re-planner is outermost so that its
+/// switch of references goes through `Estimated::set_reference` and moves the filter's linearisation
+/// and prior to the new plan together with the MPC's (the other order would leave the filter on the
+/// abandoned plan); the price is that the miss prediction and the re-plan start from the raw
+/// measurement (sigma_q = 0.002 rad in the Monte Carlo, small next to a hit).
 pub fn controllers() -> Vec<ControllerEntry> {
+    use BenchController::Plain;
     vec![
         ControllerEntry {
             name: "mpc",
-            build: |ls, r| {
-                let s = ls.scenario.tracking.mpc.clone();
-                Ok(Box::new(Mpc::new(ls.robot.clone(), Arc::clone(r), s)?))
-            },
+            build: |ls, r| Ok(Plain(mpc(ls, r)?)),
         },
         ControllerEntry {
             name: "pd",
             build: |ls, r| {
                 let s = ls.scenario.tracking.pd.clone();
-                Ok(Box::new(Pd::new(ls.robot.clone(), Arc::clone(r), s)?))
+                Ok(Plain(Box::new(Pd::new(
+                    ls.robot.clone(),
+                    Arc::clone(r),
+                    s,
+                )?)))
             },
         },
         ControllerEntry {
             name: "open-loop",
-            build: |ls, r| Ok(Box::new(OpenLoop::new(ls.robot.clone(), Arc::clone(r))?)),
+            build: |ls, r| {
+                Ok(Plain(Box::new(OpenLoop::new(
+                    ls.robot.clone(),
+                    Arc::clone(r),
+                )?)))
+            },
         },
         ControllerEntry {
             name: "tvlqr",
             build: |ls, r| {
                 let s = ls.scenario.tracking.tvlqr.clone();
-                Ok(Box::new(Tvlqr::new(ls.robot.clone(), Arc::clone(r), s)?))
+                Ok(Plain(Box::new(Tvlqr::new(
+                    ls.robot.clone(),
+                    Arc::clone(r),
+                    s,
+                )?)))
             },
         },
         ControllerEntry {
             name: "mpc+kalman",
-            build: |ls, r| {
-                let t = &ls.scenario.tracking;
-                let mpc = Mpc::new(ls.robot.clone(), Arc::clone(r), t.mpc.clone())?;
-                Ok(Box::new(Estimated::new(
-                    mpc,
-                    ls.robot.clone(),
-                    Arc::clone(r),
-                    t.estimator,
-                    t.control_dt,
-                )?))
-            },
+            build: |ls, r| Ok(Plain(mpc_kalman(ls, r)?)),
+        },
+        ControllerEntry {
+            name: "mpc+replan",
+            build: |ls, r| with_replanning(ls, r, mpc(ls, r)?),
+        },
+        ControllerEntry {
+            name: "mpc+kalman+replan",
+            build: |ls, r| with_replanning(ls, r, mpc_kalman(ls, r)?),
         },
     ]
 }
@@ -260,6 +353,8 @@ pub struct BenchmarkSettings {
     pub levels: usize,
     /// Monte Carlo runs (0 skips it; 200 full, 6 quick).
     pub monte_carlo_runs: usize,
+    /// Run the sweeps (false: only the Monte Carlo). Default true.
+    pub run_sweeps: bool,
     /// Worker threads (None: rayon's default, all cores).
     pub jobs: Option<usize>,
     /// Only these sweeps (names of [`sweeps`]); empty: all.
@@ -276,6 +371,7 @@ impl BenchmarkSettings {
         BenchmarkSettings {
             levels: 21,
             monte_carlo_runs: 200,
+            run_sweeps: true,
             jobs: None,
             only_sweeps: Vec::new(),
             only_controllers: Vec::new(),
@@ -363,6 +459,20 @@ pub struct BenchRow {
     pub peak_torque_nm: f64,
     /// RMS of the step-to-step change of the commanded torque, N m.
     pub smoothness_nm: f64,
+    /// Mass of the Monte Carlo ball, kg (0: no ball).
+    pub ball_kg: f64,
+    /// Time at which the planned EE passes the ball's centre, s (`None`, an empty CSV field: no ball).
+    pub ball_t_s: Option<f64>,
+    /// Time of the plant's first contact, s (`None`: none, or not the rapier plant).
+    pub contact_s: Option<f64>,
+    /// Re-plans triggered (0 for controllers without re-planning).
+    pub replans: usize,
+    /// Re-plans adopted (converged, within 1 mm of the bar, switched to).
+    pub replans_adopted: usize,
+    /// Modelled trigger-to-switch latency of the re-plans, s (0 without re-plans).
+    pub replan_latency_s: f64,
+    /// Interior-point iterations of all re-plans (a load-independent measure of their cost).
+    pub replan_iterations: usize,
 }
 
 /// Scores of one controller on one disturbance (or overall).
@@ -380,6 +490,8 @@ pub struct Score {
     pub smoothness_nm: f64,
     /// Mean final error, m.
     pub final_error_m: f64,
+    /// Mean re-plans per run.
+    pub replans_per_run: f64,
 }
 
 /// One controller's scorecard.
@@ -426,6 +538,8 @@ struct Job {
     dist: Disturbances,
     plant: PlantKind,
     balls: Vec<Obstacle>,
+    /// Planned time at the ball.
+    ball_t_s: Option<f64>,
     probot: Robot,
 }
 
@@ -455,7 +569,7 @@ fn monte_carlo_draw(
     robot: &Robot,
     reference: &Trajectory,
     seed: u64,
-) -> (Disturbances, Vec<Obstacle>) {
+) -> (Disturbances, Vec<Obstacle>, Option<f64>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let n = robot.n;
     let mass_scale: Vec<f64> = (0..n).map(|_| rng.gen_range(0.85..1.15)).collect();
@@ -474,12 +588,13 @@ fn monte_carlo_draw(
             .enumerate()
             .all(|(i, (a, b))| seg_dist(c, *a, *b) > radius + robot.radius[i] + 0.01);
         if clear {
-            center = Some(c);
+            center = Some((c, reference.t[k]));
             break;
         }
     }
+    let ball_t = center.map(|(_, t)| t);
     let balls = center
-        .map(|c| {
+        .map(|(c, _)| {
             vec![Obstacle::Ball(Ball {
                 center: c,
                 radius,
@@ -495,7 +610,7 @@ fn monte_carlo_draw(
         seed,
         ..Disturbances::default()
     };
-    (d, balls)
+    (d, balls, ball_t)
 }
 
 /// Run one job: plant, wrappers, controller, closed loop, scores.
@@ -514,13 +629,15 @@ fn run_job(
         duration_s: reference.duration(),
         control_dt: dt,
     };
-    let mut ctrl = (entry.build)(ls, reference)?;
-    let log = match job.plant {
+    let mut built = (entry.build)(ls, reference)?;
+    let ctrl = built.controller();
+    let (log, contact_s) = match job.plant {
         PlantKind::Model => {
             let mut p = ModelPlant::new(job.probot.clone(), &x0);
             p.substeps = sc.plant.substeps;
             let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
-            run_closed_loop(w.as_mut(), ctrl.as_mut(), reference, &ls.robot, &settings)?
+            let log = run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?;
+            (log, None)
         }
         PlantKind::Rapier => {
             let mut p = RapierPlant::new(&job.probot, &x0, &sc.plant.rapier())?;
@@ -533,10 +650,14 @@ fn run_job(
             for o in sc.plant.obstacles.iter().chain(&job.balls) {
                 p.add_obstacle(o)?;
             }
-            let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
-            run_closed_loop(w.as_mut(), ctrl.as_mut(), reference, &ls.robot, &settings)?
+            let log = {
+                let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
+                run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?
+            };
+            (log, p.first_contact_time())
         }
     };
+    let replans = built.replans();
     let n = ls.robot.n;
     let last = log.len() - 1;
     let ee = job.probot.ee_position(&log.x(last)[..n]);
@@ -566,7 +687,26 @@ fn run_job(
         energy_j: s.energy_j,
         peak_torque_nm: s.tau_min.abs().max(s.tau_max.abs()),
         smoothness_nm: smooth,
+        ball_kg: job.balls.iter().map(ball_mass).sum(),
+        ball_t_s: job.ball_t_s,
+        contact_s,
+        replans: replans.len(),
+        replans_adopted: replans.iter().filter(|e| e.t_switch_s.is_some()).count(),
+        replan_latency_s: replans.iter().map(|e| e.latency_s).fold(0.0, f64::max),
+        replan_iterations: replans.iter().map(|e| e.iterations).sum(),
     })
+}
+
+/// A CSV field: the value to 1 us, or empty.
+fn opt(v: Option<f64>) -> String {
+    v.map(|v| format!("{v:.6}")).unwrap_or_default()
+}
+
+fn ball_mass(o: &Obstacle) -> f64 {
+    match o {
+        Obstacle::Ball(b) => b.mass,
+        _ => 0.0,
+    }
 }
 
 /// Levels `0, max / (levels - 1), ..., max`.
@@ -585,6 +725,7 @@ fn score(rows: &[&BenchRow]) -> Score {
         peak_torque_nm: rows.iter().map(|r| r.peak_torque_nm).fold(0.0, f64::max),
         smoothness_nm: rows.iter().map(|r| r.smoothness_nm).sum::<f64>() / m,
         final_error_m: rows.iter().map(|r| r.final_error_m).sum::<f64>() / m,
+        replans_per_run: rows.iter().map(|r| r.replans as f64).sum::<f64>() / m,
     }
 }
 
@@ -654,7 +795,7 @@ pub fn run_benchmark_on(
     // every job, checked, before any simulation
     let mut jobs = Vec::new();
     let mut sweep_levels = Vec::new();
-    for (si, s) in chosen.iter().enumerate() {
+    for (si, s) in chosen.iter().enumerate().filter(|_| settings.run_sweeps) {
         let lv = levels(s.max, settings.levels);
         for (li, &l) in lv.iter().enumerate() {
             let seed = mix(settings.seed ^ mix(((si as u64) << 32) | li as u64));
@@ -671,6 +812,7 @@ pub fn run_benchmark_on(
                     dist: d.clone(),
                     plant: sc.plant.kind,
                     balls: Vec::new(),
+                    ball_t_s: None,
                     probot: probot.clone(),
                 });
             }
@@ -679,7 +821,7 @@ pub fn run_benchmark_on(
     }
     for i in 0..settings.monte_carlo_runs {
         let seed = mix(settings.seed ^ mix(u64::MAX - i as u64));
-        let (d, balls) = monte_carlo_draw(&ls.robot, &reference, seed);
+        let (d, balls, ball_t_s) = monte_carlo_draw(&ls.robot, &reference, seed);
         let probot = make_robot(&d)?;
         for ci in 0..entries.len() {
             jobs.push(Job {
@@ -690,6 +832,7 @@ pub fn run_benchmark_on(
                 dist: d.clone(),
                 plant: PlantKind::Rapier,
                 balls: balls.clone(),
+                ball_t_s,
                 probot: probot.clone(),
             });
         }
@@ -770,12 +913,13 @@ impl Benchmark {
     /// `runs.csv`: one row per run.
     pub fn runs_csv(&self) -> String {
         let mut s = String::from(
-            "controller,disturbance,level,seed,success,final_error_m,energy_j,peak_torque_nm,smoothness_nm\n",
+            "controller,disturbance,level,seed,success,final_error_m,energy_j,peak_torque_nm,smoothness_nm,\
+             ball_kg,ball_t_s,contact_s,replans,replans_adopted,replan_latency_s,replan_iterations\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{:.9},{:.9},{:.9},{:.9}",
+                "{},{},{},{},{},{:.9},{:.9},{:.9},{:.9},{:.6},{},{},{},{},{:.6},{}",
                 r.controller,
                 r.disturbance,
                 r.level,
@@ -784,7 +928,14 @@ impl Benchmark {
                 r.final_error_m,
                 r.energy_j,
                 r.peak_torque_nm,
-                r.smoothness_nm
+                r.smoothness_nm,
+                r.ball_kg,
+                opt(r.ball_t_s),
+                opt(r.contact_s),
+                r.replans,
+                r.replans_adopted,
+                r.replan_latency_s,
+                r.replan_iterations
             );
         }
         s

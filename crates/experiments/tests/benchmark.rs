@@ -107,14 +107,15 @@ fn the_benchmark_is_deterministic_for_any_number_of_jobs() {
     let settings = |jobs| BenchmarkSettings {
         levels: 2,
         monte_carlo_runs: 2,
+        run_sweeps: true,
         jobs: Some(jobs),
         only_sweeps: vec!["actuation_delay".into(), "push".into(), "noise_q".into()],
-        only_controllers: vec!["pd".into(), "open-loop".into()],
+        only_controllers: vec!["pd".into(), "open-loop".into(), "mpc+replan".into()],
         seed: 3,
     };
     let a = run_benchmark_on(&ls, Arc::clone(&reference), &settings(1), &no_progress).unwrap();
     let b = run_benchmark_on(&ls, Arc::clone(&reference), &settings(2), &no_progress).unwrap();
-    assert_eq!(a.rows.len(), 2 * (3 * 2 + 2));
+    assert_eq!(a.rows.len(), 3 * (3 * 2 + 2));
     assert_eq!(a.rows, b.rows);
     assert_eq!(a.runs_csv(), b.runs_csv());
     assert_eq!(a.scorecard_json(), b.scorecard_json());
