@@ -7,6 +7,7 @@
 mod backend_pounce;
 mod backend_ripopt;
 pub mod collocation;
+pub mod cspace;
 pub mod detour;
 pub mod guess;
 pub mod nlp;
