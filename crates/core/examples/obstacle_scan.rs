@@ -25,13 +25,28 @@ fn cell(p: &Plan, wall: f64) -> String {
                 .find(|s| s.converged == Some(true))
                 .map(|s| format!(", seed {:?}", s.kind))
                 .unwrap_or_default();
-            format!("{:?}{won} ({} solves)", g.strategy, g.solves)
+            let cs = match &g.cspace {
+                Some(c) if c.converged.is_some() => format!(
+                    ", cspace {} ({} cells, {} waypoints)",
+                    if c.converged == Some(true) {
+                        "converged"
+                    } else {
+                        "failed"
+                    },
+                    c.cells_discovered,
+                    c.waypoints
+                ),
+                Some(c) if !c.found => format!(", cspace: no path ({} cells)", c.cells_discovered),
+                _ => String::new(),
+            };
+            format!("{:?}{won}{cs} ({} solves)", g.strategy, g.solves)
         })
         .unwrap_or_default();
     format!(
-        "{} | {} | {:.2} | {strat}",
+        "{} | {} | {:.4} | {:.2} | {strat}",
         if p.converged() { "yes" } else { "**no**" },
         p.iterations,
+        p.objective,
         wall
     )
 }
@@ -83,8 +98,8 @@ fn main() -> Result<(), brachia::Error> {
     };
     let base = plan(&robot, &task, &ms, &ocp)?;
     let places = path_placements(&robot, &base.points, task.target, 0.08, 0.01, 8)?;
-    println!("| # | t (s) | link | centre (m) | ocp: converged | iterations | wall (s) | strategy | pounce HS cold: converged | iterations | wall (s) | blockage (ocp) |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| # | t (s) | link | centre (m) | ocp: converged | iterations | objective | wall (s) | strategy | pounce HS cold: converged | iterations | wall (s) | blockage (ocp) |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (mut n_ocp, mut n_hs) = (0, 0);
     for (i, pl) in places.iter().enumerate() {
         if !only.is_empty() && !only.contains(&(i + 1)) {

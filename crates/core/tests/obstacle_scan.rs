@@ -5,6 +5,7 @@
 //! and the diagnosis of what blocks a swing. Units: m, s.
 
 use brachia::model::{ClearanceFn, Robot};
+use brachia::planning::cspace::{cspace_path, cspace_seed, MAX_CELLS, MAX_DISCOVERED};
 use brachia::planning::detour::{detour_seeds, SeedKind, EXTRA_CLEARANCE};
 use brachia::planning::guess::{diagnose, path_placements};
 use brachia::planning::{
@@ -330,4 +331,131 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
         brachia::planning::guess::obstacle_on_bar(&robot, &ok, s.obstacle_margin),
         None
     );
+}
+
+#[test]
+fn the_cspace_seed_is_collision_free_at_its_knots_and_ends_at_the_swing_s_poses() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let len = base.points.len();
+    // #4 of the scan: link 2 at 0.74 s, no detour seed converged there (docs/planner.md)
+    let obstacles = [places[3].obstacle];
+    let (rep, seed) = cspace_seed(&robot, &obstacles, &s, &base.points).unwrap();
+    let g = seed.unwrap_or_else(|| panic!("no seed: {rep:?}"));
+    assert!(
+        rep.found && !rep.exhausted && rep.converged.is_none(),
+        "{rep:?}"
+    );
+    assert!(rep.grid_cells <= MAX_CELLS && rep.cells_discovered <= MAX_DISCOVERED);
+    assert!(
+        rep.waypoints >= 3 && rep.waypoints <= rep.grid_moves + 3,
+        "{rep:?}"
+    );
+    assert_eq!(g.t, base.points.t);
+    // every knot clear of the obstacle and of the non-adjacent links by the planner's margin
+    let cf = ClearanceFn::new(&robot, &obstacles, 0.0)
+        .unwrap()
+        .with_self_collision(true);
+    let worst = (0..len)
+        .map(|k| cf.min_clearance(g.q(k)))
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= s.obstacle_margin, "{worst}");
+    assert!(rep.min_clearance_m >= 0.0 && worst - s.obstacle_margin >= rep.min_clearance_m - 1e-12);
+    // the unobstructed swing cuts through the obstacle, the seed does not
+    let through = (0..len)
+        .map(|k| cf.min_clearance(base.points.q(k)))
+        .fold(f64::INFINITY, f64::min);
+    assert!(through < -0.09, "{through}");
+    // at rest at the start pose and at the obstacle-free swing's final pose (at the bar)
+    for (k, want) in [(0, base.points.q(0)), (len - 1, base.points.q(len - 1))] {
+        assert_eq!(g.q(k), want);
+        assert!(g.qd(k).iter().all(|v| v.abs() < 1e-12), "{:?}", g.qd(k));
+    }
+    // inside the joint bounds, and no joint faster than the report says
+    let b = &s.bounds;
+    for k in 0..len {
+        let q = g.q(k);
+        assert!(q[0] >= b.q1[0] && q[0] <= b.q1[1], "{q:?}");
+        assert!(q[1..].iter().all(|v| v.abs() <= b.q_rel_max), "{q:?}");
+        assert!(g
+            .qd(k)
+            .iter()
+            .all(|v| v.abs() <= rep.max_speed_rad_s + 1e-9));
+    }
+    // no obstacle, no search
+    let (none, g) = cspace_seed(&robot, &[], &s, &base.points).unwrap();
+    assert!(g.is_none() && !none.found && none.cells_discovered == 0);
+}
+
+#[test]
+fn the_cspace_search_reports_a_blocked_configuration_space_as_exhausted() {
+    let robot = Robot::paper();
+    let (s, _) = settings();
+    // two small obstacles on either side of link 1 of the start pose (0.1 m off its axis at its
+    // midpoint): link 1 cannot turn more than about 0.1 rad either way, so no path reaches a pose at
+    // the bar, while both end poses are clear
+    let th = -2.35f64;
+    let (u, v) = ([th.cos(), th.sin()], [-th.sin(), th.cos()]);
+    let mid = 0.5 * robot.len[0];
+    let fence: Vec<brachia::model::Circle> = [-1.0, 1.0]
+        .iter()
+        .map(|side| brachia::model::Circle {
+            center: [
+                mid * u[0] + side * 0.1 * v[0],
+                mid * u[1] + side * 0.1 * v[1],
+            ],
+            radius: 0.03,
+        })
+        .collect();
+    let start = tracking().q0;
+    // the pose reaching (0.8, 0) found by IK from the mirrored start pose
+    let goal = brachia::planning::planner::ik_from_seed(
+        &robot,
+        &brachia::planning::planner::mirrored_pose(&start),
+        [0.8, 0.0],
+    )
+    .unwrap();
+    let (rep, path) = cspace_path(&robot, &fence, &s, &start, &goal).unwrap();
+    assert!(rep.endpoints_clear, "{rep:?}");
+    assert!(path.is_none() && !rep.found && rep.exhausted, "{rep:?}");
+    assert!(rep.cells_discovered > 1 && rep.cells_discovered < MAX_DISCOVERED);
+    // without the wall the same search finds a path that ends at the goal pose
+    let (rep, path) = cspace_path(&robot, &[], &s, &start, &goal).unwrap();
+    let path = path.unwrap();
+    assert!(rep.found && path.first().unwrap() == &start && path.last().unwrap() == &goal);
+}
+
+#[test]
+fn the_cspace_seed_plans_a_placement_no_detour_seed_converged_on() {
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    // #18 of the scan: link 3 at 1.73 s; every detour seed and the continuation ended
+    // LocallyInfeasible (docs/planner.md), the planner tries the C-space seed after them. Planned here
+    // from that seed directly (the planner's whole sequence takes minutes at 10 ms knots)
+    let pl = places[17];
+    let task = SwingTask {
+        obstacles: vec![pl.obstacle],
+        ..tracking()
+    };
+    let (rep, seed) = cspace_seed(&robot, &task.obstacles, &s, &base.points).unwrap();
+    let seed = seed.unwrap_or_else(|| panic!("no seed: {rep:?}"));
+    let p = brachia::planning::plan_with_guess(&robot, &task, &s, &nlp, Some(&seed)).unwrap();
+    assert!(p.converged(), "{:?} {:?}", p.status, p.violations);
+    assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
+    assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
+    // it reaches the bar at rest, and the obstacle is passed, not ignored: the plan's links come
+    // no closer to it than the margin at the knots
+    let cf = ClearanceFn::new(&robot, &task.obstacles, 0.0)
+        .unwrap()
+        .with_self_collision(false);
+    let worst = (0..p.points.len())
+        .map(|k| cf.min_clearance(p.points.q(k)))
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= s.obstacle_margin - 1e-6, "{worst}");
+    let ee = p.ee_final;
+    assert!((ee[0] - 0.8).hypot(ee[1]) < 1e-6, "{ee:?}");
 }

@@ -59,6 +59,9 @@ pub enum GuessStrategy {
     /// A detour guess: the obstacle-free plan deformed around the obstacles
     /// ([`super::detour`]).
     Detour,
+    /// The configuration-space seed: a collision-free joint path found by a grid search
+    /// ([`super::cspace`]).
+    Cspace,
     /// Continuation on the obstacle radii.
     Continuation,
 }
@@ -83,6 +86,10 @@ pub struct GuessReport {
     /// converged).
     #[serde(default)]
     pub seeds: Vec<super::detour::SeedReport>,
+    /// The configuration-space search and whether the plan from its seed converged (`None`: no
+    /// detour seed failed, so it was not run).
+    #[serde(default)]
+    pub cspace: Option<super::cspace::CspaceReport>,
 }
 
 /// The closest approach of one link to one obstacle over a plan's attempt.
@@ -325,6 +332,7 @@ pub(super) fn plan_around_obstacles(
         solve_time_s: 0.0,
         scales: vec![],
         seeds: vec![],
+        cspace: None,
     };
     // the smooth step first, always: where it converged before, the plan is the same
     let mut best: Option<Plan> = {
@@ -358,14 +366,7 @@ pub(super) fn plan_around_obstacles(
     let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     for (i, (_, g)) in seeds.iter().enumerate() {
-        let mut p = plan_single(robot, task, settings, nlp, Some(g))?;
-        count(&mut rep, &p);
-        // a seed solve that ran out of iterations, not of ideas, resumes once from where it stopped
-        if p.status == super::nlp::SolveStatus::MaxIterations {
-            let resumed = plan_single(robot, task, settings, nlp, Some(&p.points))?;
-            count(&mut rep, &resumed);
-            p = resumed;
-        }
+        let p = solve_seed(robot, task, settings, nlp, g, &mut rep)?;
         rep.seeds[i].converged = Some(p.converged());
         if p.converged() {
             return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
@@ -373,6 +374,19 @@ pub(super) fn plan_around_obstacles(
         // a failed seed's plan is not the one returned: the smooth step's attempt (`best`) shows the
         // obstacle cutting through the swing, which is what the diagnosis names
     }
+    // the configuration-space seed: a path of another homotopy class than the obstacle-free swing's
+    rep.strategy = GuessStrategy::Cspace;
+    let (mut crep, seed) =
+        super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
+    if let Some(g) = seed {
+        let p = solve_seed(robot, task, settings, nlp, &g, &mut rep)?;
+        crep.converged = Some(p.converged());
+        if p.converged() {
+            rep.cspace = Some(crep);
+            return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+        }
+    }
+    rep.cspace = Some(crep);
     rep.strategy = GuessStrategy::Continuation;
     rep.scales.push(0.0);
     let step_nlp = NlpSettings {
@@ -417,6 +431,26 @@ pub(super) fn plan_around_obstacles(
         }
     };
     Ok(finish(robot, task, settings, p, rep, Some(&free_final)))
+}
+
+/// Plan from the seed `g`, counted in `rep`; a solve that ran out of iterations, not of ideas,
+/// resumes once from where it stopped.
+fn solve_seed(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    g: &Trajectory,
+    rep: &mut GuessReport,
+) -> Result<Plan> {
+    let mut p = plan_single(robot, task, settings, nlp, Some(g))?;
+    count(rep, &p);
+    if p.status == super::nlp::SolveStatus::MaxIterations {
+        let resumed = plan_single(robot, task, settings, nlp, Some(&p.points))?;
+        count(rep, &resumed);
+        p = resumed;
+    }
+    Ok(p)
 }
 
 /// Attach the totals, the report and (if not converged) the diagnosis to `p`.

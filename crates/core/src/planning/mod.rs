@@ -5,6 +5,7 @@
 //! `u = tau` of joints 2..n; gravity along -y).
 
 pub mod collocation;
+pub mod cspace;
 pub mod detour;
 pub mod guess;
 pub mod nlp;

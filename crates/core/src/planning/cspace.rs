@@ -1,0 +1,434 @@
+//! Configuration-space seeds: a collision-free joint path from the start pose to the obstacle-free
+//! swing's final pose, found by a search over a coarse grid of the robot's configuration space, timed
+//! over the swing, with torques from inverse dynamics (docs/planner.md, "Obstacles on the path").
+//!
+//! The detour seeds of [`super::detour`] deform the obstacle-free swing and stay in its homotopy class;
+//! an obstacle that class cannot avoid needs a path of another class, which a global search finds:
+//! 1. **Grid.** Every joint's range (q1 in `bounds.q1`, the relative joints in `+-q_rel_max`) is cut
+//!    into equal steps of at least [`GRID_STEP_RAD`], the step grown until the grid has at most
+//!    [`MAX_CELLS`] cells (one byte each: the only allocation that scales with the grid). A grid coarser
+//!    than [`MAX_GRID_STEP_RAD`] (many links) is not searched.
+//! 2. **Search.** Weighted A* ([`HEURISTIC_WEIGHT`]) over unit moves of one joint by one step, from the
+//!    start pose's cell to the goal pose's cell, the heuristic the number of moves left (L1 in cells).
+//!    A cell is free when every link clears every obstacle and every non-adjacent link (with
+//!    `self_collision`) by the planner's margin plus [`CELL_EXTRA_CLEARANCE`]; cells are checked when
+//!    first reached and at most [`MAX_DISCOVERED`] cells are reached (the open list's bound). The
+//!    search ends with a path, with the free cells reachable from the start exhausted (no grid path:
+//!    evidence, not proof, that the task is blocked), or at the limit. Start and goal poses that do not
+//!    clear the obstacles by the margin are not searched from.
+//! 3. **Shortcut.** The grid path (start pose, cells, goal pose) is shortened greedily: from each kept
+//!    waypoint to the farthest later one that the straight joint-space segment reaches with the
+//!    segment clear by the margin plus [`SEGMENT_EXTRA_CLEARANCE`] (checked every
+//!    [`SEGMENT_CHECK_RAD`] of the segment's 1-norm).
+//! 4. **Timing.** The piecewise-linear path is travelled along its joint-space arc length `L` with the
+//!    smooth step `s(t) = L (3 r^2 - 2 r^3)`, `r = t / T`: at rest at both ends, `qd = s'(t) e` and
+//!    `qdd = s''(t) e` with `e` the unit direction of the current segment (corners ignored), torques the
+//!    actuated entries of the inverse dynamics `M qdd + C qd + G` there (the passive entry is what the
+//!    solver must close; the planner clamps the guess into the bounds).
+//!
+//! Nothing here prints or runs on a task without obstacles. Units: rad, m, s, N m.
+
+use super::settings::PlannerSettings;
+use crate::error::Result;
+use crate::model::{Circle, ClearanceFn, Robot, Scratch};
+use crate::trajectory::Trajectory;
+use serde::{Deserialize, Serialize};
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// Finest grid step, rad (the grid of the 4-link paper robot: 32 x 59^3 = 6.6 M cells).
+pub const GRID_STEP_RAD: f64 = 0.1;
+/// Most grid cells (one byte each, 8 MiB).
+pub const MAX_CELLS: usize = 1 << 23;
+/// Coarsest grid step searched, rad: a grid that needs a coarser step to fit [`MAX_CELLS`] (more
+/// than about six links) is not searched.
+pub const MAX_GRID_STEP_RAD: f64 = 0.4;
+/// Most cells the search reaches (checks and pushes on its open list) before it gives up.
+pub const MAX_DISCOVERED: usize = 3_000_000;
+/// Weight of the heuristic in the A* priority `g + w h` (> 1: fewer cells, longer grid paths that
+/// the shortcut straightens).
+pub const HEURISTIC_WEIGHT: u32 = 2;
+/// Clearance a free cell keeps beyond the planner's margin, m (room for the motion between cells).
+pub const CELL_EXTRA_CLEARANCE: f64 = 0.02;
+/// Clearance a shortcut segment keeps beyond the planner's margin at its check points, m.
+pub const SEGMENT_EXTRA_CLEARANCE: f64 = 0.01;
+/// Spacing of the check points along a segment, rad of its 1-norm (a point of the chain moves at
+/// most this times the robot's reach between two checks).
+pub const SEGMENT_CHECK_RAD: f64 = 0.01;
+
+/// What the configuration-space search found and, once tried, whether the plan from its seed
+/// converged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CspaceReport {
+    /// Grid step, rad (every joint's range cut into equal steps of about this).
+    pub grid_step_rad: f64,
+    /// Grid cells (the product of the per-joint counts; 0 when the grid was too coarse to search).
+    pub grid_cells: usize,
+    /// Cells the search reached (checked for collision).
+    pub cells_discovered: usize,
+    /// The start and goal poses clear the obstacles and the non-adjacent links by the planner's
+    /// margin (otherwise nothing is searched).
+    pub endpoints_clear: bool,
+    /// A grid path was found.
+    pub found: bool,
+    /// No path and every free cell reachable from the start was reached: the obstacles block every
+    /// grid path (margin and grid resolution as above).
+    pub exhausted: bool,
+    /// Unit moves of the grid path.
+    pub grid_moves: usize,
+    /// Waypoints after the shortcut (start and goal poses included).
+    pub waypoints: usize,
+    /// Joint-space arc length of the shortcut path, rad.
+    pub path_length_rad: f64,
+    /// Largest joint speed of the timed path, `1.5 L / T` times the largest direction entry, rad/s.
+    pub max_speed_rad_s: f64,
+    /// Smallest clearance along the shortcut path (surface distance minus the planner's margin,
+    /// obstacles and self-collision, every check point), m.
+    pub min_clearance_m: f64,
+    /// Whether the plan from the seed converged (`None`: not tried).
+    pub converged: Option<bool>,
+}
+
+impl CspaceReport {
+    /// The report of a search not (yet) run on a grid of `step`.
+    fn not_searched(step: f64) -> Self {
+        CspaceReport {
+            grid_step_rad: step,
+            grid_cells: 0,
+            cells_discovered: 0,
+            endpoints_clear: false,
+            found: false,
+            exhausted: false,
+            grid_moves: 0,
+            waypoints: 0,
+            path_length_rad: 0.0,
+            max_speed_rad_s: 0.0,
+            min_clearance_m: f64::NEG_INFINITY,
+            converged: None,
+        }
+    }
+}
+
+/// The grid over the joint ranges.
+struct Grid {
+    lo: Vec<f64>,
+    step: Vec<f64>,
+    dims: Vec<usize>,
+    cells: usize,
+    nominal_step: f64,
+}
+
+impl Grid {
+    /// The finest grid of at most [`MAX_CELLS`] cells with a step of at least [`GRID_STEP_RAD`];
+    /// `None` when that step exceeds [`MAX_GRID_STEP_RAD`].
+    fn new(lo: &[f64], hi: &[f64]) -> (f64, Option<Grid>) {
+        let mut step = GRID_STEP_RAD;
+        loop {
+            let dims: Vec<usize> = lo
+                .iter()
+                .zip(hi)
+                .map(|(l, h)| ((h - l) / step).ceil().max(1.0) as usize + 1)
+                .collect();
+            let cells = dims
+                .iter()
+                .try_fold(1usize, |a, d| a.checked_mul(*d))
+                .unwrap_or(usize::MAX);
+            if cells <= MAX_CELLS {
+                let step_d = lo
+                    .iter()
+                    .zip(hi)
+                    .zip(&dims)
+                    .map(|((l, h), d)| (h - l) / (*d - 1) as f64)
+                    .collect();
+                return (
+                    step,
+                    Some(Grid {
+                        lo: lo.to_vec(),
+                        step: step_d,
+                        dims,
+                        cells,
+                        nominal_step: step,
+                    }),
+                );
+            }
+            step *= 1.05;
+            if step > MAX_GRID_STEP_RAD {
+                return (step, None);
+            }
+        }
+    }
+
+    fn nearest(&self, q: &[f64], c: &mut [usize]) {
+        for d in 0..c.len() {
+            let v = ((q[d] - self.lo[d]) / self.step[d]).round().max(0.0) as usize;
+            c[d] = v.min(self.dims[d] - 1);
+        }
+    }
+
+    fn index(&self, c: &[usize]) -> usize {
+        c.iter().zip(&self.dims).fold(0, |a, (ci, d)| a * d + ci)
+    }
+
+    fn coords(&self, mut idx: usize, c: &mut [usize]) {
+        for d in (0..c.len()).rev() {
+            c[d] = idx % self.dims[d];
+            idx /= self.dims[d];
+        }
+    }
+
+    fn value(&self, c: &[usize], q: &mut [f64]) {
+        for d in 0..c.len() {
+            q[d] = self.lo[d] + c[d] as f64 * self.step[d];
+        }
+    }
+}
+
+/// Cell states: not reached, reached and blocked, the start, or reached by move `dir` (its state is
+/// `FIRST_MOVE + dir`, `dir = 2 d + up`).
+const UNSEEN: u8 = 0;
+const BLOCKED: u8 = 1;
+const START: u8 = 2;
+const FIRST_MOVE: u8 = 3;
+
+/// Collision checks against the planner's margin plus an extra clearance.
+struct Checker<'a> {
+    cf: ClearanceFn<'a>,
+    margin: f64,
+}
+
+impl Checker<'_> {
+    /// Clearance of pose `q` beyond the planner's margin, m.
+    fn clearance(&self, q: &[f64]) -> f64 {
+        self.cf.min_clearance(q) - self.margin
+    }
+
+    /// Smallest clearance beyond the margin over the check points of the segment `a -> b`.
+    fn segment(&self, a: &[f64], b: &[f64], q: &mut [f64], stop_below: f64) -> f64 {
+        let len: f64 = a.iter().zip(b).map(|(x, y)| (y - x).abs()).sum();
+        let m = (len / SEGMENT_CHECK_RAD).ceil().max(1.0) as usize;
+        let mut worst = f64::INFINITY;
+        for j in 0..=m {
+            let r = j as f64 / m as f64;
+            for i in 0..q.len() {
+                q[i] = a[i] + r * (b[i] - a[i]);
+            }
+            worst = worst.min(self.clearance(q));
+            if worst < stop_below {
+                break;
+            }
+        }
+        worst
+    }
+}
+
+/// A collision-free piecewise-linear joint path from `q_start` to `q_goal` (see the module docs): its
+/// waypoints (start and goal included), or `None` with the report saying why.
+pub fn cspace_path(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_start: &[f64],
+    q_goal: &[f64],
+) -> Result<(CspaceReport, Option<Vec<Vec<f64>>>)> {
+    let n = robot.n;
+    let b = &settings.bounds;
+    let mut lo = vec![-b.q_rel_max; n];
+    let mut hi = vec![b.q_rel_max; n];
+    (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
+    let (step, grid) = Grid::new(&lo, &hi);
+    let mut rep = CspaceReport::not_searched(step);
+    let Some(grid) = grid else {
+        return Ok((rep, None));
+    };
+    rep.grid_cells = grid.cells;
+    rep.grid_step_rad = grid.nominal_step;
+    let check = Checker {
+        cf: ClearanceFn::new(robot, obstacles, 0.0)?.with_self_collision(settings.self_collision),
+        margin: settings.obstacle_margin,
+    };
+    rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
+    if !rep.endpoints_clear {
+        return Ok((rep, None));
+    }
+    let (mut c, mut nb, mut goal) = (vec![0; n], vec![0; n], vec![0; n]);
+    let mut q = vec![0.0; n];
+    grid.nearest(q_goal, &mut goal);
+    grid.nearest(q_start, &mut c);
+    let (start_idx, goal_idx) = (grid.index(&c), grid.index(&goal));
+    let h = |c: &[usize]| -> u32 {
+        c.iter()
+            .zip(&goal)
+            .map(|(a, g)| a.abs_diff(*g) as u32)
+            .sum()
+    };
+    let mut state = vec![UNSEEN; grid.cells];
+    state[start_idx] = START;
+    // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
+    // poses are checked by the shortcut)
+    let mut open: BinaryHeap<Reverse<(u32, u32, u32)>> = BinaryHeap::new();
+    open.push(Reverse((
+        HEURISTIC_WEIGHT * h(&c),
+        u32::MAX,
+        start_idx as u32,
+    )));
+    rep.cells_discovered = 1;
+    let mut found = start_idx == goal_idx;
+    'search: while let Some(Reverse((_, deep, idx))) = open.pop() {
+        let g = u32::MAX - deep;
+        grid.coords(idx as usize, &mut c);
+        for d in 0..n {
+            for up in [false, true] {
+                if (up && c[d] + 1 >= grid.dims[d]) || (!up && c[d] == 0) {
+                    continue;
+                }
+                nb.copy_from_slice(&c);
+                if up {
+                    nb[d] += 1;
+                } else {
+                    nb[d] -= 1;
+                }
+                let k = grid.index(&nb);
+                if state[k] != UNSEEN {
+                    continue;
+                }
+                if rep.cells_discovered >= MAX_DISCOVERED {
+                    break 'search;
+                }
+                rep.cells_discovered += 1;
+                grid.value(&nb, &mut q);
+                let dir = (2 * d + usize::from(up)) as u8;
+                if k == goal_idx {
+                    state[k] = FIRST_MOVE + dir;
+                    found = true;
+                    break 'search;
+                }
+                if check.clearance(&q) < CELL_EXTRA_CLEARANCE {
+                    state[k] = BLOCKED;
+                    continue;
+                }
+                state[k] = FIRST_MOVE + dir;
+                let g1 = g + 1;
+                open.push(Reverse((
+                    g1 + HEURISTIC_WEIGHT * h(&nb),
+                    u32::MAX - g1,
+                    k as u32,
+                )));
+            }
+        }
+    }
+    if !found {
+        rep.exhausted = open.is_empty() && rep.cells_discovered < MAX_DISCOVERED;
+        return Ok((rep, None));
+    }
+    rep.found = true;
+    // the grid path, goal back to start
+    let mut cells = vec![goal_idx];
+    let mut k = goal_idx;
+    while state[k] != START {
+        let dir = (state[k] - FIRST_MOVE) as usize;
+        grid.coords(k, &mut c);
+        let d = dir / 2;
+        if dir % 2 == 1 {
+            c[d] -= 1;
+        } else {
+            c[d] += 1;
+        }
+        k = grid.index(&c);
+        cells.push(k);
+    }
+    cells.reverse();
+    rep.grid_moves = cells.len() - 1;
+    let mut pts: Vec<Vec<f64>> = Vec::with_capacity(cells.len() + 2);
+    pts.push(q_start.to_vec());
+    for &k in &cells {
+        grid.coords(k, &mut c);
+        grid.value(&c, &mut q);
+        pts.push(q.clone());
+    }
+    pts.push(q_goal.to_vec());
+    // greedy shortcut: from each kept point to the farthest later one a clear segment reaches
+    let mut out = vec![pts[0].clone()];
+    let mut i = 0;
+    let last = pts.len() - 1;
+    while i < last {
+        let mut j = i + 1;
+        while j < last
+            && check.segment(&pts[i], &pts[j + 1], &mut q, SEGMENT_EXTRA_CLEARANCE)
+                >= SEGMENT_EXTRA_CLEARANCE
+        {
+            j += 1;
+        }
+        out.push(pts[j].clone());
+        i = j;
+    }
+    rep.waypoints = out.len();
+    rep.min_clearance_m = out
+        .windows(2)
+        .map(|w| check.segment(&w[0], &w[1], &mut q, f64::NEG_INFINITY))
+        .fold(f64::INFINITY, f64::min);
+    rep.path_length_rad = out.windows(2).map(|w| dist(&w[0], &w[1])).sum();
+    Ok((rep, Some(out)))
+}
+
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (y - x).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The configuration-space seed of the obstacle-free plan `free` (its knots: the start pose at the
+/// first, the final pose at the bar at the last) against `obstacles`: the path of [`cspace_path`]
+/// between those poses timed over `free`'s time axis (see the module docs), or `None` with the report
+/// saying why.
+pub fn cspace_seed(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+) -> Result<(CspaceReport, Option<Trajectory>)> {
+    let n = robot.n;
+    let len = free.len();
+    if len < 2 || obstacles.is_empty() {
+        return Ok((CspaceReport::not_searched(GRID_STEP_RAD), None));
+    }
+    let (mut rep, path) = cspace_path(robot, obstacles, settings, free.q(0), free.q(len - 1))?;
+    let Some(path) = path else {
+        return Ok((rep, None));
+    };
+    // cumulative arc length at the waypoints
+    let mut acc = vec![0.0];
+    for w in path.windows(2) {
+        acc.push(acc.last().unwrap() + dist(&w[0], &w[1]));
+    }
+    let total = *acc.last().unwrap();
+    let (t0, dur) = (free.t[0], free.duration());
+    let mut ws = Scratch::new(n);
+    let (mut q, mut qd, mut qdd, mut f) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut e = vec![0.0; n];
+    let mut g = Trajectory::new(n);
+    let mut max_dir = 0.0f64;
+    for k in 0..len {
+        let r = ((free.t[k] - t0) / dur).clamp(0.0, 1.0);
+        let s = total * r * r * (3.0 - 2.0 * r);
+        let sd = total * 6.0 * r * (1.0 - r) / dur;
+        let sdd = total * 6.0 * (1.0 - 2.0 * r) / (dur * dur);
+        // the segment holding arc length s (zero-length segments skipped)
+        let seg = (acc.partition_point(|&a| a <= s).max(1) - 1).min(path.len() - 2);
+        let l = acc[seg + 1] - acc[seg];
+        let frac = if l > 0.0 { (s - acc[seg]) / l } else { 0.0 };
+        for i in 0..n {
+            let (a, b) = (path[seg][i], path[seg + 1][i]);
+            q[i] = a + frac.clamp(0.0, 1.0) * (b - a);
+            e[i] = if l > 0.0 { (b - a) / l } else { 0.0 };
+            qd[i] = sd * e[i];
+            qdd[i] = sdd * e[i];
+            max_dir = max_dir.max(e[i].abs());
+        }
+        robot.inverse_dynamics_into(&mut ws, &q, &qd, &qdd, &mut f);
+        g.push(free.t[k], &q, &qd, &f[1..]);
+    }
+    rep.max_speed_rad_s = 1.5 * total / dur * max_dir;
+    Ok((rep, Some(g)))
+}
