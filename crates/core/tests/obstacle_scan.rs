@@ -355,7 +355,7 @@ fn the_cspace_seed_is_collision_free_at_its_knots_and_ends_at_the_swing_s_poses(
     );
     assert_eq!(g.t, base.points.t);
     // every knot clear of the obstacle and of the non-adjacent links by the planner's margin
-    let cf = ClearanceFn::new(&robot, &obstacles, 0.0)
+    let cf = ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)
         .unwrap()
         .with_self_collision(true);
     let worst = (0..len)
@@ -449,7 +449,7 @@ fn the_cspace_seed_plans_a_placement_no_detour_seed_converged_on() {
     assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
     // it reaches the bar at rest, and the obstacle is passed, not ignored: the plan's links come
     // no closer to it than the margin at the knots
-    let cf = ClearanceFn::new(&robot, &task.obstacles, 0.0)
+    let cf = ClearanceFn::new(robot.clone(), task.obstacles.clone(), 0.0)
         .unwrap()
         .with_self_collision(false);
     let worst = (0..p.points.len())

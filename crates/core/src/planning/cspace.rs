@@ -191,12 +191,12 @@ const START: u8 = 2;
 const FIRST_MOVE: u8 = 3;
 
 /// Collision checks against the planner's margin plus an extra clearance.
-struct Checker<'a> {
-    cf: ClearanceFn<'a>,
+struct Checker {
+    cf: ClearanceFn,
     margin: f64,
 }
 
-impl Checker<'_> {
+impl Checker {
     /// Clearance of pose `q` beyond the planner's margin, m.
     fn clearance(&self, q: &[f64]) -> f64 {
         self.cf.min_clearance(q) - self.margin
@@ -243,7 +243,8 @@ pub fn cspace_path(
     rep.grid_cells = grid.cells;
     rep.grid_step_rad = grid.nominal_step;
     let check = Checker {
-        cf: ClearanceFn::new(robot, obstacles, 0.0)?.with_self_collision(settings.self_collision),
+        cf: ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)?
+            .with_self_collision(settings.self_collision),
         margin: settings.obstacle_margin,
     };
     rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
