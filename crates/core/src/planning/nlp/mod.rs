@@ -811,6 +811,22 @@ pub(crate) struct BackendOutcome {
     pub passes: Vec<PassStats>,
 }
 
+impl BackendOutcome {
+    /// A backend that panicked: no iterate, no iterations, the passes it recorded.
+    pub(crate) fn panicked(status: SolveStatus, passes: Vec<PassStats>) -> Self {
+        BackendOutcome {
+            status,
+            backend_status: "panic".into(),
+            x: None,
+            lambda: None,
+            z_l: None,
+            z_u: None,
+            iterations: 0,
+            passes,
+        }
+    }
+}
+
 /// Text of a caught panic payload.
 pub(crate) fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
     if let Some(s) = p.downcast_ref::<&str>() {

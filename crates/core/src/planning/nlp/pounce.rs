@@ -502,16 +502,7 @@ pub(crate) fn run(
         Err(msg) => {
             let status = SolveStatus::Other(msg);
             let passes = eval.passes("pounce", "pounce re-solve", 0, &status);
-            BackendOutcome {
-                status,
-                backend_status: "panic".into(),
-                x: None,
-                lambda: None,
-                z_l: None,
-                z_u: None,
-                iterations: 0,
-                passes,
-            }
+            BackendOutcome::panicked(status, passes)
         }
     }
 }

@@ -179,16 +179,7 @@ pub(crate) fn run(
         Err(p) => {
             let status = SolveStatus::Other(format!("ripopt panicked: {}", panic_text(&*p)));
             let passes = eval.passes("ripopt", "ripopt", 0, &status);
-            BackendOutcome {
-                status,
-                backend_status: "panic".into(),
-                x: None,
-                lambda: None,
-                z_l: None,
-                z_u: None,
-                iterations: 0,
-                passes,
-            }
+            BackendOutcome::panicked(status, passes)
         }
     }
 }
