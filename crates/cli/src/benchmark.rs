@@ -69,9 +69,30 @@ pub fn run(a: Args) -> Result<(), CliError> {
     s.monte_carlo_runs = a.monte_carlo.unwrap_or(s.monte_carlo_runs);
     s.only_sweeps = a.sweep;
     s.only_controllers = a.controller;
+    let conflict = |flag: &str, value: String, part: &str| {
+        brachia::Error::invalid(
+            "command line",
+            flag,
+            value,
+            format!("conflicts with --only {part}, which does not run it"),
+        )
+    };
     match a.only {
-        Some(Part::Sweeps) => s.monte_carlo_runs = 0,
-        Some(Part::MonteCarlo) => s.run_sweeps = false,
+        Some(Part::Sweeps) => {
+            if let Some(n) = a.monte_carlo {
+                return Err(conflict("--monte-carlo", n.to_string(), "sweeps").into());
+            }
+            s.monte_carlo_runs = 0;
+        }
+        Some(Part::MonteCarlo) => {
+            if let Some(n) = a.levels {
+                return Err(conflict("--levels", n.to_string(), "monte-carlo").into());
+            }
+            if let Some(name) = s.only_sweeps.first() {
+                return Err(conflict("--sweep", name.clone(), "monte-carlo").into());
+            }
+            s.run_sweeps = false;
+        }
         None => {}
     }
     s.validate()?;

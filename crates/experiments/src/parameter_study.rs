@@ -1,14 +1,25 @@
 //! The paper's parameter study (Section V-A, Figs. 3 and 4): energy of the planned swing over a grid of
 //! lower-to-total arm length ratios `r2 = L1 / (L1 + L2)` and swing times around `T = 2 T_freefall`.
 //!
-//! - **Scaled robots** ([`scaled_params`]): the arm length `L1 + L2 = L3 + L4` (default 0.71 m) is kept;
-//!   links 1 and 4 are the lower arms, `L1 = L4 = r2 A`, links 2 and 3 the upper arms,
-//!   `L2 = L3 = (1 - r2) A`. Each link of the base robot (Table I at r2 = 0.5) scales with its length
-//!   ratio `s = L / L_base`: mass `* s` (same linear density), centre of mass `* s` (same fraction of the
-//!   length), planar inertia `* s^3` (as `m L^2`); the capsule radius, gravity and torque limits stay.
-//!   At r2 = 0.5 with A = 0.71 the base robot comes back unchanged.
-//! - **Start pose** ([`start_pose`]): the EE at the start bar with both arms straight (`q2 = q4 = 0`) and
-//!   the shoulder (joint 3) below the bar; the same for every r2, since only the arm lengths matter.
+//! - **Scaled robots** ([`scaled_params`], any 3..=12 links, [`check_study_links`]): the robot is two
+//!   mirrored arms of `A = arm_length_m` each (default 0.71 m), `n / 2` links per arm counted from each
+//!   hand (links `1..=n/2` and `n+1-n/2..=n`) and, for an odd n, a middle link between the arms with
+//!   half of it counted in each arm. `r2` is the hand link's share of its arm: `L1 = Ln = r2 A`; the
+//!   rest `(1 - r2) A` of each arm is shared by its inner links (and half the middle link) in
+//!   proportion to the base's lengths, averaged over mirror pairs, so link i and link n+1-i always
+//!   have the same length. For 4 links: `L1 = L4 = r2 A` (lower arms), `L2 = L3 = (1 - r2) A` (upper
+//!   arms), `r2 = L1 / (L1 + L2)`, the paper's rule. For 3 links the middle link is the two upper arms
+//!   joined, `L2 = 2 (1 - r2) A`. 2 links are refused: each arm is its hand link alone.
+//!   Each link of the base robot (Table I at r2 = 0.5) scales with its length ratio `s = L / L_base`:
+//!   mass `* s` (same linear density), centre of mass `* s` (same fraction of the length), planar
+//!   inertia `* s^3` (as `m L^2`); the capsule radius, gravity and torque limits stay. At r2 = 0.5 with
+//!   A = 0.71 the base robot Table I comes back unchanged.
+//! - **Start pose** ([`start_pose`]): the EE at the start bar with both arms straight (for 4 links
+//!   `q2 = q4 = 0`) and the shoulder (joint 3) below the bar; the same for every r2 of an even link
+//!   count, since only the arm lengths matter. For an odd count the middle link lies parallel to the
+//!   line from the grip to the start bar, below it, the arms bent symmetrically at its two joints; it
+//!   depends on r2, so each row has its own (a row whose middle link is too long to let the EE reach
+//!   the start bar is refused, naming its `r2[i]`, before anything is solved).
 //! - **Grid**: every r2 times every offset, swing time `T + offset` with `T = 2 T_freefall` of that r2
 //!   (EE from the start to the x midway between start and target bars, joints locked; see
 //!   [`brachia::planning::freefall_time`]).
@@ -21,7 +32,7 @@
 //! - A cell that fails keeps its [`SolveStatus`], iterations and time and has no energy; nothing is
 //!   dropped.
 //!
-//! Energy of a cell: paper eq. (18), `E = sum_{i=2..4} int_0^T qd_i tau_i dt` (signed work of the
+//! Energy of a cell: paper eq. (18), `E = sum_{i=2..n} int_0^T qd_i tau_i dt` (signed work of the
 //! actuated joints, J), i.e. [`brachia::planning::Plan::energy_j`].
 //!
 //! Units: m, kg, kg m^2, s, rad, N m, J.
@@ -50,6 +61,13 @@ const SRC: &str = "<parameter study settings>";
 /// Two r2 values (or offsets) closer than this are the same grid value.
 const SAME: f64 = 1e-9;
 
+/// Most cells a study's grid may have (`r2` values x offsets): every cell is one NLP solve. The
+/// paper's grid has 99.
+pub const MAX_STUDY_CELLS: usize = 10_000;
+
+/// Most stick diagrams (`stick_r2` values): each is one more solve and a 1 ms trajectory in memory.
+pub const MAX_STICKS: usize = 32;
+
 /// Where the base robot (the one scaled to every r2) comes from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -65,7 +83,8 @@ pub enum BaseParams {
 }
 
 impl BaseParams {
-    /// Read (for `File`) and validate the base parameters.
+    /// Read (for `File`) and validate the base parameters, and check that the study's rule applies to
+    /// their link count ([`check_study_links`]: 3..=12 links).
     pub fn load(&self) -> Result<RobotParams, Error> {
         let p = match self {
             BaseParams::Paper => Robot::paper().params,
@@ -77,16 +96,7 @@ impl BaseParams {
             _ => "base_params".to_string(),
         };
         p.validate(&src)?;
-        if p.links.len() != 4 {
-            return Err(Error::invalid(
-                src,
-                "links",
-                format!("{} links", p.links.len()),
-                "the parameter study needs a 4-link robot: it varies r2 = L1 / (L1 + L2) of two \
-                 arms of two links each (docs/parameter-study.md); plan, track and simulate take any \
-                 2..=12 links",
-            ));
-        }
+        check_study_links(p.links.len(), &src, "links")?;
         Ok(p)
     }
 }
@@ -160,13 +170,39 @@ impl ParameterStudySettings {
         Ok(s)
     }
 
-    /// Check every value (not the base parameters file, which [`BaseParams::load`] reads); the error
-    /// names the field.
+    /// Check every value, read the base parameters ([`BaseParams::load`]) and build every robot of
+    /// the study with its start pose and swing time, so that everything the study would refuse is
+    /// refused here, before anything is solved; the error names the field.
     pub fn validate(&self) -> Result<(), Error> {
         self.validate_as(SRC)
     }
 
     fn validate_as(&self, src: &str) -> Result<(), Error> {
+        self.prepare(src).map(|_| ())
+    }
+
+    /// The checks of [`Self::validate`]; returns what the study solves.
+    fn prepare(&self, src: &str) -> Result<Prepared, Error> {
+        let cells = self.r2.len().saturating_mul(self.offsets_s.len());
+        if cells > MAX_STUDY_CELLS {
+            return Err(Error::invalid(
+                src,
+                "r2, offsets_s",
+                format!("{} x {} cells", self.r2.len(), self.offsets_s.len()),
+                format!(
+                    "the grid may have at most {MAX_STUDY_CELLS} cells (parameter_study::MAX_STUDY_CELLS; \
+                     the paper's has 99)"
+                ),
+            ));
+        }
+        if self.stick_r2.len() > MAX_STICKS {
+            return Err(Error::invalid(
+                src,
+                "stick_r2",
+                format!("{} values", self.stick_r2.len()),
+                format!("at most {MAX_STICKS} stick diagrams (parameter_study::MAX_STICKS)"),
+            ));
+        }
         let a = self.arm_length_m;
         if !(a.is_finite() && a > 0.0) {
             return Err(Error::invalid(
@@ -246,31 +282,91 @@ impl ParameterStudySettings {
                 "the study sets each cell's swing time (T + offset); leave it \"auto\"",
             ));
         }
-        self.planner
-            .validate(4, src)
-            .map_err(|e| in_section(e, src, "planner"))?;
         self.solver
             .validate()
             .map_err(|e| in_section(e, src, "solver"))?;
         self.planner.check_backend(&self.solver, src)?;
-        if let BaseParams::Inline(p) = &self.base_params {
-            p.validate(src)
-                .map_err(|e| in_section(e, src, "base_params.inline"))?;
-        }
-        Ok(())
+        let base = match &self.base_params {
+            BaseParams::Inline(p) => {
+                p.validate(src)
+                    .map_err(|e| in_section(e, src, "base_params.inline"))?;
+                check_study_links(p.links.len(), src, "base_params.inline.links")?;
+                p.clone()
+            }
+            other => other.load()?,
+        };
+        self.planner
+            .validate(base.links.len(), src)
+            .map_err(|e| in_section(e, src, "planner"))?;
+        prepare_rows(base, self, src)
     }
 }
 
-/// The base robot scaled to lower-to-total arm length ratio `r2` with arms of `arm_length_m` (see the
-/// module docs for the rule). `base` must have 4 links; the result is validated.
-pub fn scaled_params(base: &RobotParams, r2: f64, arm_length_m: f64) -> Result<RobotParams, Error> {
-    if base.links.len() != 4 {
-        return Err(Error::Dimension {
-            what: "base parameters: links".into(),
-            expected: 4,
-            got: base.links.len(),
-        });
+/// Links of an arm and how the study's robots are built from them, for `n` links (see the module
+/// docs): `n / 2` links per arm, counted from each hand, and for an odd `n` a middle link between the
+/// two arms, half of it counted in each arm's length. Errors, naming `field` of `src`, for a link count
+/// the rule has no meaning for: `n = 2` (each arm is its hand link alone, so `r2` would be 1 for every
+/// robot) and `n` outside `2..=MAX_LINKS`.
+pub fn check_study_links(n: usize, src: &str, field: &str) -> Result<(), Error> {
+    if n == 2 {
+        return Err(Error::invalid(
+            src,
+            field,
+            "2 links",
+            "the parameter study varies r2 = L1 / (length of the arm), the hand link's share of its \
+             arm; a 2-link robot's arms are its hand links alone (r2 = 1 always), so it needs 3 to 12 \
+             links (docs/parameter-study.md); plan, track and simulate take 2 links",
+        ));
     }
+    if !(3..=brachia::limits::MAX_LINKS).contains(&n) {
+        return Err(Error::invalid(
+            src,
+            field,
+            format!("{n} links"),
+            format!(
+                "the parameter study needs 3 to {} links (docs/parameter-study.md)",
+                brachia::limits::MAX_LINKS
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Link lengths of the study robot of `r2` with arms of `arm_length_m` (m), from the base's lengths
+/// `base` (n >= 3, checked by the caller): the hand links `L1 = Ln = r2 A`; the rest of each arm,
+/// `(1 - r2) A`, shared by the arm's inner links (and, for an odd n, half the middle link) in
+/// proportion to the base's lengths averaged over the mirror pairs (`(L_i + L_{n+1-i}) / 2`; the
+/// middle link counts half). Mirrored by construction; for n = 4 the one inner link of an arm takes
+/// all of `(1 - r2) A` (its share is `x / x = 1` exactly), so `L2 = L3 = (1 - r2) A` as before.
+fn study_lengths(base: &[f64], r2: f64, arm_length_m: f64) -> Vec<f64> {
+    let n = base.len();
+    let k = n / 2; // links per arm, counted from the hand, without the middle link of an odd n
+    let (lower, upper) = (r2 * arm_length_m, (1.0 - r2) * arm_length_m);
+    // weights of the inner parts: links 2..=k (0-based 1..k) as mirror pairs, then half the middle link
+    let mut w: Vec<f64> = (1..k).map(|i| base[i] + base[n - 1 - i]).collect();
+    if n % 2 == 1 {
+        w.push(base[k]);
+    }
+    let total: f64 = w.iter().sum();
+    let mut len = vec![0.0; n];
+    len[0] = lower;
+    len[n - 1] = lower;
+    for i in 1..k {
+        len[i] = upper * (w[i - 1] / total);
+        len[n - 1 - i] = len[i];
+    }
+    if n % 2 == 1 {
+        // the arms' two halves of the middle link
+        len[k] = 2.0 * (upper * (w[k - 1] / total));
+    }
+    len
+}
+
+/// The base robot scaled to the hand link's share `r2` of arms of `arm_length_m` (see the module docs
+/// for the rule): for 4 links `r2 = L1 / (L1 + L2)`. `base` must have 3..=12 links
+/// ([`check_study_links`]); the result is validated.
+pub fn scaled_params(base: &RobotParams, r2: f64, arm_length_m: f64) -> Result<RobotParams, Error> {
+    check_study_links(base.links.len(), &base.name, "links")?;
     if !(r2.is_finite() && r2 > 0.0 && r2 < 1.0) {
         return Err(Error::invalid(SRC, "r2", r2, "must lie in (0, 1)"));
     }
@@ -282,10 +378,10 @@ pub fn scaled_params(base: &RobotParams, r2: f64, arm_length_m: f64) -> Result<R
             "must be finite and > 0",
         ));
     }
-    let (lower, upper) = (r2 * arm_length_m, (1.0 - r2) * arm_length_m);
+    let base_len: Vec<f64> = base.links.iter().map(|l| l.length).collect();
+    let lengths = study_lengths(&base_len, r2, arm_length_m);
     let mut p = base.clone();
-    for (i, l) in p.links.iter_mut().enumerate() {
-        let length = if i == 0 || i == 3 { lower } else { upper };
+    for (l, length) in p.links.iter_mut().zip(lengths) {
         let s = length / l.length;
         l.length = length;
         l.mass *= s;
@@ -297,45 +393,82 @@ pub fn scaled_params(base: &RobotParams, r2: f64, arm_length_m: f64) -> Result<R
     Ok(p)
 }
 
-/// The start pose with the EE at `start` and both arms straight (`q2 = q4 = 0`), the shoulder (joint 3)
-/// on the lower of the two points at distance `L1 + L2` from the grip and `L3 + L4` from `start`.
-/// Returns `[q1, 0, q3, 0]` (rad; q1 absolute, the rest relative, wrapped to (-pi, pi]). Errors when no
-/// such pose exists.
+/// Wrap an angle to (-pi, pi].
+fn wrap(a: f64) -> f64 {
+    let pi = std::f64::consts::PI;
+    let mut a = a.rem_euclid(2.0 * pi);
+    if a > pi {
+        a -= 2.0 * pi;
+    }
+    a
+}
+
+/// The start pose with the EE at `start` and both arms straight (every joint inside an arm at 0),
+/// the lower of the two mirror-image solutions. For an even n the arms (links `1..=n/2` and the rest)
+/// meet at the shoulder, joint `n/2 + 1`, placed at distance `L1 + .. + L(n/2)` from the grip and the
+/// other arm's length from `start`: for 4 links `[q1, 0, q3, 0]`. For an odd n the middle link joins
+/// the arms (joints `(n+1)/2` and `(n+3)/2` bend) and lies parallel to the line from the grip to
+/// `start`, the arms symmetric about its perpendicular bisector (this needs arms of equal length, as
+/// every study robot has). Returns q (rad; q1 absolute, the rest relative, wrapped to (-pi, pi]).
+/// Errors when no such pose exists.
 pub fn start_pose(robot: &Robot, start: [f64; 2]) -> Result<Vec<f64>, Error> {
-    if robot.n != 4 {
-        return Err(Error::Dimension {
-            what: "start pose: links".into(),
-            expected: 4,
-            got: robot.n,
-        });
-    }
-    let (a, b) = (robot.len[0] + robot.len[1], robot.len[2] + robot.len[3]);
+    let n = robot.n;
+    let k = n / 2;
     let d = start[0].hypot(start[1]);
-    if !(d > 0.0 && d <= a + b && d >= (a - b).abs()) {
-        return Err(Error::InfeasibleTask(format!(
-            "no straight-arm pose puts the EE at ({:.3}, {:.3}): arms of {a:.3} m and {b:.3} m",
-            start[0], start[1]
-        )));
-    }
-    // shoulder = along * u + h * w, u = start / d, w = u rotated by -90 deg; pick the lower one
-    let along = (a * a - b * b + d * d) / (2.0 * d);
-    let h = (a * a - along * along).max(0.0).sqrt();
     let u = [start[0] / d, start[1] / d];
     let w = [u[1], -u[0]];
-    let cands = [1.0, -1.0].map(|sg| [along * u[0] + sg * h * w[0], along * u[1] + sg * h * w[1]]);
-    let s = if cands[0][1] <= cands[1][1] {
-        cands[0]
-    } else {
-        cands[1]
-    };
-    let q1 = s[1].atan2(s[0]);
-    let th3 = (start[1] - s[1]).atan2(start[0] - s[0]);
-    let pi = std::f64::consts::PI;
-    let mut q3 = (th3 - q1).rem_euclid(2.0 * pi);
-    if q3 > pi {
-        q3 -= 2.0 * pi;
+    let lower = |c: [[f64; 2]; 2]| if c[0][1] <= c[1][1] { c[0] } else { c[1] };
+    let mut q = vec![0.0; n];
+    if n.is_multiple_of(2) {
+        let a: f64 = robot.len[..k].iter().sum();
+        let b: f64 = robot.len[k..].iter().sum();
+        if !(d > 0.0 && d <= a + b && d >= (a - b).abs()) {
+            return Err(Error::InfeasibleTask(format!(
+                "no straight-arm pose puts the EE at ({:.3}, {:.3}): arms of {a:.3} m and {b:.3} m",
+                start[0], start[1]
+            )));
+        }
+        // shoulder = along * u + h * w, u = start / d, w = u rotated by -90 deg; pick the lower one
+        let along = (a * a - b * b + d * d) / (2.0 * d);
+        let h = (a * a - along * along).max(0.0).sqrt();
+        let s = lower(
+            [1.0, -1.0].map(|sg| [along * u[0] + sg * h * w[0], along * u[1] + sg * h * w[1]]),
+        );
+        let q1 = s[1].atan2(s[0]);
+        q[0] = q1;
+        q[k] = wrap((start[1] - s[1]).atan2(start[0] - s[0]) - q1);
+        return Ok(q);
     }
-    Ok(vec![q1, 0.0, q3, 0.0])
+    let a: f64 = robot.len[..k].iter().sum();
+    let m = robot.len[k];
+    let b: f64 = robot.len[k + 1..].iter().sum();
+    if (a - b).abs() > 1e-9 * (a + b) {
+        return Err(Error::InfeasibleTask(format!(
+            "the start pose of an odd link count needs arms of equal length: {a:.3} m and {b:.3} m"
+        )));
+    }
+    let c = (d - m) / (2.0 * a);
+    if !(d > 0.0 && c.abs() <= 1.0) {
+        return Err(Error::InfeasibleTask(format!(
+            "no straight-arm pose puts the EE at ({:.3}, {:.3}), {d:.3} m from the grip: arms of \
+             {a:.3} m joined by a middle link of {m:.3} m reach from {:.3} m to {:.3} m",
+            start[0],
+            start[1],
+            (m - 2.0 * a).max(0.0),
+            m + 2.0 * a
+        )));
+    }
+    // end of the grip arm = a c u + h w (or - h w), the middle link from there along u
+    let h = a * (1.0 - c * c).max(0.0).sqrt();
+    let e =
+        lower([1.0, -1.0].map(|sg| [a * c * u[0] + sg * h * w[0], a * c * u[1] + sg * h * w[1]]));
+    let q1 = e[1].atan2(e[0]);
+    let th_mid = u[1].atan2(u[0]);
+    let f = [e[0] + m * u[0], e[1] + m * u[1]];
+    q[0] = q1;
+    q[k] = wrap(th_mid - q1);
+    q[k + 1] = wrap((start[1] - f[1]).atan2(start[0] - f[0]) - th_mid);
+    Ok(q)
 }
 
 /// How a cell's solve started.
@@ -395,8 +528,12 @@ pub struct StudyCell {
 pub struct StudyRow {
     /// Lower-to-total arm length ratio.
     pub r2: f64,
-    /// Link lengths L1..L4, m.
+    /// Link lengths L1..Ln, m.
     pub lengths_m: Vec<f64>,
+    /// The row's start pose, rad: the same for every row of an even link count, the row's own for an
+    /// odd one (empty when read from a report written before it was recorded).
+    #[serde(default)]
+    pub start_q: Vec<f64>,
     /// T_freefall, s.
     pub freefall_time_s: f64,
     /// T = 2 T_freefall, s.
@@ -439,7 +576,8 @@ pub struct ParameterStudy {
     pub settings: ParameterStudySettings,
     /// The base robot parameters (r2 = 0.5 at 0.71 m arms for Table I).
     pub base: RobotParams,
-    /// The start pose, rad (the same for every r2).
+    /// The start pose of the first row, rad: for an even link count the start pose of every row; an
+    /// odd link count's rows each have their own ([`StudyRow::start_q`]).
     pub start_q: Vec<f64>,
     /// One summary per r2, in the order of `settings.r2`.
     pub rows: Vec<StudyRow>,
@@ -467,6 +605,8 @@ impl ParameterStudy {
 struct RowSetup {
     r2: f64,
     robot: Robot,
+    /// The row's task: its start pose, the target bar.
+    task: SwingTask,
     freefall: f64,
     t_nominal: f64,
 }
@@ -484,7 +624,6 @@ fn task(start_q: &[f64], target: [f64; 2]) -> SwingTask {
 /// Plan one swing of `swing_time_s`, warm-started from `guess` when given (cold again if that fails).
 fn solve_cell(
     setup: &RowSetup,
-    task: &SwingTask,
     settings: &ParameterStudySettings,
     swing_time_s: f64,
     guess: Option<&Trajectory>,
@@ -493,7 +632,7 @@ fn solve_cell(
         swing_time: SwingTime::Seconds(swing_time_s),
         ..settings.planner.clone()
     };
-    let first = plan_with_guess(&setup.robot, task, &planner, &settings.solver, guess)?;
+    let first = plan_with_guess(&setup.robot, &setup.task, &planner, &settings.solver, guess)?;
     if guess.is_none() || first.converged() {
         let start = if guess.is_some() {
             CellStart::Warm
@@ -503,7 +642,7 @@ fn solve_cell(
         let (it, t) = (first.iterations, first.solve_time_s);
         return Ok((first, start, it, t));
     }
-    let cold = plan_with_guess(&setup.robot, task, &planner, &settings.solver, None)?;
+    let cold = plan_with_guess(&setup.robot, &setup.task, &planner, &settings.solver, None)?;
     let (it, t) = (
         first.iterations + cold.iterations,
         first.solve_time_s + cold.solve_time_s,
@@ -573,7 +712,6 @@ type RowResult = (Vec<StudyCell>, Option<StickDiagram>);
 /// trajectory and status when the centre is at offset 0 and a stick diagram wants it.
 fn run_row(
     setup: &RowSetup,
-    task: &SwingTask,
     settings: &ParameterStudySettings,
     keep_centre: bool,
     tick: &(dyn Fn() + Sync),
@@ -587,7 +725,7 @@ fn run_row(
         if stop() {
             return Err(Error::InfeasibleTask("cancelled".into()));
         }
-        let r = solve_cell(setup, task, settings, setup.t_nominal + offs[j], guess);
+        let r = solve_cell(setup, settings, setup.t_nominal + offs[j], guess);
         tick();
         r
     };
@@ -644,6 +782,7 @@ fn summarise(setup: &RowSetup, cells: &[StudyCell]) -> StudyRow {
     StudyRow {
         r2: setup.r2,
         lengths_m: setup.robot.len.clone(),
+        start_q: setup.task.q0.clone(),
         freefall_time_s: setup.freefall,
         swing_time_s: setup.t_nominal,
         energy_at_t_j: cells
@@ -658,29 +797,119 @@ fn summarise(setup: &RowSetup, cells: &[StudyCell]) -> StudyRow {
     }
 }
 
-/// Scaled robot, T_freefall and T for one r2.
+/// Scaled robot, start pose, T_freefall and T for one r2. `shared_q` is the start pose every row of
+/// an even link count shares (only the arm lengths, the same for every r2, decide it); an odd link
+/// count's pose depends on r2 (the middle link's length) and is found for each row. `field` names
+/// the r2 value in errors.
 fn row_setup(
     base: &RobotParams,
     r2: f64,
     settings: &ParameterStudySettings,
-    start_q: Option<&[f64]>,
-) -> Result<(RowSetup, Vec<f64>), Error> {
+    shared_q: Option<&[f64]>,
+    src: &str,
+    field: &str,
+) -> Result<RowSetup, Error> {
     let p = scaled_params(base, r2, settings.arm_length_m)?;
     let robot = Robot::from_params(p, &format!("r2 = {r2}"))?;
-    let q0 = match start_q {
+    let q0 = match shared_q {
         Some(q) => q.to_vec(),
-        None => start_pose(&robot, settings.start)?,
+        None => start_pose(&robot, settings.start).map_err(|e| {
+            let (what, value) = if robot.n % 2 == 0 {
+                ("start".to_string(), format!("{:?}", settings.start))
+            } else {
+                (field.to_string(), r2.to_string())
+            };
+            Error::invalid(
+                src,
+                what,
+                value,
+                format!(
+                    "the {}-link study robot of r2 = {r2} has no start pose: {e}",
+                    robot.n
+                ),
+            )
+        })?,
     };
     let freefall = freefall_time(&robot, &q0, 0.5 * (settings.start[0] + settings.target[0]))?;
-    Ok((
-        RowSetup {
+    Ok(RowSetup {
+        r2,
+        robot,
+        task: task(&q0, settings.target),
+        freefall,
+        t_nominal: 2.0 * freefall,
+    })
+}
+
+/// Everything a study solves, built before any solving.
+struct Prepared {
+    base: RobotParams,
+    /// One per `settings.r2`.
+    setups: Vec<RowSetup>,
+    /// The stick diagrams the grid does not provide.
+    extra: Vec<RowSetup>,
+}
+
+/// Every row's robot, start pose and swing time, the stick diagrams' too; refuses an offset that
+/// gives a swing time <= 0.
+fn prepare_rows(
+    base: RobotParams,
+    settings: &ParameterStudySettings,
+    src: &str,
+) -> Result<Prepared, Error> {
+    let even = base.links.len().is_multiple_of(2);
+    let mut shared: Option<Vec<f64>> = None;
+    let mut setups = Vec::with_capacity(settings.r2.len());
+    for (i, &r2) in settings.r2.iter().enumerate() {
+        let s = row_setup(
+            &base,
             r2,
-            robot,
-            freefall,
-            t_nominal: 2.0 * freefall,
-        },
-        q0,
-    ))
+            settings,
+            shared.as_deref(),
+            src,
+            &format!("r2[{i}]"),
+        )?;
+        if even {
+            shared.get_or_insert_with(|| s.task.q0.clone());
+        }
+        setups.push(s);
+    }
+    let first_off = settings.offsets_s[0];
+    for s in &setups {
+        if s.t_nominal + first_off <= 0.0 {
+            return Err(Error::invalid(
+                src,
+                "offsets_s[0]",
+                first_off,
+                format!(
+                    "gives a swing time <= 0 for r2 = {} (T = {:.3} s)",
+                    s.r2, s.t_nominal
+                ),
+            ));
+        }
+    }
+    let centre_is_zero = settings.offsets_s[centre_index(&settings.offsets_s)].abs() < SAME;
+    // stick diagrams that the grid does not provide are solved separately
+    let mut extra: Vec<RowSetup> = Vec::new();
+    for (i, &s) in settings.stick_r2.iter().enumerate() {
+        let in_grid = centre_is_zero && settings.r2.iter().any(|r| (r - s).abs() < SAME);
+        let dup = extra.iter().any(|e| (e.r2 - s).abs() < SAME);
+        if !in_grid && !dup {
+            let field = format!("stick_r2[{i}]");
+            extra.push(row_setup(
+                &base,
+                s,
+                settings,
+                shared.as_deref(),
+                src,
+                &field,
+            )?);
+        }
+    }
+    Ok(Prepared {
+        base,
+        setups,
+        extra,
+    })
 }
 
 /// Run the study: every cell of `settings.r2 x settings.offsets_s` in parallel rows (rayon's global
@@ -717,42 +946,16 @@ fn study(
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<Option<ParameterStudy>, Error> {
     let wall = Instant::now();
-    settings.validate()?;
-    let base = settings.base_params.load()?;
-    // every robot, T and the start pose before any solving
-    let mut start_q: Option<Vec<f64>> = None;
-    let mut setups = Vec::with_capacity(settings.r2.len());
-    for &r2 in &settings.r2 {
-        let (s, q0) = row_setup(&base, r2, settings, start_q.as_deref())?;
-        start_q.get_or_insert(q0);
-        setups.push(s);
-    }
-    let start_q = start_q.unwrap_or_default();
-    let first_off = settings.offsets_s[0];
-    for s in &setups {
-        if s.t_nominal + first_off <= 0.0 {
-            return Err(Error::invalid(
-                SRC,
-                "offsets_s[0]",
-                first_off,
-                format!(
-                    "gives a swing time <= 0 for r2 = {} (T = {:.3} s)",
-                    s.r2, s.t_nominal
-                ),
-            ));
-        }
-    }
+    let Prepared {
+        base,
+        setups,
+        extra,
+    } = settings.prepare(SRC)?;
+    let start_q = setups
+        .first()
+        .map(|s| s.task.q0.clone())
+        .unwrap_or_default();
     let wants_stick = |r2: f64| settings.stick_r2.iter().any(|s| (s - r2).abs() < SAME);
-    let centre_is_zero = settings.offsets_s[centre_index(&settings.offsets_s)].abs() < SAME;
-    // stick diagrams that the grid does not provide are solved separately
-    let mut extra = Vec::new();
-    for &s in &settings.stick_r2 {
-        let in_grid = centre_is_zero && settings.r2.iter().any(|r| (r - s).abs() < SAME);
-        let dup = extra.iter().any(|e: &RowSetup| (e.r2 - s).abs() < SAME);
-        if !in_grid && !dup {
-            extra.push(row_setup(&base, s, settings, Some(&start_q))?.0);
-        }
-    }
     let total = (setups.len() * settings.offsets_s.len() + extra.len()) as u64;
     let done = AtomicU64::new(0);
     let tick = || {
@@ -762,7 +965,6 @@ fn study(
             what: "parameter-study solves",
         })
     };
-    let task = task(&start_q, settings.target);
     // Longest swings first: they have the most knots and iterations, and a long row started last
     // would leave the other cores idle at the end.
     let mut order: Vec<usize> = (0..setups.len()).collect();
@@ -772,7 +974,7 @@ fn study(
         .with_max_len(1)
         .map(|&i| {
             let s = &setups[i];
-            run_row(s, &task, settings, wants_stick(s.r2), &tick, stop).map(|r| (i, r))
+            run_row(s, settings, wants_stick(s.r2), &tick, stop).map(|r| (i, r))
         })
         .collect::<Result<_, _>>()?;
     if stop() {
@@ -789,7 +991,7 @@ fn study(
             if stop() {
                 return None;
             }
-            let solved = solve_cell(s, &task, settings, s.t_nominal, None);
+            let solved = solve_cell(s, settings, s.t_nominal, None);
             tick();
             let (p, _, _, _) = solved.ok()?;
             Some(StickDiagram {
@@ -862,11 +1064,11 @@ pub(crate) fn r2_tag(r2: f64) -> String {
 ///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m`
 ///   (energy, work and objective empty for a cell that did not converge, the replay miss for a cell
 ///   the planner refused);
-/// - `freefall.csv`: per r2, `r2,l1_m,l2_m,l3_m,l4_m,freefall_time_s,swing_time_s,energy_at_t_j,
+/// - `freefall.csv`: per r2, `r2,l1_m,..,ln_m,freefall_time_s,swing_time_s,energy_at_t_j,
 ///   argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells`;
 /// - `report.json`: the settings (with the base parameters resolved), the start pose, the per-r2
 ///   summaries, the count of failed cells, the wall time;
-/// - `stick_r2_<r2>.csv` (the 1 ms trajectory, `t,q1..q4,qd1..qd4,tau2..tau4,ee_x,ee_y`) and
+/// - `stick_r2_<r2>.csv` (the 1 ms trajectory, `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`) and
 ///   `stick_r2_<r2>_params.toml` (the scaled robot) for every stick diagram.
 pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
     let mut folder = RunFolder::default();
@@ -894,8 +1096,13 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
         );
     }
     folder.add("cells.csv", csv);
-    let mut ff = String::from(
-        "r2,l1_m,l2_m,l3_m,l4_m,freefall_time_s,swing_time_s,energy_at_t_j,argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells\n",
+    let n = study.base.links.len();
+    let mut ff = String::from("r2");
+    for i in 1..=n {
+        let _ = write!(ff, ",l{i}_m");
+    }
+    ff.push_str(
+        ",freefall_time_s,swing_time_s,energy_at_t_j,argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells\n",
     );
     for r in &study.rows {
         let _ = write!(ff, "{}", r.r2);
@@ -935,8 +1142,8 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
     }
     let mut resolved = study.settings.clone();
     resolved.base_params = BaseParams::Inline(study.base.clone());
-    resolved.planner.q1_diag = resolved.planner.q1(4);
-    resolved.planner.r1_diag = resolved.planner.r1(4);
+    resolved.planner.q1_diag = resolved.planner.q1(n);
+    resolved.planner.r1_diag = resolved.planner.r1(n);
     let report = json!({
         "settings": resolved,
         "base_params_source": study.settings.base_params,

@@ -443,6 +443,16 @@ pub fn read_plan_folder(
             ));
         }
     }
-    let rep: PlanReport = crate::read::read_json(&dir.join("report.json"))?;
+    let report = dir.join("report.json");
+    let rep: PlanReport = crate::read::read_json(&report)?;
+    if !rep.converged {
+        return Err(Error::invalid(
+            report.display().to_string(),
+            "status",
+            format!("{:?}", rep.status),
+            "the plan did not converge, so it is not tracked; re-plan it (`brachia plan` exits 1 for \
+             such a plan)",
+        ));
+    }
     Ok((traj, rep))
 }

@@ -397,27 +397,277 @@ fn a_cancelled_reproduction_writes_nothing() {
     assert_eq!(names, vec!["rep".to_string()]);
 }
 
-#[test]
-fn a_base_robot_without_two_two_link_arms_is_refused_before_solving() {
-    // issue 11: the study's scaling rule is defined for two arms of two links; a 3- or 6-link base is
-    // refused with the rule, naming the file, before anything is solved
+/// The 4-link rule as it was before it was generalised to n links (session 5), kept here to pin the
+/// generalised rule to it bit for bit.
+fn four_link_rule(base: &RobotParams, r2: f64, arm: f64) -> RobotParams {
+    let (lower, upper) = (r2 * arm, (1.0 - r2) * arm);
+    let mut p = base.clone();
+    for (i, l) in p.links.iter_mut().enumerate() {
+        let length = if i == 0 || i == 3 { lower } else { upper };
+        let s = length / l.length;
+        l.length = length;
+        l.mass *= s;
+        l.com *= s;
+        l.inertia *= s * s * s;
+    }
+    p.name = format!("{} scaled to r2 = {r2}", base.name);
+    p
+}
+
+fn params_file(name: &str) -> RobotParams {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    for (file, n) in [("params/three-link.toml", 3), ("params/six-link.toml", 6)] {
-        let path = root.join(file);
-        let s = ParameterStudySettings {
-            base_params: BaseParams::File(path.clone()),
-            ..quick(vec![0.5], vec![0.0])
-        };
-        let e = run_parameter_study(&s, &no_progress)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains(&path.display().to_string())
-                && e.contains(&format!("{n} links"))
-                && e.contains("needs a 4-link robot"),
-            "{e}"
+    RobotParams::from_toml_file(&root.join("params").join(name)).unwrap()
+}
+
+#[test]
+fn the_n_link_rule_is_the_four_link_rule_bit_for_bit() {
+    // every r2 of the default grid, of reproduce --quick and of the stick diagrams, on both 4-link
+    // bases of params/, at the paper's arm length and another one
+    let d = ParameterStudySettings::default();
+    let mut r2s: Vec<f64> = d.r2.clone();
+    r2s.extend([0.2, 0.5, 0.8, 0.25, 0.35, 1.0 / 3.0]);
+    for base in [paper(), params_file("paper-uniform-rod.toml")] {
+        for &r2 in &r2s {
+            for arm in [0.71, 0.6] {
+                assert_eq!(
+                    scaled_params(&base, r2, arm).unwrap(),
+                    four_link_rule(&base, r2, arm),
+                    "{} at r2 {r2}, arm {arm}",
+                    base.name
+                );
+            }
+        }
+    }
+}
+
+/// A mirrored n-link robot of equal links 0.3 m long (n in 3..=12).
+fn uniform(n: usize) -> RobotParams {
+    let mut text = String::from("name = \"uniform\"\ngravity = 9.81\n");
+    for _ in 0..n {
+        text.push_str(
+            "[[links]]\nlength = 0.3\nmass = 0.4\ncom = 0.15\ninertia = 0.003\nradius = 0.02\n",
         );
     }
+    text.push_str(&format!(
+        "[actuators]\ntau_min = {:?}\ntau_max = {:?}\n",
+        vec![-5.0; n - 1],
+        vec![5.0; n - 1]
+    ));
+    RobotParams::from_toml_str(&text, "uniform").unwrap()
+}
+
+#[test]
+fn every_link_count_scales_to_two_mirrored_arms_with_the_hand_share_r2() {
+    for n in 3..=12 {
+        let base = uniform(n);
+        for r2 in [0.2, 0.5, 0.7] {
+            let p = scaled_params(&base, r2, 0.71).unwrap();
+            let l: Vec<f64> = p.links.iter().map(|l| l.length).collect();
+            // mirrored: link i and link n+1-i alike (length, mass, com fraction, inertia)
+            for i in 0..n {
+                let (a, b) = (&p.links[i], &p.links[n - 1 - i]);
+                assert!(
+                    (a.length - b.length).abs() < 1e-15
+                        && (a.mass - b.mass).abs() < 1e-15
+                        && (a.com - b.com).abs() < 1e-15
+                        && (a.inertia - b.inertia).abs() < 1e-15,
+                    "n {n} r2 {r2}: links {} and {} differ",
+                    i + 1,
+                    n - i
+                );
+            }
+            // each arm (n/2 links from its hand, plus half a middle link) is 0.71 m, the hand r2 of it
+            let k = n / 2;
+            let mut arm: f64 = l[..k].iter().sum();
+            if n % 2 == 1 {
+                arm += 0.5 * l[k];
+            }
+            assert!((arm - 0.71).abs() < 1e-14, "n {n} r2 {r2}: arm {arm}");
+            assert!((l[0] / arm - r2).abs() < 1e-14, "n {n} r2 {r2}");
+            // equal base links stay equal inside: a middle link, of which each arm counts half,
+            // is as long as the other inner links
+            let inner = (1.0 - r2) * 0.71 / (k as f64 - 1.0 + if n % 2 == 1 { 0.5 } else { 0.0 });
+            for (i, &li) in l.iter().enumerate().take(n - 1).skip(1) {
+                assert!(
+                    (li - inner).abs() < 1e-14,
+                    "n {n} r2 {r2}: L{} = {li}",
+                    i + 1
+                );
+            }
+            // mass with length, com with length, inertia with its cube
+            for (new, old) in p.links.iter().zip(&base.links) {
+                let s = new.length / old.length;
+                assert!((new.mass / old.mass - s).abs() < 1e-12);
+                assert!((new.com / new.length - old.com / old.length).abs() < 1e-12);
+                assert!((new.inertia / old.inertia - s.powi(3)).abs() < 1e-12);
+            }
+            let robot = Robot::from_params(p, "scaled").unwrap();
+            // the start pose puts the EE on the start bar with both arms straight
+            match start_pose(&robot, [-1.0, 0.0]) {
+                Ok(q) => {
+                    let ee = robot.ee_position(&q);
+                    assert!(
+                        (ee[0] + 1.0).abs() < 1e-12 && ee[1].abs() < 1e-12,
+                        "n {n} r2 {r2}: EE {ee:?}"
+                    );
+                    let bends: Vec<usize> = (1..n).filter(|&i| q[i] != 0.0).collect();
+                    let want: Vec<usize> = if n % 2 == 0 { vec![k] } else { vec![k, k + 1] };
+                    assert_eq!(bends, want, "n {n} r2 {r2}: q {q:?}");
+                    if n % 2 == 1 {
+                        // symmetric: both ends of the middle link bend alike
+                        assert!((q[k] - q[k + 1]).abs() < 1e-12, "{q:?}");
+                    }
+                    let mut joints = vec![[0.0; 2]; n + 1];
+                    robot.joint_positions(&q, &mut joints);
+                    assert!(joints[k][1] < 0.0, "n {n}: the arm's end is below the bar");
+                }
+                Err(e) => {
+                    // only an odd robot whose middle link is too long has none
+                    let mid = l[k];
+                    assert!(n % 2 == 1 && mid > 0.71 + 0.5, "n {n} r2 {r2}: {e}");
+                }
+            }
+        }
+    }
+    // three links: the middle link is the 4-link robot's two upper arms joined
+    let four = scaled_params(&uniform(4), 0.4, 0.71).unwrap();
+    let three = scaled_params(&uniform(3), 0.4, 0.71).unwrap();
+    assert_eq!(three.links[0].length, four.links[0].length);
+    assert!((three.links[1].length - 2.0 * four.links[1].length).abs() < 1e-15);
+}
+
+#[test]
+fn a_two_link_base_is_refused_with_the_rule_and_three_links_come_back_at_their_own_r2() {
+    let mut two = uniform(3);
+    two.links.pop();
+    two.actuators.tau_min.pop();
+    two.actuators.tau_max.pop();
+    let s = ParameterStudySettings {
+        base_params: BaseParams::Inline(two.clone()),
+        ..quick(vec![0.5], vec![0.0])
+    };
+    let e = s.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("`base_params.inline.links`") && e.contains("2 links") && e.contains("3 to 12"),
+        "{e}"
+    );
+    assert!(scaled_params(&two, 0.5, 0.71).is_err());
+    // a file: the error names it
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("two.toml");
+    std::fs::write(&f, toml::to_string(&two).unwrap()).unwrap();
+    let s = ParameterStudySettings {
+        base_params: BaseParams::File(f.clone()),
+        ..quick(vec![0.5], vec![0.0])
+    };
+    let e = run_parameter_study(&s, &no_progress)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(&f.display().to_string()) && e.contains("`links`") && e.contains("2 links"),
+        "{e}"
+    );
+    // params/three-link.toml: arms of 0.4 + 0.2 m, hand share 2/3; scaled at that r2 and arm length
+    // it comes back (to rounding)
+    let three = params_file("three-link.toml");
+    let p = scaled_params(&three, 0.4 / 0.6, 0.6).unwrap();
+    for (a, b) in p.links.iter().zip(&three.links) {
+        assert!((a.length - b.length).abs() < 1e-15 && (a.mass - b.mass).abs() < 1e-15);
+        assert!((a.inertia - b.inertia).abs() < 1e-15 && (a.com - b.com).abs() < 1e-15);
+    }
+}
+
+#[test]
+fn an_odd_robot_whose_middle_link_cannot_reach_the_start_bar_is_refused_naming_its_r2() {
+    // 3 links, 0.71 m arms: at r2 = 0.1 the middle link is 1.278 m, the hands 0.071 m: the EE is never
+    // nearer the grip than 1.136 m, so the start bar 1 m away cannot be reached
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let s = ParameterStudySettings {
+        base_params: BaseParams::File(root.join("params/three-link.toml")),
+        ..quick(vec![0.1, 0.5], vec![0.0])
+    };
+    let e = s.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("`r2[0]`") && e.contains("0.1") && e.contains("no start pose"),
+        "{e}"
+    );
+    let e = run_parameter_study(&s, &no_progress)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`r2[0]`"), "{e}");
+}
+
+/// A small grid (2 x 2 cells) on an n-link base runs: every cell is present, converged or failed with
+/// a status; the run folder names n links.
+fn small_grid_on(file: &str, n: usize) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let s = ParameterStudySettings {
+        base_params: BaseParams::File(root.join("params").join(file)),
+        stick_r2: vec![0.5],
+        ..quick(vec![0.4, 0.6], vec![0.0, 0.2])
+    };
+    let study = run_parameter_study(&s, &no_progress).unwrap();
+    assert_eq!(study.cells.len(), 4);
+    assert_eq!(study.base.links.len(), n);
+    for (i, row) in study.rows.iter().enumerate() {
+        assert_eq!(row.lengths_m.len(), n);
+        assert_eq!(row.start_q.len(), n);
+        let robot =
+            Robot::from_params(scaled_params(&study.base, row.r2, 0.71).unwrap(), "r").unwrap();
+        let ee = robot.ee_position(&row.start_q);
+        assert!((ee[0] + 1.0).abs() < 1e-9 && ee[1].abs() < 1e-9, "{ee:?}");
+        for j in 0..2 {
+            let c = study.cell(i, j);
+            assert_eq!(c.converged, c.status.is_converged());
+            assert_eq!(c.converged, c.energy_j.is_some());
+            if let Some(e) = c.energy_j {
+                assert!(e.is_finite() && c.positive_work_j.unwrap() >= e - 1e-9);
+            }
+        }
+    }
+    eprintln!(
+        "{file}: {} of 4 cells converged; statuses {:?}",
+        4 - study.failed_cells(),
+        study.cells.iter().map(|c| &c.status).collect::<Vec<_>>()
+    );
+    let f = parameter_study_folder(&study);
+    let ff = std::str::from_utf8(f.get("freefall.csv").unwrap()).unwrap();
+    assert!(
+        ff.starts_with("r2,l1_m,") && ff.contains(&format!(",l{n}_m,freefall_time_s")),
+        "{ff}"
+    );
+    assert_eq!(ff.lines().nth(1).unwrap().split(',').count(), n + 8);
+    let traj = std::str::from_utf8(f.get("stick_r2_0.50.csv").unwrap()).unwrap();
+    assert!(traj.starts_with("t,q1,") && traj.contains(&format!("tau{n},ee_x")));
+    let report: serde_json::Value = serde_json::from_slice(f.get("report.json").unwrap()).unwrap();
+    assert_eq!(
+        report["settings"]["planner"]["q1_diag"]
+            .as_array()
+            .unwrap()
+            .len(),
+        n
+    );
+}
+
+#[test]
+fn a_three_link_base_runs_a_small_grid() {
+    small_grid_on("three-link.toml", 3);
+}
+
+#[test]
+fn a_six_link_base_runs_a_small_grid() {
+    small_grid_on("six-link.toml", 6);
+}
+
+#[test]
+fn a_grid_too_large_is_refused_before_anything_is_allocated() {
+    let s = ParameterStudySettings {
+        r2: (1..=999).map(|i| i as f64 / 1000.0).collect(),
+        offsets_s: (0..20).map(|i| i as f64 * 0.01).collect(),
+        ..Default::default()
+    };
+    let e = s.validate().unwrap_err().to_string();
+    assert!(e.contains("`r2, offsets_s`") && e.contains("10000"), "{e}");
 }
 
 #[test]
