@@ -1,12 +1,10 @@
 //! `brachia plan`: plan the scenario's swing and write its run folder.
 
 use crate::{check_cancel, exp_error, CliError};
-use brachia_experiments::{check_out_dir, run_plan, CancelToken, Scenario, Uses};
+use brachia_experiments::{
+    check_out_dir, replay_trusted, run_plan, CancelToken, Scenario, Uses, REPLAY_TRUST_M,
+};
 use std::path::PathBuf;
-
-/// Largest open-loop replay error (EE distance to the bar, m) of a plan reported as a success; a larger
-/// one means the discrete problem does not describe the swing (exit 1, the report is still written).
-pub const REPLAY_TRUST_M: f64 = 0.05;
 
 /// Arguments of `brachia plan`.
 #[derive(clap::Args)]
@@ -38,7 +36,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         p.violations.ee_position,
         p.replay_ee_error_m
     );
-    if p.converged() && p.replay_ee_error_m > REPLAY_TRUST_M {
+    if p.converged() && !replay_trusted(p.replay_ee_error_m) {
         Err(CliError::Failed(format!(
             "the planner converged, but replaying its torques open loop misses the bar by {:.3} m \
              (more than {REPLAY_TRUST_M} m): the collocation grid is too coarse to trust (use a smaller \

@@ -3,7 +3,7 @@
 use crate::{check_cancel, exp_error, CliError};
 use brachia_experiments::{
     check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind, PlantKind, RunFolder,
-    Scenario, TrackOutcome,
+    Scenario, TrackOutcome, REPLAY_TRUST_M,
 };
 use std::path::PathBuf;
 
@@ -94,9 +94,18 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
                 }
             }
             folder.write(&a.out).map_err(exp_error(&a.out))?;
+            let p = &plan_run.plan;
+            let why = if p.converged() {
+                format!(
+                    "the plan converged, but replaying its torques open loop misses the bar by {:.3} m \
+                     (more than {REPLAY_TRUST_M} m)",
+                    p.replay_ee_error_m
+                )
+            } else {
+                format!("the planner did not converge (status {:?})", p.status)
+            };
             Err(CliError::Failed(format!(
-                "the planner did not converge (status {:?}); nothing was tracked; the plan's report is in {}",
-                plan_run.plan.status,
+                "{why}; nothing was tracked; the plan's report is in {}",
                 a.out.join("plan").display()
             )))
         }

@@ -30,7 +30,9 @@ pub use parameter_study::{
     StudyCell, StudyRow,
 };
 pub use plan_run::solver_work_text;
-pub use plan_run::{plan_report, run_plan, PlanReport, PlanRun, PARAMS_FILE};
+pub use plan_run::{
+    plan_report, replay_trusted, run_plan, PlanReport, PlanRun, PARAMS_FILE, REPLAY_TRUST_M,
+};
 pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_dir, RunFolder, MANIFEST};

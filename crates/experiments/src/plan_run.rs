@@ -76,6 +76,17 @@ fn work_text(solves: &[SolveAttempt], iterations: usize, time_s: f64, t: &TimeSp
     s
 }
 
+/// Largest open-loop replay error (EE distance to the bar, m) of a plan that can be trusted: a larger
+/// one means the discrete problem does not describe the swing. `brachia plan` exits 1 for such a plan
+/// (its report is still written) and `brachia track --plan` refuses its folder.
+pub const REPLAY_TRUST_M: f64 = 0.05;
+
+/// Whether an open-loop replay error (m) is small enough to trust the plan ([`REPLAY_TRUST_M`]; a NaN
+/// is not).
+pub fn replay_trusted(replay_ee_error_m: f64) -> bool {
+    replay_ee_error_m.is_finite() && replay_ee_error_m <= REPLAY_TRUST_M
+}
+
 /// The plan's machine-readable report: the `report.json` of `brachia plan` (and the `plan` entry of a
 /// track run's report). Units: s, m, rad, N m, J. `iterations` and `solve_time_s` are totals over every
 /// solver attempt and every pass of the backend inside it (adopted or not); `solves` lists them,

@@ -8,7 +8,7 @@
 //! `obstacles.csv`: `t,obstacle_0_x,obstacle_0_y,...` (obstacle ids: the task's obstacles first, then the
 //! plant's).
 
-use crate::plan_run::{run_plan, PlanReport, PlanRun};
+use crate::plan_run::{replay_trusted, run_plan, PlanReport, PlanRun, REPLAY_TRUST_M};
 use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
 use brachia::control::{Estimated, Mpc, OpenLoop, Pd, ReplanEvent, Replanning, Tvlqr};
@@ -83,7 +83,8 @@ impl TrackReport {
 pub enum TrackOutcome {
     /// The plan was tracked.
     Tracked(Box<TrackRun>),
-    /// The plan did not converge; nothing was tracked.
+    /// The plan did not converge, or its open-loop replay misses the bar by more than
+    /// [`REPLAY_TRUST_M`]; nothing was tracked.
     PlanFailed(Box<PlanRun>),
 }
 
@@ -218,7 +219,7 @@ pub fn run_track(
         Some((r, rep)) => track_plan(ls, controller, plant, None, r, rep)?,
         None => {
             let run = run_plan(ls)?;
-            if !run.plan.converged() {
+            if !run.plan.converged() || !replay_trusted(run.plan.replay_ee_error_m) {
                 return Ok(TrackOutcome::PlanFailed(Box::new(run)));
             }
             let rep = run.report.clone();
@@ -452,6 +453,18 @@ pub fn read_plan_folder(
             format!("{:?}", rep.status),
             "the plan did not converge, so it is not tracked; re-plan it (`brachia plan` exits 1 for \
              such a plan)",
+        ));
+    }
+    if !replay_trusted(rep.replay_ee_error_m) {
+        return Err(Error::invalid(
+            report.display().to_string(),
+            "replay_ee_error_m",
+            rep.replay_ee_error_m,
+            format!(
+                "replaying the plan's torques open loop misses the bar by more than {} m, so the plan \
+                 cannot be trusted and is not tracked; re-plan it on a finer grid",
+                REPLAY_TRUST_M
+            ),
         ));
     }
     Ok((traj, rep))
