@@ -31,24 +31,10 @@ impl Rk4 {
 
     /// One RK4 step of length `dt` in place.
     pub fn step(&mut self, robot: &Robot, x: &mut [f64], u: &[f64], dt: f64) {
-        let nx = x.len();
-        let [k1, k2, k3, k4] = &mut self.k;
-        deriv(robot, &mut self.ws, x, u, k1);
-        for i in 0..nx {
-            self.tmp[i] = x[i] + 0.5 * dt * k1[i];
-        }
-        deriv(robot, &mut self.ws, &self.tmp, u, k2);
-        for i in 0..nx {
-            self.tmp[i] = x[i] + 0.5 * dt * k2[i];
-        }
-        deriv(robot, &mut self.ws, &self.tmp, u, k3);
-        for i in 0..nx {
-            self.tmp[i] = x[i] + dt * k3[i];
-        }
-        deriv(robot, &mut self.ws, &self.tmp, u, k4);
-        for i in 0..nx {
-            x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
+        let ws = &mut self.ws;
+        rk4_step(x, dt, &mut self.k, &mut self.tmp, |_, x, out| {
+            deriv(robot, ws, x, u, out)
+        });
     }
 
     /// Advance by `dt` in `substeps` equal RK4 steps.
@@ -57,6 +43,49 @@ impl Rk4 {
         for _ in 0..substeps.max(1) {
             self.step(robot, x, u, h);
         }
+    }
+}
+
+/// Where in a step [`rk4_step`] samples the right-hand side: a time-varying input (a torque profile)
+/// is evaluated at the step's start, its middle (stages 2 and 3) or its end.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepPoint {
+    /// `t`.
+    Start,
+    /// `t + dt / 2`.
+    Middle,
+    /// `t + dt`.
+    End,
+}
+
+/// One classic fourth-order Runge-Kutta step of length `dt` of `xdot = f(point, x)` in place, with
+/// caller-owned stage buffers (`k[i]` and `tmp` at least `x.len()` long; no allocation). `f` writes
+/// `xdot` into its last argument. The one RK4 of the crate: [`Rk4`] (the robot's model), the open-loop
+/// replay of a torque profile and the locked-chain free fall use it.
+pub fn rk4_step(
+    x: &mut [f64],
+    dt: f64,
+    k: &mut [Vec<f64>; 4],
+    tmp: &mut [f64],
+    mut f: impl FnMut(StepPoint, &[f64], &mut [f64]),
+) {
+    let nx = x.len();
+    let [k1, k2, k3, k4] = k;
+    f(StepPoint::Start, x, k1);
+    for i in 0..nx {
+        tmp[i] = x[i] + 0.5 * dt * k1[i];
+    }
+    f(StepPoint::Middle, &tmp[..nx], k2);
+    for i in 0..nx {
+        tmp[i] = x[i] + 0.5 * dt * k2[i];
+    }
+    f(StepPoint::Middle, &tmp[..nx], k3);
+    for i in 0..nx {
+        tmp[i] = x[i] + dt * k3[i];
+    }
+    f(StepPoint::End, &tmp[..nx], k4);
+    for i in 0..nx {
+        x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }
 }
 

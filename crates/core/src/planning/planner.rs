@@ -256,29 +256,18 @@ fn freefall_time_with_step(robot: &Robot, q0: &[f64], x_mid: f64, dt: f64) -> Re
     if side == 0.0 {
         return Ok(0.0);
     }
-    let acc = |q1: f64, q: &mut Vec<f64>, ws: &mut crate::model::Scratch<f64>, g: &mut Vec<f64>| {
-        q[0] = q1;
-        robot.gravity_into(ws, q, g);
-        -g[0] / m11
-    };
     // RK4 on (th, w) in steps of FREEFALL_DT; the step that crosses is then searched for the
     // crossing time tau in (0, dt] by regula falsi (Illinois) on one RK4 step of length tau from
     // the step's start, so the crossing is as accurate as the integration (no interpolation).
+    let mut k: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; 2]);
+    let mut tmp = [0.0; 2];
     let mut step = |th: f64, w: f64, dt: f64| {
-        let k1 = (w, acc(th, &mut q, &mut ws, &mut g));
-        let k2 = (
-            w + 0.5 * dt * k1.1,
-            acc(th + 0.5 * dt * k1.0, &mut q, &mut ws, &mut g),
-        );
-        let k3 = (
-            w + 0.5 * dt * k2.1,
-            acc(th + 0.5 * dt * k2.0, &mut q, &mut ws, &mut g),
-        );
-        let k4 = (w + dt * k3.1, acc(th + dt * k3.0, &mut q, &mut ws, &mut g));
-        (
-            th + dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0),
-            w + dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1),
-        )
+        let mut x = [th, w];
+        crate::integrate::rk4_step(&mut x, dt, &mut k, &mut tmp, |_, x, out| {
+            out[0] = x[1];
+            out[1] = locked_chain_acceleration(robot, m11, x[0], &mut q, &mut ws, &mut g);
+        });
+        (x[0], x[1])
     };
     let mut qx = q0.to_vec();
     let mut dist = |th: f64| {
@@ -325,6 +314,22 @@ fn freefall_time_with_step(robot: &Robot, q0: &[f64], x_mid: f64, dt: f64) -> Re
     Err(Error::InfeasibleTask(format!(
         "the robot released with locked joints never reaches x = {x_mid:.3} m within 20 s"
     )))
+}
+
+/// Angular acceleration of the chain locked at its start shape, turned to grip angle `q1` (rad/s^2):
+/// gravity's torque about the grip over the locked chain's inertia `m11` (kg m^2); `q` holds the locked
+/// shape and is overwritten at `q[0]`.
+fn locked_chain_acceleration(
+    robot: &Robot,
+    m11: f64,
+    q1: f64,
+    q: &mut [f64],
+    ws: &mut crate::model::Scratch<f64>,
+    g: &mut [f64],
+) -> f64 {
+    q[0] = q1;
+    robot.gravity_into(ws, q, g);
+    -g[0] / m11
 }
 
 /// Wrap an angle to (-pi, pi].
@@ -1083,26 +1088,22 @@ mod tests {
             assert!(coarse > 0.1, "x_mid {x_mid}: {coarse}");
             assert!((coarse - fine).abs() < 1e-10, "{coarse} vs {fine}");
             // the EE is at x_mid at the time found (one more integration, to the time found)
-            let (mut th, mut w) = (q0[0], 0.0);
             let m11 = robot.mass_matrix(&q0)[0];
             let steps = (coarse / 1e-5).ceil() as usize;
             let dt = coarse / steps as f64;
             let mut ws = crate::model::Scratch::new(4);
             let mut g = vec![0.0; 4];
             let mut q = q0.to_vec();
-            let mut acc = |th: f64| {
-                q[0] = th;
-                robot.gravity_into(&mut ws, &q, &mut g);
-                -g[0] / m11
-            };
+            let mut x = [q0[0], 0.0];
+            let mut k: [Vec<f64>; 4] = std::array::from_fn(|_| vec![0.0; 2]);
+            let mut tmp = [0.0; 2];
             for _ in 0..steps {
-                let k1 = (w, acc(th));
-                let k2 = (w + 0.5 * dt * k1.1, acc(th + 0.5 * dt * k1.0));
-                let k3 = (w + 0.5 * dt * k2.1, acc(th + 0.5 * dt * k2.0));
-                let k4 = (w + dt * k3.1, acc(th + dt * k3.0));
-                th += dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
-                w += dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
+                crate::integrate::rk4_step(&mut x, dt, &mut k, &mut tmp, |_, x, out| {
+                    out[0] = x[1];
+                    out[1] = locked_chain_acceleration(&robot, m11, x[0], &mut q, &mut ws, &mut g);
+                });
             }
+            let th = x[0];
             let mut qf = q0.to_vec();
             qf[0] = th;
             assert!((robot.ee_position(&qf)[0] - x_mid).abs() < 1e-9);

@@ -21,7 +21,7 @@
 
 use super::collocation::Layout;
 use super::settings::{Bounds, Transcription};
-use crate::integrate;
+use crate::integrate::{self, StepPoint};
 use crate::model::{Robot, Scratch};
 use crate::trajectory::{hermite_basis, sample_times, Trajectory};
 use serde::{Deserialize, Serialize};
@@ -203,23 +203,14 @@ pub fn replay_final_state(
             torque_in(points, layout, rule, iv, t, &mut u0);
             torque_in(points, layout, rule, iv, t + 0.5 * dt, &mut um);
             torque_in(points, layout, rule, iv, t + dt, &mut u1);
-            let [k1, k2, k3, k4] = &mut k;
-            integrate::deriv(robot, &mut ws, &x, &u0, k1);
-            for i in 0..nx {
-                tmp[i] = x[i] + 0.5 * dt * k1[i];
-            }
-            integrate::deriv(robot, &mut ws, &tmp, &um, k2);
-            for i in 0..nx {
-                tmp[i] = x[i] + 0.5 * dt * k2[i];
-            }
-            integrate::deriv(robot, &mut ws, &tmp, &um, k3);
-            for i in 0..nx {
-                tmp[i] = x[i] + dt * k3[i];
-            }
-            integrate::deriv(robot, &mut ws, &tmp, &u1, k4);
-            for i in 0..nx {
-                x[i] += dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            }
+            integrate::rk4_step(&mut x, dt, &mut k, &mut tmp, |at, x, out| {
+                let u = match at {
+                    StepPoint::Start => &u0,
+                    StepPoint::Middle => &um,
+                    StepPoint::End => &u1,
+                };
+                integrate::deriv(robot, &mut ws, x, u, out)
+            });
         }
     }
     x
