@@ -68,6 +68,37 @@ pub struct Checkpoint {
 /// handle to the robot (`Arc<Robot>`, shared with a controller), the task, the settings, the problem
 /// and the solver's workspace, all allocated in [`SwingPlanner::new`]; so a controller can hold one
 /// across calls and move it between threads (it is `Send`).
+///
+/// A cold plan of the paper's swing, then a warm re-plan from a measured state later in the swing:
+///
+/// ```
+/// use brachia::planning::{NlpSettings, PlannerSettings, SwingPlanner, SwingTask};
+/// use brachia::Robot;
+/// use std::sync::Arc;
+///
+/// let robot = Arc::new(Robot::paper());
+/// let task = SwingTask {
+///     q0: vec![-2.35, 0.0, -1.55, 0.0], // hanging, rad
+///     qd0: vec![],                      // at rest
+///     target: [0.8, 0.0],               // the next bar, m in the grip frame
+///     obstacles: vec![],
+/// };
+/// let settings = PlannerSettings { knot_dt: 0.03, ..Default::default() }; // 30 ms knots
+/// let mut planner = SwingPlanner::new(Arc::clone(&robot), task, &settings, &NlpSettings::default())?;
+/// let cold = planner.plan_outcome()?;
+/// assert!(cold.converged(), "{:?}", cold.status);
+/// // 0.6 s into the swing, the measured state (here the planned one, nudged by 0.02 rad)
+/// let k = (0.6 / cold.interval_s).round() as usize;
+/// let t_now = planner.knot_time(k);
+/// let mut x_now = planner.knots().x[k].clone();
+/// x_now[0] += 0.02;
+/// let warm = planner.replan(t_now, &x_now)?;
+/// assert!(warm.converged() && warm.ee_error_m < 1e-3, "{warm:?}");
+/// // the plan as a trajectory (1 ms samples) from t_now to the end of the swing
+/// let plan = planner.current_plan()?;
+/// assert!(plan.converged());
+/// # Ok::<(), brachia::Error>(())
+/// ```
 pub struct SwingPlanner {
     robot: Arc<Robot>,
     task: SwingTask,
