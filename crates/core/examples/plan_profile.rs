@@ -33,7 +33,7 @@ fn main() -> Result<(), brachia::Error> {
     for _ in 0..count {
         let p = plan(&robot, &task, &s, &nlp)?;
         println!(
-            "{} intervals, {} iterations, converged {}, objective {:.9}, replay miss {:.3e} m",
+            "{} intervals, {} iterations, converged {}, objective {:.16e}, replay miss {:.6e} m",
             p.layout.intervals,
             p.iterations,
             p.converged(),

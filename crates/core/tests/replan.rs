@@ -7,7 +7,8 @@
 
 use brachia::model::Robot;
 use brachia::planning::{
-    Backend, Bounds, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
+    Backend, Bounds, MuStrategy, NlpSettings, PlannerSettings, SwingPlanner, SwingTask,
+    Transcription,
 };
 use brachia::Error;
 use rand::{Rng, SeedableRng};
@@ -148,6 +149,10 @@ fn replan_of_the_undisturbed_state_keeps_the_plan_and_a_new_target_is_reached() 
     let (s, nlp) = settings();
     let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     let p = planner.plan().unwrap();
+    // the cold plan runs the monotone barrier update, a warm re-plan the adaptive one, and the
+    // reports say so
+    assert_eq!(p.solves.len(), 1);
+    assert_eq!(p.solves[0].mu_strategy, MuStrategy::Monotone);
     // at a knot time the shifted solution's start is the plan's own knot
     let k = 60;
     let t_now = planner.knot_time(k);
@@ -156,6 +161,7 @@ fn replan_of_the_undisturbed_state_keeps_the_plan_and_a_new_target_is_reached() 
     assert!(w.converged(), "{:?}", w.status);
     // the tail of the optimal swing is optimal for the remaining time (up to the finer grid)
     let rp = planner.current_plan().unwrap();
+    assert_eq!(rp.solves[0].mu_strategy, MuStrategy::Adaptive);
     let kk = planner.intervals();
     let end = planner.knots().x[kk].clone();
     let n = robot.n;

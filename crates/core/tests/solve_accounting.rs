@@ -172,3 +172,35 @@ fn a_retry_that_is_not_adopted_still_counts() {
     assert!(p.time_split.callbacks_s >= p.callback_timings.total_s());
     assert!(p.time_split.linear_algebra_s > 0.0 && p.time_split.line_search_and_other_s > 0.0);
 }
+
+#[test]
+fn the_ocp_attempt_is_labelled_with_the_barrier_update_it_ran() {
+    // The `ocp` backend used to label every attempt `Monotone`, and ignored `mu_strategy`; it now
+    // runs the update asked for and reports it (warm re-plans, adaptive: tests/replan.rs).
+    let task = SwingTask {
+        q0: vec![-2.35, 0.0, -1.55, 0.0],
+        qd0: vec![],
+        target: [0.8, 0.0],
+        obstacles: vec![],
+    };
+    let s = PlannerSettings {
+        transcription: Transcription::MultipleShooting,
+        knot_dt: 0.03,
+        ..Default::default()
+    };
+    let mut its = vec![];
+    for m in [MuStrategy::Monotone, MuStrategy::Adaptive] {
+        let nlp = NlpSettings {
+            backend: Backend::Ocp,
+            mu_strategy: m,
+            ..Default::default()
+        };
+        let p = plan(&Robot::paper(), &task, &s, &nlp).unwrap();
+        assert!(p.converged(), "{m:?}: {:?}", p.status);
+        assert_eq!(p.solves.len(), 1);
+        assert_eq!(p.solves[0].mu_strategy, m);
+        its.push(p.iterations);
+    }
+    // two different updates take different paths (today 16 and fewer iterations)
+    assert_ne!(its[0], its[1], "{its:?}");
+}

@@ -35,7 +35,7 @@
 //! The value `qdd` is computed with the arithmetic of [`Robot::forward_dynamics_into`] in the same order,
 //! so it agrees with it bit for bit.
 
-use super::dynamics::{cholesky_factor_in_place, cholesky_solve_factored};
+use super::dynamics::{cholesky_factor_body, cholesky_solve_body};
 use super::Robot;
 
 /// Reusable buffers (allocated in new; no allocation per call). Sized for robot.n.
@@ -82,15 +82,7 @@ pub struct DynamicsDerivatives {
 }
 
 /// `x <- S^T x S` in place for row-major n x n `x`: entry `[i][l]` becomes `sum_{j >= i, m >= l} x[j][m]`.
-fn sandwich(x: &mut [f64], n: usize) {
-    // the paper's 4 links with a constant size (unrolled), any other through the same code
-    if n == 4 {
-        sandwich_body(x, 4)
-    } else {
-        sandwich_body(x, n)
-    }
-}
-
+/// (Inlined into callers with constant sizes.)
 #[inline(always)]
 fn sandwich_body(x: &mut [f64], n: usize) {
     let x = &mut x[..n * n];
@@ -107,8 +99,11 @@ fn sandwich_body(x: &mut [f64], n: usize) {
     }
 }
 
-/// Solve `L L^T X = B` in place for row-major n x nc `x` (= B on entry), `L` the lower triangle of `l`.
-fn solve_multi(l: &[f64], n: usize, x: &mut [f64], nc: usize) {
+/// Solve `L L^T X = B` in place for row-major n x nc `x` (= B on entry), `L` the lower triangle of `l`
+/// (inlined into callers with constant sizes).
+#[inline(always)]
+fn solve_multi_body(l: &[f64], n: usize, x: &mut [f64], nc: usize) {
+    let (l, x) = (&l[..n * n], &mut x[..n * nc]);
     for i in 0..n {
         let (done, rest) = x.split_at_mut(i * nc);
         let xi = &mut rest[..nc];
@@ -172,80 +167,108 @@ impl DynamicsDerivatives {
         }
     }
 
-    /// Number of inputs 3n - 1.
-    fn nz(&self) -> usize {
-        3 * self.n - 1
-    }
-
     /// Trigonometry, M and its factor, h, qdd and al at `z`.
     fn prepare(&mut self, robot: &Robot, z: &[f64]) {
-        let n = self.n;
+        // the paper's 4 links with constant sizes (unrolled, no bounds checks), any other count
+        // through the same body: the same arithmetic either way
+        if self.n == 4 {
+            self.prepare_n(robot, z, 4)
+        } else {
+            self.prepare_n(robot, z, self.n)
+        }
+    }
+
+    #[inline(always)]
+    fn prepare_n(&mut self, robot: &Robot, z: &[f64], n: usize) {
         assert_eq!(robot.n, n, "DynamicsDerivatives built for a {n}-link robot");
         assert_eq!(
             z.len(),
             3 * n - 1,
             "z must hold [q, qd, tau] (3n - 1 values)"
         );
-        let (q, qd, tau) = (&z[..n], &z[n..2 * n], &z[2 * n..]);
-        let (d, g) = (&robot.d, &robot.gcoef);
-        let (mut th, mut om) = (0.0, 0.0);
+        let (q, qd, tau) = (&z[..n], &z[n..2 * n], &z[2 * n..3 * n - 1]);
+        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        let (sn, cs, om) = (&mut self.sn[..n], &mut self.cs[..n], &mut self.om[..n]);
+        let (sd, cd, tmp) = (
+            &mut self.sd[..n * n],
+            &mut self.cd[..n * n],
+            &mut self.tmp[..n * n],
+        );
+        let (l, h, a, al) = (
+            &mut self.l[..n * n],
+            &mut self.h[..n],
+            &mut self.a[..n],
+            &mut self.al[..n],
+        );
+        let (mut th, mut omv) = (0.0, 0.0);
         for i in 0..n {
             th += q[i];
             let (s, c) = th.sin_cos();
-            self.sn[i] = s;
-            self.cs[i] = c;
-            om += qd[i];
-            self.om[i] = om;
+            sn[i] = s;
+            cs[i] = c;
+            omv += qd[i];
+            om[i] = omv;
         }
         for j in 0..n {
-            self.sd[j * n + j] = 0.0;
-            self.cd[j * n + j] = 1.0;
-            self.tmp[j * n + j] = d[j * n + j];
+            sd[j * n + j] = 0.0;
+            cd[j * n + j] = 1.0;
+            tmp[j * n + j] = d[j * n + j];
             for k in j + 1..n {
-                let c = self.cs[j] * self.cs[k] + self.sn[j] * self.sn[k];
-                let s = self.sn[j] * self.cs[k] - self.cs[j] * self.sn[k];
-                self.cd[j * n + k] = c;
-                self.cd[k * n + j] = c;
-                self.sd[j * n + k] = s;
-                self.sd[k * n + j] = -s;
+                let c = cs[j] * cs[k] + sn[j] * sn[k];
+                let s = sn[j] * cs[k] - cs[j] * sn[k];
+                cd[j * n + k] = c;
+                cd[k * n + j] = c;
+                sd[j * n + k] = s;
+                sd[k * n + j] = -s;
                 let m = c * d[j * n + k];
-                self.tmp[j * n + k] = m;
-                self.tmp[k * n + j] = m;
+                tmp[j * n + k] = m;
+                tmp[k * n + j] = m;
             }
         }
-        sandwich(&mut self.tmp, n);
-        self.l.copy_from_slice(&self.tmp);
+        sandwich_body(tmp, n);
+        l.copy_from_slice(tmp);
         for j in 0..n {
             let mut v = 0.0;
             for k in 0..n {
                 if k != j {
-                    v += self.sd[j * n + k] * self.om[k] * self.om[k] * d[j * n + k];
+                    v += sd[j * n + k] * om[k] * om[k] * d[j * n + k];
                 }
             }
-            v += self.cs[j] * g[j];
-            self.h[j] = v;
+            v += cs[j] * g[j];
+            h[j] = v;
         }
         for j in (0..n - 1).rev() {
-            self.h[j] += self.h[j + 1];
+            h[j] += h[j + 1];
         }
-        self.a[0] = -self.h[0];
+        a[0] = -h[0];
         for i in 1..n {
-            self.a[i] = tau[i - 1] - self.h[i];
+            a[i] = tau[i - 1] - h[i];
         }
-        cholesky_factor_in_place(&mut self.l, n);
-        cholesky_solve_factored(&self.l, n, &mut self.a);
+        cholesky_factor_body(l, n);
+        cholesky_solve_body(l, n, a);
         let mut acc = 0.0;
         for i in 0..n {
-            acc += self.a[i];
-            self.al[i] = acc;
+            acc += a[i];
+            al[i] = acc;
         }
     }
 
     /// `jz = d qdd / dz` (after `prepare`).
     fn fill_jacobian(&mut self, robot: &Robot) {
-        let n = self.n;
-        let nz = self.nz();
-        let (d, g) = (&robot.d, &robot.gcoef);
+        if self.n == 4 {
+            self.fill_jacobian_n(robot, 4)
+        } else {
+            self.fill_jacobian_n(robot, self.n)
+        }
+    }
+
+    #[inline(always)]
+    fn fill_jacobian_n(&mut self, robot: &Robot, n: usize) {
+        let nz = 3 * n - 1;
+        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        let (sd, cd, sn) = (&self.sd[..n * n], &self.cd[..n * n], &self.sn[..n]);
+        let (al, om) = (&self.al[..n], &self.om[..n]);
+        let (rth, rom) = (&mut self.rth[..n * n], &mut self.rom[..n * n]);
         for j in 0..n {
             let mut diag = 0.0;
             for m in 0..n {
@@ -253,122 +276,143 @@ impl DynamicsDerivatives {
                     continue;
                 }
                 let jm = j * n + m;
-                let p = d[jm] * (self.sd[jm] * self.al[m] - self.cd[jm] * self.om[m] * self.om[m]);
-                self.rth[jm] = p;
+                let p = d[jm] * (sd[jm] * al[m] - cd[jm] * om[m] * om[m]);
+                rth[jm] = p;
                 diag += p;
-                self.rom[jm] = 2.0 * d[jm] * self.sd[jm] * self.om[m];
+                rom[jm] = 2.0 * d[jm] * sd[jm] * om[m];
             }
-            self.rth[j * n + j] = -diag - g[j] * self.sn[j];
-            self.rom[j * n + j] = 0.0;
+            rth[j * n + j] = -diag - g[j] * sn[j];
+            rom[j * n + j] = 0.0;
         }
-        sandwich(&mut self.rth, n);
-        sandwich(&mut self.rom, n);
+        sandwich_body(rth, n);
+        sandwich_body(rom, n);
+        let jz = &mut self.jz[..n * nz];
         for i in 0..n {
-            let row = &mut self.jz[i * nz..(i + 1) * nz];
+            let row = &mut jz[i * nz..(i + 1) * nz];
             for c in 0..n {
-                row[c] = -self.rth[i * n + c];
-                row[n + c] = -self.rom[i * n + c];
+                row[c] = -rth[i * n + c];
+                row[n + c] = -rom[i * n + c];
             }
             for c in 0..n - 1 {
                 row[2 * n + c] = if c + 1 == i { 1.0 } else { 0.0 };
             }
         }
-        solve_multi(&self.l, n, &mut self.jz, nz);
+        solve_multi_body(&self.l, n, jz, nz);
     }
 
     /// Weighted Hessian into `hess` (after `fill_jacobian`).
     fn fill_hessian(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64]) {
-        let n = self.n;
-        let nz = self.nz();
+        if self.n == 4 {
+            self.fill_hessian_n(robot, w, hess, 4)
+        } else {
+            self.fill_hessian_n(robot, w, hess, self.n)
+        }
+    }
+
+    #[inline(always)]
+    fn fill_hessian_n(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64], n: usize) {
+        let nz = 3 * n - 1;
         assert_eq!(w.len(), n, "one weight per output qdd_i");
         assert_eq!(hess.len(), nz * nz, "hess is (3n - 1) x (3n - 1)");
-        let (d, g) = (&robot.d, &robot.gcoef);
-        self.y.copy_from_slice(w);
-        cholesky_solve_factored(&self.l, n, &mut self.y);
+        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        let (y, u) = (&mut self.y[..n], &mut self.u[..n]);
+        let l = &self.l[..n * n];
+        y.copy_from_slice(w);
+        cholesky_solve_body(l, n, y);
         let mut acc = 0.0;
         for i in 0..n {
-            acc += self.y[i];
-            self.u[i] = acc;
+            acc += y[i];
+            u[i] = acc;
         }
         // az = S jz: prefix sums over rows.
-        self.az[..nz].copy_from_slice(&self.jz[..nz]);
+        let (jz, az) = (&self.jz[..n * nz], &mut self.az[..n * nz]);
+        az[..nz].copy_from_slice(&jz[..nz]);
         for i in 1..n {
             for c in 0..nz {
-                self.az[i * nz + c] = self.az[(i - 1) * nz + c] + self.jz[i * nz + c];
+                az[i * nz + c] = az[(i - 1) * nz + c] + jz[i * nz + c];
             }
         }
         // Second derivatives of u . r at fixed al, one link pair at a time.
-        self.qtt.fill(0.0);
-        self.qto.fill(0.0);
-        self.qoo.fill(0.0);
-        let (u, al, om) = (&self.u, &self.al, &self.om);
+        let (qtt, qto, qoo) = (
+            &mut self.qtt[..n * n],
+            &mut self.qto[..n * n],
+            &mut self.qoo[..n],
+        );
+        qtt.fill(0.0);
+        qto.fill(0.0);
+        qoo.fill(0.0);
+        let (u, al, om) = (&*u, &self.al[..n], &self.om[..n]);
+        let (cd, sd, cs) = (&self.cd[..n * n], &self.sd[..n * n], &self.cs[..n]);
         for j in 0..n {
             for k in j + 1..n {
                 let jk = j * n + k;
-                let (c, s, djk) = (self.cd[jk], self.sd[jk], d[jk]);
+                let (c, s, djk) = (cd[jk], sd[jk], d[jk]);
                 let big_a = u[j] * al[k] + u[k] * al[j];
                 let big_w = u[j] * om[k] * om[k] - u[k] * om[j] * om[j];
                 let psi2 = -djk * (c * big_a + s * big_w);
-                self.qtt[j * n + j] += psi2;
-                self.qtt[k * n + k] += psi2;
-                self.qtt[jk] -= psi2;
-                self.qtt[k * n + j] -= psi2;
+                qtt[j * n + j] += psi2;
+                qtt[k * n + k] += psi2;
+                qtt[jk] -= psi2;
+                qtt[k * n + j] -= psi2;
                 let e1 = 2.0 * djk * c * u[j] * om[k];
                 let e2 = 2.0 * djk * c * u[k] * om[j];
-                self.qto[jk] += e1;
-                self.qto[k * n + k] -= e1;
-                self.qto[j * n + j] -= e2;
-                self.qto[k * n + j] += e2;
-                self.qoo[k] += 2.0 * djk * s * u[j];
-                self.qoo[j] -= 2.0 * djk * s * u[k];
+                qto[jk] += e1;
+                qto[k * n + k] -= e1;
+                qto[j * n + j] -= e2;
+                qto[k * n + j] += e2;
+                qoo[k] += 2.0 * djk * s * u[j];
+                qoo[j] -= 2.0 * djk * s * u[k];
             }
-            self.qtt[j * n + j] -= u[j] * g[j] * self.cs[j];
+            qtt[j * n + j] -= u[j] * g[j] * cs[j];
         }
         // L[m][k] = d/dth_m (M_abs u)_k.
+        let lta = &mut self.lta[..n * n];
         for k in 0..n {
             let mut diag = 0.0;
             for m in 0..n {
                 if m != k {
-                    let v = -u[m] * d[m * n + k] * self.sd[m * n + k];
-                    self.lta[m * n + k] = v;
+                    let v = -u[m] * d[m * n + k] * sd[m * n + k];
+                    lta[m * n + k] = v;
                     diag -= v;
                 }
             }
-            self.lta[k * n + k] = diag;
+            lta[k * n + k] = diag;
         }
         // P = S^T L az.
+        let p = &mut self.p[..n * nz];
         for m in 0..n {
-            let prow = &mut self.p[m * nz..(m + 1) * nz];
+            let prow = &mut p[m * nz..(m + 1) * nz];
             prow.fill(0.0);
             for k in 0..n {
-                let lmk = self.lta[m * n + k];
-                for (v, &b) in prow.iter_mut().zip(&self.az[k * nz..(k + 1) * nz]) {
+                let lmk = lta[m * n + k];
+                for (v, &b) in prow.iter_mut().zip(&az[k * nz..(k + 1) * nz]) {
                     *v += lmk * b;
                 }
             }
         }
         for m in (0..n - 1).rev() {
             for c in 0..nz {
-                self.p[m * nz + c] += self.p[(m + 1) * nz + c];
+                p[m * nz + c] += p[(m + 1) * nz + c];
             }
         }
-        sandwich(&mut self.qtt, n);
-        sandwich(&mut self.qto, n);
+        sandwich_body(qtt, n);
+        sandwich_body(qto, n);
         for m in (0..n - 1).rev() {
-            self.qoo[m] += self.qoo[m + 1];
+            qoo[m] += qoo[m + 1];
         }
         // Assemble -(Q + P + P^T) with exact symmetry.
-        let p = &self.p;
+        let p = &*p;
+        let hess = &mut hess[..nz * nz];
         let mut put = |i: usize, j: usize, v: f64| {
             hess[i * nz + j] = v;
             hess[j * nz + i] = v;
         };
         for i in 0..n {
             for l in 0..=i {
-                put(i, l, -(self.qtt[i * n + l] + p[i * nz + l] + p[l * nz + i]));
+                put(i, l, -(qtt[i * n + l] + p[i * nz + l] + p[l * nz + i]));
             }
             for l in 0..n {
-                put(i, n + l, -(self.qto[i * n + l] + p[i * nz + n + l]));
+                put(i, n + l, -(qto[i * n + l] + p[i * nz + n + l]));
             }
             for l in 0..n - 1 {
                 put(i, 2 * n + l, -p[i * nz + 2 * n + l]);
@@ -376,7 +420,7 @@ impl DynamicsDerivatives {
         }
         for i in 0..n {
             for l in 0..=i {
-                put(n + i, n + l, -self.qoo[i]);
+                put(n + i, n + l, -qoo[i]);
             }
             for l in 0..n - 1 {
                 put(n + i, 2 * n + l, 0.0);

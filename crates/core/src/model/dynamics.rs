@@ -44,36 +44,44 @@ impl<T: Scalar> Scratch<T> {
 impl Robot {
     /// Fill `ws.s`, `ws.co` (sin/cos of absolute angles) and `ws.m` (mass matrix in relative angles).
     fn fill_mass<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T]) {
-        let n = self.n;
+        self.fill_mass_n(ws, q, self.n);
+    }
+
+    /// [`Self::fill_mass`] with the link count `n` (= `self.n`) as an argument, so that callers that
+    /// pass a constant get a body with constant sizes (unrolled, no bounds checks; same arithmetic).
+    #[inline(always)]
+    fn fill_mass_n<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], n: usize) {
         debug_assert_eq!(ws.n, n, "scratch built for another robot");
+        let (q, sn, co) = (&q[..n], &mut ws.s[..n], &mut ws.co[..n]);
+        let (d, mabs, m) = (&self.d[..n * n], &mut ws.mabs[..n * n], &mut ws.m[..n * n]);
         let mut th = T::zero();
         for i in 0..n {
             th += q[i];
-            let (s, co) = th.sin_cos();
-            ws.s[i] = s;
-            ws.co[i] = co;
+            let (sv, cv) = th.sin_cos();
+            sn[i] = sv;
+            co[i] = cv;
         }
         for j in 0..n {
-            ws.mabs[j * n + j] = c(self.d[j * n + j]);
+            mabs[j * n + j] = c(d[j * n + j]);
             for k in j + 1..n {
-                let v = (ws.co[j] * ws.co[k] + ws.s[j] * ws.s[k]) * self.d[j * n + k];
-                ws.mabs[j * n + k] = v;
-                ws.mabs[k * n + j] = v;
+                let v = (co[j] * co[k] + sn[j] * sn[k]) * d[j * n + k];
+                mabs[j * n + k] = v;
+                mabs[k * n + j] = v;
             }
         }
         // M = S^T Mabs S: suffix sums over columns, then over rows.
         for i in 0..n {
             let mut acc = T::zero();
-            for m in (0..n).rev() {
-                acc += ws.mabs[i * n + m];
-                ws.mabs[i * n + m] = acc;
+            for l in (0..n).rev() {
+                acc += mabs[i * n + l];
+                mabs[i * n + l] = acc;
             }
         }
-        for m in 0..n {
+        for l in 0..n {
             let mut acc = T::zero();
-            for l in (0..n).rev() {
-                acc += ws.mabs[l * n + m];
-                ws.m[l * n + m] = acc;
+            for r in (0..n).rev() {
+                acc += mabs[r * n + l];
+                m[r * n + l] = acc;
             }
         }
     }
@@ -86,11 +94,26 @@ impl Robot {
         with_velocity: bool,
         with_gravity: bool,
     ) {
-        let n = self.n;
+        self.fill_bias_n(ws, qd, with_velocity, with_gravity, self.n);
+    }
+
+    /// [`Self::fill_bias`] with the link count as an argument (see [`Self::fill_mass_n`]).
+    #[inline(always)]
+    fn fill_bias_n<T: Scalar>(
+        &self,
+        ws: &mut Scratch<T>,
+        qd: &[T],
+        with_velocity: bool,
+        with_gravity: bool,
+        n: usize,
+    ) {
+        let (qd, sn, co, thd) = (&qd[..n], &ws.s[..n], &ws.co[..n], &mut ws.thd[..n]);
+        let (hab, h) = (&mut ws.hab[..n], &mut ws.h[..n]);
+        let (d, gcoef) = (&self.d[..n * n], &self.gcoef[..n]);
         let mut acc = T::zero();
         for i in 0..n {
             acc += qd[i];
-            ws.thd[i] = acc;
+            thd[i] = acc;
         }
         for j in 0..n {
             let mut v = T::zero();
@@ -98,20 +121,20 @@ impl Robot {
                 for k in 0..n {
                     if k != j {
                         // sin(th_j - th_k)
-                        let sjk = ws.s[j] * ws.co[k] - ws.co[j] * ws.s[k];
-                        v += sjk * ws.thd[k] * ws.thd[k] * self.d[j * n + k];
+                        let sjk = sn[j] * co[k] - co[j] * sn[k];
+                        v += sjk * thd[k] * thd[k] * d[j * n + k];
                     }
                 }
             }
             if with_gravity {
-                v += ws.co[j] * self.gcoef[j];
+                v += co[j] * gcoef[j];
             }
-            ws.hab[j] = v;
+            hab[j] = v;
         }
         let mut acc = T::zero();
         for l in (0..n).rev() {
-            acc += ws.hab[l];
-            ws.h[l] = acc;
+            acc += hab[l];
+            h[l] = acc;
         }
     }
 
@@ -144,14 +167,34 @@ impl Robot {
         tau: &[T],
         qdd: &mut [T],
     ) {
-        let n = self.n;
-        self.fill_mass(ws, q);
-        self.fill_bias(ws, qd, true, true);
-        qdd[0] = -ws.h[0];
-        for i in 1..n {
-            qdd[i] = tau[i - 1] - ws.h[i];
+        // the paper's 4 links with constant sizes, any other count through the same body
+        if self.n == 4 {
+            self.forward_dynamics_n(ws, q, qd, tau, qdd, 4);
+        } else {
+            self.forward_dynamics_n(ws, q, qd, tau, qdd, self.n);
         }
-        cholesky_solve_in_place(&mut ws.m, n, &mut qdd[..n]);
+    }
+
+    /// [`Self::forward_dynamics_into`] with the link count as an argument (see [`Self::fill_mass_n`]).
+    #[inline(always)]
+    fn forward_dynamics_n<T: Scalar>(
+        &self,
+        ws: &mut Scratch<T>,
+        q: &[T],
+        qd: &[T],
+        tau: &[T],
+        qdd: &mut [T],
+        n: usize,
+    ) {
+        self.fill_mass_n(ws, q, n);
+        self.fill_bias_n(ws, qd, true, true, n);
+        let (qdd, h, tau) = (&mut qdd[..n], &ws.h[..n], &tau[..n - 1]);
+        qdd[0] = -h[0];
+        for i in 1..n {
+            qdd[i] = tau[i - 1] - h[i];
+        }
+        cholesky_factor_body(&mut ws.m, n);
+        cholesky_solve_body(&ws.m, n, qdd);
     }
 
     /// Inverse dynamics: the generalised forces `M qdd + C qd + G` (n). For a motion the robot can make,
@@ -223,6 +266,17 @@ pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
 /// Cholesky factorisation `A = L L^T` of a symmetric positive definite `A` (row-major n x n): the lower
 /// triangle of `a` is overwritten by `L`, the strict upper triangle is left untouched.
 pub fn cholesky_factor_in_place<T: Scalar>(a: &mut [T], n: usize) {
+    if n == 4 {
+        cholesky_factor_body(a, 4)
+    } else {
+        cholesky_factor_body(a, n)
+    }
+}
+
+/// The body of [`cholesky_factor_in_place`]; a constant `n` gives constant sizes (same arithmetic).
+#[inline(always)]
+pub(crate) fn cholesky_factor_body<T: Scalar>(a: &mut [T], n: usize) {
+    let a = &mut a[..n * n];
     for j in 0..n {
         let mut d = a[j * n + j];
         for k in 0..j {
@@ -244,6 +298,17 @@ pub fn cholesky_factor_in_place<T: Scalar>(a: &mut [T], n: usize) {
 /// Solve `L L^T x = b` in place, with `L` the lower triangle of `l` (row-major n x n) as left by
 /// [`cholesky_factor_in_place`].
 pub fn cholesky_solve_factored<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+    if n == 4 {
+        cholesky_solve_body(l, 4, b)
+    } else {
+        cholesky_solve_body(l, n, b)
+    }
+}
+
+/// The body of [`cholesky_solve_factored`]; a constant `n` gives constant sizes (same arithmetic).
+#[inline(always)]
+pub(crate) fn cholesky_solve_body<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+    let (l, b) = (&l[..n * n], &mut b[..n]);
     for i in 0..n {
         let mut v = b[i];
         for k in 0..i {

@@ -49,9 +49,22 @@ pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
     }
 }
 
+/// The planner's name of the OCP solver's barrier update.
+pub(super) fn mu_strategy_of(m: brachia_ocp::MuStrategy) -> MuStrategy {
+    match m {
+        brachia_ocp::MuStrategy::Adaptive => MuStrategy::Adaptive,
+        _ => MuStrategy::Monotone,
+    }
+}
+
 /// The OCP solver's one pass as a planner attempt: callbacks are its evaluations and Hessians, the
-/// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping.
-pub(super) fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt {
+/// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping;
+/// `settings` are the ones the pass ran with (its barrier update is the attempt's label).
+pub(super) fn ocp_attempt(
+    stats: &OcpStats,
+    status: SolveStatus,
+    settings: &OcpSettings,
+) -> SolveAttempt {
     let t = stats.time;
     let callbacks_s = t.evaluation_s + t.hessian_s;
     let time_split = TimeSplit {
@@ -60,7 +73,7 @@ pub(super) fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt
         line_search_and_other_s: (t.total_s - callbacks_s - t.linear_algebra_s).max(0.0),
     };
     SolveAttempt {
-        mu_strategy: MuStrategy::Monotone,
+        mu_strategy: mu_strategy_of(settings.mu_strategy),
         status: status.clone(),
         adopted: true,
         iterations: stats.iterations,
@@ -81,6 +94,10 @@ pub(super) fn ocp_attempt(stats: &OcpStats, status: SolveStatus) -> SolveAttempt
 pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     let d = OcpSettings::default();
     OcpSettings {
+        mu_strategy: match nlp.mu_strategy {
+            MuStrategy::Monotone => brachia_ocp::MuStrategy::Monotone,
+            MuStrategy::Adaptive => brachia_ocp::MuStrategy::Adaptive,
+        },
         max_iter: nlp.max_iter,
         tol: nlp.tol,
         constr_viol_tol: nlp.constr_viol_tol,
@@ -116,9 +133,10 @@ pub(super) fn plan_shooting(
                 Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
             })?;
             let mut ocp = ocp;
-            let stats = solver.solve(&mut ocp, &ocp_settings(nlp));
+            let st = ocp_settings(nlp);
+            let stats = solver.solve(&mut ocp, &st);
             let status = status_of(&stats.status);
-            let solves = vec![ocp_attempt(&stats, status.clone())];
+            let solves = vec![ocp_attempt(&stats, status.clone(), &st)];
             (
                 solver.primal().clone(),
                 status,

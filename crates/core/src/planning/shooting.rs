@@ -266,51 +266,72 @@ impl<D: PointDynamics> StageWork<D> {
     /// Integrate `Phi(x, u)` into `self.xs`; with `jac`, also record every evaluation and leave
     /// `d Phi / d z` in `self.xsens`.
     fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool) {
-        let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
+        // the paper's 4 links with constant sizes (unrolled loops), any other count through the
+        // same body: the same arithmetic either way
+        if ctx.n == 4 {
+            self.forward_n(ctx, x, u, jac, 4);
+        } else {
+            self.forward_n(ctx, x, u, jac, ctx.n);
+        }
+    }
+
+    /// [`Self::forward`] with the link count `n = ctx.n` as an argument (a stage with inputs:
+    /// `nx = 2n`, `nz = 3n - 1`).
+    #[inline(always)]
+    fn forward_n(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, n: usize) {
+        let (nx, nz) = (2 * n, 3 * n - 1);
+        debug_assert!(ctx.nx == nx && ctx.nz == nz && u.len() == nz - nx);
+        let (x, u) = (&x[..nx], &u[..nz - nx]);
+        let ne = 4 * ctx.substeps;
+        let (xs, xsens) = (&mut self.xs[..nx], &mut self.xsens[..nx * nz]);
+        let (kv, kza) = (&mut self.kv[..4 * nx], &mut self.kz[..4 * nx * nz]);
+        let (yv, qdd) = (&mut self.yv[..nz], &mut self.qdd[..n]);
+        let (ya, jqa) = (&mut self.y[..ne * nz], &mut self.jq[..ne * n * nz]);
+        let sensa = &mut self.sens[..ne * nz * nz];
         let hs = ctx.h / ctx.substeps as f64;
         let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
-        self.xs.copy_from_slice(x);
+        xs.copy_from_slice(x);
         if jac {
-            self.xsens.fill(0.0);
+            xsens.fill(0.0);
             for a in 0..nx {
-                self.xsens[a * nz + a] = 1.0;
+                xsens[a * nz + a] = 1.0;
             }
         }
         for s in 0..ctx.substeps {
             for j in 0..4 {
                 let i = 4 * s + j;
                 let y = if jac {
-                    &mut self.y[i * nz..(i + 1) * nz]
+                    &mut ya[i * nz..(i + 1) * nz]
                 } else {
-                    &mut self.yv[..]
+                    &mut yv[..]
                 };
                 if j == 0 {
-                    y[..nx].copy_from_slice(&self.xs);
+                    y[..nx].copy_from_slice(xs);
                 } else {
-                    let kp = &self.kv[(j - 1) * nx..j * nx];
+                    let kp = &kv[(j - 1) * nx..j * nx];
                     for a in 0..nx {
-                        y[a] = self.xs[a] + coef[j] * kp[a];
+                        y[a] = xs[a] + coef[j] * kp[a];
                     }
                 }
                 y[nx..].copy_from_slice(u);
                 if jac {
-                    let sens = &mut self.sens[i * nz * nz..(i + 1) * nz * nz];
+                    let sens = &mut sensa[i * nz * nz..(i + 1) * nz * nz];
                     if j == 0 {
-                        sens[..nx * nz].copy_from_slice(&self.xsens);
+                        sens[..nx * nz].copy_from_slice(xsens);
                     } else {
-                        let kzp = &self.kz[(j - 1) * nx * nz..j * nx * nz];
+                        let kzp = &kza[(j - 1) * nx * nz..j * nx * nz];
                         for e in 0..nx * nz {
-                            sens[e] = self.xsens[e] + coef[j] * kzp[e];
+                            sens[e] = xsens[e] + coef[j] * kzp[e];
                         }
                     }
                     sens[nx * nz..].fill(0.0);
                     for m in 0..nz - nx {
                         sens[(nx + m) * nz + nx + m] = 1.0;
                     }
-                    let jq = &mut self.jq[i * n * nz..(i + 1) * n * nz];
-                    self.dynamics[i].jacobian(y, &mut self.qdd, jq);
+                    let jq = &mut jqa[i * n * nz..(i + 1) * n * nz];
+                    self.dynamics[i].jacobian(y, qdd, jq);
                     // K_j = [S_i rows n..2n ; Jq S_i]
-                    let kz = &mut self.kz[j * nx * nz..(j + 1) * nx * nz];
+                    let kz = &mut kza[j * nx * nz..(j + 1) * nx * nz];
                     kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
                     // the input rows of S_i are [0 I]: their products are the input columns of Jq
                     for r in 0..n {
@@ -327,26 +348,26 @@ impl<D: PointDynamics> StageWork<D> {
                         }
                     }
                 } else {
-                    self.dynamics[i].value(y, &mut self.qdd);
+                    self.dynamics[i].value(y, qdd);
                 }
-                let k = &mut self.kv[j * nx..(j + 1) * nx];
+                let k = &mut kv[j * nx..(j + 1) * nx];
                 k[..n].copy_from_slice(&y[n..nx]);
-                k[n..].copy_from_slice(&self.qdd);
+                k[n..].copy_from_slice(qdd);
             }
             let c6 = hs / 6.0;
-            let (k1, rest) = self.kv.split_at(nx);
+            let (k1, rest) = kv.split_at(nx);
             let (k2, rest) = rest.split_at(nx);
             let (k3, k4) = rest.split_at(nx);
             for a in 0..nx {
-                self.xs[a] += c6 * (k1[a] + 2.0 * k2[a] + 2.0 * k3[a] + k4[a]);
+                xs[a] += c6 * (k1[a] + 2.0 * k2[a] + 2.0 * k3[a] + k4[a]);
             }
             if jac {
                 let m = nx * nz;
-                let (z1, rest) = self.kz.split_at(m);
+                let (z1, rest) = kza.split_at(m);
                 let (z2, rest) = rest.split_at(m);
                 let (z3, z4) = rest.split_at(m);
                 for e in 0..m {
-                    self.xsens[e] += c6 * (z1[e] + 2.0 * z2[e] + 2.0 * z3[e] + z4[e]);
+                    xsens[e] += c6 * (z1[e] + 2.0 * z2[e] + 2.0 * z3[e] + z4[e]);
                 }
             }
         }

@@ -118,8 +118,9 @@ pub struct SwingPlanner {
     /// Absolute time of knot 0 of the problem as it stands.
     t0: f64,
     x_full: Vec<f64>,
-    /// Status and statistics of the last solve (for the [`Plan`]); `None` before the first.
-    last: Option<(SolveStatus, OcpStats)>,
+    /// Status and statistics of the last solve and whether it was warm (for the [`Plan`]); `None`
+    /// before the first.
+    last: Option<(SolveStatus, OcpStats, bool)>,
 }
 
 impl SwingPlanner {
@@ -297,7 +298,7 @@ impl SwingPlanner {
     /// The [`Plan`] of the current solution (knot times from 0 at its start). Allocates.
     pub fn current_plan(&mut self) -> Result<Plan> {
         let z = self.solver.primal().clone();
-        let (status, stats) = self.last.clone().ok_or_else(|| {
+        let (status, stats, warm) = self.last.clone().ok_or_else(|| {
             Error::invalid(
                 "planner",
                 "current_plan",
@@ -323,7 +324,11 @@ impl SwingPlanner {
                 status: status.clone(),
                 objective: stats.objective,
                 backend: Backend::Ocp,
-                solves: vec![ocp_attempt(&stats, status)],
+                solves: vec![ocp_attempt(
+                    &stats,
+                    status,
+                    if warm { &self.warm } else { &self.cold },
+                )],
             },
         )
     }
@@ -428,7 +433,7 @@ impl SwingPlanner {
         let k_last = self.layout.intervals;
         let ee = self.robot.ee_position(&self.solver.primal().x[k_last][..n]);
         let tg = self.ocp.target();
-        self.last = Some((status.clone(), stats.clone()));
+        self.last = Some((status.clone(), stats.clone(), warm));
         ReplanOutcome {
             status,
             iterations: stats.iterations,
