@@ -250,14 +250,19 @@ fn positive_work(log: &ClosedLoopLog) -> f64 {
 /// Frame rate of `traverse.gif`, frames per second.
 const GIF_FPS: f64 = 20.0;
 
-/// Margin by which the q1 range of a later swing is widened past its start angle, rad.
+/// Margin by which the q1 range (and `q_rel_max`) of a later swing is widened past its start angle, rad.
 pub const Q1_WIDEN_MARGIN: f64 = 0.1;
 
 /// A later swing starts where the last one left the chain: its link 1 (the old link n) may point above
-/// the bar, and its joint rates may exceed `planner.bounds.qd_max` a little (the rate bound is then
-/// raised to 1.05 times the largest start rate). Take the start angle's representative (mod 2 pi) nearest `planner.bounds.q1` and, when it
-/// lies outside, widen the range to include it with [`Q1_WIDEN_MARGIN`] to spare.
-fn widen_q1(sc: &mut crate::scenario::Scenario) {
+/// the bar, a relative joint may end a little past `planner.bounds.q_rel_max` (the bound is on the
+/// plan; the tracked chain follows it within its tracking error), and its joint rates may exceed
+/// `planner.bounds.qd_max` a little. Take the start angle's representative (mod 2 pi) nearest
+/// `planner.bounds.q1` and, when it lies outside, widen the range to include it with
+/// [`Q1_WIDEN_MARGIN`] to spare; widen `q_rel_max` the same way to the largest start |q_i| plus
+/// [`Q1_WIDEN_MARGIN`], at most pi (a relative angle past pi is a link through its neighbour, which
+/// no start state reaches: the wrapped angle is at most pi); raise the rate bound to 1.05 times the
+/// largest start rate.
+fn widen_start_bounds(sc: &mut crate::scenario::Scenario) {
     let [lo, hi] = sc.planner.bounds.q1;
     let best = q1_nearest(sc.task.q0[0], [lo, hi]);
     sc.task.q0[0] = best;
@@ -265,9 +270,14 @@ fn widen_q1(sc: &mut crate::scenario::Scenario) {
         lo.min(best - Q1_WIDEN_MARGIN),
         hi.max(best + Q1_WIDEN_MARGIN),
     ];
-    // the tracked swing may end a little past the planner's joint-rate bound
-    let qd = sc.task.qd0.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+    // the tracked swing may end a little past the planner's bound on the relative joints
+    let q_rel = sc.task.q0[1..].iter().fold(0.0, |m: f64, v| m.max(v.abs()));
     let b = &mut sc.planner.bounds;
+    if q_rel > b.q_rel_max {
+        b.q_rel_max = (q_rel + Q1_WIDEN_MARGIN).min(std::f64::consts::PI);
+    }
+    // and a little past its joint-rate bound
+    let qd = sc.task.qd0.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
     if qd > b.qd_max {
         b.qd_max = (qd * 1.05).min(brachia::limits::MAX_RATE_RAD_S);
     }
@@ -397,7 +407,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             // the plant starts where the plan does: q1 as the representative (mod 2 pi) the plan uses
             // (chosen at the switch, so the rapier chain is rebuilt with it), or the controller would
             // see a 2 pi error
-            widen_q1(&mut swing_sc);
+            widen_start_bounds(&mut swing_sc);
             x[0] = swing_sc.task.q0[0];
         }
         let ls = LoadedScenario {

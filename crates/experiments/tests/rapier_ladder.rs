@@ -131,3 +131,27 @@ fn traverse_disturbances_take_only_the_per_link_factors() {
     let e = LadderScenario::load(&path).unwrap_err().to_string();
     assert!(e.contains("mass_scale"), "{e}");
 }
+
+#[test]
+fn the_irregular_ladder_completes_on_rapier_with_every_capture_within_2_cm() {
+    // all six bars: swing 2 starts with a relative joint past planner.bounds.q_rel_max (the tracked
+    // chain ends a little past the plan's bound), which the traverse widens for that swing
+    let dir = tempfile::tempdir().unwrap();
+    let ll = LadderScenario::load(&cut(dir.path(), "ladder-irregular-rapier.toml", 6, |_| {}))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let tr = run_traverse(&ll).unwrap();
+    assert!(tr.status.completed(), "{} ({:?})", tr.status, tr.swings);
+    assert_eq!(tr.swings.len(), 5);
+    for s in &tr.swings {
+        assert!(s.capture_error_m < 0.02, "swing {}: {s:?}", s.swing);
+        assert!(s.switch_residual_m_s < 0.1, "swing {}: {s:?}", s.swing);
+        assert!(s.energy_j.is_finite() && s.positive_work_j > 0.0);
+        let g = s.regrip.as_ref().expect("a rapier switch");
+        assert!(g.position_residual_m < 1e-9, "{g:?}");
+    }
+    let r = tr.report(&ll);
+    assert_eq!(r["totals"]["bars_caught"], 5);
+    for k in 0..5 {
+        assert!(r["swings"][k]["energy_j"].as_f64().is_some());
+    }
+}
