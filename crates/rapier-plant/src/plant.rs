@@ -468,7 +468,7 @@ impl RapierPlant {
         };
         if r.position_residual_m.is_nan() || r.position_residual_m > REGRIP_TOLERANCE_M {
             return Err(Error::InfeasibleTask(format!(
-                "regrip: the rebuilt chain is {:.3e} m from the old one (tolerance                  {REGRIP_TOLERANCE_M} m): the new state is not the old pose re-rooted at grip                  [{}, {}]",
+                "regrip: the rebuilt chain is {:.3e} m from the old one (tolerance {REGRIP_TOLERANCE_M} m): the new state is not the old pose re-rooted at grip [{}, {}]",
                 r.position_residual_m, grip[0], grip[1]
             )));
         }
