@@ -133,6 +133,23 @@
 //! ```
 #![warn(missing_docs)]
 
+/// `$body` with `$n` bound to the link count `$count`: to the constant 4 for the paper's robot, so an
+/// `#[inline(always)]` body called from it is compiled with constant sizes (unrolled, no bounds checks;
+/// the same arithmetic), and to the run-time count for any other robot. The one dispatch of the crate's
+/// constant-size kernels (forward dynamics, Cholesky, analytic derivatives, the shooting pass).
+macro_rules! with_link_count {
+    ($count:expr, |$n:ident| $body:expr) => {{
+        let count: usize = $count;
+        if count == 4 {
+            let $n: usize = 4;
+            $body
+        } else {
+            let $n: usize = count;
+            $body
+        }
+    }};
+}
+
 pub mod ad;
 pub mod control;
 pub mod error;

@@ -171,11 +171,7 @@ impl DynamicsDerivatives {
     fn prepare(&mut self, robot: &Robot, z: &[f64]) {
         // the paper's 4 links with constant sizes (unrolled, no bounds checks), any other count
         // through the same body: the same arithmetic either way
-        if self.n == 4 {
-            self.prepare_n(robot, z, 4)
-        } else {
-            self.prepare_n(robot, z, self.n)
-        }
+        with_link_count!(self.n, |n| self.prepare_n(robot, z, n))
     }
 
     #[inline(always)]
@@ -255,11 +251,7 @@ impl DynamicsDerivatives {
 
     /// `jz = d qdd / dz` (after `prepare`).
     fn fill_jacobian(&mut self, robot: &Robot) {
-        if self.n == 4 {
-            self.fill_jacobian_n(robot, 4)
-        } else {
-            self.fill_jacobian_n(robot, self.n)
-        }
+        with_link_count!(self.n, |n| self.fill_jacobian_n(robot, n))
     }
 
     #[inline(always)]
@@ -302,11 +294,7 @@ impl DynamicsDerivatives {
 
     /// Weighted Hessian into `hess` (after `fill_jacobian`).
     fn fill_hessian(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64]) {
-        if self.n == 4 {
-            self.fill_hessian_n(robot, w, hess, 4)
-        } else {
-            self.fill_hessian_n(robot, w, hess, self.n)
-        }
+        with_link_count!(self.n, |n| self.fill_hessian_n(robot, w, hess, n))
     }
 
     #[inline(always)]

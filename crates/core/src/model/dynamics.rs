@@ -168,11 +168,7 @@ impl Robot {
         qdd: &mut [T],
     ) {
         // the paper's 4 links with constant sizes, any other count through the same body
-        if self.n == 4 {
-            self.forward_dynamics_n(ws, q, qd, tau, qdd, 4);
-        } else {
-            self.forward_dynamics_n(ws, q, qd, tau, qdd, self.n);
-        }
+        with_link_count!(self.n, |n| self.forward_dynamics_n(ws, q, qd, tau, qdd, n));
     }
 
     /// [`Self::forward_dynamics_into`] with the link count as an argument (see [`Self::fill_mass_n`]).
@@ -266,11 +262,7 @@ pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
 /// Cholesky factorisation `A = L L^T` of a symmetric positive definite `A` (row-major n x n): the lower
 /// triangle of `a` is overwritten by `L`, the strict upper triangle is left untouched.
 pub fn cholesky_factor_in_place<T: Scalar>(a: &mut [T], n: usize) {
-    if n == 4 {
-        cholesky_factor_body(a, 4)
-    } else {
-        cholesky_factor_body(a, n)
-    }
+    with_link_count!(n, |n| cholesky_factor_body(a, n))
 }
 
 /// The body of [`cholesky_factor_in_place`]; a constant `n` gives constant sizes (same arithmetic).
@@ -298,11 +290,7 @@ pub(crate) fn cholesky_factor_body<T: Scalar>(a: &mut [T], n: usize) {
 /// Solve `L L^T x = b` in place, with `L` the lower triangle of `l` (row-major n x n) as left by
 /// [`cholesky_factor_in_place`].
 pub fn cholesky_solve_factored<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
-    if n == 4 {
-        cholesky_solve_body(l, 4, b)
-    } else {
-        cholesky_solve_body(l, n, b)
-    }
+    with_link_count!(n, |n| cholesky_solve_body(l, n, b))
 }
 
 /// The body of [`cholesky_solve_factored`]; a constant `n` gives constant sizes (same arithmetic).

@@ -268,11 +268,7 @@ impl<D: PointDynamics> StageWork<D> {
     fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool) {
         // the paper's 4 links with constant sizes (unrolled loops), any other count through the
         // same body: the same arithmetic either way
-        if ctx.n == 4 {
-            self.forward_n(ctx, x, u, jac, 4);
-        } else {
-            self.forward_n(ctx, x, u, jac, ctx.n);
-        }
+        with_link_count!(ctx.n, |n| self.forward_n(ctx, x, u, jac, n));
     }
 
     /// [`Self::forward`] with the link count `n = ctx.n` as an argument (a stage with inputs:
