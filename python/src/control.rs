@@ -66,7 +66,7 @@ impl Mpc {
     ) -> PyResult<Self> {
         let settings: MpcSettings = settings_from(settings, kwargs, "mpc settings")?;
         let reference = reference_of(reference)?;
-        let n = robot.inner.n;
+        let n = robot.inner.n();
         let inner =
             brachia::control::Mpc::new(robot.inner.clone(), reference, settings).map_err(rs)?;
         Ok(Mpc {
@@ -154,7 +154,7 @@ pub(crate) fn rust_mpc_step_times<'py>(
     }
     let settings: MpcSettings = settings_from(settings, None, "mpc settings")?;
     let reference = reference_of(reference)?;
-    let n = robot.inner.n;
+    let n = robot.inner.n();
     let mut m =
         brachia::control::Mpc::new(robot.inner.clone(), reference.clone(), settings).map_err(rs)?;
     let mut times = vec![0.0; steps];

@@ -24,11 +24,11 @@ pub struct Robot {
 impl Robot {
     /// `q` (n values, rad).
     fn q(&self, q: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-        vector(q, "q", self.inner.n, "joint angles, rad")
+        vector(q, "q", self.inner.n(), "joint angles, rad")
     }
     /// `qd` (n values, rad/s).
     fn qd(&self, qd: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-        vector(qd, "qd", self.inner.n, "joint velocities, rad/s")
+        vector(qd, "qd", self.inner.n(), "joint velocities, rad/s")
     }
 }
 
@@ -70,7 +70,7 @@ impl Robot {
     /// Number of links n (= joints).
     #[getter]
     fn n_links(&self) -> usize {
-        self.inner.n
+        self.inner.n()
     }
 
     /// State dimension 2n (``x = [q, qd]``).
@@ -88,7 +88,7 @@ impl Robot {
     /// The name from the parameters file.
     #[getter]
     fn name(&self) -> String {
-        self.inner.params.name.clone()
+        self.inner.params().name.clone()
     }
 
     /// Gravitational acceleration, m/s^2 (along -y).
@@ -100,13 +100,13 @@ impl Robot {
     /// Link lengths, m, shape ``(n,)``.
     #[getter]
     fn lengths<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arr1(py, &self.inner.len)
+        arr1(py, self.inner.lengths())
     }
 
     /// Link masses, kg, shape ``(n,)``.
     #[getter]
     fn masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arr1(py, &self.inner.mass)
+        arr1(py, self.inner.masses())
     }
 
     /// Lower torque limits of joints 2..n, N m, shape ``(n - 1,)``.
@@ -124,7 +124,7 @@ impl Robot {
     /// The parameters as a dict (the TOML schema: name, gravity, links, actuators).
     #[getter]
     fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.inner.params)
+        to_py(py, self.inner.params())
     }
 
     /// Mass matrix ``M(q)``, shape ``(n, n)``, kg m^2 (symmetric positive definite).
@@ -135,7 +135,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        arr2(py, self.inner.mass_matrix(&q), self.inner.n)
+        arr2(py, self.inner.mass_matrix(&q), self.inner.n())
     }
 
     /// Coriolis and centrifugal forces ``C(q, qd) qd``, shape ``(n,)``, N m.
@@ -147,7 +147,7 @@ impl Robot {
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
-        let n = self.inner.n;
+        let n = self.inner.n();
         let mut out = vec![0.0; n];
         self.inner
             .coriolis_into(&mut Scratch::new(n), &q, &qd, &mut out);
@@ -162,7 +162,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        let n = self.inner.n;
+        let n = self.inner.n();
         let mut out = vec![0.0; n];
         self.inner.gravity_into(&mut Scratch::new(n), &q, &mut out);
         arr1(py, &out)
@@ -192,7 +192,7 @@ impl Robot {
         qdd: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
-        let n = self.inner.n;
+        let n = self.inner.n();
         let qdd = vector(qdd, "qdd", n, "joint accelerations, rad/s^2")?;
         let mut out = vec![0.0; n];
         self.inner
@@ -208,7 +208,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        let mut pts = vec![[0.0; 2]; self.inner.n + 1];
+        let mut pts = vec![[0.0; 2]; self.inner.n() + 1];
         self.inner.joint_positions(&q, &mut pts);
         arr2(py, pts.concat(), 2)
     }
@@ -241,7 +241,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        let n = self.inner.n;
+        let n = self.inner.n();
         let mut jac = vec![0.0; 2 * n];
         self.inner.ee_jacobian(&q, &mut jac);
         arr2(py, jac, n)
@@ -256,7 +256,9 @@ impl Robot {
     fn __repr__(&self) -> String {
         format!(
             "Robot(name={:?}, n_links={}, gravity={})",
-            self.inner.params.name, self.inner.n, self.inner.gravity
+            self.inner.params().name,
+            self.inner.n(),
+            self.inner.gravity
         )
     }
 }

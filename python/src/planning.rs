@@ -114,13 +114,13 @@ impl Plan {
     /// Joint angles, rad, shape ``(samples, n)``.
     #[getter]
     fn q<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arr2(py, self.trajectory.q.clone(), self.robot.n)
+        arr2(py, self.trajectory.q.clone(), self.robot.n())
     }
 
     /// Joint velocities, rad/s, shape ``(samples, n)``.
     #[getter]
     fn qd<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arr2(py, self.trajectory.qd.clone(), self.robot.n)
+        arr2(py, self.trajectory.qd.clone(), self.robot.n())
     }
 
     /// Torques of joints 2..n, N m, shape ``(samples, n - 1)``.

@@ -197,7 +197,7 @@ impl Scenario {
             "Scenario(name={:?}, path={:?}, n_links={})",
             self.ls.scenario.name,
             self.ls.path.display().to_string(),
-            self.robot.n
+            self.robot.n()
         )
     }
 }

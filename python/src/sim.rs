@@ -26,7 +26,7 @@ const MAX_STEP_DT: f64 = 1.0;
 
 /// `x0` (or the robot at rest hanging straight down when `None`) as a checked state.
 fn start_state(robot: &brachia::Robot, x0: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
-    let n = robot.n;
+    let n = robot.n();
     match x0 {
         Some(x) => {
             let mut v = vec![0.0; 2 * n];
@@ -176,7 +176,7 @@ impl RapierPlant {
             }
             _ => Vec::new(),
         };
-        let max = brachia::planning::planner::MAX_OBSTACLES;
+        let max = brachia::planning::MAX_OBSTACLES;
         if obstacles.len() > max {
             return Err(bad(format!(
                 "obstacles: {} obstacles; at most {max}",
@@ -501,10 +501,11 @@ pub(crate) fn track(
             )))
         }
         None => {
-            if reference.n != r.n {
+            if reference.n != r.n() {
                 return Err(bad(format!(
                     "reference: a trajectory of {} links for the {}-link robot",
-                    reference.n, r.n
+                    reference.n,
+                    r.n()
                 )));
             }
             let x0 = [reference.q(0), reference.qd(0)].concat();

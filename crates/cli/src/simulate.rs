@@ -42,7 +42,7 @@ pub struct Args {
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let robot = Robot::from_toml_file(&a.params)?;
-    let n = robot.n;
+    let n = robot.n();
     let q0 = parse_list("--q0", &a.q0, n)?;
     let qd0 = match &a.qd0 {
         Some(s) => parse_list("--qd0", s, n)?,
@@ -135,7 +135,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         &json!({
             "command": "simulate",
             "params": a.params.display().to_string(),
-            "robot": robot.params.name,
+            "robot": robot.params().name,
             "q0": q0, "qd0": qd0,
             "duration_s": a.duration, "dt_s": a.dt, "substeps": a.substeps,
             "integrator": "rk4",

@@ -22,12 +22,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::Instant;
 
 fn task() -> SwingTask {
-    SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    }
+    SwingTask::paper()
 }
 
 /// The three configurations: (name, transcription, backend).

@@ -144,7 +144,7 @@ fn pounce_problem(
     x: &[f64],
     z: &Primal,
 ) -> OcpNlp<SwingOcp> {
-    let n = robot.n;
+    let n = robot.n();
     let spec = SwingOcpSpec {
         intervals: k,
         swing_time_s: t_rem,

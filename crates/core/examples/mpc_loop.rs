@@ -15,12 +15,7 @@ use std::sync::Arc;
 
 fn main() -> Result<(), brachia::Error> {
     let robot = Arc::new(Robot::paper());
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let settings = PlannerSettings::default();
     let p = plan(&robot, &task, &settings, &NlpSettings::default())?;
     if !p.converged() {
@@ -49,14 +44,14 @@ fn main() -> Result<(), brachia::Error> {
             let mut x = vec![0.0; robot.nx()];
             cl.plant().state(&mut x);
             let rest = SwingTask {
-                q0: x[..robot.n].to_vec(),
-                qd0: x[robot.n..].to_vec(),
+                q0: x[..robot.n()].to_vec(),
+                qd0: x[robot.n()..].to_vec(),
                 ..task.clone()
             };
             let t_now = cl.plant().time();
             match plan(&robot, &rest, &settings, &NlpSettings::default()) {
                 Ok(p2) if p2.converged() => {
-                    let mut shifted = Trajectory::new(robot.n);
+                    let mut shifted = Trajectory::new(robot.n());
                     let tr = &p2.trajectory;
                     for k in 0..tr.len() {
                         shifted.push(t_now + tr.t[k], tr.q(k), tr.qd(k), tr.tau(k));

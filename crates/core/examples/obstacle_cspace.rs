@@ -104,12 +104,7 @@ fn main() -> Result<(), brachia::Error> {
         .map(|v| v.split(',').filter_map(|x| x.parse().ok()).collect())
         .unwrap_or_default();
     let robot = Robot::paper();
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let ms = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.01,

@@ -12,12 +12,7 @@ use brachia::Robot;
 
 fn main() -> Result<(), brachia::Error> {
     let robot = Robot::paper();
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let p = plan(
         &robot,
         &task,

@@ -14,12 +14,7 @@ fn main() -> Result<(), brachia::Error> {
     let knot_ms: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(30.0);
     let count: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(1);
     let robot = Robot::paper();
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let mut s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: knot_ms * 1e-3,

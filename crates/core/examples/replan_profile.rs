@@ -75,7 +75,7 @@ fn main() -> Result<(), brachia::Error> {
         .position(|t| (t - T_NOW).abs() < 1e-9)
         .expect("a sample at t = 0.6 s");
     let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
-    let n = robot.n;
+    let n = robot.n();
     let b = &s.bounds;
     let mut rng = ChaCha8Rng::seed_from_u64(2026);
     let states: Vec<Vec<f64>> = (0..100)

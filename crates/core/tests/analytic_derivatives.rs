@@ -117,7 +117,7 @@ fn rel_err(a: &[f64], b: &[f64]) -> f64 {
 #[test]
 fn qdd_is_the_forward_dynamics_bit_for_bit() {
     for (robot, zs) in cases(11, 2, 5) {
-        let n = robot.n;
+        let n = robot.n();
         let mut dd = DynamicsDerivatives::new(&robot);
         let mut ws = Scratch::new(n);
         for z in zs {
@@ -132,7 +132,7 @@ fn qdd_is_the_forward_dynamics_bit_for_bit() {
 #[test]
 fn jacobian_matches_automatic_differentiation() {
     for (robot, zs) in cases(12, 3, 6) {
-        let n = robot.n;
+        let n = robot.n();
         let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
@@ -160,7 +160,7 @@ fn jacobian_matches_automatic_differentiation() {
 #[test]
 fn weighted_hessian_matches_automatic_differentiation() {
     for (robot, zs) in cases(13, 2, 3) {
-        let n = robot.n;
+        let n = robot.n();
         let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
@@ -183,7 +183,7 @@ fn weighted_hessian_matches_automatic_differentiation() {
 #[test]
 fn jacobian_matches_finite_differences() {
     for (robot, zs) in cases(14, 2, 4) {
-        let n = robot.n;
+        let n = robot.n();
         let f = DynamicsFn::new(robot.clone());
         let mut dd = DynamicsDerivatives::new(&robot);
         for z in zs {
@@ -202,7 +202,7 @@ fn jacobian_matches_finite_differences() {
 #[test]
 fn weighted_hessian_matches_finite_differences_of_the_gradient() {
     for (robot, zs) in cases(15, 2, 3) {
-        let n = robot.n;
+        let n = robot.n();
         let nz = 3 * n - 1;
         let f = DynamicsFn::new(robot.clone());
         let mut dd = DynamicsDerivatives::new(&robot);
@@ -228,7 +228,7 @@ fn weighted_hessian_matches_finite_differences_of_the_gradient() {
 #[test]
 fn hessian_is_symmetric_linear_in_the_weights_and_structurally_sparse() {
     for (robot, zs) in cases(16, 2, 3) {
-        let n = robot.n;
+        let n = robot.n();
         let nz = 3 * n - 1;
         let mut dd = DynamicsDerivatives::new(&robot);
         let mut rng = ChaCha8Rng::seed_from_u64(200 + n as u64);
@@ -274,7 +274,7 @@ fn hessian_is_symmetric_linear_in_the_weights_and_structurally_sparse() {
 #[test]
 fn combined_call_equals_the_separate_calls() {
     for (robot, zs) in cases(17, 1, 3) {
-        let n = robot.n;
+        let n = robot.n();
         let nz = 3 * n - 1;
         let mut dd = DynamicsDerivatives::new(&robot);
         let w: Vec<f64> = (0..n).map(|i| 0.5 - i as f64 * 0.3).collect();
@@ -293,7 +293,7 @@ fn combined_call_equals_the_separate_calls() {
 fn mpc_linearisation_equals_the_ad_jacobian() {
     // The Linearizer runs on the analytic Jacobian; its A and B rows of qdd must be the AD ones.
     for (robot, zs) in cases(18, 1, 3) {
-        let n = robot.n;
+        let n = robot.n();
         let (nx, nu, nz) = (2 * n, n - 1, 3 * n - 1);
         let f = DynamicsFn::new(robot.clone());
         let mut diff = Diff::new(&f);

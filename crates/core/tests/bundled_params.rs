@@ -11,5 +11,5 @@ fn bundled_paper_params_equal_the_workspace_file() {
         "crates/core/params/paper.toml differs from params/paper.toml: copy one onto the other"
     );
     let robot = brachia::Robot::paper();
-    assert_eq!(robot.n, 4);
+    assert_eq!(robot.n(), 4);
 }

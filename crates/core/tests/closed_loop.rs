@@ -110,7 +110,7 @@ fn window(robot: &Robot, tr: &Trajectory, t: f64, s: &MpcSettings, zero_ref: boo
     for k in 0..s.horizon {
         let mut x = vec![0.0; nx];
         tr.state_at(t + (k + 1) as f64 * s.dt_mpc, &mut x);
-        let ee = robot.ee_position(&x[..robot.n]);
+        let ee = robot.ee_position(&x[..robot.n()]);
         yd.push(DVector::from_column_slice(&ee));
         xd.push(DVector::from_vec(x));
         ur.push(if zero_ref {
@@ -170,7 +170,7 @@ fn unconstrained_mpc_equals_lqr_euler() {
 
         // Independent model: linearise at (x0, planned torque at t) as the MPC does on a cold call.
         let mut lin = Linearizer::new(robot.clone());
-        let mut lm = LinearModel::zeros(robot.n);
+        let mut lm = LinearModel::zeros(robot.n());
         let u_lin: Vec<f64> = planned_tau(&tr, t).iter().copied().collect();
         lin.linearize_into(&x0, &u_lin, &mut lm);
         let st = || euler_stage(&lm, nx, nu, settings.dt_mpc);
@@ -227,7 +227,7 @@ fn unconstrained_mpc_equals_lqr_zoh_ltv() {
 
     // ZOH check: exp(dt [A B F; 0 0 0]).
     let mut lin = Linearizer::new(robot.clone());
-    let mut lm = LinearModel::zeros(robot.n);
+    let mut lm = LinearModel::zeros(robot.n());
     let u_lin: Vec<f64> = planned_tau(&tr, t).iter().copied().collect();
     lin.linearize_into(&x0, &u_lin, &mut lm);
     let me = nx + nu + 1;
@@ -260,7 +260,7 @@ fn unconstrained_mpc_equals_lqr_zoh_ltv() {
     let outs: Vec<Stage> = (1..=settings.horizon).map(to_stage).collect();
     // The LTV stage-k model must be the linearisation at the reference x^d_k.
     let w = window(&robot, &tr, t, &settings, true);
-    let mut lm2 = LinearModel::zeros(robot.n);
+    let mut lm2 = LinearModel::zeros(robot.n());
     let xd3: Vec<f64> = w.xd[2].iter().copied().collect();
     let u3: Vec<f64> = planned_tau(&tr, t + 3.0 * settings.dt_mpc)
         .iter()
@@ -351,9 +351,9 @@ fn open_loop_replay_reproduces_the_reference() {
     let mut worst: f64 = 0.0;
     for k in 0..log.len() {
         assert!((log.t[k] - tr.t[k]).abs() < 1e-12);
-        for i in 0..robot.n {
+        for i in 0..robot.n() {
             worst = worst.max((log.x(k)[i] - tr.q(k)[i]).abs());
-            worst = worst.max((log.x(k)[robot.n + i] - tr.qd(k)[i]).abs());
+            worst = worst.max((log.x(k)[robot.n() + i] - tr.qd(k)[i]).abs());
         }
         if k + 1 < log.len() {
             for j in 0..robot.nu() {
@@ -386,7 +386,7 @@ fn pd_corrects_actuated_joint_errors() {
     let rs = RunSettings::default();
     let act_err = |log: &ClosedLoopLog| {
         let k = log.len() - 1;
-        (1..robot.n)
+        (1..robot.n())
             .map(|i| (log.x(k)[i] - log.ref_x(k)[i]).abs())
             .fold(0.0, f64::max)
     };

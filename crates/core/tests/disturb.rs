@@ -123,7 +123,7 @@ fn measurement_delay_shows_the_state_of_d_steps_ago() {
 /// Angular momentum of the robot about the grip, kg m^2/s:
 /// `sum_i m_i (r_ci x v_ci) + I_i omega_i`, with COM velocities from the point Jacobian.
 fn angular_momentum(robot: &brachia::Robot, x: &[f64]) -> f64 {
-    let n = robot.n;
+    let n = robot.n();
     let (q, qd) = (&x[..n], &x[n..]);
     let mut com = vec![[0.0; 2]; n];
     robot.com_positions(q, &mut com);
@@ -131,13 +131,13 @@ fn angular_momentum(robot: &brachia::Robot, x: &[f64]) -> f64 {
     let mut l = 0.0;
     let mut w = 0.0;
     for i in 0..n {
-        point_jacobian(robot, q, i, robot.com[i], &mut jac);
+        point_jacobian(robot, q, i, robot.coms()[i], &mut jac);
         let v: [f64; 2] = [
             (0..n).map(|k| jac[k] * qd[k]).sum(),
             (0..n).map(|k| jac[n + k] * qd[k]).sum(),
         ];
         w += qd[i];
-        l += robot.mass[i] * (com[i][0] * v[1] - com[i][1] * v[0]) + robot.inertia[i] * w;
+        l += robot.masses()[i] * (com[i][0] * v[1] - com[i][1] * v[0]) + robot.inertias()[i] * w;
     }
     l
 }
@@ -146,7 +146,7 @@ fn angular_momentum(robot: &brachia::Robot, x: &[f64]) -> f64 {
 fn the_point_jacobian_matches_finite_differences() {
     let robot = paper_robot(5.0);
     let q = [-2.0, 0.4, -1.1, 0.7];
-    for (link, s) in [(0, 0.1), (2, 0.3), (3, robot.len[3])] {
+    for (link, s) in [(0, 0.1), (2, 0.3), (3, robot.lengths()[3])] {
         let mut jac = vec![0.0; 8];
         point_jacobian(&robot, &q, link, s, &mut jac);
         let f = |q: &[f64], out: &mut [f64]| {
@@ -164,7 +164,7 @@ fn the_point_jacobian_matches_finite_differences() {
     // at the EE it is the EE Jacobian
     let mut jac = vec![0.0; 8];
     let mut ee = vec![0.0; 8];
-    point_jacobian(&robot, &q, 3, robot.len[3], &mut jac);
+    point_jacobian(&robot, &q, 3, robot.lengths()[3], &mut jac);
     robot.ee_jacobian(&q, &mut ee);
     for (a, b) in jac.iter().zip(&ee) {
         assert!((a - b).abs() < 1e-12);
@@ -281,8 +281,8 @@ fn disturbances_validate_every_value_and_build_the_stack() {
     };
     ok.validate(4, 1e-3, "t").unwrap();
     assert!(!ok.is_none() && Disturbances::default().is_none());
-    let p = ok.plant_params(&robot.params);
-    assert!((p.links[0].mass - 1.1 * robot.mass[0]).abs() < 1e-15);
+    let p = ok.plant_params(robot.params());
+    assert!((p.links[0].mass - 1.1 * robot.masses()[0]).abs() < 1e-15);
     assert_eq!(ok.start_state(&start_state())[0], start_state()[0] + 0.01);
     let bad = [
         (

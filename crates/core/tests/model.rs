@@ -20,7 +20,7 @@ fn robots() -> Vec<Robot> {
     );
     v.push(Robot::from_toml_file(std::path::Path::new(path)).unwrap());
     // a 6-link robot: nothing is tied to four links
-    let mut p = Robot::paper().params.clone();
+    let mut p = Robot::paper().params().clone();
     let extra = p.links[1].clone();
     p.links.insert(2, extra.clone());
     p.links.insert(3, extra);
@@ -41,7 +41,7 @@ fn random_state(rng: &mut ChaCha8Rng, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>
 fn mass_matrix_is_symmetric_positive_definite() {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         for _ in 0..200 {
             let (q, _, _) = random_state(&mut rng, n);
             let m = robot.mass_matrix(&q);
@@ -71,7 +71,7 @@ fn forward_kinematics_matches_paper_start() {
 fn forward_then_inverse_dynamics_round_trip() {
     let mut rng = ChaCha8Rng::seed_from_u64(2);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let mut ws = Scratch::new(n);
         for _ in 0..200 {
             let (q, qd, tau) = random_state(&mut rng, n);
@@ -90,7 +90,7 @@ fn forward_then_inverse_dynamics_round_trip() {
 /// Kinetic energy computed independently of M: COM velocities by differentiating the COM positions
 /// along qd (dual numbers), link angular velocities as sums of joint rates.
 fn kinetic_energy_independent(robot: &Robot, q: &[f64], qd: &[f64]) -> f64 {
-    let n = robot.n;
+    let n = robot.n();
     let qdual: Vec<Dual64> = q.iter().zip(qd).map(|(&a, &b)| Dual64::new(a, b)).collect();
     let mut coms = vec![[Dual64::from(0.0); 2]; n];
     robot.com_positions(&qdual, &mut coms);
@@ -99,16 +99,16 @@ fn kinetic_energy_independent(robot: &Robot, q: &[f64], qd: &[f64]) -> f64 {
     for i in 0..n {
         w += qd[i];
         let (vx, vy) = (coms[i][0].eps, coms[i][1].eps);
-        e += 0.5 * robot.mass[i] * (vx * vx + vy * vy) + 0.5 * robot.inertia[i] * w * w;
+        e += 0.5 * robot.masses()[i] * (vx * vx + vy * vy) + 0.5 * robot.inertias()[i] * w * w;
     }
     e
 }
 
 fn potential_energy_independent<T: brachia::math::Scalar>(robot: &Robot, q: &[T]) -> T {
-    let mut coms = vec![[T::zero(); 2]; robot.n];
+    let mut coms = vec![[T::zero(); 2]; robot.n()];
     robot.com_positions(q, &mut coms);
-    (0..robot.n)
-        .map(|i| coms[i][1] * (robot.mass[i] * robot.gravity))
+    (0..robot.n())
+        .map(|i| coms[i][1] * (robot.masses()[i] * robot.gravity))
         .sum()
 }
 
@@ -116,7 +116,7 @@ fn potential_energy_independent<T: brachia::math::Scalar>(robot: &Robot, q: &[T]
 fn mass_matrix_and_gravity_match_energy_functions() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let mut ws = Scratch::new(n);
         for _ in 0..100 {
             let (q, _, _) = random_state(&mut rng, n);
@@ -160,7 +160,7 @@ fn coriolis_matches_lagrange_equations() {
     // C(q, qd) qd = Mdot qd - dT/dq, with Mdot and dT/dq by dual numbers on M and the independent T.
     let mut rng = ChaCha8Rng::seed_from_u64(4);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let mut wsd = Scratch::<Dual64>::new(n);
         let mut ws = Scratch::<f64>::new(n);
         for _ in 0..100 {
@@ -214,7 +214,7 @@ fn passive_swing_conserves_energy_for_ten_seconds() {
 fn dynamics_jacobian_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let f = DynamicsFn::new(robot.clone());
         let mut diff = Diff::new(&f);
         for _ in 0..20 {
@@ -232,7 +232,7 @@ fn dynamics_jacobian_matches_finite_differences() {
 fn dynamics_weighted_hessian_matches_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let f = DynamicsFn::new(robot.clone());
         let nz = f.n_in();
         let mut diff = Diff::new(&f);
@@ -261,7 +261,7 @@ fn dynamics_weighted_hessian_matches_finite_differences() {
 fn ee_jacobian_and_jdot_match_finite_differences() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         for _ in 0..20 {
             let (q, qd, _) = random_state(&mut rng, n);
             let mut jac = vec![0.0; 2 * n];
@@ -289,7 +289,7 @@ fn ee_jacobian_and_jdot_match_finite_differences() {
 fn linearization_matches_finite_differences_of_f() {
     let mut rng = ChaCha8Rng::seed_from_u64(8);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let (nx, nu) = (2 * n, n - 1);
         let mut lin = Linearizer::new(robot.clone());
         let mut model = LinearModel::zeros(n);

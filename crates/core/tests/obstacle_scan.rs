@@ -13,12 +13,7 @@ use brachia::planning::{
 };
 
 fn tracking() -> SwingTask {
-    SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    }
+    SwingTask::paper()
 }
 
 fn settings() -> (PlannerSettings, NlpSettings) {
@@ -132,11 +127,11 @@ fn the_diagnosis_names_the_link_the_obstacle_blocks() {
         "{msg}"
     );
     // every link's closest approach to the obstacle, with its time, against a brute-force scan
-    assert_eq!(b.clearances.len(), robot.n, "{b:?}");
+    assert_eq!(b.clearances.len(), robot.n(), "{b:?}");
     let cf = ClearanceFn::new(robot.clone(), &task.obstacles[..], 0.0)
         .unwrap()
         .with_self_collision(false);
-    let mut d = vec![0.0; robot.n];
+    let mut d = vec![0.0; robot.n()];
     for (link, c) in b.clearances.iter().enumerate() {
         assert_eq!((c.obstacle, c.link), (0, link));
         let (mut best, mut at) = (f64::INFINITY, 0.0);
@@ -310,7 +305,7 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
     let b = p.blockage.as_ref().expect("a diagnosis");
     assert!(b.infeasible && b.bar_overlaps, "{b:?}");
     // the last link is the one it blocks, at the end of the swing where the link reaches the bar
-    let last = &b.clearances[robot.n - 1];
+    let last = &b.clearances[robot.n() - 1];
     assert!(last.violated, "{last:?}");
     assert!(last.min_clearance_m < s.obstacle_margin);
     assert!(last.time_s > 0.5 * p.swing_time_s, "{last:?}");
@@ -398,7 +393,7 @@ fn the_cspace_search_reports_a_blocked_configuration_space_as_exhausted() {
     // the bar, while both end poses are clear
     let th = -2.35f64;
     let (u, v) = ([th.cos(), th.sin()], [-th.sin(), th.cos()]);
-    let mid = 0.5 * robot.len[0];
+    let mid = 0.5 * robot.lengths()[0];
     let fence: Vec<brachia::model::Circle> = [-1.0, 1.0]
         .iter()
         .map(|side| brachia::model::Circle {
@@ -411,12 +406,9 @@ fn the_cspace_search_reports_a_blocked_configuration_space_as_exhausted() {
         .collect();
     let start = tracking().q0;
     // the pose reaching (0.8, 0) found by IK from the mirrored start pose
-    let goal = brachia::planning::planner::ik_from_seed(
-        &robot,
-        &brachia::planning::planner::mirrored_pose(&start),
-        [0.8, 0.0],
-    )
-    .unwrap();
+    let goal =
+        brachia::model::ik_from_seed(&robot, &brachia::model::mirrored_pose(&start), [0.8, 0.0])
+            .unwrap();
     let (rep, path) = cspace_path(&robot, &fence, &s, &start, &goal).unwrap();
     assert!(rep.endpoints_clear, "{rep:?}");
     assert!(path.is_none() && !rep.found && rep.exhausted, "{rep:?}");

@@ -3,9 +3,10 @@
 //! stage-structured solver reaching the same optimum on the very same problem. Units: rad, m, s, N m.
 
 use brachia::fdcheck::{assert_hessian, assert_jacobian};
+use brachia::model::{ik_from_seed, mirrored_pose};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::nlp::SparseNlp;
-use brachia::planning::planner::{ik_from_seed, mirrored_pose, DistanceClearanceFn};
+use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
     freefall_time, solve, Bounds, NlpSettings, OcpNlp, SolveStatus, SwingOcp, SwingOcpSpec,
 };

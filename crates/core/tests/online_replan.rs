@@ -29,7 +29,7 @@ struct Kicked {
 
 impl Plant for Kicked {
     fn n_links(&self) -> usize {
-        self.robot.n
+        self.robot.n()
     }
     fn time(&self) -> f64 {
         self.steps as f64 * self.dt
@@ -38,7 +38,7 @@ impl Plant for Kicked {
         x.copy_from_slice(&self.x);
     }
     fn step(&mut self, tau: &[f64], dt: f64) {
-        let n = self.robot.n;
+        let n = self.robot.n();
         let u: Vec<f64> = (0..n - 1)
             .map(|j| tau[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]))
             .collect();
@@ -51,7 +51,7 @@ impl Plant for Kicked {
         }
     }
     fn energy(&self) -> f64 {
-        let n = self.robot.n;
+        let n = self.robot.n();
         self.robot.energy(&self.x[..n], &self.x[n..])
     }
     fn name(&self) -> &'static str {
@@ -61,12 +61,7 @@ impl Plant for Kicked {
 
 /// The planner of the tracking swing on the 30 ms re-planning mesh, not planned yet.
 fn unplanned(robot: &Arc<Robot>) -> SwingPlanner {
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.03,
@@ -95,7 +90,7 @@ fn run<C: Controller>(
     t_hit: f64,
     dqd: &[f64],
 ) -> f64 {
-    let n = robot.n;
+    let n = robot.n();
     let x0 = [reference.q(0), reference.qd(0)].concat();
     let dt = 0.001;
     let plant = Kicked {

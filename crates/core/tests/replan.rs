@@ -15,12 +15,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn tracking_task() -> SwingTask {
-    SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    }
+    SwingTask::paper()
 }
 
 fn settings() -> (PlannerSettings, NlpSettings) {
@@ -164,7 +159,7 @@ fn replan_of_the_undisturbed_state_keeps_the_plan_and_a_new_target_is_reached() 
     assert_eq!(rp.solves[0].mu_strategy, MuStrategy::Adaptive);
     let kk = planner.intervals();
     let end = planner.knots().x[kk].clone();
-    let n = robot.n;
+    let n = robot.n();
     for i in 0..n {
         assert!(
             (end[i] - p.points.q(p.points.len() - 1)[i]).abs() < 0.05,

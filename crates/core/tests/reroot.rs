@@ -21,7 +21,7 @@ use rand_chacha::ChaCha8Rng;
 fn robots() -> Vec<Robot> {
     let paper = Robot::paper();
     // asymmetric: link 1 differs from link n in length, mass, com, inertia, and torque limits differ
-    let mut p = paper.params.clone();
+    let mut p = paper.params().clone();
     p.links[0].length = 0.42;
     p.links[0].com = 0.12;
     p.links[0].mass = 0.6;
@@ -30,13 +30,13 @@ fn robots() -> Vec<Robot> {
     p.actuators.tau_min = vec![-3.0, -5.0, -7.0];
     p.actuators.tau_max = vec![4.0, 6.0, 8.0];
     let asym = Robot::from_params(p, "asymmetric").unwrap();
-    let mut p3 = paper.params.clone();
+    let mut p3 = paper.params().clone();
     p3.links.truncate(3);
     p3.links[2].com = 0.1;
     p3.actuators.tau_min = vec![-5.0, -2.0];
     p3.actuators.tau_max = vec![5.0, 3.0];
     let three = Robot::from_params(p3, "three").unwrap();
-    let mut p5 = paper.params.clone();
+    let mut p5 = paper.params().clone();
     let extra = p5.links[1].clone();
     p5.links.insert(2, extra);
     p5.links[4].mass = 0.9;
@@ -55,14 +55,14 @@ fn random_x(rng: &mut ChaCha8Rng, n: usize) -> Vec<f64> {
 
 /// World joint positions of `robot` gripping at `grip`: n + 1 points, grip first, EE last.
 fn world_joints(robot: &Robot, grip: P2<f64>, q: &[f64]) -> Vec<P2<f64>> {
-    let mut p = vec![[0.0; 2]; robot.n + 1];
+    let mut p = vec![[0.0; 2]; robot.n() + 1];
     robot.joint_positions(q, &mut p);
     p.iter().map(|v| [v[0] + grip[0], v[1] + grip[1]]).collect()
 }
 
 /// Project `qd` onto the null space of the EE Jacobian (the EE at rest).
 fn ee_at_rest(robot: &Robot, q: &[f64], qd: &mut [f64]) {
-    let n = robot.n;
+    let n = robot.n();
     let mut j = vec![0.0; 2 * n];
     robot.ee_jacobian(q, &mut j);
     let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
@@ -86,15 +86,15 @@ fn ee_at_rest(robot: &Robot, q: &[f64], qd: &mut [f64]) {
 fn the_map_applied_twice_is_the_identity() {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let back = robot.rerooted().unwrap().rerooted().unwrap();
-        for (a, b) in robot.params.links.iter().zip(&back.params.links) {
+        for (a, b) in robot.params().links.iter().zip(&back.params().links) {
             assert_eq!(a.length, b.length);
             assert_eq!(a.mass, b.mass);
             assert_eq!(a.inertia, b.inertia);
             assert!((a.com - b.com).abs() < 1e-15, "{} vs {}", a.com, b.com);
         }
-        assert_eq!(robot.params.actuators, back.params.actuators);
+        assert_eq!(robot.params().actuators, back.params().actuators);
         let r1 = robot.rerooted().unwrap();
         for _ in 0..50 {
             let x = random_x(&mut rng, n);
@@ -129,7 +129,7 @@ fn the_rerooted_chain_keeps_every_world_point_and_with_the_ee_at_rest_every_velo
 ) {
     let mut rng = ChaCha8Rng::seed_from_u64(2);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let r = robot.rerooted().unwrap();
         for _ in 0..50 {
             let mut x = random_x(&mut rng, n);
@@ -178,7 +178,7 @@ fn the_rerooted_chain_keeps_every_world_point_and_with_the_ee_at_rest_every_velo
 fn a_moving_hand_is_stopped_by_the_capture_impulse_and_the_lost_energy_is_reported() {
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let r = robot.rerooted().unwrap();
         for _ in 0..20 {
             let x = random_x(&mut rng, n);
@@ -215,7 +215,7 @@ struct PinnedEe<'a> {
 impl LocalFn for PinnedEe<'_> {
     type Scratch<T: Scalar> = ();
     fn n_in(&self) -> usize {
-        2 * self.robot.n
+        2 * self.robot.n()
     }
     fn n_out(&self) -> usize {
         1
@@ -223,7 +223,7 @@ impl LocalFn for PinnedEe<'_> {
     fn scratch<T: Scalar>(&self) -> Self::Scratch<T> {}
     fn eval<T: Scalar>(&self, _: &mut (), z: &[T], out: &mut [T]) {
         let r = self.robot;
-        let n = r.n;
+        let n = r.n();
         let (mut th, mut thd) = (T::zero(), T::zero());
         let (mut p, mut v) = ([T::zero(); 2], [T::zero(); 2]);
         let mut com = Vec::with_capacity(n);
@@ -233,19 +233,22 @@ impl LocalFn for PinnedEe<'_> {
             th += z[i];
             thd += z[n + i];
             let (s, co) = th.sin_cos();
-            com.push([p[0] + co * r.com[i], p[1] + s * r.com[i]]);
-            vcom.push([v[0] - s * thd * r.com[i], v[1] + co * thd * r.com[i]]);
-            p = [p[0] + co * r.len[i], p[1] + s * r.len[i]];
-            v = [v[0] - s * thd * r.len[i], v[1] + co * thd * r.len[i]];
-            rot += thd * thd * r.inertia[i];
+            com.push([p[0] + co * r.coms()[i], p[1] + s * r.coms()[i]]);
+            vcom.push([v[0] - s * thd * r.coms()[i], v[1] + co * thd * r.coms()[i]]);
+            p = [p[0] + co * r.lengths()[i], p[1] + s * r.lengths()[i]];
+            v = [
+                v[0] - s * thd * r.lengths()[i],
+                v[1] + co * thd * r.lengths()[i],
+            ];
+            rot += thd * thd * r.inertias()[i];
         }
         let mut ke = rot * 0.5;
         let mut pe = T::zero();
         for i in 0..n {
             let (vx, vy) = (vcom[i][0] - v[0], vcom[i][1] - v[1]);
-            ke += (vx * vx + vy * vy) * (0.5 * r.mass[i]);
+            ke += (vx * vx + vy * vy) * (0.5 * r.masses()[i]);
             let y = com[i][1] - p[1] + c::<T>(self.pin[1]);
-            pe += y * (r.mass[i] * r.gravity);
+            pe += y * (r.masses()[i] * r.gravity);
         }
         out[0] = ke - pe;
     }
@@ -260,7 +263,7 @@ fn pinned_deriv<'a>(
     tau: &[f64],
     out: &mut [f64],
 ) {
-    let n = f.robot.n;
+    let n = f.robot.n();
     let nz = 2 * n;
     let mut h = vec![0.0; nz * nz];
     let mut g = vec![0.0; nz];
@@ -285,7 +288,7 @@ fn pinned_deriv<'a>(
 fn the_rerooted_mass_matrix_is_the_ee_pinned_chains_transformed_by_the_map() {
     let mut rng = ChaCha8Rng::seed_from_u64(4);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let r = robot.rerooted().unwrap();
         let f = PinnedEe {
             robot: &robot,
@@ -320,7 +323,7 @@ fn the_rerooted_mass_matrix_is_the_ee_pinned_chains_transformed_by_the_map() {
                     assert!(
                         (ptmp - pinned).abs() < 1e-12 * (1.0 + pinned.abs()),
                         "{}: M[{i}][{k}] {pinned} vs {ptmp}",
-                        robot.params.name
+                        robot.params().name
                     );
                 }
             }
@@ -332,7 +335,7 @@ fn the_rerooted_mass_matrix_is_the_ee_pinned_chains_transformed_by_the_map() {
 fn the_rerooted_dynamics_reproduce_the_ee_pinned_chains_motion_in_world_coordinates() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for robot in robots() {
-        let n = robot.n;
+        let n = robot.n();
         let r = robot.rerooted().unwrap();
         let x = random_x(&mut rng, n);
         let grip = [0.0, 0.0];
@@ -393,11 +396,11 @@ fn the_rerooted_dynamics_reproduce_the_ee_pinned_chains_motion_in_world_coordina
         }
         // the chain really moved
         let moved: f64 = (0..n).map(|i| (xo[i] - x[i]).abs()).fold(0.0, f64::max);
-        assert!(moved > 0.05, "{}: moved {moved}", robot.params.name);
+        assert!(moved > 0.05, "{}: moved {moved}", robot.params().name);
         assert!(
             worst < 1e-9,
             "{}: world positions differ by {worst:.3e} m",
-            robot.params.name
+            robot.params().name
         );
     }
 }

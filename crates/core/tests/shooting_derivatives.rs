@@ -53,7 +53,7 @@ const OBSTACLES: [Circle; 2] = [
 ];
 
 fn problem<D: PointDynamics>(robot: &Robot, intervals: usize, substeps: usize) -> SwingOcp<D> {
-    let n = robot.n;
+    let n = robot.n();
     let clearance = DistanceClearanceFn::new(
         ClearanceFn::new(robot.clone(), &OBSTACLES[..], 0.01)
             .unwrap()
@@ -165,7 +165,7 @@ fn stage_lagrangian_gradient(
 }
 
 fn check_all_derivatives<D: PointDynamics>(robot: &Robot, substeps: usize, seed: u64) {
-    let n = robot.n;
+    let n = robot.n();
     let intervals = 3;
     let mut ocp: SwingOcp<D> = problem(robot, intervals, substeps);
     let mut probe: SwingOcp<D> = problem(robot, intervals, substeps);

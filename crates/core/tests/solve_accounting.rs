@@ -131,12 +131,7 @@ fn a_retry_that_is_not_adopted_still_counts() {
     // A coarse swing with an iteration cap: both barrier strategies stop at the cap, the planner
     // adopts the attempt with the smaller violation (today the first, at max_iter 8) and must still
     // count the other's iterations and time.
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let s = PlannerSettings {
         transcription: Transcription::Trapezoidal,
         knot_dt: 0.05,
@@ -177,12 +172,7 @@ fn a_retry_that_is_not_adopted_still_counts() {
 fn the_ocp_attempt_is_labelled_with_the_barrier_update_it_ran() {
     // The `ocp` backend used to label every attempt `Monotone`, and ignored `mu_strategy`; it now
     // runs the update asked for and reports it (warm re-plans, adaptive: tests/replan.rs).
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
+    let task = SwingTask::paper();
     let s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.03,

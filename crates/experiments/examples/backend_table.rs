@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let text = std::fs::read_to_string(&f)?;
         let (robot, sc) = if text.contains("[ladder]") {
             let ll = brachia_experiments::LadderScenario::load(&f)?;
-            let n = ll.robot.n;
+            let n = ll.robot.n();
             let grip = ll.scenario.ladder.bars[0].p();
             let sc = swing_scenario(&ll.scenario, &ll.x0[..n], &ll.x0[n..], grip, 1);
             (ll.robot, sc)

@@ -222,7 +222,7 @@ pub struct Sweep {
 }
 
 fn all_links(v: f64, ctx: &SweepContext) -> Vec<f64> {
-    vec![v; ctx.robot.n]
+    vec![v; ctx.robot.n()]
 }
 
 /// Every disturbance the benchmark sweeps, with its range (docs/robustness.md lists them).
@@ -319,7 +319,7 @@ pub fn sweeps() -> Vec<Sweep> {
             level: "offset of every start angle, rad",
             max: 0.1,
             apply: |d, l, c| {
-                let n = c.robot.n;
+                let n = c.robot.n();
                 let mut o = vec![0.0; 2 * n];
                 o[..n].fill(l);
                 d.start_offset = o;
@@ -330,12 +330,12 @@ pub fn sweeps() -> Vec<Sweep> {
             level: "downward impulse at mid-swing on the last link's midpoint, N s",
             max: 0.5,
             apply: |d, l, c| {
-                let n = c.robot.n;
+                let n = c.robot.n();
                 d.pushes = if l > 0.0 {
                     vec![Push {
                         t_s: 0.5 * c.swing_time_s,
                         link: n,
-                        point_m: 0.5 * c.robot.len[n - 1],
+                        point_m: 0.5 * c.robot.lengths()[n - 1],
                         impulse_n_s: [0.0, -l],
                     }]
                 } else {
@@ -571,7 +571,7 @@ fn monte_carlo_draw(
     seed: u64,
 ) -> (Disturbances, Vec<Obstacle>, Option<f64>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let n = robot.n;
+    let n = robot.n();
     let mass_scale: Vec<f64> = (0..n).map(|_| rng.gen_range(0.85..1.15)).collect();
     let mass = rng.gen_range(0.05..0.5);
     let radius = 0.05;
@@ -586,7 +586,7 @@ fn monte_carlo_draw(
         let clear = segs
             .iter()
             .enumerate()
-            .all(|(i, (a, b))| seg_dist(c, *a, *b) > radius + robot.radius[i] + 0.01);
+            .all(|(i, (a, b))| seg_dist(c, *a, *b) > radius + robot.radii()[i] + 0.01);
         if clear {
             center = Some((c, reference.t[k]));
             break;
@@ -658,7 +658,7 @@ fn run_job(
         }
     };
     let replans = built.replans();
-    let n = ls.robot.n;
+    let n = ls.robot.n();
     let last = log.len() - 1;
     let ee = job.probot.ee_position(&log.x(last)[..n]);
     let target = sc.task.target;
@@ -768,7 +768,7 @@ pub fn run_benchmark_on(
 ) -> Result<Benchmark, Error> {
     settings.validate()?;
     let sc = &ls.scenario;
-    let n = ls.robot.n;
+    let n = ls.robot.n();
     let ctx = SweepContext {
         robot: ls.robot.clone(),
         swing_time_s: reference.duration(),
@@ -786,7 +786,11 @@ pub fn run_benchmark_on(
             settings.only_sweeps.is_empty() || settings.only_sweeps.iter().any(|o| o == s.name)
         })
         .collect();
-    let base_params = ls.robot.params.clone().with_mass_scale(sc.plant.mass_scale);
+    let base_params = ls
+        .robot
+        .params()
+        .clone()
+        .with_mass_scale(sc.plant.mass_scale);
     let src = format!("benchmark of {}", ls.path.display());
     let make_robot = |d: &Disturbances| -> Result<Robot, Error> {
         d.validate(n, sc.tracking.control_dt, &src)?;

@@ -31,8 +31,8 @@ use crate::scenario::{
     in_section, parse_toml, read_text, LoadedScenario, PlantKind, PlantSettings, Scenario,
     TrackingSettings,
 };
+use brachia::model::ik_from_seed;
 use brachia::model::Circle;
-use brachia::planning::planner::ik_from_seed;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::sim::Disturbances;
 use brachia::{Error, Robot};
@@ -257,7 +257,7 @@ pub fn check_bars(robot: &Robot, bars: &[Bar], src: &str) -> Result<(), Error> {
 /// frame; inverse kinematics from a V-shaped seed (the chain dips below the bars). `None` when no pose
 /// within the planner's bounds reaches it.
 pub fn default_hang(robot: &Robot, bars: &[Bar], settings: &PlannerSettings) -> Option<Vec<f64>> {
-    let n = robot.n;
+    let n = robot.n();
     let target = [bars[0].x - bars[1].x, bars[0].y - bars[1].y];
     let dir = target[1].atan2(target[0]);
     let sgn = if target[0] < 0.0 { 1.0 } else { -1.0 };
@@ -320,7 +320,7 @@ impl LadderScenario {
         let base = path.parent().unwrap_or(Path::new("."));
         sc.params = base.join(&sc.params);
         let robot = Robot::from_toml_file(&sc.params)?;
-        let n = robot.n;
+        let n = robot.n();
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.planner
             .validate(n, &src)

@@ -87,7 +87,7 @@ impl BaseParams {
     /// their link count ([`check_study_links`]: 3..=12 links).
     pub fn load(&self) -> Result<RobotParams, Error> {
         let p = match self {
-            BaseParams::Paper => Robot::paper().params,
+            BaseParams::Paper => Robot::paper().params().clone(),
             BaseParams::File(path) => RobotParams::from_toml_file(path)?,
             BaseParams::Inline(p) => p.clone(),
         };
@@ -412,7 +412,7 @@ fn wrap(a: f64) -> f64 {
 /// every study robot has). Returns q (rad; q1 absolute, the rest relative, wrapped to (-pi, pi]).
 /// Errors when no such pose exists.
 pub fn start_pose(robot: &Robot, start: [f64; 2]) -> Result<Vec<f64>, Error> {
-    let n = robot.n;
+    let n = robot.n();
     let k = n / 2;
     let d = start[0].hypot(start[1]);
     let u = [start[0] / d, start[1] / d];
@@ -420,8 +420,8 @@ pub fn start_pose(robot: &Robot, start: [f64; 2]) -> Result<Vec<f64>, Error> {
     let lower = |c: [[f64; 2]; 2]| if c[0][1] <= c[1][1] { c[0] } else { c[1] };
     let mut q = vec![0.0; n];
     if n.is_multiple_of(2) {
-        let a: f64 = robot.len[..k].iter().sum();
-        let b: f64 = robot.len[k..].iter().sum();
+        let a: f64 = robot.lengths()[..k].iter().sum();
+        let b: f64 = robot.lengths()[k..].iter().sum();
         if !(d > 0.0 && d <= a + b && d >= (a - b).abs()) {
             return Err(Error::InfeasibleTask(format!(
                 "no straight-arm pose puts the EE at ({:.3}, {:.3}): arms of {a:.3} m and {b:.3} m",
@@ -439,9 +439,9 @@ pub fn start_pose(robot: &Robot, start: [f64; 2]) -> Result<Vec<f64>, Error> {
         q[k] = wrap((start[1] - s[1]).atan2(start[0] - s[0]) - q1);
         return Ok(q);
     }
-    let a: f64 = robot.len[..k].iter().sum();
-    let m = robot.len[k];
-    let b: f64 = robot.len[k + 1..].iter().sum();
+    let a: f64 = robot.lengths()[..k].iter().sum();
+    let m = robot.lengths()[k];
+    let b: f64 = robot.lengths()[k + 1..].iter().sum();
     if (a - b).abs() > 1e-9 * (a + b) {
         return Err(Error::InfeasibleTask(format!(
             "the start pose of an odd link count needs arms of equal length: {a:.3} m and {b:.3} m"
@@ -781,7 +781,7 @@ fn summarise(setup: &RowSetup, cells: &[StudyCell]) -> StudyRow {
         .min_by(|a, b| a.1.total_cmp(&b.1));
     StudyRow {
         r2: setup.r2,
-        lengths_m: setup.robot.len.clone(),
+        lengths_m: setup.robot.lengths().to_vec(),
         start_q: setup.task.q0.clone(),
         freefall_time_s: setup.freefall,
         swing_time_s: setup.t_nominal,
@@ -814,7 +814,7 @@ fn row_setup(
     let q0 = match shared_q {
         Some(q) => q.to_vec(),
         None => start_pose(&robot, settings.start).map_err(|e| {
-            let (what, value) = if robot.n % 2 == 0 {
+            let (what, value) = if robot.n() % 2 == 0 {
                 ("start".to_string(), format!("{:?}", settings.start))
             } else {
                 (field.to_string(), r2.to_string())
@@ -825,7 +825,7 @@ fn row_setup(
                 value,
                 format!(
                     "the {}-link study robot of r2 = {r2} has no start pose: {e}",
-                    robot.n
+                    robot.n()
                 ),
             )
         })?,
@@ -1137,7 +1137,7 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
         );
         folder.add(
             &format!("stick_r2_{tag}_params.toml"),
-            head + &toml::to_string(&s.robot.params).unwrap_or_default(),
+            head + &toml::to_string(s.robot.params()).unwrap_or_default(),
         );
     }
     let mut resolved = study.settings.clone();

@@ -259,14 +259,14 @@ pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
         format!(
             "# Robot parameters of this run (from {}). Units: m, kg, kg m^2, N m.\n{}",
             sc.params.display(),
-            toml::to_string(&ls.robot.params).unwrap_or_default()
+            toml::to_string(ls.robot.params()).unwrap_or_default()
         ),
     );
     resolved.planner.swing_time = SwingTime::Seconds(p.swing_time_s);
-    resolved.planner.q1_diag = sc.planner.q1(ls.robot.n);
-    resolved.planner.r1_diag = sc.planner.r1(ls.robot.n);
+    resolved.planner.q1_diag = sc.planner.q1(ls.robot.n());
+    resolved.planner.r1_diag = sc.planner.r1(ls.robot.n());
     if resolved.task.qd0.is_empty() {
-        resolved.task.qd0 = vec![0.0; ls.robot.n];
+        resolved.task.qd0 = vec![0.0; ls.robot.n()];
     }
     let mut text = format!(
         "# Resolved inputs of this run (swing time T = {:.6} s, N = {} intervals{}).\n",

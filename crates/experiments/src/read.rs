@@ -173,7 +173,7 @@ impl PlanFolder {
         let scenario = Scenario::load_for(&sfile, Uses::Plan)?;
         let report: PlanReport = read_json(&rfile)?;
         let whose = format!("the robot of {}", sfile.display());
-        let trajectory = read_plan_trajectory(&tfile, scenario.robot.n, &whose)?;
+        let trajectory = read_plan_trajectory(&tfile, scenario.robot.n(), &whose)?;
         Ok(PlanFolder {
             dir: dir.to_path_buf(),
             scenario,
@@ -486,7 +486,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
         let params = RobotParams::from_toml_str(&ptext, &pfile.display().to_string())?;
         let robot = Robot::from_params(params, &pfile.display().to_string())?;
         let whose = format!("the robot of {}", pfile.display());
-        let trajectory = read_plan_trajectory(&tfile, robot.n, &whose)?;
+        let trajectory = read_plan_trajectory(&tfile, robot.n(), &whose)?;
         sticks.push(StickDiagram {
             r2: s.r2,
             robot,

@@ -295,7 +295,7 @@ impl Scenario {
         let robot = Robot::from_toml_file(&sc.params)?;
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.planner
-            .validate(robot.n, &src)
+            .validate(robot.n(), &src)
             .map_err(|e| rename(e, "planner"))?;
         sc.solver.validate().map_err(|e| rename(e, "solver"))?;
         sc.planner.check_backend(&sc.solver, &src)?;
@@ -335,7 +335,7 @@ impl Scenario {
 impl LoadedScenario {
     /// Check the `[tracking]` and `[plant]` sections for a swing of `swing_time` seconds.
     pub(crate) fn check_tracking(&self, swing_time: f64) -> Result<(), Error> {
-        let (sc, n) = (&self.scenario, self.robot.n);
+        let (sc, n) = (&self.scenario, self.robot.n());
         let src = self.path.display().to_string();
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.tracking
@@ -449,12 +449,12 @@ impl LoadedScenario {
             ));
         }
         pl.rapier().validate(&src).map_err(|e| rename(e, "plant"))?;
-        if pl.obstacles.len() > brachia::planning::planner::MAX_OBSTACLES {
+        if pl.obstacles.len() > brachia::planning::MAX_OBSTACLES {
             return Err(Error::invalid(
                 &src,
                 "plant.obstacles",
                 format!("{} obstacles", pl.obstacles.len()),
-                format!("at most {}", brachia::planning::planner::MAX_OBSTACLES),
+                format!("at most {}", brachia::planning::MAX_OBSTACLES),
             ));
         }
         for (i, o) in pl.obstacles.iter().enumerate() {
@@ -474,7 +474,7 @@ impl LoadedScenario {
                  [tracking] noise_q_std / noise_qd_std, not both",
             ));
         }
-        let params = d.plant_params(&self.robot.params.clone().with_mass_scale(pl.mass_scale));
+        let params = d.plant_params(&self.robot.params().clone().with_mass_scale(pl.mass_scale));
         Robot::from_params(params, &src).map_err(|e| rename(e, "disturbances"))?;
         Ok(())
     }

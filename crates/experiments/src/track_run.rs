@@ -185,7 +185,7 @@ pub fn make_controller(
 pub fn plant_robot(ls: &LoadedScenario) -> Result<Robot, Error> {
     let p = ls
         .robot
-        .params
+        .params()
         .clone()
         .with_mass_scale(ls.scenario.plant.mass_scale);
     let p = ls.scenario.disturbances.plant_params(&p);
@@ -408,7 +408,7 @@ pub fn read_plan_folder(
     dir: &std::path::Path,
     ls: &LoadedScenario,
 ) -> Result<(Trajectory, PlanReport), Error> {
-    let n = ls.robot.n;
+    let n = ls.robot.n();
     if !dir.is_dir() {
         return Err(Error::invalid(
             dir.display().to_string(),

@@ -343,7 +343,7 @@ fn rapier_world(
 /// file's links, whichever hand holds.
 fn plant_chains(ll: &LoadedLadder) -> Result<[Robot; 2], Error> {
     let sc = &ll.scenario;
-    let n = ll.robot.n;
+    let n = ll.robot.n();
     let mut first = crate::ladder::swing_scenario(sc, &ll.x0[..n], &ll.x0[n..], [0.0, 0.0], 1);
     first.disturbances = sc.disturbances.clone();
     let pr = plant_robot(&LoadedScenario {
@@ -378,7 +378,7 @@ pub fn run_traverse_cancellable(
 fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
     let sc = &ll.scenario;
     let bars = &sc.ladder.bars;
-    let n = ll.robot.n;
+    let n = ll.robot.n();
     let chains = [ll.robot.clone(), ll.robot.rerooted()?];
     let pchains = plant_chains(ll)?;
     let src = ll.path.display().to_string();
@@ -622,7 +622,7 @@ impl Traverse {
     /// first): n + 1 points.
     pub fn world_joints(&self, k: usize, row: usize) -> Vec<[f64; 2]> {
         let robot = &self.chains[k % 2];
-        let n = robot.n;
+        let n = robot.n();
         let grip = self.swings[k].grip;
         let mut p = vec![[0.0; 2]; n + 1];
         robot.joint_positions(&self.logs[k].x(row)[..n], &mut p);
@@ -652,7 +652,7 @@ impl Traverse {
 
     /// `traverse.csv` (see the module docs for the header).
     pub fn to_csv(&self) -> String {
-        let n = self.chains[0].n;
+        let n = self.chains[0].n();
         let mut s = String::from("t");
         for name in ["q", "qd"] {
             for i in 1..=n {
@@ -699,8 +699,8 @@ impl Traverse {
         let wall_s = sum(|s| s.plan_time_s + s.track_time_s);
         json!({
             "scenario": ll.scenario.name,
-            "robot": ll.robot.params.name,
-            "links": ll.robot.n,
+            "robot": ll.robot.params().name,
+            "links": ll.robot.n(),
             "plant": self.plant,
             "plant_substeps": ll.scenario.plant.substeps,
             "plant_mass_scale": ll.scenario.plant.mass_scale,
@@ -752,7 +752,7 @@ impl Traverse {
             folder.add("obstacles.csv", self.obstacles_csv());
         }
         let mut resolved = ll.scenario.clone();
-        let n = ll.robot.n;
+        let n = ll.robot.n();
         resolved.ladder.q0 = ll.x0[..n].to_vec();
         resolved.ladder.qd0 = ll.x0[n..].to_vec();
         folder.add(

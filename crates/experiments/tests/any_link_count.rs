@@ -19,7 +19,7 @@ fn scenario(name: &str) -> LoadedScenario {
 
 fn plan_and_track(name: &str, links: usize) {
     let ls = scenario(name);
-    assert_eq!(ls.robot.n, links);
+    assert_eq!(ls.robot.n(), links);
     let mpc = run_track(&ls, ControllerKind::Mpc, PlantKind::Model, None)
         .unwrap()
         .into_tracked()

@@ -66,7 +66,7 @@ fn traverse(params: &Path, bars: &[(f64, f64)], links: usize) {
     let dir = tempfile::tempdir().unwrap();
     let path = write_scenario(dir.path(), params, bars);
     let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(ll.robot.n, links);
+    assert_eq!(ll.robot.n(), links);
     let tr = run_traverse(&ll).unwrap();
     assert!(
         tr.status.completed(),
@@ -156,7 +156,7 @@ fn three_bar_cut_completes(name: &str) {
         tr.swings
     );
     assert_eq!(tr.swings.len(), 2);
-    let n = ll.robot.n;
+    let n = ll.robot.n();
     for (k, s) in tr.swings.iter().enumerate() {
         assert!(s.capture_error_m < 0.02, "{name} swing {k}: {s:?}");
         assert!(s.switch_residual_m_s < 0.1, "{name} swing {k}: {s:?}");

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 
 fn paper() -> RobotParams {
-    Robot::paper().params
+    Robot::paper().params().clone()
 }
 
 fn quick(r2: Vec<f64>, offsets_s: Vec<f64>) -> ParameterStudySettings {
@@ -188,7 +188,7 @@ fn small_grid_runs_and_fills_the_run_folder() {
     assert!(report["settings"]["base_params"]["inline"]["links"].is_array());
     let toml_text = std::str::from_utf8(f.get("stick_r2_0.30_params.toml").unwrap()).unwrap();
     let p = RobotParams::from_toml_str(toml_text, "stick").unwrap();
-    assert_eq!(p, study.sticks[0].robot.params);
+    assert_eq!(&p, study.sticks[0].robot.params());
     let traj = std::str::from_utf8(f.get("stick_r2_0.70.csv").unwrap()).unwrap();
     assert!(traj.starts_with("t,q1,q2,q3,q4,qd1"));
 }

@@ -68,7 +68,7 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
         "plan report",
     );
     assert_eq!(back.scenario.scenario.task, ls.scenario.task);
-    assert_eq!(back.scenario.robot.params, ls.robot.params);
+    assert_eq!(back.scenario.robot.params(), ls.robot.params());
     let (a, b) = (&back.trajectory, &plan.plan.trajectory);
     close(&a.t, &b.t, 1e-6, "t");
     close(&a.q, &b.q, 1e-9, "q");

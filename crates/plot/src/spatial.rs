@@ -195,10 +195,11 @@ pub(crate) fn check_trajectory(robot: &Robot, traj: &Trajectory) -> Result<(), S
     if traj.is_empty() {
         return Err("the trajectory has no samples".into());
     }
-    if traj.n != robot.n {
+    if traj.n != robot.n() {
         return Err(format!(
             "the trajectory has {} links but the robot has {}",
-            traj.n, robot.n
+            traj.n,
+            robot.n()
         ));
     }
     if traj.q.len() != traj.len() * traj.n {
@@ -270,8 +271,8 @@ pub(crate) fn check_balls(balls: &[Vec<BallSample>]) -> Result<(), String> {
 pub(crate) fn pose_at(robot: &Robot, traj: &Trajectory, t: f64) -> Vec<[f64; 2]> {
     let mut x = vec![0.0; 2 * traj.n];
     traj.state_at(t, &mut x);
-    let mut pts = vec![[0.0; 2]; robot.n + 1];
-    robot.joint_positions(&x[..robot.n], &mut pts);
+    let mut pts = vec![[0.0; 2]; robot.n() + 1];
+    robot.joint_positions(&x[..robot.n()], &mut pts);
     pts
 }
 
@@ -285,8 +286,8 @@ pub(crate) fn ee_trail(robot: &Robot, traj: &Trajectory, t_end: f64) -> Vec<[f64
 
 /// Every joint position of every sample (to size the view).
 pub(crate) fn all_joint_points(robot: &Robot, traj: &Trajectory) -> Vec<[f64; 2]> {
-    let mut pts = vec![[0.0; 2]; robot.n + 1];
-    let mut out = Vec::with_capacity(traj.len() * (robot.n + 1));
+    let mut pts = vec![[0.0; 2]; robot.n() + 1];
+    let mut out = Vec::with_capacity(traj.len() * (robot.n() + 1));
     for k in 0..traj.len() {
         robot.joint_positions(traj.q(k), &mut pts);
         out.extend_from_slice(&pts);

@@ -62,7 +62,7 @@ pub struct RapierPlant {
 impl std::fmt::Debug for RapierPlant {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RapierPlant")
-            .field("n_links", &self.robot.n)
+            .field("n_links", &self.robot.n())
             .field("settings", &self.settings)
             .field("t", &self.clock.time())
             .field("obstacles", &self.obstacles.len())
@@ -157,7 +157,7 @@ fn build_chain(
     x0: &[f64],
     settings: &RapierSettings,
 ) -> Result<Chain> {
-    let n = robot.n;
+    let n = robot.n();
     let (q0, qd0) = x0.split_at(n);
     let root =
         world.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(grip[0], grip[1])));
@@ -165,13 +165,13 @@ fn build_chain(
     let mut link_colliders = Vec::with_capacity(n);
     let mut joint = None;
     for i in 0..n {
-        let (l, r) = (robot.len[i], robot.radius[i]);
+        let (l, r) = (robot.lengths()[i], robot.radii()[i]);
         let body = RigidBodyBuilder::dynamic()
             .translation(Vector::new(grip[0], grip[1]))
             .additional_mass_properties(MassProperties::new(
-                Vector::new(robot.com[i], 0.0),
-                robot.mass[i],
-                robot.inertia[i],
+                Vector::new(robot.coms()[i], 0.0),
+                robot.masses()[i],
+                robot.inertias()[i],
             ))
             .linear_damping(0.0)
             .angular_damping(0.0)
@@ -187,7 +187,7 @@ fn build_chain(
         let (parent, anchor1) = if i == 0 {
             (root, Vector::ZERO)
         } else {
-            (links[i - 1], Vector::new(robot.len[i - 1], 0.0))
+            (links[i - 1], Vector::new(robot.lengths()[i - 1], 0.0))
         };
         let jh = world
             .insert_multibody_joint(
@@ -281,13 +281,13 @@ fn build_chain(
         th += q0[i];
         w += qd0[i];
         let (s, c) = th.sin_cos();
-        let rc = [c * robot.com[i], s * robot.com[i]];
+        let rc = [c * robot.coms()[i], s * robot.coms()[i]];
         let wc = cross(w, rc);
         if let Some(rb) = world.bodies.get_mut(links[i]) {
             rb.set_linvel(Vector::new(v[0] + wc[0], v[1] + wc[1]), true);
             rb.set_angvel(w, true);
         }
-        let rl = [c * robot.len[i], s * robot.len[i]];
+        let rl = [c * robot.lengths()[i], s * robot.lengths()[i]];
         let wl = cross(w, rl);
         v = [v[0] + wl[0], v[1] + wl[1]];
     }
@@ -341,7 +341,7 @@ impl RapierPlant {
         settings: &RapierSettings,
     ) -> Result<Self> {
         settings.validate("<rapier settings>")?;
-        check_state(robot.n, x0, "rapier plant initial state x0")?;
+        check_state(robot.n(), x0, "rapier plant initial state x0")?;
         check_grip(grip)?;
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::new(0.0, -robot.gravity);
@@ -378,7 +378,7 @@ impl RapierPlant {
     /// Every joint's world position and velocity (n + 1 points, grip first), read from the engine's
     /// bodies (m, m/s).
     pub fn world_joints(&self) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
-        let n = self.robot.n;
+        let n = self.robot.n();
         let mut p = Vec::with_capacity(n + 1);
         let mut v = Vec::with_capacity(n + 1);
         for (i, &h) in self.chain.links.iter().enumerate() {
@@ -391,7 +391,7 @@ impl RapierPlant {
             let w = rb.angvel();
             let lv = rb.linvel();
             // linvel is the centre-of-mass velocity; the body frame is at the proximal joint
-            let com = [c * self.robot.com[i], s * self.robot.com[i]];
+            let com = [c * self.robot.coms()[i], s * self.robot.coms()[i]];
             let at = |r: [f64; 2]| {
                 let wr = cross(w, [r[0] - com[0], r[1] - com[1]]);
                 [lv.x + wr[0], lv.y + wr[1]]
@@ -399,7 +399,7 @@ impl RapierPlant {
             p.push([t.x, t.y]);
             v.push(at([0.0, 0.0]));
             if i + 1 == n {
-                let l = self.robot.len[i];
+                let l = self.robot.lengths()[i];
                 p.push([t.x + c * l, t.y + s * l]);
                 v.push(at([c * l, s * l]));
             }
@@ -421,12 +421,12 @@ impl RapierPlant {
     /// further than [`REGRIP_TOLERANCE_M`] from the old one at any joint ([`Error::InfeasibleTask`]:
     /// `x` is not the re-rooted pose, and the plant is left as rebuilt).
     pub fn regrip(&mut self, robot: &Robot, grip: [f64; 2], x: &[f64]) -> Result<Regrip> {
-        let n = self.robot.n;
-        if robot.n != n {
+        let n = self.robot.n();
+        if robot.n() != n {
             return Err(Error::Dimension {
                 what: "regrip: links of the new chain".into(),
                 expected: n,
-                got: robot.n,
+                got: robot.n(),
             });
         }
         check_state(n, x, "regrip: new state x")?;
@@ -493,10 +493,10 @@ impl RapierPlant {
         let id = self.obstacles.len();
         obstacle.validate("<obstacle>", id)?;
         let (center, radius) = obstacle.shape();
-        let mut x = vec![0.0; 2 * self.robot.n];
+        let mut x = vec![0.0; 2 * self.robot.n()];
         self.state(&mut x);
-        let mut segs = vec![([0.0; 2], [0.0; 2]); self.robot.n];
-        self.robot.link_segments(&x[..self.robot.n], &mut segs);
+        let mut segs = vec![([0.0; 2], [0.0; 2]); self.robot.n()];
+        self.robot.link_segments(&x[..self.robot.n()], &mut segs);
         let g = self.grip;
         for (a, b) in segs.iter_mut() {
             *a = [a[0] + g[0], a[1] + g[1]];
@@ -504,7 +504,7 @@ impl RapierPlant {
         }
         for (i, (a, b)) in segs.iter().enumerate() {
             let d = point_segment_distance(center, *a, *b);
-            if d < radius + self.robot.radius[i] {
+            if d < radius + self.robot.radii()[i] {
                 return Err(Error::InfeasibleTask(format!(
                     "obstacle {id} (centre [{}, {}], radius {radius} m) overlaps link {} at the \
                      current pose (distance {d:.4} m)",
@@ -728,7 +728,7 @@ impl RapierPlant {
 
 impl Plant for RapierPlant {
     fn n_links(&self) -> usize {
-        self.robot.n
+        self.robot.n()
     }
 
     fn time(&self) -> f64 {
@@ -739,7 +739,7 @@ impl Plant for RapierPlant {
     /// velocities. The first joint is hinged to the fixed root at the origin with the root frame
     /// aligned with the world, so its coordinate is the absolute angle of link 1.
     fn state(&self, x: &mut [f64]) {
-        let n = self.robot.n;
+        let n = self.robot.n();
         let Some(mb) = self.multibody() else {
             x.fill(f64::NAN);
             return;
@@ -824,7 +824,7 @@ impl Plant for RapierPlant {
     /// A push is applied by the engine as the force `impulse / dt` at the point (grip frame, where
     /// it is at the start of the period), held over the next control period of length `dt`.
     fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> Result<()> {
-        let n = self.robot.n;
+        let n = self.robot.n();
         if link >= n || !point_m.is_finite() || !impulse.iter().all(|v| v.is_finite()) {
             return Err(Error::invalid(
                 "RapierPlant",
@@ -858,13 +858,13 @@ impl Plant for RapierPlant {
                 return f64::NAN;
             };
             // the body frame sits at the proximal joint; the centre of mass is `com` along the link
-            let y_com =
-                rb.translation().y - self.grip[1] + rb.rotation().angle().sin() * self.robot.com[i];
+            let y_com = rb.translation().y - self.grip[1]
+                + rb.rotation().angle().sin() * self.robot.coms()[i];
             let v = rb.linvel();
             let w = rb.angvel();
-            e += 0.5 * self.robot.mass[i] * (v.x * v.x + v.y * v.y)
-                + 0.5 * self.robot.inertia[i] * w * w
-                + self.robot.mass[i] * g * y_com;
+            e += 0.5 * self.robot.masses()[i] * (v.x * v.x + v.y * v.y)
+                + 0.5 * self.robot.inertias()[i] * w * w
+                + self.robot.masses()[i] * g * y_com;
         }
         e
     }

@@ -33,11 +33,15 @@ fn mass_properties_are_exact_and_damping_is_zero() {
     let mp = plant.link_mass_properties();
     assert_eq!(mp.len(), 4);
     for i in 0..4 {
-        assert!((mp[i].mass - robot.mass[i]).abs() < 1e-12, "{:?}", mp[i]);
-        assert!((mp[i].local_com[0] - robot.com[i]).abs() < 1e-12);
+        assert!(
+            (mp[i].mass - robot.masses()[i]).abs() < 1e-12,
+            "{:?}",
+            mp[i]
+        );
+        assert!((mp[i].local_com[0] - robot.coms()[i]).abs() < 1e-12);
         assert!(mp[i].local_com[1].abs() < 1e-12);
         assert!(
-            (mp[i].inertia - robot.inertia[i]).abs() < 1e-12,
+            (mp[i].inertia - robot.inertias()[i]).abs() < 1e-12,
             "{:?}",
             mp[i]
         );

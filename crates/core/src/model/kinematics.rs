@@ -126,3 +126,78 @@ impl Robot {
         v
     }
 }
+
+/// The angle `a` wrapped into (-pi, pi].
+pub fn wrap_angle(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let mut v = a % tau;
+    if v <= -std::f64::consts::PI {
+        v += tau;
+    } else if v > std::f64::consts::PI {
+        v -= tau;
+    }
+    v
+}
+
+/// The start pose mirrored about the vertical through the grip (absolute angles th -> pi - th).
+pub fn mirrored_pose(q0: &[f64]) -> Vec<f64> {
+    let n = q0.len();
+    let mut th = 0.0;
+    let abs: Vec<f64> = q0
+        .iter()
+        .map(|qi| {
+            th += qi;
+            std::f64::consts::PI - th
+        })
+        .collect();
+    (0..n)
+        .map(|i| wrap_angle(if i == 0 { abs[0] } else { abs[i] - abs[i - 1] }))
+        .collect()
+}
+
+/// Inverse kinematics by damped least squares with a null-space pull towards `seed`; `None` when it
+/// does not reach `target` to 1e-9 m.
+pub fn ik_from_seed(robot: &Robot, seed: &[f64], target: [f64; 2]) -> Option<Vec<f64>> {
+    let n = robot.n();
+    let mut q = seed.to_vec();
+    let mut jac = vec![0.0; 2 * n];
+    // 300 iterations with a null-space pull towards the seed, then pure Gauss-Newton to polish (the pull
+    // leaves a second-order residual).
+    for it in 0..400 {
+        let pull = if it < 300 { 0.1 } else { 0.0 };
+        let ee = robot.ee_position(&q);
+        let e = [target[0] - ee[0], target[1] - ee[1]];
+        robot.ee_jacobian(&q, &mut jac);
+        // A = J J^T + lambda^2 I (2 x 2)
+        let lam2 = 1e-6;
+        let a00: f64 = (0..n).map(|j| jac[j] * jac[j]).sum::<f64>() + lam2;
+        let a01: f64 = (0..n).map(|j| jac[j] * jac[n + j]).sum();
+        let a11: f64 = (0..n).map(|j| jac[n + j] * jac[n + j]).sum::<f64>() + lam2;
+        let det = a00 * a11 - a01 * a01;
+        let solve2 = |b: [f64; 2]| {
+            [
+                (a11 * b[0] - a01 * b[1]) / det,
+                (a00 * b[1] - a01 * b[0]) / det,
+            ]
+        };
+        let y = solve2(e);
+        // null-space step towards the seed: (I - J^T A^-1 J) (seed - q)
+        let d: Vec<f64> = (0..n).map(|j| seed[j] - q[j]).collect();
+        let jd = [
+            (0..n).map(|j| jac[j] * d[j]).sum::<f64>(),
+            (0..n).map(|j| jac[n + j] * d[j]).sum::<f64>(),
+        ];
+        let yd = solve2(jd);
+        for j in 0..n {
+            let task = jac[j] * y[0] + jac[n + j] * y[1];
+            let null = d[j] - (jac[j] * yd[0] + jac[n + j] * yd[1]);
+            q[j] += task + pull * null;
+        }
+        if it >= 300 && (e[0] * e[0] + e[1] * e[1]).sqrt() < 1e-12 {
+            break;
+        }
+    }
+    let ee = robot.ee_position(&q);
+    let err = ((ee[0] - target[0]).powi(2) + (ee[1] - target[1]).powi(2)).sqrt();
+    (err < 1e-9 && q.iter().all(|v| v.is_finite())).then_some(q)
+}

@@ -16,6 +16,6 @@ pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
 pub use dynamics::{
     cholesky_factor_in_place, cholesky_solve_factored, cholesky_solve_in_place, Scratch,
 };
-pub use kinematics::P2;
+pub use kinematics::{ik_from_seed, mirrored_pose, wrap_angle, P2};
 pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS, PAPER_TOML};
 pub use reroot::{reroot_state, reroot_tau, switch_grip, GripSwitch};

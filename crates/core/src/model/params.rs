@@ -179,22 +179,26 @@ impl RobotParams {
 }
 
 /// A validated robot: the data every model function trusts, with constant coefficients precomputed.
+///
+/// The fields are read through accessors ([`Robot::n`], [`Robot::lengths`], ...) so that they cannot
+/// go stale against the precomputed coefficients: a different robot is built from changed
+/// [`RobotParams`] with [`Robot::from_params`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
     /// The parameters it was built from.
-    pub params: RobotParams,
+    pub(crate) params: RobotParams,
     /// Number of links (= joints) n.
-    pub n: usize,
+    pub(crate) n: usize,
     /// Link lengths, m.
-    pub len: Vec<f64>,
+    pub(crate) len: Vec<f64>,
     /// Link masses, kg.
-    pub mass: Vec<f64>,
+    pub(crate) mass: Vec<f64>,
     /// Centre-of-mass distances from the proximal joints, m.
-    pub com: Vec<f64>,
+    pub(crate) com: Vec<f64>,
     /// Planar inertias about the centres of mass, kg m^2.
-    pub inertia: Vec<f64>,
+    pub(crate) inertia: Vec<f64>,
     /// Capsule radii, m.
-    pub radius: Vec<f64>,
+    pub(crate) radius: Vec<f64>,
     /// Gravitational acceleration, m/s^2.
     pub gravity: f64,
     /// Lower torque limits of joints 2..n, N m.
@@ -267,6 +271,56 @@ impl Robot {
         let p =
             RobotParams::from_toml_str(text, "params/paper.toml").expect("bundled params parse");
         Self::from_params(p, "params/paper.toml").expect("bundled params are valid")
+    }
+
+    /// Number of links (= joints) n.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// The parameters it was built from.
+    pub fn params(&self) -> &RobotParams {
+        &self.params
+    }
+
+    /// Link lengths, m (link 1 at the grip first).
+    pub fn lengths(&self) -> &[f64] {
+        &self.len
+    }
+
+    /// Link masses, kg.
+    pub fn masses(&self) -> &[f64] {
+        &self.mass
+    }
+
+    /// Centre-of-mass distances from the proximal joints, m.
+    pub fn coms(&self) -> &[f64] {
+        &self.com
+    }
+
+    /// Planar inertias about the centres of mass, kg m^2.
+    pub fn inertias(&self) -> &[f64] {
+        &self.inertia
+    }
+
+    /// Capsule radii, m.
+    pub fn radii(&self) -> &[f64] {
+        &self.radius
+    }
+
+    /// Gravitational acceleration, m/s^2 (acts along -y).
+    pub fn gravity(&self) -> f64 {
+        self.gravity
+    }
+
+    /// Lower torque limits of joints 2..n, N m.
+    pub fn tau_min(&self) -> &[f64] {
+        &self.tau_min
+    }
+
+    /// Upper torque limits of joints 2..n, N m.
+    pub fn tau_max(&self) -> &[f64] {
+        &self.tau_max
     }
 
     /// Number of actuated joints (n - 1).

@@ -20,8 +20,9 @@
 //! strategies work for every transcription and backend. Units: m, s.
 
 use super::nlp::NlpSettings;
-use super::planner::{plan_single, target_pose, Plan, SwingTask};
+use super::planner::{plan_single, target_pose, Plan};
 use super::settings::PlannerSettings;
+use super::task::SwingTask;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
 use crate::trajectory::Trajectory;

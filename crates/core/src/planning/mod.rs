@@ -16,6 +16,7 @@ pub mod profile;
 pub mod settings;
 pub mod shooting;
 pub mod swing_planner;
+pub mod task;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
 pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};
@@ -23,10 +24,7 @@ pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus,
 pub use nlp::{PassStats, TimeSplit};
 pub use ocp_nlp::{AdapterTimings, OcpNlp};
 pub use planner::SolveAttempt;
-pub use planner::{
-    freefall_time, plan, plan_with_guess, validate_task, Plan, SwingTask, Violations,
-    WARM_START_MU_INIT,
-};
+pub use planner::{freefall_time, plan, plan_with_guess, Plan, Violations, WARM_START_MU_INIT};
 pub use settings::{
     Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription, DEFAULT_KNOT_DT_S,
     DEFAULT_SHOOTING_SUBSTEPS,
@@ -35,3 +33,4 @@ pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};
+pub use task::{validate_task, SwingTask, MAX_OBSTACLES};

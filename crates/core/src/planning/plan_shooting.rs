@@ -7,13 +7,14 @@ use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
 use super::planner::{
-    check_guess, check_task, clearance_rows, guess_from_trajectory, min_obstacle_clearance,
-    smooth_step_guess, solve_with_retry, swing_time, target_pose, variable_bounds,
-    DistanceClearanceFn, Plan, SolveAttempt, SwingTask, Violations,
+    check_guess, clearance_rows, guess_from_trajectory, min_obstacle_clearance, smooth_step_guess,
+    solve_with_retry, swing_time, target_pose, variable_bounds, DistanceClearanceFn, Plan,
+    SolveAttempt, Violations,
 };
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
+use super::task::{check_task, SwingTask};
 use crate::error::{Error, Result};
 use crate::integrate;
 use crate::model::{Robot, Scratch};

@@ -9,29 +9,16 @@ use super::nlp::{
 };
 use super::profile::{replay_ee_error, resample, Clamped};
 use super::settings::{PlannerSettings, SwingTime, Transcription};
+use super::task::check_task;
+use super::task::SwingTask;
 use crate::ad::LocalFn;
 use crate::error::{Error, Result};
-use crate::model::{Circle, ClearanceFn, DynamicsFn, Robot};
+use crate::model::{
+    ik_from_seed, mirrored_pose, wrap_angle, Circle, ClearanceFn, DynamicsFn, Robot,
+};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
-
-/// What to plan: where the robot starts, which bar it must reach, what is in the way.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SwingTask {
-    /// Start joint angles (n), rad.
-    pub q0: Vec<f64>,
-    /// Start joint velocities (n), rad/s; empty = at rest.
-    #[serde(default)]
-    pub qd0: Vec<f64>,
-    /// Target bar position in the grip frame, m.
-    #[serde(deserialize_with = "crate::serde_exact::pair")]
-    pub target: [f64; 2],
-    /// Circular obstacles.
-    #[serde(default)]
-    pub obstacles: Vec<Circle>,
-}
 
 /// The clearance constraints the planner imposes: the exact surface distance, not its square,
 /// `g = sqrt(d^2 + eps^2) - (r_a + r_b + margin) >= 0` for every row of a [`ClearanceFn`] (the paper's
@@ -333,80 +320,6 @@ fn locked_chain_acceleration(
 }
 
 /// Wrap an angle to (-pi, pi].
-fn wrap(a: f64) -> f64 {
-    let tau = std::f64::consts::TAU;
-    let mut v = a % tau;
-    if v <= -std::f64::consts::PI {
-        v += tau;
-    } else if v > std::f64::consts::PI {
-        v -= tau;
-    }
-    v
-}
-
-/// The start pose mirrored about the vertical through the grip (absolute angles th -> pi - th).
-pub fn mirrored_pose(q0: &[f64]) -> Vec<f64> {
-    let n = q0.len();
-    let mut th = 0.0;
-    let abs: Vec<f64> = q0
-        .iter()
-        .map(|qi| {
-            th += qi;
-            std::f64::consts::PI - th
-        })
-        .collect();
-    (0..n)
-        .map(|i| wrap(if i == 0 { abs[0] } else { abs[i] - abs[i - 1] }))
-        .collect()
-}
-
-/// Inverse kinematics by damped least squares with a null-space pull towards `seed`; `None` when it
-/// does not reach `target` to 1e-9 m.
-pub fn ik_from_seed(robot: &Robot, seed: &[f64], target: [f64; 2]) -> Option<Vec<f64>> {
-    let n = robot.n;
-    let mut q = seed.to_vec();
-    let mut jac = vec![0.0; 2 * n];
-    // 300 iterations with a null-space pull towards the seed, then pure Gauss-Newton to polish (the pull
-    // leaves a second-order residual).
-    for it in 0..400 {
-        let pull = if it < 300 { 0.1 } else { 0.0 };
-        let ee = robot.ee_position(&q);
-        let e = [target[0] - ee[0], target[1] - ee[1]];
-        robot.ee_jacobian(&q, &mut jac);
-        // A = J J^T + lambda^2 I (2 x 2)
-        let lam2 = 1e-6;
-        let a00: f64 = (0..n).map(|j| jac[j] * jac[j]).sum::<f64>() + lam2;
-        let a01: f64 = (0..n).map(|j| jac[j] * jac[n + j]).sum();
-        let a11: f64 = (0..n).map(|j| jac[n + j] * jac[n + j]).sum::<f64>() + lam2;
-        let det = a00 * a11 - a01 * a01;
-        let solve2 = |b: [f64; 2]| {
-            [
-                (a11 * b[0] - a01 * b[1]) / det,
-                (a00 * b[1] - a01 * b[0]) / det,
-            ]
-        };
-        let y = solve2(e);
-        // null-space step towards the seed: (I - J^T A^-1 J) (seed - q)
-        let d: Vec<f64> = (0..n).map(|j| seed[j] - q[j]).collect();
-        let jd = [
-            (0..n).map(|j| jac[j] * d[j]).sum::<f64>(),
-            (0..n).map(|j| jac[n + j] * d[j]).sum::<f64>(),
-        ];
-        let yd = solve2(jd);
-        for j in 0..n {
-            let task = jac[j] * y[0] + jac[n + j] * y[1];
-            let null = d[j] - (jac[j] * yd[0] + jac[n + j] * yd[1]);
-            q[j] += task + pull * null;
-        }
-        if it >= 300 && (e[0] * e[0] + e[1] * e[1]).sqrt() < 1e-12 {
-            break;
-        }
-    }
-    let ee = robot.ee_position(&q);
-    let err = ((ee[0] - target[0]).powi(2) + (ee[1] - target[1]).powi(2)).sqrt();
-    (err < 1e-9 && q.iter().all(|v| v.is_finite())).then_some(q)
-}
-
 /// Variable bounds for the layout (start state fixed, final torque zero).
 pub(super) fn variable_bounds(
     robot: &Robot,
@@ -450,167 +363,6 @@ pub(super) fn variable_bounds(
     (lo, hi)
 }
 
-/// Most obstacles a task may have (each adds n clearance rows per collocation point).
-pub const MAX_OBSTACLES: usize = 64;
-
-/// Check the task before any solving; returns qd0 (filled in when empty).
-pub(super) fn check_task(
-    robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
-) -> Result<Vec<f64>> {
-    validate_task(robot, task, settings, "task", "")
-}
-
-/// Check a task for `robot` under `settings` before anything is solved: lengths of `q0` and `qd0`,
-/// finite values, the start state inside the bounds (q1 range, |q_i| <= q_rel_max, |qd_i| <= qd_max),
-/// the target within reach, the obstacles valid and clear of the start pose and the target. `src`
-/// names the file and `prefix` the section (e.g. `task.`) in messages. Returns qd0 (zeros when empty).
-pub fn validate_task(
-    robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
-    src: &str,
-    prefix: &str,
-) -> Result<Vec<f64>> {
-    let n = robot.n;
-    let field = |f: &str| format!("{prefix}{f}");
-    let fmt = |v: &[f64]| format!("{v:?}");
-    if task.q0.len() != n {
-        return Err(Error::invalid(
-            src,
-            field("q0"),
-            fmt(&task.q0),
-            format!("needs {n} values, one per joint of the {n}-link robot"),
-        ));
-    }
-    let qd0 = if task.qd0.is_empty() {
-        vec![0.0; n]
-    } else {
-        task.qd0.clone()
-    };
-    if qd0.len() != n {
-        return Err(Error::invalid(
-            src,
-            field("qd0"),
-            fmt(&task.qd0),
-            format!("needs {n} values, one per joint of the {n}-link robot (or none: at rest)"),
-        ));
-    }
-    for (name, v) in [("q0", &task.q0), ("qd0", &qd0)] {
-        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-            return Err(Error::invalid(
-                src,
-                field(&format!("{name}[{i}]")),
-                x,
-                "must be finite",
-            ));
-        }
-    }
-    if let Some((i, x)) = task.target.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-        return Err(Error::invalid(
-            src,
-            field(&format!("target[{i}]")),
-            x,
-            "must be finite",
-        ));
-    }
-    let b = &settings.bounds;
-    if task.q0[0] < b.q1[0] || task.q0[0] > b.q1[1] {
-        return Err(Error::invalid(
-            src,
-            field("q0[0]"),
-            task.q0[0],
-            format!(
-                "the start pose must lie inside planner.bounds.q1 = [{}, {}] rad",
-                b.q1[0], b.q1[1]
-            ),
-        ));
-    }
-    for i in 1..n {
-        if task.q0[i].abs() > b.q_rel_max {
-            return Err(Error::invalid(
-                src,
-                field(&format!("q0[{i}]")),
-                task.q0[i],
-                format!(
-                    "the start pose must lie inside planner.bounds.q_rel_max = {} rad",
-                    b.q_rel_max
-                ),
-            ));
-        }
-    }
-    for (i, v) in qd0.iter().enumerate() {
-        if v.abs() > b.qd_max {
-            return Err(Error::invalid(
-                src,
-                field(&format!("qd0[{i}]")),
-                v,
-                format!(
-                    "the start velocity must lie inside planner.bounds.qd_max = {} rad/s",
-                    b.qd_max
-                ),
-            ));
-        }
-    }
-    let dist = task.target[0].hypot(task.target[1]);
-    if dist > robot.reach() - 1e-6 {
-        return Err(Error::invalid(
-            src,
-            field("target"),
-            fmt(&task.target),
-            format!(
-                "is {dist:.3} m from the grip; the robot reaches at most {:.3} m",
-                robot.reach()
-            ),
-        ));
-    }
-    if task.obstacles.len() > MAX_OBSTACLES {
-        return Err(Error::invalid(
-            src,
-            field("obstacles"),
-            format!("{} obstacles", task.obstacles.len()),
-            format!("at most {MAX_OBSTACLES}"),
-        ));
-    }
-    for (i, o) in task.obstacles.iter().enumerate() {
-        o.validate(src, &field(&format!("obstacles[{i}]")))?;
-        if o.center.iter().any(|c| c.abs() > 1e3) || o.radius > 1e3 {
-            return Err(Error::invalid(
-                src,
-                field(&format!("obstacles[{i}]")),
-                format!("center {:?}, radius {}", o.center, o.radius),
-                "must lie within 1000 m of the grip",
-            ));
-        }
-    }
-    if settings.avoid_obstacles && !task.obstacles.is_empty() {
-        let cf = ClearanceFn::new(robot.clone(), task.obstacles.as_slice(), 0.0)?
-            .with_self_collision(false);
-        let c = cf.min_clearance(&task.q0);
-        if c < 0.0 {
-            return Err(Error::invalid(
-                src,
-                field("q0"),
-                fmt(&task.q0),
-                format!("the start pose overlaps an obstacle (surface distance {c:.4} m)"),
-            ));
-        }
-        for (i, o) in task.obstacles.iter().enumerate() {
-            let d = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]);
-            if d < o.radius {
-                return Err(Error::invalid(
-                    src,
-                    field("target"),
-                    fmt(&task.target),
-                    format!("lies inside {}", field(&format!("obstacles[{i}]"))),
-                ));
-            }
-        }
-    }
-    Ok(qd0)
-}
-
 /// Pick the target pose for the initial guess: IK seeded by the mirrored start pose and variants,
 /// keeping poses inside the bounds, preferring obstacle-free ones, then the one closest to its seed.
 pub(super) fn target_pose(
@@ -632,7 +384,7 @@ pub(super) fn target_pose(
     // bar, as a re-rooted chain on a ladder may, mirrors to seeds above it)
     let mut vee = straight.clone();
     let sgn = if task.target[0] < 0.0 { 1.0 } else { -1.0 };
-    vee[0] = wrap(straight[0] + 0.8 * sgn);
+    vee[0] = wrap_angle(straight[0] + 0.8 * sgn);
     vee[n / 2] = -1.6 * sgn;
     let b = &settings.bounds;
     let mut best: Option<(bool, f64, Vec<f64>)> = None;
@@ -646,7 +398,7 @@ pub(super) fn target_pose(
         let Some(q) = ik_from_seed(robot, &seed, task.target) else {
             continue;
         };
-        let q: Vec<f64> = q.iter().map(|v| wrap(*v)).collect();
+        let q: Vec<f64> = q.iter().map(|v| wrap_angle(*v)).collect();
         let inside =
             q[0] >= b.q1[0] && q[0] <= b.q1[1] && q[1..].iter().all(|v| v.abs() <= b.q_rel_max);
         if !inside {

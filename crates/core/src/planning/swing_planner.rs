@@ -19,9 +19,10 @@ use super::nlp::{Backend, NlpSettings, SolveStatus};
 use super::plan_shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
-use super::planner::{Plan, SwingTask, WARM_START_MU_INIT};
+use super::planner::{Plan, WARM_START_MU_INIT};
 use super::settings::PlannerSettings;
 use super::shooting::SwingOcp;
+use super::task::SwingTask;
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, WarmDuals};

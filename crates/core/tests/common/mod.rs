@@ -48,7 +48,7 @@ pub fn torque_profile(t: f64, tau: &mut [f64]) {
 /// [t_k, t_k + 1 ms)).
 pub fn model_reference(robot: &Robot, x0: &[f64], duration: f64) -> Trajectory {
     let mut plant = ModelPlant::new(robot.clone(), x0);
-    let mut tr = Trajectory::new(robot.n);
+    let mut tr = Trajectory::new(robot.n());
     let steps = (duration / 1e-3).round() as usize;
     let mut x = vec![0.0; robot.nx()];
     let mut tau = vec![0.0; robot.nu()];
@@ -56,7 +56,7 @@ pub fn model_reference(robot: &Robot, x0: &[f64], duration: f64) -> Trajectory {
         let t = plant.time();
         plant.state(&mut x);
         torque_profile(t, &mut tau);
-        tr.push(t, &x[..robot.n], &x[robot.n..], &tau);
+        tr.push(t, &x[..robot.n()], &x[robot.n()..], &tau);
         plant.step(&tau, 1e-3);
     }
     tr

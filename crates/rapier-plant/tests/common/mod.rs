@@ -92,7 +92,7 @@ pub fn compare_signed(
     };
     let mut rp = RapierPlant::new(robot, x0, &settings).expect("plant builds");
     let mut mp = ModelPlant::new(robot.clone(), x0);
-    let n = robot.n;
+    let n = robot.n();
     let (mut xr, mut xm) = (vec![0.0; 2 * n], vec![0.0; 2 * n]);
     let (er0, em0) = (rp.energy(), mp.energy());
     let mut a = Agreement {

@@ -1,0 +1,230 @@
+//! What to plan ([`SwingTask`]) and the checks a task passes before anything is solved.
+//!
+//! Conventions: `q0` in rad (`q0[0]` absolute from +x, the rest relative), `qd0` in rad/s, the target
+//! bar and obstacle centres in m in the grip frame (origin at the grip, gravity along -y).
+
+use super::settings::PlannerSettings;
+use crate::error::{Error, Result};
+use crate::model::{Circle, ClearanceFn, Robot};
+use serde::{Deserialize, Serialize};
+
+/// What to plan: where the robot starts, which bar it must reach, what is in the way.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SwingTask {
+    /// Start joint angles (n), rad.
+    pub q0: Vec<f64>,
+    /// Start joint velocities (n), rad/s; empty = at rest.
+    #[serde(default)]
+    pub qd0: Vec<f64>,
+    /// Target bar position in the grip frame, m.
+    #[serde(deserialize_with = "crate::serde_exact::pair")]
+    pub target: [f64; 2],
+    /// Circular obstacles.
+    #[serde(default)]
+    pub obstacles: Vec<Circle>,
+}
+
+impl SwingTask {
+    /// The paper's Section V-B swing (Figs. 5-6, `scenarios/tracking.toml`): from rest at
+    /// `q0 = [-2.35, 0, -1.55, 0]` rad (EE at (-1.014, -0.017) m) to the bar at (0.8, 0) m, no
+    /// obstacles, for the 4-link robot of [`Robot::paper`].
+    pub fn paper() -> Self {
+        SwingTask {
+            q0: vec![-2.35, 0.0, -1.55, 0.0],
+            qd0: vec![],
+            target: [0.8, 0.0],
+            obstacles: vec![],
+        }
+    }
+}
+
+/// Most obstacles a task may have (each adds n clearance rows per collocation point).
+pub const MAX_OBSTACLES: usize = 64;
+
+/// Check the task before any solving; returns qd0 (filled in when empty).
+pub(super) fn check_task(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<Vec<f64>> {
+    validate_task(robot, task, settings, "task", "")
+}
+
+/// Check a task for `robot` under `settings` before anything is solved: lengths of `q0` and `qd0`,
+/// finite values, the start state inside the bounds (q1 range, |q_i| <= q_rel_max, |qd_i| <= qd_max),
+/// the target within reach, the obstacles valid and clear of the start pose and the target. `src`
+/// names the file and `prefix` the section (e.g. `task.`) in messages. Returns qd0 (zeros when empty).
+pub fn validate_task(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    src: &str,
+    prefix: &str,
+) -> Result<Vec<f64>> {
+    let n = robot.n();
+    let field = |f: &str| format!("{prefix}{f}");
+    let fmt = |v: &[f64]| format!("{v:?}");
+    if task.q0.len() != n {
+        return Err(Error::invalid(
+            src,
+            field("q0"),
+            fmt(&task.q0),
+            format!("needs {n} values, one per joint of the {n}-link robot"),
+        ));
+    }
+    let qd0 = if task.qd0.is_empty() {
+        vec![0.0; n]
+    } else {
+        task.qd0.clone()
+    };
+    if qd0.len() != n {
+        return Err(Error::invalid(
+            src,
+            field("qd0"),
+            fmt(&task.qd0),
+            format!("needs {n} values, one per joint of the {n}-link robot (or none: at rest)"),
+        ));
+    }
+    for (name, v) in [("q0", &task.q0), ("qd0", &qd0)] {
+        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(Error::invalid(
+                src,
+                field(&format!("{name}[{i}]")),
+                x,
+                "must be finite",
+            ));
+        }
+    }
+    if let Some((i, x)) = task.target.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+        return Err(Error::invalid(
+            src,
+            field(&format!("target[{i}]")),
+            x,
+            "must be finite",
+        ));
+    }
+    let b = &settings.bounds;
+    if task.q0[0] < b.q1[0] || task.q0[0] > b.q1[1] {
+        return Err(Error::invalid(
+            src,
+            field("q0[0]"),
+            task.q0[0],
+            format!(
+                "the start pose must lie inside planner.bounds.q1 = [{}, {}] rad",
+                b.q1[0], b.q1[1]
+            ),
+        ));
+    }
+    for i in 1..n {
+        if task.q0[i].abs() > b.q_rel_max {
+            return Err(Error::invalid(
+                src,
+                field(&format!("q0[{i}]")),
+                task.q0[i],
+                format!(
+                    "the start pose must lie inside planner.bounds.q_rel_max = {} rad",
+                    b.q_rel_max
+                ),
+            ));
+        }
+    }
+    for (i, v) in qd0.iter().enumerate() {
+        if v.abs() > b.qd_max {
+            return Err(Error::invalid(
+                src,
+                field(&format!("qd0[{i}]")),
+                v,
+                format!(
+                    "the start velocity must lie inside planner.bounds.qd_max = {} rad/s",
+                    b.qd_max
+                ),
+            ));
+        }
+    }
+    let dist = task.target[0].hypot(task.target[1]);
+    if dist > robot.reach() - 1e-6 {
+        return Err(Error::invalid(
+            src,
+            field("target"),
+            fmt(&task.target),
+            format!(
+                "is {dist:.3} m from the grip; the robot reaches at most {:.3} m",
+                robot.reach()
+            ),
+        ));
+    }
+    if task.obstacles.len() > MAX_OBSTACLES {
+        return Err(Error::invalid(
+            src,
+            field("obstacles"),
+            format!("{} obstacles", task.obstacles.len()),
+            format!("at most {MAX_OBSTACLES}"),
+        ));
+    }
+    for (i, o) in task.obstacles.iter().enumerate() {
+        o.validate(src, &field(&format!("obstacles[{i}]")))?;
+        if o.center.iter().any(|c| c.abs() > 1e3) || o.radius > 1e3 {
+            return Err(Error::invalid(
+                src,
+                field(&format!("obstacles[{i}]")),
+                format!("center {:?}, radius {}", o.center, o.radius),
+                "must lie within 1000 m of the grip",
+            ));
+        }
+    }
+    if settings.avoid_obstacles && !task.obstacles.is_empty() {
+        let cf = ClearanceFn::new(robot.clone(), task.obstacles.as_slice(), 0.0)?
+            .with_self_collision(false);
+        let c = cf.min_clearance(&task.q0);
+        if c < 0.0 {
+            return Err(Error::invalid(
+                src,
+                field("q0"),
+                fmt(&task.q0),
+                format!("the start pose overlaps an obstacle (surface distance {c:.4} m)"),
+            ));
+        }
+        for (i, o) in task.obstacles.iter().enumerate() {
+            let d = (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]);
+            if d < o.radius {
+                return Err(Error::invalid(
+                    src,
+                    field("target"),
+                    fmt(&task.target),
+                    format!("lies inside {}", field(&format!("obstacles[{i}]"))),
+                ));
+            }
+        }
+    }
+    Ok(qd0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `SwingTask::paper()` is the task of `scenarios/tracking.toml` (the file a user runs).
+    #[test]
+    fn the_paper_task_is_the_tracking_scenarios_task() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/tracking.toml");
+        let text = std::fs::read_to_string(path).expect("scenarios/tracking.toml in the workspace");
+        let doc: toml::Value = toml::from_str(&text).expect("the scenario parses");
+        let task = &doc["task"];
+        let floats = |v: &toml::Value| -> Vec<f64> {
+            v.as_array()
+                .expect("an array")
+                .iter()
+                .map(|x| x.as_float().expect("a float"))
+                .collect()
+        };
+        let paper = SwingTask::paper();
+        assert_eq!(floats(&task["q0"]), paper.q0);
+        assert_eq!(floats(&task["target"]), paper.target.to_vec());
+        assert!(floats(&task["qd0"]).iter().all(|v| *v == 0.0));
+        assert!(paper.qd0.is_empty() && paper.obstacles.is_empty());
+        let robot = Robot::paper();
+        let qd0 = validate_task(&robot, &paper, &PlannerSettings::default(), "paper", "").unwrap();
+        assert_eq!(qd0, vec![0.0; 4]);
+    }
+}
