@@ -269,6 +269,17 @@ pub fn defect_rows(l: &Layout) -> Vec<Row> {
     rows
 }
 
+/// The blocks of a [`CollocationNlp`]'s constraint vector, in row order.
+#[derive(Debug, Clone, Copy)]
+pub struct RowBlocks<'g> {
+    /// Dynamics defects (zero at a solution).
+    pub defects: &'g [f64],
+    /// The terminal rows of [`EeTerminalFn`]: EE position (x, y), m, then EE velocity (x, y), m/s.
+    pub terminal: &'g [f64],
+    /// Path constraints (clearances, >= 0), `n_path` per point after the first.
+    pub path: &'g [f64],
+}
+
 /// A trajectory-optimisation problem as a sparse NLP: second-order dynamics `qdd = D(q, qd, u)` imposed
 /// by the layout's transcription, a terminal constraint `T(q_N, qd_N) = target` and path constraints
 /// `P(q_p) >= 0`. Built by [`crate::planning::plan`] for the swing (D = the robot's forward dynamics,
@@ -450,6 +461,16 @@ impl<D: LocalFn, T: LocalFn, P: LocalFn> CollocationNlp<D, T, P> {
     /// First row of the path constraints.
     pub fn path_row0(&self) -> usize {
         self.rows.len() + self.target.len()
+    }
+
+    /// The constraint vector `g` (length `n_cons`) split into its named blocks.
+    pub fn row_blocks<'g>(&self, g: &'g [f64]) -> RowBlocks<'g> {
+        let (r0, p0) = (self.rows.len(), self.path_row0());
+        RowBlocks {
+            defects: &g[..r0],
+            terminal: &g[r0..p0],
+            path: &g[p0..],
+        }
     }
 
     /// qdd at every point for `x` (row-major points x n).

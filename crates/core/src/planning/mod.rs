@@ -18,7 +18,7 @@ pub mod shooting;
 pub mod swing_planner;
 pub mod task;
 
-pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath};
+pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks};
 pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use nlp::{PassStats, TimeSplit};

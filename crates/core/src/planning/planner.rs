@@ -772,15 +772,14 @@ pub(super) fn plan_single(
     // violations by kind
     let mut g = vec![0.0; crate::planning::nlp::SparseNlp::n_cons(&problem)];
     crate::planning::nlp::SparseNlp::constraints(&mut problem, &x, &mut g);
-    let nd = problem.n_defects();
+    let rows = problem.row_blocks(&g);
     let maxabs = |s: &[f64]| s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let ee = rows.terminal;
     let violations = Violations {
-        dynamics: maxabs(&g[..nd]),
-        ee_position: (g[nd] - task.target[0]).hypot(g[nd + 1] - task.target[1]),
-        ee_velocity: g[nd + 2].hypot(g[nd + 3]),
-        clearance: g[problem.path_row0()..]
-            .iter()
-            .fold(0.0f64, |m, v| m.max(-v)),
+        dynamics: maxabs(rows.defects),
+        ee_position: (ee[0] - task.target[0]).hypot(ee[1] - task.target[1]),
+        ee_velocity: ee[2].hypot(ee[3]),
+        clearance: rows.path.iter().fold(0.0f64, |m, v| m.max(-v)),
         bounds: x
             .iter()
             .zip(bounds.0.iter().zip(&bounds.1))
