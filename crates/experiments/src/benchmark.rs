@@ -551,18 +551,6 @@ fn mix(x: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Distance from point `p` to segment `a`-`b`, m.
-fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let l2 = dx * dx + dy * dy;
-    let s = if l2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - s * dx).hypot(p[1] - a[1] - s * dy)
-}
-
 /// The Monte Carlo draws of run `i`: per-link mass factors, and a ball on the planned EE path at a
 /// time in [0.2 T, 0.8 T] that does not touch the robot's start pose (up to 50 draws).
 fn monte_carlo_draw(
@@ -575,34 +563,19 @@ fn monte_carlo_draw(
     let mass_scale: Vec<f64> = (0..n).map(|_| rng.gen_range(0.85..1.15)).collect();
     let mass = rng.gen_range(0.05..0.5);
     let radius = 0.05;
-    let mut segs = vec![([0.0; 2], [0.0; 2]); n];
-    robot.link_segments(reference.q(0), &mut segs);
     let t_end = reference.duration();
-    let mut center = None;
+    let mut ball = None;
     for _ in 0..50 {
         let t = rng.gen_range(0.2..0.8) * t_end;
-        let (k, _) = reference.locate(t);
-        let c = robot.ee_position(reference.q(k));
-        let clear = segs
-            .iter()
-            .enumerate()
-            .all(|(i, (a, b))| seg_dist(c, *a, *b) > radius + robot.radii()[i] + 0.01);
-        if clear {
-            center = Some((c, reference.t[k]));
+        let (b, t_ball) = Ball::on_path(reference, robot, t, mass, radius, 0.3);
+        if b.clearance(robot, reference.q(0)) > 0.01 {
+            ball = Some((b, t_ball));
             break;
         }
     }
-    let ball_t = center.map(|(_, t)| t);
-    let balls = center
-        .map(|(c, _)| {
-            vec![Obstacle::Ball(Ball {
-                center: c,
-                radius,
-                mass,
-                restitution: 0.3,
-                gravity: false,
-            })]
-        })
+    let ball_t = ball.as_ref().map(|(_, t)| *t);
+    let balls = ball
+        .map(|(b, _)| vec![Obstacle::Ball(b)])
         .unwrap_or_default();
     let d = Disturbances {
         mass_scale,

@@ -18,6 +18,7 @@
 //! [tracking]
 //! [plant]      # kind = "model" (RK4) or "rapier" (physics engine; obstacles = balls, world frame)
 //! [disturbances]  # mass_scale, com_scale, inertia_scale per link of the parameters file
+//! [disturbances.ball]  # a ball hit on one swing (rapier plant): swing, at_s, mass, radius, restitution
 //! ```
 //!
 //! **Reach rule** (checked before anything is planned, an error names the bar): the distance between
@@ -149,9 +150,118 @@ pub struct LadderScenario {
     #[serde(default)]
     pub plant: PlantSettings,
     /// Plant-model mismatch over the whole traverse: only the per-link factors `mass_scale`,
-    /// `com_scale`, `inertia_scale` (link i of the parameters file, whichever hand holds).
+    /// `com_scale`, `inertia_scale` (link i of the parameters file, whichever hand holds), and a
+    /// ball hit on one swing (`[disturbances.ball]`).
     #[serde(default)]
-    pub disturbances: Disturbances,
+    pub disturbances: LadderDisturbances,
+}
+
+fn default_ball_restitution() -> f64 {
+    0.3
+}
+
+/// A ball hit on one swing of a traverse (`[disturbances.ball]`, rapier plant): when swing `swing`
+/// starts, a floating ball (no gravity, at rest) is put into the world on that swing's planned EE
+/// path at `at_s` seconds into the swing ([`brachia_rapier::Ball::on_path`], the knot at or before
+/// `at_s`), so the swinging hand following the plan runs into it then. Neither the planner nor the
+/// controller knows it. The model plant simulates no contacts and ignores it (as `brachia track`
+/// ignores `[plant] obstacles` there); the report says so (`ball.ignored`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SwingBall {
+    /// The swing (0 = from bar 0 to bar 1); less than the number of swings.
+    pub swing: usize,
+    /// Time into the swing at which the planned hand reaches the ball, s (> 0 and within the swing's
+    /// planned time: checked when the swing is planned).
+    pub at_s: f64,
+    /// Mass, kg (> 0).
+    pub mass: f64,
+    /// Radius, m (> 0, at most 0.5).
+    pub radius: f64,
+    /// Restitution in [0, 1]. Default 0.3 (as the Monte Carlo benchmark's balls).
+    #[serde(default = "default_ball_restitution")]
+    pub restitution: f64,
+}
+
+impl SwingBall {
+    /// Check the values that do not need a plan, for a ladder of `swings` swings; errors name
+    /// `disturbances.ball.<field>`.
+    fn validate(&self, swings: usize, src: &str) -> Result<(), Error> {
+        let field = |f: &str| format!("disturbances.ball.{f}");
+        if self.swing >= swings {
+            return Err(Error::invalid(
+                src,
+                field("swing"),
+                self.swing,
+                format!("must name a swing of the ladder: 0..{swings} ({swings} swings)"),
+            ));
+        }
+        for (name, v, max) in [
+            ("at_s", self.at_s, 1e3),
+            ("mass", self.mass, 1e3),
+            ("radius", self.radius, 0.5),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                return Err(Error::invalid(
+                    src,
+                    field(name),
+                    v,
+                    format!("must be a finite number in (0, {max}]"),
+                ));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.restitution) {
+            return Err(Error::invalid(
+                src,
+                field("restitution"),
+                self.restitution,
+                "must lie in [0, 1]",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The `[disturbances]` section of a traverse: the scenario's [`Disturbances`] (of which a traverse
+/// takes only the per-link factors) and an optional ball hit on one swing. Written as one table:
+/// the fields of [`Disturbances`] and a `ball` sub-table.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LadderDisturbances {
+    /// The plant-model mismatch (per-link factors).
+    pub model: Disturbances,
+    /// A ball hit on one swing.
+    pub ball: Option<SwingBall>,
+}
+
+impl Serialize for LadderDisturbances {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let mut v = serde_json::to_value(&self.model).map_err(S::Error::custom)?;
+        if let Some(m) = v.as_object_mut() {
+            // TOML has no null: leave unset options out
+            m.retain(|_, x| !x.is_null());
+            if let Some(b) = &self.ball {
+                m.insert(
+                    "ball".into(),
+                    serde_json::to_value(b).map_err(S::Error::custom)?,
+                );
+            }
+        }
+        v.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for LadderDisturbances {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut t = toml::Table::deserialize(d)?;
+        let ball = t
+            .remove("ball")
+            .map(|v| SwingBall::deserialize(v).map_err(|e| D::Error::custom(format!("ball: {e}"))))
+            .transpose()?;
+        let model = Disturbances::deserialize(toml::Value::Table(t)).map_err(D::Error::custom)?;
+        Ok(LadderDisturbances { model, ball })
+    }
 }
 
 /// The `[disturbances]` a traverse accepts: per-link `mass_scale`, `com_scale`, `inertia_scale`
@@ -180,7 +290,7 @@ fn check_disturbances(d: &Disturbances, n: usize, control_dt: f64, src: &str) ->
             format!("disturbances.{}", field.0),
             field.1,
             "a traverse takes only the per-link factors mass_scale, com_scale and inertia_scale \
-             from [disturbances] (a ball hit: [plant] obstacles on the rapier plant)",
+             from [disturbances], and a ball hit on one swing ([disturbances.ball], rapier plant)",
         ));
     }
     Ok(())
@@ -351,7 +461,10 @@ impl LadderScenario {
                  (plant.kind = \"rapier\"), or put obstacles the planner avoids in ladder.obstacles",
             ));
         }
-        check_disturbances(&sc.disturbances, n, sc.tracking.control_dt, &src)?;
+        check_disturbances(&sc.disturbances.model, n, sc.tracking.control_dt, &src)?;
+        if let Some(b) = &sc.disturbances.ball {
+            b.validate(l.bars.len() - 1, &src)?;
+        }
         let q0 = if l.q0.is_empty() {
             default_hang(&robot, &l.bars, &sc.planner).ok_or_else(|| {
                 Error::invalid(

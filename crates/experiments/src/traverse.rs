@@ -34,7 +34,7 @@ use brachia::sim::{
     RunSettings,
 };
 use brachia::{Error, Robot};
-use brachia_rapier::{Circle, ContactBody, ContactEvent, Obstacle, RapierPlant, Regrip};
+use brachia_rapier::{Ball, Circle, ContactBody, ContactEvent, Obstacle, RapierPlant, Regrip};
 use serde::Serialize;
 use serde_json::json;
 use std::fmt::Write as _;
@@ -138,6 +138,24 @@ impl RegripRecord {
     }
 }
 
+/// The ball of `[disturbances.ball]` as it was put into the world (rapier plant).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BallRecord {
+    /// The swing it was put in at (its start).
+    pub swing: usize,
+    /// Its obstacle id in the rapier world (contacts name it `obstacle_<id>`); `None` on the model
+    /// plant, which ignores the ball.
+    pub obstacle_id: Option<usize>,
+    /// Its centre, world, m (the planned EE position at `planned_hit_s`).
+    pub center: [f64; 2],
+    /// Planned time of the hit, traverse time, s.
+    pub planned_hit_s: f64,
+    /// True on the model plant (no contacts: the ball is ignored).
+    pub ignored: bool,
+    /// The ball (world frame).
+    pub ball: Ball,
+}
+
 /// How a traverse ended.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "kebab-case")]
@@ -233,6 +251,8 @@ pub struct Traverse {
     pub world: PlantWorld,
     /// The plant's name (`model`, `rapier`).
     pub plant: &'static str,
+    /// The ball of `[disturbances.ball]`, once its swing started.
+    pub ball: Option<BallRecord>,
 }
 
 /// Positive work of the actuated joints in a log, J (held torques: `sum_k max(0, tau_k,j dq_j)`).
@@ -292,6 +312,63 @@ fn q1_nearest(q1: f64, [lo, hi]: [f64; 2]) -> f64 {
         .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b })
 }
 
+/// Put the ball of `[disturbances.ball]` on the planned EE path of the swing that starts now
+/// (`reference` in the grip frame of `grip`, world; `t_start` the traverse time): into the rapier
+/// world when there is one, else only recorded (the model plant ignores it). Errors name
+/// `disturbances.ball.<field>`: a time past the swing's planned time, a ball overlapping the chain.
+fn throw_ball(
+    b: &crate::ladder::SwingBall,
+    reference: &brachia::trajectory::Trajectory,
+    robot: &Robot,
+    grip: [f64; 2],
+    t_start: f64,
+    rapier: Option<&mut RapierPlant>,
+    src: &str,
+) -> Result<BallRecord, Error> {
+    let t_end = reference.duration();
+    if b.at_s >= t_end {
+        return Err(Error::invalid(
+            src,
+            "disturbances.ball.at_s",
+            b.at_s,
+            format!(
+                "must lie within swing {}'s planned time ({t_end:.3} s)",
+                b.swing
+            ),
+        ));
+    }
+    let (mut ball, t_hit) =
+        Ball::on_path(reference, robot, b.at_s, b.mass, b.radius, b.restitution);
+    ball.center = [ball.center[0] + grip[0], ball.center[1] + grip[1]];
+    let center = ball.center;
+    let obstacle_id = match rapier {
+        Some(r) => Some(r.add_obstacle(&Obstacle::Ball(ball.clone())).map_err(|e| {
+            let reason = match e {
+                Error::InvalidValue { reason, .. } => reason,
+                other => other.to_string(),
+            };
+            Error::invalid(
+                src,
+                "disturbances.ball",
+                format!(
+                    "centre [{:.4}, {:.4}] at {} s of swing {}",
+                    center[0], center[1], b.at_s, b.swing
+                ),
+                reason,
+            )
+        })?),
+        None => None,
+    };
+    Ok(BallRecord {
+        swing: b.swing,
+        obstacle_id,
+        center,
+        planned_hit_s: t_start + t_hit,
+        ignored: obstacle_id.is_none(),
+        ball,
+    })
+}
+
 /// The rapier plant of a traverse: the plant's chain hanging from bar 0 in the world, the ladder's
 /// obstacles as fixed circles, then `[plant] obstacles` (world frame). Errors name the obstacle.
 fn rapier_world(
@@ -345,7 +422,7 @@ fn plant_chains(ll: &LoadedLadder) -> Result<[Robot; 2], Error> {
     let sc = &ll.scenario;
     let n = ll.robot.n();
     let mut first = crate::ladder::swing_scenario(sc, &ll.x0[..n], &ll.x0[n..], [0.0, 0.0], 1);
-    first.disturbances = sc.disturbances.clone();
+    first.disturbances = sc.disturbances.model.clone();
     let pr = plant_robot(&LoadedScenario {
         scenario: first,
         robot: ll.robot.clone(),
@@ -397,6 +474,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
     let mut swings = Vec::new();
     let mut logs = Vec::new();
     let mut status = TraverseStatus::Completed;
+    let mut ball = None;
     for k in 0..bars.len() - 1 {
         if stop() {
             return Ok(None);
@@ -449,6 +527,13 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             break;
         }
         let reference = &p.trajectory;
+        if let Some(b) = sc.disturbances.ball.as_ref().filter(|b| b.swing == k) {
+            let rec = throw_ball(b, reference, robot, grip, t_start, rapier.as_mut(), &src)?;
+            if rec.obstacle_id.is_some() {
+                world.obstacles.push(Obstacle::Ball(rec.ball.clone()));
+            }
+            ball = Some(rec);
+        }
         let contacts_before = rapier.as_ref().map_or(0, |r| r.contacts().len());
         let mut model = None;
         let mut plain: Option<Box<dyn Controller>> = None;
@@ -614,10 +699,21 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         chains,
         world,
         plant: if rapier.is_some() { "rapier" } else { "model" },
+        ball,
     }))
 }
 
 impl Traverse {
+    /// The links' contacts with the ball of `[disturbances.ball]` (none without a ball, or on the
+    /// model plant).
+    pub fn ball_contacts(&self) -> impl Iterator<Item = &ContactEvent> {
+        let id = self.ball.as_ref().and_then(|b| b.obstacle_id);
+        self.world
+            .contacts
+            .iter()
+            .filter(move |c| id.is_some() && c.body == ContactBody::Obstacle(id.unwrap_or(0)))
+    }
+
     /// World joint positions of row `row` of swing `k`'s log, in the parameters file's order (hand A
     /// first): n + 1 points.
     pub fn world_joints(&self, k: usize, row: usize) -> Vec<[f64; 2]> {
@@ -706,6 +802,8 @@ impl Traverse {
             "plant_mass_scale": ll.scenario.plant.mass_scale,
             "disturbances": ll.scenario.disturbances,
             "plant_obstacles": self.world.obstacles,
+            "ball": self.ball,
+            "ball_contact_events": self.ball_contacts().count(),
             "first_contact_s": self.world.first_contact_s(),
             "controller": ll.scenario.tracking.controller,
             "status": self.status,

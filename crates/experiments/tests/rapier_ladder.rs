@@ -155,3 +155,92 @@ fn the_irregular_ladder_completes_on_rapier_with_every_capture_within_2_cm() {
         assert!(r["swings"][k]["energy_j"].as_f64().is_some());
     }
 }
+
+/// `[disturbances.ball]` as a TOML table.
+fn ball_table(swing: i64, at_s: f64, mass: f64) -> toml::Value {
+    let mut b = toml::Table::new();
+    b.insert("swing".into(), toml::Value::Integer(swing));
+    b.insert("at_s".into(), toml::Value::Float(at_s));
+    b.insert("mass".into(), toml::Value::Float(mass));
+    b.insert("radius".into(), toml::Value::Float(0.05));
+    b.insert("restitution".into(), toml::Value::Float(0.5));
+    let mut d = toml::Table::new();
+    d.insert("ball".into(), toml::Value::Table(b));
+    toml::Value::Table(d)
+}
+
+#[test]
+fn a_ball_on_a_swing_is_validated_naming_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    for (swing, at_s, mass, field) in [
+        (2, 0.9, 0.2, "disturbances.ball.swing"),
+        (0, -0.1, 0.2, "disturbances.ball.at_s"),
+        (0, 0.9, 0.0, "disturbances.ball.mass"),
+    ] {
+        let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+            v.insert("disturbances".into(), ball_table(swing, at_s, mass));
+        });
+        let e = LadderScenario::load(&path).unwrap_err().to_string();
+        assert!(e.contains(field), "{field}: {e}");
+    }
+    // a time past the swing's planned time is found when the swing is planned
+    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+        v.insert("disturbances".into(), ball_table(0, 50.0, 0.2));
+    });
+    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let e = run_traverse(&ll).unwrap_err().to_string();
+    assert!(e.contains("disturbances.ball.at_s"), "{e}");
+}
+
+#[test]
+fn the_model_plant_ignores_the_ball_and_completes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = cut(dir.path(), "ladder-even.toml", 3, |v| {
+        v.insert("disturbances".into(), ball_table(1, 0.9, 0.2));
+    });
+    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let tr = run_traverse(&ll).unwrap();
+    assert!(tr.status.completed(), "{}", tr.status);
+    let b = tr.ball.as_ref().expect("the ball of swing 1 is recorded");
+    assert!(b.ignored && b.obstacle_id.is_none() && b.swing == 1);
+    assert!(tr.world.obstacles.is_empty());
+    assert_eq!(tr.ball_contacts().count(), 0);
+    assert_eq!(tr.report(&ll)["ball"]["ignored"], true);
+}
+
+#[test]
+fn a_ball_on_swing_1_is_hit_by_the_swinging_hand_on_rapier() {
+    // the ball is put into the world when swing 1 starts, on its planned hand path 0.9 s in:
+    // the contact log shows the hit within swing 1, after the ball appeared
+    let dir = tempfile::tempdir().unwrap();
+    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+        v.insert("disturbances".into(), ball_table(1, 0.9, 0.2));
+    });
+    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let tr = run_traverse(&ll).unwrap();
+    assert!(tr.swings.len() == 2, "{} ({:?})", tr.status, tr.swings);
+    let b = tr.ball.as_ref().expect("the ball of swing 1");
+    assert_eq!(b.obstacle_id, Some(0));
+    assert!(!b.ignored);
+    let s1 = &tr.swings[1];
+    let hits: Vec<_> = tr.ball_contacts().collect();
+    assert!(!hits.is_empty(), "the ball was not hit: {s1:?}");
+    for c in &hits {
+        assert!(
+            c.t >= s1.t_start_s && c.t <= s1.t_start_s + s1.duration_s + 1e-9,
+            "{c:?}"
+        );
+    }
+    assert!(s1.contact_events > 0);
+    // the obstacle track has the ball's columns, NaN before swing 1
+    let csv = tr.obstacles_csv();
+    assert!(
+        csv.starts_with("t,obstacle_0_x,obstacle_0_y\n"),
+        "{csv:.80}"
+    );
+    assert!(tr.world.track.iter().all(|r| r.len() == 3));
+    let first = &tr.world.track[0];
+    assert!(first[0] >= s1.t_start_s - 1e-9, "{first:?}");
+    let r = tr.report(&ll);
+    assert!(r["ball_contact_events"].as_u64().unwrap() > 0);
+}

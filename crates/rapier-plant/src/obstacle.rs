@@ -2,7 +2,8 @@
 //!
 //! Positions in m in the world frame (grip point at the origin, y up), masses in kg, impulses in N s.
 
-use brachia::{Error, Result};
+use brachia::trajectory::Trajectory;
+use brachia::{Error, Result, Robot};
 use serde::{Deserialize, Serialize};
 
 /// A fixed circle (a static disc the robot can hit but not move): the core's obstacle type, the one
@@ -24,6 +25,60 @@ pub struct Ball {
     pub restitution: f64,
     /// Whether gravity acts on the ball (`false`: it floats until hit).
     pub gravity: bool,
+}
+
+impl Ball {
+    /// A floating ball (no gravity, at rest) centred on the planned EE path: at the EE position of
+    /// the knot of `plan` at or before time `t` (s, the plan's clock; clamped to the plan), in the
+    /// plan's frame (the grip at the origin; shift it for a world with the grip elsewhere). Returns
+    /// the ball and the planned time of that knot, s: the hand following the plan runs into the ball
+    /// then. Used by the Monte Carlo benchmark and by a ladder's ball hit. Values are not checked
+    /// here ([`Obstacle::validate`] does, when the plant adds the ball).
+    pub fn on_path(
+        plan: &Trajectory,
+        robot: &Robot,
+        t: f64,
+        mass: f64,
+        radius: f64,
+        restitution: f64,
+    ) -> (Ball, f64) {
+        let (k, _) = plan.locate(t);
+        let ball = Ball {
+            center: robot.ee_position(plan.q(k)),
+            radius,
+            mass,
+            restitution,
+            gravity: false,
+        };
+        (ball, plan.t[k])
+    }
+
+    /// Smallest gap between the ball and the robot's link capsules in pose `q` (grip at the origin,
+    /// the ball in the same frame), m; negative when they overlap.
+    pub fn clearance(&self, robot: &Robot, q: &[f64]) -> f64 {
+        let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
+        robot.link_segments(q, &mut segs);
+        segs.iter()
+            .enumerate()
+            .map(|(i, (a, b))| {
+                point_segment_distance(self.center, *a, *b) - self.radius - robot.radii()[i]
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Distance from point `p` to the segment `a`-`b`, m.
+pub(crate) fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let ap = [p[0] - a[0], p[1] - a[1]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let s = if len2 > 0.0 {
+        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
+    (d[0] * d[0] + d[1] * d[1]).sqrt()
 }
 
 /// An obstacle of the plant's world.

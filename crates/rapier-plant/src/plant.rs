@@ -3,7 +3,7 @@
 //! Conventions: `x = [q, qd]` with `q[0]` the absolute angle of link 1 from +x and `q[i >= 1]`
 //! relative (rad, rad/s, continuous); `tau` = torques of joints 2..n (N m); gravity along -y; SI units.
 
-use crate::obstacle::{ContactBody, ContactEvent, Obstacle};
+use crate::obstacle::{point_segment_distance, ContactBody, ContactEvent, Obstacle};
 use crate::settings::RapierSettings;
 use brachia::sim::{Plant, StepClock};
 use brachia::{Error, Result, Robot};
@@ -91,20 +91,6 @@ fn check_grip(grip: [f64; 2]) -> Result<()> {
         ));
     }
     Ok(())
-}
-
-/// Distance from point `p` to the segment `a`-`b`.
-fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let s = if len2 > 0.0 {
-        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
-    (d[0] * d[0] + d[1] * d[1]).sqrt()
 }
 
 /// The robot's bodies and joints in the world (rebuilt by [`RapierPlant::regrip`]).
@@ -533,6 +519,18 @@ impl RapierPlant {
                     .restitution_combine_rule(CoefficientCombineRule::Max),
             ),
         };
+        // an obstacle added after the first step was not there before: its columns of the earlier
+        // rows of the track are NaN, so every row keeps the width of the current obstacle set
+        if !self.track.is_empty() {
+            let width = 1 + 2 * id;
+            let rows = self.track.len() / width.max(1);
+            let mut padded = Vec::with_capacity(rows * (width + 2));
+            for row in self.track.chunks_exact(width) {
+                padded.extend_from_slice(row);
+                padded.extend_from_slice(&[f64::NAN; 2]);
+            }
+            self.track = padded;
+        }
         self.obstacles.push(ObstacleEntry {
             spec: obstacle.clone(),
             body,
@@ -571,8 +569,8 @@ impl RapierPlant {
 
     /// Every obstacle's centre over time: one row `[t, x_0, y_0, x_1, y_1, ...]` (s, m; obstacles in id
     /// order) at the start of the first step and after every step since. Empty before the first step or
-    /// without obstacles. An obstacle added after the first step starts a new row width, so add
-    /// obstacles before stepping.
+    /// without obstacles. An obstacle added after the first step (a ball thrown in later) has NaN
+    /// in the rows before it existed; every row has one column pair per obstacle added so far.
     pub fn obstacle_track(&self) -> impl Iterator<Item = &[f64]> {
         self.track.chunks_exact(1 + 2 * self.obstacles.len())
     }

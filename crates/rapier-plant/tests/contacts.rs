@@ -224,3 +224,59 @@ fn obstacles_round_trip_through_json() {
     let back: Vec<Obstacle> = serde_json::from_str(&text).unwrap();
     assert_eq!(back, obs);
 }
+
+#[test]
+fn a_ball_added_after_stepping_is_tracked_from_then_with_nan_before() {
+    // a ladder throws a ball in when its swing starts: the obstacle track keeps one column pair per
+    // obstacle, the rows before the ball existed have NaN in its columns
+    let robot = paper_robot();
+    let mut plant = RapierPlant::new(&robot, &start_state(), &RapierSettings::default()).unwrap();
+    plant.add_obstacle(&ball_at([3.0, 0.0])).unwrap();
+    run(&mut plant, 5);
+    let before: Vec<Vec<f64>> = plant.obstacle_track().map(<[f64]>::to_vec).collect();
+    assert_eq!(before.len(), 6);
+    assert!(before.iter().all(|r| r.len() == 3));
+    let id = plant.add_obstacle(&ball_at([-3.0, 0.0])).unwrap();
+    assert_eq!(id, 1);
+    run(&mut plant, 3);
+    let rows: Vec<Vec<f64>> = plant.obstacle_track().map(<[f64]>::to_vec).collect();
+    assert_eq!(rows.len(), 9);
+    for (k, r) in rows.iter().enumerate() {
+        assert_eq!(r.len(), 5, "row {k}");
+        if k < 6 {
+            // the first ball's history is kept, the new ball's columns are NaN
+            assert_eq!(r[..3], before[k][..], "row {k}");
+            assert!(r[3].is_nan() && r[4].is_nan(), "row {k}: {r:?}");
+        } else {
+            assert_eq!(r[3..], [-3.0, 0.0], "row {k}: the floating ball at rest");
+        }
+    }
+    let csv = plant.obstacle_track_csv();
+    assert!(csv.starts_with("t,obstacle_0_x,obstacle_0_y,obstacle_1_x,obstacle_1_y\n"));
+    assert_eq!(csv.lines().count(), 10);
+}
+
+#[test]
+fn a_ball_on_the_planned_path_sits_at_the_planned_hand() {
+    use brachia::trajectory::Trajectory;
+    let robot = paper_robot();
+    // a two-knot "plan": the start pose at t = 0 and a bent pose at t = 1
+    let mut plan = Trajectory::new(4);
+    let q1 = [-2.0, 0.3, -1.2, 0.2];
+    plan.push(0.0, &Q_START, &[0.0; 4], &[0.0; 3]);
+    plan.push(1.0, &q1, &[0.0; 4], &[0.0; 3]);
+    let (b, t) = Ball::on_path(&plan, &robot, 1.5, 0.2, 0.05, 0.5);
+    assert_eq!(t, 1.0);
+    assert_eq!(b.center, robot.ee_position(&q1));
+    assert_eq!(
+        (b.mass, b.radius, b.restitution, b.gravity),
+        (0.2, 0.05, 0.5, false)
+    );
+    let (b0, t0) = Ball::on_path(&plan, &robot, 0.5, 0.2, 0.05, 0.5);
+    assert_eq!(t0, 0.0);
+    assert_eq!(b0.center, robot.ee_position(&Q_START));
+    // centred on the hand: it overlaps the chain in that pose by the ball and hand radii
+    let c = b0.clearance(&robot, &Q_START);
+    assert!((c + 0.05 + robot.radii()[3]).abs() < 1e-12, "{c}");
+    assert!(b0.clearance(&robot, &q1) > c);
+}
