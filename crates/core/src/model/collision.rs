@@ -3,7 +3,7 @@
 //! Conventions (repeated from the crate docs): planar, body frame at the grip point (origin), x right,
 //! y up, gravity along -y; `q[0]` is the absolute angle of link 1 from +x, `q[i > 0]` relative angles;
 //! SI units (m, rad). Link `i` (0-based here, "link i+1" in names and in the paper) is the capsule of
-//! radius `robot.radius[i]` around the segment from joint `i` to joint `i+1`
+//! radius `robot.radii()[i]` around the segment from joint `i` to joint `i+1`
 //! ([`Robot::link_segments`]); an obstacle is a [`Circle`].
 //!
 //! The constraint rows are **squared** distances compared with **squared** thresholds,
@@ -151,7 +151,7 @@ impl fmt::Display for ClearancePair {
 /// persistent planner that hold its rows own their data; cloning one copies two pointers.
 #[derive(Debug, Clone)]
 pub struct ClearanceFn {
-    /// The robot (link segments from [`Robot::link_segments`], capsule radii from `robot.radius`).
+    /// The robot (link segments from [`Robot::link_segments`], capsule radii from [`Robot::radii`]).
     pub robot: Arc<Robot>,
     /// The obstacles.
     pub obstacles: Arc<[Circle]>,
