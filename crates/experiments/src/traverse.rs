@@ -707,11 +707,15 @@ impl Traverse {
     /// The links' contacts with the ball of `[disturbances.ball]` (none without a ball, or on the
     /// model plant).
     pub fn ball_contacts(&self) -> impl Iterator<Item = &ContactEvent> {
-        let id = self.ball.as_ref().and_then(|b| b.obstacle_id);
+        let body = self
+            .ball
+            .as_ref()
+            .and_then(|b| b.obstacle_id)
+            .map(ContactBody::Obstacle);
         self.world
             .contacts
             .iter()
-            .filter(move |c| id.is_some() && c.body == ContactBody::Obstacle(id.unwrap_or(0)))
+            .filter(move |c| Some(c.body) == body)
     }
 
     /// World joint positions of row `row` of swing `k`'s log, in the parameters file's order (hand A

@@ -67,18 +67,9 @@ impl Ball {
     }
 }
 
-/// Distance from point `p` to the segment `a`-`b`, m.
+/// Distance from point `p` to the segment `a`-`b`, m (the core's exact point-segment distance).
 pub(crate) fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let s = if len2 > 0.0 {
-        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let d = [ap[0] - s * ab[0], ap[1] - s * ab[1]];
-    (d[0] * d[0] + d[1] * d[1]).sqrt()
+    brachia::geometry::point_segment_dist2(p, a, b).sqrt()
 }
 
 /// An obstacle of the plant's world.
