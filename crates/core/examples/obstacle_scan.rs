@@ -28,10 +28,12 @@ fn cell(p: &Plan, wall: f64) -> String {
             let cs = match &g.cspace {
                 Some(c) if c.converged.is_some() => format!(
                     ", cspace {} ({} cells, {} waypoints)",
-                    if c.converged == Some(true) {
-                        "converged"
-                    } else {
-                        "failed"
+                    match (c.converged, c.relaxed_converged) {
+                        (Some(true), Some(true)) =>
+                            "converged after the actuator-limit continuation",
+                        (Some(true), _) => "converged",
+                        (_, Some(true)) => "failed (converged with widened limits only)",
+                        _ => "failed",
                     },
                     c.cells_discovered,
                     c.waypoints

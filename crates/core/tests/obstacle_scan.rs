@@ -451,3 +451,38 @@ fn the_cspace_seed_plans_a_placement_no_detour_seed_converged_on() {
     let ee = p.ee_final;
     assert!((ee[0] - 0.8).hypot(ee[1]) < 1e-6, "{ee:?}");
 }
+
+#[test]
+fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
+    let robot = Robot::paper();
+    let (mut s, nlp) = settings();
+    // the planner's default mesh (30 ms knots): the whole strategy chain in a few seconds
+    s.knot_dt = 0.03;
+    // #18 of the scan (link 3 at 1.73 s on the 10 ms swing), a failure of every detour seed
+    let (s10, _) = settings();
+    let base = plan(&robot, &tracking(), &s10, &nlp).unwrap();
+    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let pl = places[17];
+    let task = SwingTask {
+        obstacles: vec![pl.obstacle],
+        ..tracking()
+    };
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(p.converged(), "{:?}", p.failure_message());
+    let g = p.guess.as_ref().unwrap();
+    assert_eq!(g.strategy, GuessStrategy::Cspace, "{g:?}");
+    // every detour seed was tried and failed before the C-space seed, which converged
+    assert!(!g.seeds.is_empty(), "{g:?}");
+    assert!(g.seeds.iter().all(|r| r.converged == Some(false)), "{g:?}");
+    let c = g.cspace.as_ref().unwrap();
+    assert!(c.found && c.converged == Some(true), "{c:?}");
+    assert!(g.scales.is_empty(), "{g:?}");
+    // the smooth step, the obstacle-free plan, each detour seed, the C-space seed (and resumes)
+    assert!(g.solves >= 3 + g.seeds.len(), "{g:?}");
+    assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
+    assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
+    assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
+    assert!(p.blockage.is_none());
+    // the seed's own solve converged: the actuator-limit continuation was not needed
+    assert_eq!(c.relaxed_converged, None, "{c:?}");
+}

@@ -85,8 +85,13 @@ pub struct CspaceReport {
     /// Smallest clearance along the shortcut path (surface distance minus the planner's margin,
     /// obstacles and self-collision, every check point), m.
     pub min_clearance_m: f64,
-    /// Whether the plan from the seed converged (`None`: not tried).
+    /// Whether the plan from the seed converged, directly or after the actuator-limit continuation
+    /// (`None`: not tried).
     pub converged: Option<bool>,
+    /// Whether the plan from the seed with the torque limits widened by
+    /// [`super::guess::TORQUE_RELAX`] converged (`None`: not tried, the seed's own solve converged).
+    #[serde(default)]
+    pub relaxed_converged: Option<bool>,
 }
 
 impl CspaceReport {
@@ -105,6 +110,7 @@ impl CspaceReport {
             max_speed_rad_s: 0.0,
             min_clearance_m: f64::NEG_INFINITY,
             converged: None,
+            relaxed_converged: None,
         }
     }
 }

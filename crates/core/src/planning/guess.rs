@@ -34,6 +34,9 @@ use std::sync::Arc;
 pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
 /// First step of the radius scale after the obstacle-free plan.
 pub const FIRST_SCALE_STEP: f64 = 0.5;
+/// Factor on the torque limits of the first solve of the actuator-limit continuation from the C-space
+/// seed (measured on the scan's #4 and #7: docs/planner.md, "The two placements that still fail").
+pub const TORQUE_RELAX: f64 = 2.0;
 /// Iteration limit of one intermediate continuation solve, and of the final attempt after the
 /// continuation gave up (the step at full radius keeps the settings' `max_iter`): a step that does not
 /// converge within it is retried with a smaller step.
@@ -192,6 +195,20 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
         (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
             < r_last + margin
     })
+}
+
+/// `robot` with its torque limits scaled by `k` (> 0).
+fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
+    let mut prm = robot.params().clone();
+    for v in prm
+        .actuators
+        .tau_min
+        .iter_mut()
+        .chain(prm.actuators.tau_max.iter_mut())
+    {
+        *v *= k;
+    }
+    Robot::from_params(prm, "planner (actuator-limit continuation)")
 }
 
 /// Add the cost of `p` to the totals of `r`.
@@ -385,6 +402,21 @@ pub(super) fn plan_around_obstacles(
         if p.converged() {
             rep.cspace = Some(crep);
             return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+        }
+        // continuation on the actuator limits: the seed's path, timed over T, needs more torque than
+        // the limits allow; planned with the limits widened, then at the real ones from that plan
+        let wide = with_torque_scale(robot, TORQUE_RELAX)?;
+        let p = plan_single(&wide, task, settings, nlp, Some(&g))?;
+        count(&mut rep, &p);
+        crep.relaxed_converged = Some(p.converged());
+        if p.converged() {
+            let p = plan_single(robot, task, settings, nlp, Some(&p.points))?;
+            count(&mut rep, &p);
+            crep.converged = Some(p.converged());
+            if p.converged() {
+                rep.cspace = Some(crep);
+                return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+            }
         }
     }
     rep.cspace = Some(crep);
