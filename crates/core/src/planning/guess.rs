@@ -8,15 +8,19 @@
 //! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
 //!    obstacles by barrier tracking, in a fixed measured order), each solved at full radius from its guess,
 //!    stopping at the first that converges;
-//! 3. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
+//! 3. tries the configuration-space seed of [`super::cspace`] (a collision-free joint path of another
+//!    homotopy class, found by a grid search), and when its solve fails, plans it with the torque
+//!    limits scaled by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the
+//!    actuator limits: the seed, timed over the swing, may need more torque than the limits allow);
+//! 4. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
 //!    from the previous converged plan (`s` doubles its step after a success, halves it after a
 //!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
 //!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
 //!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
 //!    free end: avoiding it changes the whole swing, not a neighbourhood of it (which is what the
-//!    detour seeds of step 2 do).
+//!    detour and C-space seeds of steps 2 and 3 do).
 //!
-//! The guesses of steps 2 and 3 are trajectories (a plan's knots or collocation points), so the
+//! The guesses of steps 2 to 4 are trajectories (a plan's knots or collocation points), so the
 //! strategies work for every transcription and backend. Units: m, s.
 
 use super::nlp::NlpSettings;
