@@ -121,12 +121,16 @@ fn a_five_link_robot_traverses_a_short_even_ladder_on_the_model_plant() {
     traverse(&params, &[(0.0, 0.0), (0.8, 0.0), (1.6, 0.0)], 5);
 }
 
-/// The first three bars of `scenarios/NAME` (its planner, solver and rest condition unchanged), with the
-/// params path made absolute, written into `dir`.
+/// The first three bars of `scenarios/NAME` (its robot, planner, solver and rest condition unchanged),
+/// with the params path made absolute, written into `dir`.
 fn three_bar_cut(dir: &Path, name: &str) -> PathBuf {
     let text = std::fs::read_to_string(root().join("scenarios").join(name)).unwrap();
     let mut v: toml::Table = text.parse().unwrap();
-    let params = root().join("params/paper.toml").display().to_string();
+    let params = root()
+        .join("scenarios")
+        .join(v["params"].as_str().unwrap())
+        .display()
+        .to_string();
     v.insert("params".into(), toml::Value::String(params));
     let ladder = v["ladder"].as_table_mut().unwrap();
     ladder["bars"].as_array_mut().unwrap().truncate(3);
@@ -135,9 +139,9 @@ fn three_bar_cut(dir: &Path, name: &str) -> PathBuf {
     p
 }
 
-/// A 3-bar cut of a paper-robot ladder completes with every capture within 2 cm, the chain nearly at
+/// A 3-bar cut of a ladder completes with every capture within 2 cm, the chain nearly at
 /// rest at every switch (the rest condition `planner.bounds.qd_end_max`), energy reported per swing.
-fn three_bar_cut_completes(name: &str) {
+fn three_bar_cut_completes(name: &str) -> usize {
     let dir = tempfile::tempdir().unwrap();
     let ll =
         LadderScenario::load(&three_bar_cut(dir.path(), name)).unwrap_or_else(|e| panic!("{e}"));
@@ -170,6 +174,7 @@ fn three_bar_cut_completes(name: &str) {
     let r = tr.report(&ll);
     assert_eq!(r["totals"]["bars_caught"], 2);
     assert!(r["swings"][1]["energy_j"].as_f64().is_some());
+    n
 }
 
 #[test]
@@ -180,6 +185,19 @@ fn a_three_bar_cut_of_the_even_ladder_completes_under_the_rest_condition() {
 #[test]
 fn a_three_bar_cut_of_the_irregular_ladder_completes_under_the_rest_condition() {
     three_bar_cut_completes("ladder-irregular.toml");
+}
+
+/// The 3- and 5-link robots on the even ladder (1 m spacing, the scenario's 30 ms knots and rest
+/// condition): a 3-bar cut (one swing from each hand); the full 6-bar runs are measured by
+/// `brachia traverse --scenario scenarios/ladder-even-{three,five}-link.toml` (docs/ladders.md).
+#[test]
+fn a_three_bar_cut_of_the_even_ladder_completes_with_three_links() {
+    assert_eq!(three_bar_cut_completes("ladder-even-three-link.toml"), 3);
+}
+
+#[test]
+fn a_three_bar_cut_of_the_even_ladder_completes_with_five_links() {
+    assert_eq!(three_bar_cut_completes("ladder-even-five-link.toml"), 5);
 }
 
 #[test]
