@@ -8,7 +8,9 @@
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 100`.
 //! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
 //! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered), `BRACHIA_REPLAN_ADAPTIVE=1`
-//! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol).
+//! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
+//! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
+//! iterations, objective, status and end-effector miss (to compare optima draw by draw).
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
@@ -98,7 +100,12 @@ fn main() -> Result<(), brachia::Error> {
     let mut its = vec![];
     let mut conv = 0;
     let mut obj_sum = 0.0;
-    for x in states.iter().take(count) {
+    let only: Option<usize> = env("BRACHIA_REPLAN_ONLY").and_then(|v| v.parse().ok());
+    let list = env("BRACHIA_REPLAN_LIST").as_deref() == Some("1");
+    for (i, x) in states.iter().enumerate().take(count) {
+        if only.is_some_and(|o| o != i) {
+            continue;
+        }
         planner.restore(&cp)?;
         let o = if warm {
             planner.replan(T_NOW, x)?
@@ -108,6 +115,12 @@ fn main() -> Result<(), brachia::Error> {
         conv += usize::from(o.converged() && o.ee_error_m < 1e-6);
         obj_sum += o.objective;
         its.push(o.iterations);
+        if list {
+            println!(
+                "draw {i} iterations {} objective {:.15e} status {:?} ee_error {:.3e}",
+                o.iterations, o.objective, o.status, o.ee_error_m
+            );
+        }
     }
     if its.is_empty() {
         return Ok(());
