@@ -133,6 +133,7 @@ fn mpc_reproduces_the_recorded_torques() {
                 worst = worst.max((tau[j] - rec[j]).abs());
             }
         }
+        eprintln!("{name}: largest difference from the recorded torques {worst:e} N m");
         assert!(
             worst <= 1e-9,
             "{name}: torques differ from the recorded run by {worst:e} N m"
