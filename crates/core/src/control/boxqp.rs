@@ -352,10 +352,11 @@ impl BoxQp {
     }
 
     /// Factor `H_FF` from scratch for the free variables in index order. Builds exactly the factor that
-    /// [`Self::append`] would build one row at a time (same formulas, same rounding), but column by
-    /// column: the rows of one column are independent, so their dot products and divisions overlap
-    /// instead of waiting on each other. False if a pivot is not positive (then `nf` counts the
-    /// variables factored before it, as after a failed `append`).
+    /// [`Self::append`] would build one row at a time (same formulas, same rounding: every entry is
+    /// `(H_ij - dot(L_i, L_j)) / L_jj` with the four-accumulator [`dot`]), but column by column, with
+    /// the dot products of four rows against the column's row at once ([`dots_4x1`]: each loaded
+    /// entry of that row serves four products). False if a pivot is not positive (then `nf` counts
+    /// the variables factored before it, as after a failed `append`).
     fn factor_free(&mut self, h: &[f64], n: usize) -> bool {
         let m = self.n_max;
         let mut nf = 0;
@@ -366,20 +367,42 @@ impl BoxQp {
             }
         }
         self.nf = 0;
+        // The lower triangle of H_FF into the factor's rows.
+        for p in 0..nf {
+            let hrow = &h[self.free[p] * n..(self.free[p] + 1) * n];
+            let lrow = &mut self.l[p * m..p * m + p + 1];
+            if nf == n {
+                lrow.copy_from_slice(&hrow[..=p]);
+            } else {
+                for (v, &q) in lrow.iter_mut().zip(&self.free[..=p]) {
+                    *v = hrow[q];
+                }
+            }
+        }
         for j in 0..nf {
             let fj = self.free[j];
-            let (head, tail) = self.l.split_at_mut((j + 1) * m);
-            let lj = &mut head[j * m..(j + 1) * m];
-            let d = h[fj * n + fj] - dot(&lj[..j], &lj[..j]);
+            let (top, rest) = self.l.split_at_mut((j + 1) * m);
+            let lj = &mut top[j * m..(j + 1) * m];
+            let d = lj[j] - dot(&lj[..j], &lj[..j]);
             if d.is_nan() || d <= 1e-14 * h[fj * n + fj].abs() || !d.is_finite() {
                 return false;
             }
             let piv = d.sqrt();
             lj[j] = piv;
             let lj = &lj[..j];
-            for (i, li) in (j + 1..nf).zip(tail.chunks_exact_mut(m)) {
-                let v = h[self.free[i] * n + fj] - dot(lj, &li[..j]);
-                li[j] = v / piv;
+            let below = nf - j - 1;
+            let (quads, single) = rest[..below * m].split_at_mut(below / 4 * 4 * m);
+            for quad in quads.chunks_exact_mut(4 * m) {
+                let (r0, r) = quad.split_at_mut(m);
+                let (r1, r) = r.split_at_mut(m);
+                let (r2, r3) = r.split_at_mut(m);
+                let acc = dots_4x1([&r0[..j], &r1[..j], &r2[..j], &r3[..j]], lj);
+                for (row, s) in [r0, r1, r2, r3].into_iter().zip(acc) {
+                    row[j] = (row[j] - s) / piv;
+                }
+            }
+            for row in single.chunks_exact_mut(m) {
+                row[j] = (row[j] - dot(&row[..j], lj)) / piv;
             }
             self.nf = j + 1;
         }
@@ -458,6 +481,51 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         s += x * y;
     }
     s
+}
+
+/// `[dot(a[0], b), .., dot(a[3], b)]` with the rounding of [`dot`] (four accumulators per product,
+/// summed `(0 + 1) + (2 + 3)`, then the remainder in order), each loaded entry of `b` serving four
+/// products. The rows `a[r]` must be at least as long as `b`.
+#[inline(always)]
+fn dots_4x1(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
+    let len = b.len();
+    let (bq, br) = b.as_chunks::<4>();
+    let nq = bq.len();
+    let rows = a.map(|r| &r[..len]);
+    let [a0, a1, a2, a3] = rows.map(|r| &r.as_chunks::<4>().0[..nq]);
+    // Named two-lane accumulators (lanes 0, 1 and 2, 3 of each product's four), straight-line code
+    // the compiler keeps in vector registers.
+    let f = |s: [f64; 2], x0: f64, y0: f64, x1: f64, y1: f64| [s[0] + x0 * y0, s[1] + x1 * y1];
+    let z = [0.0f64; 2];
+    let (mut l0, mut h0, mut l1, mut h1, mut l2, mut h2, mut l3, mut h3) = (z, z, z, z, z, z, z, z);
+    for k in 0..nq {
+        let y = bq[k];
+        let x = a0[k];
+        l0 = f(l0, x[0], y[0], x[1], y[1]);
+        h0 = f(h0, x[2], y[2], x[3], y[3]);
+        let x = a1[k];
+        l1 = f(l1, x[0], y[0], x[1], y[1]);
+        h1 = f(h1, x[2], y[2], x[3], y[3]);
+        let x = a2[k];
+        l2 = f(l2, x[0], y[0], x[1], y[1]);
+        h2 = f(h2, x[2], y[2], x[3], y[3]);
+        let x = a3[k];
+        l3 = f(l3, x[0], y[0], x[1], y[1]);
+        h3 = f(h3, x[2], y[2], x[3], y[3]);
+    }
+    let sum = |l: [f64; 2], h: [f64; 2], r: &[f64]| {
+        let mut s = (l[0] + l[1]) + (h[0] + h[1]);
+        for (x, y) in r[4 * nq..].iter().zip(br) {
+            s += x * y;
+        }
+        s
+    };
+    [
+        sum(l0, h0, rows[0]),
+        sum(l1, h1, rows[1]),
+        sum(l2, h2, rows[2]),
+        sum(l3, h3, rows[3]),
+    ]
 }
 
 /// Largest violation of the KKT conditions of the box QP at `u` (for tests and diagnostics):

@@ -244,9 +244,11 @@ impl Expm {
         }
     }
 
-    /// `sum = exp(a)` (a: m x m row-major, overwritten).
-    fn compute(&mut self) {
-        let m = self.m;
+    /// `sum = exp(a)` (a: m x m row-major, overwritten); `m` and `top` are the workspace's (passed in
+    /// so that constant sizes reach the loops).
+    #[inline(always)]
+    fn compute(&mut self, m: usize, top: usize) {
+        debug_assert!(m == self.m && top == self.top);
         // 1-norm for scaling.
         let mut norm: f64 = 0.0;
         for j in 0..m {
@@ -270,15 +272,15 @@ impl Expm {
         }
         // With a's rows top.. zero, term_k = term_{k-1} a has zero rows top.. too (k >= 1) and only
         // the rows 0..top of a contribute: the terms that are skipped would add exact zeros.
-        let top = self.top;
         self.tmp.fill(0.0);
         for k in 1..=12 {
             mat_mul_rows(&self.term, &self.a, &mut self.tmp, m, top);
             let inv = 1.0 / k as f64;
-            for (t, &v) in self.term.iter_mut().zip(&self.tmp) {
+            // Rows top.. of the terms are zero (those of the sum stay the identity's).
+            for (t, &v) in self.term[..top * m].iter_mut().zip(&self.tmp[..top * m]) {
                 *t = v * inv;
             }
-            for (acc, &t) in self.sum.iter_mut().zip(&self.term) {
+            for (acc, &t) in self.sum[..top * m].iter_mut().zip(&self.term[..top * m]) {
                 *acc += t;
             }
         }
@@ -295,44 +297,47 @@ impl Expm {
 /// `c[..top] = (a a)[..top]` for an m x m row-major `a` whose rows top.. are those of the identity
 /// (rows top.. of c untouched): the full product's sum over k, whose terms k >= top reduce to
 /// `a[i][j]` at k = j and exact zeros otherwise.
+#[inline(always)]
 fn square_top_rows(a: &[f64], c: &mut [f64], m: usize, top: usize) {
     for (ai, ci) in a[..top * m]
         .chunks_exact(m)
         .zip(c[..top * m].chunks_exact_mut(m))
     {
-        ci.fill(0.0);
+        let mut acc = [0.0; EXPM_MAX];
+        let acc = &mut acc[..m];
         for (&v, bl) in ai[..top].iter().zip(a[..top * m].chunks_exact(m)) {
-            if v == 0.0 {
-                continue;
-            }
-            for (x, &y) in ci.iter_mut().zip(bl) {
+            for (x, &y) in acc.iter_mut().zip(bl) {
                 *x += v * y;
             }
         }
-        for (x, &v) in ci[top..].iter_mut().zip(&ai[top..]) {
+        for (x, &v) in acc[top..].iter_mut().zip(&ai[top..]) {
             *x += v;
         }
+        ci.copy_from_slice(acc);
     }
 }
 
 /// `c[..top] = a[..top, ..top] b[..top]` for m x m row-major matrices (rows top.. of c untouched):
 /// the product `a b` when rows top.. of `b` are zero and rows top.. of `a` are zero too.
+#[inline(always)]
 fn mat_mul_rows(a: &[f64], b: &[f64], c: &mut [f64], m: usize, top: usize) {
     for (ai, ci) in a[..top * m]
         .chunks_exact(m)
         .zip(c[..top * m].chunks_exact_mut(m))
     {
-        ci.fill(0.0);
+        let mut acc = [0.0; EXPM_MAX];
+        let acc = &mut acc[..m];
         for (&v, bl) in ai[..top].iter().zip(b[..top * m].chunks_exact(m)) {
-            if v == 0.0 {
-                continue;
-            }
-            for (x, &y) in ci.iter_mut().zip(bl) {
+            for (x, &y) in acc.iter_mut().zip(bl) {
                 *x += v * y;
             }
         }
+        ci.copy_from_slice(acc);
     }
 }
+
+/// Largest size of the ZOH block matrix `[A B f; 0 0 0]`: 2n + (n - 1) + 1 for n = `MAX_LINKS`.
+const EXPM_MAX: usize = 3 * crate::model::MAX_LINKS;
 
 /// Discrete affine model of one stage: `x_{k+1} = Ad x_k + Bd u_k + Fd`, `y_k = C x_k + fy`.
 #[derive(Debug, Clone, Copy)]
@@ -394,10 +399,8 @@ pub struct Mpc {
     gam: Vec<f64>,
     /// `(P_{j+1} B_j)^T = B_j^T P_{j+1}` for j = 0..N-1 (N x nu x nx).
     pb: Vec<f64>,
-    /// Gamma blocks of one Hessian block column side by side (nx x N nu).
-    gs: Vec<f64>,
-    /// One Hessian block column, transposed (nu x N nu).
-    hw: Vec<f64>,
+    /// One column of the Hessian's blocks on and above the diagonal block (N nu).
+    hcol: Vec<f64>,
     p: Vec<f64>,
     ptmp: Vec<f64>,
     lam: Vec<f64>,
@@ -472,8 +475,7 @@ impl Mpc {
             xi: vec![0.0; (hn + 1) * nx],
             gam: vec![0.0; n_gam * nx * nu],
             pb: vec![0.0; hn * nx * nu],
-            gs: vec![0.0; nx * nu_all],
-            hw: vec![0.0; nu * nu_all],
+            hcol: vec![0.0; nu_all],
             p: vec![0.0; nx * nx],
             ptmp: vec![0.0; nx * nx],
             lam: vec![0.0; nx],
@@ -580,8 +582,9 @@ impl Mpc {
     }
 
     /// Linearise at `(x, u)` and discretise into model slot `m`.
-    fn build_model(&mut self, m: usize, x_is_buf: bool, x0: &[f64], u: &[f64]) {
-        let n = self.robot.n;
+    /// `n` is the robot's link count (a constant for the paper's robot, see [`Mpc::step`]).
+    #[inline(always)]
+    fn build_model(&mut self, m: usize, x_is_buf: bool, x0: &[f64], u: &[f64], n: usize) {
         let (nx, nu) = (2 * n, n - 1);
         let dt = self.settings.dt_mpc;
         if x_is_buf {
@@ -589,9 +592,9 @@ impl Mpc {
         } else {
             self.lin.linearize_into(x0, u, &mut self.lm);
         }
-        let ad = &mut self.ad[m * nx * nx..(m + 1) * nx * nx];
-        let bd = &mut self.bd[m * nx * nu..(m + 1) * nx * nu];
-        let fd = &mut self.fd_model[m * nx..(m + 1) * nx];
+        let ad = &mut self.ad[m * nx * nx..][..nx * nx];
+        let bd = &mut self.bd[m * nx * nu..][..nx * nu];
+        let fd = &mut self.fd_model[m * nx..][..nx];
         match self.settings.discretization {
             Discretization::Euler => {
                 for i in 0..nx {
@@ -618,17 +621,17 @@ impl Mpc {
                     }
                     ea[i * me + nx + nu] = dt * self.lm.f[i];
                 }
-                self.expm.compute();
+                self.expm.compute(me, nx);
                 let s = &self.expm.sum;
                 for i in 0..nx {
-                    ad[i * nx..(i + 1) * nx].copy_from_slice(&s[i * me..i * me + nx]);
-                    bd[i * nu..(i + 1) * nu].copy_from_slice(&s[i * me + nx..i * me + nx + nu]);
+                    ad[i * nx..][..nx].copy_from_slice(&s[i * me..i * me + nx]);
+                    bd[i * nu..][..nu].copy_from_slice(&s[i * me + nx..i * me + nx + nu]);
                     fd[i] = s[i * me + nx + nu];
                 }
             }
         }
-        let adt = &mut self.adt[m * nx * nx..(m + 1) * nx * nx];
-        let bdt = &mut self.bdt[m * nx * nu..(m + 1) * nx * nu];
+        let adt = &mut self.adt[m * nx * nx..][..nx * nx];
+        let bdt = &mut self.bdt[m * nx * nu..][..nx * nu];
         for i in 0..nx {
             for j in 0..nx {
                 adt[j * nx + i] = ad[i * nx + j];
@@ -637,13 +640,19 @@ impl Mpc {
                 bdt[j * nx + i] = bd[i * nu + j];
             }
         }
-        self.cy[m * 2 * nx..(m + 1) * 2 * nx].copy_from_slice(&self.lm.c);
-        self.fy[m * 2..(m + 1) * 2].copy_from_slice(&self.lm.fy);
+        self.cy[m * 2 * nx..][..2 * nx].copy_from_slice(&self.lm.c);
+        self.fy[m * 2..][..2].copy_from_slice(&self.lm.fy);
     }
 
     /// One MPC step: returns the QP diagnostics; the first input is `self.u[..nu]`.
     fn step(&mut self, t: f64, x0: &[f64]) -> BoxQpInfo {
-        let n = self.robot.n;
+        // the paper's 4 links with constant sizes, any other count through the same body
+        with_link_count!(self.robot.n, |n| self.step_n(t, x0, n))
+    }
+
+    /// [`Mpc::step`] for `n` links (`n` = the robot's; constant sizes when called with a constant).
+    #[inline(always)]
+    fn step_n(&mut self, t: f64, x0: &[f64], n: usize) -> BoxQpInfo {
         let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
         let dt = self.settings.dt_mpc;
         let nall = hn * nu;
@@ -651,14 +660,13 @@ impl Mpc {
         // References.
         for k in 0..hn {
             let tk = t + (k + 1) as f64 * dt;
-            self.reference
-                .state_at(tk, &mut self.xref[k * nx..(k + 1) * nx]);
+            self.reference.state_at(tk, &mut self.xref[k * nx..][..nx]);
             let ee = self.robot.ee_position(&self.xref[k * nx..k * nx + n]);
             self.yref[2 * k] = ee[0];
             self.yref[2 * k + 1] = ee[1];
             let mut tmp = [0.0; crate::model::MAX_LINKS];
             self.tau_at(t + k as f64 * dt, &mut tmp[..nu]);
-            self.tauref[k * nu..(k + 1) * nu].copy_from_slice(&tmp[..nu]);
+            self.tauref[k * nu..][..nu].copy_from_slice(&tmp[..nu]);
         }
 
         // Warm start: previous solution shifted by the elapsed time (linear interpolation).
@@ -689,33 +697,33 @@ impl Mpc {
             tmp[..nu].copy_from_slice(&self.tau_last);
             tmp
         };
-        self.build_model(0, false, x0, &tau_last[..nu]);
+        self.build_model(0, false, x0, &tau_last[..nu], n);
         for k in 1..self.n_models {
-            self.xbuf.copy_from_slice(&self.xref[(k - 1) * nx..k * nx]);
+            self.xbuf.copy_from_slice(&self.xref[(k - 1) * nx..][..nx]);
             let mut tmp = [0.0; crate::model::MAX_LINKS];
-            tmp[..nu].copy_from_slice(&self.tauref[k * nu..(k + 1) * nu]);
-            self.build_model(k, true, x0, &tmp[..nu]);
+            tmp[..nu].copy_from_slice(&self.tauref[k * nu..][..nu]);
+            self.build_model(k, true, x0, &tmp[..nu], n);
         }
 
         // Per-stage affine terms.
         self.reference.state_at(t, &mut self.xd0);
         for k in 0..hn {
             let m = k.min(self.n_models - 1);
-            let fdk = &mut self.fd[k * nx..(k + 1) * nx];
+            let fdk = &mut self.fd[k * nx..][..nx];
             match self.settings.prediction {
                 Prediction::Model => {
-                    fdk.copy_from_slice(&self.fd_model[m * nx..(m + 1) * nx]);
+                    fdk.copy_from_slice(&self.fd_model[m * nx..][..nx]);
                 }
                 Prediction::ErrorDynamics => {
-                    let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
-                    let bd = &self.bd[m * nx * nu..(m + 1) * nx * nu];
+                    let ad = &self.ad[m * nx * nx..][..nx * nx];
+                    let bd = &self.bd[m * nx * nu..][..nx * nu];
                     let xa = if k == 0 {
                         &self.xd0[..]
                     } else {
-                        &self.xref[(k - 1) * nx..k * nx]
+                        &self.xref[(k - 1) * nx..][..nx]
                     };
-                    let xb = &self.xref[k * nx..(k + 1) * nx];
-                    let ua = &self.tauref[k * nu..(k + 1) * nu];
+                    let xb = &self.xref[k * nx..][..nx];
+                    let ua = &self.tauref[k * nu..][..nu];
                     for i in 0..nx {
                         let mut v = xb[i];
                         for j in 0..nx {
@@ -731,12 +739,12 @@ impl Mpc {
         }
         for k in 1..=hn {
             let mo = self.out_model_index(k);
-            let c = &self.cy[mo * 2 * nx..(mo + 1) * 2 * nx];
+            let c = &self.cy[mo * 2 * nx..][..2 * nx];
             for r in 0..2 {
                 self.fy_stage[2 * (k - 1) + r] = match self.settings.prediction {
                     Prediction::Model => self.fy[mo * 2 + r],
                     Prediction::ErrorDynamics => {
-                        let xd = &self.xref[(k - 1) * nx..k * nx];
+                        let xd = &self.xref[(k - 1) * nx..][..nx];
                         let cx: f64 = (0..n).map(|j| c[r * nx + j] * xd[j]).sum();
                         self.yref[2 * (k - 1) + r] - cx
                     }
@@ -748,8 +756,8 @@ impl Mpc {
         self.xi[..nx].copy_from_slice(x0);
         for k in 0..hn {
             let m = k.min(self.n_models - 1);
-            let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
-            let fd = &self.fd[k * nx..(k + 1) * nx];
+            let ad = &self.ad[m * nx * nx..][..nx * nx];
+            let fd = &self.fd[k * nx..][..nx];
             let (done, rest) = self.xi.split_at_mut((k + 1) * nx);
             let xk = &done[k * nx..];
             let xn = &mut rest[..nx];
@@ -772,11 +780,11 @@ impl Mpc {
                 1.0
             };
             let mo = self.out_model_index(k);
-            let c = &self.cy[mo * 2 * nx..(mo + 1) * 2 * nx];
+            let c = &self.cy[mo * 2 * nx..][..2 * nx];
             let fy = &self.fy_stage[2 * (k - 1)..2 * k];
-            let qt = &mut self.qt[(k - 1) * nx * nx..k * nx * nx];
-            let xk = &self.xi[k * nx..(k + 1) * nx];
-            let xd = &self.xref[(k - 1) * nx..k * nx];
+            let qt = &mut self.qt[(k - 1) * nx * nx..][..nx * nx];
+            let xk = &self.xi[k * nx..][..nx];
+            let xd = &self.xref[(k - 1) * nx..][..nx];
             let yd = &self.yref[2 * (k - 1)..2 * k];
             // C has zero velocity columns: C^T W C lives in the q-q block.
             qt.fill(0.0);
@@ -797,7 +805,7 @@ impl Mpc {
                 }
                 ry[r] = fac * w[r] * v;
             }
-            let e = &mut self.e[(k - 1) * nx..k * nx];
+            let e = &mut self.e[(k - 1) * nx..][..nx];
             for i in 0..nx {
                 e[i] = fac * q[i] * (xk[i] - xd[i]);
             }
@@ -823,12 +831,12 @@ impl Mpc {
                 // Gamma_{j+1,i} at block (j, i): Gamma_{i+1,i} = B_i, Gamma_{j+1,i} = A_j Gamma_{j,i}.
                 let blk = nx * nu;
                 for i in 0..hn {
-                    let bi = &self.bdt[i * blk..(i + 1) * blk];
+                    let bi = &self.bdt[i * blk..][..blk];
                     self.gam[(i * hn + i) * blk..(i * hn + i + 1) * blk].copy_from_slice(bi);
                     for j in i + 1..hn {
                         let (lo, hi) = self.gam.split_at_mut((j * hn + i) * blk);
                         let prev = &lo[((j - 1) * hn + i) * blk..((j - 1) * hn + i + 1) * blk];
-                        let ajt = &self.adt[j * nx * nx..(j + 1) * nx * nx];
+                        let ajt = &self.adt[j * nx * nx..][..nx * nx];
                         mat_mul_rect(prev, ajt, &mut hi[..blk], nu, nx, nx);
                     }
                 }
@@ -838,24 +846,22 @@ impl Mpc {
         // Backward recursion: P_N = Qt_N; PB_j = P_{j+1} B_j; P_j = Qt_j + A_j^T P_{j+1} A_j.
         // lambda_N = e_N; g_j = B_j^T lambda_{j+1} - R u^r_j; lambda_j = e_j + A_j^T lambda_{j+1}.
         self.p
-            .copy_from_slice(&self.qt[(hn - 1) * nx * nx..hn * nx * nx]);
-        self.lam.copy_from_slice(&self.e[(hn - 1) * nx..hn * nx]);
+            .copy_from_slice(&self.qt[(hn - 1) * nx * nx..][..nx * nx]);
+        self.lam.copy_from_slice(&self.e[(hn - 1) * nx..][..nx]);
         let r = &self.settings.r_diag;
         let planned = self.settings.torque_reference == TorqueReference::Planned;
         for j in (0..hn).rev() {
             let m = j.min(self.n_models - 1);
-            let ad = &self.ad[m * nx * nx..(m + 1) * nx * nx];
-            let bd = &self.bd[m * nx * nu..(m + 1) * nx * nu];
-            let bdt = &self.bdt[m * nx * nu..(m + 1) * nx * nu];
+            let ad = &self.ad[m * nx * nx..][..nx * nx];
+            let adt = &self.adt[m * nx * nx..][..nx * nx];
+            let bdt = &self.bdt[m * nx * nu..][..nx * nu];
             // (P B)^T from the rows of P and of B^T (P_N = Qt_N is symmetric only to rounding, so
             // the rows of P, not its columns, keep the sums of P B).
-            let pb = &mut self.pb[j * nx * nu..(j + 1) * nx * nu];
+            let pb = &mut self.pb[j * nx * nu..][..nx * nu];
             mat_mul_transposed(&self.p, bdt, pb, nx, nx, nu);
-            for a in 0..nu {
-                let mut v: f64 = 0.0;
-                for i in 0..nx {
-                    v += bd[i * nu + a] * self.lam[i];
-                }
+            let lam = &self.lam[..nx];
+            for (a, bta) in bdt.chunks_exact(nx).enumerate() {
+                let mut v = dot_from(0.0, bta, lam);
                 if planned {
                     v -= r[a] * self.tauref[j * nu + a];
                 }
@@ -866,89 +872,73 @@ impl Mpc {
             }
             // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
             mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
-            let qt = &self.qt[(j - 1) * nx * nx..j * nx * nx];
+            let qt = &self.qt[(j - 1) * nx * nx..][..nx * nx];
             // P is symmetric: compute the upper triangle and mirror it. Row i is accumulated over k
             // into independent sums (the same order per entry as a dot product over k, so the same
             // rounding, without one long dependency chain per entry).
+            let (p, ptmp) = (&mut self.p[..nx * nx], &self.ptmp[..nx * nx]);
             for i in 0..nx {
                 let mut acc = [0.0; 2 * crate::model::MAX_LINKS];
                 acc[i..nx].copy_from_slice(&qt[i * nx + i..(i + 1) * nx]);
                 for k in 0..nx {
-                    let aki = ad[k * nx + i];
-                    let pk = &self.ptmp[k * nx + i..(k + 1) * nx];
+                    let aki = adt[i * nx + k];
+                    let pk = &ptmp[k * nx + i..(k + 1) * nx];
                     for (v, &b) in acc[i..nx].iter_mut().zip(pk) {
                         *v += aki * b;
                     }
                 }
                 for c in i..nx {
-                    self.p[i * nx + c] = acc[c];
-                    self.p[c * nx + i] = acc[c];
+                    p[i * nx + c] = acc[c];
+                    p[c * nx + i] = acc[c];
                 }
             }
-            let e = &self.e[(j - 1) * nx..j * nx];
-            for i in 0..nx {
-                let mut v = e[i];
-                for k in 0..nx {
-                    v += ad[k * nx + i] * self.lam[k];
-                }
-                self.lamtmp[i] = v;
+            let e = &self.e[(j - 1) * nx..][..nx];
+            for ((v, &ei), ati) in self.lamtmp[..nx]
+                .iter_mut()
+                .zip(e)
+                .zip(adt.chunks_exact(nx))
+            {
+                *v = dot_from(ei, ati, lam);
             }
             std::mem::swap(&mut self.lam, &mut self.lamtmp);
         }
 
-        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j, mirrored. For one j all
-        // blocks i <= j come from one product: the Gamma blocks are gathered side by side into
-        // `gs` (nx x (j + 1) nu; for `Measured` block c holds Gamma_c = A^c B, i.e. i = j - c, and is
-        // gathered once), then `hw[b][.] = sum_k PB[k][b] gs[k][.]` runs over long contiguous rows.
-        // Each entry is summed over k in the same order as before (bit-identical H).
+        // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j. Both factors are stored
+        // transposed (rows of length nx: `gam` block rows a, `pb` rows b), so each entry is one dot
+        // product over nx (for `Measured` the block c = j - i holds Gamma_c = A^c B). Column
+        // `col = j nu + b` of the blocks i <= j is collected in `hcol` and stored as the first
+        // (j + 1) nu entries of row `col`; the rest of each row is mirrored afterwards.
         let blk = nx * nu;
         let lti = self.settings.linearization == Linearization::Measured;
-        if lti {
-            for c in 0..hn {
-                for a in 0..nu {
-                    for k in 0..nx {
-                        self.gs[k * nall + c * nu + a] = self.gam[c * blk + a * nx + k];
-                    }
-                }
-            }
-        }
         for j in 0..hn {
-            if !lti {
-                for c in 0..=j {
-                    let g0 = (j * hn + c) * blk;
-                    for a in 0..nu {
-                        for k in 0..nx {
-                            self.gs[k * nall + c * nu + a] = self.gam[g0 + a * nx + k];
-                        }
-                    }
-                }
-            }
             let len = (j + 1) * nu;
-            let pb = &self.pb[j * blk..(j + 1) * blk];
+            let gam_j = if lti {
+                &self.gam[..len * nx]
+            } else {
+                &self.gam[j * hn * blk..][..len * nx]
+            };
             for b in 0..nu {
-                let wb = &mut self.hw[b * nall..b * nall + len];
-                wb.fill(0.0);
-                for k in 0..nx {
-                    let pkb = pb[b * nx + k];
-                    for (x, &g) in wb.iter_mut().zip(&self.gs[k * nall..k * nall + len]) {
-                        *x += g * pkb;
+                let mut pr = [0.0; 2 * crate::model::MAX_LINKS];
+                pr[..nx].copy_from_slice(&self.pb[(j * nu + b) * nx..][..nx]);
+                let pr = &pr[..nx];
+                for (c, gb) in gam_j.chunks_exact(blk).enumerate() {
+                    let i = if lti { j - c } else { c };
+                    let hc = &mut self.hcol[i * nu..(i + 1) * nu];
+                    for (v, ga) in hc.iter_mut().zip(gb.chunks_exact(nx)) {
+                        *v = dot_from(0.0, ga, pr);
                     }
                 }
-            }
-            for c in 0..=j {
-                let i = if lti { j - c } else { c };
-                for a in 0..nu {
-                    for b in 0..nu {
-                        let v = self.hw[b * nall + c * nu + a];
-                        let (row, col) = (i * nu + a, j * nu + b);
-                        self.h[row * nall + col] = v;
-                        self.h[col * nall + row] = v;
-                    }
-                }
+                let col = j * nu + b;
+                self.h[col * nall..col * nall + len].copy_from_slice(&self.hcol[..len]);
             }
             for a in 0..nu {
                 let d = j * nu + a;
                 self.h[d * nall + d] += r[a];
+            }
+        }
+        for row in 0..nall {
+            for col in (row / nu + 1) * nu..nall {
+                self.h[row * nall + col] = self.h[col * nall + row];
             }
         }
 
@@ -981,38 +971,48 @@ impl Mpc {
     }
 }
 
-/// `c = (a b)^T` from `bt = b^T`, with a: r x k, bt: s x k, c: s x r, row-major: each entry is
-/// `sum_k a[i][k] b[k][j]` summed in the order of k, as in [`mat_mul_rect`].
+/// `c = (a b)^T` from `bt = b^T`, with a: r x k, bt: s x k, c: s x r, row-major: each entry
+/// is the dot product of a row of `a` and a row of `bt`, summed in the order of k ([`dot_from`]).
+#[inline(always)]
 fn mat_mul_transposed(a: &[f64], bt: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
     for (bj, cj) in bt[..s * k]
         .chunks_exact(k)
         .zip(c[..s * r].chunks_exact_mut(r))
     {
         for (ai, cji) in a[..r * k].chunks_exact(k).zip(cj.iter_mut()) {
-            let mut v = 0.0;
-            for (&x, &y) in ai.iter().zip(bj) {
-                v += x * y;
-            }
-            *cji = v;
+            *cji = dot_from(0.0, ai, bj);
         }
     }
 }
 
-/// `c = a b` with a: r x k, b: k x s, c: r x s, row-major.
+/// `init + a . b` summed in order from `init` (the rounding of the plain loop
+/// `v = init; v += a[k] b[k]`), over the length of `a` (`b` at least as long): with a constant
+/// length, unrolled without bounds checks.
+#[inline(always)]
+fn dot_from(init: f64, a: &[f64], b: &[f64]) -> f64 {
+    let mut v = init;
+    for (x, y) in a.iter().zip(&b[..a.len()]) {
+        v += x * y;
+    }
+    v
+}
+
+/// `c = a b` with a: r x k, b: k x s, c: r x s, row-major (s <= 2 `MAX_LINKS`). Each row of `c` is
+/// accumulated in a local array over the rows of `b` (with constant sizes: in registers, unrolled).
+#[inline(always)]
 fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
     for (ai, ci) in a[..r * k]
         .chunks_exact(k)
         .zip(c[..r * s].chunks_exact_mut(s))
     {
-        ci.fill(0.0);
+        let mut acc = [0.0; 2 * crate::model::MAX_LINKS];
+        let acc = &mut acc[..s];
         for (&v, bl) in ai.iter().zip(b[..k * s].chunks_exact(s)) {
-            if v == 0.0 {
-                continue;
-            }
-            for (x, &y) in ci.iter_mut().zip(bl) {
+            for (x, &y) in acc.iter_mut().zip(bl) {
                 *x += v * y;
             }
         }
+        ci.copy_from_slice(acc);
     }
 }
 
