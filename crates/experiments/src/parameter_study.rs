@@ -23,12 +23,14 @@
 //! - **Grid**: every r2 times every offset, swing time `T + offset` with `T = 2 T_freefall` of that r2
 //!   (EE from the start to the x midway between start and target bars, joints locked; see
 //!   [`brachia::planning::freefall_time`]).
-//! - **Parallel rows, warm-started cells**: one rayon task per r2 row, the longest swings first. A row
-//!   solves the offset closest
-//!   to 0 cold, then walks outwards in both directions, each cell warm-started
-//!   ([`brachia::planning::plan_with_guess`]) from the last converged cell on its side; a cell with no
-//!   converged neighbour starts cold, and a warm-started cell that does not converge is solved again
-//!   cold (its iterations and time are then the sum of both solves).
+//! - **Parallel rows, warm-started cells, continuation in r2**: (1) every row's centre cell (the offset
+//!   closest to 0) cold, one rayon task per r2 row, the longest swings first; (2) a row whose centre did
+//!   not converge is solved again warm-started ([`brachia::planning::plan_with_guess`]) from the
+//!   converged centre of its neighbour in r2 (sweeping up, then down; [`CellStart::WarmFromRow`]);
+//!   (3) every row walks outwards from its centre in both directions, in parallel, each cell
+//!   warm-started from the last converged cell on its side; a cell with no converged neighbour starts
+//!   cold, and a warm-started cell that does not converge is solved again cold (its iterations and
+//!   time are then the sum of both solves). `solver.max_iter` caps each attempt.
 //! - A cell that fails keeps its [`SolveStatus`], iterations and time and has no energy; nothing is
 //!   dropped.
 //!
@@ -481,6 +483,9 @@ pub enum CellStart {
     Warm,
     /// The warm-started solve did not converge; this is the result of a second, cold solve.
     ColdAfterWarm,
+    /// The row's centre cell did not converge cold; this is the result of a solve warm-started from the
+    /// converged centre of the neighbouring r2 row (continuation in r2, its time axis rescaled).
+    WarmFromRow,
 }
 
 impl CellStart {
@@ -489,6 +494,7 @@ impl CellStart {
             CellStart::Cold => "cold",
             CellStart::Warm => "warm",
             CellStart::ColdAfterWarm => "cold-after-warm",
+            CellStart::WarmFromRow => "warm-from-row",
         }
     }
 }
@@ -601,6 +607,9 @@ impl ParameterStudy {
     }
 }
 
+/// A solved row: its cells in offset order and, when wanted, the stick diagram of its centre cell.
+type RowResult = (Vec<StudyCell>, Option<StickDiagram>);
+
 /// One r2 row before solving.
 struct RowSetup {
     r2: f64,
@@ -705,21 +714,127 @@ fn centre_index(offsets: &[f64]) -> usize {
     best
 }
 
-/// A solved row: its cells in offset order and, when wanted, the stick diagram of its centre cell.
-type RowResult = (Vec<StudyCell>, Option<StickDiagram>);
+/// A row's centre cell (the offset closest to 0) once solved: the cell, the plan's knots when it
+/// converged (the seed of the row's walk and of the neighbouring rows' continuation) and, when a stick
+/// diagram wants it, the centre's swing.
+struct Centre {
+    cell: StudyCell,
+    seed: Option<Trajectory>,
+    stick: Option<StickDiagram>,
+    /// The planner refused the cell before solving (nothing to continue from or into).
+    refused: bool,
+}
 
-/// Solve one r2 row: the centre cold, then outwards. Returns the cells in offset order and the centre's
-/// trajectory and status when the centre is at offset 0 and a stick diagram wants it.
-fn run_row(
+/// The [`Centre`] of a row from a solve of its centre cell.
+fn centre_of(
     setup: &RowSetup,
     settings: &ParameterStudySettings,
-    keep_centre: bool,
+    keep_stick: bool,
+    solved: Result<(brachia::planning::Plan, CellStart, usize, f64), Error>,
+) -> Centre {
+    let off = settings.offsets_s[centre_index(&settings.offsets_s)];
+    match solved {
+        Ok((p, start, it, t)) => Centre {
+            cell: make_cell(setup.r2, off, &p, start, it, t),
+            seed: p.converged().then(|| p.points.clone()),
+            stick: (keep_stick && off.abs() < SAME).then(|| StickDiagram {
+                r2: setup.r2,
+                robot: setup.robot.clone(),
+                swing_time_s: p.swing_time_s,
+                status: p.status.clone(),
+                energy_j: p.converged().then_some(p.energy_j),
+                trajectory: p.trajectory.clone(),
+            }),
+            refused: false,
+        },
+        Err(e) => Centre {
+            cell: refused_cell(setup, off, &e),
+            seed: None,
+            stick: None,
+            refused: true,
+        },
+    }
+}
+
+/// Phase 1 of the study: a row's centre cell, cold (the planner's own guess). A planner error of the
+/// cell (e.g. no joint configuration reaches the target) is a failed cell, not an error of the study.
+fn solve_centre(
+    setup: &RowSetup,
+    settings: &ParameterStudySettings,
+    keep_stick: bool,
     tick: &(dyn Fn() + Sync),
     stop: &(dyn Fn() -> bool + Sync),
-) -> Result<RowResult, Error> {
+) -> Centre {
+    let off = settings.offsets_s[centre_index(&settings.offsets_s)];
+    let solved = if stop() {
+        Err(Error::InfeasibleTask("cancelled".into()))
+    } else {
+        let r = solve_cell(setup, settings, setup.t_nominal + off, None);
+        tick();
+        r
+    };
+    centre_of(setup, settings, keep_stick, solved)
+}
+
+/// Phase 2 of the study, continuation in r2: a row whose centre did not converge from the planner's own
+/// guess is solved again, warm-started ([`plan_with_guess`], the guess's time axis rescaled to this
+/// row's swing time) from the converged centre of its neighbour in `settings.r2`: first sweeping up
+/// (from the row below), then down (from the row above), so that a centre converged this way seeds
+/// the next row in the sweep. The cell then counts the iterations and time of every attempt and has
+/// `start = warm-from-row`. Rows run one after another here (only rows whose centre failed solve).
+fn continue_centres(
+    setups: &[RowSetup],
+    settings: &ParameterStudySettings,
+    centres: &mut [Centre],
+    wants_stick: &dyn Fn(f64) -> bool,
+    stop: &(dyn Fn() -> bool + Sync),
+) {
+    let n = centres.len();
+    let up = (1..n).map(|i| (i, i - 1));
+    let down = (0..n.saturating_sub(1)).rev().map(|i| (i, i + 1));
+    for (i, from) in up.chain(down) {
+        if stop() {
+            return;
+        }
+        if centres[i].seed.is_some() || centres[i].refused {
+            continue;
+        }
+        let Some(seed) = centres[from].seed.clone() else {
+            continue;
+        };
+        let s = &setups[i];
+        let off = settings.offsets_s[centre_index(&settings.offsets_s)];
+        let (it0, t0) = (centres[i].cell.iterations, centres[i].cell.solve_time_s);
+        let planner = PlannerSettings {
+            swing_time: SwingTime::Seconds(s.t_nominal + off),
+            ..settings.planner.clone()
+        };
+        let solved = plan_with_guess(&s.robot, &s.task, &planner, &settings.solver, Some(&seed))
+            .map(|p| {
+                let (it, t) = (it0 + p.iterations, t0 + p.solve_time_s);
+                (p, CellStart::WarmFromRow, it, t)
+            });
+        // a planner error here (it accepted the cell cold) keeps the cold attempt's result
+        if solved.is_ok() {
+            centres[i] = centre_of(s, settings, wants_stick(s.r2), solved);
+        }
+    }
+}
+
+/// Phase 3 of the study: one r2 row walks outwards from its centre in both directions, every cell
+/// warm-started from the last converged cell on its side (cold when there is none, or again cold when
+/// the warm start does not converge). Returns the cells in offset order.
+fn walk_row(
+    setup: &RowSetup,
+    settings: &ParameterStudySettings,
+    centre: &Centre,
+    tick: &(dyn Fn() + Sync),
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Vec<StudyCell> {
     let offs = &settings.offsets_s;
     let c = centre_index(offs);
     let mut cells: Vec<Option<StudyCell>> = vec![None; offs.len()];
+    cells[c] = Some(centre.cell.clone());
     let solve = |j: usize, guess: Option<&Trajectory>| {
         // once cancelled, the remaining cells are skipped (the whole study is then discarded)
         if stop() {
@@ -729,35 +844,17 @@ fn run_row(
         tick();
         r
     };
-    // A planner error of one cell (e.g. no joint configuration reaches the target at that swing time)
-    // is a failed cell of the study, not an error of the whole study.
-    let mut stick = None;
-    let mut centre_guess = None;
-    match solve(c, None) {
-        Ok((centre, start, it, t)) => {
-            cells[c] = Some(make_cell(setup.r2, offs[c], &centre, start, it, t));
-            centre_guess = centre.converged().then(|| centre.points.clone());
-            stick = (keep_centre && offs[c].abs() < SAME).then(|| StickDiagram {
-                r2: setup.r2,
-                robot: setup.robot.clone(),
-                swing_time_s: centre.swing_time_s,
-                status: centre.status.clone(),
-                energy_j: centre.converged().then_some(centre.energy_j),
-                trajectory: centre.trajectory.clone(),
-            });
-        }
-        Err(e) => cells[c] = Some(refused_cell(setup, offs[c], &e)),
-    }
     let up: Vec<usize> = (c + 1..offs.len()).collect();
     let down: Vec<usize> = (0..c).rev().collect();
     for side in [up, down] {
-        let mut guess = centre_guess.clone();
+        let mut guess = centre.seed.clone();
         for j in side {
             let g = if settings.warm_start {
                 guess.as_ref()
             } else {
                 None
             };
+            // a planner error of one cell is a failed cell of the study
             cells[j] = Some(match solve(j, g) {
                 Ok((p, start, it, t)) => {
                     if p.converged() {
@@ -769,7 +866,7 @@ fn run_row(
             });
         }
     }
-    Ok((cells.into_iter().flatten().collect(), stick))
+    cells.into_iter().flatten().collect()
 }
 
 /// Summary of one row from its cells.
@@ -969,20 +1066,35 @@ fn study(
     // would leave the other cores idle at the end.
     let mut order: Vec<usize> = (0..setups.len()).collect();
     order.sort_by(|&a, &b| setups[b].t_nominal.total_cmp(&setups[a].t_nominal));
-    let solved: Vec<(usize, RowResult)> = order
+    // phase 1: every row's centre cold, in parallel
+    let mut centres: Vec<Centre> = {
+        let mut solved: Vec<(usize, Centre)> = order
+            .par_iter()
+            .with_max_len(1)
+            .map(|&i| {
+                let s = &setups[i];
+                (i, solve_centre(s, settings, wants_stick(s.r2), &tick, stop))
+            })
+            .collect();
+        solved.sort_by_key(|(i, _)| *i);
+        solved.into_iter().map(|(_, c)| c).collect()
+    };
+    // phase 2: continuation in r2 for the centres that failed (warm starts only)
+    if settings.warm_start {
+        continue_centres(&setups, settings, &mut centres, &wants_stick, stop);
+    }
+    // phase 3: every row walks outwards from its centre, in parallel
+    let walked: Vec<(usize, Vec<StudyCell>)> = order
         .par_iter()
         .with_max_len(1)
-        .map(|&i| {
-            let s = &setups[i];
-            run_row(s, settings, wants_stick(s.r2), &tick, stop).map(|r| (i, r))
-        })
-        .collect::<Result<_, _>>()?;
+        .map(|&i| (i, walk_row(&setups[i], settings, &centres[i], &tick, stop)))
+        .collect();
     if stop() {
         return Ok(None);
     }
     let mut rows: Vec<Option<RowResult>> = (0..setups.len()).map(|_| None).collect();
-    for (i, r) in solved {
-        rows[i] = Some(r);
+    for (i, cells) in walked {
+        rows[i] = Some((cells, centres[i].stick.take()));
     }
     // a stick swing the planner refuses (no pose reaches the target) has nothing to draw: it is left out
     let extra_sticks: Vec<StickDiagram> = extra

@@ -472,8 +472,15 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
                 .parse()
                 .map_err(|_| bad("iterations", row[8], "a whole number"))?,
             solve_time_s: num(9, "solve_time_s")?,
-            start: serde_json::from_value(serde_json::Value::String(row[10].into()))
-                .map_err(|_| bad("start", row[10], "cold, warm or cold-after-warm"))?,
+            start: serde_json::from_value(serde_json::Value::String(row[10].into())).map_err(
+                |_| {
+                    bad(
+                        "start",
+                        row[10],
+                        "cold, warm, cold-after-warm or warm-from-row",
+                    )
+                },
+            )?,
             replay_ee_error_m: opt(11, "replay_ee_error_m")?,
         });
     }

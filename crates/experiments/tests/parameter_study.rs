@@ -5,7 +5,8 @@ use brachia::model::{Robot, RobotParams};
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SolveStatus};
 use brachia_experiments::{
     no_progress, parameter_study_folder, run_parameter_study, run_parameter_study_cancellable,
-    scaled_params, start_pose, BaseParams, CancelToken, ExpError, ParameterStudySettings, Progress,
+    scaled_params, start_pose, BaseParams, CancelToken, CellStart, ExpError,
+    ParameterStudySettings, Progress,
 };
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -191,6 +192,43 @@ fn small_grid_runs_and_fills_the_run_folder() {
     assert_eq!(&p, study.sticks[0].robot.params());
     let traj = std::str::from_utf8(f.get("stick_r2_0.70.csv").unwrap()).unwrap();
     assert!(traj.starts_with("t,q1,q2,q3,q4,qd1"));
+}
+
+/// Continuation in r2: without self-collision rows the r2 = 0.9 robot's centre cell does not converge
+/// from the planner's own guess within 80 iterations (it stops at the cap), but it does warm-started
+/// from the converged r2 = 0.8 centre, its time axis rescaled (41 iterations). The study solves it
+/// that way: the cell converges, says `warm-from-row`, counts both attempts, and its plan meets the
+/// replay bar of its own mesh. (With self-collision on, the r2 = 0.9 centre does not converge on this
+/// mesh even so: docs/parameter-study.md.)
+#[test]
+fn a_centre_that_fails_cold_is_continued_from_the_neighbouring_row() {
+    let cap = 80;
+    let mut s = ParameterStudySettings {
+        solver: NlpSettings {
+            max_iter: cap,
+            ..Default::default()
+        },
+        stick_r2: vec![0.9],
+        r2: vec![0.8, 0.9],
+        offsets_s: vec![0.0],
+        ..Default::default()
+    };
+    s.planner.self_collision = false;
+    let study = run_parameter_study(&s, &no_progress).unwrap();
+    let (lower, upper) = (study.cell(0, 0), study.cell(1, 0));
+    assert!(lower.converged, "r2 = 0.8: {:?}", lower.status);
+    assert_eq!(lower.start, CellStart::Cold);
+    assert!(upper.converged, "r2 = 0.9: {:?}", upper.status);
+    assert_eq!(upper.start, CellStart::WarmFromRow, "{upper:?}");
+    // the cold attempt ran to the cap, the warm one converged: both are counted
+    assert!(upper.iterations > cap, "{upper:?}");
+    assert!(upper.replay_ee_error_m.unwrap() < 1e-2, "{upper:?}");
+    // the stick diagram is the continued centre's swing
+    assert_eq!(study.sticks.len(), 1);
+    assert_eq!(study.sticks[0].energy_j, upper.energy_j);
+    let f = parameter_study_folder(&study);
+    let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    assert_eq!(cells.matches(",warm-from-row,").count(), 1);
 }
 
 #[test]
