@@ -6,13 +6,13 @@
 //! On the undisturbed swing no re-plan happens. The latency is configured (reproducible runs).
 //! Units: s, m, rad, rad/s, N m.
 
-use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
+use brachia::control::{MissPrediction, Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::integrate::Rk4;
 use brachia::model::Robot;
 use brachia::planning::{
     Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
 };
-use brachia::sim::{ClosedLoop, Controller, Plant, RunSettings};
+use brachia::sim::{ClosedLoop, Controller, Disturbances, Plant, RunSettings};
 use brachia::trajectory::Trajectory;
 use std::sync::Arc;
 
@@ -90,12 +90,24 @@ fn run<C: Controller>(
     t_hit: f64,
     dqd: &[f64],
 ) -> f64 {
+    run_on(robot, robot, reference, c, t_hit, dqd)
+}
+
+/// As [`run`], with the plant simulating `plant_robot` (a model mismatch).
+fn run_on<C: Controller>(
+    robot: &Arc<Robot>,
+    plant_robot: &Arc<Robot>,
+    reference: &Arc<Trajectory>,
+    c: &mut C,
+    t_hit: f64,
+    dqd: &[f64],
+) -> f64 {
     let n = robot.n();
     let x0 = [reference.q(0), reference.qd(0)].concat();
     let dt = 0.001;
     let plant = Kicked {
-        robot: Arc::clone(robot),
-        rk4: Rk4::new(robot),
+        robot: Arc::clone(plant_robot),
+        rk4: Rk4::new(plant_robot),
         x: x0,
         steps: 0,
         dt,
@@ -110,7 +122,7 @@ fn run<C: Controller>(
     cl.run();
     let mut x = vec![0.0; 2 * n];
     cl.plant().state(&mut x);
-    let ee = robot.ee_position(&x[..n]);
+    let ee = plant_robot.ee_position(&x[..n]);
     (ee[0] - 0.8).hypot(ee[1])
 }
 
@@ -172,6 +184,45 @@ fn no_replan_on_the_undisturbed_swing() {
     let err = run(&robot, &reference, &mut rp, 10.0, &[0.0; 4]);
     assert!(rp.events().is_empty(), "{:#?}", rp.events());
     assert!(err < 0.02, "{err}");
+}
+
+/// A per-link mass mismatch of the Monte Carlo's size (+-12 %) and no hit: the MPC corrects the
+/// drift, so the feedback prediction (the default) predicts no miss and triggers no re-plan, while the
+/// open-loop prediction (the plan's feed-forward torque only) sees the drift as a miss and spends
+/// re-plans on it (docs/replanning.md, "Predicting the miss").
+#[test]
+fn the_feedback_prediction_ignores_a_drift_the_mpc_corrects() {
+    let robot = Arc::new(Robot::paper());
+    let d = Disturbances {
+        mass_scale: vec![1.12, 0.88, 1.12, 0.88],
+        ..Default::default()
+    };
+    let heavy = Arc::new(Robot::from_params(d.plant_params(robot.params()), "test").unwrap());
+    let (p, reference) = planner(&robot);
+    let mut mpc = tracker(&robot, &reference);
+    let plain = run_on(&robot, &heavy, &reference, &mut mpc, 10.0, &[0.0; 4]);
+    let (p2, _) = planner(&robot);
+    let by = |p: SwingPlanner, prediction: MissPrediction| {
+        let s = ReplanSettings {
+            prediction,
+            ..settings()
+        };
+        let mut rp =
+            Replanning::new(tracker(&robot, &reference), p, Arc::clone(&reference), s).unwrap();
+        let err = run_on(&robot, &heavy, &reference, &mut rp, 10.0, &[0.0; 4]);
+        (err, rp.events().to_vec())
+    };
+    let (fb, fb_ev) = by(p, MissPrediction::Feedback);
+    let (ol, ol_ev) = by(p2, MissPrediction::OpenLoop);
+    eprintln!("plain {plain} m; feedback {fb} m, {fb_ev:#?}; open loop {ol} m, {ol_ev:#?}");
+    assert!(plain < 0.02, "the plain MPC ends {plain} m off");
+    assert!(fb_ev.is_empty(), "{fb_ev:#?}");
+    assert!(fb < 0.02, "{fb}");
+    assert!(
+        !ol_ev.is_empty(),
+        "the open-loop prediction did not trigger"
+    );
+    assert!(ol_ev.iter().all(|e| e.predicted_miss_m > 0.01));
 }
 
 #[test]

@@ -12,8 +12,9 @@
 //! - **Seeds**: run i of a sweep or of the Monte Carlo draws from ChaCha8 seeded by a fixed function of
 //!   (disturbance, level) or of i, the same for every controller; results do not depend on `jobs`.
 //!
-//! Files: `runs.csv` (`controller,disturbance,level,seed,success,final_error_m,energy_j,
-//! peak_torque_nm,smoothness_nm`), `scorecard.json`, `summary.md`, `success_<disturbance>.png/.svg`.
+//! Files: `runs.csv` (one row per run: scores, the Monte Carlo ball, the plant's contacts, the re-plans
+//! with their trigger times and predicted misses; [`Benchmark::runs_csv`]), `scorecard.json`,
+//! `summary.md`, `success_<disturbance>.png/.svg`.
 //! Units: s, m, rad, rad/s, N m, N s, J, kg. See docs/robustness.md.
 
 use crate::plan_run::run_plan;
@@ -473,6 +474,14 @@ pub struct BenchRow {
     pub replan_latency_s: f64,
     /// Interior-point iterations of all re-plans (a load-independent measure of their cost).
     pub replan_iterations: usize,
+    /// Time of the plant's last contact, s (`None`: none, or not the rapier plant).
+    pub contact_last_s: Option<f64>,
+    /// Total normal contact impulse on the robot over the run, N s (0: none, or not the rapier plant).
+    pub contact_impulse_n_s: f64,
+    /// Trigger time of each re-plan, s, in order.
+    pub replan_t_s: Vec<f64>,
+    /// The predicted capture miss that triggered each re-plan, m, in order.
+    pub replan_miss_m: Vec<f64>,
 }
 
 /// Scores of one controller on one disturbance (or overall).
@@ -604,13 +613,13 @@ fn run_job(
     };
     let mut built = (entry.build)(ls, reference)?;
     let ctrl = built.controller();
-    let (log, contact_s) = match job.plant {
+    let (log, contacts) = match job.plant {
         PlantKind::Model => {
             let mut p = ModelPlant::new(job.probot.clone(), &x0);
             p.substeps = sc.plant.substeps;
             let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
             let log = run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?;
-            (log, None)
+            (log, Vec::new())
         }
         PlantKind::Rapier => {
             let mut p = RapierPlant::new(&job.probot, &x0, &sc.plant.rapier())?;
@@ -627,7 +636,7 @@ fn run_job(
                 let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
                 run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?
             };
-            (log, p.first_contact_time())
+            (log, p.contacts().to_vec())
         }
     };
     let replans = built.replans();
@@ -662,7 +671,11 @@ fn run_job(
         smoothness_nm: smooth,
         ball_kg: job.balls.iter().map(ball_mass).sum(),
         ball_t_s: job.ball_t_s,
-        contact_s,
+        contact_s: contacts.first().map(|c| c.t),
+        contact_last_s: contacts.last().map(|c| c.t),
+        contact_impulse_n_s: contacts.iter().map(|c| c.impulse).sum(),
+        replan_t_s: replans.iter().map(|e| e.t_trigger_s).collect(),
+        replan_miss_m: replans.iter().map(|e| e.predicted_miss_m).collect(),
         replans: replans.len(),
         replans_adopted: replans.iter().filter(|e| e.t_switch_s.is_some()).count(),
         replan_latency_s: replans.iter().map(|e| e.latency_s).fold(0.0, f64::max),
@@ -673,6 +686,14 @@ fn run_job(
 /// A CSV field: the value to 1 us, or empty.
 fn opt(v: Option<f64>) -> String {
     v.map(|v| format!("{v:.6}")).unwrap_or_default()
+}
+
+/// A CSV field of several values: each to 1 us, separated by `;` (empty: none).
+fn list(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:.6}"))
+        .collect::<Vec<_>>()
+        .join(";")
 }
 
 fn ball_mass(o: &Obstacle) -> f64 {
@@ -891,12 +912,13 @@ impl Benchmark {
     pub fn runs_csv(&self) -> String {
         let mut s = String::from(
             "controller,disturbance,level,seed,success,final_error_m,energy_j,peak_torque_nm,smoothness_nm,\
-             ball_kg,ball_t_s,contact_s,replans,replans_adopted,replan_latency_s,replan_iterations\n",
+             ball_kg,ball_t_s,contact_s,replans,replans_adopted,replan_latency_s,replan_iterations,\
+             contact_last_s,contact_impulse_n_s,replan_t_s,replan_miss_m\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{:.9},{:.9},{:.9},{:.9},{:.6},{},{},{},{},{:.6},{}",
+                "{},{},{},{},{},{:.9},{:.9},{:.9},{:.9},{:.6},{},{},{},{},{:.6},{},{},{:.6},{},{}",
                 r.controller,
                 r.disturbance,
                 r.level,
@@ -912,7 +934,11 @@ impl Benchmark {
                 r.replans,
                 r.replans_adopted,
                 r.replan_latency_s,
-                r.replan_iterations
+                r.replan_iterations,
+                opt(r.contact_last_s),
+                r.contact_impulse_n_s,
+                list(&r.replan_t_s),
+                list(&r.replan_miss_m)
             );
         }
         s

@@ -22,7 +22,7 @@ pub mod tvlqr;
 pub use baselines::{OpenLoop, Pd, PdSettings};
 pub use estimator::{Estimated, EstimatorSettings};
 pub use mpc::{Discretization, Linearization, Mpc, MpcSettings, Prediction, TorqueReference};
-pub use replanning::{ReplanEvent, ReplanSettings, Replanning};
+pub use replanning::{MissPrediction, ReplanEvent, ReplanSettings, Replanning};
 pub use tvlqr::{Tvlqr, TvlqrSettings};
 
 /// A diagonal weight vector of a controller's settings: `len` values for the n-link robot (`what`

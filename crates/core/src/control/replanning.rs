@@ -2,9 +2,11 @@
 //!
 //! [`Replanning`] holds a persistent planner ([`SwingPlanner`], usually on a coarse mesh) and a
 //! tracking controller (usually the [`crate::control::Mpc`]). Every `check_period_s` it predicts the
-//! capture miss: a rollout of the model from the measured state to the swing's end time T under the
-//! tracked reference's feed-forward torque (RK4 steps of `predict_dt_s`, the torque of each step the
-//! reference's at the step's midpoint, clamped to the robot's limits), and the distance of the
+//! capture miss: a rollout of the model from the measured state to the swing's end time T (RK4 steps
+//! of `predict_dt_s`) under TVLQR feedback along the tracked reference, `tau^d` at the step's midpoint
+//! minus `K (x - x^d)`, clamped to the robot's limits ([`MissPrediction::Feedback`], the default: a
+//! drift that feedback corrects predicts no miss) or under its feed-forward torque only
+//! ([`MissPrediction::OpenLoop`]), and the distance of the
 //! rollout's final end-effector position from that of the same rollout started at the reference's own
 //! state at that time. The difference of two rollouts on the same steps cancels the rollout's own
 //! discretisation error (the steps do not align with the plan's torque steps: a 10 ms rollout of the
@@ -23,7 +25,7 @@
 //! Units: s, m, rad, rad/s, N m; state `x = [q (n), qd (n)]`, torques of joints 2..n. The plan's
 //! times are absolute (the new plan's samples start at the trigger time).
 
-use super::{ControlInfo, Controller};
+use super::{ControlInfo, Controller, Tvlqr, TvlqrSettings};
 use crate::error::{Error, Result};
 use crate::integrate::Rk4;
 use crate::model::Robot;
@@ -40,6 +42,21 @@ pub const MAX_REPLANS: usize = 100;
 
 /// A re-planned swing must end this close to the bar to be adopted, m.
 const ADOPT_EE_ERROR_M: f64 = 1e-3;
+
+/// How [`Replanning`] predicts the capture miss.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MissPrediction {
+    /// The rollout is closed by TVLQR feedback along the tracked plan (default gains,
+    /// [`TvlqrSettings::default`]), clamped to the torque limits: it predicts where a tracking
+    /// controller ends, so a slow drift that feedback corrects (model mismatch, sensor noise) predicts
+    /// no miss, and only a deviation the limited torques cannot take back (a hit) does.
+    #[default]
+    Feedback,
+    /// The rollout applies the plan's feed-forward torque only: it ignores the feedback the tracking
+    /// controller adds and over-estimates the miss, by the most early in the swing.
+    OpenLoop,
+}
 
 /// Settings of [`Replanning`] (scenario section `[tracking] replan = { ... }`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -64,6 +81,8 @@ pub struct ReplanSettings {
     /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's
     /// swing planned at 30 ms knots replays within the 1 mm bar).
     pub knot_dt_s: f64,
+    /// How the miss is predicted. Default [`MissPrediction::Feedback`].
+    pub prediction: MissPrediction,
 }
 
 impl Default for ReplanSettings {
@@ -77,6 +96,7 @@ impl Default for ReplanSettings {
             min_remaining_s: 0.15,
             latency_s: None,
             knot_dt_s: 0.03,
+            prediction: MissPrediction::Feedback,
         }
     }
 }
@@ -163,6 +183,13 @@ pub struct ReplanEvent {
     pub adopted: bool,
 }
 
+/// A re-planned swing waiting for its ready time.
+struct Pending {
+    ready: f64,
+    plan: Arc<Trajectory>,
+    lqr: Option<Tvlqr>,
+}
+
 /// A tracking controller with online re-planning; see the module docs.
 pub struct Replanning<C> {
     inner: C,
@@ -171,7 +198,9 @@ pub struct Replanning<C> {
     reference: Arc<Trajectory>,
     settings: ReplanSettings,
     t_final: f64,
-    pending: Option<(f64, Arc<Trajectory>)>,
+    pending: Option<Pending>,
+    /// The feedback of the miss prediction along the tracked plan ([`MissPrediction::Feedback`]).
+    lqr: Option<Tvlqr>,
     events: Vec<ReplanEvent>,
     next_check: f64,
     last_trigger: Option<f64>,
@@ -214,8 +243,17 @@ impl<C: Controller> Replanning<C> {
                 format!("must end at the planner's swing time T = {t_final} s"),
             ));
         }
+        let lqr = match settings.prediction {
+            MissPrediction::Feedback => Some(Tvlqr::new(
+                Arc::clone(&robot),
+                Arc::clone(&reference),
+                TvlqrSettings::default(),
+            )?),
+            MissPrediction::OpenLoop => None,
+        };
         Ok(Replanning {
             inner,
+            lqr,
             rk4: Rk4::new(&robot),
             xr: vec![0.0; robot.nx()],
             ur: vec![0.0; robot.nu()],
@@ -320,9 +358,14 @@ impl<C: Controller> Replanning<C> {
         let mut s = t;
         while s < self.t_final - 1e-12 {
             let h = self.settings.predict_dt_s.min(self.t_final - s);
-            self.reference.tau_at(s + 0.5 * h, &mut self.ur);
-            for (j, u) in self.ur.iter_mut().enumerate() {
-                *u = u.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            match self.lqr.as_mut() {
+                Some(l) => l.law(s, s + 0.5 * h, &self.xr, &mut self.ur),
+                None => {
+                    self.reference.tau_at(s + 0.5 * h, &mut self.ur);
+                    for (j, u) in self.ur.iter_mut().enumerate() {
+                        *u = u.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+                    }
+                }
             }
             self.rk4.step(&self.robot, &mut self.xr, &self.ur, h);
             s += h;
@@ -367,9 +410,30 @@ impl<C: Controller> Replanning<C> {
                 *s += t;
             }
         }
+        let mut traj = traj.map(Arc::new);
+        let lqr = match (&traj, self.settings.prediction) {
+            (Some(tr), MissPrediction::Feedback) => {
+                match Tvlqr::new(
+                    Arc::clone(&self.robot),
+                    Arc::clone(tr),
+                    TvlqrSettings::default(),
+                ) {
+                    Ok(l) => Some(l),
+                    Err(_) => {
+                        traj = None;
+                        None
+                    }
+                }
+            }
+            _ => None,
+        };
         let adopted = traj.is_some();
-        if let Some(tr) = traj {
-            self.pending = Some((t + latency, Arc::new(tr)));
+        if let Some(plan) = traj {
+            self.pending = Some(Pending {
+                ready: t + latency,
+                plan,
+                lqr,
+            });
         }
         self.events.push(ReplanEvent {
             t_trigger_s: t,
@@ -391,11 +455,14 @@ impl<C: Controller> Controller for Replanning<C> {
     /// threshold, then the tracking controller's torque. A measured state of the wrong length or
     /// with NaNs goes to the tracking controller unchecked.
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
-        if let Some((ready, _)) = &self.pending {
-            if t >= *ready - 1e-9 {
-                let (_, tr) = self.pending.take().expect("pending plan");
-                if self.inner.set_reference(Arc::clone(&tr)).is_ok() {
-                    self.reference = tr;
+        if let Some(p) = &self.pending {
+            if t >= p.ready - 1e-9 {
+                let p = self.pending.take().expect("pending plan");
+                if self.inner.set_reference(Arc::clone(&p.plan)).is_ok() {
+                    self.reference = p.plan;
+                    if p.lqr.is_some() {
+                        self.lqr = p.lqr;
+                    }
                     if let Some(e) = self.events.last_mut() {
                         e.t_switch_s = Some(t);
                     }
@@ -420,9 +487,19 @@ impl<C: Controller> Controller for Replanning<C> {
         "replanning"
     }
 
-    /// Track another plan (the planner keeps shifting from its own solution).
+    /// Track another plan (the planner keeps shifting from its own solution; with the feedback
+    /// prediction the TVLQR gains of the plan are computed, which allocates).
     fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        let lqr = match self.lqr {
+            Some(_) => Some(Tvlqr::new(
+                Arc::clone(&self.robot),
+                Arc::clone(&reference),
+                TvlqrSettings::default(),
+            )?),
+            None => None,
+        };
         self.inner.set_reference(Arc::clone(&reference))?;
+        self.lqr = lqr;
         self.reference = reference;
         self.pending = None;
         Ok(())

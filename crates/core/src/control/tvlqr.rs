@@ -287,10 +287,29 @@ impl Controller for Tvlqr {
     /// `u = clamp(u^d(t) - K(t) (x - x^d(t)))`; a measured state of the wrong length or with NaNs
     /// yields the planned torque (clamped).
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
+        self.law(t, t, x, tau);
+        ControlInfo { iterations: 0 }
+    }
+
+    fn name(&self) -> &'static str {
+        "tvlqr"
+    }
+
+    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+        Tvlqr::set_reference(self, reference)
+    }
+}
+
+impl Tvlqr {
+    /// The control law with the feed-forward torque taken at `t_ff` and the feedback at `t`:
+    /// `tau = clamp(u^d(t_ff) - K(t) (x - x^d(t)))` (`t_ff = t` is [`Controller::control`]; a rollout
+    /// that holds the torque over a step takes the plan's torque at the step's midpoint). A state of
+    /// the wrong length or with NaNs yields `u^d(t_ff)` (clamped). Does not allocate.
+    pub fn law(&mut self, t: f64, t_ff: f64, x: &[f64], tau: &mut [f64]) {
         let n = self.robot.n;
         let (nx, nu) = (2 * n, n - 1);
         let mut ud = [0.0; MAX_LINKS];
-        self.reference.tau_at(t, &mut ud[..nu]);
+        self.reference.tau_at(t_ff, &mut ud[..nu]);
         let valid = x.len() == nx && x.iter().all(|v| v.is_finite());
         if valid {
             self.reference.state_at(t, &mut self.xref);
@@ -315,15 +334,6 @@ impl Controller for Tvlqr {
         for (j, o) in tau.iter_mut().enumerate().take(nu) {
             *o = ud[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
         }
-        ControlInfo { iterations: 0 }
-    }
-
-    fn name(&self) -> &'static str {
-        "tvlqr"
-    }
-
-    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
-        Tvlqr::set_reference(self, reference)
     }
 }
 
