@@ -8,9 +8,12 @@
 
 use brachia::control::boxqp::kkt_residual;
 use brachia::control::{Discretization, Linearization, Mpc, MpcSettings};
-use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};
+mod common;
+
+use brachia::model::{LinkParams, Robot};
 use brachia::sim::{Controller, ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
+use common::chain_robot;
 use nalgebra::{DMatrix, DVector};
 
 /// An n-link chain of the paper's proportions (+-5 N m).
@@ -24,16 +27,7 @@ fn robot(n: usize) -> Robot {
             radius: 0.02,
         })
         .collect();
-    let params = RobotParams {
-        name: format!("chain{n}"),
-        gravity: 9.81,
-        links,
-        actuators: ActuatorParams {
-            tau_min: vec![-5.0; n - 1],
-            tau_max: vec![5.0; n - 1],
-        },
-    };
-    Robot::from_params(params, "<test>").unwrap()
+    chain_robot(&format!("chain{n}"), links, 5.0)
 }
 
 /// 0.8 s of the model plant under small smooth torques from a hanging pose, 1 ms samples.

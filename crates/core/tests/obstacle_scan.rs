@@ -7,13 +7,33 @@
 use brachia::model::{ClearanceFn, Robot};
 use brachia::planning::cspace::{cspace_path, cspace_seed, MAX_CELLS, MAX_DISCOVERED};
 use brachia::planning::detour::{detour_seeds, SeedKind, EXTRA_CLEARANCE};
-use brachia::planning::guess::{diagnose, path_placements};
+use brachia::planning::guess::{diagnose, path_placements, Placement};
 use brachia::planning::{
-    plan, Backend, GuessStrategy, NlpSettings, PlannerSettings, SwingTask, Transcription,
+    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask, Transcription,
 };
 
 fn tracking() -> SwingTask {
     SwingTask::paper()
+}
+
+/// The unobstructed tracking swing planned with `s` and the scan's placements on it (0.08 m obstacles,
+/// 0.01 m from its ends, 8 times).
+fn swing_and_placements(
+    robot: &Robot,
+    s: &PlannerSettings,
+    nlp: &NlpSettings,
+) -> (Plan, Vec<Placement>) {
+    let base = plan(robot, &tracking(), s, nlp).unwrap();
+    let places = path_placements(robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    (base, places)
+}
+
+/// The tracking task with the one obstacle of `pl`.
+fn with_obstacle(pl: &Placement) -> SwingTask {
+    SwingTask {
+        obstacles: vec![pl.obstacle],
+        ..tracking()
+    }
 }
 
 fn settings() -> (PlannerSettings, NlpSettings) {
@@ -60,8 +80,7 @@ fn placements_lie_on_the_swing_and_clear_its_ends_and_the_bar() {
 fn the_continuation_plans_around_an_obstacle_the_smooth_step_hits() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (_, places) = swing_and_placements(&robot, &s, &nlp);
     // #3 of the scan (link 4 at 0.50 s: the smooth step clears it) and #13 (link 1 at 1.49 s: it
     // does not)
     for (i, strategy) in [
@@ -101,13 +120,9 @@ fn the_continuation_plans_around_an_obstacle_the_smooth_step_hits() {
 fn the_diagnosis_names_the_link_the_obstacle_blocks() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
     let pl = places[0];
-    let task = SwingTask {
-        obstacles: vec![pl.obstacle],
-        ..tracking()
-    };
+    let task = with_obstacle(&pl);
     // the unobstructed swing as the attempt: its link sweeps through the centre at t
     let last = base.points.q(base.points.len() - 1).to_vec();
     let b = diagnose(&robot, &task, &s, &base.points, Some(&last))
@@ -160,8 +175,7 @@ fn the_diagnosis_names_the_link_the_obstacle_blocks() {
 fn detour_seeds_go_around_obstacles_the_unobstructed_swing_sweeps() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
     let len = base.points.len();
     let b = &s.bounds;
     // #1, #2, #4, #8: links 2 and 3 sweep through the obstacle's centre
@@ -241,15 +255,11 @@ fn detour_seeds_go_around_obstacles_the_unobstructed_swing_sweeps() {
 fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (_, places) = swing_and_placements(&robot, &s, &nlp);
     // #19 of the scan: link 4 at 1.73 s; the smooth step's solve fails, the continuation never
     // converged here (docs/planner.md), the forward-fold detour seed does
     let pl = places[18];
-    let task = SwingTask {
-        obstacles: vec![pl.obstacle],
-        ..tracking()
-    };
+    let task = with_obstacle(&pl);
     let p = plan(&robot, &task, &s, &nlp).unwrap();
     assert!(p.converged(), "{:?}", p.failure_message());
     let g = p.guess.as_ref().unwrap();
@@ -332,8 +342,7 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
 fn the_cspace_seed_is_collision_free_at_its_knots_and_ends_at_the_swing_s_poses() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
     let len = base.points.len();
     // #4 of the scan: link 2 at 0.74 s, no detour seed converged there (docs/planner.md)
     let obstacles = [places[3].obstacle];
@@ -423,16 +432,12 @@ fn the_cspace_search_reports_a_blocked_configuration_space_as_exhausted() {
 fn the_cspace_seed_plans_a_placement_no_detour_seed_converged_on() {
     let robot = Robot::paper();
     let (s, nlp) = settings();
-    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
     // #18 of the scan: link 3 at 1.73 s; every detour seed and the continuation ended
     // LocallyInfeasible (docs/planner.md), the planner tries the C-space seed after them. Planned here
     // from that seed directly (the planner's whole sequence takes minutes at 10 ms knots)
     let pl = places[17];
-    let task = SwingTask {
-        obstacles: vec![pl.obstacle],
-        ..tracking()
-    };
+    let task = with_obstacle(&pl);
     let (rep, seed) = cspace_seed(&robot, &task.obstacles, &s, &base.points).unwrap();
     let seed = seed.unwrap_or_else(|| panic!("no seed: {rep:?}"));
     let p = brachia::planning::plan_with_guess(&robot, &task, &s, &nlp, Some(&seed)).unwrap();
@@ -460,13 +465,9 @@ fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
     s.knot_dt = 0.03;
     // #18 of the scan (link 3 at 1.73 s on the 10 ms swing), a failure of every detour seed
     let (s10, _) = settings();
-    let base = plan(&robot, &tracking(), &s10, &nlp).unwrap();
-    let places = path_placements(&robot, &base.points, [0.8, 0.0], 0.08, 0.01, 8).unwrap();
+    let (_, places) = swing_and_placements(&robot, &s10, &nlp);
     let pl = places[17];
-    let task = SwingTask {
-        obstacles: vec![pl.obstacle],
-        ..tracking()
-    };
+    let task = with_obstacle(&pl);
     let p = plan(&robot, &task, &s, &nlp).unwrap();
     assert!(p.converged(), "{:?}", p.failure_message());
     let g = p.guess.as_ref().unwrap();

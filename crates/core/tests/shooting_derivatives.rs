@@ -6,12 +6,15 @@
 
 use brachia::fdcheck::{assert_hessian, assert_jacobian};
 use brachia::integrate::Rk4;
-use brachia::model::{ActuatorParams, Circle, ClearanceFn, LinkParams, Robot, RobotParams};
+mod common;
+
+use brachia::model::{Circle, ClearanceFn, LinkParams, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
     AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
 };
 use brachia_ocp::{EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageEval, TerminalEval};
+use common::chain_robot;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -29,16 +32,7 @@ fn robot(n: usize) -> Robot {
             radius: 0.02,
         })
         .collect();
-    let params = RobotParams {
-        name: format!("chain-{n}"),
-        gravity: 9.81,
-        links,
-        actuators: ActuatorParams {
-            tau_min: vec![-5.0; n - 1],
-            tau_max: vec![5.0; n - 1],
-        },
-    };
-    Robot::from_params(params, "<test>").unwrap()
+    chain_robot(&format!("chain-{n}"), links, 5.0)
 }
 
 const OBSTACLES: [Circle; 2] = [

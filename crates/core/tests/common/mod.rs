@@ -23,16 +23,22 @@ pub fn paper_robot(tau_limit: f64) -> Robot {
             radius: 0.02,
         })
         .collect();
+    chain_robot("paper", links, tau_limit)
+}
+
+/// A robot of the given links, gravity 9.81 m/s^2, torque limits `+-tau_limit` N m on joints 2..n.
+pub fn chain_robot(name: &str, links: Vec<LinkParams>, tau_limit: f64) -> Robot {
+    let n = links.len();
     let params = RobotParams {
-        name: "paper".into(),
+        name: name.into(),
         gravity: 9.81,
         links,
         actuators: ActuatorParams {
-            tau_min: vec![-tau_limit; 3],
-            tau_max: vec![tau_limit; 3],
+            tau_min: vec![-tau_limit; n - 1],
+            tau_max: vec![tau_limit; n - 1],
         },
     };
-    Robot::from_params(params, "<test>").expect("valid paper robot")
+    Robot::from_params(params, "<test>").expect("valid test robot")
 }
 
 /// Smooth torque profile used to make references, N m.
