@@ -59,7 +59,7 @@ fn adapter_derivatives_match_finite_differences() {
     let (nv, m) = (nlp.n_vars(), nlp.n_cons());
     assert_eq!(nv, 3 * 11 + 8); // x_3 has no input
     let nc = nlp.problem().n_clearance();
-    assert_eq!(nc, 4 + 3); // 4 links vs the obstacle, 3 non-adjacent link pairs
+    assert_eq!(nc, 4 + 10); // 4 links vs the obstacle, 10 end-point rows of the 3 non-adjacent pairs
     assert_eq!(m, 3 * 8 + 3 * nc + 4); // dynamics, clearance (k >= 1), terminal
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let x: Vec<f64> = (0..nv)

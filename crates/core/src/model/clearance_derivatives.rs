@@ -8,32 +8,29 @@
 //! `[p_i, p_{i+1}]`.
 //!
 //! # Method
-//! Each row is `d^2 = min_phi |u(q, phi)|^2` over the closest-point parameters (`s` on link A, `t` on
-//! link B or on the obstacle's link), with `u = sum_j alpha_j p_j - c` the difference of the two closest
-//! points (`c` the obstacle centre, or 0). The piece (which parameters are clamped to 0 or 1 and which
-//! are free) is the one [`crate::geometry`] selects on the same input, so the result is the exact
+//! Each row is the squared distance of a point to a link, `d^2 = min_t |u(q, t)|^2` over the
+//! closest-point parameter `t` on the link, with `u = sum_j alpha_j p_j - c` the difference of the point
+//! and its closest point on the link (the point is an obstacle centre `c`, or a joint `p_j` with `c = 0`:
+//! self-collision rows are end points against links, see [`ClearanceFn`]). The piece (`t` clamped to 0
+//! or 1, or free) is the one [`crate::geometry`] selects on the same input, so the result is the exact
 //! derivative of the very expression the AD oracle differentiates. With `R90 [x, y] = [-y, x]`,
 //! `dp_j / dq_m = R90 (p_j - p_m)` and `d^2 p_j / dq_m dq_l = -(p_j - p_max(m, l))` for `max < j`
 //! (0 otherwise), so with `w_m = sum_{j > m} alpha_j (p_j - p_m)`:
-//! - `F_q[m] = 2 u . R90 w_m` (the gradient, by the envelope theorem: `F_phi = 0` at a free optimum),
+//! - `F_q[m] = 2 u . R90 w_m` (the gradient, by the envelope theorem: `F_t = 0` at a free optimum),
 //! - `F_qq[m][l] = 2 w_m . w_l - 2 u . w_max(m, l)`,
-//! - for a free parameter `phi_k` with `du / dphi_k = sigma_k e_k` (`e_i = p_{i+1} - p_i`, `sigma = +-1`):
-//!   `F_{q_m phi_k} = 2 sigma_k (R90 w_m . e_k + u . R90 e_k [m <= i_k])`,
-//!   `F_{phi_k phi_k'} = 2 sigma_k sigma_k' e_k . e_k'`,
-//! - the Hessian of the minimum: `F_qq - F_{q phi} F_{phi phi}^{-1} F_{phi q}` (implicit function
-//!   theorem; `F_{phi phi}` is `2 |e|^2 > 0` for one free parameter and `4 (|e_A|^2 |e_B|^2 - (e_A .
-//!   e_B)^2) > 0` for two, the interior piece being skipped for near-parallel links).
+//! - when `t` is free (the point projects inside the link), with `du / dt = sigma e_i` (`e_i = p_{i+1} -
+//!   p_i` the row's link, `sigma = +-1`): `F_{q_m t} = 2 sigma (R90 w_m . e_i + u . R90 e_i [m <= i])`,
+//!   `F_{tt} = 2 |e_i|^2 > 0`,
+//! - the Hessian of the minimum: `F_qq - F_{q t} F_{tt}^{-1} F_{t q}` (implicit function theorem).
 //!
-//! Where the pieces meet the rows are C1 (the gradient is continuous) and the Hessian is the selected
-//! piece's (one-sided), as with AD; see [`crate::geometry`] for the non-smooth sets (parallel overlapping
-//! links, crossing links). Nothing here allocates after [`ClearanceDerivatives::new`].
+//! Where the pieces meet (the point projects on an end of the link) the rows are C1 (the gradient is
+//! continuous) and the Hessian is the selected piece's (one-sided), as with AD. Nothing here allocates
+//! after [`ClearanceDerivatives::new`].
 
 use super::collision::{ClearanceFn, ClearancePair};
 use super::{MAX_LINKS, P2};
 use crate::ad::LocalFn;
-use crate::geometry::{
-    point_segment_closest, segment_segment_closest, PointSegmentPiece, SegmentSegmentPiece,
-};
+use crate::geometry::{point_segment_closest, PointSegmentPiece};
 
 /// Which function of the squared distance `d^2` each row is (`R` the row's threshold, the sum of the
 /// two radii and the margin, m).
@@ -67,11 +64,11 @@ struct Row {
     /// Difference of the closest points, `u = sum alpha_j p_j - c`.
     u: [f64; 2],
     /// Non-zero weights `alpha_j` (joint index, weight).
-    alpha: [(usize, f64); 4],
+    alpha: [(usize, f64); 3],
     n_alpha: usize,
-    /// Free closest-point parameters: (link index of `e`, sign `sigma`).
-    free: [(usize, f64); 2],
-    n_free: usize,
+    /// The free closest-point parameter, if the point projects inside the link: (link index of `e`,
+    /// sign `sigma`).
+    free: Option<(usize, f64)>,
     /// The q indices the row depends on, `lo..=hi`.
     lo: usize,
     hi: usize,
@@ -136,58 +133,33 @@ impl ClearanceDerivatives {
                 let r = point_segment_closest(c, p[i], p[i + 1]);
                 let t = r.t;
                 let e = sub(p[i + 1], p[i]);
-                let mut row = Row {
-                    d2: r.dist2,
-                    u: [p[i][0] + t * e[0] - c[0], p[i][1] + t * e[1] - c[1]],
-                    alpha: [(i, 1.0 - t), (i + 1, t), (0, 0.0), (0, 0.0)],
-                    n_alpha: 2,
-                    free: [(i, 1.0), (0, 0.0)],
-                    n_free: 0,
-                    lo: 0,
-                    hi: i,
-                };
-                if r.piece == PointSegmentPiece::Interior {
-                    row.n_free = 1;
-                }
-                row
-            }
-            ClearancePair::LinkLink { a, b } => {
-                use SegmentSegmentPiece as P;
-                let (a0, a1, b0, b1) = (p[a], p[a + 1], p[b], p[b + 1]);
-                let r = segment_segment_closest(a0, a1, b0, b1);
-                let (s, t) = (r.s, r.t);
-                let (ea, eb) = (sub(a1, a0), sub(b1, b0));
-                let free_a = (a, 1.0);
-                let free_b = (b, -1.0);
-                let (free, n_free) = match r.piece {
-                    P::Interior => ([free_a, free_b], 2),
-                    // an endpoint against the other link: that link's parameter is free when the
-                    // endpoint projects strictly inside it
-                    endpoint => {
-                        let (pt, s0, s1, fr) = match endpoint {
-                            P::A0 => (a0, b0, b1, free_b),
-                            P::A1 => (a1, b0, b1, free_b),
-                            P::B0 => (b0, a0, a1, free_a),
-                            _ => (b1, a0, a1, free_a),
-                        };
-                        let inside =
-                            point_segment_closest(pt, s0, s1).piece == PointSegmentPiece::Interior;
-                        ([fr, fr], inside as usize)
-                    }
-                };
                 Row {
                     d2: r.dist2,
-                    u: [
-                        a0[0] + s * ea[0] - b0[0] - t * eb[0],
-                        a0[1] + s * ea[1] - b0[1] - t * eb[1],
-                    ],
-                    alpha: [(a, 1.0 - s), (a + 1, s), (b, t - 1.0), (b + 1, -t)],
-                    n_alpha: 4,
-                    free,
-                    n_free,
-                    lo: a + 1,
-                    hi: b,
+                    u: [p[i][0] + t * e[0] - c[0], p[i][1] + t * e[1] - c[1]],
+                    alpha: [(i, 1.0 - t), (i + 1, t), (0, 0.0)],
+                    n_alpha: 2,
+                    free: (r.piece == PointSegmentPiece::Interior).then_some((i, 1.0)),
+                    lo: 0,
+                    hi: i,
                 }
+            }
+            ClearancePair::JointLink { joint: j, link: l } => {
+                let r = point_segment_closest(p[j], p[l], p[l + 1]);
+                let t = r.t;
+                let e = sub(p[l + 1], p[l]);
+                let (lo, hi) = pair.dependence();
+                Row {
+                    d2: r.dist2,
+                    u: [p[j][0] - p[l][0] - t * e[0], p[j][1] - p[l][1] - t * e[1]],
+                    alpha: [(j, 1.0), (l, t - 1.0), (l + 1, -t)],
+                    n_alpha: 3,
+                    free: (r.piece == PointSegmentPiece::Interior).then_some((l, -1.0)),
+                    lo,
+                    hi,
+                }
+            }
+            ClearancePair::LinkLink { .. } => {
+                unreachable!("link-link pairs are the exact check, never a constraint row")
             }
         }
     }
@@ -232,8 +204,11 @@ impl ClearanceDerivatives {
                     point_segment_closest(self.f.obstacles[obstacle].center, p[link], p[link + 1])
                         .dist2
                 }
-                ClearancePair::LinkLink { a, b } => {
-                    segment_segment_closest(p[a], p[a + 1], p[b], p[b + 1]).dist2
+                ClearancePair::JointLink { joint, link } => {
+                    point_segment_closest(p[joint], p[link], p[link + 1]).dist2
+                }
+                ClearancePair::LinkLink { .. } => {
+                    unreachable!("link-link pairs are the exact check, never a constraint row")
                 }
             };
             out[k] = self.transform(k, d2).0;
@@ -270,41 +245,35 @@ impl ClearanceDerivatives {
             let (_, f1, f2) = self.transform(k, row.d2);
             let w = Self::w_vectors(&p, &row);
             let (lo, hi) = (row.lo, row.hi);
-            // gradient of d^2 and the mixed block F_{q phi}
+            // gradient of d^2, the mixed column F_{q t} and F_{tt}^{-1} (zero when t is clamped)
             let mut grad = [0.0; MAX_LINKS];
-            let mut bq = [[0.0; 2]; MAX_LINKS];
-            let mut e = [[0.0; 2]; 2];
-            for (kf, &(i, sg)) in row.free[..row.n_free].iter().enumerate() {
-                e[kf] = [sg * (p[i + 1][0] - p[i][0]), sg * (p[i + 1][1] - p[i][1])];
-            }
+            let mut bq = [0.0; MAX_LINKS];
+            let mut inv = 0.0;
+            let free = row.free.map(|(i, sg)| {
+                (
+                    i,
+                    [sg * (p[i + 1][0] - p[i][0]), sg * (p[i + 1][1] - p[i][1])],
+                )
+            });
             for m in lo..=hi {
                 grad[m] = 2.0 * dot_r90(row.u, w[m]);
-                for (kf, &(i, _)) in row.free[..row.n_free].iter().enumerate() {
+                if let Some((i, e)) = free {
                     // (R90 w_m) . e = e . R90 w_m, then u . R90 e
-                    let mut v = dot_r90(e[kf], w[m]);
+                    let mut v = dot_r90(e, w[m]);
                     if m <= i {
-                        v += dot_r90(row.u, e[kf]);
+                        v += dot_r90(row.u, e);
                     }
-                    bq[m][kf] = 2.0 * v;
+                    bq[m] = 2.0 * v;
                 }
             }
-            // F_{phi phi}^{-1}
-            let inv = match row.n_free {
-                0 => [[0.0; 2]; 2],
-                1 => [[0.5 / dot(e[0], e[0]), 0.0], [0.0, 0.0]],
-                _ => {
-                    let (aa, cc, dd) = (dot(e[0], e[0]), dot(e[0], e[1]), dot(e[1], e[1]));
-                    let det = 2.0 * (aa * dd - cc * cc);
-                    [[dd / det, -cc / det], [-cc / det, aa / det]]
-                }
-            };
+            if let Some((_, e)) = free {
+                inv = 0.5 / dot(e, e);
+            }
             for m in lo..=hi {
                 for l in m..=hi {
                     let mut h = 2.0 * dot(w[m], w[l]) - 2.0 * dot(row.u, w[l.max(m)]);
-                    for (r, inv_r) in inv.iter().enumerate().take(row.n_free) {
-                        for (c, &ic) in inv_r.iter().enumerate().take(row.n_free) {
-                            h -= bq[m][r] * ic * bq[l][c];
-                        }
+                    if free.is_some() {
+                        h -= bq[m] * inv * bq[l];
                     }
                     let v = wk * (f1 * h + f2 * grad[m] * grad[l]);
                     hess[m * n + l] += v;
@@ -340,7 +309,7 @@ mod tests {
 
     use crate::model::collision::tests::TEST_OBSTACLES as OBS;
 
-    /// The pieces a configuration selects: per row, (segment piece or point piece, free parameters).
+    /// The pieces a configuration selects: per row, (row kind and point piece, free parameters).
     fn pieces(d: &ClearanceDerivatives, q: &[f64]) -> Vec<(String, usize)> {
         let p = d.joints(q);
         d.pairs
@@ -349,15 +318,16 @@ mod tests {
                 let row = d.row(&p, pair);
                 let name = match pair {
                     ClearancePair::LinkObstacle { link, obstacle } => format!(
-                        "{:?}",
+                        "obstacle {:?}",
                         point_segment_closest(OBS[obstacle].center, p[link], p[link + 1]).piece
                     ),
-                    ClearancePair::LinkLink { a, b } => format!(
-                        "{:?}",
-                        segment_segment_closest(p[a], p[a + 1], p[b], p[b + 1]).piece
+                    ClearancePair::JointLink { joint, link } => format!(
+                        "joint {:?}",
+                        point_segment_closest(p[joint], p[link], p[link + 1]).piece
                     ),
+                    ClearancePair::LinkLink { .. } => unreachable!("not a row"),
                 };
-                (name, row.n_free)
+                (name, row.free.is_some() as usize)
             })
             .collect()
     }
@@ -459,19 +429,14 @@ mod tests {
                 }
             }
         }
-        // every piece the geometry selects, with every number of free parameters it implies (B0 / B1
-        // with both parameters clamped is an endpoint pair, which the A0 / A1 candidates win on ties)
+        // every piece the geometry selects, for both kinds of row, with the free parameter it implies
         for want in [
-            ("Start", 0),
-            ("Interior", 1),
-            ("End", 0),
-            ("Interior", 2),
-            ("A0", 0),
-            ("A0", 1),
-            ("A1", 0),
-            ("A1", 1),
-            ("B0", 1),
-            ("B1", 1),
+            ("obstacle Start", 0),
+            ("obstacle Interior", 1),
+            ("obstacle End", 0),
+            ("joint Start", 0),
+            ("joint Interior", 1),
+            ("joint End", 0),
         ] {
             assert!(
                 seen.contains(&(want.0.to_string(), want.1)),
@@ -481,11 +446,11 @@ mod tests {
     }
 
     #[test]
-    fn parallel_links_match_ad() {
-        // link 3 folded back exactly antiparallel over link 1 (q2 + q3 = pi), overlapping: the interior
-        // candidate is skipped, the closest pair is not unique (a kink: AD and the closed form take the
-        // same one-sided piece; finite differences do not apply there). Then 1e-2 rad off parallel
-        // (a genuine interior minimum, smooth): also against finite differences.
+    fn parallel_links_are_smooth() {
+        // Link 3 folded back exactly antiparallel over link 1 (q2 + q3 = pi), overlapping, and 1e-2 rad
+        // either side: where the segment-segment distance has a kink (its closest pair is not unique)
+        // the end-point rows are smooth (no end projects onto an end of the other link), so every row
+        // matches AD and finite differences on all three poses.
         let robot = Robot::paper();
         let f = ClearanceFn::new(robot.clone(), [], 0.0).unwrap();
         let dist_fn = DistanceClearanceFn::new(f.clone());
@@ -493,15 +458,23 @@ mod tests {
             ClearanceDerivatives::new(f.clone(), ClearanceForm::Squared),
             dist_fn.derivatives(),
         );
-        let w = [0.7, -0.4, 1.3];
-        for (off, fd) in [(0.0, false), (1e-2, true), (-1e-2, true)] {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let w = random_weights(&mut rng, f.n_out());
+        let names = f.row_names();
+        for off in [0.0, 1e-2, -1e-2] {
             let q = [0.3, 2.0, std::f64::consts::PI - 2.0 + off, 0.5];
             let kinds = pieces(&sq, &q);
-            if off == 0.0 {
-                assert_ne!(kinds[0].0, "Interior", "{kinds:?}");
+            // the overlap: each link has an end that projects strictly inside the other
+            for row in ["end of link 2 vs link 1", "grip vs link 3"] {
+                let k = names.iter().position(|s| s == row).unwrap();
+                assert_eq!(
+                    kinds[k],
+                    ("joint Interior".to_string(), 1),
+                    "{row}: {kinds:?}"
+                );
             }
-            check(&sq, &f, &q, &w, 1e-9, fd);
-            check(&dist, &dist_fn, &q, &w, 1e-8, fd);
+            check(&sq, &f, &q, &w, 1e-9, true);
+            check(&dist, &dist_fn, &q, &w, 1e-8, true);
         }
     }
 

@@ -115,7 +115,19 @@ pub enum ClearancePair {
         /// 0-based obstacle index.
         obstacle: usize,
     },
-    /// Link `a` against link `b`, `b >= a + 2` (adjacent links share a joint and are never checked).
+    /// Joint `joint` (0-based: joint 0 is the grip, joint `n` the end effector, joint `j` the start of
+    /// link `j`) against link `link`: one self-collision row. Two non-adjacent links are kept apart by
+    /// the rows of each one's end points against the other (see [`ClearanceFn`] for why that is the
+    /// link-link distance), so `joint` is not an end of `link`.
+    JointLink {
+        /// 0-based joint index, `0..=n`.
+        joint: usize,
+        /// 0-based link index.
+        link: usize,
+    },
+    /// Link `a` against link `b`, `b >= a + 2`, by the exact segment-segment distance: not a
+    /// constraint row, the self-collision check that [`ClearanceFn::min_clearance_pair`] reports
+    /// (adjacent links share a joint and are never checked).
     LinkLink {
         /// 0-based index of the proximal link.
         a: usize,
@@ -124,11 +136,31 @@ pub enum ClearancePair {
     },
 }
 
+impl ClearancePair {
+    /// The joint index range `lo..=hi` of the relative angles a self-collision quantity depends on
+    /// (it is invariant to rigid motions of the chain): joint `j` against link `l` depends on the
+    /// angles at the joints strictly between them, `q[j+1..=l]` for `j < l` and `q[l+1..=j-1]` for
+    /// `j > l + 1`; link `a` against link `b` on `q[a+1..=b]`. A link-obstacle row on link `i`
+    /// depends on `q[0..=i]`.
+    pub fn dependence(self) -> (usize, usize) {
+        match self {
+            ClearancePair::LinkObstacle { link, .. } => (0, link),
+            ClearancePair::JointLink { joint, link } if joint < link => (joint + 1, link),
+            ClearancePair::JointLink { joint, link } => (link + 1, joint - 1),
+            ClearancePair::LinkLink { a, b } => (a + 1, b),
+        }
+    }
+}
+
 impl fmt::Display for ClearancePair {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
             ClearancePair::LinkObstacle { link, obstacle } => {
                 write!(f, "link {} vs obstacle {obstacle}", link + 1)
+            }
+            ClearancePair::JointLink { joint: 0, link } => write!(f, "grip vs link {}", link + 1),
+            ClearancePair::JointLink { joint, link } => {
+                write!(f, "end of link {joint} vs link {}", link + 1)
             }
             ClearancePair::LinkLink { a, b } => write!(f, "link {} vs link {}", a + 1, b + 1),
         }
@@ -140,8 +172,19 @@ impl fmt::Display for ClearancePair {
 ///
 /// * for every checked link `i` and obstacle `k` (rows first, link-major: `i` outer, `k` inner):
 ///   `g = dist(center_k, segment_i)^2 - (r_i + radius_k + margin)^2`;
-/// * if `self_collision`, for every pair of checked links `i < j` with `j >= i + 2` (lexicographic
-///   order, after all obstacle rows): `g = dist(segment_i, segment_j)^2 - (r_i + r_j + margin)^2`.
+/// * if `self_collision` (after all obstacle rows, link-major: `l` outer, `j` inner ascending), for
+///   every checked link `l` and every joint `j` that ends a checked link `a` not adjacent to `l`
+///   (`a` in `{j - 1, j}`, `|a - l| >= 2`): `g = dist(p_j, segment_l)^2 - (r_l + R_j + margin)^2`,
+///   `R_j` the largest radius of such links `a` ([`ClearancePair::JointLink`]).
+///
+/// Why end points: the distance of two segments in the plane that do not cross is attained at an end
+/// point of one of them, so `dist(segment_a, segment_b) >= r` holds if and only if the four end-point
+/// rows do (a joint shared by two links is one row with the larger radius). Unlike the segment-segment
+/// distance, which has a kink where the closest pair moves from one end point to another (links
+/// folded parallel), each end-point row is smooth away from its own segment's ends: the planner's
+/// Newton steps no longer stall on that kink (docs/collision.md, "Self-collision by end points").
+/// Crossing segments (reachable only by passing through a violation) are caught by the exact check,
+/// [`ClearanceFn::min_clearance_pair`], which every plan's report uses.
 ///
 /// Units m^2. `g < 0` means the capsules (grown by `margin`) overlap. Use [`ClearanceFn::pairs`] /
 /// [`ClearanceFn::row_names`] to label rows. Derivatives through [`crate::ad::Diff`] are exact inside
@@ -216,10 +259,37 @@ impl ClearanceFn {
             }
         }
         if self.self_collision {
+            for link in (0..n).filter(|&i| self.links.contains(i)) {
+                for joint in 0..=n {
+                    if self.joint_radius(joint, link).is_some() {
+                        f(k, ClearancePair::JointLink { joint, link });
+                        k += 1;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The largest radius of the checked links ending at joint `joint` that are not adjacent to link
+    /// `link` (`None`: joint `joint` gets no row against `link`).
+    fn joint_radius(&self, joint: usize, link: usize) -> Option<f64> {
+        let n = self.robot.n;
+        [joint.checked_sub(1), Some(joint)]
+            .into_iter()
+            .flatten()
+            .filter(|&a| a < n && self.links.contains(a) && a.abs_diff(link) >= 2)
+            .map(|a| self.robot.radius[a])
+            .reduce(f64::max)
+    }
+
+    /// Call `f(pair)` for every pair of checked non-adjacent links ([`ClearancePair::LinkLink`]),
+    /// lexicographic, when self-collision is on.
+    fn for_each_link_pair(&self, mut f: impl FnMut(ClearancePair)) {
+        if self.self_collision {
+            let n = self.robot.n;
             for a in (0..n).filter(|&i| self.links.contains(i)) {
                 for b in (a + 2..n).filter(|&j| self.links.contains(j)) {
-                    f(k, ClearancePair::LinkLink { a, b });
-                    k += 1;
+                    f(ClearancePair::LinkLink { a, b });
                 }
             }
         }
@@ -232,7 +302,7 @@ impl ClearanceFn {
         v
     }
 
-    /// A readable name per row ("link 3 vs obstacle 0", "link 1 vs link 3").
+    /// A readable name per row ("link 3 vs obstacle 0", "end of link 1 vs link 3", "grip vs link 3").
     pub fn row_names(&self) -> Vec<String> {
         self.pairs().iter().map(|p| p.to_string()).collect()
     }
@@ -247,6 +317,9 @@ impl ClearanceFn {
             ClearancePair::LinkObstacle { link, obstacle } => {
                 self.robot.radius[link] + self.obstacles[obstacle].radius
             }
+            ClearancePair::JointLink { joint, link } => {
+                self.robot.radius[link] + self.joint_radius(joint, link).unwrap_or(0.0)
+            }
             ClearancePair::LinkLink { a, b } => self.robot.radius[a] + self.robot.radius[b],
         }
     }
@@ -257,6 +330,14 @@ impl ClearanceFn {
                 let o = &self.obstacles[obstacle];
                 let (a, b) = segs[link];
                 point_segment_dist2([c(o.center[0]), c(o.center[1])], a, b)
+            }
+            ClearancePair::JointLink { joint, link } => {
+                let p = if joint == 0 {
+                    segs[0].0
+                } else {
+                    segs[joint - 1].1
+                };
+                point_segment_dist2(p, segs[link].0, segs[link].1)
             }
             ClearancePair::LinkLink { a, b } => {
                 segment_segment_dist2(segs[a].0, segs[a].1, segs[b].0, segs[b].1)
@@ -274,35 +355,35 @@ impl ClearanceFn {
         self.for_each_pair(|k, p| out[k] = self.dist2(&segs, p).sqrt() - self.radii(p));
     }
 
-    /// The pair with the smallest true surface distance `d - r_a - r_b` (m) at `q`, and that distance;
-    /// `None` when there are no rows. Does not allocate. `q` as in [`Self::surface_distances`].
+    /// The exact check: the pair with the smallest true surface distance `d - r_a - r_b` (m) at `q`, and
+    /// that distance, over the link-obstacle rows and, for self-collision, every pair of checked
+    /// non-adjacent links by their segment-segment distance ([`ClearancePair::LinkLink`], which also
+    /// sees crossing links); `None` when nothing is checked. Does not allocate. `q` as in
+    /// [`Self::surface_distances`].
     pub fn min_clearance_pair(&self, q: &[f64]) -> Option<(ClearancePair, f64)> {
         let mut segs = [([0.0; 2], [0.0; 2]); MAX_LINKS];
         self.robot.link_segments(q, &mut segs[..self.robot.n]);
         let mut best: Option<(ClearancePair, f64)> = None;
-        self.for_each_pair(|_, p| {
+        let mut consider = |p: ClearancePair| {
             let v = self.dist2(&segs, p).sqrt() - self.radii(p);
             if best.is_none_or(|(_, b)| v < b) {
                 best = Some((p, v));
             }
+        };
+        self.for_each_pair(|_, p| {
+            if let ClearancePair::LinkObstacle { .. } = p {
+                consider(p);
+            }
         });
+        self.for_each_link_pair(consider);
         best
     }
 
-    /// The smallest true surface distance `d - r_a - r_b` (m) over all rows at `q`, `+inf` when there
-    /// are no rows. Negative: some capsules overlap (by at most the sum of their radii).
+    /// The smallest true surface distance `d - r_a - r_b` (m) of the exact check
+    /// ([`Self::min_clearance_pair`]) at `q`, `+inf` when nothing is checked. Negative: some capsules
+    /// overlap (by at most the sum of their radii).
     pub fn min_clearance(&self, q: &[f64]) -> f64 {
         self.min_clearance_pair(q).map_or(f64::INFINITY, |(_, v)| v)
-    }
-
-    /// Range `lo..=hi` of the q indices a row depends on: a link-obstacle row on link i depends on
-    /// `q[0..=i]`; a link-link row (a, b) is invariant to rigid motions of the chain above link a+1, so
-    /// it depends on `q[a+1..=b]` only.
-    fn dependence(pair: ClearancePair) -> (usize, usize) {
-        match pair {
-            ClearancePair::LinkObstacle { link, .. } => (0, link),
-            ClearancePair::LinkLink { a, b } => (a + 1, b),
-        }
     }
 }
 
@@ -334,7 +415,7 @@ impl LocalFn for ClearanceFn {
     fn hessian_entry_is_zero(&self, i: usize, j: usize) -> bool {
         let mut zero = true;
         self.for_each_pair(|_, p| {
-            let (lo, hi) = Self::dependence(p);
+            let (lo, hi) = p.dependence();
             if (lo..=hi).contains(&i) && (lo..=hi).contains(&j) {
                 zero = false;
             }
@@ -457,14 +538,26 @@ pub(crate) mod tests {
         ];
         let f = ClearanceFn::new(robot.clone(), &obs[..], 0.01).unwrap();
         let names = f.row_names();
-        assert_eq!(f.n_out(), 4 * 2 + 3);
+        // 12 end-point rows for the 3 non-adjacent link pairs, less the 2 joints shared by two pairs
+        assert_eq!(f.n_out(), 4 * 2 + 10);
         assert_eq!(names.len(), f.n_out());
         assert_eq!(names[0], "link 1 vs obstacle 0");
         assert_eq!(names[1], "link 1 vs obstacle 1");
         assert_eq!(names[7], "link 4 vs obstacle 1");
         assert_eq!(
             &names[8..],
-            ["link 1 vs link 3", "link 1 vs link 4", "link 2 vs link 4"]
+            [
+                "end of link 2 vs link 1",
+                "end of link 3 vs link 1",
+                "end of link 4 vs link 1",
+                "end of link 3 vs link 2",
+                "end of link 4 vs link 2",
+                "grip vs link 3",
+                "end of link 1 vs link 3",
+                "grip vs link 4",
+                "end of link 1 vs link 4",
+                "end of link 2 vs link 4",
+            ]
         );
         let g = f.clone().with_self_collision(false);
         assert_eq!(g.n_out(), 8);
@@ -478,11 +571,19 @@ pub(crate) mod tests {
                 "link 3 vs obstacle 1",
                 "link 4 vs obstacle 0",
                 "link 4 vs obstacle 1",
-                "link 1 vs link 3",
-                "link 1 vs link 4"
+                "end of link 2 vs link 1",
+                "end of link 3 vs link 1",
+                "end of link 4 vs link 1",
+                "grip vs link 3",
+                "end of link 1 vs link 3",
+                "grip vs link 4",
+                "end of link 1 vs link 4",
             ]
         );
-        assert_eq!(ClearanceFn::new(robot.clone(), [], 0.0).unwrap().n_out(), 3);
+        assert_eq!(
+            ClearanceFn::new(robot.clone(), [], 0.0).unwrap().n_out(),
+            10
+        );
         assert_eq!(
             ClearanceFn::new(robot.clone(), [], 0.0)
                 .unwrap()
@@ -565,10 +666,20 @@ pub(crate) mod tests {
                                 robot.radius[link] + obs[obstacle].radius,
                             )
                         }
-                        ClearancePair::LinkLink { a, b } => (
-                            sampled_d2(j[a], j[a + 1], j[b], j[b + 1]),
-                            robot.radius[a] + robot.radius[b],
-                        ),
+                        ClearancePair::JointLink { joint, link } => {
+                            // the partner radius: the largest of the links ending at the joint
+                            // that are not adjacent to `link`
+                            let partner = (joint.saturating_sub(1)..=joint.min(n - 1))
+                                .filter(|a| a.abs_diff(link) >= 2)
+                                .map(|a| robot.radius[a])
+                                .fold(0.0, f64::max);
+                            let pj = j[joint];
+                            (
+                                sampled_d2(j[link], j[link + 1], pj, pj),
+                                robot.radius[link] + partner,
+                            )
+                        }
+                        ClearancePair::LinkLink { .. } => unreachable!("not a row"),
                     };
                     // sampling overestimates d by at most half a sample spacing (< 0.4 mm here)
                     let want = d2 - (rsum + margin).powi(2);
@@ -584,9 +695,22 @@ pub(crate) mod tests {
                         "row {p}: {} vs {true_sd}",
                         sd[k]
                     );
-                    min_true = min_true.min(sd[k]);
+                    if let ClearancePair::LinkObstacle { .. } = p {
+                        min_true = min_true.min(sd[k]);
+                    }
                 }
-                assert_eq!(f.min_clearance(&q), min_true);
+                // the exact check: obstacle rows and the sampled segment-segment distances
+                for a in 0..n {
+                    for b in a + 2..n {
+                        let d = sampled_d2(j[a], j[a + 1], j[b], j[b + 1]).sqrt();
+                        min_true = min_true.min(d - robot.radius[a] - robot.radius[b]);
+                    }
+                }
+                assert!(
+                    (f.min_clearance(&q) - min_true).abs() < 5e-4,
+                    "{} vs {min_true}",
+                    f.min_clearance(&q)
+                );
             }
         }
     }
@@ -661,18 +785,74 @@ pub(crate) mod tests {
             }
             assert!((f.min_clearance(&[0.0; 4]) - (dy - 0.07)).abs() < 1e-12);
         }
-        // self-collision: fold link 2 back so that link 3 crosses link 1 -> g = -(2r)^2
+        // self-collision: fold link 2 back so that link 3 crosses link 1. The exact check sees the
+        // crossing (surface distance -(2r)); the end-point rows of the crossed pair need not (they
+        // keep apart links that have not passed through each other).
         let f = ClearanceFn::new(robot.clone(), [], 0.0).unwrap();
         let q = [0.0, 2.5, 2.5, 0.0];
-        let mut g = [0.0; 3];
-        f.eval(&mut f.scratch(), &q, &mut g);
         let j = joints(&robot, &q);
         let sampled = sampled_d2(j[0], j[1], j[2], j[3]);
         assert!(sampled < 1e-6, "test pose must cross: {sampled}");
-        assert!((g[0] + 0.04f64.powi(2)).abs() < 1e-12, "{g:?}");
         let (pair, v) = f.min_clearance_pair(&q).unwrap();
         assert_eq!(pair, ClearancePair::LinkLink { a: 0, b: 2 });
         assert!((v + 0.04).abs() < 1e-12, "{v}");
+    }
+
+    #[test]
+    fn end_point_rows_are_the_link_link_distance_for_links_that_do_not_cross() {
+        // For every pair of non-adjacent links that do not cross, the smallest surface distance of
+        // the four end-point rows is the segment-segment one (equal radii: every row's threshold is
+        // the pair's); with unequal radii a shared joint takes the larger partner radius, so the rows
+        // are never less safe than the pair. Also the poses the parameter study's optimum sits at:
+        // long links folded parallel, where the segment-segment distance has its kink.
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        for robot in [paper_robot(), odd_robot()] {
+            let n = robot.n;
+            let f = ClearanceFn::new(robot.clone(), [], 0.0).unwrap();
+            let pairs = f.pairs();
+            let mut sd = vec![0.0; f.n_out()];
+            let mut poses: Vec<Vec<f64>> = (0..300)
+                .map(|_| (0..n).map(|_| rng.gen_range(-3.2..3.2)).collect())
+                .collect();
+            // links 1 and 3 exactly antiparallel, overlapping along their length
+            let mut par = vec![0.3, 2.0, std::f64::consts::PI - 2.0];
+            par.resize(n, 0.4);
+            poses.push(par);
+            let mut compared = 0;
+            for q in &poses {
+                f.surface_distances(q, &mut sd);
+                let j = joints(&robot, q);
+                for a in 0..n {
+                    for b in a + 2..n {
+                        let exact = segment_segment_dist2(j[a], j[a + 1], j[b], j[b + 1]).sqrt();
+                        let crossing = exact < 1e-12;
+                        if crossing {
+                            continue;
+                        }
+                        let rows = pairs.iter().zip(&sd).filter_map(|(p, &v)| match *p {
+                            ClearancePair::JointLink { joint, link }
+                                if (link == b && (joint == a || joint == a + 1))
+                                    || (link == a && (joint == b || joint == b + 1)) =>
+                            {
+                                Some(v)
+                            }
+                            _ => None,
+                        });
+                        let (count, min_row) =
+                            rows.fold((0, f64::INFINITY), |(c, m), v| (c + 1, m.min(v)));
+                        assert_eq!(count, 4, "pair ({a}, {b})");
+                        let pair_sd = exact - robot.radius[a] - robot.radius[b];
+                        if robot.radius.iter().all(|&r| r == robot.radius[0]) {
+                            assert!((min_row - pair_sd).abs() < 1e-12, "{min_row} vs {pair_sd}");
+                        } else {
+                            assert!(min_row <= pair_sd + 1e-12, "{min_row} vs {pair_sd}");
+                        }
+                        compared += 1;
+                    }
+                }
+            }
+            assert!(compared > 300, "{compared}");
+        }
     }
 
     /// Smallest distance in parameter space from a piece boundary over all rows (plain f64, computed

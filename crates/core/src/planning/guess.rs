@@ -302,7 +302,7 @@ pub fn diagnose(
                 time_s: t,
                 violated: m < margin,
             }),
-            ClearancePair::LinkLink { .. } => None,
+            ClearancePair::JointLink { .. } | ClearancePair::LinkLink { .. } => None,
         })
         .collect();
     clearances.sort_by_key(|c| (c.obstacle, c.link));
