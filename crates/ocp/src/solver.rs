@@ -405,6 +405,16 @@ impl OcpSolver {
         &self.mult
     }
 
+    /// The feedback gain `K_k` (`nu_k x nx_k`, row-major) of the last Riccati factorisation: the
+    /// Newton step's inputs are `du_k = K_k dx_k + k_k` (docs/ocp.md section 3). After a converged
+    /// solve it is the gain of the last iteration's Newton step, near the solution: the condensed
+    /// barrier terms hold inputs and states at active bounds, and the equality-row penalty steers
+    /// towards the terminal rows. Columns of fixed components of `x_0` and rows of fixed inputs are
+    /// zero; all zero before the first factorisation. Panics if `k > K`.
+    pub fn feedback_gain(&self, k: usize) -> &[f64] {
+        &self.ric.kgain[self.lay.ok[k]..self.lay.ok[k + 1]]
+    }
+
     /// Benchmark hook (not part of the API): recomputes the Newton step at the stored iterate of the
     /// last solve with barrier `mu` (condensing, Riccati factorisation with inertia correction,
     /// Schur complement, solves, step recovery). Returns false if there is no iterate or it failed.
