@@ -7,7 +7,7 @@
 //! cold plan and the process start-up:
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 100`.
 //! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
-//! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered), `BRACHIA_REPLAN_ADAPTIVE=1`
+//! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered; default stored bounds), `BRACHIA_REPLAN_ADAPTIVE=1`
 //! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol), `BRACHIA_REPLAN_PRIMAL=shifted` (the
 //! shifted start instead of the default feedback rollout, [`WarmPrimal`]). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
@@ -65,6 +65,7 @@ fn main() -> Result<(), brachia::Error> {
     match env("BRACHIA_REPLAN_DUALS").as_deref() {
         Some("reset") => w.warm_duals = WarmDuals::Reset,
         Some("centered") => w.warm_duals = WarmDuals::Centered,
+        Some("stored") => w.warm_duals = WarmDuals::Stored,
         _ => {}
     }
     if env("BRACHIA_REPLAN_ADAPTIVE").as_deref() == Some("1") {

@@ -1652,7 +1652,9 @@ impl OcpSolver {
                         } else {
                             0.0
                         };
-                    } else if warm && st.warm_duals == WarmDuals::Stored {
+                    } else if warm
+                        && matches!(st.warm_duals, WarmDuals::Stored | WarmDuals::StoredBounds)
+                    {
                         self.zl[i] = if self.zlo[i].is_finite() {
                             self.zl[i].max(1e-20)
                         } else {
@@ -1687,7 +1689,7 @@ impl OcpSolver {
             self.vu.fill(1.0);
         }
         for j in 0..self.s.len() {
-            if warm && st.warm_duals == WarmDuals::Stored {
+            if warm && matches!(st.warm_duals, WarmDuals::Stored | WarmDuals::StoredBounds) {
                 self.vl[j] = self.vl[j].max(1e-20);
                 self.vu[j] = self.vu[j].max(1e-20);
             }
@@ -1781,6 +1783,7 @@ impl OcpSolver {
                 }
             }
         }
+        // the stored equality multipliers only with `Stored`
         if !warm || st.warm_duals != WarmDuals::Stored {
             self.least_squares_multipliers();
         }

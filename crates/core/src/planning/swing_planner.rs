@@ -12,7 +12,8 @@
 //! torques are then rolled out from `x_now` through the stage flows under the previous solve's Riccati
 //! feedback gains, clipped into the torque bounds, so that the start follows the new `x_0` with no
 //! defects; if the rollout leaves the state bounds, the shifted start is kept. The solve then starts
-//! warm (the solver's stored bound and constraint multipliers, a small barrier parameter).
+//! warm (the solver's stored bound duals, the equality multipliers re-estimated by least squares, a
+//! small barrier parameter).
 //!
 //! Times: a [`Plan`] or [`ReplanOutcome`] of a re-plan runs on its own clock, 0 at `t_now`; absolute
 //! knot times come from [`SwingPlanner::knot_time`]. Units: s, m, rad, rad/s, N m.
@@ -175,14 +176,15 @@ impl SwingPlanner {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
         let cold = ocp_settings(nlp);
-        // the stored multipliers, a small barrier parameter and bound push, the adaptive barrier
-        // update: the fewest iterations of the variants measured in benches/replan.rs and
-        // examples/replan_profile.rs (docs/planner.md, "Re-planning"; docs/ocp.md section 12)
+        // the stored bound duals (the equality multipliers re-estimated at the moved start), a
+        // small barrier parameter and bound push, the adaptive barrier update: the fewest
+        // iterations of the variants measured in benches/replan.rs and examples/replan_profile.rs
+        // (docs/planner.md, "Re-planning"; docs/ocp.md section 12 and "Session 11")
         let warm = OcpSettings {
             warm_start: true,
             mu_init: nlp.mu_init.unwrap_or(WARM_START_MU_INIT),
             mu_strategy: brachia_ocp::MuStrategy::Adaptive,
-            warm_duals: WarmDuals::Stored,
+            warm_duals: WarmDuals::StoredBounds,
             warm_bound_push: 1e-9,
             ..cold.clone()
         };
@@ -239,7 +241,8 @@ impl SwingPlanner {
         &self.task
     }
 
-    /// Settings of the warm solves (warm start on, the stored multipliers, `mu_init` from the NLP
+    /// Settings of the warm solves (warm start on, the stored bound duals with least-squares
+    /// equality multipliers ([`WarmDuals::StoredBounds`]), `mu_init` from the NLP
     /// settings or [`WARM_START_MU_INIT`], `warm_bound_push` 1e-9, the adaptive barrier update);
     /// edit to tune.
     pub fn warm_settings_mut(&mut self) -> &mut OcpSettings {
@@ -785,7 +788,8 @@ mod tests {
             let rel = (objective[1] - objective[0]).abs() / objective[0].abs();
             assert!(rel < 1e-6, "objectives {objective:?}");
         }
-        // measured 655 against 605 over the 100 draws (docs/ocp.md, session 11)
+        // measured 648 against 546 over the 100 draws with the default warm settings (docs/ocp.md,
+        // session 11)
         assert!(
             iterations[1] + 25 <= iterations[0],
             "shifted {} rollout {}",
