@@ -7,15 +7,17 @@
 //! cold plan and the process start-up:
 //! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 100`.
 //! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
-//! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered), `BRACHIA_REPLAN_ADAPTIVE=1`
-//! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
+//! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered; default stored bounds), `BRACHIA_REPLAN_ADAPTIVE=1`
+//! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol), `BRACHIA_REPLAN_PRIMAL=shifted` (the
+//! shifted start instead of the default feedback rollout, [`WarmPrimal`]). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw).
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
 use brachia::planning::{
-    Backend, NlpSettings, PlannerSettings, ShootingSettings, SwingPlanner, SwingTask, Transcription,
+    Backend, NlpSettings, PlannerSettings, ShootingSettings, SwingPlanner, SwingTask,
+    Transcription, WarmPrimal,
 };
 use brachia::Robot;
 use brachia_ocp::{MuStrategy, WarmDuals};
@@ -63,10 +65,14 @@ fn main() -> Result<(), brachia::Error> {
     match env("BRACHIA_REPLAN_DUALS").as_deref() {
         Some("reset") => w.warm_duals = WarmDuals::Reset,
         Some("centered") => w.warm_duals = WarmDuals::Centered,
+        Some("stored") => w.warm_duals = WarmDuals::Stored,
         _ => {}
     }
     if env("BRACHIA_REPLAN_ADAPTIVE").as_deref() == Some("1") {
         w.mu_strategy = MuStrategy::Adaptive;
+    }
+    if env("BRACHIA_REPLAN_PRIMAL").as_deref() == Some("shifted") {
+        planner.set_warm_primal(WarmPrimal::Shifted);
     }
     let p = planner.plan()?;
     assert!(p.converged(), "{:?}", p.status);

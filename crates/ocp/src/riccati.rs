@@ -123,7 +123,7 @@ pub(crate) struct Riccati {
     /// Soft-dynamics gradients p~_{k+1} (n_l) of the last solve.
     pvt: Vec<f64>,
     /// Feedback gains K_k = -R^^-1 S^.
-    kgain: Vec<f64>,
+    pub kgain: Vec<f64>,
     /// Cholesky factors of R^_k.
     lr: Vec<f64>,
     /// Scratch copy of P_0, and its eigendecomposition `P_0 = V diag(d) V^T` (P_0 may be

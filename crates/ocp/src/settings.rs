@@ -136,6 +136,11 @@ pub enum WarmDuals {
     /// The stored bound duals (floored at 1e-20) and equality multipliers: right for a re-solve of
     /// the same or a very slightly changed problem (with a small `mu_init` and `warm_bound_push`).
     Stored,
+    /// The stored bound duals (as [`WarmDuals::Stored`]), the equality multipliers re-estimated by
+    /// least squares at the warm point (as at a cold start, from those bound duals): for a start
+    /// whose primal moved (a disturbed and rolled-out start state), where the stored equality
+    /// multipliers belong to the old point.
+    StoredBounds,
     /// Bound duals `mu_init / slack` (on the central path of the new barrier parameter), equality
     /// multipliers by least squares.
     Centered,

@@ -405,6 +405,16 @@ impl OcpSolver {
         &self.mult
     }
 
+    /// The feedback gain `K_k` (`nu_k x nx_k`, row-major) of the last Riccati factorisation: the
+    /// Newton step's inputs are `du_k = K_k dx_k + k_k` (docs/ocp.md section 3). After a converged
+    /// solve it is the gain of the last iteration's Newton step, near the solution: the condensed
+    /// barrier terms hold inputs and states at active bounds, and the equality-row penalty steers
+    /// towards the terminal rows. Columns of fixed components of `x_0` and rows of fixed inputs are
+    /// zero; all zero before the first factorisation. Panics if `k > K`.
+    pub fn feedback_gain(&self, k: usize) -> &[f64] {
+        &self.ric.kgain[self.lay.ok[k]..self.lay.ok[k + 1]]
+    }
+
     /// Benchmark hook (not part of the API): recomputes the Newton step at the stored iterate of the
     /// last solve with barrier `mu` (condensing, Riccati factorisation with inertia correction,
     /// Schur complement, solves, step recovery). Returns false if there is no iterate or it failed.
@@ -1642,7 +1652,9 @@ impl OcpSolver {
                         } else {
                             0.0
                         };
-                    } else if warm && st.warm_duals == WarmDuals::Stored {
+                    } else if warm
+                        && matches!(st.warm_duals, WarmDuals::Stored | WarmDuals::StoredBounds)
+                    {
                         self.zl[i] = if self.zlo[i].is_finite() {
                             self.zl[i].max(1e-20)
                         } else {
@@ -1677,7 +1689,7 @@ impl OcpSolver {
             self.vu.fill(1.0);
         }
         for j in 0..self.s.len() {
-            if warm && st.warm_duals == WarmDuals::Stored {
+            if warm && matches!(st.warm_duals, WarmDuals::Stored | WarmDuals::StoredBounds) {
                 self.vl[j] = self.vl[j].max(1e-20);
                 self.vu[j] = self.vu[j].max(1e-20);
             }
@@ -1771,6 +1783,7 @@ impl OcpSolver {
                 }
             }
         }
+        // the stored equality multipliers only with `Stored`
         if !warm || st.warm_duals != WarmDuals::Stored {
             self.least_squares_multipliers();
         }

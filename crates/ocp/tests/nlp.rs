@@ -132,6 +132,39 @@ fn warm_start_from_a_solution_takes_few_iterations() {
 }
 
 #[test]
+fn stored_bound_duals_with_least_squares_multipliers_restart_at_the_solution() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let cold = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(cold.status, OcpStatus::Solved);
+    let lam: Vec<f64> = solver.multipliers().lam.concat();
+    // the stored bound duals, the equality multipliers by least squares at the stored point: at a
+    // solution they are the solution's (stationarity holds), so the re-solve ends at once
+    let again = solver.solve(
+        &mut p,
+        &OcpSettings {
+            warm_start: true,
+            warm_duals: WarmDuals::StoredBounds,
+            mu_init: 1e-6,
+            warm_bound_push: 1e-9,
+            ..OcpSettings::default()
+        },
+    );
+    assert_eq!(again.status, OcpStatus::Solved, "{again:?}");
+    assert!(again.iterations <= 3, "{} iterations", again.iterations);
+    assert!((again.objective - cold.objective).abs() < 1e-7 * cold.objective);
+    let scale = lam.iter().fold(1.0_f64, |a, v| a.max(v.abs()));
+    let diff = lam
+        .iter()
+        .zip(solver.multipliers().lam.concat())
+        .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+    assert!(
+        diff < 1e-4 * scale,
+        "multipliers moved by {diff} (scale {scale})"
+    );
+}
+
+#[test]
 fn warm_starts_after_a_shifted_initial_state_beat_cold_starts() {
     // the default warm start (stored primal, duals reset) from the unshifted solution
     let warm_settings = OcpSettings {

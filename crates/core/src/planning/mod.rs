@@ -32,5 +32,5 @@ pub use settings::{
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
-pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner};
+pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};

@@ -838,6 +838,21 @@ impl<D: PointDynamics> SwingOcp<D> {
         self.ctx.n_clear
     }
 
+    /// The flow of stage `k < K` over the current interval, `x_{k+1} = Phi(x, u)` (the dynamics row
+    /// of [`OcpProblem::evaluate`], values only), into `out` (2n). Uses stage k's scratch (no
+    /// allocation; the recorded forward pass of the Hessian stays valid). Panics on `k >= K` or
+    /// wrong sizes.
+    pub fn flow(&mut self, k: usize, x: &[f64], u: &[f64], out: &mut [f64]) {
+        assert!(
+            k < self.ctx.horizon,
+            "flow of stage {k}: the last is {}",
+            self.ctx.horizon - 1
+        );
+        let w = &mut self.work[k];
+        w.forward(&self.ctx, x, u, false);
+        out.copy_from_slice(&w.xs);
+    }
+
     /// Evaluate the stages on the calling thread, or in parallel: the horizon split into one
     /// contiguous chunk per rayon thread (a task per stage costs more in scheduling than a stage's
     /// evaluation on 2 cores; see docs/planner.md).
