@@ -90,6 +90,9 @@ pub struct SwingRecord {
     pub contact_impulse_n_s: f64,
     /// Online re-plans in the swing (`[tracking] replan`).
     pub replans: usize,
+    /// Each re-plan of the swing (trigger and switch times on the swing's clock, predicted miss,
+    /// solver status and iterations, adopted or not).
+    pub replan_events: Vec<brachia::control::ReplanEvent>,
     /// Closed-loop wall time of the swing (controller and plant), s.
     pub track_time_s: f64,
 }
@@ -270,37 +273,20 @@ fn positive_work(log: &ClosedLoopLog) -> f64 {
 /// Frame rate of `traverse.gif`, frames per second.
 const GIF_FPS: f64 = 20.0;
 
-/// Margin by which the q1 range (and `q_rel_max`) of a later swing is widened past its start angle, rad.
-pub const Q1_WIDEN_MARGIN: f64 = 0.1;
+/// Margin by which the q1 range (and `q_rel_max`) of a later swing is widened past its start angle, rad
+/// (the planner's [`brachia::planning::START_WIDEN_MARGIN`]).
+pub const Q1_WIDEN_MARGIN: f64 = brachia::planning::START_WIDEN_MARGIN;
 
 /// A later swing starts where the last one left the chain: its link 1 (the old link n) may point above
 /// the bar, a relative joint may end a little past `planner.bounds.q_rel_max` (the bound is on the
 /// plan; the tracked chain follows it within its tracking error), and its joint rates may exceed
 /// `planner.bounds.qd_max` a little. Take the start angle's representative (mod 2 pi) nearest
-/// `planner.bounds.q1` and, when it lies outside, widen the range to include it with
-/// [`Q1_WIDEN_MARGIN`] to spare; widen `q_rel_max` the same way to the largest start |q_i| plus
-/// [`Q1_WIDEN_MARGIN`], at most pi (a relative angle past pi is a link through its neighbour, which
-/// no start state reaches: the wrapped angle is at most pi); raise the rate bound to 1.05 times the
-/// largest start rate.
+/// `planner.bounds.q1`, then widen the bounds to take the start state
+/// ([`brachia::planning::Bounds::widened_for_start`], the rule a re-plan from a measured state uses).
 fn widen_start_bounds(sc: &mut crate::scenario::Scenario) {
-    let [lo, hi] = sc.planner.bounds.q1;
-    let best = q1_nearest(sc.task.q0[0], [lo, hi]);
-    sc.task.q0[0] = best;
-    sc.planner.bounds.q1 = [
-        lo.min(best - Q1_WIDEN_MARGIN),
-        hi.max(best + Q1_WIDEN_MARGIN),
-    ];
-    // the tracked swing may end a little past the planner's bound on the relative joints
-    let q_rel = sc.task.q0[1..].iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-    let b = &mut sc.planner.bounds;
-    if q_rel > b.q_rel_max {
-        b.q_rel_max = (q_rel + Q1_WIDEN_MARGIN).min(std::f64::consts::PI);
-    }
-    // and a little past its joint-rate bound
-    let qd = sc.task.qd0.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-    if qd > b.qd_max {
-        b.qd_max = (qd * 1.05).min(brachia::limits::MAX_RATE_RAD_S);
-    }
+    sc.task.q0[0] = q1_nearest(sc.task.q0[0], sc.planner.bounds.q1);
+    let x: Vec<f64> = sc.task.q0.iter().chain(&sc.task.qd0).copied().collect();
+    sc.planner.bounds = sc.planner.bounds.widened_for_start(&x);
 }
 
 /// The representative of `q1` (mod 2 pi, one turn either way) nearest the range `[lo, hi]`.
@@ -585,7 +571,10 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             run_closed_loop(&mut noisy, &mut *ctrl, reference, robot, &settings)?
         };
         let track_time_s = clock.elapsed().as_secs_f64();
-        let replans = replanning.as_ref().map_or(0, |r| r.events().len());
+        let replan_events = replanning
+            .as_ref()
+            .map_or_else(Vec::new, |r| r.events().to_vec());
+        let replans = replan_events.len();
         drop(replanning);
         drop(plain);
         let summary = log.summary();
@@ -621,6 +610,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             contact_events: 0,
             contact_impulse_n_s: 0.0,
             replans,
+            replan_events,
             track_time_s,
         };
         if let Some(r) = &rapier {

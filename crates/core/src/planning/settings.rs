@@ -105,7 +105,36 @@ pub struct Bounds {
     pub qd_end_max: Option<f64>,
 }
 
+/// Margin by which [`Bounds::widened_for_start`] widens the q1 range (and `q_rel_max`) past a start
+/// state, rad.
+pub const START_WIDEN_MARGIN: f64 = 0.1;
+
 impl Bounds {
+    /// These bounds widened to take a start state `x = [q, qd]` (2n) that a tracked chain reached
+    /// (the start of a later swing of a traverse, the measured state of a re-plan): the q1 range to
+    /// include `x[0]` with [`START_WIDEN_MARGIN`] to spare either side; `q_rel_max` to the largest
+    /// start |q_i| (i >= 2) plus the margin, at most pi, when that |q_i| exceeds it (a relative angle
+    /// past pi is a link through its neighbour, which no wrapped angle reaches); `qd_max` to 1.05
+    /// times the largest start rate (at most [`crate::limits::MAX_RATE_RAD_S`]) when that rate
+    /// exceeds it. The bounds are on the plan; a tracked chain follows the plan within its tracking
+    /// error and may end a little past them, and a knot-0 state outside the bounds of knot 1 makes
+    /// the problem infeasible. `qd_end_max` (the rest condition at the last knot) is kept.
+    pub fn widened_for_start(&self, x: &[f64]) -> Bounds {
+        let n = x.len() / 2;
+        let m = START_WIDEN_MARGIN;
+        let mut b = self.clone();
+        b.q1 = [b.q1[0].min(x[0] - m), b.q1[1].max(x[0] + m)];
+        let q_rel = x[1..n].iter().fold(0.0, |a: f64, v| a.max(v.abs()));
+        if q_rel > b.q_rel_max {
+            b.q_rel_max = (q_rel + m).min(std::f64::consts::PI);
+        }
+        let qd = x[n..].iter().fold(0.0, |a: f64, v| a.max(v.abs()));
+        if qd > b.qd_max {
+            b.qd_max = (qd * 1.05).min(crate::limits::MAX_RATE_RAD_S);
+        }
+        b
+    }
+
     /// The joint-rate bound at a knot: [`Bounds::qd_end_max`] at the last one (when set), else
     /// [`Bounds::qd_max`].
     pub fn qd_bound(&self, last: bool) -> f64 {
@@ -358,5 +387,36 @@ impl PlannerSettings {
         } else {
             self.r1_diag.clone()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn widened_bounds_take_the_start_state_and_keep_the_rest_condition() {
+        let b = Bounds {
+            qd_end_max: Some(1.0),
+            ..Bounds::default()
+        };
+        // inside: only the q1 range gains the margin around q1 where q1 is near an edge
+        let inside = [-1.0, 0.5, -0.5, 1.0, 0.0, 1.0, -2.0, 3.0];
+        let w = b.widened_for_start(&inside);
+        assert_eq!(w.q1, b.q1);
+        assert_eq!(
+            (w.q_rel_max, w.qd_max, w.qd_end_max),
+            (2.9, 15.0, Some(1.0))
+        );
+        // link 1 above the bar, a fold past q_rel_max, a rate past qd_max
+        let outside = [0.03, -2.95, 3.1, 0.0, 0.0, 16.0, 0.0, 0.0];
+        let w = b.widened_for_start(&outside);
+        assert_eq!(w.q1, [b.q1[0], 0.03 + START_WIDEN_MARGIN]);
+        assert_eq!(w.q_rel_max, std::f64::consts::PI);
+        assert!((w.qd_max - 16.8).abs() < 1e-12);
+        assert_eq!(w.qd_end_max, Some(1.0));
+        // a relative angle just past the bound: the bound plus the margin
+        let w = b.widened_for_start(&[-1.0, 2.95, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert!((w.q_rel_max - 3.05).abs() < 1e-12);
     }
 }

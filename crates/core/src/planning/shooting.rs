@@ -823,6 +823,16 @@ impl<D: PointDynamics> SwingOcp<D> {
         Ok(())
     }
 
+    /// The box bounds of knots 1..K on q and qd (knot 0 is the start state).
+    pub fn knot_bounds(&self) -> &Bounds {
+        &self.bounds
+    }
+
+    /// Set the box bounds of knots 1..K in place (no allocation).
+    pub fn set_knot_bounds(&mut self, bounds: &Bounds) {
+        self.bounds.clone_from(bounds);
+    }
+
     /// Set the target bar position in place, m.
     pub fn set_target(&mut self, target: [f64; 2]) {
         self.target = target;

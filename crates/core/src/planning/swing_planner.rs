@@ -304,6 +304,7 @@ impl SwingPlanner {
     /// [`SwingPlanner::plan`] without building the [`Plan`].
     pub fn plan_outcome(&mut self) -> Result<ReplanOutcome> {
         self.ocp.set_start(&self.x_full)?;
+        self.ocp.set_knot_bounds(&self.settings.bounds);
         self.ocp.set_swing_time(self.t_final)?;
         self.t0 = 0.0;
         let g = self.ocp.guess_mut();
@@ -459,6 +460,10 @@ impl SwingPlanner {
         self.check_replan(t_now, x_now)?;
         let k_last = self.layout.intervals;
         self.ocp.set_start(x_now)?;
+        // the measured state may lie a little outside the planned bounds (the tracked chain follows
+        // the plan within its tracking error): knot 1 must be reachable from it
+        let widened = self.settings.bounds.widened_for_start(x_now);
+        self.ocp.set_knot_bounds(&widened);
         let t_rem = self.t_final - t_now;
         self.ocp.set_swing_time(t_rem)?;
         let h_new = t_rem / k_last as f64;
