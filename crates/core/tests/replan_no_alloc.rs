@@ -187,7 +187,7 @@ fn count_cold_solve_allocations_with_clearances() -> usize {
     let cf = ClearanceFn::new(robot.clone(), &obstacles[..], 0.01).unwrap();
     let mut ocp: SwingOcp =
         SwingOcp::new(robot.clone(), spec, Some(DistanceClearanceFn::new(cf))).unwrap();
-    assert_eq!(ocp.n_clearance(), 4 * 2 + 3);
+    assert_eq!(ocp.n_clearance(), 4 * 2 + 10);
     for k in 0..=k_last {
         ocp.guess_mut().x[k] = [p.points.q(k), p.points.qd(k)].concat();
         if k < k_last {
