@@ -95,12 +95,7 @@ fn main() -> Result<(), brachia::Error> {
             }
             y
         })
-        .filter(|y| {
-            y[0] > b.q1[0]
-                && y[0] < b.q1[1]
-                && y[1..n].iter().all(|q| q.abs() < b.q_rel_max)
-                && y[n..].iter().all(|v| v.abs() < b.qd_max)
-        })
+        .filter(|y| b.strictly_contains(y))
         .collect();
     let cp = planner.checkpoint();
     let mut its = vec![];

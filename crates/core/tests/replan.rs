@@ -36,15 +36,6 @@ fn settings() -> (PlannerSettings, NlpSettings) {
     )
 }
 
-/// Inside the planner's box bounds (q1, relative joints, velocities).
-fn inside(b: &Bounds, x: &[f64]) -> bool {
-    let n = x.len() / 2;
-    x[0] > b.q1[0]
-        && x[0] < b.q1[1]
-        && x[1..n].iter().all(|q| q.abs() < b.q_rel_max)
-        && x[n..].iter().all(|v| v.abs() < b.qd_max)
-}
-
 /// `count` disturbed copies of `x` (seeded), those inside the bounds.
 fn disturbed(x: &[f64], count: usize, seed: u64) -> Vec<Vec<f64>> {
     let n = x.len() / 2;
@@ -59,7 +50,7 @@ fn disturbed(x: &[f64], count: usize, seed: u64) -> Vec<Vec<f64>> {
             }
             y
         })
-        .filter(|y| inside(&b, y))
+        .filter(|y| b.strictly_contains(y))
         .collect()
 }
 

@@ -135,6 +135,17 @@ impl Bounds {
         b
     }
 
+    /// True when the state `x = [q, qd]` (2n) lies strictly inside the box bounds of an inner knot:
+    /// `q1` inside its range, every relative angle and every rate below `q_rel_max` and `qd_max` in
+    /// absolute value (the rest condition `qd_end_max` is not checked).
+    pub fn strictly_contains(&self, x: &[f64]) -> bool {
+        let n = x.len() / 2;
+        x[0] > self.q1[0]
+            && x[0] < self.q1[1]
+            && x[1..n].iter().all(|q| q.abs() < self.q_rel_max)
+            && x[n..].iter().all(|v| v.abs() < self.qd_max)
+    }
+
     /// The joint-rate bound at a knot: [`Bounds::qd_end_max`] at the last one (when set), else
     /// [`Bounds::qd_max`].
     pub fn qd_bound(&self, last: bool) -> f64 {
