@@ -1,63 +1,128 @@
-//! Probe of a parameter-study cell's torque need: plan the cell (default r2 = 0.1 at T - 0.5 s, the one
-//! cell that fails) with 20 N m limits, then warm-started through tighter limits down to the paper's
-//! 5 N m, printing each solve's status, iterations, energy (eq. 18, J) and largest |tau| (N m). Where
-//! the continuation stops is the smallest limit this family of swings reaches (docs/parameter-study.md).
+//! Probe of a parameter-study cell's torque need (docs/parameter-study.md), two continuations:
+//!
+//! - `torque [R2] [OFFSET_S]` (default 0.1 -0.5, the one cell that fails): plan the cell with 20 N m
+//!   limits, then warm-started through tighter limits down to the paper's 5 N m. Where it stops is the
+//!   smallest limit this family of swings reaches.
+//! - `time [R2] [STEP_S] [LIMIT_NM]` (default 0.1 0.005 5): plan the row's swing at T - 0.3 s within the
+//!   limit, then warm-started through shorter swing times in steps of STEP_S until a solve fails. Where
+//!   it stops is the shortest swing this family reaches within the limit.
+//!
+//! Each solve prints its status, iterations, energy (eq. 18, J) and largest |tau| (N m).
 //!
 //! ```text
-//! cargo run --release -p brachia-experiments --example torque_continuation_probe -- [R2] [OFFSET_S]
+//! cargo run --release -p brachia-experiments --example torque_continuation_probe -- torque 0.1 -0.5
+//! cargo run --release -p brachia-experiments --example torque_continuation_probe -- time 0.1 0.005 5
 //! ```
 //! Units: s, N m, J. The study's default settings (multiple shooting, 30 ms knots, `ocp`).
-use brachia::model::Robot;
-use brachia::planning::{freefall_time, plan_with_guess, PlannerSettings, SwingTime};
+use brachia::model::{Robot, RobotParams};
+use brachia::planning::{
+    freefall_time, plan_with_guess, Plan, PlannerSettings, SwingTask, SwingTime,
+};
+use brachia::trajectory::Trajectory;
 use brachia_experiments::parameter_study::{scaled_params, start_pose, ParameterStudySettings};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let s = ParameterStudySettings::default();
-    let args: Vec<f64> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().unwrap())
-        .collect();
-    let (r2, off) = (
-        args.first().copied().unwrap_or(0.1),
-        args.get(1).copied().unwrap_or(-0.5),
-    );
-    let base = Robot::paper().params().clone();
-    let p = scaled_params(&base, r2, s.arm_length_m)?;
-    let robot = Robot::from_params(p.clone(), "probe")?;
-    let q0 = start_pose(&robot, s.start)?;
-    let ff = freefall_time(&robot, &q0, 0.5 * (s.start[0] + s.target[0]))?;
-    let t = 2.0 * ff + off;
-    let task = brachia::planning::SwingTask {
-        q0: q0.clone(),
-        qd0: vec![],
-        target: s.target,
-        obstacles: vec![],
-    };
+/// The study's robot for `r2` with symmetric torque limits `lim` (N m).
+fn limited(
+    base: &RobotParams,
+    r2: f64,
+    lim: f64,
+    s: &ParameterStudySettings,
+) -> Result<Robot, Box<dyn std::error::Error>> {
+    let mut p = scaled_params(base, r2, s.arm_length_m)?;
+    p.actuators.tau_min = vec![-lim; p.links.len() - 1];
+    p.actuators.tau_max = vec![lim; p.links.len() - 1];
+    Ok(Robot::from_params(p, "probe")?)
+}
+
+/// Plan `robot`'s study swing of `t` seconds warm from `guess`, print one line, return the plan.
+fn solve(
+    robot: &Robot,
+    task: &SwingTask,
+    t: f64,
+    s: &ParameterStudySettings,
+    guess: Option<&Trajectory>,
+    label: &str,
+) -> Result<Plan, Box<dyn std::error::Error>> {
     let planner = PlannerSettings {
         swing_time: SwingTime::Seconds(t),
         ..s.planner.clone()
     };
-    let mut guess = None;
-    for lim in [
-        20.0, 15.0, 12.0, 10.0, 9.0, 8.0, 7.0, 6.5, 6.0, 5.5, 5.25, 5.0,
-    ] {
-        let mut pp = p.clone();
-        pp.actuators.tau_min = vec![-lim; robot.n() - 1];
-        pp.actuators.tau_max = vec![lim; robot.n() - 1];
-        let r = Robot::from_params(pp, "probe")?;
-        let plan = plan_with_guess(&r, &task, &planner, &s.solver, guess.as_ref())?;
-        let tmax = (0..plan.trajectory.t.len())
-            .flat_map(|k| plan.trajectory.tau(k).to_vec())
-            .fold(0.0f64, |a, b| a.max(b.abs()));
-        println!(
-            "T {t:.3} limit {lim:5.2}: {:?} {} it, E {:.3}, max |tau| {tmax:.3}",
-            plan.status, plan.iterations, plan.energy_j
-        );
-        if plan.converged() {
-            guess = Some(plan.trajectory.clone());
-        } else {
-            break;
+    let plan = plan_with_guess(robot, task, &planner, &s.solver, guess)?;
+    let tmax = (0..plan.trajectory.t.len())
+        .flat_map(|k| plan.trajectory.tau(k).to_vec())
+        .fold(0.0f64, |a, b| a.max(b.abs()));
+    println!(
+        "{label} T {t:.3}: {:?} {} it, E {:.3}, max |tau| {tmax:.3}",
+        plan.status, plan.iterations, plan.energy_j
+    );
+    Ok(plan)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let s = ParameterStudySettings::default();
+    let mut args = std::env::args().skip(1);
+    let mode = args.next().unwrap_or_else(|| "torque".into());
+    let nums = args
+        .map(|a| a.parse::<f64>())
+        .collect::<Result<Vec<_>, _>>()?;
+    let arg = |i: usize, default: f64| nums.get(i).copied().unwrap_or(default);
+    let r2 = arg(0, 0.1);
+    let base = Robot::paper().params().clone();
+    let free = Robot::from_params(scaled_params(&base, r2, s.arm_length_m)?, "probe")?;
+    let q0 = start_pose(&free, s.start)?;
+    let ff = freefall_time(&free, &q0, 0.5 * (s.start[0] + s.target[0]))?;
+    let task = SwingTask {
+        q0,
+        qd0: vec![],
+        target: s.target,
+        obstacles: vec![],
+    };
+    let mut guess: Option<Trajectory> = None;
+    match mode.as_str() {
+        "torque" => {
+            let t = 2.0 * ff + arg(1, -0.5);
+            for lim in [
+                20.0, 15.0, 12.0, 10.0, 9.0, 8.0, 7.0, 6.5, 6.0, 5.5, 5.25, 5.0,
+            ] {
+                let robot = limited(&base, r2, lim, &s)?;
+                let plan = solve(
+                    &robot,
+                    &task,
+                    t,
+                    &s,
+                    guess.as_ref(),
+                    &format!("limit {lim:5.2}"),
+                )?;
+                if !plan.converged() {
+                    break;
+                }
+                guess = Some(plan.trajectory);
+            }
         }
+        "time" => {
+            let (step, lim) = (arg(1, 0.005), arg(2, 5.0));
+            if step.is_nan() || step <= 0.0 {
+                return Err("STEP_S must be positive".into());
+            }
+            let robot = limited(&base, r2, lim, &s)?;
+            let mut off = -0.3;
+            while off > -1.0 {
+                let plan = solve(
+                    &robot,
+                    &task,
+                    2.0 * ff + off,
+                    &s,
+                    guess.as_ref(),
+                    &format!("offset {off:.3}"),
+                )?;
+                if !plan.converged() {
+                    break;
+                }
+                guess = Some(plan.trajectory);
+                off -= step;
+            }
+        }
+        other => return Err(format!("unknown mode {other:?}: torque or time").into()),
     }
     Ok(())
 }
