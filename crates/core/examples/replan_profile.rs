@@ -9,7 +9,9 @@
 //! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
 //! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered; default stored bounds), `BRACHIA_REPLAN_ADAPTIVE=1`
 //! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol), `BRACHIA_REPLAN_PRIMAL=shifted` (the
-//! shifted start instead of the default feedback rollout, [`WarmPrimal`]). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
+//! shifted start instead of the default feedback rollout, [`WarmPrimal`]), `BRACHIA_REPLAN_SHIFT_DUALS=0`
+//! (the stored bound duals stage by stage, not moved with the shifted knots,
+//! [`SwingPlanner::set_warm_shift_duals`]). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw).
 //!
@@ -73,6 +75,9 @@ fn main() -> Result<(), brachia::Error> {
     }
     if env("BRACHIA_REPLAN_PRIMAL").as_deref() == Some("shifted") {
         planner.set_warm_primal(WarmPrimal::Shifted);
+    }
+    if env("BRACHIA_REPLAN_SHIFT_DUALS").as_deref() == Some("0") {
+        planner.set_warm_shift_duals(false);
     }
     let p = planner.plan()?;
     assert!(p.converged(), "{:?}", p.status);

@@ -128,6 +128,8 @@ pub struct OcpSolver {
     filter_orig: Vec<(f64, f64)>,
     z_ref: Vec<f64>,
     dr: Vec<f64>,
+    /// Scratch of [`OcpSolver::remap_bound_duals`] (nz).
+    remap: Vec<f64>,
     delta_w_last: f64,
     /// Penalty `rho_eq a_j a_j^T` on the equality rows in the condensed Hessians of the current
     /// factorisation (0 = none), and the one that last passed the inertia test in this solve.
@@ -366,6 +368,7 @@ impl OcpSolver {
             filter_orig: Vec::new(),
             z_ref: vec![0.0; nz],
             dr: vec![0.0; nz],
+            remap: vec![0.0; nz],
             delta_w_last: 0.0,
             rho_eq: 0.0,
             rho_eq_last: 0.0,
@@ -403,6 +406,44 @@ impl OcpSolver {
     /// Multipliers of the stored iterate (see [`crate::problem`] for the signs).
     pub fn multipliers(&self) -> &Multipliers {
         &self.mult
+    }
+
+    /// The bound duals of stage k stored by the last solve, `(lower, upper)`, `nx_k + nu_k` each
+    /// (states, then inputs; 0 for an infinite bound and for fixed components). They start a warm
+    /// solve with [`WarmDuals::Stored`] or [`WarmDuals::StoredBounds`]. Panics if `k > K`.
+    pub fn bound_duals(&self, k: usize) -> (&[f64], &[f64]) {
+        let r = self.lay.oz[k]..self.lay.oz[k + 1];
+        (&self.zl[r.clone()], &self.zu[r])
+    }
+
+    /// Re-indexes the bound duals stored by the last solve ([`OcpSolver::bound_duals`]) for a warm
+    /// start whose stage k is the last solve's stage `src(k)`: e.g. a solution shifted in time,
+    /// whose primal is shifted through [`OcpSolver::primal_mut`], so that the duals of the bounds
+    /// the solution rests on move with it. The states of stage k take those of stage `src(k)` if
+    /// both have the same `nx`, the inputs likewise with `nu`; otherwise, and for `src(k) > K`,
+    /// stage k keeps its own. The slacks of the stage inequalities, their duals and the
+    /// multipliers stay where they are (docs/ocp.md, "Session 12": moving them as well was
+    /// measured slower on the robot's warm re-plans). No allocation.
+    pub fn remap_bound_duals(&mut self, src: impl Fn(usize) -> usize) {
+        let lay = &self.lay;
+        let parts = |k: usize| {
+            let o = lay.oz[k];
+            [(o, lay.nx[k]), (o + lay.nx[k], lay.nu[k])]
+        };
+        for v in [&mut self.zl, &mut self.zu] {
+            self.remap.copy_from_slice(v);
+            for k in 0..=lay.kk {
+                let j = src(k);
+                if j > lay.kk {
+                    continue;
+                }
+                for ((od, nd), (os, ns)) in parts(k).into_iter().zip(parts(j)) {
+                    if nd == ns {
+                        v[od..od + nd].copy_from_slice(&self.remap[os..os + ns]);
+                    }
+                }
+            }
+        }
     }
 
     /// The feedback gain `K_k` (`nu_k x nx_k`, row-major) of the last Riccati factorisation: the

@@ -597,3 +597,44 @@ fn adaptive_mu_solves_the_swing_up_in_fewer_iterations() {
     let m = solver.multipliers().clone();
     assert!(pendulum_kkt_residual(&mut p, &z, &m) < 1e-6);
 }
+
+#[test]
+fn remapped_bound_duals_move_stage_by_stage_where_the_sizes_agree() {
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    let cold = solver.solve(&mut p, &OcpSettings::default());
+    assert_eq!(cold.status, OcpStatus::Solved);
+    let kk = p.dims.horizon();
+    let before: Vec<(Vec<f64>, Vec<f64>)> = (0..=kk)
+        .map(|k| {
+            let (l, u) = solver.bound_duals(k);
+            (l.to_vec(), u.to_vec())
+        })
+        .collect();
+    // the bang-bang torques rest on their bounds: some input duals are far from zero
+    assert!(before.iter().any(|(l, u)| l[2] > 1e-3 || u[2] > 1e-3));
+    // stage k takes stage k + 1's (the last one its own), stage 3 names a stage past K and keeps
+    // its own
+    let src = |k: usize| if k == 3 { kk + 7 } else { (k + 1).min(kk) };
+    solver.remap_bound_duals(src);
+    let nx = 2;
+    for k in 0..=kk {
+        let (l, u) = solver.bound_duals(k);
+        let j = src(k);
+        if j > kk {
+            assert_eq!((l, u), (&before[k].0[..], &before[k].1[..]), "stage {k}");
+            continue;
+        }
+        // states always agree in size; inputs only where both stages have one (not into or out
+        // of stage K)
+        assert_eq!(&l[..nx], &before[j].0[..nx], "stage {k}");
+        assert_eq!(&u[..nx], &before[j].1[..nx], "stage {k}");
+        let n_in = l.len() - nx;
+        if n_in == before[j].0.len() - nx {
+            assert_eq!(&l[nx..], &before[j].0[nx..], "stage {k}");
+            assert_eq!(&u[nx..], &before[j].1[nx..], "stage {k}");
+        } else {
+            assert_eq!(&l[nx..], &before[k].0[nx..], "stage {k}");
+        }
+    }
+}

@@ -12,8 +12,9 @@
 //! torques are then rolled out from `x_now` through the stage flows under the previous solve's Riccati
 //! feedback gains, clipped into the torque bounds, so that the start follows the new `x_0` with no
 //! defects; if the rollout leaves the state bounds, the shifted start is kept. The solve then starts
-//! warm (the solver's stored bound duals, the equality multipliers re-estimated by least squares, a
-//! small barrier parameter).
+//! warm: the solver's stored bound duals, moved with the shifted solution (each new knot takes those
+//! of the previous solution's knot nearest in time), the equality multipliers re-estimated by least
+//! squares, a small barrier parameter.
 //!
 //! Times: a [`Plan`] or [`ReplanOutcome`] of a re-plan runs on its own clock, 0 at `t_now`; absolute
 //! knot times come from [`SwingPlanner::knot_time`]. Units: s, m, rad, rad/s, N m.
@@ -128,6 +129,11 @@ pub struct SwingPlanner {
     cold: OcpSettings,
     warm: OcpSettings,
     warm_primal: WarmPrimal,
+    /// Whether warm re-plans move the stored bound duals with the shifted knots.
+    shift_duals: bool,
+    /// The solver's stored bound duals are those of the solution in `prev` (the last solve
+    /// converged).
+    duals_of_prev: bool,
     ocp: SwingOcp,
     solver: OcpSolver,
     layout: Layout,
@@ -208,6 +214,8 @@ impl SwingPlanner {
                 gains,
             },
             warm_primal: WarmPrimal::default(),
+            shift_duals: true,
+            duals_of_prev: false,
             roll: RolloutScratch {
                 x_ref: vec![0.0; nx],
                 x_next: vec![0.0; nx],
@@ -252,6 +260,14 @@ impl SwingPlanner {
     /// Which primal point warm re-plans start from (default [`WarmPrimal::FeedbackRollout`]).
     pub fn set_warm_primal(&mut self, w: WarmPrimal) {
         self.warm_primal = w;
+    }
+
+    /// Whether warm re-plans move the solver's stored bound duals onto the new knots with the
+    /// shifted solution, each knot taking the duals of the previous solution's knot nearest in time
+    /// ([`OcpSolver::remap_bound_duals`]; default true). False keeps them stage by stage (the
+    /// behaviour before session 12, docs/ocp.md).
+    pub fn set_warm_shift_duals(&mut self, on: bool) {
+        self.shift_duals = on;
     }
 
     /// The full swing time T, s.
@@ -477,6 +493,11 @@ impl SwingPlanner {
                 (t_now, h_new, x_now),
                 dst,
             );
+            if self.shift_duals && self.duals_of_prev {
+                let prev = &self.prev;
+                self.solver
+                    .remap_bound_duals(|k| nearest_old_knot(prev, t_now, h_new, k));
+            }
         } else {
             shift(&self.prev, t_now, h_new, x_now, self.ocp.guess_mut());
         }
@@ -507,6 +528,7 @@ impl SwingPlanner {
 
     /// A converged solution becomes the one the next re-plan shifts from.
     fn adopt(&mut self, out: &ReplanOutcome) {
+        self.duals_of_prev = out.converged();
         if out.converged() {
             let z = self.solver.primal();
             for (d, s) in self.prev.z.x.iter_mut().zip(&z.x) {
@@ -634,6 +656,16 @@ fn old_interval(prev: &Checkpoint, t_now: f64, h: f64, k: usize) -> (usize, f64,
         j
     };
     (j, a, ju)
+}
+
+/// The knot of `prev` nearest in time to knot k of a re-plan from `t_now` with interval `h`.
+fn nearest_old_knot(prev: &Checkpoint, t_now: f64, h: f64, k: usize) -> usize {
+    let (j, a, _) = old_interval(prev, t_now, h, k);
+    if a < 0.5 {
+        j
+    } else {
+        j + 1
+    }
 }
 
 /// `prev` (knots at `prev.t0 + j prev.h`) on the knots `t_now + k h` into `dst`: states linearly
@@ -765,6 +797,66 @@ mod tests {
         }
         // 86 of the 100 draws stay inside the bounds (measured)
         assert!(rolled >= 70, "{rolled} rollouts of {}", states.len());
+    }
+
+    #[test]
+    fn a_warm_start_takes_the_bound_duals_of_the_knots_nearest_in_time() {
+        let (mut planner, states) = planned();
+        let k_last = planner.intervals();
+        let stored = |p: &SwingPlanner| -> Vec<(Vec<f64>, Vec<f64>)> {
+            (0..=k_last)
+                .map(|k| {
+                    let (l, u) = p.solver.bound_duals(k);
+                    (l.to_vec(), u.to_vec())
+                })
+                .collect()
+        };
+        let before = stored(&planner);
+        // (the plan rests on no bound: its bound duals are ~ mu / slack, at most ~1e-8, and differ
+        // from knot to knot)
+        let h_old = planner.ocp.interval();
+        planner.prepare(T_NOW, &states[0], true).unwrap();
+        let h_new = planner.ocp.interval();
+        let after = stored(&planner);
+        let nx = planner.ocp.dims().stages[0].nx;
+        let mut moved = 0;
+        for (k, (l, u)) in after.iter().enumerate() {
+            // the plan's knots are at j h_old from 0
+            let j = ((T_NOW + k as f64 * h_new) / h_old).round() as usize;
+            let (bl, bu) = &before[j.min(k_last)];
+            let n = if l.len() == bl.len() { l.len() } else { nx };
+            assert_eq!(&l[..n], &bl[..n], "knot {k} from {j}");
+            assert_eq!(&u[..n], &bu[..n], "knot {k} from {j}");
+            moved += usize::from(*l != before[k].0);
+        }
+        assert!(moved > k_last / 2, "the duals of {moved} knots moved");
+    }
+
+    #[test]
+    fn moving_the_bound_duals_with_the_knots_reaches_the_same_optima_with_a_shorter_tail() {
+        let (mut planner, states) = planned();
+        let cp = planner.checkpoint();
+        let mut worst = [0usize; 2];
+        for x in &states {
+            let mut objective = [0.0; 2];
+            for (m, on) in [false, true].into_iter().enumerate() {
+                planner.set_warm_shift_duals(on);
+                planner.restore(&cp).unwrap();
+                let o = planner.replan(T_NOW, x).unwrap();
+                assert!(o.converged() && o.ee_error_m < 1e-6, "{on}: {o:?}");
+                worst[m] = worst[m].max(o.iterations);
+                objective[m] = o.objective;
+            }
+            let rel = (objective[1] - objective[0]).abs() / objective[0].abs();
+            assert!(rel < 1e-6, "objectives {objective:?}");
+        }
+        // measured 48 against 41 with examples/replan_profile.rs (docs/ocp.md, session 12)
+        assert!(
+            worst[1] < worst[0],
+            "slowest draw: kept {} moved {}",
+            worst[0],
+            worst[1]
+        );
     }
 
     #[test]
