@@ -41,7 +41,10 @@ fn main() -> Result<(), brachia::Error> {
     };
     let s = PlannerSettings {
         transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
+        knot_dt: std::env::var("BRACHIA_REPLAN_KNOT_DT")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0.03),
         shooting: ShootingSettings {
             substeps: 1,
             ..Default::default()
@@ -81,6 +84,11 @@ fn main() -> Result<(), brachia::Error> {
     }
     let p = planner.plan()?;
     assert!(p.converged(), "{:?}", p.status);
+    println!(
+        "cold plan: {} knots, replay miss {:.3e} m",
+        p.points.t.len(),
+        p.replay_ee_error_m
+    );
     let j = p
         .trajectory
         .t
