@@ -556,3 +556,43 @@ pub fn swing_scenario(
         disturbances: Default::default(),
     }
 }
+
+/// The first `swings` swings of the ladder planned jointly and swing by swing
+/// ([`brachia::planning::plan_joint_swings`]; docs/ladders.md, "The joint multi-swing plan"): from
+/// the ladder's start state at bar 0 to bar `swings`, with its obstacles, planner and solver settings
+/// (the rest condition `bounds.qd_end_max` at the last bar of the joint plan, and at its inner switches
+/// with `rest_at_switches`). Errors on `swings` of 0 or past the last bar, and as `plan_joint_swings`.
+pub fn joint_swings(
+    ll: &LoadedLadder,
+    swings: usize,
+    rest_at_switches: bool,
+) -> Result<brachia::planning::JointSwingPlan, Error> {
+    let sc = &ll.scenario;
+    let bars = &sc.ladder.bars;
+    if swings == 0 || swings >= bars.len() {
+        return Err(Error::invalid(
+            ll.path.display().to_string(),
+            "swings",
+            swings,
+            format!(
+                "must be 1 to {} (the ladder's bars less one)",
+                bars.len() - 1
+            ),
+        ));
+    }
+    let task = brachia::planning::JointSwingTask {
+        x0: ll.x0.clone(),
+        bars: bars[..=swings].iter().map(Bar::p).collect(),
+        obstacles: sc
+            .ladder
+            .obstacles
+            .iter()
+            .map(|o| Circle {
+                center: o.center,
+                radius: o.radius,
+            })
+            .collect(),
+        rest_at_switches,
+    };
+    brachia::planning::plan_joint_swings(&ll.robot, &task, &sc.planner, &sc.solver)
+}
