@@ -53,6 +53,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         j.solve.as_ref().map_or(0.0, |s| s.time_s),
         j.max_defect
     );
+    let (rit, rt) = j
+        .reference
+        .iter()
+        .fold((0, 0.0), |(a, b), p| (a + p.iterations, b + p.solve_time_s));
+    println!(
+        "summary | {path} | {swings} | {rest} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} | {:.2} | {rit} | {} | {rt:.3} | {:.3} | {pos:.1e}, {vel:.1e} |",
+        j.reference_objective,
+        j.objective,
+        j.reference_energy_j(),
+        j.energy_j(),
+        j.reference.iter().map(|p| p.positive_work_j).sum::<f64>(),
+        j.phases.iter().map(|p| p.plan.positive_work_j).sum::<f64>(),
+        j.solve.as_ref().map_or(0, |s| s.iterations),
+        j.solve.as_ref().map_or(0.0, |s| s.time_s),
+    );
     for (i, p) in j.phases.iter().enumerate() {
         let k = p.plan.layout.intervals;
         let qd = p.plan.points.qd(k);

@@ -403,6 +403,23 @@ pub enum JointStatus {
     },
 }
 
+impl std::fmt::Display for JointStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            JointStatus::Converged => write!(f, "converged"),
+            JointStatus::JointFailed { status } => {
+                write!(f, "the joint solve did not converge ({status:?})")
+            }
+            JointStatus::ReferenceFailed { swing, message } => {
+                write!(
+                    f,
+                    "the swing-by-swing plan of swing {swing} failed: {message}"
+                )
+            }
+        }
+    }
+}
+
 /// One swing of a joint plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointPhase {
