@@ -3,7 +3,7 @@
 //! sharing the switch state, against the same swings planned one by one: the joint solve converges from
 //! the swing-by-swing plans put end to end and lowers their summed objective, every capture holds to the
 //! solver's tolerance, and the joint plan's torques replayed open loop on the model (with the grasp
-//! switch between the swings) reach every bar. The same on a 3-link robot.
+//! switch between the swings) reach every bar. The same on a 3-link robot and an asymmetric one.
 //!
 //! Conventions: world frame x right, y up, m; rad; SI units.
 
@@ -137,6 +137,23 @@ fn two_swings_of_the_even_ladder_planned_jointly_cost_less_than_swing_by_swing()
 fn two_swings_of_a_three_link_robot_planned_jointly_cost_less_than_swing_by_swing() {
     let ll = load("ladder-even-three-link.toml");
     assert_eq!(ll.robot.n(), 3);
+    let j = joint_swings(&ll, 2, false).unwrap();
+    check(&ll, &j, 2);
+}
+
+/// An asymmetric 3-link robot (link 1 heavier than link 3, its centre of mass nearer the grip, link 3
+/// stiffer to turn), so the re-rooted chain of swing 1 differs from the chain of swing 0.
+#[test]
+fn two_swings_of_an_asymmetric_three_link_robot_planned_jointly_cost_less_than_swing_by_swing() {
+    let mut ll = load("ladder-even-three-link.toml");
+    let mut p = ll.robot.params().clone();
+    p.links[0].mass *= 1.4;
+    p.links[0].com *= 0.8;
+    p.links[2].inertia *= 1.5;
+    p.links[1].mass *= 0.9;
+    ll.robot = Robot::from_params(p, "asymmetric three-link").unwrap();
+    let rr = ll.robot.rerooted().unwrap();
+    assert_ne!(rr.params().links[0], ll.robot.params().links[0]);
     let j = joint_swings(&ll, 2, false).unwrap();
     check(&ll, &j, 2);
 }

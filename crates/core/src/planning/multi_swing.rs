@@ -450,11 +450,13 @@ pub struct JointSwingPlan {
     pub solve: Option<SolveAttempt>,
     /// The swings of the joint plan (empty when no joint solve ran).
     pub phases: Vec<JointPhase>,
-    /// The joint objective (sum of the phases' costs).
+    /// The joint objective (sum of the phases' costs; NaN when no joint solve ran).
     pub objective: f64,
-    /// The same sum over the swing-by-swing plans (the joint problem's objective at its warm start).
+    /// The same sum over the swing-by-swing plans (the joint problem's objective at its warm start;
+    /// NaN when no joint solve ran).
     pub reference_objective: f64,
-    /// Largest defect of the joint plan's transitions (shooting, capture and switch map), rad or rad/s.
+    /// Largest defect of the joint plan's transitions (shooting, capture and switch map), rad or rad/s
+    /// (NaN when no joint solve ran).
     pub max_defect: f64,
 }
 
