@@ -535,20 +535,7 @@ pub fn swing_scenario(
     Scenario {
         name: format!("{} swing to bar {to}", sc.name),
         params: sc.params.clone(),
-        task: SwingTask {
-            q0: q0.to_vec(),
-            qd0: qd0.to_vec(),
-            target: [b.x - grip[0], b.y - grip[1]],
-            obstacles: sc
-                .ladder
-                .obstacles
-                .iter()
-                .map(|o| Circle {
-                    center: [o.center[0] - grip[0], o.center[1] - grip[1]],
-                    radius: o.radius,
-                })
-                .collect(),
-        },
+        task: SwingTask::on_ladder(q0, qd0, grip, b.p(), &sc.ladder.obstacles),
         planner: sc.planner.clone(),
         solver: sc.solver.clone(),
         tracking: sc.tracking.clone(),
@@ -583,15 +570,7 @@ pub fn joint_swings(
     let task = brachia::planning::JointSwingTask {
         x0: ll.x0.clone(),
         bars: bars[..=swings].iter().map(Bar::p).collect(),
-        obstacles: sc
-            .ladder
-            .obstacles
-            .iter()
-            .map(|o| Circle {
-                center: o.center,
-                radius: o.radius,
-            })
-            .collect(),
+        obstacles: sc.ladder.obstacles.clone(),
         rest_at_switches,
     };
     brachia::planning::plan_joint_swings(&ll.robot, &task, &sc.planner, &sc.solver)

@@ -488,22 +488,10 @@ impl JointSwingPlan {
     }
 }
 
-/// The swing of a traverse from `grip` to `bar` with the start state `x` (2n): the target and the
-/// obstacles in the grip frame.
+/// The swing of a traverse from `grip` to `bar` with the start state `x` (2n).
 fn swing_task(x: &[f64], grip: [f64; 2], bar: [f64; 2], obstacles: &[Circle]) -> SwingTask {
     let n = x.len() / 2;
-    SwingTask {
-        q0: x[..n].to_vec(),
-        qd0: x[n..].to_vec(),
-        target: [bar[0] - grip[0], bar[1] - grip[1]],
-        obstacles: obstacles
-            .iter()
-            .map(|o| Circle {
-                center: [o.center[0] - grip[0], o.center[1] - grip[1]],
-                radius: o.radius,
-            })
-            .collect(),
-    }
+    SwingTask::on_ladder(&x[..n], &x[n..], grip, bar, obstacles)
 }
 
 /// The cost of `ocp` at its knots `z` (values only; infinite when the evaluation fails).
