@@ -63,6 +63,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
         "ladder/traverse.csv",
         "ladder/traverse.gif",
         "ladder/energy_per_swing.png",
+        "ladder/joint_swings.json",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
@@ -94,6 +95,15 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(s["mode"], "quick");
+    // the joint plan of the quick ladder's two swings, against swing by swing
+    let js = &s["ladder"]["joint_swings"];
+    assert_eq!(js["converged"], true, "{js}");
+    assert_eq!(js["swings"], 2);
+    assert!(
+        js["joint"]["objective"].as_f64().unwrap()
+            <= js["swing_by_swing"]["objective"].as_f64().unwrap()
+    );
+    assert!(md.contains("swings planned jointly"));
     assert!(
         s["failures"].as_array().unwrap().is_empty(),
         "{}",

@@ -535,24 +535,103 @@ pub fn swing_scenario(
     Scenario {
         name: format!("{} swing to bar {to}", sc.name),
         params: sc.params.clone(),
-        task: SwingTask {
-            q0: q0.to_vec(),
-            qd0: qd0.to_vec(),
-            target: [b.x - grip[0], b.y - grip[1]],
-            obstacles: sc
-                .ladder
-                .obstacles
-                .iter()
-                .map(|o| Circle {
-                    center: [o.center[0] - grip[0], o.center[1] - grip[1]],
-                    radius: o.radius,
-                })
-                .collect(),
-        },
+        task: SwingTask::on_ladder(q0, qd0, grip, b.p(), &sc.ladder.obstacles),
         planner: sc.planner.clone(),
         solver: sc.solver.clone(),
         tracking: sc.tracking.clone(),
         plant: sc.plant.clone(),
         disturbances: Default::default(),
     }
+}
+
+/// The first `swings` swings of the ladder planned jointly and swing by swing
+/// ([`brachia::planning::plan_joint_swings`]; docs/ladders.md, "The joint multi-swing plan"): from
+/// the ladder's start state at bar 0 to bar `swings`, with its obstacles, planner and solver settings
+/// (the rest condition `bounds.qd_end_max` at the last bar of the joint plan, and at its inner switches
+/// with `rest_at_switches`). Errors on `swings` of 0 or past the last bar, and as `plan_joint_swings`.
+pub fn joint_swings(
+    ll: &LoadedLadder,
+    swings: usize,
+    rest_at_switches: bool,
+) -> Result<brachia::planning::JointSwingPlan, Error> {
+    let sc = &ll.scenario;
+    let bars = &sc.ladder.bars;
+    if swings == 0 || swings >= bars.len() {
+        return Err(Error::invalid(
+            ll.path.display().to_string(),
+            "swings",
+            swings,
+            format!(
+                "must be 1 to {} (the ladder's bars less one)",
+                bars.len() - 1
+            ),
+        ));
+    }
+    let task = brachia::planning::JointSwingTask {
+        x0: ll.x0.clone(),
+        bars: bars[..=swings].iter().map(Bar::p).collect(),
+        obstacles: sc.ladder.obstacles.clone(),
+        rest_at_switches,
+    };
+    brachia::planning::plan_joint_swings(&ll.robot, &task, &sc.planner, &sc.solver)
+}
+
+/// A joint multi-swing plan and its swing-by-swing reference as JSON (`joint_swings.json` of the
+/// reproduction's `ladder/` folder; docs/ladders.md): the status, the totals of both plans (objective,
+/// eq. 18 energy, positive work, solver iterations and time) and per swing the same with the capture
+/// residuals and the largest joint rate at the swing's end.
+pub fn joint_swings_json(j: &brachia::planning::JointSwingPlan) -> serde_json::Value {
+    use serde_json::json;
+    let (pos, vel) = j.capture_residual();
+    let end_rate = |p: &brachia::planning::Plan| {
+        p.points
+            .qd(p.layout.intervals)
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()))
+    };
+    let phases: Vec<_> = j
+        .phases
+        .iter()
+        .zip(&j.reference)
+        .enumerate()
+        .map(|(i, (p, r))| {
+            json!({
+                "swing": i,
+                "holding_hand": p.holding_hand,
+                "objective": p.objective,
+                "reference_objective": p.reference_objective,
+                "energy_j": p.plan.energy_j,
+                "reference_energy_j": r.energy_j,
+                "positive_work_j": p.plan.positive_work_j,
+                "reference_positive_work_j": r.positive_work_j,
+                "capture_position_m": p.plan.violations.ee_position,
+                "capture_speed_m_s": p.plan.violations.ee_velocity,
+                "end_rate_max_rad_s": end_rate(&p.plan),
+                "reference_end_rate_max_rad_s": end_rate(r),
+            })
+        })
+        .collect();
+    json!({
+        "swings": j.reference.len().max(j.phases.len()),
+        "converged": j.converged(),
+        "status": j.status.to_string(),
+        "joint": {
+            "objective": j.objective,
+            "energy_j": j.energy_j(),
+            "positive_work_j": j.phases.iter().map(|p| p.plan.positive_work_j).sum::<f64>(),
+            "iterations": j.solve.as_ref().map(|s| s.iterations),
+            "solve_time_s": j.solve.as_ref().map(|s| s.time_s),
+            "max_defect": j.max_defect,
+            "capture_position_m": pos,
+            "capture_speed_m_s": vel,
+        },
+        "swing_by_swing": {
+            "objective": j.reference_objective,
+            "energy_j": j.reference_energy_j(),
+            "positive_work_j": j.reference.iter().map(|p| p.positive_work_j).sum::<f64>(),
+            "iterations": j.reference.iter().map(|p| p.iterations).sum::<usize>(),
+            "solve_time_s": j.reference.iter().map(|p| p.solve_time_s).sum::<f64>(),
+        },
+        "phases": phases,
+    })
 }

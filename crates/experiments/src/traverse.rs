@@ -284,18 +284,9 @@ pub const Q1_WIDEN_MARGIN: f64 = brachia::planning::START_WIDEN_MARGIN;
 /// `planner.bounds.q1`, then widen the bounds to take the start state
 /// ([`brachia::planning::Bounds::widened_for_start`], the rule a re-plan from a measured state uses).
 fn widen_start_bounds(sc: &mut crate::scenario::Scenario) {
-    sc.task.q0[0] = q1_nearest(sc.task.q0[0], sc.planner.bounds.q1);
+    sc.task.q0[0] = sc.planner.bounds.nearest_q1(sc.task.q0[0]);
     let x: Vec<f64> = sc.task.q0.iter().chain(&sc.task.qd0).copied().collect();
     sc.planner.bounds = sc.planner.bounds.widened_for_start(&x);
-}
-
-/// The representative of `q1` (mod 2 pi, one turn either way) nearest the range `[lo, hi]`.
-fn q1_nearest(q1: f64, [lo, hi]: [f64; 2]) -> f64 {
-    let tau = std::f64::consts::TAU;
-    let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
-    [q1 - tau, q1, q1 + tau]
-        .into_iter()
-        .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b })
 }
 
 /// Put the ball of `[disturbances.ball]` on the planned EE path of the swing that starts now
@@ -648,7 +639,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             Ok(s) => {
                 rec.capture_impact_j = s.impact_energy_j;
                 x = s.x;
-                x[0] = q1_nearest(x[0], sc.planner.bounds.q1);
+                x[0] = sc.planner.bounds.nearest_q1(x[0]);
                 grip = s.grip;
                 if let Some(r) = rapier.as_mut() {
                     match r.regrip(&pchains[(k + 1) % 2], grip, &x) {

@@ -18,4 +18,4 @@ pub use dynamics::{
 };
 pub use kinematics::{ik_from_seed, mirrored_pose, wrap_angle, P2};
 pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS, PAPER_TOML};
-pub use reroot::{reroot_state, reroot_tau, switch_grip, GripSwitch};
+pub use reroot::{reroot_jacobian, reroot_state, reroot_tau, switch_grip, GripSwitch};

@@ -89,6 +89,24 @@ pub fn reroot_state(x: &[f64], out: &mut [f64]) {
     }
 }
 
+/// The constant linear part `P` of [`reroot_state`] (the map is `x' = P x + (wrap shift of q'_1)`):
+/// `out` holds the `2n x cols` row-major Jacobian `d x' / d x` in its first 2n columns (`cols >= 2n`;
+/// the other columns are left as they are). Row 0 and row n are sums (ones over q, over qd), row j
+/// and row n + j (j >= 1) pick `-q_{n+1-j}`, `-qd_{n+1-j}` (1-based).
+pub fn reroot_jacobian(n: usize, cols: usize, out: &mut [f64]) {
+    for r in 0..2 * n {
+        out[r * cols..r * cols + 2 * n].fill(0.0);
+    }
+    for i in 0..n {
+        out[i] = 1.0;
+        out[n * cols + n + i] = 1.0;
+    }
+    for j in 1..n {
+        out[j * cols + n - j] = -1.0;
+        out[(n + j) * cols + 2 * n - j] = -1.0;
+    }
+}
+
 /// Map torques of joints 2..n to the re-rooted chain's joints: `tau'_j = -tau_{n+2-j}` (the order and
 /// sign reversed; the power `tau' . qd'` is unchanged).
 pub fn reroot_tau(tau: &[f64], out: &mut [f64]) {

@@ -8,6 +8,7 @@ pub mod collocation;
 pub mod cspace;
 pub mod detour;
 pub mod guess;
+pub mod multi_swing;
 pub mod nlp;
 pub mod ocp_nlp;
 pub mod plan_shooting;
@@ -20,6 +21,10 @@ pub mod task;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks};
 pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};
+pub use multi_swing::{
+    plan_joint_swings, JointPhase, JointStatus, JointSwingPlan, JointSwingTask, MultiSwingOcp,
+    MAX_JOINT_SWINGS,
+};
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use nlp::{PassStats, TimeSplit};
 pub use ocp_nlp::{AdapterTimings, OcpNlp};

@@ -135,6 +135,18 @@ impl Bounds {
         b
     }
 
+    /// The representative of the angle `q1` (mod 2 pi, one turn either way) nearest the range
+    /// [`Bounds::q1`]: the start angle a later swing of a traverse (or a joint multi-swing plan)
+    /// plans from after the grasp switch, whose map wraps `q'_1` into (-pi, pi].
+    pub fn nearest_q1(&self, q1: f64) -> f64 {
+        let [lo, hi] = self.q1;
+        let tau = std::f64::consts::TAU;
+        let dist = |v: f64| (lo - v).max(v - hi).max(0.0);
+        [q1 - tau, q1, q1 + tau]
+            .into_iter()
+            .fold(q1, |b, v| if dist(v) < dist(b) { v } else { b })
+    }
+
     /// True when the state `x = [q, qd]` (2n) lies strictly inside the box bounds of an inner knot:
     /// `q1` inside its range, every relative angle and every rate below `q_rel_max` and `qd_max` in
     /// absolute value (the rest condition `qd_end_max` is not checked).

@@ -757,6 +757,11 @@ impl<D: PointDynamics> SwingOcp<D> {
         &self.term_fn.robot
     }
 
+    /// The initial guess handed to the solver.
+    pub fn guess(&self) -> &Primal {
+        &self.guess
+    }
+
     /// The initial guess handed to the solver (x_0 should stay the start state).
     pub fn guess_mut(&mut self) -> &mut Primal {
         &mut self.guess
@@ -868,7 +873,8 @@ impl<D: PointDynamics> SwingOcp<D> {
     /// evaluation on 2 cores; see docs/planner.md).
     fn for_stages(
         &mut self,
-        z: &Primal,
+        zx: &[Vec<f64>],
+        zu: &[Vec<f64>],
         stages: &mut [StageEval],
         op: impl Fn(&mut StageWork<D>, &Ctx, usize, &[f64], &[f64], &mut StageEval) + Sync,
     ) {
@@ -887,23 +893,109 @@ impl<D: PointDynamics> SwingOcp<D> {
                 .for_each(|(c, (ws, evs))| {
                     for (j, (w, ev)) in ws.iter_mut().zip(evs.iter_mut()).enumerate() {
                         let k = c * chunk + j;
-                        op(w, ctx, k, &z.x[k], &z.u[k], ev);
+                        op(w, ctx, k, &zx[k], &zu[k], ev);
                     }
                 });
         } else {
             for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
-                op(w, ctx, k, &z.x[k], &z.u[k], ev);
+                op(w, ctx, k, &zx[k], &zu[k], ev);
             }
         }
     }
 
-    fn check_sizes(&self, z: &Primal, n_stages: usize) -> std::result::Result<(), EvalError> {
+    /// [`OcpProblem::evaluate`] on the knots `zx`, `zu` (K + 1 each) given as slices, so that a
+    /// problem made of several swings ([`super::multi_swing::MultiSwingOcp`]) evaluates its phases
+    /// in place, without copying them into a [`Primal`]. `stages` holds the K + 1 stages' buffers
+    /// (stage K's `f` and `jac_f` are not touched, whatever their size).
+    pub(crate) fn evaluate_parts(
+        &mut self,
+        zx: &[Vec<f64>],
+        zu: &[Vec<f64>],
+        level: EvalLevel,
+        stages: &mut [StageEval],
+        terminal: &mut TerminalEval,
+    ) -> std::result::Result<(), EvalError> {
+        self.check_sizes(zx, zu, stages.len())?;
+        let t0 = Instant::now();
+        self.for_stages(zx, zu, stages, |w, ctx, k, x, u, ev| {
+            w.evaluate(ctx, k, x, u, level, ev)
+        });
+        let xl = &zx[self.ctx.horizon];
+        let nx = self.ctx.nx;
+        if level == EvalLevel::FirstOrder {
+            self.term.jacobian(
+                &self.term_fn,
+                xl,
+                &mut self.term_val,
+                &mut terminal.jac_r[..4 * nx],
+            );
+        } else {
+            self.term.value(&self.term_fn, xl, &mut self.term_val);
+        }
+        terminal.r[0] = self.term_val[0] - self.target[0];
+        terminal.r[1] = self.term_val[1] - self.target[1];
+        terminal.r[2] = self.term_val[2];
+        terminal.r[3] = self.term_val[3];
+        let dt = t0.elapsed().as_secs_f64();
+        if level == EvalLevel::FirstOrder {
+            self.timings.first_order_s += dt;
+            self.timings.first_order_calls += 1;
+        } else {
+            self.timings.values_s += dt;
+        }
+        Ok(())
+    }
+
+    /// [`OcpProblem::hessians`] on slices (see [`Self::evaluate_parts`]): `lam`, `mu` one entry per
+    /// stage (`lam[K]` is not read), `nu` the 4 multipliers of the terminal rows, whose Hessian is
+    /// added to stage K's.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn hessians_parts(
+        &mut self,
+        zx: &[Vec<f64>],
+        zu: &[Vec<f64>],
+        sigma: f64,
+        lam: &[Vec<f64>],
+        mu: &[Vec<f64>],
+        nu: &[f64],
+        stages: &mut [StageEval],
+    ) -> std::result::Result<(), EvalError> {
+        self.check_sizes(zx, zu, stages.len())?;
+        if lam.len() != stages.len() || mu.len() != stages.len() || nu.len() != 4 {
+            return Err(EvalError {
+                stage: 0,
+                reason: "multipliers not shaped like the problem's dims".into(),
+            });
+        }
+        let t0 = Instant::now();
+        self.for_stages(zx, zu, stages, |w, ctx, k, x, u, ev| {
+            w.hessian(ctx, k, x, u, sigma, &lam[k], &mu[k], &mut ev.hess)
+        });
+        let k_last = self.ctx.horizon;
+        let nx = self.ctx.nx;
+        self.term
+            .hessian_weighted(&self.term_fn, &zx[k_last], nu, &mut self.term_hess);
+        let hk = &mut stages[k_last].hess;
+        for (dst, src) in hk.iter_mut().zip(&self.term_hess[..nx * nx]) {
+            *dst += src;
+        }
+        self.timings.hessian_s += t0.elapsed().as_secs_f64();
+        self.timings.hessian_calls += 1;
+        Ok(())
+    }
+
+    fn check_sizes(
+        &self,
+        zx: &[Vec<f64>],
+        zu: &[Vec<f64>],
+        n_stages: usize,
+    ) -> std::result::Result<(), EvalError> {
         let ok = n_stages == self.work.len()
-            && z.x.len() == self.work.len()
-            && z.u.len() == self.work.len()
-            && z.x
+            && zx.len() == self.work.len()
+            && zu.len() == self.work.len()
+            && zx
                 .iter()
-                .zip(&z.u)
+                .zip(zu)
                 .zip(&self.dims.stages)
                 .all(|((x, u), d)| x.len() == d.nx && u.len() == d.nu);
         if ok {
@@ -965,35 +1057,7 @@ impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
         stages: &mut [StageEval],
         terminal: &mut TerminalEval,
     ) -> std::result::Result<(), EvalError> {
-        self.check_sizes(z, stages.len())?;
-        let t0 = Instant::now();
-        self.for_stages(z, stages, |w, ctx, k, x, u, ev| {
-            w.evaluate(ctx, k, x, u, level, ev)
-        });
-        let xl = &z.x[self.ctx.horizon];
-        let nx = self.ctx.nx;
-        if level == EvalLevel::FirstOrder {
-            self.term.jacobian(
-                &self.term_fn,
-                xl,
-                &mut self.term_val,
-                &mut terminal.jac_r[..4 * nx],
-            );
-        } else {
-            self.term.value(&self.term_fn, xl, &mut self.term_val);
-        }
-        terminal.r[0] = self.term_val[0] - self.target[0];
-        terminal.r[1] = self.term_val[1] - self.target[1];
-        terminal.r[2] = self.term_val[2];
-        terminal.r[3] = self.term_val[3];
-        let dt = t0.elapsed().as_secs_f64();
-        if level == EvalLevel::FirstOrder {
-            self.timings.first_order_s += dt;
-            self.timings.first_order_calls += 1;
-        } else {
-            self.timings.values_s += dt;
-        }
-        Ok(())
+        self.evaluate_parts(&z.x, &z.u, level, stages, terminal)
     }
 
     fn hessians(
@@ -1003,27 +1067,12 @@ impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
         mult: &Multipliers,
         stages: &mut [StageEval],
     ) -> std::result::Result<(), EvalError> {
-        self.check_sizes(z, stages.len())?;
-        if mult.lam.len() != stages.len() || mult.mu.len() != stages.len() || mult.nu.len() != 4 {
+        if mult.lam.len() != stages.len() || mult.mu.len() != stages.len() {
             return Err(EvalError {
                 stage: 0,
                 reason: "multipliers not shaped like the problem's dims".into(),
             });
         }
-        let t0 = Instant::now();
-        self.for_stages(z, stages, |w, ctx, k, x, u, ev| {
-            w.hessian(ctx, k, x, u, sigma, &mult.lam[k], &mult.mu[k], &mut ev.hess)
-        });
-        let k_last = self.ctx.horizon;
-        let nx = self.ctx.nx;
-        self.term
-            .hessian_weighted(&self.term_fn, &z.x[k_last], &mult.nu, &mut self.term_hess);
-        let hk = &mut stages[k_last].hess;
-        for (dst, src) in hk.iter_mut().zip(&self.term_hess[..nx * nx]) {
-            *dst += src;
-        }
-        self.timings.hessian_s += t0.elapsed().as_secs_f64();
-        self.timings.hessian_calls += 1;
-        Ok(())
+        self.hessians_parts(&z.x, &z.u, sigma, &mult.lam, &mult.mu, &mult.nu, stages)
     }
 }

@@ -26,6 +26,31 @@ pub struct SwingTask {
 }
 
 impl SwingTask {
+    /// A swing of a ladder: from the start state `q0`, `qd0` (rad, rad/s; `qd0` empty = at rest) of
+    /// the chain holding `grip` to `bar`, with `obstacles` given in the world frame: the target and the
+    /// obstacles moved into the grip frame (m). The one rule the traverse and the joint multi-swing
+    /// plan use.
+    pub fn on_ladder(
+        q0: &[f64],
+        qd0: &[f64],
+        grip: [f64; 2],
+        bar: [f64; 2],
+        obstacles: &[Circle],
+    ) -> SwingTask {
+        SwingTask {
+            q0: q0.to_vec(),
+            qd0: qd0.to_vec(),
+            target: [bar[0] - grip[0], bar[1] - grip[1]],
+            obstacles: obstacles
+                .iter()
+                .map(|o| Circle {
+                    center: [o.center[0] - grip[0], o.center[1] - grip[1]],
+                    radius: o.radius,
+                })
+                .collect(),
+        }
+    }
+
     /// The paper's Section V-B swing (Figs. 5-6, `scenarios/tracking.toml`): from rest at
     /// `q0 = [-2.35, 0, -1.55, 0]` rad (EE at (-1.014, -0.017) m) to the bar at (0.8, 0) m, no
     /// obstacles, for the 4-link robot of [`Robot::paper`].

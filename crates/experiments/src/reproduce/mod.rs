@@ -113,6 +113,8 @@ pub(crate) struct Results {
     pub(crate) study: Option<crate::parameter_study::ParameterStudy>,
     /// The ladder traverse's `ladder/report.json`.
     pub(crate) ladder: Option<Value>,
+    /// The joint multi-swing plan against swing by swing, `ladder/joint_swings.json`.
+    pub(crate) ladder_joint: Option<Value>,
     pub(crate) quick: bool,
     pub(crate) wall_s: f64,
     pub(crate) cores: usize,
@@ -123,6 +125,9 @@ const LADDER_SCENARIO: &str = "ladder-even.toml";
 
 /// Bars of the ladder traversed by `--quick` (two swings, one of each hand).
 const QUICK_BARS: usize = 3;
+
+/// Swings of the joint multi-swing plan compared with swing-by-swing planning (`--quick`: 2).
+const JOINT_SWINGS: usize = 3;
 
 /// The controllers of the robustness experiment, by run folder name.
 const ROBUSTNESS_RUNS: [&str; 3] = ["mpc", "pd", "open-loop"];
@@ -192,6 +197,25 @@ impl Results {
                     e.to_string(),
                 )
             })?);
+            let path = dir.join("ladder/joint_swings.json");
+            if path.is_file() {
+                let text = std::fs::read_to_string(&path).map_err(|e| {
+                    brachia::Error::invalid(
+                        path.display().to_string(),
+                        "file",
+                        "unreadable",
+                        e.to_string(),
+                    )
+                })?;
+                res.ladder_joint = Some(serde_json::from_str(&text).map_err(|e| {
+                    brachia::Error::invalid(
+                        path.display().to_string(),
+                        "json",
+                        "invalid",
+                        e.to_string(),
+                    )
+                })?);
+            }
         }
         if has("parameter-study") {
             res.study = Some(crate::read::read_parameter_study(
@@ -375,7 +399,20 @@ pub fn reproduce_cancellable(
 
     // issue 14: a ladder traverse on the model plant
     let tr = crate::run_traverse_cancellable(&ll_ladder, cancel)?;
-    write(&tr.folder(&ll_ladder)?, &out.join("ladder"), &mut files)?;
+    let mut ladder_folder = tr.folder(&ll_ladder)?;
+    // the joint multi-swing plan of its first swings against swing-by-swing planning, in the same
+    // folder (written with it)
+    let joint = JOINT_SWINGS.min(ll_ladder.scenario.ladder.bars.len() - 1);
+    match crate::ladder::joint_swings(&ll_ladder, joint, false) {
+        Ok(j) => {
+            if !j.converged() {
+                failures.push(format!("ladder joint plan: {}", j.status));
+            }
+            ladder_folder.add_json("joint_swings.json", &crate::ladder::joint_swings_json(&j));
+        }
+        Err(e) => failures.push(format!("ladder joint plan: {e}")),
+    }
+    write(&ladder_folder, &out.join("ladder"), &mut files)?;
     if !tr.status.completed() {
         failures.push(format!("ladder: {}", tr.status));
     }

@@ -425,6 +425,13 @@ pub(crate) fn summary(res: &Results, failures: &[String], warnings: &[String]) -
                     "duration_s": w["duration_s"],
                 })).collect::<Vec<_>>()),
                 "totals": l["totals"],
+                "joint_swings": res.ladder_joint.as_ref().map(|j| json!({
+                    "swings": j["swings"],
+                    "converged": j["converged"],
+                    "status": j["status"],
+                    "joint": j["joint"],
+                    "swing_by_swing": j["swing_by_swing"],
+                })),
             }),
         );
     }
@@ -850,7 +857,7 @@ pub(crate) fn markdown(
         }
     }
     if let Some(l) = &res.ladder {
-        s.push_str(&ladder_markdown(l, target));
+        s.push_str(&ladder_markdown(l, res.ladder_joint.as_ref(), target));
     }
     s.push_str("## Animations\n\n");
     for (name, what) in ANIMATIONS {
@@ -872,7 +879,7 @@ pub(crate) fn markdown(
 }
 
 /// The ladder section of the report, from the traverse's `report.json` (docs/ladders.md).
-fn ladder_markdown(l: &Value, target: Target) -> String {
+fn ladder_markdown(l: &Value, joint: Option<&Value>, target: Target) -> String {
     let mut s = String::new();
     let f = |v: &Value, d: usize| num(v.as_f64(), d);
     let _ = writeln!(
@@ -909,6 +916,61 @@ fn ladder_markdown(l: &Value, target: Target) -> String {
             "![energy per swing](ladder/energy_per_swing.png)\n\n[The whole traverse](ladder/traverse.gif)\n\n",
         );
     }
+    if let Some(j) = joint {
+        s.push_str(&joint_swings_markdown(j));
+    }
+    s
+}
+
+/// The joint multi-swing plan against swing-by-swing planning, from `ladder/joint_swings.json`.
+fn joint_swings_markdown(j: &Value) -> String {
+    let mut s = String::new();
+    let f = |v: &Value, d: usize| num(v.as_f64(), d);
+    let _ = writeln!(
+        s,
+        "**The first {} swings planned jointly** (one problem sharing the switch states, warm-started \
+         from the swing-by-swing plans; docs/ladders.md, \"The joint multi-swing plan\"): {}.\n\n\
+         | plan | swing | objective | energy eq. 18 (J) | positive work (J) | capture residual (m, m/s) |\n\
+         |---|---|---|---|---|---|",
+        j["swings"],
+        j["status"].as_str().unwrap_or("?"),
+    );
+    for w in j["phases"].as_array().into_iter().flatten() {
+        let _ = writeln!(
+            s,
+            "| swing by swing | {} | {} | {} | {} | - |",
+            w["swing"],
+            f(&w["reference_objective"], 3),
+            f(&w["reference_energy_j"], 3),
+            f(&w["reference_positive_work_j"], 3),
+        );
+    }
+    for w in j["phases"].as_array().into_iter().flatten() {
+        let _ = writeln!(
+            s,
+            "| joint | {} | {} | {} | {} | {:.1e}, {:.1e} |",
+            w["swing"],
+            f(&w["objective"], 3),
+            f(&w["energy_j"], 3),
+            f(&w["positive_work_j"], 3),
+            w["capture_position_m"].as_f64().unwrap_or(f64::NAN),
+            w["capture_speed_m_s"].as_f64().unwrap_or(f64::NAN),
+        );
+    }
+    let (r, t) = (&j["swing_by_swing"], &j["joint"]);
+    let _ = writeln!(
+        s,
+        "\nTotals: objective {} swing by swing, {} joint; energy eq. 18 {} J and {} J; positive work \
+         {} J and {} J; solver iterations {} and {}.\n",
+        f(&r["objective"], 3),
+        f(&t["objective"], 3),
+        f(&r["energy_j"], 3),
+        f(&t["energy_j"], 3),
+        f(&r["positive_work_j"], 2),
+        f(&t["positive_work_j"], 2),
+        r["iterations"],
+        t["iterations"],
+    );
     s
 }
 
