@@ -12,65 +12,24 @@
 //! times every re-plan of every draw and prints median, p99, mean iterations, convergence counts and
 //! the ratios; the criterion groups then time warm and cold over the draws in turn.
 
+use brachia::planning::workload::{disturbed_starts, replan_settings, REPLAN_SEED, REPLAN_T_NOW};
 use brachia::planning::{
     solve, Backend, NlpSettings, OcpNlp, PlannerSettings, SparseNlp, SwingOcp, SwingOcpSpec,
-    SwingPlanner, SwingTask, Transcription,
+    SwingPlanner, SwingTask,
 };
 use brachia::Robot;
 use brachia_ocp::{OcpSettings, Primal, WarmDuals};
 use criterion::{criterion_group, criterion_main, Criterion};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
 
-const T_NOW: f64 = 0.6;
-
-fn task() -> SwingTask {
-    SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    }
-}
-
+/// The bar's re-planning mesh (30 ms knots unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
 fn settings() -> (PlannerSettings, NlpSettings) {
-    (
-        PlannerSettings {
-            transcription: Transcription::MultipleShooting,
-            knot_dt: std::env::var("BRACHIA_REPLAN_KNOT_DT")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(0.03),
-            shooting: brachia::planning::ShootingSettings {
-                substeps: 1,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        NlpSettings {
-            backend: Backend::Ocp,
-            ..Default::default()
-        },
+    replan_settings(
+        std::env::var("BRACHIA_REPLAN_KNOT_DT")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0.03),
     )
-}
-
-/// The 100 seeded draws around `x`, those inside the planner's bounds.
-fn disturbed(s: &PlannerSettings, x: &[f64]) -> Vec<Vec<f64>> {
-    let n = x.len() / 2;
-    let b = &s.bounds;
-    let mut rng = ChaCha8Rng::seed_from_u64(2026);
-    (0..100)
-        .map(|_| {
-            let mut y = x.to_vec();
-            for i in 0..n {
-                y[i] += rng.gen_range(-0.1..0.1);
-                y[n + i] += rng.gen_range(-0.5..0.5);
-            }
-            y
-        })
-        .filter(|y| b.strictly_contains(y))
-        .collect()
 }
 
 fn quantile(v: &[f64], q: f64) -> f64 {
@@ -147,7 +106,7 @@ fn pounce_problem(
         q1_diag: s.q1(n),
         r1_diag: s.r1(n),
         x_start: x.to_vec(),
-        target: task().target,
+        target: SwingTask::paper().target,
         bounds: s.bounds.clone(),
         parallel_min_stages: s.shooting.parallel_min_stages,
     };
@@ -160,7 +119,7 @@ fn pounce_problem(
 
 fn bench(c: &mut Criterion) {
     let robot = Robot::paper();
-    let task = task();
+    let task = SwingTask::paper();
     let (s, nlp) = settings();
     let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp).unwrap();
     if let Some(mu) = std::env::var("BRACHIA_REPLAN_MU")
@@ -175,13 +134,13 @@ fn bench(c: &mut Criterion) {
         .trajectory
         .t
         .iter()
-        .position(|t| (t - T_NOW).abs() < 1e-9)
+        .position(|t| (t - REPLAN_T_NOW).abs() < 1e-9)
         .unwrap();
     let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
-    let states = disturbed(&s, &x_nom);
+    let states = disturbed_starts(&x_nom, &s.bounds, 100, REPLAN_SEED);
     let cp = planner.checkpoint();
     let k = planner.intervals();
-    let t_rem = planner.swing_time() - T_NOW;
+    let t_rem = planner.swing_time() - REPLAN_T_NOW;
 
     // pounce's own solution of the undisturbed full swing: its multipliers warm-start its re-plans
     let pn = NlpSettings {
@@ -254,7 +213,7 @@ fn bench(c: &mut Criterion) {
         for x in &states {
             planner.restore(&cp).unwrap();
             let t0 = Instant::now();
-            let w = planner.replan(T_NOW, x).unwrap();
+            let w = planner.replan(REPLAN_T_NOW, x).unwrap();
             t.push(t0.elapsed().as_secs_f64());
             it += w.iterations;
             conv += usize::from(w.converged() && w.ee_error_m < 1e-6);
@@ -281,7 +240,7 @@ fn bench(c: &mut Criterion) {
     for (d, x) in states.iter().enumerate() {
         planner.restore(&cp).unwrap();
         let t = Instant::now();
-        let w = planner.replan(T_NOW, x).unwrap();
+        let w = planner.replan(REPLAN_T_NOW, x).unwrap();
         tw.push(t.elapsed().as_secs_f64());
         iw += w.iterations;
         cw += usize::from(w.converged() && w.ee_error_m < 1e-6);
@@ -292,9 +251,9 @@ fn bench(c: &mut Criterion) {
         objectives.push(w.objective);
 
         planner.restore(&cp).unwrap();
-        planner.shifted_into(T_NOW, x, &mut z).unwrap();
+        planner.shifted_into(REPLAN_T_NOW, x, &mut z).unwrap();
         let t = Instant::now();
-        let c = planner.replan_cold(T_NOW, x).unwrap();
+        let c = planner.replan_cold(REPLAN_T_NOW, x).unwrap();
         tc.push(t.elapsed().as_secs_f64());
         ic += c.iterations;
         cc += usize::from(c.converged() && c.ee_error_m < 1e-6);
@@ -361,7 +320,7 @@ fn bench(c: &mut Criterion) {
     for (x, obj) in states.iter().zip(&objectives) {
         planner.restore(&cp).unwrap();
         let t = Instant::now();
-        let w = planner.replan(T_NOW, x).unwrap();
+        let w = planner.replan(REPLAN_T_NOW, x).unwrap();
         te.push(t.elapsed().as_secs_f64());
         ie += w.iterations;
         ce += usize::from(w.converged() && w.ee_error_m < 1e-6);
@@ -388,9 +347,9 @@ fn bench(c: &mut Criterion) {
                     i = (i + 1) % states.len();
                     let t = Instant::now();
                     let out = if warm {
-                        planner.replan(T_NOW, &states[i]).unwrap()
+                        planner.replan(REPLAN_T_NOW, &states[i]).unwrap()
                     } else {
-                        planner.replan_cold(T_NOW, &states[i]).unwrap()
+                        planner.replan_cold(REPLAN_T_NOW, &states[i]).unwrap()
                     };
                     total += t.elapsed();
                     std::hint::black_box(out.iterations);

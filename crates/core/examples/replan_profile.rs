@@ -17,44 +17,23 @@
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
-use brachia::planning::{
-    Backend, NlpSettings, PlannerSettings, ShootingSettings, SwingPlanner, SwingTask,
-    Transcription, WarmPrimal,
-};
+use brachia::planning::workload::{disturbed_starts, replan_settings, REPLAN_SEED, REPLAN_T_NOW};
+use brachia::planning::{SwingPlanner, SwingTask, WarmPrimal};
 use brachia::Robot;
 use brachia_ocp::{MuStrategy, WarmDuals};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-
-const T_NOW: f64 = 0.6;
 
 fn main() -> Result<(), brachia::Error> {
     let args: Vec<String> = std::env::args().collect();
     let count: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
     let warm = args.get(2).map(String::as_str) != Some("cold");
     let robot = Robot::paper();
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: std::env::var("BRACHIA_REPLAN_KNOT_DT")
+    let task = SwingTask::paper();
+    let (s, nlp) = replan_settings(
+        std::env::var("BRACHIA_REPLAN_KNOT_DT")
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(0.03),
-        shooting: ShootingSettings {
-            substeps: 1,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
+    );
     let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
     let env = |k: &str| std::env::var(k).ok();
     let w = planner.warm_settings_mut();
@@ -93,23 +72,10 @@ fn main() -> Result<(), brachia::Error> {
         .trajectory
         .t
         .iter()
-        .position(|t| (t - T_NOW).abs() < 1e-9)
+        .position(|t| (t - REPLAN_T_NOW).abs() < 1e-9)
         .expect("a sample at t = 0.6 s");
     let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
-    let n = robot.n();
-    let b = &s.bounds;
-    let mut rng = ChaCha8Rng::seed_from_u64(2026);
-    let states: Vec<Vec<f64>> = (0..100)
-        .map(|_| {
-            let mut y = x_nom.clone();
-            for i in 0..n {
-                y[i] += rng.gen_range(-0.1..0.1);
-                y[n + i] += rng.gen_range(-0.5..0.5);
-            }
-            y
-        })
-        .filter(|y| b.strictly_contains(y))
-        .collect();
+    let states = disturbed_starts(&x_nom, &s.bounds, 100, REPLAN_SEED);
     let cp = planner.checkpoint();
     let mut its = vec![];
     let mut conv = 0;
@@ -122,9 +88,9 @@ fn main() -> Result<(), brachia::Error> {
         }
         planner.restore(&cp)?;
         let o = if warm {
-            planner.replan(T_NOW, x)?
+            planner.replan(REPLAN_T_NOW, x)?
         } else {
-            planner.replan_cold(T_NOW, x)?
+            planner.replan_cold(REPLAN_T_NOW, x)?
         };
         conv += usize::from(o.converged() && o.ee_error_m < 1e-6);
         obj_sum += o.objective;

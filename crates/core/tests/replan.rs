@@ -6,52 +6,23 @@
 //! plan; misuse is refused. Units: s, m, rad, rad/s.
 
 use brachia::model::Robot;
+use brachia::planning::workload::{disturbed_starts, replan_settings};
 use brachia::planning::{
-    Backend, Bounds, MuStrategy, NlpSettings, PlannerSettings, SwingPlanner, SwingTask,
-    Transcription,
+    Bounds, MuStrategy, NlpSettings, PlannerSettings, SwingPlanner, SwingTask,
 };
 use brachia::Error;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 fn tracking_task() -> SwingTask {
     SwingTask::paper()
 }
 
 fn settings() -> (PlannerSettings, NlpSettings) {
-    (
-        PlannerSettings {
-            transcription: Transcription::MultipleShooting,
-            knot_dt: 0.01,
-            shooting: brachia::planning::ShootingSettings {
-                substeps: 1,
-                ..Default::default()
-            },
-            ..Default::default()
-        },
-        NlpSettings {
-            backend: Backend::Ocp,
-            ..Default::default()
-        },
-    )
+    replan_settings(0.01)
 }
 
-/// `count` disturbed copies of `x` (seeded), those inside the bounds.
+/// `count` disturbed copies of `x` (seeded), those inside the default bounds.
 fn disturbed(x: &[f64], count: usize, seed: u64) -> Vec<Vec<f64>> {
-    let n = x.len() / 2;
-    let b = Bounds::default();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    (0..count)
-        .map(|_| {
-            let mut y = x.to_vec();
-            for i in 0..n {
-                y[i] += rng.gen_range(-0.1..0.1);
-                y[n + i] += rng.gen_range(-0.5..0.5);
-            }
-            y
-        })
-        .filter(|y| b.strictly_contains(y))
-        .collect()
+    disturbed_starts(x, &Bounds::default(), count, seed)
 }
 
 #[test]

@@ -13,9 +13,9 @@
 use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
+use brachia::planning::workload::replan_settings;
 use brachia::planning::{
-    plan, Backend, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
-    Transcription,
+    plan, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
 };
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStatus};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -46,26 +46,9 @@ static GLOBAL: Counting = Counting;
 /// The tracking swing's task, multiple-shooting settings at `knot_dt` with the stage-parallelism
 /// threshold, and the Riccati backend.
 fn problem(knot_dt: f64, parallel_min_stages: usize) -> (SwingTask, PlannerSettings, NlpSettings) {
-    let task = SwingTask {
-        q0: vec![-2.35, 0.0, -1.55, 0.0],
-        qd0: vec![],
-        target: [0.8, 0.0],
-        obstacles: vec![],
-    };
-    let mut s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt,
-        shooting: brachia::planning::ShootingSettings {
-            substeps: 1,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
+    let (mut s, nlp) = replan_settings(knot_dt);
     s.shooting.parallel_min_stages = parallel_min_stages;
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
+    let task = SwingTask::paper();
     (task, s, nlp)
 }
 

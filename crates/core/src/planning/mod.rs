@@ -18,6 +18,7 @@ pub mod settings;
 pub mod shooting;
 pub mod swing_planner;
 pub mod task;
+pub mod workload;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks};
 pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};

@@ -691,35 +691,15 @@ mod tests {
     //! one RK4 step, K = 74; the set of `benches/replan.rs`: the planned state at t = 0.6 s disturbed
     //! by uniform +-0.1 rad and +-0.5 rad/s per joint, seeded).
     use super::*;
-    use crate::planning::{Backend, ShootingSettings, Transcription};
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    const T_NOW: f64 = 0.6;
+    use crate::planning::workload::{
+        disturbed_starts, replan_settings, REPLAN_SEED, REPLAN_T_NOW as T_NOW,
+    };
 
     /// The planner after its cold plan, and the 100 seeded disturbed states (those inside the
     /// bounds).
     fn planned() -> (SwingPlanner, Vec<Vec<f64>>) {
-        let task = SwingTask {
-            q0: vec![-2.35, 0.0, -1.55, 0.0],
-            qd0: vec![],
-            target: [0.8, 0.0],
-            obstacles: vec![],
-        };
-        let s = PlannerSettings {
-            transcription: Transcription::MultipleShooting,
-            knot_dt: 0.03,
-            shooting: ShootingSettings {
-                substeps: 1,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        let nlp = NlpSettings {
-            backend: Backend::Ocp,
-            ..Default::default()
-        };
-        let mut planner = SwingPlanner::new(Robot::paper(), task, &s, &nlp).unwrap();
+        let (s, nlp) = replan_settings(0.03);
+        let mut planner = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
         let p = planner.plan().unwrap();
         assert!(p.converged(), "{:?}", p.status);
         let j = p
@@ -729,19 +709,7 @@ mod tests {
             .position(|t| (t - T_NOW).abs() < 1e-9)
             .unwrap();
         let x_nom = [p.trajectory.q(j), p.trajectory.qd(j)].concat();
-        let (n, b) = (4, &s.bounds);
-        let mut rng = ChaCha8Rng::seed_from_u64(2026);
-        let states = (0..100)
-            .map(|_| {
-                let mut y = x_nom.clone();
-                for i in 0..n {
-                    y[i] += rng.gen_range(-0.1..0.1);
-                    y[n + i] += rng.gen_range(-0.5..0.5);
-                }
-                y
-            })
-            .filter(|y| b.strictly_contains(y))
-            .collect();
+        let states = disturbed_starts(&x_nom, &s.bounds, 100, REPLAN_SEED);
         (planner, states)
     }
 
