@@ -5,16 +5,14 @@
 //! (capture rows fixed, the later swings' knot 0 free); the map's Jacobian against the map.
 //! Units: rad, rad/s, N m, s, m.
 
-use brachia::fdcheck::{assert_hessian, assert_jacobian};
+use brachia::fdcheck::{assert_jacobian, assert_ocp_derivatives};
 mod common;
 
 use brachia::model::{reroot_jacobian, reroot_state, Circle, ClearanceFn, LinkParams, Robot};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{Bounds, MultiSwingOcp, SwingOcp, SwingOcpSpec};
-use brachia_ocp::{
-    EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval,
-};
-use common::chain_robot;
+use brachia_ocp::{EvalLevel, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval};
+use common::{chain_robot, random_multipliers};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{PI, TAU};
@@ -119,139 +117,19 @@ fn eval(ocp: &mut MultiSwingOcp, z: &Primal, level: EvalLevel) -> Bufs {
     b
 }
 
-fn set_stage(z: &mut Primal, k: usize, v: &[f64]) {
-    let nx = z.x[k].len();
-    z.x[k].copy_from_slice(&v[..nx]);
-    z.u[k].copy_from_slice(&v[nx..]);
-}
-
-fn stage_vec(z: &Primal, k: usize) -> Vec<f64> {
-    [z.x[k].as_slice(), z.u[k].as_slice()].concat()
-}
-
-/// Gradient w.r.t. z_k of sigma l_k + lam_k^T f_k + mu_k^T c_k (+ nu^T r at the last stage).
-fn stage_lagrangian_gradient(
-    b: &Bufs,
-    k: usize,
-    sigma: f64,
-    m: &Multipliers,
-    k_last: usize,
-    out: &mut [f64],
-) {
-    let ev = &b.stages[k];
-    let nz = ev.grad.len();
-    for j in 0..nz {
-        let mut v = sigma * ev.grad[j];
-        for (r, l) in m.lam[k].iter().enumerate() {
-            v += l * ev.jac_f[r * nz + j];
-        }
-        for (r, l) in m.mu[k].iter().enumerate() {
-            v += l * ev.jac_c[r * nz + j];
-        }
-        if k == k_last {
-            for (r, l) in m.nu.iter().enumerate() {
-                v += l * b.term.jac_r[r * nz + j];
-            }
-        }
-        out[j] = v;
-    }
-}
-
 fn check_all_derivatives(robot: &Robot, swings: usize, seed: u64) {
     let n = robot.n();
     let mut ocp = joint(robot, swings);
     let mut probe = joint(robot, swings);
     let dims = ocp.dims().clone();
-    let k_last = dims.horizon();
+    let boundaries = dims.stages.iter().filter(|s| s.nx == 2 * n + 4).count();
+    assert_eq!(boundaries, swings - 1, "one boundary stage per switch");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let z = random_point(&mut rng, &dims);
-    let b = eval(&mut ocp, &z, EvalLevel::FirstOrder);
-    let mut boundaries = 0;
-    for k in 0..=k_last {
-        let ev = &b.stages[k];
-        let zk = stage_vec(&z, k);
-        let (nf, nc) = (ev.f.len(), ev.c.len());
-        if dims.stages[k].nx == 2 * n + 4 {
-            boundaries += 1;
-        }
-        if nf + nc > 0 {
-            let exact = [ev.jac_f.as_slice(), ev.jac_c.as_slice()].concat();
-            let mut zp = z.clone();
-            assert_jacobian(
-                &format!("n={n} swings={swings} stage {k}: [f; c] Jacobian"),
-                |v, out| {
-                    set_stage(&mut zp, k, v);
-                    let e = eval(&mut probe, &zp, EvalLevel::Values);
-                    out[..nf].copy_from_slice(&e.stages[k].f);
-                    out[nf..].copy_from_slice(&e.stages[k].c);
-                },
-                &zk,
-                &exact,
-                1e-6,
-            );
-        }
-        let mut zp = z.clone();
-        assert_jacobian(
-            &format!("n={n} swings={swings} stage {k}: cost gradient"),
-            |v, out| {
-                set_stage(&mut zp, k, v);
-                out[0] = eval(&mut probe, &zp, EvalLevel::Values).stages[k].cost;
-            },
-            &zk,
-            &ev.grad,
-            1e-7,
-        );
-    }
-    assert_eq!(boundaries, swings - 1, "one boundary stage per switch");
-    let xk = z.x[k_last].clone();
-    let mut zp = z.clone();
-    assert_jacobian(
-        &format!("n={n} swings={swings}: terminal Jacobian"),
-        |v, out| {
-            zp.x[k_last].copy_from_slice(v);
-            out.copy_from_slice(&eval(&mut probe, &zp, EvalLevel::Values).term.r);
-        },
-        &xk,
-        &b.term.jac_r,
-        1e-7,
-    );
-
-    // Hessians of the stage Lagrangians (random multipliers, the boundary ones included)
-    let mut m = Multipliers::zeros(&dims);
-    for v in m
-        .lam
-        .iter_mut()
-        .chain(m.mu.iter_mut())
-        .flat_map(|v| v.iter_mut())
-        .chain(m.nu.iter_mut())
-    {
-        *v = rng.gen_range(-1.0..1.0);
-    }
-    let sigma = 0.7;
-    let mut hb = bufs(&dims);
-    ocp.hessians(&z, sigma, &m, &mut hb.stages).unwrap();
-    for k in 0..=k_last {
-        let zk = stage_vec(&z, k);
-        let nz = zk.len();
-        let hess = hb.stages[k].hess.clone();
-        for a in 0..nz {
-            for c in 0..nz {
-                assert_eq!(hess[a * nz + c], hess[c * nz + a], "stage {k} symmetric");
-            }
-        }
-        let mut zp = z.clone();
-        assert_hessian(
-            &format!("n={n} swings={swings} stage {k}: Lagrangian Hessian"),
-            |v, out| {
-                set_stage(&mut zp, k, v);
-                let e = eval(&mut probe, &zp, EvalLevel::FirstOrder);
-                stage_lagrangian_gradient(&e, k, sigma, &m, k_last, out);
-            },
-            &zk,
-            &hess,
-            1e-5,
-        );
-    }
+    // random multipliers, the boundary transitions' included
+    let m = random_multipliers(&mut rng, &dims);
+    let what = format!("n={n} swings={swings}");
+    assert_ocp_derivatives(&what, &mut ocp, &mut probe, &z, 0.7, &m);
 }
 
 #[test]

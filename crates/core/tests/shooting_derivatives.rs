@@ -4,7 +4,7 @@
 //! against `brachia::integrate::Rk4` on the same inputs. Robots with n = 3, 4 and 6 links; one and three
 //! RK4 sub-steps. Units: rad, rad/s, N m, s, m.
 
-use brachia::fdcheck::{assert_hessian, assert_jacobian};
+use brachia::fdcheck::assert_ocp_derivatives;
 use brachia::integrate::Rk4;
 mod common;
 
@@ -13,8 +13,8 @@ use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
     AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
 };
-use brachia_ocp::{EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageEval, TerminalEval};
-use common::chain_robot;
+use brachia_ocp::{EvalLevel, OcpDims, OcpProblem, Primal, StageEval, TerminalEval};
+use common::{chain_robot, random_multipliers};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -106,145 +106,16 @@ fn eval(ocp: &mut dyn OcpProblem, z: &Primal, level: EvalLevel) -> Bufs {
     b
 }
 
-fn set_stage(z: &mut Primal, k: usize, v: &[f64]) {
-    let nx = z.x[k].len();
-    z.x[k].copy_from_slice(&v[..nx]);
-    z.u[k].copy_from_slice(&v[nx..]);
-}
-
-fn stage_vec(z: &Primal, k: usize) -> Vec<f64> {
-    [z.x[k].as_slice(), z.u[k].as_slice()].concat()
-}
-
-fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
-    let mut m = Multipliers::zeros(dims);
-    for v in m
-        .lam
-        .iter_mut()
-        .chain(m.mu.iter_mut())
-        .flat_map(|v| v.iter_mut())
-        .chain(m.nu.iter_mut())
-    {
-        *v = rng.gen_range(-1.0..1.0);
-    }
-    m
-}
-
-/// Gradient w.r.t. z_k of sigma l_k + lam_k^T f_k + mu_k^T c_k (+ nu^T r at the last stage).
-fn stage_lagrangian_gradient(
-    b: &Bufs,
-    k: usize,
-    sigma: f64,
-    m: &Multipliers,
-    k_last: usize,
-    out: &mut [f64],
-) {
-    let ev = &b.stages[k];
-    let nz = ev.grad.len();
-    for j in 0..nz {
-        let mut v = sigma * ev.grad[j];
-        for (r, l) in m.lam[k].iter().enumerate() {
-            v += l * ev.jac_f[r * nz + j];
-        }
-        for (r, l) in m.mu[k].iter().enumerate() {
-            v += l * ev.jac_c[r * nz + j];
-        }
-        if k == k_last {
-            for (r, l) in m.nu.iter().enumerate() {
-                v += l * b.term.jac_r[r * nz + j];
-            }
-        }
-        out[j] = v;
-    }
-}
-
 fn check_all_derivatives<D: PointDynamics>(robot: &Robot, substeps: usize, seed: u64) {
-    let n = robot.n();
     let intervals = 3;
     let mut ocp: SwingOcp<D> = problem(robot, intervals, substeps);
     let mut probe: SwingOcp<D> = problem(robot, intervals, substeps);
     assert!(ocp.n_clearance() > 0);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let z = random_point(&mut rng, ocp.dims());
-    let b = eval(&mut ocp, &z, EvalLevel::FirstOrder);
-    let k_last = intervals;
-    for k in 0..=k_last {
-        let ev = &b.stages[k];
-        let zk = stage_vec(&z, k);
-        let nz = zk.len();
-        // Jacobian of [f_k; c_k] w.r.t. z_k
-        let (nf, nc) = (ev.f.len(), ev.c.len());
-        let exact = [ev.jac_f.as_slice(), ev.jac_c.as_slice()].concat();
-        if nf + nc > 0 {
-            let mut zp = z.clone();
-            assert_jacobian(
-                &format!("n={n} substeps={substeps} stage {k}: [Phi; clearance] Jacobian"),
-                |v, out| {
-                    set_stage(&mut zp, k, v);
-                    let e = eval(&mut probe, &zp, EvalLevel::Values);
-                    out[..nf].copy_from_slice(&e.stages[k].f);
-                    out[nf..].copy_from_slice(&e.stages[k].c);
-                },
-                &zk,
-                &exact,
-                1e-6,
-            );
-        }
-        // cost gradient
-        let mut zp = z.clone();
-        assert_jacobian(
-            &format!("n={n} stage {k}: cost gradient"),
-            |v, out| {
-                set_stage(&mut zp, k, v);
-                out[0] = eval(&mut probe, &zp, EvalLevel::Values).stages[k].cost;
-            },
-            &zk,
-            &ev.grad,
-            1e-7,
-        );
-        assert_eq!(ev.grad.len(), nz);
-    }
-    // terminal rows on x_K
-    let xk = z.x[k_last].clone();
-    let mut zp = z.clone();
-    assert_jacobian(
-        &format!("n={n}: terminal Jacobian"),
-        |v, out| {
-            zp.x[k_last].copy_from_slice(v);
-            out.copy_from_slice(&eval(&mut probe, &zp, EvalLevel::Values).term.r);
-        },
-        &xk,
-        &b.term.jac_r,
-        1e-7,
-    );
-
-    // Hessians of the stage Lagrangians
     let m = random_multipliers(&mut rng, ocp.dims());
-    let sigma = 0.7;
-    let mut hb = bufs(ocp.dims());
-    ocp.hessians(&z, sigma, &m, &mut hb.stages).unwrap();
-    for k in 0..=k_last {
-        let zk = stage_vec(&z, k);
-        let mut zp = z.clone();
-        let hess = hb.stages[k].hess.clone();
-        let nz = zk.len();
-        for a in 0..nz {
-            for c in 0..nz {
-                assert_eq!(hess[a * nz + c], hess[c * nz + a], "stage {k} symmetric");
-            }
-        }
-        assert_hessian(
-            &format!("n={n} substeps={substeps} stage {k}: Lagrangian Hessian"),
-            |v, out| {
-                set_stage(&mut zp, k, v);
-                let e = eval(&mut probe, &zp, EvalLevel::FirstOrder);
-                stage_lagrangian_gradient(&e, k, sigma, &m, k_last, out);
-            },
-            &zk,
-            &hess,
-            1e-5,
-        );
-    }
+    let what = format!("n={} substeps={substeps}", robot.n());
+    assert_ocp_derivatives(&what, &mut ocp, &mut probe, &z, 0.7, &m);
 }
 
 #[test]

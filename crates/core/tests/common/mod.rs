@@ -5,6 +5,9 @@
 use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
+use brachia_ocp::{Multipliers, OcpDims};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
 
 /// The paper's start pose, at rest.
 pub const Q_START: [f64; 4] = [-2.35, 0.0, -1.55, 0.0];
@@ -73,4 +76,20 @@ pub fn start_state() -> Vec<f64> {
     let mut x = Q_START.to_vec();
     x.extend([0.0; 4]);
     x
+}
+
+/// Multipliers of `dims` (transitions, stage rows, terminal rows) drawn uniformly from (-1, 1), for
+/// the Lagrangian-Hessian checks of [`brachia::fdcheck::assert_ocp_derivatives`].
+pub fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
+    let mut m = Multipliers::zeros(dims);
+    for v in m
+        .lam
+        .iter_mut()
+        .chain(m.mu.iter_mut())
+        .flat_map(|v| v.iter_mut())
+        .chain(m.nu.iter_mut())
+    {
+        *v = rng.gen_range(-1.0..1.0);
+    }
+    m
 }
