@@ -193,15 +193,9 @@ struct OcpBuffers {
 }
 
 fn ocp_buffers(d: &brachia_ocp::OcpDims) -> OcpBuffers {
-    let k_last = d.horizon();
     OcpBuffers {
-        stages: (0..=k_last)
-            .map(|k| {
-                let next = if k < k_last { d.stages[k + 1].nx } else { 0 };
-                brachia_ocp::StageEval::zeros(d.stages[k], next)
-            })
-            .collect(),
-        term: brachia_ocp::TerminalEval::zeros(d.n_terminal, d.stages[k_last].nx),
+        stages: d.stage_evals(),
+        term: d.terminal_eval(),
     }
 }
 

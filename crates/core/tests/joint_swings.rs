@@ -102,12 +102,9 @@ struct Bufs {
 }
 
 fn bufs(d: &OcpDims) -> Bufs {
-    let k_last = d.horizon();
     Bufs {
-        stages: (0..=k_last)
-            .map(|k| StageEval::zeros(d.stages[k], if k < k_last { d.stages[k + 1].nx } else { 0 }))
-            .collect(),
-        term: TerminalEval::zeros(d.n_terminal, d.stages[k_last].nx),
+        stages: d.stage_evals(),
+        term: d.terminal_eval(),
     }
 }
 

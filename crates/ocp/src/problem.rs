@@ -55,6 +55,24 @@ impl OcpDims {
     pub fn horizon(&self) -> usize {
         self.stages.len().saturating_sub(1)
     }
+
+    /// Zeroed evaluation buffers for these sizes: one [`StageEval`] per stage (stage k's transition
+    /// into the next stage's state, none at the last), as [`OcpProblem::evaluate`] takes them.
+    pub fn stage_evals(&self) -> Vec<StageEval> {
+        let k_last = self.horizon();
+        (0..self.stages.len())
+            .map(|k| {
+                let next = if k < k_last { self.stages[k + 1].nx } else { 0 };
+                StageEval::zeros(self.stages[k], next)
+            })
+            .collect()
+    }
+
+    /// A zeroed [`TerminalEval`] for these sizes (the terminal rows on the last stage's state).
+    pub fn terminal_eval(&self) -> TerminalEval {
+        let nx_last = self.stages.last().map_or(0, |s| s.nx);
+        TerminalEval::zeros(self.n_terminal, nx_last)
+    }
 }
 
 /// Bounds of one stage; arrive filled with `-inf` / `+inf`.
@@ -245,4 +263,49 @@ pub trait OcpProblem {
         mult: &Multipliers,
         stages: &mut [StageEval],
     ) -> Result<(), EvalError>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn evaluation_buffers_follow_stage_varying_sizes() {
+        let dims = OcpDims {
+            stages: vec![
+                StageDims {
+                    nx: 2,
+                    nu: 1,
+                    nc: 1,
+                },
+                StageDims {
+                    nx: 3,
+                    nu: 0,
+                    nc: 0,
+                },
+                StageDims {
+                    nx: 4,
+                    nu: 2,
+                    nc: 3,
+                },
+            ],
+            n_terminal: 2,
+        };
+        let st = dims.stage_evals();
+        assert_eq!(st.len(), 3);
+        assert_eq!(
+            (st[0].f.len(), st[0].jac_f.len(), st[0].grad.len()),
+            (3, 9, 3)
+        );
+        assert_eq!(
+            (st[1].f.len(), st[1].jac_f.len(), st[1].hess.len()),
+            (4, 12, 9)
+        );
+        assert_eq!(
+            (st[2].f.len(), st[2].c.len(), st[2].jac_c.len()),
+            (0, 3, 18)
+        );
+        let term = dims.terminal_eval();
+        assert_eq!((term.r.len(), term.jac_r.len()), (2, 8));
+    }
 }

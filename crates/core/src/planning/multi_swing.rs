@@ -496,12 +496,7 @@ fn swing_task(x: &[f64], grip: [f64; 2], bar: [f64; 2], obstacles: &[Circle]) ->
 
 /// The cost of `ocp` at its knots `z` (values only; infinite when the evaluation fails).
 fn phase_cost(ocp: &mut SwingOcp, z: &Primal) -> f64 {
-    let d = ocp.dims().clone();
-    let k_last = d.horizon();
-    let mut st: Vec<StageEval> = (0..=k_last)
-        .map(|k| StageEval::zeros(d.stages[k], if k < k_last { d.stages[k + 1].nx } else { 0 }))
-        .collect();
-    let mut term = TerminalEval::zeros(4, d.stages[k_last].nx);
+    let (mut st, mut term) = (ocp.dims().stage_evals(), ocp.dims().terminal_eval());
     match ocp.evaluate(z, EvalLevel::Values, &mut st, &mut term) {
         Ok(()) => st.iter().map(|s| s.cost).sum(),
         Err(_) => f64::INFINITY,
@@ -510,12 +505,8 @@ fn phase_cost(ocp: &mut SwingOcp, z: &Primal) -> f64 {
 
 /// The largest defect of `ocp`'s transitions at `z` (values only; infinite when the evaluation fails).
 fn max_defect(ocp: &mut MultiSwingOcp, z: &Primal) -> f64 {
-    let d = ocp.dims().clone();
-    let k_last = d.horizon();
-    let mut st: Vec<StageEval> = (0..=k_last)
-        .map(|k| StageEval::zeros(d.stages[k], if k < k_last { d.stages[k + 1].nx } else { 0 }))
-        .collect();
-    let mut term = TerminalEval::zeros(4, d.stages[k_last].nx);
+    let k_last = ocp.dims().horizon();
+    let (mut st, mut term) = (ocp.dims().stage_evals(), ocp.dims().terminal_eval());
     if ocp
         .evaluate(z, EvalLevel::Values, &mut st, &mut term)
         .is_err()

@@ -84,13 +84,8 @@ impl<P: OcpProblem> OcpNlp<P> {
                 b
             })
             .collect();
-        let stages = (0..=k_last)
-            .map(|k| {
-                let next = if k < k_last { dims.stages[k + 1].nx } else { 0 };
-                StageEval::zeros(dims.stages[k], next)
-            })
-            .collect();
-        let terminal = TerminalEval::zeros(dims.n_terminal, dims.stages[k_last].nx);
+        let stages = dims.stage_evals();
+        let terminal = dims.terminal_eval();
         OcpNlp {
             primal: Primal::zeros(&dims),
             mult: Multipliers::zeros(&dims),

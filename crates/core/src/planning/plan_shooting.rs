@@ -22,7 +22,6 @@ use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::{hermite_basis, Trajectory};
 use brachia_ocp::{
     EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
-    StageEval, TerminalEval,
 };
 use std::sync::Arc;
 
@@ -353,13 +352,7 @@ pub(super) fn finish_plan(
 fn violations(ocp: &mut SwingOcp, z: &Primal) -> Violations {
     let dims = ocp.dims().clone();
     let k_last = dims.horizon();
-    let mut stages: Vec<StageEval> = (0..=k_last)
-        .map(|k| {
-            let next = if k < k_last { dims.stages[k + 1].nx } else { 0 };
-            StageEval::zeros(dims.stages[k], next)
-        })
-        .collect();
-    let mut term = TerminalEval::zeros(dims.n_terminal, dims.stages[k_last].nx);
+    let (mut stages, mut term) = (dims.stage_evals(), dims.terminal_eval());
     if ocp
         .evaluate(z, EvalLevel::Values, &mut stages, &mut term)
         .is_err()

@@ -1,8 +1,9 @@
 //! The reference re-planning workload of the fast-planner bars (docs/benchmarks.md, "Re-planning"):
-//! the paper's tracking swing ([`SwingTask::paper`], params/paper.toml, T automatic) planned by multiple
-//! shooting on the Riccati backend with one RK4 step per interval, then re-planned from its planned
-//! state at [`REPLAN_T_NOW`] disturbed by uniform `+-`[`REPLAN_DQ_RAD`] on every angle and
-//! `+-`[`REPLAN_DQD_RAD_S`] on every rate (seeded draws, those strictly inside the bounds).
+//! the paper's tracking swing ([`SwingTask::paper`](super::SwingTask::paper), params/paper.toml, T
+//! automatic) planned by multiple shooting on the Riccati backend with one RK4 step per interval, then
+//! re-planned from its planned state at [`REPLAN_T_NOW`] disturbed by uniform `+-`[`REPLAN_DQ_RAD`] on
+//! every angle and `+-`[`REPLAN_DQD_RAD_S`] on every rate (seeded draws, those strictly inside the
+//! bounds).
 //!
 //! One place for the workload, so that the criterion bench (`benches/replan.rs`), the instruction-count
 //! example (`examples/replan_profile.rs`) and the tests re-plan the same draws and their figures compare.
