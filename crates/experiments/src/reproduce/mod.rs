@@ -22,7 +22,7 @@ mod study;
 
 use crate::plan_run::{run_plan, PlanRun};
 use crate::progress::{CancelToken, ProgressFn};
-use crate::read::{PlanFolder, TrackFolder};
+use crate::read::{read_json, PlanFolder, TrackFolder};
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind, Scenario};
 use crate::track_run::{run_track, track_plan, TrackOutcome, TrackRun};
 use crate::ExpError;
@@ -180,41 +180,10 @@ impl Results {
             });
         }
         if has("ladder") {
-            let path = dir.join("ladder/report.json");
-            let text = std::fs::read_to_string(&path).map_err(|e| {
-                brachia::Error::invalid(
-                    path.display().to_string(),
-                    "file",
-                    "unreadable",
-                    e.to_string(),
-                )
-            })?;
-            res.ladder = Some(serde_json::from_str(&text).map_err(|e| {
-                brachia::Error::invalid(
-                    path.display().to_string(),
-                    "json",
-                    "invalid",
-                    e.to_string(),
-                )
-            })?);
+            res.ladder = Some(read_json(&dir.join("ladder/report.json"))?);
             let path = dir.join("ladder/joint_swings.json");
             if path.is_file() {
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    brachia::Error::invalid(
-                        path.display().to_string(),
-                        "file",
-                        "unreadable",
-                        e.to_string(),
-                    )
-                })?;
-                res.ladder_joint = Some(serde_json::from_str(&text).map_err(|e| {
-                    brachia::Error::invalid(
-                        path.display().to_string(),
-                        "json",
-                        "invalid",
-                        e.to_string(),
-                    )
-                })?);
+                res.ladder_joint = Some(read_json(&path)?);
             }
         }
         if has("parameter-study") {
