@@ -188,6 +188,16 @@ impl Primal {
             u: dims.stages.iter().map(|d| vec![0.0; d.nu]).collect(),
         }
     }
+
+    /// Copy `src`, shaped like `self`, into `self` (no allocation). Panics on another shape.
+    pub fn copy_from(&mut self, src: &Primal) {
+        for (dst, s) in self.x.iter_mut().zip(&src.x) {
+            dst.copy_from_slice(s);
+        }
+        for (dst, s) in self.u.iter_mut().zip(&src.u) {
+            dst.copy_from_slice(s);
+        }
+    }
 }
 
 /// Multipliers of the equality and inequality constraints (see the module docs for the signs).

@@ -255,12 +255,7 @@ impl OcpProblem for MultiSwingOcp {
     }
 
     fn initial_guess(&self, z: &mut Primal) {
-        for (dst, src) in z.x.iter_mut().zip(&self.guess.x) {
-            dst.copy_from_slice(src);
-        }
-        for (dst, src) in z.u.iter_mut().zip(&self.guess.u) {
-            dst.copy_from_slice(src);
-        }
+        z.copy_from(&self.guess);
     }
 
     fn evaluate(
