@@ -2,7 +2,8 @@
 
 A thin layer over the Rust library (the extension module ``brachia._brachia``): the planar n-link
 model (``Robot``), the direct-collocation planner (``plan`` -> ``Plan``), the linear MPC tracker
-(``Mpc``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
+(``Mpc``), the persistent planner that re-plans warm from measured states (``SwingPlanner``
+-> ``ReplanOutcome``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
 (``track`` -> ``TrackResult``) and scenario files (``Scenario``).
 
 Conventions (SI units throughout: m, kg, s, rad, N m, J): planar, grip point at the origin, x right,
@@ -21,8 +22,10 @@ from ._brachia import (
     Mpc,
     Plan,
     RapierPlant,
+    ReplanOutcome,
     Robot,
     Scenario,
+    SwingPlanner,
     TrackResult,
     Trajectory,
     plan,
@@ -36,8 +39,10 @@ __all__ = [
     "Mpc",
     "Plan",
     "RapierPlant",
+    "ReplanOutcome",
     "Robot",
     "Scenario",
+    "SwingPlanner",
     "TrackResult",
     "Trajectory",
     "plan",

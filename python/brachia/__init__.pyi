@@ -165,6 +165,67 @@ def plan(
 ) -> Plan:
     """Plan an energy-optimal swing; settings = [planner] fields plus ``solver`` = [solver] fields."""
 
+class ReplanOutcome:
+    """How one plan or re-plan of a ``SwingPlanner`` ended (check ``converged``)."""
+
+    @property
+    def status(self) -> str: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def solve_time_s(self) -> float: ...
+    @property
+    def objective(self) -> float: ...
+    @property
+    def t_start(self) -> float:
+        """Absolute time of the first knot (t_now; 0 for a full plan), s."""
+    @property
+    def interval_s(self) -> float: ...
+    @property
+    def ee_final(self) -> Array:
+        """End-effector position at the last knot, shape (2,), m."""
+    @property
+    def ee_error_m(self) -> float: ...
+
+class SwingPlanner:
+    """The persistent multiple-shooting planner: a cold plan, then warm re-plans from measured states."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        task: dict[str, Any],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    def plan(self) -> Plan:
+        """Cold plan of the whole swing from the task's start state."""
+    def replan(self, t_now: float, x_now: ArrayLike) -> ReplanOutcome:
+        """Warm re-plan from state x_now = [q, qd] (2n) at absolute time t_now (s, in [0, T))."""
+    def replan_cold(self, t_now: float, x_now: ArrayLike) -> ReplanOutcome:
+        """The same re-plan started cold, for comparison."""
+    def current_plan(self) -> Plan:
+        """The current solution as a Plan (its own clock, 0 at its first knot)."""
+    @property
+    def has_plan(self) -> bool: ...
+    @property
+    def swing_time(self) -> float:
+        """The full swing time T, s."""
+    @property
+    def intervals(self) -> int:
+        """Number of intervals K (fixed)."""
+    @property
+    def target(self) -> Array: ...
+    def set_target(self, target: ArrayLike) -> None:
+        """Move the target bar (m) for the next plan or re-plan."""
+    def knot_times(self) -> Array:
+        """Absolute knot times, shape (K + 1,), s."""
+    def knot_states(self) -> Array:
+        """Knot states [q, qd], shape (K + 1, 2n)."""
+    def knot_torques(self) -> Array:
+        """Torques held over each interval, shape (K, n - 1), N m."""
+
 class Mpc:
     """The linear MPC tracker (paper Section IV)."""
 

@@ -24,6 +24,7 @@ mod control;
 mod convert;
 mod model;
 mod planning;
+mod replan;
 mod scenario;
 mod sim;
 
@@ -43,6 +44,8 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::Robot>()?;
     m.add_class::<model::Trajectory>()?;
     m.add_class::<planning::Plan>()?;
+    m.add_class::<replan::SwingPlanner>()?;
+    m.add_class::<replan::ReplanOutcome>()?;
     m.add_class::<control::Mpc>()?;
     m.add_class::<sim::ModelPlant>()?;
     m.add_class::<sim::RapierPlant>()?;

@@ -234,6 +234,18 @@ pub(crate) fn plan(
     let p = py
         .detach(|| brachia::planning::plan(&r, &task, &planner, &nlp))
         .map_err(rs)?;
+    Ok(plan_with_report(r, task, planner, nlp, p))
+}
+
+/// A library plan of `task` wrapped with the report `brachia plan` would write for it (the scenario
+/// named "python", its robot and settings those of the call).
+pub(crate) fn plan_with_report(
+    robot: Arc<brachia::Robot>,
+    task: SwingTask,
+    planner: PlannerSettings,
+    nlp: NlpSettings,
+    p: brachia::planning::Plan,
+) -> Plan {
     let ls = LoadedScenario {
         scenario: Scenario {
             name: "python".into(),
@@ -245,9 +257,9 @@ pub(crate) fn plan(
             plant: Default::default(),
             disturbances: Default::default(),
         },
-        robot: (*r).clone(),
+        robot: (*robot).clone(),
         path: Path::new("<python>").to_path_buf(),
     };
     let report = brachia_experiments::plan_report(&ls, &p);
-    Ok(Plan::new(r, p, report, None))
+    Plan::new(robot, p, report, None)
 }

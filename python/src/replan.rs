@@ -1,0 +1,310 @@
+//! `SwingPlanner`, the persistent planner (`brachia::planning::SwingPlanner`): the problem and the
+//! solver's workspace built once, a cold plan, then warm re-plans from measured states; and the
+//! `ReplanOutcome` a re-plan returns.
+//!
+//! Units and conventions as everywhere in brachia: s, m, rad, rad/s, N m; `x = [q (n), qd (n)]`,
+//! `q[0]` absolute from +x, the rest relative; torques of joints 2..n. Knot times are absolute (0 at
+//! the start of the swing); a `Plan` of a re-plan runs on its own clock, 0 at `t_now`.
+
+use crate::convert::{arr1, arr2, bad, read_vector, rs};
+use crate::model::Robot;
+use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
+use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
+use brachia_experiments::parameter_study::status_name;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// How one plan or re-plan of a ``SwingPlanner`` ended: the solver's status and diagnostics.
+///
+/// ``t_start`` is the absolute time of the solution's first knot (``t_now``; 0 for a full plan),
+/// ``interval_s`` the time between knots, ``ee_final`` the end-effector position at the last knot (m)
+/// and ``ee_error_m`` its distance from the target.
+#[pyclass(module = "brachia", frozen)]
+pub struct ReplanOutcome {
+    inner: brachia::planning::ReplanOutcome,
+}
+
+#[pymethods]
+impl ReplanOutcome {
+    /// Solver status in snake case (``"solved"``, ``"max_iterations"``, ...), as ``Plan.status``.
+    #[getter]
+    fn status(&self) -> String {
+        status_name(&self.inner.status)
+    }
+
+    /// True when the solver converged (``solved`` or ``solved_to_acceptable_level``).
+    #[getter]
+    fn converged(&self) -> bool {
+        self.inner.converged()
+    }
+
+    /// Interior-point iterations of this solve.
+    #[getter]
+    fn iterations(&self) -> usize {
+        self.inner.iterations
+    }
+
+    /// Wall time of the solve, s.
+    #[getter]
+    fn solve_time_s(&self) -> f64 {
+        self.inner.solve_time_s
+    }
+
+    /// Objective at the solution.
+    #[getter]
+    fn objective(&self) -> f64 {
+        self.inner.objective
+    }
+
+    /// Absolute time of the first knot, s.
+    #[getter]
+    fn t_start(&self) -> f64 {
+        self.inner.t_start
+    }
+
+    /// Time between knots, s.
+    #[getter]
+    fn interval_s(&self) -> f64 {
+        self.inner.interval_s
+    }
+
+    /// End-effector position at the last knot, shape ``(2,)``, m.
+    #[getter]
+    fn ee_final<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arr1(py, &self.inner.ee_final)
+    }
+
+    /// Distance of ``ee_final`` from the target, m.
+    #[getter]
+    fn ee_error_m(&self) -> f64 {
+        self.inner.ee_error_m
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "ReplanOutcome(status={:?}, iterations={}, objective={:.6}, t_start={:.6}, ee_error_m={:.3e})",
+            self.status(),
+            self.inner.iterations,
+            self.inner.objective,
+            self.inner.t_start,
+            self.inner.ee_error_m
+        )
+    }
+}
+
+/// The persistent planner: build the multiple-shooting problem of ``task`` once, plan the swing
+/// cold, then re-plan warm from measured states (``replan``) in a few milliseconds, without
+/// allocating in the library.
+///
+/// ``task`` and ``settings`` / keyword arguments as for ``brachia.plan`` (the transcription is
+/// always multiple shooting: knots ``knot_dt`` apart, ``shooting.substeps`` RK4 steps each; the
+/// solver is the Riccati interior-point method). Raises ``BrachiaError`` on bad input.
+///
+/// The number of intervals K is fixed for the planner's life: a re-plan from ``t_now`` spreads the
+/// K intervals over the remaining ``T - t_now``.
+#[pyclass(module = "brachia")]
+pub struct SwingPlanner {
+    inner: brachia::planning::SwingPlanner,
+    planner: PlannerSettings,
+    nlp: NlpSettings,
+    /// The start state of the current solution (the task's, or the last re-plan's `x_now`).
+    x_start: Vec<f64>,
+    /// The `x_now` of the re-plan being read (kept apart so that a refused one leaves `x_start`).
+    x_in: Vec<f64>,
+}
+
+impl SwingPlanner {
+    /// The task of the current solution: the planner's, started from `x_start`.
+    fn current_task(&self) -> SwingTask {
+        let n = self.inner.robot().n();
+        SwingTask {
+            q0: self.x_start[..n].to_vec(),
+            qd0: self.x_start[n..].to_vec(),
+            ..self.inner.task().clone()
+        }
+    }
+
+    /// Re-plan from `x_now` (2n finite values, read without allocating for a float64 array) at
+    /// `t_now`, warm or cold; on success the solution starts at `x_now`.
+    fn replan_from(
+        &mut self,
+        py: Python<'_>,
+        t_now: f64,
+        x_now: &Bound<'_, PyAny>,
+        warm: bool,
+    ) -> PyResult<ReplanOutcome> {
+        read_vector(
+            x_now,
+            "x_now",
+            "the state [q, qd], rad and rad/s",
+            &mut self.x_in,
+        )?;
+        let (inner, x) = (&mut self.inner, &self.x_in);
+        let out = py
+            .detach(|| {
+                if warm {
+                    inner.replan(t_now, x)
+                } else {
+                    inner.replan_cold(t_now, x)
+                }
+            })
+            .map_err(rs)?;
+        self.x_start.copy_from_slice(&self.x_in);
+        Ok(ReplanOutcome { inner: out })
+    }
+}
+
+#[pymethods]
+impl SwingPlanner {
+    #[new]
+    #[pyo3(signature = (robot, task, settings = None, **kwargs))]
+    fn new(
+        robot: &Robot,
+        task: &Bound<'_, PyAny>,
+        settings: Option<&Bound<'_, PyAny>>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let task = task_from(task)?;
+        let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+        let inner = brachia::planning::SwingPlanner::new(robot.inner.clone(), task, &planner, &nlp)
+            .map_err(rs)?;
+        let n = robot.inner.n();
+        let t = inner.task();
+        let mut x_start = t.q0.clone();
+        if t.qd0.is_empty() {
+            x_start.resize(2 * n, 0.0);
+        } else {
+            x_start.extend_from_slice(&t.qd0);
+        }
+        Ok(SwingPlanner {
+            inner,
+            planner,
+            nlp,
+            x_in: x_start.clone(),
+            x_start,
+        })
+    }
+
+    /// Plan the whole swing cold from the task's start state; the solution becomes the one re-plans
+    /// start from. Returns the ``Plan`` (with its report), converged or not.
+    fn plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
+        let inner = &mut self.inner;
+        py.detach(|| inner.plan_outcome()).map_err(rs)?;
+        let n = self.inner.robot().n();
+        let t = self.inner.task();
+        self.x_start[..n].copy_from_slice(&t.q0);
+        self.x_start[n..].fill(0.0);
+        if !t.qd0.is_empty() {
+            self.x_start[n..].copy_from_slice(&t.qd0);
+        }
+        self.current_plan(py)
+    }
+
+    /// Warm re-plan from the measured state ``x_now`` (shape ``(2n,)``: ``[q, qd]``) at the absolute
+    /// time ``t_now`` (s, in ``[0, T)``) to the target over the remaining time. Needs a converged
+    /// plan first. Returns a ``ReplanOutcome``; the trajectory is ``current_plan()``.
+    fn replan(
+        &mut self,
+        py: Python<'_>,
+        t_now: f64,
+        x_now: &Bound<'_, PyAny>,
+    ) -> PyResult<ReplanOutcome> {
+        self.replan_from(py, t_now, x_now, true)
+    }
+
+    /// The same re-plan started cold (the shifted solution as the initial guess, multipliers reset),
+    /// for comparison with ``replan``.
+    fn replan_cold(
+        &mut self,
+        py: Python<'_>,
+        t_now: f64,
+        x_now: &Bound<'_, PyAny>,
+    ) -> PyResult<ReplanOutcome> {
+        self.replan_from(py, t_now, x_now, false)
+    }
+
+    /// The current solution as a ``Plan`` (1 ms trajectory from 0 at its first knot, report
+    /// included). Raises ``BrachiaError`` before any solve.
+    fn current_plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
+        let inner = &mut self.inner;
+        let p = py.detach(|| inner.current_plan()).map_err(rs)?;
+        Ok(plan_with_report(
+            self.inner.robot().clone(),
+            self.current_task(),
+            self.planner.clone(),
+            self.nlp.clone(),
+            p,
+        ))
+    }
+
+    /// True once a solve converged (a re-plan has a solution to start from).
+    #[getter]
+    fn has_plan(&self) -> bool {
+        self.inner.has_plan()
+    }
+
+    /// The full swing time T, s.
+    #[getter]
+    fn swing_time(&self) -> f64 {
+        self.inner.swing_time()
+    }
+
+    /// Number of intervals K (fixed for the planner's life).
+    #[getter]
+    fn intervals(&self) -> usize {
+        self.inner.intervals()
+    }
+
+    /// The target bar position, shape ``(2,)``, m.
+    #[getter]
+    fn target<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arr1(py, &self.inner.target())
+    }
+
+    /// Move the target bar (shape ``(2,)``, m) for the next plan or re-plan.
+    fn set_target(&mut self, target: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut t = [0.0; 2];
+        read_vector(target, "target", "the bar position, m", &mut t)?;
+        self.inner.set_target(t).map_err(rs)
+    }
+
+    /// Absolute times of the current solution's K + 1 knots, shape ``(K + 1,)``, s.
+    fn knot_times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let t: Vec<f64> = (0..=self.inner.intervals())
+            .map(|k| self.inner.knot_time(k))
+            .collect();
+        arr1(py, &t)
+    }
+
+    /// States of the current solution's knots, shape ``(K + 1, 2n)``: ``[q, qd]``, rad and rad/s.
+    fn knot_states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let z = self.inner.knots();
+        let cols = 2 * self.inner.robot().n();
+        arr2(py, z.x.concat(), cols)
+    }
+
+    /// Torques of the current solution's K intervals (held over each), shape ``(K, n - 1)``, N m.
+    fn knot_torques<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let z = self.inner.knots();
+        let cols = self.inner.robot().n() - 1;
+        let k = self.inner.intervals();
+        let v: Vec<f64> = z.u[..k].concat();
+        if v.len() != k * cols {
+            return Err(bad(format!(
+                "knot_torques: {} values for {k} intervals of {cols} torques",
+                v.len()
+            )));
+        }
+        arr2(py, v, cols)
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "SwingPlanner(n_links={}, intervals={}, swing_time={:.6}, has_plan={})",
+            self.inner.robot().n(),
+            self.inner.intervals(),
+            self.inner.swing_time(),
+            self.inner.has_plan()
+        )
+    }
+}
