@@ -3,7 +3,8 @@
 A thin layer over the Rust library (the extension module ``brachia._brachia``): the planar n-link
 model (``Robot``), the direct-collocation planner (``plan`` -> ``Plan``), the linear MPC tracker
 (``Mpc``), the persistent planner that re-plans warm from measured states (``SwingPlanner``
--> ``ReplanOutcome``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
+-> ``ReplanOutcome``), several swings of a ladder
+planned as one problem (``plan_joint_swings`` -> ``JointSwingPlan``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
 (``track`` -> ``TrackResult``) and scenario files (``Scenario``).
 
 Conventions (SI units throughout: m, kg, s, rad, N m, J): planar, grip point at the origin, x right,
@@ -18,6 +19,8 @@ See docs/python.md.
 
 from ._brachia import (
     BrachiaError,
+    JointPhase,
+    JointSwingPlan,
     ModelPlant,
     Mpc,
     Plan,
@@ -29,12 +32,15 @@ from ._brachia import (
     TrackResult,
     Trajectory,
     plan,
+    plan_joint_swings,
     rust_mpc_step_times,
     track,
 )
 
 __all__ = [
     "BrachiaError",
+    "JointPhase",
+    "JointSwingPlan",
     "ModelPlant",
     "Mpc",
     "Plan",
@@ -46,6 +52,7 @@ __all__ = [
     "TrackResult",
     "Trajectory",
     "plan",
+    "plan_joint_swings",
     "rust_mpc_step_times",
     "track",
 ]

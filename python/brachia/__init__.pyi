@@ -226,6 +226,66 @@ class SwingPlanner:
     def knot_torques(self) -> Array:
         """Torques held over each interval, shape (K, n - 1), N m."""
 
+class JointPhase:
+    """One swing of a joint plan (its Plan in the grip frame of ``grip``, on its own clock)."""
+
+    @property
+    def plan(self) -> Plan: ...
+    @property
+    def holding_hand(self) -> int:
+        """0: the chain as written holds; 1: the chain re-rooted at the other end."""
+    @property
+    def grip(self) -> Array:
+        """The bar held, shape (2,), world, m."""
+    @property
+    def objective(self) -> float: ...
+    @property
+    def reference_objective(self) -> float: ...
+
+class JointSwingPlan:
+    """Several swings planned as one problem, and the swing-by-swing plans it started from."""
+
+    @property
+    def status(self) -> Literal["converged", "joint_failed", "reference_failed"]: ...
+    @property
+    def message(self) -> str: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def objective(self) -> float: ...
+    @property
+    def reference_objective(self) -> float: ...
+    @property
+    def energy(self) -> float:
+        """Paper eq. 18 over the joint plan's swings, J."""
+    @property
+    def reference_energy(self) -> float: ...
+    @property
+    def max_defect(self) -> float: ...
+    @property
+    def capture_residual(self) -> tuple[float, float]:
+        """Largest capture residuals: (distance m, speed m/s)."""
+    @property
+    def iterations(self) -> Optional[int]: ...
+    @property
+    def phases(self) -> list[JointPhase]: ...
+    @property
+    def reference(self) -> list[Plan]: ...
+    @property
+    def report(self) -> dict[str, Any]:
+        """The joint_swings.json of ``brachia reproduce``."""
+
+def plan_joint_swings(
+    robot: Robot,
+    x0: ArrayLike,
+    bars: ArrayLike,
+    obstacles: Optional[list[dict[str, Any]]] = None,
+    rest_at_switches: bool = False,
+    settings: Optional[dict[str, Any]] = None,
+    **kwargs: Any,
+) -> JointSwingPlan:
+    """Plan the swings from x0 (2n, holding bars[0]) through bars[1:] (world, m) as one problem."""
+
 class Mpc:
     """The linear MPC tracker (paper Section IV)."""
 

@@ -22,6 +22,7 @@ use pyo3::prelude::*;
 
 mod control;
 mod convert;
+mod ladder;
 mod model;
 mod planning;
 mod replan;
@@ -46,12 +47,15 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<planning::Plan>()?;
     m.add_class::<replan::SwingPlanner>()?;
     m.add_class::<replan::ReplanOutcome>()?;
+    m.add_class::<ladder::JointSwingPlan>()?;
+    m.add_class::<ladder::JointPhase>()?;
     m.add_class::<control::Mpc>()?;
     m.add_class::<sim::ModelPlant>()?;
     m.add_class::<sim::RapierPlant>()?;
     m.add_class::<sim::TrackResult>()?;
     m.add_class::<scenario::Scenario>()?;
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
+    m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(convert::jsonable, m)?)?;
