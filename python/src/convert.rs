@@ -131,8 +131,15 @@ pub(crate) fn matrix(
         )));
     }
     let v = b.to_vec(obj.py())?;
-    check_finite(&v, name)?;
-    Ok((v, shape[0]))
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(i) => Err(bad(format!(
+            "{name}[{}][{}] = {}: must be finite",
+            i / cols,
+            i % cols,
+            v[i]
+        ))),
+        None => Ok((v, shape[0])),
+    }
 }
 
 /// A float64 numpy vector holding `v` (a writable array over a new bytearray).

@@ -136,6 +136,8 @@ def test_errors(robot):
         sp.set_target([float("inf"), 0.0])
     with pytest.raises(brachia.BrachiaError, match="knot_dt"):
         brachia.SwingPlanner(robot, TASK, knot_dt=-1.0)
+    with pytest.raises(brachia.BrachiaError, match="intervals"):
+        brachia.SwingPlanner(robot, TASK, knot_dt=1e-9)
     with pytest.raises(brachia.BrachiaError, match="q0"):
         brachia.SwingPlanner(robot, {"q0": [0.0], "target": [0.8, 0.0]})
     # the planner is still usable after the errors

@@ -202,6 +202,40 @@ fn ocp_with_a_collocation_rule_is_refused_naming_both_fields() {
     );
 }
 
+/// The interval count follows from input (`T / knot_dt`): every multiple-shooting entry point checks it
+/// against `brachia::limits::MAX_INTERVALS` / `MIN_INTERVALS` before allocating anything of that size
+/// (a knot_dt of 1e-9 s once asked for 196 GB and aborted the process).
+#[test]
+fn interval_counts_outside_the_limits_are_refused_before_any_allocation() {
+    use brachia::planning::{plan_joint_swings, JointSwingTask, SwingPlanner};
+    let robot = Robot::paper();
+    let nlp = NlpSettings::default();
+    for knot_dt in [1e-9, 1e-5, 0.5] {
+        let s = shooting(knot_dt);
+        let check = |e: Error| {
+            let msg = e.to_string();
+            assert!(matches!(e, Error::InvalidValue { .. }), "{msg}");
+            assert!(
+                msg.contains("knot_dt") && msg.contains("intervals"),
+                "{msg}"
+            );
+        };
+        check(plan(&robot, &tracking_task(), &s, &nlp).unwrap_err());
+        check(
+            SwingPlanner::new(robot.clone(), tracking_task(), &s, &nlp)
+                .err()
+                .unwrap(),
+        );
+        let task = JointSwingTask {
+            x0: [Q0.as_slice(), &[0.0; 4]].concat(),
+            bars: vec![[0.0, 0.0], [0.8, 0.0]],
+            obstacles: vec![],
+            rest_at_switches: false,
+        };
+        check(plan_joint_swings(&robot, &task, &s, &nlp).unwrap_err());
+    }
+}
+
 #[test]
 fn the_defaults_plan_by_multiple_shooting_on_ocp_within_the_replay_bar() {
     let (s, n) = (PlannerSettings::default(), NlpSettings::default());

@@ -38,7 +38,7 @@ use super::nlp::{Backend, NlpSettings, SolveStatus};
 use super::plan_shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
-use super::planner::{plan, Plan, SolveAttempt, WARM_START_MU_INIT};
+use super::planner::{plan, swing_time, Plan, SolveAttempt, WARM_START_MU_INIT};
 use super::settings::{PlannerSettings, Transcription};
 use super::shooting::SwingOcp;
 use super::task::{validate_task, SwingTask};
@@ -582,6 +582,9 @@ pub fn plan_joint_swings(
     }
     let first = swing_task(&task.x0, task.bars[0], task.bars[1], &task.obstacles);
     validate_task(robot, &first, &settings, src, "swing 0.")?;
+    // the first swing's interval count, checked against brachia::limits before anything is planned
+    let (t_first, _) = swing_time(robot, &first, &settings)?;
+    settings.grid(t_first, "planner")?;
     let chains = [Arc::new(robot.clone()), Arc::new(robot.rerooted()?)];
 
     // swing by swing, each from the map of the last one's planned end state

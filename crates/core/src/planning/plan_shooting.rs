@@ -217,7 +217,8 @@ pub(super) fn setup_shooting(
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
     let (t_final, freefall) = swing_time(robot, task, settings)?;
-    let intervals = ((t_final / settings.knot_dt).round() as usize).max(2);
+    // the interval count follows from input: checked against brachia::limits before any allocation
+    let intervals = settings.grid(t_final, "planner")?;
     let layout = Layout::new(
         n,
         n - 1,

@@ -350,7 +350,7 @@ impl PlannerSettings {
                     "knot_dt",
                     self.knot_dt,
                     format!(
-                        "a swing of {t_final:.4} s needs between {lo} and {hi} intervals                          (brachia::limits); knot_dt must be in [{:.3e}, {:.3e}] s",
+                        "a swing of {t_final:.4} s needs between {lo} and {hi} intervals (brachia::limits); knot_dt must be in [{:.3e}, {:.3e}] s",
                         t_final / hi as f64,
                         t_final / lo as f64
                     ),
@@ -364,7 +364,7 @@ impl PlannerSettings {
                 "output_dt",
                 self.output_dt,
                 format!(
-                    "a swing of {t_final:.4} s would have more than {max_s} output samples                      (brachia::limits::MAX_OUTPUT_SAMPLES); output_dt must be >= {:.3e} s",
+                    "a swing of {t_final:.4} s would have more than {max_s} output samples (brachia::limits::MAX_OUTPUT_SAMPLES); output_dt must be >= {:.3e} s",
                     t_final / max_s as f64
                 ),
             ));
