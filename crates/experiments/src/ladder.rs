@@ -12,6 +12,7 @@
 //! q0 = [-2.35, 0.0, -1.55, 0.0]    # optional: default = the swing hand on a virtual bar behind bar 0
 //! capture_radius = 0.02            # m (default 0.02)
 //! capture_speed = 0.1              # m/s (default 0.1)
+//! lookahead = 1                    # swings planned together at every bar (default 1: one by one)
 //! obstacles = [{ center = [1.5, -0.3], radius = 0.08 }]   # world frame
 //! [planner]    # as in every scenario (swing_time "auto" = 2 T_freefall per swing)
 //! [solver]
@@ -101,6 +102,10 @@ fn default_capture_speed() -> f64 {
     0.1
 }
 
+fn default_lookahead() -> usize {
+    1
+}
+
 /// The `[ladder]` section.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -124,6 +129,13 @@ pub struct Ladder {
     /// Capture speed: the largest hand speed at which the grip can close, m/s. Default 0.1.
     #[serde(default = "default_capture_speed")]
     pub capture_speed: f64,
+    /// Swings planned together at every bar: 1 (the default) plans each swing alone; k > 1 plans
+    /// each swing as the first of a joint plan over the next k swings (fewer near the goal;
+    /// [`brachia::planning::plan_joint_swings`], solver backend `ocp`), again at every bar from the
+    /// state the switch left, so each swing ends in the state best for the swings after it
+    /// (docs/ladders.md, "Lookahead"). 1 to [`brachia::planning::MAX_JOINT_SWINGS`].
+    #[serde(default = "default_lookahead")]
+    pub lookahead: usize,
 }
 
 /// A traverse scenario as written in a TOML file.
@@ -451,6 +463,24 @@ impl LadderScenario {
                     format!("must be in (0, {max}]"),
                 ));
             }
+        }
+        let max_look = brachia::planning::MAX_JOINT_SWINGS;
+        if !(1..=max_look).contains(&l.lookahead) {
+            return Err(Error::invalid(
+                &src,
+                "ladder.lookahead",
+                l.lookahead,
+                format!("must be 1 to {max_look} (swings planned together at every bar)"),
+            ));
+        }
+        if l.lookahead > 1 && sc.solver.backend != brachia::planning::Backend::Ocp {
+            return Err(Error::invalid(
+                &src,
+                "ladder.lookahead",
+                l.lookahead,
+                "swings planned together need the Riccati backend: set solver.backend = \"ocp\" \
+                 (or lookahead = 1)",
+            ));
         }
         if sc.plant.kind == PlantKind::Model && !sc.plant.obstacles.is_empty() {
             return Err(Error::invalid(

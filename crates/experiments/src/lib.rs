@@ -41,7 +41,8 @@ pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };
 pub use traverse::{
-    run_traverse, run_traverse_cancellable, RegripRecord, SwingRecord, Traverse, TraverseStatus,
+    run_traverse, run_traverse_cancellable, PlanSource, RegripRecord, SwingRecord, Traverse,
+    TraverseStatus,
 };
 
 /// Errors of the experiment layer.

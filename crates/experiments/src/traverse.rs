@@ -28,7 +28,7 @@ use crate::scenario::PlantKind;
 use crate::track_run::{make_controller, plant_robot, PlantWorld};
 use brachia::control::Replanning;
 use brachia::model::switch_grip;
-use brachia::planning::validate_task;
+use brachia::planning::{plan_with_guess, validate_task};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, ModelPlant, NoiseSettings, Noisy, Plant,
     RunSettings,
@@ -60,7 +60,12 @@ pub struct SwingRecord {
     pub swing_time_s: f64,
     /// Planner status.
     pub plan_converged: bool,
-    /// Planner iterations (all attempts).
+    /// Where the plan this swing was tracked from came from (`ladder.lookahead`).
+    pub plan_source: PlanSource,
+    /// Swings in that plan: k when it was the first of a joint plan over k swings, else 1.
+    pub planned_jointly: usize,
+    /// Planner iterations (all attempts; for a joint plan, its swing-by-swing warm start's and the
+    /// joint solve's).
     pub plan_iterations: usize,
     /// Planner wall time, s.
     pub plan_time_s: f64,
@@ -428,6 +433,110 @@ pub fn run_traverse_cancellable(
     traverse(ll, &stop)?.ok_or(crate::ExpError::Cancelled)
 }
 
+/// Where the plan a swing was tracked from came from (`ladder.lookahead`; docs/ladders.md,
+/// "Lookahead").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlanSource {
+    /// Planned alone from the state the switch left, as `brachia plan` would.
+    Alone,
+    /// Planned alone from that state, with the last joint plan's swing as the initial guess.
+    JointGuess,
+    /// The first swing of a joint plan over [`SwingRecord::planned_jointly`] swings from that state.
+    Joint,
+    /// The last joint plan's swing itself, not re-planned: no plan from the state the switch left
+    /// converged, and the joint plan predicted that state within the tracking error.
+    JointPrevious,
+}
+
+/// A swing's plan, where it came from, and, when it is the first of a joint plan, the joint plan's
+/// second swing (for the next swing) and the number of swings planned together.
+struct SwingPlan {
+    plan: brachia::planning::Plan,
+    source: PlanSource,
+    next: Option<(brachia::planning::Plan, usize)>,
+}
+
+/// Swing `ls` planned alone from the state the switch left: with `planned` (the swing as the last
+/// joint plan planned it) as the initial guess when there is one and that converges, else as `brachia
+/// plan` would (`run_plan`); when neither converges, `planned` itself.
+fn plan_alone(
+    ls: &LoadedScenario,
+    planned: Option<&brachia::planning::Plan>,
+) -> Result<SwingPlan, Error> {
+    let sc = &ls.scenario;
+    let alone = |plan, source| SwingPlan {
+        plan,
+        source,
+        next: None,
+    };
+    if let Some(g) = planned {
+        let p = plan_with_guess(
+            &ls.robot,
+            &sc.task,
+            &sc.planner,
+            &sc.solver,
+            Some(&g.points),
+        )?;
+        if p.converged() {
+            return Ok(alone(p, PlanSource::JointGuess));
+        }
+    }
+    let p = run_plan(ls)?.plan;
+    Ok(match planned {
+        Some(g) if !p.converged() => alone(g.clone(), PlanSource::JointPrevious),
+        _ => alone(p, PlanSource::Alone),
+    })
+}
+
+/// The plan of swing `ls` (the chain that holds `grip`, its start state `x` in that grip frame) as the
+/// first swing of a joint plan through `bars` (world frame; `ladder.lookahead`; the switch states
+/// free but for the capture, the rest condition at the last bar only), with its iterations and time
+/// those of the whole joint plan (its swing-by-swing warm start included). When the joint solve does
+/// not converge, the swing is planned alone ([`plan_alone`] with `previous`, the last joint plan's
+/// swing), so the traverse goes on as it would without the lookahead.
+fn plan_ahead(
+    ls: &LoadedScenario,
+    x: &[f64],
+    grip: [f64; 2],
+    bars: &[crate::ladder::Bar],
+    obstacles: &[brachia::model::Circle],
+    previous: Option<&brachia::planning::Plan>,
+) -> Result<SwingPlan, Error> {
+    let sc = &ls.scenario;
+    let n = ls.robot.n();
+    let task = brachia::planning::JointSwingTask {
+        x0: [&sc.task.q0[..], &x[n..]].concat(),
+        bars: std::iter::once(grip)
+            .chain(bars.iter().map(crate::ladder::Bar::p))
+            .collect(),
+        obstacles: obstacles.to_vec(),
+        rest_at_switches: false,
+    };
+    let j = brachia::planning::plan_joint_swings(&ls.robot, &task, &sc.planner, &sc.solver)?;
+    if !j.converged() || j.phases.len() < 2 {
+        return plan_alone(ls, previous);
+    }
+    let iterations = j.reference.iter().map(|p| p.iterations).sum::<usize>()
+        + j.solve.as_ref().map_or(0, |s| s.iterations);
+    let time_s = j.reference.iter().map(|p| p.solve_time_s).sum::<f64>()
+        + j.solve.as_ref().map_or(0.0, |s| s.time_s);
+    let swings = j.phases.len();
+    let mut phases = j.phases.into_iter().map(|ph| ph.plan);
+    let (Some(mut plan), Some(second)) = (phases.next(), phases.next()) else {
+        return Err(Error::InfeasibleTask(
+            "a converged joint plan without two swings".into(),
+        ));
+    };
+    plan.iterations = iterations;
+    plan.solve_time_s = time_s;
+    Ok(SwingPlan {
+        plan,
+        source: PlanSource::Joint,
+        next: Some((second, swings)),
+    })
+}
+
 /// The traverse; `None` when `stop` said so before it finished.
 fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
     let sc = &ll.scenario;
@@ -452,6 +561,9 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
     let mut logs = Vec::new();
     let mut status = TraverseStatus::Completed;
     let mut ball = None;
+    // the next swing of the last joint plan, the initial guess of the next swing when it is planned
+    // alone (or when its joint plan fails)
+    let mut next_guess: Option<brachia::planning::Plan> = None;
     for k in 0..bars.len() - 1 {
         if stop() {
             return Ok(None);
@@ -484,14 +596,34 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             status = refused(e);
             break;
         }
-        let planned = match run_plan(&ls) {
+        let last_bar = (k + sc.ladder.lookahead).min(bars.len() - 1);
+        let planned = if last_bar > k + 1 {
+            plan_ahead(
+                &ls,
+                &x,
+                grip,
+                &bars[k + 1..=last_bar],
+                &sc.ladder.obstacles,
+                next_guess.as_ref(),
+            )
+        } else {
+            plan_alone(&ls, next_guess.as_ref())
+        };
+        let SwingPlan {
+            plan: p,
+            source: plan_source,
+            next,
+        } = match planned {
             Ok(p) => p,
             Err(e) => {
                 status = refused(e);
                 break;
             }
         };
-        let p = &planned.plan;
+        let planned_jointly = next.as_ref().map_or(1, |(_, swings)| *swings);
+        // kept for the next swing only while this one is the first of a joint plan
+        next_guess = next.map(|(g, _)| g);
+        let p = &p;
         if !p.converged() {
             status = TraverseStatus::PlanFailed {
                 swing: k,
@@ -587,6 +719,8 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             duration_s: duration,
             swing_time_s: p.swing_time_s,
             plan_converged: true,
+            plan_source,
+            planned_jointly,
             plan_iterations: p.iterations,
             plan_time_s: p.solve_time_s,
             planned_energy_j: p.energy_j,
