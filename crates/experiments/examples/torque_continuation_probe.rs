@@ -7,6 +7,10 @@
 //!   limit, then warm-started through shorter swing times in steps of STEP_S until a solve fails. Where
 //!   it stops is the shortest swing this family reaches within the limit.
 //!
+//! - `r2 [R2] [FROM] [OFFSET_S] [STEPS]` (default 0.1 0.2 -0.5 10): plan the cell of r2 = FROM at
+//!   OFFSET_S within 5 N m, then warm-started through r2 in STEPS steps to R2 at the same offset (each
+//!   robot's own start pose and T). Where it stops is how far this family reaches in r2.
+//!
 //! Each solve prints its status, iterations, energy (eq. 18, J) and largest |tau| (N m).
 //!
 //! ```text
@@ -122,7 +126,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 off -= step;
             }
         }
-        other => return Err(format!("unknown mode {other:?}: torque or time").into()),
+        "r2" => {
+            // from the cell of r2 = FROM at OFFSET (its own T), warm-started through r2 in STEPS
+            // steps down (or up) to R2 at the same offset, each robot with 5 N m limits
+            let (from, off, steps) = (arg(1, 0.2), arg(2, -0.5), arg(3, 10.0));
+            if !(steps >= 1.0 && steps <= 100.0) {
+                return Err("STEPS must be 1 to 100".into());
+            }
+            let steps = steps as usize;
+            for i in 0..=steps {
+                let ri = from + (r2 - from) * i as f64 / steps as f64;
+                let robot = limited(&base, ri, 5.0, &s)?;
+                let q0 = start_pose(&robot, s.start)?;
+                let ff = freefall_time(&robot, &q0, 0.5 * (s.start[0] + s.target[0]))?;
+                let task_i = SwingTask { q0, ..task.clone() };
+                let plan = solve(
+                    &robot,
+                    &task_i,
+                    2.0 * ff + off,
+                    &s,
+                    guess.as_ref(),
+                    &format!("r2 {ri:.3}"),
+                )?;
+                if !plan.converged() {
+                    break;
+                }
+                guess = Some(plan.trajectory);
+            }
+        }
+        other => return Err(format!("unknown mode {other:?}: torque, time or r2").into()),
     }
     Ok(())
 }
