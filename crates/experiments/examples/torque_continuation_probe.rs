@@ -130,7 +130,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // from the cell of r2 = FROM at OFFSET (its own T), warm-started through r2 in STEPS
             // steps down (or up) to R2 at the same offset, each robot with 5 N m limits
             let (from, off, steps) = (arg(1, 0.2), arg(2, -0.5), arg(3, 10.0));
-            if !(steps >= 1.0 && steps <= 100.0) {
+            if !(1.0..=100.0).contains(&steps) {
                 return Err("STEPS must be 1 to 100".into());
             }
             let steps = steps as usize;
