@@ -568,7 +568,15 @@ fn sandwich_upper_body(
     let sx = &sens[..nx * nz];
     let (t, rest) = tmp.split_at_mut(nx * nz);
     let g = &mut rest[..nz * nu];
-    // T = Hxx Sx (nx x nz), G = Sx^T Hxu (nz x nu)
+    // T = Hxx Sx (nx x nz), G = Sx^T Hxu (nz x nu). Rows of Hxu that are exactly zero add nothing to
+    // G: the second half of x (qd) when qd and tau never multiply in qdd (true of the dynamics;
+    // checked, so any H is right)
+    let half = nx / 2;
+    let g_rows = if (half..nx).all(|r| h[r * nz + nx..(r + 1) * nz].iter().all(|&v| v == 0.0)) {
+        half
+    } else {
+        nx
+    };
     t.fill(0.0);
     g.fill(0.0);
     for r in 0..nx {
@@ -579,6 +587,9 @@ fn sandwich_upper_body(
             for e in 0..nz {
                 out[e] += hv * srow[e];
             }
+        }
+        if r >= g_rows {
+            continue;
         }
         let srow = &sx[r * nz..(r + 1) * nz];
         let hrow = &h[r * nz + nx..(r + 1) * nz];
