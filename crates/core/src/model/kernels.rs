@@ -35,6 +35,8 @@ macro_rules! with_row_width {
 
 /// `out[j] += sum_{i < k} c[i cs] rows[i rs + j]` for `j < out.len()`, each entry summed in the order
 /// of i. `c` holds at least `(k - 1) cs + 1` values, `rows` at least `(k - 1) rs + out.len()`.
+/// Inlined, so that callers with constant sizes get the kernel of their width without a dispatch.
+#[inline(always)]
 pub(crate) fn add_lincomb(
     out: &mut [f64],
     c: &[f64],
@@ -54,7 +56,9 @@ pub(crate) fn add_lincomb(
 }
 
 /// [`add_lincomb`] for two output rows of equal length over the same matrix rows (coefficients `c0`
-/// and `c1`, both with stride `cs`): each matrix row is loaded once for both.
+/// and `c1`, both with stride `cs`): each matrix row is loaded once for both. Inlined as
+/// [`add_lincomb`].
+#[inline(always)]
 pub(crate) fn add_lincomb2(
     out0: &mut [f64],
     out1: &mut [f64],
