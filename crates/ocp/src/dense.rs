@@ -31,6 +31,32 @@ pub(crate) fn chol(a: &mut [f64], n: usize) -> bool {
     true
 }
 
+/// Calls `$kernel::<N>(args)` with the run-time width `$w` as the constant `N` for the widths of small
+/// stages (1..=12 and 17: the rows of a stage's blocks for up to 6 links), so that a row of the
+/// result lives in registers and its loops unroll; any other width runs `$fallback`. The kernels
+/// do the same arithmetic in the same order as the fallback, so the result does not depend on the
+/// width's path.
+macro_rules! with_width {
+    ($w:expr, $kernel:ident ($($arg:expr),* $(,)?), $fallback:expr) => {
+        match $w {
+            1 => $kernel::<1>($($arg),*),
+            2 => $kernel::<2>($($arg),*),
+            3 => $kernel::<3>($($arg),*),
+            4 => $kernel::<4>($($arg),*),
+            5 => $kernel::<5>($($arg),*),
+            6 => $kernel::<6>($($arg),*),
+            7 => $kernel::<7>($($arg),*),
+            8 => $kernel::<8>($($arg),*),
+            9 => $kernel::<9>($($arg),*),
+            10 => $kernel::<10>($($arg),*),
+            11 => $kernel::<11>($($arg),*),
+            12 => $kernel::<12>($($arg),*),
+            17 => $kernel::<17>($($arg),*),
+            _ => $fallback,
+        }
+    };
+}
+
 /// Solves `L L^T X = B` in place for the n x m row-major `b` (m right-hand sides as columns), with L
 /// from [`chol`].
 pub(crate) fn chol_solve(l: &[f64], n: usize, b: &mut [f64], m: usize) {
@@ -39,6 +65,49 @@ pub(crate) fn chol_solve(l: &[f64], n: usize, b: &mut [f64], m: usize) {
     }
     let l = &l[..n * n];
     let b = &mut b[..n * m];
+    with_width!(m, chol_solve_w(l, n, b), chol_solve_any(l, n, b, m))
+}
+
+/// [`chol_solve`] for `M` right-hand sides: a row of `B` in registers.
+#[inline(always)]
+fn chol_solve_w<const M: usize>(l: &[f64], n: usize, b: &mut [f64]) {
+    let (b, _) = b.as_chunks_mut::<M>();
+    let b = &mut b[..n];
+    // forward: L Y = B
+    for i in 0..n {
+        let (done, rest) = b.split_at_mut(i);
+        let mut x = rest[0];
+        for (lik, bk) in l[i * n..i * n + i].iter().zip(done.iter()) {
+            for j in 0..M {
+                x[j] -= lik * bk[j];
+            }
+        }
+        let d = 1.0 / l[i * n + i];
+        for v in x.iter_mut() {
+            *v *= d;
+        }
+        rest[0] = x;
+    }
+    // backward: L^T X = Y
+    for i in (0..n).rev() {
+        let (head, tail) = b.split_at_mut(i + 1);
+        let mut x = head[i];
+        for (k, bk) in tail.iter().enumerate() {
+            let lki = l[(i + 1 + k) * n + i];
+            for j in 0..M {
+                x[j] -= lki * bk[j];
+            }
+        }
+        let d = 1.0 / l[i * n + i];
+        for v in x.iter_mut() {
+            *v *= d;
+        }
+        head[i] = x;
+    }
+}
+
+/// [`chol_solve`] for any m (the reference of the fixed-width kernels).
+fn chol_solve_any(l: &[f64], n: usize, b: &mut [f64], m: usize) {
     // forward: L Y = B
     for i in 0..n {
         let (done, rest) = b.split_at_mut(i * m);
@@ -71,59 +140,6 @@ pub(crate) fn chol_solve(l: &[f64], n: usize, b: &mut [f64], m: usize) {
     }
 }
 
-/// `y += a x` for slices of equal length. The common stage sizes get fixed-length copies (no loop,
-/// no bounds checks, fully vectorised); other lengths the plain loop.
-#[inline(always)]
-fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
-    fn fixed<const N: usize>(a: f64, x: &[f64], y: &mut [f64]) -> bool {
-        match (<&[f64; N]>::try_from(x), <&mut [f64; N]>::try_from(y)) {
-            (Ok(x), Ok(y)) => {
-                for i in 0..N {
-                    y[i] += a * x[i];
-                }
-                true
-            }
-            _ => false,
-        }
-    }
-    let done = match x.len() {
-        8 => fixed::<8>(a, x, y),
-        4 => fixed::<4>(a, x, y),
-        3 => fixed::<3>(a, x, y),
-        2 => fixed::<2>(a, x, y),
-        _ => false,
-    };
-    if !done {
-        for (p, q) in y.iter_mut().zip(x) {
-            *p += a * q;
-        }
-    }
-}
-
-/// `sum x_i y_i` (fixed-length copies for the common stage sizes, as in [`axpy`]).
-#[inline(always)]
-fn dot(x: &[f64], y: &[f64]) -> f64 {
-    fn fixed<const N: usize>(x: &[f64], y: &[f64]) -> Option<f64> {
-        match (<&[f64; N]>::try_from(x), <&[f64; N]>::try_from(y)) {
-            (Ok(x), Ok(y)) => {
-                let mut s = 0.0;
-                for i in 0..N {
-                    s += x[i] * y[i];
-                }
-                Some(s)
-            }
-            _ => None,
-        }
-    }
-    let r = match x.len() {
-        8 => fixed::<8>(x, y),
-        4 => fixed::<4>(x, y),
-        3 => fixed::<3>(x, y),
-        _ => None,
-    };
-    r.unwrap_or_else(|| x.iter().zip(y).map(|(p, q)| p * q).sum())
-}
-
 /// `c (m x n) = a (m x r) * b (r x n)`.
 pub(crate) fn gemm_nn(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
     if n == 0 {
@@ -133,52 +149,178 @@ pub(crate) fn gemm_nn(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n
     gemm_nn_acc(a, b, c, m, r, n);
 }
 
-/// `c (m x n) += a (m x r) * b (r x n)`.
+/// `c (m x n) += a (m x r) * b (r x n)`: every entry `c_ij + a_i0 b_0j + a_i1 b_1j + ...` summed in
+/// the order of k.
 pub(crate) fn gemm_nn_acc(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
     if n == 0 || r == 0 {
         return;
     }
-    let b = &b[..r * n];
-    for (ci, ai) in c[..m * n].chunks_exact_mut(n).zip(a.chunks_exact(r)) {
+    let (a, b, c) = (&a[..m * r], &b[..r * n], &mut c[..m * n]);
+    with_width!(n, gemm_nn_w(a, b, c, r), gemm_nn_any(a, b, c, r, n))
+}
+
+/// [`gemm_nn_acc`] for any width (the reference of the fixed-width kernels).
+fn gemm_nn_any(a: &[f64], b: &[f64], c: &mut [f64], r: usize, n: usize) {
+    for (ci, ai) in c.chunks_exact_mut(n).zip(a.chunks_exact(r)) {
         for (aik, bk) in ai.iter().zip(b.chunks_exact(n)) {
-            axpy(*aik, bk, ci);
+            for (p, q) in ci.iter_mut().zip(bk) {
+                *p += aik * q;
+            }
         }
     }
 }
 
-/// `c (m x n) += a^T b` with `a` r x m and `b` r x n.
+/// [`gemm_nn_acc`] for `N` columns: rows of `c` in registers, two at a time for `N <= 8` (each
+/// row of `b` loaded once for both).
+#[inline(always)]
+fn gemm_nn_w<const N: usize>(a: &[f64], b: &[f64], c: &mut [f64], r: usize) {
+    let (b, _) = b.as_chunks::<N>();
+    let (c, _) = c.as_chunks_mut::<N>();
+    let pairs = if N <= 8 { c.len() / 2 } else { 0 };
+    let (c2, c1) = c.split_at_mut(2 * pairs);
+    let (a2, a1) = a.split_at(2 * pairs * r);
+    for (cp, ap) in c2.chunks_exact_mut(2).zip(a2.chunks_exact(2 * r)) {
+        let (mut x0, mut x1) = (cp[0], cp[1]);
+        let (a0, a1) = ap.split_at(r);
+        for ((s0, s1), bk) in a0.iter().zip(a1).zip(b) {
+            for j in 0..N {
+                x0[j] += s0 * bk[j];
+                x1[j] += s1 * bk[j];
+            }
+        }
+        (cp[0], cp[1]) = (x0, x1);
+    }
+    for (ci, ai) in c1.iter_mut().zip(a1.chunks_exact(r)) {
+        let mut acc = *ci;
+        for (aik, bk) in ai.iter().zip(b) {
+            for j in 0..N {
+                acc[j] += aik * bk[j];
+            }
+        }
+        *ci = acc;
+    }
+}
+
+/// `c (m x n) += a^T b` with `a` r x m and `b` r x n: every entry `c_ij + a_0i b_0j + a_1i b_1j + ...`
+/// summed in the order of k.
 pub(crate) fn gemm_tn_acc(a: &[f64], b: &[f64], c: &mut [f64], r: usize, m: usize, n: usize) {
     if n == 0 || m == 0 {
         return;
     }
-    let c = &mut c[..m * n];
-    for (ak, bk) in a[..r * m].chunks_exact(m).zip(b.chunks_exact(n)) {
+    let (a, b, c) = (&a[..r * m], &b[..r * n], &mut c[..m * n]);
+    with_width!(n, gemm_tn_w(a, b, c, m), gemm_tn_any(a, b, c, m, n))
+}
+
+/// [`gemm_tn_acc`] for any width (the reference of the fixed-width kernels).
+fn gemm_tn_any(a: &[f64], b: &[f64], c: &mut [f64], m: usize, n: usize) {
+    for (ak, bk) in a.chunks_exact(m).zip(b.chunks_exact(n)) {
         for (aki, ci) in ak.iter().zip(c.chunks_exact_mut(n)) {
-            axpy(*aki, bk, ci);
+            for (p, q) in ci.iter_mut().zip(bk) {
+                *p += aki * q;
+            }
         }
     }
 }
 
-/// `y (m) += a (m x n) x`.
+/// [`gemm_tn_acc`] for `N` columns: rows of `c` in registers, two at a time for `N <= 8` (each
+/// row of `b` loaded once for both).
+#[inline(always)]
+fn gemm_tn_w<const N: usize>(a: &[f64], b: &[f64], c: &mut [f64], m: usize) {
+    let (b, _) = b.as_chunks::<N>();
+    let (c, _) = c.as_chunks_mut::<N>();
+    let pairs = if N <= 8 { m / 2 } else { 0 };
+    let (c2, c1) = c.split_at_mut(2 * pairs);
+    for (p, cp) in c2.chunks_exact_mut(2).enumerate() {
+        let i = 2 * p;
+        let (mut x0, mut x1) = (cp[0], cp[1]);
+        for (ak, bk) in a.chunks_exact(m).zip(b) {
+            let (s0, s1) = (ak[i], ak[i + 1]);
+            for j in 0..N {
+                x0[j] += s0 * bk[j];
+                x1[j] += s1 * bk[j];
+            }
+        }
+        (cp[0], cp[1]) = (x0, x1);
+    }
+    for (i, ci) in c1.iter_mut().enumerate() {
+        let i = 2 * pairs + i;
+        let mut acc = *ci;
+        for (ak, bk) in a.chunks_exact(m).zip(b) {
+            let aki = ak[i];
+            for j in 0..N {
+                acc[j] += aki * bk[j];
+            }
+        }
+        *ci = acc;
+    }
+}
+
+/// `y (m) += a (m x n) x`: `y_i + (a_i0 x_0 + a_i1 x_1 + ...)`, the dot product summed from 0 in the
+/// order of j.
 pub(crate) fn gemv_n_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize) {
     if n == 0 {
         return;
     }
-    let x = &x[..n];
-    for (yi, ai) in y[..m].iter_mut().zip(a.chunks_exact(n)) {
-        *yi += dot(ai, x);
+    let (a, x, y) = (&a[..m * n], &x[..n], &mut y[..m]);
+    with_width!(n, gemv_n_w(a, x, y), gemv_n_any(a, x, y, n))
+}
+
+/// [`gemv_n_acc`] for any width (the reference of the fixed-width kernels).
+fn gemv_n_any(a: &[f64], x: &[f64], y: &mut [f64], n: usize) {
+    for (yi, ai) in y.iter_mut().zip(a.chunks_exact(n)) {
+        let mut s = 0.0;
+        for (p, q) in ai.iter().zip(x) {
+            s += p * q;
+        }
+        *yi += s;
     }
 }
 
-/// `y (n) += a^T x` with `a` m x n.
+/// [`gemv_n_acc`] for `N` columns.
+#[inline(always)]
+fn gemv_n_w<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
+    let (a, _) = a.as_chunks::<N>();
+    let x: &[f64; N] = x.try_into().expect("x has N entries");
+    for (yi, ai) in y.iter_mut().zip(a) {
+        let mut s = 0.0;
+        for j in 0..N {
+            s += ai[j] * x[j];
+        }
+        *yi += s;
+    }
+}
+
+/// `y (n) += a^T x` with `a` m x n: every entry `y_j + x_0 a_0j + x_1 a_1j + ...` summed in the order
+/// of i.
 pub(crate) fn gemv_t_acc(a: &[f64], x: &[f64], y: &mut [f64], m: usize, n: usize) {
     if n == 0 {
         return;
     }
-    let y = &mut y[..n];
-    for (xi, ai) in x[..m].iter().zip(a.chunks_exact(n)) {
-        axpy(*xi, ai, y);
+    let (a, x, y) = (&a[..m * n], &x[..m], &mut y[..n]);
+    with_width!(n, gemv_t_w(a, x, y), gemv_t_any(a, x, y, n))
+}
+
+/// [`gemv_t_acc`] for any width (the reference of the fixed-width kernels).
+fn gemv_t_any(a: &[f64], x: &[f64], y: &mut [f64], n: usize) {
+    for (xi, ai) in x.iter().zip(a.chunks_exact(n)) {
+        for (p, q) in y.iter_mut().zip(ai) {
+            *p += xi * q;
+        }
     }
+}
+
+/// [`gemv_t_acc`] for `N` columns: `y` in registers.
+#[inline(always)]
+fn gemv_t_w<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
+    let (a, _) = a.as_chunks::<N>();
+    let y: &mut [f64; N] = y.try_into().expect("y has N entries");
+    let mut acc = *y;
+    for (xi, ai) in x.iter().zip(a) {
+        for j in 0..N {
+            acc[j] += xi * ai[j];
+        }
+    }
+    *y = acc;
 }
 
 /// Symmetric eigendecomposition `A = V diag(d) V^T` by cyclic Jacobi rotations: `a` (n x n,
@@ -323,6 +465,69 @@ mod tests {
         eigen_solve(&v, &d, n, &mut b, &mut tmp);
         for i in 0..n {
             assert!((b[i] - x[i]).abs() < 1e-12);
+        }
+    }
+
+    /// Deterministic values in [-1, 1) with varied exponents (no generator crate needed).
+    fn values(len: usize, seed: u64) -> Vec<f64> {
+        let mut x = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        (0..len)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let u = (x >> 11) as f64 / (1u64 << 53) as f64;
+                (2.0 * u - 1.0) * [1.0, 1e-3, 37.0][(x % 3) as usize]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn fixed_width_kernels_match_the_reference_bit_for_bit() {
+        // every width with a kernel and its neighbours; odd and even row counts (the paired rows)
+        for n in (1..=13).chain([16, 17, 18]) {
+            for (m, r) in [(1, 1), (2, 3), (3, 8), (7, 5), (8, 8), (11, 4)] {
+                let seed = (n * 100 + m * 10 + r) as u64;
+                let (a, b, c0) = (
+                    values(m * r, seed),
+                    values(r * n, seed + 1),
+                    values(m * n, seed + 2),
+                );
+                let (mut c, mut c_ref) = (c0.clone(), c0.clone());
+                gemm_nn_acc(&a, &b, &mut c, m, r, n);
+                gemm_nn_any(&a, &b, &mut c_ref, r, n);
+                assert_eq!(c, c_ref, "gemm_nn_acc m {m} r {r} n {n}");
+                let at = values(r * m, seed + 3);
+                let (mut c, mut c_ref) = (c0.clone(), c0.clone());
+                gemm_tn_acc(&at, &b, &mut c, r, m, n);
+                gemm_tn_any(&at, &b, &mut c_ref, m, n);
+                assert_eq!(c, c_ref, "gemm_tn_acc m {m} r {r} n {n}");
+                let (x, y0) = (values(n, seed + 4), values(m, seed + 5));
+                let an = values(m * n, seed + 6);
+                let (mut y, mut y_ref) = (y0.clone(), y0.clone());
+                gemv_n_acc(&an, &x, &mut y, m, n);
+                gemv_n_any(&an, &x, &mut y_ref, n);
+                assert_eq!(y, y_ref, "gemv_n_acc m {m} n {n}");
+                let (xt, yt0) = (values(m, seed + 7), values(n, seed + 8));
+                let (mut y, mut y_ref) = (yt0.clone(), yt0.clone());
+                gemv_t_acc(&an, &xt, &mut y, m, n);
+                gemv_t_any(&an, &xt, &mut y_ref, n);
+                assert_eq!(y, y_ref, "gemv_t_acc m {m} n {n}");
+            }
+            // n x n factor, n right-hand-side columns
+            let k = 5;
+            let mm = values(k * k, n as u64);
+            let mut spd = vec![0.0; k * k];
+            gemm_tn_any(&mm, &mm, &mut spd, k, k);
+            for i in 0..k {
+                spd[i * k + i] += 1.0;
+            }
+            assert!(chol(&mut spd, k));
+            let b0 = values(k * n, n as u64 + 1);
+            let (mut x, mut x_ref) = (b0.clone(), b0.clone());
+            chol_solve(&spd, k, &mut x, n);
+            chol_solve_any(&spd, k, &mut x_ref, n);
+            assert_eq!(x, x_ref, "chol_solve n {n}");
         }
     }
 

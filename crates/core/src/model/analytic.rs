@@ -36,6 +36,7 @@
 //! so it agrees with it bit for bit.
 
 use super::dynamics::{cholesky_factor_body, cholesky_solve_body};
+use super::kernels::{add_lincomb, add_lincomb2};
 use super::Robot;
 
 /// Reusable buffers (allocated in new; no allocation per call). Sized for robot.n.
@@ -368,14 +369,13 @@ impl DynamicsDerivatives {
         }
         // P = S^T L az.
         let p = &mut self.p[..n * nz];
-        for m in 0..n {
-            let prow = &mut p[m * nz..(m + 1) * nz];
-            prow.fill(0.0);
-            for k in 0..n {
-                let lmk = lta[m * n + k];
-                for (v, &b) in prow.iter_mut().zip(&az[k * nz..(k + 1) * nz]) {
-                    *v += lmk * b;
-                }
+        p.fill(0.0);
+        for m in (0..n).step_by(2) {
+            if m + 1 < n {
+                let (p0, p1) = p[m * nz..(m + 2) * nz].split_at_mut(nz);
+                add_lincomb2(p0, p1, &lta[m * n..], &lta[(m + 1) * n..], 1, az, nz, n);
+            } else {
+                add_lincomb(&mut p[m * nz..(m + 1) * nz], &lta[m * n..], 1, az, nz, n);
             }
         }
         for m in (0..n - 1).rev() {

@@ -164,10 +164,11 @@ impl ClearanceDerivatives {
         }
     }
 
-    /// `w_m = sum_{j > m} alpha_j (p_j - p_m)` for `m` in `row.lo..=row.hi` (others left zero).
-    fn w_vectors(p: &[P2<f64>], row: &Row) -> [[f64; 2]; MAX_LINKS] {
-        let mut w = [[0.0; 2]; MAX_LINKS];
+    /// `w_m = sum_{j > m} alpha_j (p_j - p_m)` into `w[m]` for `m` in `row.lo..=row.hi` (the others
+    /// are not written).
+    fn w_vectors(p: &[P2<f64>], row: &Row, w: &mut [[f64; 2]; MAX_LINKS]) {
         for (m, wm) in w.iter_mut().enumerate().take(row.hi + 1).skip(row.lo) {
+            *wm = [0.0; 2];
             for &(j, al) in &row.alpha[..row.n_alpha] {
                 if j > m {
                     let d = sub(p[j], p[m]);
@@ -176,7 +177,6 @@ impl ClearanceDerivatives {
                 }
             }
         }
-        w
     }
 
     /// Row value from the squared distance, in the configured form, and the factors `(f1, f2)` that
@@ -220,11 +220,12 @@ impl ClearanceDerivatives {
         let n = self.f.robot.n;
         let p = self.joints(q);
         jac[..self.pairs.len() * n].fill(0.0);
+        let mut w = [[0.0; 2]; MAX_LINKS];
         for (k, &pair) in self.pairs.iter().enumerate() {
             let row = self.row(&p, pair);
             let (v, f1, _) = self.transform(k, row.d2);
             out[k] = v;
-            let w = Self::w_vectors(&p, &row);
+            Self::w_vectors(&p, &row, &mut w);
             for m in row.lo..=row.hi {
                 jac[k * n + m] = f1 * 2.0 * dot_r90(row.u, w[m]);
             }
@@ -236,6 +237,7 @@ impl ClearanceDerivatives {
         let n = self.f.robot.n;
         let p = self.joints(q);
         hess[..n * n].fill(0.0);
+        let mut w = [[0.0; 2]; MAX_LINKS];
         for (k, &pair) in self.pairs.iter().enumerate() {
             let wk = weights[k];
             if wk == 0.0 {
@@ -243,7 +245,7 @@ impl ClearanceDerivatives {
             }
             let row = self.row(&p, pair);
             let (_, f1, f2) = self.transform(k, row.d2);
-            let w = Self::w_vectors(&p, &row);
+            Self::w_vectors(&p, &row, &mut w);
             let (lo, hi) = (row.lo, row.hi);
             // gradient of d^2, the mixed column F_{q t} and F_{tt}^{-1} (zero when t is clamped)
             let mut grad = [0.0; MAX_LINKS];

@@ -5,6 +5,7 @@ mod clearance_derivatives;
 mod collision;
 mod derivatives;
 mod dynamics;
+pub(crate) mod kernels;
 mod kinematics;
 mod params;
 mod reroot;

@@ -36,6 +36,7 @@ use super::planner::DistanceClearanceFn;
 use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
+use crate::model::kernels::add_lincomb;
 use crate::model::{ClearanceDerivatives, DynamicsDerivatives, DynamicsFn, Robot, Scratch};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
@@ -328,19 +329,22 @@ impl<D: PointDynamics> StageWork<D> {
                     self.dynamics[i].jacobian(y, qdd, jq);
                     // K_j = [S_i rows n..2n ; Jq S_i]
                     let kz = &mut kza[j * nx * nz..(j + 1) * nx * nz];
-                    kz[..n * nz].copy_from_slice(&sens[n * nz..2 * n * nz]);
-                    // the input rows of S_i are [0 I]: their products are the input columns of Jq
-                    for r in 0..n {
-                        let jr = &jq[r * nz..(r + 1) * nz];
-                        let out = &mut kz[(n + r) * nz..(n + r + 1) * nz];
-                        out.fill(0.0);
-                        for (&a, srow) in jr[..nx].iter().zip(sens.chunks_exact(nz)) {
-                            for (o, &sv) in out.iter_mut().zip(srow) {
-                                *o += a * sv;
-                            }
+                    let (kq, kqd) = kz.split_at_mut(n * nz);
+                    kq.copy_from_slice(&sens[n * nz..2 * n * nz]);
+                    if i == 0 {
+                        // the stage's first evaluation: S_0 = I, the product is Jq itself
+                        kqd.copy_from_slice(jq);
+                    } else {
+                        // Jq_x Sx row by row; the input rows of S_i are [0 I]: their products are
+                        // the input columns of Jq
+                        kqd.fill(0.0);
+                        for (out, jr) in kqd.chunks_exact_mut(nz).zip(jq.chunks_exact(nz)) {
+                            add_lincomb(out, jr, 1, sens, nz, nx);
                         }
-                        for (o, &a) in out[nx..].iter_mut().zip(&jr[nx..]) {
-                            *o += a;
+                        for (out, jr) in kqd.chunks_exact_mut(nz).zip(jq.chunks_exact(nz)) {
+                            for (o, &a) in out[nx..].iter_mut().zip(&jr[nx..]) {
+                                *o += a;
+                            }
                         }
                     }
                 } else {
@@ -564,7 +568,15 @@ fn sandwich_upper_body(
     let sx = &sens[..nx * nz];
     let (t, rest) = tmp.split_at_mut(nx * nz);
     let g = &mut rest[..nz * nu];
-    // T = Hxx Sx (nx x nz), G = Sx^T Hxu (nz x nu)
+    // T = Hxx Sx (nx x nz), G = Sx^T Hxu (nz x nu). Rows of Hxu that are exactly zero add nothing to
+    // G: the second half of x (qd) when qd and tau never multiply in qdd (true of the dynamics;
+    // checked, so any H is right)
+    let half = nx / 2;
+    let g_rows = if (half..nx).all(|r| h[r * nz + nx..(r + 1) * nz].iter().all(|&v| v == 0.0)) {
+        half
+    } else {
+        nx
+    };
     t.fill(0.0);
     g.fill(0.0);
     for r in 0..nx {
@@ -575,6 +587,9 @@ fn sandwich_upper_body(
             for e in 0..nz {
                 out[e] += hv * srow[e];
             }
+        }
+        if r >= g_rows {
+            continue;
         }
         let srow = &sx[r * nz..(r + 1) * nz];
         let hrow = &h[r * nz + nx..(r + 1) * nz];
