@@ -9,7 +9,7 @@
 use crate::convert::{arr1, arr2, bad, read_vector, rs};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
-use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
+use brachia::planning::{Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
 use brachia_experiments::parameter_study::status_name;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -175,7 +175,10 @@ impl SwingPlanner {
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let task = task_from(task)?;
-        let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+        let (mut planner, mut nlp) = plan_settings_from(settings, kwargs)?;
+        // what the planner runs, whatever the settings say, so that the reports name it
+        planner.transcription = Transcription::MultipleShooting;
+        nlp.backend = Backend::Ocp;
         let inner = brachia::planning::SwingPlanner::new(robot.inner.clone(), task, &planner, &nlp)
             .map_err(rs)?;
         let mut x_start = vec![0.0; 2 * robot.inner.n()];

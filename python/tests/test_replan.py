@@ -187,3 +187,12 @@ def test_replan_after_a_kick_and_track_the_new_plan(robot):
     # tracking the old plan after the same kick misses the bar (measured: 0.16 m at 0.9 m/s)
     miss_old, _ = kicked_swing(robot, replan=False)
     assert miss_old > 0.05, miss_old
+
+
+def test_reports_name_what_ran_whatever_the_settings_say(robot):
+    # the persistent planner always solves multiple shooting on the Riccati backend
+    sp = brachia.SwingPlanner(
+        robot, TASK, SETTINGS, transcription="hermite-simpson", solver={"backend": "pounce"}
+    )
+    r = sp.plan().report
+    assert r["transcription"] == "multiple-shooting" and r["backend"] == "ocp", r
