@@ -10,7 +10,7 @@ use crate::convert::{arr1, bad, matrix, rs, to_json, to_py, vector};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, Plan};
 use brachia::model::Circle;
-use brachia::planning::{JointStatus, JointSwingTask, SwingTask, MAX_JOINT_SWINGS};
+use brachia::planning::{JointStatus, JointSwingTask, SwingTask, Transcription, MAX_JOINT_SWINGS};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::Arc;
@@ -208,7 +208,9 @@ pub(crate) fn plan_joint_swings(
         Some(o) => serde_json::from_str(&to_json(o, "obstacles")?)
             .map_err(|e| bad(format!("obstacles: {e}")))?,
     };
-    let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+    let (mut planner, nlp) = plan_settings_from(settings, kwargs)?;
+    // what the joint plan runs, whatever the settings say, so that the swings' reports name it
+    planner.transcription = Transcription::MultipleShooting;
     let task = JointSwingTask {
         x0,
         bars: bars.clone(),

@@ -9,7 +9,7 @@
 use crate::convert::{arr1, arr2, bad, read_vector, rs};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
-use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
+use brachia::planning::{Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
 use brachia_experiments::parameter_study::status_name;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -113,6 +113,16 @@ pub struct SwingPlanner {
     x_in: Vec<f64>,
 }
 
+/// The start state `[q0, qd0]` of `task` into `out` (2n; an empty `qd0` is rest).
+fn task_start(task: &SwingTask, out: &mut [f64]) {
+    let n = task.q0.len();
+    out[..n].copy_from_slice(&task.q0);
+    out[n..].fill(0.0);
+    if !task.qd0.is_empty() {
+        out[n..].copy_from_slice(&task.qd0);
+    }
+}
+
 impl SwingPlanner {
     /// The task of the current solution: the planner's, started from `x_start`.
     fn current_task(&self) -> SwingTask {
@@ -165,17 +175,14 @@ impl SwingPlanner {
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let task = task_from(task)?;
-        let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+        let (mut planner, mut nlp) = plan_settings_from(settings, kwargs)?;
+        // what the planner runs, whatever the settings say, so that the reports name it
+        planner.transcription = Transcription::MultipleShooting;
+        nlp.backend = Backend::Ocp;
         let inner = brachia::planning::SwingPlanner::new(robot.inner.clone(), task, &planner, &nlp)
             .map_err(rs)?;
-        let n = robot.inner.n();
-        let t = inner.task();
-        let mut x_start = t.q0.clone();
-        if t.qd0.is_empty() {
-            x_start.resize(2 * n, 0.0);
-        } else {
-            x_start.extend_from_slice(&t.qd0);
-        }
+        let mut x_start = vec![0.0; 2 * robot.inner.n()];
+        task_start(inner.task(), &mut x_start);
         Ok(SwingPlanner {
             inner,
             planner,
@@ -190,13 +197,7 @@ impl SwingPlanner {
     fn plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
         let inner = &mut self.inner;
         py.detach(|| inner.plan_outcome()).map_err(rs)?;
-        let n = self.inner.robot().n();
-        let t = self.inner.task();
-        self.x_start[..n].copy_from_slice(&t.q0);
-        self.x_start[n..].fill(0.0);
-        if !t.qd0.is_empty() {
-            self.x_start[n..].copy_from_slice(&t.qd0);
-        }
+        task_start(self.inner.task(), &mut self.x_start);
         self.current_plan(py)
     }
 

@@ -84,3 +84,13 @@ def test_errors(robot):
         brachia.plan_joint_swings(robot, X0, BARS, obstacles=[{"centre": [1.0, 0.0], "radius": 0.1}])
     with pytest.raises(brachia.BrachiaError, match="knot_dtt"):
         brachia.plan_joint_swings(robot, X0, BARS, knot_dtt=0.03)
+
+
+def test_swing_reports_name_multiple_shooting_whatever_the_settings_say(robot, joint):
+    j = brachia.plan_joint_swings(
+        robot, X0, BARS, settings=SETTINGS, transcription="hermite-simpson"
+    )
+    assert j.converged, j.message
+    assert j.objective == pytest.approx(joint.objective, rel=1e-9)
+    for p in [ph.plan for ph in j.phases] + j.reference:
+        assert p.report["transcription"] == "multiple-shooting", p.report["transcription"]

@@ -122,6 +122,8 @@ def test_errors(robot):
         sp.current_plan()
     sp.plan()
     x = sp.knot_states()[10].copy()
+    # a refused re-plan leaves the planner as it was: the solution, its knot times and its Plan
+    kept = (sp.knot_states(), sp.knot_times(), sp.knot_torques(), sp.current_plan().q)
     with pytest.raises(brachia.BrachiaError, match="x_now"):
         sp.replan(0.3, x[:-1])
     bad = x.copy()
@@ -134,6 +136,10 @@ def test_errors(robot):
         sp.replan(float("nan"), x)
     with pytest.raises(brachia.BrachiaError, match="target"):
         sp.set_target([float("inf"), 0.0])
+    now = (sp.knot_states(), sp.knot_times(), sp.knot_torques(), sp.current_plan().q)
+    for a, b in zip(kept, now):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(sp.target, TASK["target"])
     with pytest.raises(brachia.BrachiaError, match="knot_dt"):
         brachia.SwingPlanner(robot, TASK, knot_dt=-1.0)
     with pytest.raises(brachia.BrachiaError, match="intervals"):
@@ -181,3 +187,12 @@ def test_replan_after_a_kick_and_track_the_new_plan(robot):
     # tracking the old plan after the same kick misses the bar (measured: 0.16 m at 0.9 m/s)
     miss_old, _ = kicked_swing(robot, replan=False)
     assert miss_old > 0.05, miss_old
+
+
+def test_reports_name_what_ran_whatever_the_settings_say(robot):
+    # the persistent planner always solves multiple shooting on the Riccati backend
+    sp = brachia.SwingPlanner(
+        robot, TASK, SETTINGS, transcription="hermite-simpson", solver={"backend": "pounce"}
+    )
+    r = sp.plan().report
+    assert r["transcription"] == "multiple-shooting" and r["backend"] == "ocp", r

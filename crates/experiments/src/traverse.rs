@@ -64,10 +64,10 @@ pub struct SwingRecord {
     pub plan_source: PlanSource,
     /// Swings in that plan: k when it was the first of a joint plan over k swings, else 1.
     pub planned_jointly: usize,
-    /// Planner iterations (all attempts; for a joint plan, its swing-by-swing warm start's and the
-    /// joint solve's).
+    /// Planner iterations spent on this swing (all attempts; for a joint plan, its swing-by-swing warm
+    /// start's and the joint solve's, also when it did not converge and the swing was planned alone).
     pub plan_iterations: usize,
-    /// Planner wall time, s.
+    /// Planner wall time spent on this swing (the same attempts), s.
     pub plan_time_s: f64,
     /// Energy of the plan, paper eq. 18, J.
     pub planned_energy_j: f64,
@@ -445,7 +445,9 @@ pub enum PlanSource {
     /// The first swing of a joint plan over [`SwingRecord::planned_jointly`] swings from that state.
     Joint,
     /// The last joint plan's swing itself, not re-planned: no plan from the state the switch left
-    /// converged, and the joint plan predicted that state within the tracking error.
+    /// converged. It starts at the switch state the joint plan predicted, not at the state the switch
+    /// left (nothing checks how far apart they are: the controller starts with that error, and the
+    /// capture rule judges the swing).
     JointPrevious,
 }
 
@@ -459,16 +461,23 @@ struct SwingPlan {
 
 /// Swing `ls` planned alone from the state the switch left: with `planned` (the swing as the last
 /// joint plan planned it) as the initial guess when there is one and that converges, else as `brachia
-/// plan` would (`run_plan`); when neither converges, `planned` itself.
+/// plan` would (`run_plan`); when neither converges, `planned` itself. The plan returned carries the
+/// iterations and time of every attempt made for this swing, `spent` (those of a joint plan that did
+/// not converge) included, not those of the joint plan that made `planned`.
 fn plan_alone(
     ls: &LoadedScenario,
     planned: Option<&brachia::planning::Plan>,
+    mut spent: (usize, f64),
 ) -> Result<SwingPlan, Error> {
     let sc = &ls.scenario;
-    let alone = |plan, source| SwingPlan {
-        plan,
-        source,
-        next: None,
+    let alone = |mut plan: brachia::planning::Plan, source, spent: (usize, f64)| {
+        plan.iterations = spent.0;
+        plan.solve_time_s = spent.1;
+        SwingPlan {
+            plan,
+            source,
+            next: None,
+        }
     };
     if let Some(g) = planned {
         let p = plan_with_guess(
@@ -478,14 +487,16 @@ fn plan_alone(
             &sc.solver,
             Some(&g.points),
         )?;
+        spent = (spent.0 + p.iterations, spent.1 + p.solve_time_s);
         if p.converged() {
-            return Ok(alone(p, PlanSource::JointGuess));
+            return Ok(alone(p, PlanSource::JointGuess, spent));
         }
     }
     let p = run_plan(ls)?.plan;
+    spent = (spent.0 + p.iterations, spent.1 + p.solve_time_s);
     Ok(match planned {
-        Some(g) if !p.converged() => alone(g.clone(), PlanSource::JointPrevious),
-        _ => alone(p, PlanSource::Alone),
+        Some(g) if !p.converged() => alone(g.clone(), PlanSource::JointPrevious, spent),
+        _ => alone(p, PlanSource::Alone, spent),
     })
 }
 
@@ -494,7 +505,8 @@ fn plan_alone(
 /// free but for the capture, the rest condition at the last bar only), with its iterations and time
 /// those of the whole joint plan (its swing-by-swing warm start included). When the joint solve does
 /// not converge, the swing is planned alone ([`plan_alone`] with `previous`, the last joint plan's
-/// swing), so the traverse goes on as it would without the lookahead.
+/// swing, the iterations and time of the failed joint plan counted in), so the traverse goes on as it
+/// would without the lookahead.
 fn plan_ahead(
     ls: &LoadedScenario,
     x: &[f64],
@@ -514,13 +526,13 @@ fn plan_ahead(
         rest_at_switches: false,
     };
     let j = brachia::planning::plan_joint_swings(&ls.robot, &task, &sc.planner, &sc.solver)?;
-    if !j.converged() || j.phases.len() < 2 {
-        return plan_alone(ls, previous);
-    }
     let iterations = j.reference.iter().map(|p| p.iterations).sum::<usize>()
         + j.solve.as_ref().map_or(0, |s| s.iterations);
     let time_s = j.reference.iter().map(|p| p.solve_time_s).sum::<f64>()
         + j.solve.as_ref().map_or(0.0, |s| s.time_s);
+    if !j.converged() || j.phases.len() < 2 {
+        return plan_alone(ls, previous, (iterations, time_s));
+    }
     let swings = j.phases.len();
     let mut phases = j.phases.into_iter().map(|ph| ph.plan);
     let (Some(mut plan), Some(second)) = (phases.next(), phases.next()) else {
@@ -607,7 +619,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
                 next_guess.as_ref(),
             )
         } else {
-            plan_alone(&ls, next_guess.as_ref())
+            plan_alone(&ls, next_guess.as_ref(), (0, 0.0))
         };
         let SwingPlan {
             plan: p,
