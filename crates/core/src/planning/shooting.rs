@@ -37,7 +37,9 @@ use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
 use crate::model::kernels::add_lincomb;
-use crate::model::{ClearanceDerivatives, DynamicsDerivatives, DynamicsFn, Robot, Scratch};
+use crate::model::{
+    ClearanceDerivatives, ClearanceRecord, DynamicsDerivatives, DynamicsFn, Robot, Scratch,
+};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -206,6 +208,8 @@ struct StageWork<D> {
     /// factorisation and first derivatives from the forward pass.
     dynamics: Vec<D>,
     clear: Option<ClearanceDerivatives>,
+    /// The clearance rows at the knot of the last first-order evaluation, for the Hessian there.
+    crec: Option<ClearanceRecord>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
@@ -240,9 +244,11 @@ impl<D: PointDynamics> StageWork<D> {
         let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
+        let clear = ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives);
         StageWork {
             dynamics: (0..ne).map(|_| D::new(robot)).collect(),
-            clear: ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives),
+            crec: clear.as_ref().map(ClearanceDerivatives::record),
+            clear,
             rec_z: vec![0.0; nz],
             rec_valid: false,
             y: vec![0.0; ne * nz],
@@ -419,7 +425,11 @@ impl<D: PointDynamics> StageWork<D> {
             let nc = ctx.n_clear;
             let nzk = ev.grad.len();
             if first {
-                cd.jacobian(&x[..n], &mut ev.c, &mut self.cjac);
+                let rec = self
+                    .crec
+                    .as_mut()
+                    .expect("a record with the clearance rows");
+                cd.jacobian_recorded(&x[..n], &mut ev.c, &mut self.cjac, rec);
                 ev.jac_c.fill(0.0);
                 for r in 0..nc {
                     ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
@@ -511,7 +521,11 @@ impl<D: PointDynamics> StageWork<D> {
             hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
         }
         if let (Some(cd), true) = (&self.clear, k >= 1) {
-            cd.hessian_weighted(&x[..n], mu, &mut self.chess);
+            let rec = self
+                .crec
+                .as_ref()
+                .expect("a record with the clearance rows");
+            cd.hessian_weighted_recorded(&x[..n], mu, &mut self.chess, rec);
             for a in 0..n {
                 for b in 0..n {
                     hess[a * nzk + b] += self.chess[a * n + b];
