@@ -49,6 +49,13 @@ pub struct DynamicsDerivatives {
     /// sin / cos of the absolute angles (n).
     sn: Vec<f64>,
     cs: Vec<f64>,
+    /// sin / cos of the absolute angles at the angles `trig_q`, handed over by
+    /// [`Self::provide_trig`] (valid when `trig_valid`): `prepare` at those angles takes them
+    /// instead of calling `sin_cos` again.
+    trig_q: Vec<f64>,
+    trig_sn: Vec<f64>,
+    trig_cs: Vec<f64>,
+    trig_valid: bool,
     /// sin / cos of th_j - th_k, row-major n x n.
     sd: Vec<f64>,
     cd: Vec<f64>,
@@ -146,6 +153,10 @@ impl DynamicsDerivatives {
             n,
             sn: v(n),
             cs: v(n),
+            trig_q: v(n),
+            trig_sn: v(n),
+            trig_cs: v(n),
+            trig_valid: false,
             sd: v(n * n),
             cd: v(n * n),
             om: v(n),
@@ -197,10 +208,18 @@ impl DynamicsDerivatives {
             &mut self.a[..n],
             &mut self.al[..n],
         );
+        // the sines and cosines handed over at these very angles are the same numbers (the same sums,
+        // the same `sin_cos`)
+        let reuse = self.trig_valid && self.trig_q[..n] == *q;
+        let (tsn, tcs) = (&self.trig_sn[..n], &self.trig_cs[..n]);
         let (mut th, mut omv) = (0.0, 0.0);
         for i in 0..n {
             th += q[i];
-            let (s, c) = th.sin_cos();
+            let (s, c) = if reuse {
+                (tsn[i], tcs[i])
+            } else {
+                th.sin_cos()
+            };
             sn[i] = s;
             cs[i] = c;
             omv += qd[i];
@@ -419,6 +438,18 @@ impl DynamicsDerivatives {
                 put(2 * n + i, 2 * n + l, 0.0);
             }
         }
+    }
+
+    /// Hand over `sn`, `cs`: the sines and cosines of the absolute angles at the relative angles `q`
+    /// (n), computed as [`Robot::forward_dynamics_into`] does (`th += q[i]` from 0, then
+    /// `th.sin_cos()`), so that the next evaluation at the same angles does not compute them again
+    /// (bit for bit the same numbers). Kept until the next call.
+    pub(crate) fn provide_trig(&mut self, q: &[f64], sn: &[f64], cs: &[f64]) {
+        let n = self.n;
+        self.trig_q.copy_from_slice(&q[..n]);
+        self.trig_sn.copy_from_slice(&sn[..n]);
+        self.trig_cs.copy_from_slice(&cs[..n]);
+        self.trig_valid = true;
     }
 
     /// qdd = f(z), z = [q, qd, tau] (3n - 1).

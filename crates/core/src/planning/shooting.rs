@@ -119,6 +119,9 @@ impl PointDynamics for AnalyticDynamics {
         let n = self.robot.n;
         self.robot
             .forward_dynamics_into(&mut self.ws, &y[..n], &y[n..2 * n], &y[2 * n..], qdd);
+        // a first-order evaluation at the same point (the accepted trial point) reuses them
+        let (sn, cs) = self.ws.trig();
+        self.d.provide_trig(&y[..n], sn, cs);
     }
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.d.jacobian(&self.robot, y, qdd, jac);
