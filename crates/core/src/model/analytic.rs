@@ -498,3 +498,60 @@ impl DynamicsDerivatives {
         jac[..self.jz.len()].copy_from_slice(&self.jz);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::collision::tests::odd_robot;
+    use crate::model::Scratch;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn handed_over_trig_gives_the_same_bits() {
+        // the sines and cosines of a value evaluation handed over to the derivatives: the same
+        // Jacobian and Hessian bit for bit at those angles, and recomputed at other angles
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        for robot in [Robot::paper(), odd_robot()] {
+            let n = robot.n;
+            let nz = 3 * n - 1;
+            let mut ws = Scratch::new(n);
+            let (mut fresh, mut handed) = (
+                DynamicsDerivatives::new(&robot),
+                DynamicsDerivatives::new(&robot),
+            );
+            let (mut a0, mut a1, mut qv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let (mut j0, mut j1) = (vec![0.0; n * nz], vec![0.0; n * nz]);
+            let (mut h0, mut h1) = (vec![0.0; nz * nz], vec![0.0; nz * nz]);
+            for it in 0..30 {
+                let z: Vec<f64> = (0..nz).map(|_| rng.gen_range(-3.0..3.0)).collect();
+                let w: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                // every other pose the value evaluation is at other angles: nothing to reuse
+                let mut zv = z.clone();
+                if it % 2 == 1 {
+                    zv[0] += 0.25;
+                }
+                robot.forward_dynamics_into(
+                    &mut ws,
+                    &zv[..n],
+                    &zv[n..2 * n],
+                    &zv[2 * n..],
+                    &mut qv,
+                );
+                let (sn, cs) = ws.trig();
+                handed.provide_trig(&zv[..n], sn, cs);
+                fresh.jacobian(&robot, &z, &mut a0, &mut j0);
+                handed.jacobian(&robot, &z, &mut a1, &mut j1);
+                assert_eq!(bits(&a0), bits(&a1), "qdd, pose {it}");
+                assert_eq!(bits(&j0), bits(&j1), "Jacobian, pose {it}");
+                fresh.hessian_weighted(&robot, &z, &w, &mut h0);
+                handed.hessian_weighted(&robot, &z, &w, &mut h1);
+                assert_eq!(bits(&h0), bits(&h1), "Hessian, pose {it}");
+            }
+        }
+    }
+}
