@@ -501,7 +501,7 @@ impl<D: PointDynamics> StageWork<D> {
                         &mut self.hbuf,
                     );
                     let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
-                    add_sandwich_upper(nx, nz, sens, i == 0, &self.hbuf, &mut self.tmp, hess);
+                    add_sandwich_upper(nx, nz, sens, i, &self.hbuf, &mut self.tmp, hess);
                 }
                 for j in 0..4 {
                     for e in 0..nx {
@@ -542,27 +542,41 @@ impl<D: PointDynamics> StageWork<D> {
 /// sensitivity `S = [Sx; 0 I]` (`Sx` its first `nx` rows, `nz x nz` in all) and the symmetric Hessian `H`
 /// of `w . qdd` at that evaluation. With `H = [Hxx Hxu; Hux Huu]`:
 /// `S^T H S = Sx^T Hxx Sx + Sx^T Hxu E + E^T Hux Sx + E^T Huu E`, `E = [0 I]` (the input rows), so
-/// the input rows of `S` are never multiplied. `identity`: `S = I` (the first evaluation of a stage),
-/// `H` itself. `tmp` holds at least `(nx + nu) nz` values.
+/// the input rows of `S` are never multiplied. `i`: the evaluation's index in the stage; the first
+/// (`i = 0`) has `S = I` (`H` itself), the second (`i = 1`, `y = x + (h/2) k_1` with `k_1`'s q rows
+/// the qd rows of `S = I`) has the q rows of `Sx` zero but at columns `r` and `n + r` (checked): the
+/// products with those zeros are skipped (they would add exact zeros). `tmp` holds at least
+/// `(nx + nu) nz` values.
 fn add_sandwich_upper(
     nx: usize,
     nz: usize,
     sens: &[f64],
-    identity: bool,
+    i: usize,
     h: &[f64],
     tmp: &mut [f64],
     hess: &mut [f64],
 ) {
+    let half = nx / 2;
+    let identity = i == 0;
+    let sparse_q = i == 1
+        && (0..half).all(|r| {
+            sens[r * nz..(r + 1) * nz]
+                .iter()
+                .enumerate()
+                .all(|(c, &v)| c == r || c == half + r || v == 0.0)
+        });
     // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other size
     // through the same code with run-time sizes
-    match (nx, nz) {
-        (8, 11) => sandwich_upper_body(8, 11, sens, identity, h, tmp, hess),
-        _ => sandwich_upper_body(nx, nz, sens, identity, h, tmp, hess),
+    match (nx, nz, sparse_q) {
+        (8, 11, false) => sandwich_upper_body::<false>(8, 11, sens, identity, h, tmp, hess),
+        (8, 11, true) => sandwich_upper_body::<true>(8, 11, sens, identity, h, tmp, hess),
+        (_, _, false) => sandwich_upper_body::<false>(nx, nz, sens, identity, h, tmp, hess),
+        (_, _, true) => sandwich_upper_body::<true>(nx, nz, sens, identity, h, tmp, hess),
     }
 }
 
 #[inline(always)]
-fn sandwich_upper_body(
+fn sandwich_upper_body<const SPARSE_Q: bool>(
     nx: usize,
     nz: usize,
     sens: &[f64],
@@ -596,11 +610,18 @@ fn sandwich_upper_body(
     };
     t.fill(0.0);
     g.fill(0.0);
+    // with `SPARSE_Q`, the q rows c < half of Sx have their non-zeros at c and half + c only: the
+    // terms with the other entries (exact zeros) are left out, every other term in the same order
     for r in 0..nx {
         let out = &mut t[r * nz..(r + 1) * nz];
         for c in 0..nx {
             let hv = h[r * nz + c];
             let srow = &sx[c * nz..(c + 1) * nz];
+            if SPARSE_Q && c < half {
+                out[c] += hv * srow[c];
+                out[half + c] += hv * srow[half + c];
+                continue;
+            }
             for e in 0..nz {
                 out[e] += hv * srow[e];
             }
@@ -610,6 +631,16 @@ fn sandwich_upper_body(
         }
         let srow = &sx[r * nz..(r + 1) * nz];
         let hrow = &h[r * nz + nx..(r + 1) * nz];
+        if SPARSE_Q && r < half {
+            for a in [r, half + r] {
+                let sa = srow[a];
+                let grow = &mut g[a * nu..(a + 1) * nu];
+                for m in 0..nu {
+                    grow[m] += sa * hrow[m];
+                }
+            }
+            continue;
+        }
         for a in 0..nz {
             let sa = srow[a];
             let grow = &mut g[a * nu..(a + 1) * nu];
@@ -622,6 +653,16 @@ fn sandwich_upper_body(
     for r in 0..nx {
         let srow = &sx[r * nz..(r + 1) * nz];
         let trow = &t[r * nz..(r + 1) * nz];
+        if SPARSE_Q && r < half {
+            for a in [r, half + r] {
+                let sa = srow[a];
+                let out = &mut hess[a * nz..(a + 1) * nz];
+                for b in a..nz {
+                    out[b] += sa * trow[b];
+                }
+            }
+            continue;
+        }
         for a in 0..nz {
             let sa = srow[a];
             let out = &mut hess[a * nz..(a + 1) * nz];
