@@ -485,14 +485,7 @@ impl<D: PointDynamics> StageWork<D> {
                         &self.w[j * nx..(j + 1) * nx],
                         &mut self.g[j * nx..(j + 1) * nx],
                     );
-                    // F_x = [[0, I], [Jq_x]]: (F_x^T w)_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}
-                    for e in 0..nx {
-                        let mut v = if e >= n { w[e - n] } else { 0.0 };
-                        for r in 0..n {
-                            v += jq[r * nz + e] * w[n + r];
-                        }
-                        g[e] = v;
-                    }
+                    fx_transpose_times(n, nz, jq, w, g);
                     // S_i^T [Hess (w_v . qdd)(y_i)] S_i
                     let y = &self.y[i * nz..(i + 1) * nz];
                     self.dynamics[i].hessian_weighted_reuse(
@@ -535,6 +528,30 @@ impl<D: PointDynamics> StageWork<D> {
                 }
             }
         }
+    }
+}
+
+/// `g = F_x^T w` for `F_x = [[0, I], [Jq_x]]` (`2n x 2n`; `Jq` row-major `n x nz`, its first `2n`
+/// columns `Jq_x`): `g_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}`.
+fn fx_transpose_times(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
+    // the paper's 4 links with constant sizes (unrolled, no bounds checks), any other count
+    // through the same body: the same arithmetic either way
+    match (n, nz) {
+        (4, 11) => fx_transpose_times_body(4, 11, jq, w, g),
+        _ => fx_transpose_times_body(n, nz, jq, w, g),
+    }
+}
+
+#[inline(always)]
+fn fx_transpose_times_body(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
+    let nx = 2 * n;
+    let (jq, w, g) = (&jq[..n * nz], &w[..nx], &mut g[..nx]);
+    for e in 0..nx {
+        let mut v = if e >= n { w[e - n] } else { 0.0 };
+        for r in 0..n {
+            v += jq[r * nz + e] * w[n + r];
+        }
+        g[e] = v;
     }
 }
 
