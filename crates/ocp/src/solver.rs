@@ -227,6 +227,46 @@ fn phase_grad_of(
     }
 }
 
+/// Split a stage's dynamics Jacobian `jac_f` (`nx1 x (nx + nu)`, row-major) into `a` (`nx1 x nx`)
+/// and `b` (`nx1 x nu`), the columns of eliminated variables (`kind`, `nx + nu` entries) zero. A
+/// stage without eliminated variables (the usual case) is copied row by row, without a test per
+/// entry.
+fn split_dynamics_jacobian(
+    jac_f: &[f64],
+    kind: &[Kind],
+    nx1: usize,
+    nx: usize,
+    nu: usize,
+    a: &mut [f64],
+    b: &mut [f64],
+) {
+    let nz = nx + nu;
+    let any_eliminated = kind[..nz].iter().any(|&v| v == Kind::Eliminated);
+    for r in 0..nx1 {
+        let row = &jac_f[r * nz..(r + 1) * nz];
+        let (ar, br) = (&mut a[r * nx..(r + 1) * nx], &mut b[r * nu..(r + 1) * nu]);
+        if !any_eliminated {
+            ar.copy_from_slice(&row[..nx]);
+            br.copy_from_slice(&row[nx..]);
+            continue;
+        }
+        for c in 0..nx {
+            ar[c] = if kind[c] == Kind::Eliminated {
+                0.0
+            } else {
+                row[c]
+            };
+        }
+        for c in 0..nu {
+            br[c] = if kind[nx + c] == Kind::Eliminated {
+                0.0
+            } else {
+                row[nx + c]
+            };
+        }
+    }
+}
+
 fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -1128,23 +1168,7 @@ impl OcpSolver {
                 let a = &mut self.ric.a[lay.oa[k]..lay.oa[k + 1]];
                 let b = &mut self.ric.b[lay.ob[k]..lay.ob[k + 1]];
                 let nu = lay.nu[k];
-                for r in 0..nx1 {
-                    let row = &e.jac_f[r * nz..(r + 1) * nz];
-                    for c in 0..nx {
-                        a[r * nx + c] = if self.kind[o + c] == Kind::Eliminated {
-                            0.0
-                        } else {
-                            row[c]
-                        };
-                    }
-                    for c in 0..nu {
-                        b[r * nu + c] = if self.kind[o + nx + c] == Kind::Eliminated {
-                            0.0
-                        } else {
-                            row[nx + c]
-                        };
-                    }
-                }
+                split_dynamics_jacobian(&e.jac_f, &self.kind[o..o + nz], nx1, nx, nu, a, b);
             }
         }
         // equality rows: terminal rows, then fixed states
@@ -1443,23 +1467,7 @@ impl OcpSolver {
             if k < kk {
                 let a = &mut self.ric.a[lay.oa[k]..lay.oa[k + 1]];
                 let b = &mut self.ric.b[lay.ob[k]..lay.ob[k + 1]];
-                for r in 0..nx1 {
-                    let row = &e.jac_f[r * nz..(r + 1) * nz];
-                    for c in 0..nx {
-                        a[r * nx + c] = if self.kind[o + c] == Kind::Eliminated {
-                            0.0
-                        } else {
-                            row[c]
-                        };
-                    }
-                    for c in 0..nu {
-                        b[r * nu + c] = if self.kind[o + nx + c] == Kind::Eliminated {
-                            0.0
-                        } else {
-                            row[nx + c]
-                        };
-                    }
-                }
+                split_dynamics_jacobian(&e.jac_f, &self.kind[o..o + nz], nx1, nx, nu, a, b);
             }
         }
         self.bdef.fill(0.0);

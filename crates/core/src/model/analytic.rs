@@ -49,6 +49,13 @@ pub struct DynamicsDerivatives {
     /// sin / cos of the absolute angles (n).
     sn: Vec<f64>,
     cs: Vec<f64>,
+    /// sin / cos of the absolute angles at the angles `trig_q`, handed over by
+    /// [`Self::provide_trig`] (valid when `trig_valid`): `prepare` at those angles takes them
+    /// instead of calling `sin_cos` again.
+    trig_q: Vec<f64>,
+    trig_sn: Vec<f64>,
+    trig_cs: Vec<f64>,
+    trig_valid: bool,
     /// sin / cos of th_j - th_k, row-major n x n.
     sd: Vec<f64>,
     cd: Vec<f64>,
@@ -146,6 +153,10 @@ impl DynamicsDerivatives {
             n,
             sn: v(n),
             cs: v(n),
+            trig_q: v(n),
+            trig_sn: v(n),
+            trig_cs: v(n),
+            trig_valid: false,
             sd: v(n * n),
             cd: v(n * n),
             om: v(n),
@@ -197,10 +208,18 @@ impl DynamicsDerivatives {
             &mut self.a[..n],
             &mut self.al[..n],
         );
+        // the sines and cosines handed over at these very angles are the same numbers (the same sums,
+        // the same `sin_cos`)
+        let reuse = self.trig_valid && self.trig_q[..n] == *q;
+        let (tsn, tcs) = (&self.trig_sn[..n], &self.trig_cs[..n]);
         let (mut th, mut omv) = (0.0, 0.0);
         for i in 0..n {
             th += q[i];
-            let (s, c) = th.sin_cos();
+            let (s, c) = if reuse {
+                (tsn[i], tcs[i])
+            } else {
+                th.sin_cos()
+            };
             sn[i] = s;
             cs[i] = c;
             omv += qd[i];
@@ -421,6 +440,18 @@ impl DynamicsDerivatives {
         }
     }
 
+    /// Hand over `sn`, `cs`: the sines and cosines of the absolute angles at the relative angles `q`
+    /// (n), computed as [`Robot::forward_dynamics_into`] does (`th += q[i]` from 0, then
+    /// `th.sin_cos()`), so that the next evaluation at the same angles does not compute them again
+    /// (bit for bit the same numbers). Kept until the next call.
+    pub(crate) fn provide_trig(&mut self, q: &[f64], sn: &[f64], cs: &[f64]) {
+        let n = self.n;
+        self.trig_q.copy_from_slice(&q[..n]);
+        self.trig_sn.copy_from_slice(&sn[..n]);
+        self.trig_cs.copy_from_slice(&cs[..n]);
+        self.trig_valid = true;
+    }
+
     /// qdd = f(z), z = [q, qd, tau] (3n - 1).
     pub fn qdd(&mut self, robot: &Robot, z: &[f64], qdd: &mut [f64]) {
         self.prepare(robot, z);
@@ -465,5 +496,62 @@ impl DynamicsDerivatives {
         self.fill_hessian(robot, w, hess);
         qdd[..self.n].copy_from_slice(&self.a);
         jac[..self.jz.len()].copy_from_slice(&self.jz);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::collision::tests::odd_robot;
+    use crate::model::Scratch;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    #[test]
+    fn handed_over_trig_gives_the_same_bits() {
+        // the sines and cosines of a value evaluation handed over to the derivatives: the same
+        // Jacobian and Hessian bit for bit at those angles, and recomputed at other angles
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        for robot in [Robot::paper(), odd_robot()] {
+            let n = robot.n;
+            let nz = 3 * n - 1;
+            let mut ws = Scratch::new(n);
+            let (mut fresh, mut handed) = (
+                DynamicsDerivatives::new(&robot),
+                DynamicsDerivatives::new(&robot),
+            );
+            let (mut a0, mut a1, mut qv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let (mut j0, mut j1) = (vec![0.0; n * nz], vec![0.0; n * nz]);
+            let (mut h0, mut h1) = (vec![0.0; nz * nz], vec![0.0; nz * nz]);
+            for it in 0..30 {
+                let z: Vec<f64> = (0..nz).map(|_| rng.gen_range(-3.0..3.0)).collect();
+                let w: Vec<f64> = (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                // every other pose the value evaluation is at other angles: nothing to reuse
+                let mut zv = z.clone();
+                if it % 2 == 1 {
+                    zv[0] += 0.25;
+                }
+                robot.forward_dynamics_into(
+                    &mut ws,
+                    &zv[..n],
+                    &zv[n..2 * n],
+                    &zv[2 * n..],
+                    &mut qv,
+                );
+                let (sn, cs) = ws.trig();
+                handed.provide_trig(&zv[..n], sn, cs);
+                fresh.jacobian(&robot, &z, &mut a0, &mut j0);
+                handed.jacobian(&robot, &z, &mut a1, &mut j1);
+                assert_eq!(bits(&a0), bits(&a1), "qdd, pose {it}");
+                assert_eq!(bits(&j0), bits(&j1), "Jacobian, pose {it}");
+                fresh.hessian_weighted(&robot, &z, &w, &mut h0);
+                handed.hessian_weighted(&robot, &z, &w, &mut h1);
+                assert_eq!(bits(&h0), bits(&h1), "Hessian, pose {it}");
+            }
+        }
     }
 }

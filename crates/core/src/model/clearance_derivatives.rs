@@ -59,6 +59,7 @@ pub struct ClearanceDerivatives {
 }
 
 /// One row's derivative data at a configuration.
+#[derive(Debug, Clone, Copy)]
 struct Row {
     d2: f64,
     /// Difference of the closest points, `u = sum alpha_j p_j - c`.
@@ -166,7 +167,7 @@ impl ClearanceDerivatives {
 
     /// `w_m = sum_{j > m} alpha_j (p_j - p_m)` into `w[m]` for `m` in `row.lo..=row.hi` (the others
     /// are not written).
-    fn w_vectors(p: &[P2<f64>], row: &Row, w: &mut [[f64; 2]; MAX_LINKS]) {
+    fn w_vectors(p: &[P2<f64>], row: &Row, w: &mut [[f64; 2]]) {
         for (m, wm) in w.iter_mut().enumerate().take(row.hi + 1).skip(row.lo) {
             *wm = [0.0; 2];
             for &(j, al) in &row.alpha[..row.n_alpha] {
@@ -217,18 +218,74 @@ impl ClearanceDerivatives {
 
     /// Row values into `out` and the Jacobian (row-major `n_out x n`) into `jac`.
     pub fn jacobian(&self, q: &[f64], out: &mut [f64], jac: &mut [f64]) {
+        self.jacobian_impl(q, out, jac, None);
+    }
+
+    /// [`Self::jacobian`], recording the rows' derivative data at `q` in `rec` (made by
+    /// [`Self::record`]) for [`Self::hessian_weighted_recorded`] at the same point. The same
+    /// arithmetic: the results are bit for bit those of [`Self::jacobian`].
+    pub fn jacobian_recorded(
+        &self,
+        q: &[f64],
+        out: &mut [f64],
+        jac: &mut [f64],
+        rec: &mut ClearanceRecord,
+    ) {
+        self.jacobian_impl(q, out, jac, Some(rec));
+    }
+
+    fn jacobian_impl(
+        &self,
+        q: &[f64],
+        out: &mut [f64],
+        jac: &mut [f64],
+        mut rec: Option<&mut ClearanceRecord>,
+    ) {
         let n = self.f.robot.n;
         let p = self.joints(q);
         jac[..self.pairs.len() * n].fill(0.0);
-        let mut w = [[0.0; 2]; MAX_LINKS];
+        let mut wl = [[0.0; 2]; MAX_LINKS];
         for (k, &pair) in self.pairs.iter().enumerate() {
             let row = self.row(&p, pair);
             let (v, f1, _) = self.transform(k, row.d2);
             out[k] = v;
-            Self::w_vectors(&p, &row, &mut w);
+            let w = match rec.as_deref_mut() {
+                Some(r) => {
+                    r.rows[k] = row;
+                    &mut r.w[k * n..(k + 1) * n]
+                }
+                None => &mut wl[..n],
+            };
+            Self::w_vectors(&p, &row, w);
             for m in row.lo..=row.hi {
                 jac[k * n + m] = f1 * 2.0 * dot_r90(row.u, w[m]);
             }
+        }
+        if let Some(r) = rec {
+            r.q.copy_from_slice(&q[..n]);
+            r.p = p;
+            r.valid = true;
+        }
+    }
+
+    /// Buffers for [`Self::jacobian_recorded`] (allocated here, once; nothing recorded yet).
+    pub fn record(&self) -> ClearanceRecord {
+        let n = self.f.robot.n;
+        let none = Row {
+            d2: 0.0,
+            u: [0.0; 2],
+            alpha: [(0, 0.0); 3],
+            n_alpha: 0,
+            free: None,
+            lo: 0,
+            hi: 0,
+        };
+        ClearanceRecord {
+            q: vec![0.0; n],
+            valid: false,
+            p: [[0.0; 2]; MAX_LINKS + 1],
+            rows: vec![none; self.pairs.len()],
+            w: vec![[0.0; 2]; self.pairs.len() * n],
         }
     }
 
@@ -244,48 +301,102 @@ impl ClearanceDerivatives {
                 continue;
             }
             let row = self.row(&p, pair);
-            let (_, f1, f2) = self.transform(k, row.d2);
-            Self::w_vectors(&p, &row, &mut w);
-            let (lo, hi) = (row.lo, row.hi);
-            // gradient of d^2, the mixed column F_{q t} and F_{tt}^{-1} (zero when t is clamped)
-            let mut grad = [0.0; MAX_LINKS];
-            let mut bq = [0.0; MAX_LINKS];
-            let mut inv = 0.0;
-            let free = row.free.map(|(i, sg)| {
-                (
-                    i,
-                    [sg * (p[i + 1][0] - p[i][0]), sg * (p[i + 1][1] - p[i][1])],
-                )
-            });
-            for m in lo..=hi {
-                grad[m] = 2.0 * dot_r90(row.u, w[m]);
-                if let Some((i, e)) = free {
-                    // (R90 w_m) . e = e . R90 w_m, then u . R90 e
-                    let mut v = dot_r90(e, w[m]);
-                    if m <= i {
-                        v += dot_r90(row.u, e);
-                    }
-                    bq[m] = 2.0 * v;
+            Self::w_vectors(&p, &row, &mut w[..n]);
+            self.add_row_hessian(k, wk, &p, &row, &w[..n], hess);
+        }
+    }
+
+    /// [`Self::hessian_weighted`] from the rows `rec` recorded at `q` by [`Self::jacobian_recorded`]
+    /// (bit for bit the same result); recomputes when `rec` holds another point or nothing.
+    pub fn hessian_weighted_recorded(
+        &self,
+        q: &[f64],
+        weights: &[f64],
+        hess: &mut [f64],
+        rec: &ClearanceRecord,
+    ) {
+        let n = self.f.robot.n;
+        if !(rec.valid && rec.q[..] == q[..n]) {
+            self.hessian_weighted(q, weights, hess);
+            return;
+        }
+        hess[..n * n].fill(0.0);
+        for k in 0..self.pairs.len() {
+            let wk = weights[k];
+            if wk == 0.0 {
+                continue;
+            }
+            let w = &rec.w[k * n..(k + 1) * n];
+            self.add_row_hessian(k, wk, &rec.p, &rec.rows[k], w, hess);
+        }
+    }
+
+    /// Add `wk` times row k's Hessian (its data `row`, `w` at the joints `p`) to `hess` (`n x n`).
+    #[inline(always)]
+    fn add_row_hessian(
+        &self,
+        k: usize,
+        wk: f64,
+        p: &[P2<f64>],
+        row: &Row,
+        w: &[[f64; 2]],
+        hess: &mut [f64],
+    ) {
+        let n = self.f.robot.n;
+        let (_, f1, f2) = self.transform(k, row.d2);
+        let (lo, hi) = (row.lo, row.hi);
+        // gradient of d^2, the mixed column F_{q t} and F_{tt}^{-1} (zero when t is clamped)
+        let mut grad = [0.0; MAX_LINKS];
+        let mut bq = [0.0; MAX_LINKS];
+        let mut inv = 0.0;
+        let free = row.free.map(|(i, sg)| {
+            (
+                i,
+                [sg * (p[i + 1][0] - p[i][0]), sg * (p[i + 1][1] - p[i][1])],
+            )
+        });
+        for m in lo..=hi {
+            grad[m] = 2.0 * dot_r90(row.u, w[m]);
+            if let Some((i, e)) = free {
+                // (R90 w_m) . e = e . R90 w_m, then u . R90 e
+                let mut v = dot_r90(e, w[m]);
+                if m <= i {
+                    v += dot_r90(row.u, e);
                 }
+                bq[m] = 2.0 * v;
             }
-            if let Some((_, e)) = free {
-                inv = 0.5 / dot(e, e);
-            }
-            for m in lo..=hi {
-                for l in m..=hi {
-                    let mut h = 2.0 * dot(w[m], w[l]) - 2.0 * dot(row.u, w[l.max(m)]);
-                    if free.is_some() {
-                        h -= bq[m] * inv * bq[l];
-                    }
-                    let v = wk * (f1 * h + f2 * grad[m] * grad[l]);
-                    hess[m * n + l] += v;
-                    if l != m {
-                        hess[l * n + m] += v;
-                    }
+        }
+        if let Some((_, e)) = free {
+            inv = 0.5 / dot(e, e);
+        }
+        for m in lo..=hi {
+            for l in m..=hi {
+                let mut h = 2.0 * dot(w[m], w[l]) - 2.0 * dot(row.u, w[l.max(m)]);
+                if free.is_some() {
+                    h -= bq[m] * inv * bq[l];
+                }
+                let v = wk * (f1 * h + f2 * grad[m] * grad[l]);
+                hess[m * n + l] += v;
+                if l != m {
+                    hess[l * n + m] += v;
                 }
             }
         }
     }
+}
+
+/// The rows' derivative data at one configuration, recorded by
+/// [`ClearanceDerivatives::jacobian_recorded`] so that the Hessian at the same point
+/// ([`ClearanceDerivatives::hessian_weighted_recorded`]) does not recompute the joints, the closest
+/// points and the `w_m`. Made by [`ClearanceDerivatives::record`].
+#[derive(Debug, Clone)]
+pub struct ClearanceRecord {
+    q: Vec<f64>,
+    valid: bool,
+    p: [P2<f64>; MAX_LINKS + 1],
+    rows: Vec<Row>,
+    /// `w_m` of row k at `w[k n + m]`.
+    w: Vec<[f64; 2]>,
 }
 
 impl ClearanceDerivatives {
@@ -445,6 +556,44 @@ mod tests {
                 "piece {want:?} never selected: {seen:?}"
             );
         }
+    }
+
+    #[test]
+    fn recorded_rows_give_the_same_bits() {
+        // the Jacobian and Hessian through a record equal the plain ones bit for bit; a record of
+        // another point (or none) makes the Hessian recompute
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        for robot in [Robot::paper(), odd_robot()] {
+            let n = robot.n;
+            let f = ClearanceFn::new(robot.clone(), &OBS[..], 0.02)
+                .unwrap()
+                .with_self_collision(true);
+            let d = DistanceClearanceFn::new(f.clone()).derivatives();
+            let m = d.n_out();
+            let mut rec = d.record();
+            let (mut v0, mut v1) = (vec![0.0; m], vec![0.0; m]);
+            let (mut j0, mut j1) = (vec![0.0; m * n], vec![0.0; m * n]);
+            let (mut h0, mut h1) = (vec![0.0; n * n], vec![0.0; n * n]);
+            for it in 0..40 {
+                let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.2..3.2)).collect();
+                let w = random_weights(&mut rng, m);
+                d.hessian_weighted(&q, &w, &mut h0);
+                // nothing or another point recorded: the fallback
+                d.hessian_weighted_recorded(&q, &w, &mut h1, &rec);
+                assert_eq!(bits(&h0), bits(&h1), "fallback, pose {it}");
+                d.jacobian(&q, &mut v0, &mut j0);
+                d.jacobian_recorded(&q, &mut v1, &mut j1, &mut rec);
+                assert_eq!(bits(&v0), bits(&v1), "values, pose {it}");
+                assert_eq!(bits(&j0), bits(&j1), "Jacobian, pose {it}");
+                h1.fill(f64::NAN);
+                d.hessian_weighted_recorded(&q, &w, &mut h1, &rec);
+                assert_eq!(bits(&h0), bits(&h1), "recorded Hessian, pose {it}");
+            }
+        }
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
     }
 
     #[test]

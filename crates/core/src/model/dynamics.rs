@@ -25,6 +25,12 @@ pub struct Scratch<T> {
 }
 
 impl<T: Scalar> Scratch<T> {
+    /// sin and cos of the absolute angles of the last [`Robot::forward_dynamics_into`] with this
+    /// scratch (n each).
+    pub(crate) fn trig(&self) -> (&[T], &[T]) {
+        (&self.s, &self.co)
+    }
+
     /// Buffers for an n-link robot.
     pub fn new(n: usize) -> Self {
         let z = T::zero();

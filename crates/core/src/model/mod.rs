@@ -11,7 +11,7 @@ mod params;
 mod reroot;
 
 pub use analytic::DynamicsDerivatives;
-pub use clearance_derivatives::{ClearanceDerivatives, ClearanceForm};
+pub use clearance_derivatives::{ClearanceDerivatives, ClearanceForm, ClearanceRecord};
 pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
 pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
 pub use dynamics::{

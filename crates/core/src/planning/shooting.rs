@@ -37,7 +37,9 @@ use super::settings::Bounds;
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
 use crate::model::kernels::add_lincomb;
-use crate::model::{ClearanceDerivatives, DynamicsDerivatives, DynamicsFn, Robot, Scratch};
+use crate::model::{
+    ClearanceDerivatives, ClearanceRecord, DynamicsDerivatives, DynamicsFn, Robot, Scratch,
+};
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -117,6 +119,9 @@ impl PointDynamics for AnalyticDynamics {
         let n = self.robot.n;
         self.robot
             .forward_dynamics_into(&mut self.ws, &y[..n], &y[n..2 * n], &y[2 * n..], qdd);
+        // a first-order evaluation at the same point (the accepted trial point) reuses them
+        let (sn, cs) = self.ws.trig();
+        self.d.provide_trig(&y[..n], sn, cs);
     }
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.d.jacobian(&self.robot, y, qdd, jac);
@@ -206,6 +211,8 @@ struct StageWork<D> {
     /// factorisation and first derivatives from the forward pass.
     dynamics: Vec<D>,
     clear: Option<ClearanceDerivatives>,
+    /// The clearance rows at the knot of the last first-order evaluation, for the Hessian there.
+    crec: Option<ClearanceRecord>,
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
@@ -240,9 +247,11 @@ impl<D: PointDynamics> StageWork<D> {
         let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
+        let clear = ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives);
         StageWork {
             dynamics: (0..ne).map(|_| D::new(robot)).collect(),
-            clear: ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives),
+            crec: clear.as_ref().map(ClearanceDerivatives::record),
+            clear,
             rec_z: vec![0.0; nz],
             rec_valid: false,
             y: vec![0.0; ne * nz],
@@ -419,7 +428,11 @@ impl<D: PointDynamics> StageWork<D> {
             let nc = ctx.n_clear;
             let nzk = ev.grad.len();
             if first {
-                cd.jacobian(&x[..n], &mut ev.c, &mut self.cjac);
+                let rec = self
+                    .crec
+                    .as_mut()
+                    .expect("a record with the clearance rows");
+                cd.jacobian_recorded(&x[..n], &mut ev.c, &mut self.cjac, rec);
                 ev.jac_c.fill(0.0);
                 for r in 0..nc {
                     ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
@@ -472,14 +485,7 @@ impl<D: PointDynamics> StageWork<D> {
                         &self.w[j * nx..(j + 1) * nx],
                         &mut self.g[j * nx..(j + 1) * nx],
                     );
-                    // F_x = [[0, I], [Jq_x]]: (F_x^T w)_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}
-                    for e in 0..nx {
-                        let mut v = if e >= n { w[e - n] } else { 0.0 };
-                        for r in 0..n {
-                            v += jq[r * nz + e] * w[n + r];
-                        }
-                        g[e] = v;
-                    }
+                    fx_transpose_times(n, nz, jq, w, g);
                     // S_i^T [Hess (w_v . qdd)(y_i)] S_i
                     let y = &self.y[i * nz..(i + 1) * nz];
                     self.dynamics[i].hessian_weighted_reuse(
@@ -488,7 +494,7 @@ impl<D: PointDynamics> StageWork<D> {
                         &mut self.hbuf,
                     );
                     let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
-                    add_sandwich_upper(nx, nz, sens, i == 0, &self.hbuf, &mut self.tmp, hess);
+                    add_sandwich_upper(nx, nz, sens, i, &self.hbuf, &mut self.tmp, hess);
                 }
                 for j in 0..4 {
                     for e in 0..nx {
@@ -511,7 +517,11 @@ impl<D: PointDynamics> StageWork<D> {
             hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
         }
         if let (Some(cd), true) = (&self.clear, k >= 1) {
-            cd.hessian_weighted(&x[..n], mu, &mut self.chess);
+            let rec = self
+                .crec
+                .as_ref()
+                .expect("a record with the clearance rows");
+            cd.hessian_weighted_recorded(&x[..n], mu, &mut self.chess, rec);
             for a in 0..n {
                 for b in 0..n {
                     hess[a * nzk + b] += self.chess[a * n + b];
@@ -521,31 +531,69 @@ impl<D: PointDynamics> StageWork<D> {
     }
 }
 
-/// Add the upper triangle (`a <= b`) of `S^T H S` to `hess` (`nz x nz` row-major), for an evaluation's
-/// sensitivity `S = [Sx; 0 I]` (`Sx` its first `nx` rows, `nz x nz` in all) and the symmetric Hessian `H`
-/// of `w . qdd` at that evaluation. With `H = [Hxx Hxu; Hux Huu]`:
-/// `S^T H S = Sx^T Hxx Sx + Sx^T Hxu E + E^T Hux Sx + E^T Huu E`, `E = [0 I]` (the input rows), so
-/// the input rows of `S` are never multiplied. `identity`: `S = I` (the first evaluation of a stage),
-/// `H` itself. `tmp` holds at least `(nx + nu) nz` values.
-fn add_sandwich_upper(
-    nx: usize,
-    nz: usize,
-    sens: &[f64],
-    identity: bool,
-    h: &[f64],
-    tmp: &mut [f64],
-    hess: &mut [f64],
-) {
-    // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other size
-    // through the same code with run-time sizes
-    match (nx, nz) {
-        (8, 11) => sandwich_upper_body(8, 11, sens, identity, h, tmp, hess),
-        _ => sandwich_upper_body(nx, nz, sens, identity, h, tmp, hess),
+/// `g = F_x^T w` for `F_x = [[0, I], [Jq_x]]` (`2n x 2n`; `Jq` row-major `n x nz`, its first `2n`
+/// columns `Jq_x`): `g_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}`.
+fn fx_transpose_times(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
+    // the paper's 4 links with constant sizes (unrolled, no bounds checks), any other count
+    // through the same body: the same arithmetic either way
+    match (n, nz) {
+        (4, 11) => fx_transpose_times_body(4, 11, jq, w, g),
+        _ => fx_transpose_times_body(n, nz, jq, w, g),
     }
 }
 
 #[inline(always)]
-fn sandwich_upper_body(
+fn fx_transpose_times_body(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
+    let nx = 2 * n;
+    let (jq, w, g) = (&jq[..n * nz], &w[..nx], &mut g[..nx]);
+    for e in 0..nx {
+        let mut v = if e >= n { w[e - n] } else { 0.0 };
+        for r in 0..n {
+            v += jq[r * nz + e] * w[n + r];
+        }
+        g[e] = v;
+    }
+}
+
+/// Add the upper triangle (`a <= b`) of `S^T H S` to `hess` (`nz x nz` row-major), for an evaluation's
+/// sensitivity `S = [Sx; 0 I]` (`Sx` its first `nx` rows, `nz x nz` in all) and the symmetric Hessian `H`
+/// of `w . qdd` at that evaluation. With `H = [Hxx Hxu; Hux Huu]`:
+/// `S^T H S = Sx^T Hxx Sx + Sx^T Hxu E + E^T Hux Sx + E^T Huu E`, `E = [0 I]` (the input rows), so
+/// the input rows of `S` are never multiplied. `i`: the evaluation's index in the stage; the first
+/// (`i = 0`) has `S = I` (`H` itself), the second (`i = 1`, `y = x + (h/2) k_1` with `k_1`'s q rows
+/// the qd rows of `S = I`) has the q rows of `Sx` zero but at columns `r` and `n + r` (checked): the
+/// products with those zeros are skipped (they would add exact zeros). `tmp` holds at least
+/// `(nx + nu) nz` values.
+fn add_sandwich_upper(
+    nx: usize,
+    nz: usize,
+    sens: &[f64],
+    i: usize,
+    h: &[f64],
+    tmp: &mut [f64],
+    hess: &mut [f64],
+) {
+    let half = nx / 2;
+    let identity = i == 0;
+    let sparse_q = i == 1
+        && (0..half).all(|r| {
+            sens[r * nz..(r + 1) * nz]
+                .iter()
+                .enumerate()
+                .all(|(c, &v)| c == r || c == half + r || v == 0.0)
+        });
+    // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other size
+    // through the same code with run-time sizes
+    match (nx, nz, sparse_q) {
+        (8, 11, false) => sandwich_upper_body::<false>(8, 11, sens, identity, h, tmp, hess),
+        (8, 11, true) => sandwich_upper_body::<true>(8, 11, sens, identity, h, tmp, hess),
+        (_, _, false) => sandwich_upper_body::<false>(nx, nz, sens, identity, h, tmp, hess),
+        (_, _, true) => sandwich_upper_body::<true>(nx, nz, sens, identity, h, tmp, hess),
+    }
+}
+
+#[inline(always)]
+fn sandwich_upper_body<const SPARSE_Q: bool>(
     nx: usize,
     nz: usize,
     sens: &[f64],
@@ -579,11 +627,18 @@ fn sandwich_upper_body(
     };
     t.fill(0.0);
     g.fill(0.0);
+    // with `SPARSE_Q`, the q rows c < half of Sx have their non-zeros at c and half + c only: the
+    // terms with the other entries (exact zeros) are left out, every other term in the same order
     for r in 0..nx {
         let out = &mut t[r * nz..(r + 1) * nz];
         for c in 0..nx {
             let hv = h[r * nz + c];
             let srow = &sx[c * nz..(c + 1) * nz];
+            if SPARSE_Q && c < half {
+                out[c] += hv * srow[c];
+                out[half + c] += hv * srow[half + c];
+                continue;
+            }
             for e in 0..nz {
                 out[e] += hv * srow[e];
             }
@@ -593,6 +648,16 @@ fn sandwich_upper_body(
         }
         let srow = &sx[r * nz..(r + 1) * nz];
         let hrow = &h[r * nz + nx..(r + 1) * nz];
+        if SPARSE_Q && r < half {
+            for a in [r, half + r] {
+                let sa = srow[a];
+                let grow = &mut g[a * nu..(a + 1) * nu];
+                for m in 0..nu {
+                    grow[m] += sa * hrow[m];
+                }
+            }
+            continue;
+        }
         for a in 0..nz {
             let sa = srow[a];
             let grow = &mut g[a * nu..(a + 1) * nu];
@@ -605,6 +670,16 @@ fn sandwich_upper_body(
     for r in 0..nx {
         let srow = &sx[r * nz..(r + 1) * nz];
         let trow = &t[r * nz..(r + 1) * nz];
+        if SPARSE_Q && r < half {
+            for a in [r, half + r] {
+                let sa = srow[a];
+                let out = &mut hess[a * nz..(a + 1) * nz];
+                for b in a..nz {
+                    out[b] += sa * trow[b];
+                }
+            }
+            continue;
+        }
         for a in 0..nz {
             let sa = srow[a];
             let out = &mut hess[a * nz..(a + 1) * nz];
