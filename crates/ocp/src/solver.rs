@@ -241,7 +241,7 @@ fn split_dynamics_jacobian(
     b: &mut [f64],
 ) {
     let nz = nx + nu;
-    let any_eliminated = kind[..nz].iter().any(|&v| v == Kind::Eliminated);
+    let any_eliminated = kind[..nz].contains(&Kind::Eliminated);
     for r in 0..nx1 {
         let row = &jac_f[r * nz..(r + 1) * nz];
         let (ar, br) = (&mut a[r * nx..(r + 1) * nx], &mut b[r * nu..(r + 1) * nu]);
