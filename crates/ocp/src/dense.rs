@@ -31,29 +31,19 @@ pub(crate) fn chol(a: &mut [f64], n: usize) -> bool {
     true
 }
 
-/// Calls `$kernel::<N>(args)` with the run-time width `$w` as the constant `N` for the widths of small
-/// stages (1..=12 and 17: the rows of a stage's blocks for up to 6 links), so that a row of the
-/// result lives in registers and its loops unroll; any other width runs `$fallback`. The kernels
-/// do the same arithmetic in the same order as the fallback, so the result does not depend on the
-/// width's path.
+/// The widths of small stages (1..=12 and 17: the rows of a stage's blocks for up to 6 links) get
+/// a kernel with the constant width `N` ([`crate::dispatch_width`]), so that a row of the result
+/// lives in registers and its loops unroll; any other width runs `$fallback`. The kernels do the
+/// same arithmetic in the same order as the fallback, so the result does not depend on the width's
+/// path.
 macro_rules! with_width {
-    ($w:expr, $kernel:ident ($($arg:expr),* $(,)?), $fallback:expr) => {
-        match $w {
-            1 => $kernel::<1>($($arg),*),
-            2 => $kernel::<2>($($arg),*),
-            3 => $kernel::<3>($($arg),*),
-            4 => $kernel::<4>($($arg),*),
-            5 => $kernel::<5>($($arg),*),
-            6 => $kernel::<6>($($arg),*),
-            7 => $kernel::<7>($($arg),*),
-            8 => $kernel::<8>($($arg),*),
-            9 => $kernel::<9>($($arg),*),
-            10 => $kernel::<10>($($arg),*),
-            11 => $kernel::<11>($($arg),*),
-            12 => $kernel::<12>($($arg),*),
-            17 => $kernel::<17>($($arg),*),
-            _ => $fallback,
-        }
+    ($w:expr, $kernel:ident $args:tt, $fallback:expr) => {
+        $crate::dispatch_width!(
+            $w,
+            [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 17],
+            $kernel $args,
+            $fallback
+        )
     };
 }
 

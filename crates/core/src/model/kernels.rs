@@ -12,24 +12,13 @@
 /// Calls `$kernel::<W>(args)` with the run-time width `$w` as the constant `W` for the widths
 /// 1..=12, 14 and 17 (the blocks of stages `3n - 1` wide, n <= 6); any other width runs `$fallback`.
 macro_rules! with_row_width {
-    ($w:expr, $kernel:ident ($($arg:expr),* $(,)?), $fallback:expr) => {
-        match $w {
-            1 => $kernel::<1>($($arg),*),
-            2 => $kernel::<2>($($arg),*),
-            3 => $kernel::<3>($($arg),*),
-            4 => $kernel::<4>($($arg),*),
-            5 => $kernel::<5>($($arg),*),
-            6 => $kernel::<6>($($arg),*),
-            7 => $kernel::<7>($($arg),*),
-            8 => $kernel::<8>($($arg),*),
-            9 => $kernel::<9>($($arg),*),
-            10 => $kernel::<10>($($arg),*),
-            11 => $kernel::<11>($($arg),*),
-            12 => $kernel::<12>($($arg),*),
-            14 => $kernel::<14>($($arg),*),
-            17 => $kernel::<17>($($arg),*),
-            _ => $fallback,
-        }
+    ($w:expr, $kernel:ident $args:tt, $fallback:expr) => {
+        brachia_ocp::dispatch_width!(
+            $w,
+            [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 14, 17],
+            $kernel $args,
+            $fallback
+        )
     };
 }
 
@@ -74,24 +63,15 @@ pub(crate) fn add_lincomb2(
         return;
     }
     // two rows of more than 12 entries do not fit the registers: one at a time
-    match out0.len() {
-        1 => add_lincomb2_w::<1>(out0, out1, c0, c1, cs, rows, rs, k),
-        2 => add_lincomb2_w::<2>(out0, out1, c0, c1, cs, rows, rs, k),
-        3 => add_lincomb2_w::<3>(out0, out1, c0, c1, cs, rows, rs, k),
-        4 => add_lincomb2_w::<4>(out0, out1, c0, c1, cs, rows, rs, k),
-        5 => add_lincomb2_w::<5>(out0, out1, c0, c1, cs, rows, rs, k),
-        6 => add_lincomb2_w::<6>(out0, out1, c0, c1, cs, rows, rs, k),
-        7 => add_lincomb2_w::<7>(out0, out1, c0, c1, cs, rows, rs, k),
-        8 => add_lincomb2_w::<8>(out0, out1, c0, c1, cs, rows, rs, k),
-        9 => add_lincomb2_w::<9>(out0, out1, c0, c1, cs, rows, rs, k),
-        10 => add_lincomb2_w::<10>(out0, out1, c0, c1, cs, rows, rs, k),
-        11 => add_lincomb2_w::<11>(out0, out1, c0, c1, cs, rows, rs, k),
-        12 => add_lincomb2_w::<12>(out0, out1, c0, c1, cs, rows, rs, k),
-        _ => {
+    brachia_ocp::dispatch_width!(
+        out0.len(),
+        [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12],
+        add_lincomb2_w(out0, out1, c0, c1, cs, rows, rs, k),
+        {
             add_lincomb(out0, c0, cs, rows, rs, k);
             add_lincomb(out1, c1, cs, rows, rs, k);
         }
-    }
+    )
 }
 
 #[inline(always)]
