@@ -3,10 +3,14 @@
 //! `ocp` backend, knots every KNOT_MS ms, one RK4 step per interval, and prints iterations, objective
 //! and replay miss. Differences of runs (N = 1 minus N = 0) drop the process start-up.
 //! `valgrind --tool=callgrind target/release/examples/plan_profile 30 1` (with `RAYON_NUM_THREADS=1`).
+//! `BRACHIA_PLAN_CC=k` plans through a [`SwingPlanner`] instead (the same cold solve) whose cold
+//! settings allow k centrality correctors per iteration (`OcpSettings::centrality_correctors`).
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
-use brachia::planning::{plan, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
+use brachia::planning::{
+    plan, Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
+};
 use brachia::Robot;
 
 fn main() -> Result<(), brachia::Error> {
@@ -25,8 +29,18 @@ fn main() -> Result<(), brachia::Error> {
         backend: Backend::Ocp,
         ..Default::default()
     };
+    let cc: Option<usize> = std::env::var("BRACHIA_PLAN_CC")
+        .ok()
+        .and_then(|v| v.parse().ok());
     for _ in 0..count {
-        let p = plan(&robot, &task, &s, &nlp)?;
+        let p = match cc {
+            None => plan(&robot, &task, &s, &nlp)?,
+            Some(k) => {
+                let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
+                planner.cold_settings_mut().centrality_correctors = k;
+                planner.plan()?
+            }
+        };
         println!(
             "{} intervals, {} iterations, converged {}, objective {:.16e}, replay miss {:.6e} m",
             p.layout.intervals,

@@ -11,7 +11,8 @@
 //! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol), `BRACHIA_REPLAN_PRIMAL=shifted` (the
 //! shifted start instead of the default feedback rollout, [`WarmPrimal`]), `BRACHIA_REPLAN_SHIFT_DUALS=0`
 //! (the stored bound duals stage by stage, not moved with the shifted knots,
-//! [`SwingPlanner::set_warm_shift_duals`]). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
+//! [`SwingPlanner::set_warm_shift_duals`]), `BRACHIA_REPLAN_CC=k` (at most k centrality correctors per
+//! iteration, `OcpSettings::centrality_correctors`; 0 = off). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw).
 //!
@@ -51,6 +52,9 @@ fn main() -> Result<(), brachia::Error> {
         Some("centered") => w.warm_duals = WarmDuals::Centered,
         Some("stored") => w.warm_duals = WarmDuals::Stored,
         _ => {}
+    }
+    if let Some(v) = env("BRACHIA_REPLAN_CC").and_then(|v| v.parse().ok()) {
+        w.centrality_correctors = v;
     }
     if env("BRACHIA_REPLAN_ADAPTIVE").as_deref() == Some("1") {
         w.mu_strategy = MuStrategy::Adaptive;

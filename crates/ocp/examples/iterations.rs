@@ -84,6 +84,22 @@ fn main() {
             ..d.clone()
         };
         cold_table("adaptive", &ad);
+        for k in [1, 3] {
+            cold_table(
+                &format!("{k} centrality correctors"),
+                &OcpSettings {
+                    centrality_correctors: k,
+                    ..d.clone()
+                },
+            );
+            cold_table(
+                &format!("adaptive, {k} correctors"),
+                &OcpSettings {
+                    centrality_correctors: k,
+                    ..ad.clone()
+                },
+            );
+        }
         cold_table(
             "adaptive mu_init 1",
             &OcpSettings {

@@ -174,6 +174,6 @@ pub use problem::{
 };
 pub use settings::{
     MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
-    MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
+    MAX_CENTRALITY_CORRECTORS, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
 pub use solver::OcpSolver;

@@ -46,7 +46,17 @@ pub struct OcpSettings {
     /// Largest number of second-order corrections tried when a full step raises the constraint
     /// violation (IPOPT's `max_soc`; 0 disables them). Default 4.
     pub max_soc: usize,
+    /// Largest number of Gondzio's multiple centrality correctors per iteration (0 = off, at most
+    /// [`MAX_CENTRALITY_CORRECTORS`]). When the Newton step is cut by the fraction to the boundary,
+    /// each corrector aims at a longer step, moves the complementarity products of that trial point
+    /// back into a band around mu (outliers only) by one more right-hand side with the same
+    /// factorisation, and is kept only if the step to the boundary grows enough (docs/ocp.md,
+    /// section 6 and "Session 14"). Not in the restoration phase. Default 0.
+    pub centrality_correctors: usize,
 }
+
+/// Limit on [`OcpSettings::centrality_correctors`].
+pub const MAX_CENTRALITY_CORRECTORS: usize = 10;
 
 impl Default for OcpSettings {
     fn default() -> Self {
@@ -65,6 +75,7 @@ impl Default for OcpSettings {
             warm_duals: WarmDuals::Reset,
             max_restoration_iter: 50,
             max_soc: 4,
+            centrality_correctors: 0,
         }
     }
 }
@@ -96,6 +107,13 @@ impl OcpSettings {
         }
         if let Some(t) = self.max_wall_time_s {
             positive("max_wall_time_s", t)?;
+        }
+        if self.centrality_correctors > MAX_CENTRALITY_CORRECTORS {
+            return Err(OcpError::InvalidSetting {
+                field: "centrality_correctors",
+                value: format!("{}", self.centrality_correctors),
+                reason: "must be at most 10 (MAX_CENTRALITY_CORRECTORS)",
+            });
         }
         for (field, v) in [
             ("bound_push", self.bound_push),
@@ -222,6 +240,9 @@ pub struct OcpStats {
     /// attempt passes; more while the equality-row penalty or delta_w is searched).
     #[serde(default)]
     pub factorizations: usize,
+    /// Centrality correctors kept ([`OcpSettings::centrality_correctors`]), summed over the iterations.
+    #[serde(default)]
+    pub centrality_correctors: usize,
     /// Time split.
     pub time: OcpTimings,
 }

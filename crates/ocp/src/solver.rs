@@ -48,6 +48,13 @@ const MU_MAX_FACTOR: f64 = 1e3;
 const SIGMA_MAX: f64 = 100.0;
 /// Penalty on the l1 relaxation slacks p, n in the restoration phase (IPOPT's `resto_penalty_parameter`).
 const RHO_RESTO: f64 = 1e3;
+// Centrality correctors (Gondzio 1996): the trial step's increase delta, the band
+// [beta_min mu, beta_max mu] of the complementarity products, and the fraction gamma of delta by
+// which the step to the boundary must grow for a corrector to be kept (docs/ocp.md, "Session 14").
+const CC_DELTA: f64 = 0.1;
+const CC_BETA_MIN: f64 = 0.1;
+const CC_BETA_MAX: f64 = 10.0;
+const CC_GAMMA: f64 = 0.1;
 
 /// Role of one entry of z.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -152,6 +159,34 @@ pub struct OcpSolver {
     /// Per row: the (relaxed) residual c^ and the regularisation D of the Newton step.
     chat: Vec<f64>,
     dreg: Vec<f64>,
+    /// Complementarity target per bound of a step with centrality correctors, in the order
+    /// `[z lower (nz), z upper (nz), s lower (nc), s upper (nc)]` (the role mu plays in a plain step),
+    /// and its value before the last corrector (to undo one that is not kept).
+    ctarget: Vec<f64>,
+    ctarget_prev: Vec<f64>,
+    /// The step before the last corrector (to undo one that is not kept).
+    saved: SavedStep,
+}
+
+/// A copy of the Newton step (primal, slack, new multipliers and bound-dual steps).
+struct SavedStep {
+    dz: Vec<f64>,
+    ds: Vec<f64>,
+    lam_n: Vec<f64>,
+    y_n: Vec<f64>,
+    eqm_n: Vec<f64>,
+    dzl: Vec<f64>,
+    dzu: Vec<f64>,
+    dvl: Vec<f64>,
+    dvu: Vec<f64>,
+}
+
+/// How the complementarity rows of a right-hand side read ([`OcpSolver::solve_rhs`]): the
+/// barrier parameter for every bound, or the per-bound targets of the centrality correctors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Centring {
+    Mu(f64),
+    Targets,
 }
 
 /// State of the restoration phase.
@@ -426,6 +461,19 @@ impl OcpSolver {
             rn_t: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             chat: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             dreg: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
+            ctarget: vec![0.0; 2 * (nz + nc)],
+            ctarget_prev: vec![0.0; 2 * (nz + nc)],
+            saved: SavedStep {
+                dz: vec![0.0; nz],
+                ds: vec![0.0; nc],
+                lam_n: vec![0.0; nl],
+                y_n: vec![0.0; nc],
+                eqm_n: vec![0.0; MAX_EQUALITY_ROWS],
+                dzl: vec![0.0; nz],
+                dzu: vec![0.0; nz],
+                dvl: vec![0.0; nc],
+                dvu: vec![0.0; nc],
+            },
             dims: dims.clone(),
             lay,
             ric,
@@ -513,6 +561,7 @@ impl OcpSolver {
             final_mu: mu,
             regularizations: 0,
             factorizations: 0,
+            centrality_correctors: 0,
             time: OcpTimings::default(),
         };
         self.theta_current();
@@ -532,6 +581,7 @@ impl OcpSolver {
             final_mu: s.mu_init,
             regularizations: 0,
             factorizations: 0,
+            centrality_correctors: 0,
             time: OcpTimings::default(),
         };
         if let Err(e) = s.validate() {
@@ -1007,7 +1057,7 @@ impl OcpSolver {
     ) -> Result<(), String> {
         self.prepare_rows(mu, resto);
         self.build_and_factor(resto, stats)?;
-        self.solve_rhs(mu, resto, stats)
+        self.solve_rhs(Centring::Mu(mu), resto, stats)
     }
 
     /// The Newton step of the adaptive strategy's free mode: factorise once, take the affine
@@ -1028,7 +1078,7 @@ impl OcpSolver {
             if mu_max.is_nan() {
                 *mu_max = MU_MAX_FACTOR * avg.max(*mu);
             }
-            self.solve_rhs(0.0, None, stats)?;
+            self.solve_rhs(Centring::Mu(0.0), None, stats)?;
             let (ap, ad) = self.max_step(1.0, false);
             let (sum_aff, _) = self.complementarity(ap, ad);
             let sigma = (sum_aff / sum).max(0.0).powi(3).min(SIGMA_MAX);
@@ -1037,7 +1087,122 @@ impl OcpSolver {
             *mu = mu_min;
         }
         self.filter.clear();
-        self.solve_rhs(*mu, None, stats)
+        self.solve_rhs(Centring::Mu(*mu), None, stats)
+    }
+
+    /// Gondzio's multiple centrality correctors (Gondzio 1996) on the step just computed (outside
+    /// the restoration phase): while the largest step to the boundary `alpha_p` (primal) or
+    /// `alpha_d` (dual) is below 1, take the trial point `alpha_p + delta`, `alpha_d + delta` along the step,
+    /// move each bound's complementarity product there into `[beta_min mu, beta_max mu]` (products
+    /// below the band, negative ones of bounds the step passes included, are raised to its floor; those
+    /// above it are lowered by at most `beta_max mu`), add the difference to that bound's target
+    /// (`ctarget`, mu for every bound at first) and re-solve with the same factorisation. The bound
+    /// duals follow from the same targets ([`Self::solve_rhs`]), so they stay consistent with the
+    /// primal step. A corrector is kept if the shorter of the two steps to the boundary grows by at
+    /// least `gamma delta`; otherwise the step before it is restored and the correctors stop.
+    /// Returns the centring of the step kept.
+    fn centrality_correctors(
+        &mut self,
+        mu: f64,
+        tau: f64,
+        max: usize,
+        stats: &mut OcpStats,
+    ) -> Result<Centring, String> {
+        let (mut ap, mut ad) = self.max_step(tau, false);
+        let mut centring = Centring::Mu(mu);
+        if ap >= 1.0 && ad >= 1.0 {
+            return Ok(centring);
+        }
+        let nz = self.z.len();
+        let nc = self.s.len();
+        let os = 2 * nz;
+        self.ctarget.fill(mu);
+        let (lo, hi) = (CC_BETA_MIN * mu, CC_BETA_MAX * mu);
+        let correction = |slack: f64, dual: f64| {
+            let v = if slack > 0.0 && dual > 0.0 {
+                slack * dual
+            } else {
+                (slack * dual).min(0.0)
+            };
+            if v < lo {
+                lo - v
+            } else if v > hi {
+                (hi - v).max(-hi)
+            } else {
+                0.0
+            }
+        };
+        for _ in 0..max {
+            let (tp, td) = ((ap + CC_DELTA).min(1.0), (ad + CC_DELTA).min(1.0));
+            self.ctarget_prev.copy_from_slice(&self.ctarget);
+            self.save_step();
+            for i in 0..nz {
+                if self.kind[i] != Kind::Free {
+                    continue;
+                }
+                let z = self.z[i] + tp * self.dz[i];
+                if self.zlo[i].is_finite() {
+                    self.ctarget[i] += correction(z - self.zlo[i], self.zl[i] + td * self.dzl[i]);
+                }
+                if self.zhi[i].is_finite() {
+                    self.ctarget[nz + i] +=
+                        correction(self.zhi[i] - z, self.zu[i] + td * self.dzu[i]);
+                }
+            }
+            for j in 0..nc {
+                let v = self.s[j] + tp * self.ds[j];
+                if self.clo[j].is_finite() {
+                    self.ctarget[os + j] +=
+                        correction(v - self.clo[j], self.vl[j] + td * self.dvl[j]);
+                }
+                if self.chi[j].is_finite() {
+                    self.ctarget[os + nc + j] +=
+                        correction(self.chi[j] - v, self.vu[j] + td * self.dvu[j]);
+                }
+            }
+            self.solve_rhs(Centring::Targets, None, stats)?;
+            let (np, nd) = self.max_step(tau, false);
+            if np.min(nd) >= ap.min(ad) + CC_GAMMA * CC_DELTA {
+                ap = np;
+                ad = nd;
+                centring = Centring::Targets;
+                stats.centrality_correctors += 1;
+                if ap >= 1.0 && ad >= 1.0 {
+                    break;
+                }
+            } else {
+                self.restore_step();
+                self.ctarget.copy_from_slice(&self.ctarget_prev);
+                break;
+            }
+        }
+        Ok(centring)
+    }
+
+    fn save_step(&mut self) {
+        let c = &mut self.saved;
+        c.dz.copy_from_slice(&self.dz);
+        c.ds.copy_from_slice(&self.ds);
+        c.lam_n.copy_from_slice(&self.lam_n);
+        c.y_n.copy_from_slice(&self.y_n);
+        c.eqm_n.copy_from_slice(&self.eqm_n);
+        c.dzl.copy_from_slice(&self.dzl);
+        c.dzu.copy_from_slice(&self.dzu);
+        c.dvl.copy_from_slice(&self.dvl);
+        c.dvu.copy_from_slice(&self.dvu);
+    }
+
+    fn restore_step(&mut self) {
+        let c = &self.saved;
+        self.dz.copy_from_slice(&c.dz);
+        self.ds.copy_from_slice(&c.ds);
+        self.lam_n.copy_from_slice(&c.lam_n);
+        self.y_n.copy_from_slice(&c.y_n);
+        self.eqm_n.copy_from_slice(&c.eqm_n);
+        self.dzl.copy_from_slice(&c.dzl);
+        self.dzu.copy_from_slice(&c.dzu);
+        self.dvl.copy_from_slice(&c.dvl);
+        self.dvu.copy_from_slice(&c.dvu);
     }
 
     /// Sum of the complementarity products (slack times bound dual) over all bounds of z and s
@@ -1279,10 +1444,12 @@ impl OcpSolver {
     }
 
     /// Right-hand side from the row residuals `c^`, the solves, and the recovery of the slack,
-    /// multiplier and bound-dual steps (after [`Self::build_and_factor`]).
+    /// multiplier and bound-dual steps (after [`Self::build_and_factor`]). The complementarity rows
+    /// aim at `centring`: mu for every bound, or the per-bound targets `ctarget` (centrality
+    /// correctors; not in the restoration phase, whose own rows read mu).
     fn solve_rhs(
         &mut self,
-        mu: f64,
+        centring: Centring,
         resto: Option<&Resto>,
         stats: &mut OcpStats,
     ) -> Result<(), String> {
@@ -1291,24 +1458,58 @@ impl OcpSolver {
         let kk = lay.kk;
         let (nl, ncall) = (lay.n_l(), lay.n_c());
         let nrows = self.nrows();
-        for ((g, gb), gm) in self.g.iter_mut().zip(&self.g_base).zip(&self.g_bar) {
-            *g = gb + mu * gm;
-        }
+        let nz = self.z.len();
+        let os = 2 * nz;
+        let mu = match centring {
+            Centring::Mu(mu) => {
+                for ((g, gb), gm) in self.g.iter_mut().zip(&self.g_base).zip(&self.g_bar) {
+                    *g = gb + mu * gm;
+                }
+                mu
+            }
+            Centring::Targets => {
+                debug_assert!(resto.is_none());
+                for i in 0..nz {
+                    let mut gi = self.g_base[i];
+                    if self.kind[i] == Kind::Free {
+                        if self.zlo[i].is_finite() {
+                            gi -= self.ctarget[i] / (self.z[i] - self.zlo[i]);
+                        }
+                        if self.zhi[i].is_finite() {
+                            gi += self.ctarget[nz + i] / (self.zhi[i] - self.z[i]);
+                        }
+                    }
+                    self.g[i] = gi;
+                }
+                f64::NAN
+            }
+        };
+        let per_bound = centring == Centring::Targets;
+        let nc_all = self.s.len();
+        // the targets of the lower and upper bound of slack jj
+        let s_targets = |ct: &[f64], jj: usize| {
+            if per_bound {
+                (ct[os + jj], ct[os + nc_all + jj])
+            } else {
+                (mu, mu)
+            }
+        };
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
             let e = &self.ev[k];
             for j in 0..lay.nc[k] {
                 let jj = oc + j;
+                let (tl, tu) = s_targets(&self.ctarget, jj);
                 let (mut sig, mut rbar) = (0.0, 0.0);
                 if self.clo[jj].is_finite() {
                     let sl = self.s[jj] - self.clo[jj];
                     sig += self.vl[jj] / sl;
-                    rbar -= mu / sl;
+                    rbar -= tl / sl;
                 }
                 if self.chi[jj].is_finite() {
                     let su = self.chi[jj] - self.s[jj];
                     sig += self.vu[jj] / su;
-                    rbar += mu / su;
+                    rbar += tu / su;
                 }
                 let rhs = (rbar + sig * self.chat[nl + jj]) / (1.0 + sig * self.dreg[nl + jj]);
                 let row = &e.jac_c[j * nz..(j + 1) * nz];
@@ -1356,16 +1557,17 @@ impl OcpSolver {
                 for a in 0..nz {
                     lin += row[a] * self.dz[o + a];
                 }
+                let (tl, tu) = s_targets(&self.ctarget, jj);
                 let (mut sig, mut rbar) = (0.0, 0.0);
                 if self.clo[jj].is_finite() {
                     let sl = self.s[jj] - self.clo[jj];
                     sig += self.vl[jj] / sl;
-                    rbar -= mu / sl;
+                    rbar -= tl / sl;
                 }
                 if self.chi[jj].is_finite() {
                     let su = self.chi[jj] - self.s[jj];
                     sig += self.vu[jj] / su;
-                    rbar += mu / su;
+                    rbar += tu / su;
                 }
                 let yn = (sig * lin + rbar) / (1.0 + sig * self.dreg[nl + jj]);
                 let ds = lin - self.dreg[nl + jj] * yn;
@@ -1374,11 +1576,11 @@ impl OcpSolver {
                 self.dvu[jj] = 0.0;
                 if self.clo[jj].is_finite() {
                     let sl = self.s[jj] - self.clo[jj];
-                    self.dvl[jj] = mu / sl - self.vl[jj] - (self.vl[jj] / sl) * ds;
+                    self.dvl[jj] = tl / sl - self.vl[jj] - (self.vl[jj] / sl) * ds;
                 }
                 if self.chi[jj].is_finite() {
                     let su = self.chi[jj] - self.s[jj];
-                    self.dvu[jj] = mu / su - self.vu[jj] + (self.vu[jj] / su) * ds;
+                    self.dvu[jj] = tu / su - self.vu[jj] + (self.vu[jj] / su) * ds;
                 }
                 self.y_n[jj] = yn;
             }
@@ -1389,13 +1591,18 @@ impl OcpSolver {
             if self.kind[i] != Kind::Free {
                 continue;
             }
+            let (tl, tu) = if per_bound {
+                (self.ctarget[i], self.ctarget[nz + i])
+            } else {
+                (mu, mu)
+            };
             if self.zlo[i].is_finite() {
                 let sl = self.z[i] - self.zlo[i];
-                self.dzl[i] = mu / sl - self.zl[i] - (self.zl[i] / sl) * self.dz[i];
+                self.dzl[i] = tl / sl - self.zl[i] - (self.zl[i] / sl) * self.dz[i];
             }
             if self.zhi[i].is_finite() {
                 let su = self.zhi[i] - self.z[i];
-                self.dzu[i] = mu / su - self.zu[i] + (self.zu[i] / su) * self.dz[i];
+                self.dzu[i] = tu / su - self.zu[i] + (self.zu[i] / su) * self.dz[i];
             }
         }
         // restoration slacks: dp = (l+ - rho + mu/p)/Sp, dn = (-l+ - rho + mu/n)/Sn
@@ -1948,11 +2155,19 @@ impl OcpSolver {
             if let Err(e) = step {
                 break OcpStatus::NumericalError(e);
             }
+            let in_resto = resto.is_some();
+            let tau = TAU_MIN.max(1.0 - mu);
+            let centring = if st.centrality_correctors > 0 && !in_resto {
+                match self.centrality_correctors(mu, tau, st.centrality_correctors, stats) {
+                    Ok(c) => c,
+                    Err(e) => break OcpStatus::NumericalError(e),
+                }
+            } else {
+                Centring::Mu(mu)
+            };
             // filter line search
             let tl = Instant::now();
             let eval_before = stats.time.evaluation_s;
-            let in_resto = resto.is_some();
-            let tau = TAU_MIN.max(1.0 - mu);
             let (amax, adual) = self.max_step(tau, in_resto);
             let pn0 = if in_resto {
                 Some((&self.rp[..], &self.rn[..]))
@@ -2012,7 +2227,7 @@ impl OcpSolver {
                             for i in 0..nrows {
                                 self.chat[i] = a_soc * self.chat[i] + self.cv_t[i];
                             }
-                            if self.solve_rhs(mu, None, stats).is_err() {
+                            if self.solve_rhs(centring, None, stats).is_err() {
                                 break;
                             }
                             let (ap, ad) = self.max_step(tau, false);
@@ -2038,7 +2253,7 @@ impl OcpSolver {
                         }
                         // back to the original direction
                         self.chat[..nrows].copy_from_slice(&self.cv[..nrows]);
-                        if let Err(e) = self.solve_rhs(mu, None, stats) {
+                        if let Err(e) = self.solve_rhs(centring, None, stats) {
                             break 'iterations OcpStatus::NumericalError(e);
                         }
                     }

@@ -84,10 +84,20 @@ fn solves_after_the_first_do_not_allocate() {
     let mut solver = OcpSolver::new(&qp.dims.clone()).unwrap();
     let first = solver.solve(&mut qp, &cold);
     assert_eq!(first.status, OcpStatus::Solved);
-    for (i, settings) in [&cold, &warm, &warm_stored, &cold].into_iter().enumerate() {
+    let correctors = OcpSettings {
+        centrality_correctors: 3,
+        ..OcpSettings::default()
+    };
+    for (i, settings) in [&cold, &warm, &warm_stored, &cold, &correctors]
+        .into_iter()
+        .enumerate()
+    {
         let (n, stats) = count(|| solver.solve(&mut qp, settings));
         assert_eq!(stats.status, OcpStatus::Solved);
         assert_eq!(n, 0, "QP solve {i} allocated {n} times");
+        if i == 4 {
+            assert!(stats.centrality_correctors > 0, "{stats:?}");
+        }
     }
 
     // the pendulum (nonlinear, inertia correction), cold and warm after a change of x_0

@@ -448,3 +448,105 @@ fn stage_sizes_that_vary_along_the_horizon_match_clarabel() {
         assert!(err < 1e-4, "case {case}: solution differs by {err}");
     }
 }
+
+#[test]
+fn centrality_correctors_shorten_convex_solves_to_the_same_optimum() {
+    // Gondzio's correctors (OcpSettings::centrality_correctors) lengthen the steps cut by the
+    // fraction to the boundary; on convex QPs with active bounds they save iterations (docs/ocp.md,
+    // "Session 14"). The robot-sized random QP of examples/iterations.rs (K = 223, nx = 8, nu = 3,
+    // two stage rows, four terminal rows) and the random suite, against clarabel.
+    let solve_with = |p: &mut LqProblem, k: usize| {
+        let mut solver = OcpSolver::new(&p.dims.clone()).unwrap();
+        let s = OcpSettings {
+            centrality_correctors: k,
+            ..OcpSettings::default()
+        };
+        let stats = solver.solve(p, &s);
+        assert_eq!(stats.status, OcpStatus::Solved, "{k} correctors: {stats:?}");
+        (LqProblem::flat(solver.primal()), stats)
+    };
+    let check = |name: &str, p: &mut LqProblem| {
+        let (jc, zc, ok) = p.solve_clarabel();
+        assert!(ok, "{name}: clarabel failed");
+        let (z0, s0) = solve_with(p, 0);
+        let (z3, s3) = solve_with(p, 3);
+        assert_eq!(s0.centrality_correctors, 0);
+        for (z, s) in [(&z0, &s0), (&z3, &s3)] {
+            let rel = (s.objective - jc).abs() / jc.abs().max(1.0);
+            assert!(
+                rel < 1e-6,
+                "{name}: objective {} vs clarabel {jc}",
+                s.objective
+            );
+            let err = z
+                .iter()
+                .zip(&zc)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err < 1e-4,
+                "{name}: solution differs from clarabel's by {err}"
+            );
+        }
+        let rel = (s3.objective - s0.objective).abs() / s0.objective.abs().max(1.0);
+        assert!(
+            rel < 1e-8,
+            "{name}: objectives {} and {}",
+            s0.objective,
+            s3.objective
+        );
+        (s0, s3)
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(2026);
+    let mut big = random_qp_with(&mut rng, 223, 8, 3, 2, 4, false, 0.9, 0.05);
+    let (s0, s3) = check("K223", &mut big);
+    assert!(s3.centrality_correctors > 0, "{s3:?}");
+    assert!(
+        s3.iterations < s0.iterations,
+        "K223: {} iterations with correctors, {} without",
+        s3.iterations,
+        s0.iterations
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    let (mut n0, mut n3) = (0, 0);
+    for case in 0..40 {
+        let kk = rng.gen_range(1..15);
+        let nx = rng.gen_range(1..5);
+        let nu = rng.gen_range(0..4);
+        let nc = rng.gen_range(0..3);
+        let nr = rng.gen_range(0..=nx.min(2));
+        let free = rng.gen_bool(0.3);
+        let mut p = random_qp(&mut rng, kk, nx, nu, nc, nr, free);
+        let (s0, s3) = check(&format!("case {case}"), &mut p);
+        n0 += s0.iterations;
+        n3 += s3.iterations;
+    }
+    assert!(
+        n3 < n0,
+        "random QPs: {n3} iterations with correctors, {n0} without"
+    );
+}
+
+#[test]
+fn too_many_centrality_correctors_are_refused() {
+    let s = OcpSettings {
+        centrality_correctors: MAX_CENTRALITY_CORRECTORS + 1,
+        ..OcpSettings::default()
+    };
+    let e = s.validate().unwrap_err();
+    assert!(
+        matches!(
+            e,
+            OcpError::InvalidSetting {
+                field: "centrality_correctors",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let ok = OcpSettings {
+        centrality_correctors: MAX_CENTRALITY_CORRECTORS,
+        ..OcpSettings::default()
+    };
+    assert!(ok.validate().is_ok());
+}

@@ -257,6 +257,12 @@ impl SwingPlanner {
         &mut self.warm
     }
 
+    /// Settings of the cold solves ([`SwingPlanner::plan`], [`SwingPlanner::replan_cold`]): those of
+    /// the NLP settings, as [`crate::planning::plan`] uses them; edit to tune.
+    pub fn cold_settings_mut(&mut self) -> &mut OcpSettings {
+        &mut self.cold
+    }
+
     /// Which primal point warm re-plans start from (default [`WarmPrimal::FeedbackRollout`]).
     pub fn set_warm_primal(&mut self, w: WarmPrimal) {
         self.warm_primal = w;
