@@ -502,7 +502,8 @@ fn plan_alone(
 
 /// The plan of swing `ls` (the chain that holds `grip`, its start state `x` in that grip frame) as the
 /// first swing of a joint plan through `bars` (world frame; `ladder.lookahead`; the switch states
-/// free but for the capture, the rest condition at the last bar only), with its iterations and time
+/// free but for the capture, the rest condition at the last bar only; with `rest_at_switches`,
+/// `ladder.lookahead_switch = "rest"`, at every bar), with its iterations and time
 /// those of the whole joint plan (its swing-by-swing warm start included). When the joint solve does
 /// not converge, the swing is planned alone ([`plan_alone`] with `previous`, the last joint plan's
 /// swing, the iterations and time of the failed joint plan counted in), so the traverse goes on as it
@@ -514,6 +515,7 @@ fn plan_ahead(
     bars: &[crate::ladder::Bar],
     obstacles: &[brachia::model::Circle],
     previous: Option<&brachia::planning::Plan>,
+    rest_at_switches: bool,
 ) -> Result<SwingPlan, Error> {
     let sc = &ls.scenario;
     let n = ls.robot.n();
@@ -523,7 +525,7 @@ fn plan_ahead(
             .chain(bars.iter().map(crate::ladder::Bar::p))
             .collect(),
         obstacles: obstacles.to_vec(),
-        rest_at_switches: false,
+        rest_at_switches,
     };
     let j = brachia::planning::plan_joint_swings(&ls.robot, &task, &sc.planner, &sc.solver)?;
     let iterations = j.reference.iter().map(|p| p.iterations).sum::<usize>()
@@ -617,6 +619,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
                 &bars[k + 1..=last_bar],
                 &sc.ladder.obstacles,
                 next_guess.as_ref(),
+                sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest,
             )
         } else {
             plan_alone(&ls, next_guess.as_ref(), (0, 0.0))
