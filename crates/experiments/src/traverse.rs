@@ -551,6 +551,28 @@ fn plan_ahead(
     })
 }
 
+/// How far the online re-plans of a joint-planned swing may end from the joint plan's switch pose,
+/// per joint, rad (`switch_pose_box`).
+pub const SWITCH_POSE_MARGIN_RAD: f64 = 0.1;
+
+/// The end box the online re-plans of the first swing of a joint plan aim at (`[tracking] replan`,
+/// `ladder.lookahead_switch = "rest"`; docs/ladders.md, "Lookahead"): each joint angle within
+/// [`SWITCH_POSE_MARGIN_RAD`] of the joint plan's own end pose of that swing (the switch pose it
+/// chose for the swings after it), the rates free (the rest condition of the planner's bounds holds
+/// there anyway).
+fn switch_pose_box(plan: &brachia::planning::Plan) -> Vec<[f64; 2]> {
+    let tr = &plan.trajectory;
+    let q = tr.q(tr.len() - 1);
+    let m = SWITCH_POSE_MARGIN_RAD;
+    q.iter()
+        .map(|v| [v - m, v + m])
+        .chain(std::iter::repeat_n(
+            [f64::NEG_INFINITY, f64::INFINITY],
+            q.len(),
+        ))
+        .collect()
+}
+
 /// The traverse; `None` when `stop` said so before it finished.
 fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
     let sc = &ll.scenario;
@@ -671,15 +693,35 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         };
         let base = make_controller(sc.tracking.controller, &ls, reference)?;
         let mut replanning = match (&sc.tracking.replan, sc.tracking.controller) {
-            (Some(rs), crate::scenario::ControllerKind::Mpc) => Some(Replanning::build(
-                base,
-                robot.clone(),
-                &ls.scenario.task,
-                &ls.scenario.planner,
-                &ls.scenario.solver,
-                reference.clone(),
-                rs.clone(),
-            )?),
+            (Some(rs), crate::scenario::ControllerKind::Mpc) => {
+                let (task, planner, solver) =
+                    (&ls.scenario.task, &ls.scenario.planner, &ls.scenario.solver);
+                let aim = (plan_source == PlanSource::Joint
+                    && sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest)
+                    .then(|| switch_pose_box(p));
+                Some(match aim {
+                    // re-plans aim at the joint plan's switch pose, not at the swing's own optimum
+                    Some(b) => Replanning::build_toward_end_box(
+                        base,
+                        robot.clone(),
+                        task,
+                        planner,
+                        solver,
+                        reference.clone(),
+                        rs.clone(),
+                        &b,
+                    )?,
+                    None => Replanning::build(
+                        base,
+                        robot.clone(),
+                        task,
+                        planner,
+                        solver,
+                        reference.clone(),
+                        rs.clone(),
+                    )?,
+                })
+            }
             _ => {
                 plain = Some(base);
                 None

@@ -30,6 +30,7 @@ use super::shooting::SwingOcp;
 use super::task::SwingTask;
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::trajectory::Trajectory;
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals};
 use std::sync::Arc;
 
@@ -165,6 +166,20 @@ impl SwingPlanner {
         settings: &PlannerSettings,
         nlp: &NlpSettings,
     ) -> Result<Self> {
+        Self::with_guess(robot, task, settings, nlp, None)
+    }
+
+    /// [`SwingPlanner::new`] whose cold plan ([`SwingPlanner::plan`]) starts from `guess` (a
+    /// trajectory of the same swing, resampled onto the knots, as [`super::plan_with_guess`] takes
+    /// it; e.g. the plan a controller tracks) instead of the setup's own guess (`None`). Errors as
+    /// [`SwingPlanner::new`] and on a guess that does not fit the robot.
+    pub fn with_guess(
+        robot: impl Into<Arc<Robot>>,
+        task: SwingTask,
+        settings: &PlannerSettings,
+        nlp: &NlpSettings,
+        guess: Option<&Trajectory>,
+    ) -> Result<Self> {
         let robot: Arc<Robot> = robot.into();
         let settings = PlannerSettings {
             transcription: super::settings::Transcription::MultipleShooting,
@@ -177,7 +192,7 @@ impl SwingPlanner {
             layout,
             t_final,
             freefall,
-        } = setup_shooting(&robot, &task, &settings, None)?;
+        } = setup_shooting(&robot, &task, &settings, guess)?;
         let solver = OcpSolver::new(ocp.dims()).map_err(|e| {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
@@ -308,6 +323,15 @@ impl SwingPlanner {
         self.ocp.set_target(target);
         self.task.target = target;
         Ok(())
+    }
+
+    /// A box on the state at the last knot of every (re-)plan (2n entries `[lo, hi]`: q then qd;
+    /// rad, rad/s), intersected with that knot's bounds (the rest condition `bounds.qd_end_max`
+    /// included); `None` removes it. What a re-plan inside a swing of a joint multi-swing plan aims
+    /// at: near that plan's switch state (docs/ladders.md, "Lookahead"). Errors on a wrong length or
+    /// a range that is not `lo <= hi`.
+    pub fn set_end_box(&mut self, b: Option<&[[f64; 2]]>) -> Result<()> {
+        self.ocp.set_end_box(b)
     }
 
     /// Cold plan of the whole swing from the task's start state (the setup's initial guess); the
