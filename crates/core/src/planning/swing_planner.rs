@@ -750,6 +750,49 @@ mod tests {
         worst
     }
 
+    /// An end box moves the last knot into it (a re-plan of the tracking swing whose end pose must
+    /// lie 0.05 rad past the free plan's on joint 2), the box is intersected with the knot's
+    /// bounds, and it is refused with the wrong length or `lo > hi`; `None` restores the plain
+    /// bounds.
+    #[test]
+    fn an_end_box_holds_the_last_knot_and_is_checked() {
+        let (s, nlp) = replan_settings(0.03);
+        let mut planner = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
+        let p = planner.plan().unwrap();
+        let tr = p.trajectory.clone();
+        let k_end = planner.intervals();
+        let q2_free = planner.knots().x[k_end][1];
+        let n = 4;
+        let mut b = vec![[f64::NEG_INFINITY, f64::INFINITY]; 2 * n];
+        b[1] = [q2_free + 0.05, q2_free + 0.1];
+        planner.set_end_box(Some(&b)).unwrap();
+        let mut sb = StageBounds::unbounded(planner.ocp.dims().stages[k_end]);
+        planner.ocp.bounds(k_end, &mut sb);
+        assert_eq!([sb.x_lo[1], sb.x_hi[1]], b[1]);
+        // the infinite ends keep the knot's own bounds
+        assert_eq!([sb.x_lo[0], sb.x_hi[0]], s.bounds.q1);
+        let j = tr.t.iter().position(|t| (t - T_NOW).abs() < 1e-9).unwrap();
+        let x = [tr.q(j), tr.qd(j)].concat();
+        let out = planner.replan(T_NOW, &x).unwrap();
+        assert!(out.converged(), "{:?}", out.status);
+        let q2 = planner.knots().x[k_end][1];
+        assert!(
+            q2 >= b[1][0] - 1e-8 && q2 <= b[1][1] + 1e-8,
+            "{q2} {:?}",
+            b[1]
+        );
+        assert!(out.ee_error_m < 1e-3, "{out:?}");
+        assert!(planner.set_end_box(Some(&b[..n])).is_err());
+        b[1] = [1.0, 0.0];
+        assert!(planner.set_end_box(Some(&b)).is_err());
+        planner.set_end_box(None).unwrap();
+        planner.ocp.bounds(k_end, &mut sb);
+        assert_eq!(
+            [sb.x_lo[1], sb.x_hi[1]],
+            [-s.bounds.q_rel_max, s.bounds.q_rel_max]
+        );
+    }
+
     #[test]
     fn the_rollout_start_follows_the_new_start_state_inside_the_bounds_with_no_defects() {
         let (mut planner, states) = planned();
