@@ -13,6 +13,7 @@
 //! capture_radius = 0.02            # m (default 0.02)
 //! capture_speed = 0.1              # m/s (default 0.1)
 //! lookahead = 1                    # swings planned together at every bar (default 1: one by one)
+//! lookahead_switch = "free"        # "free" or "rest": the joint plan's inner switch states (default free)
 //! obstacles = [{ center = [1.5, -0.3], radius = 0.08 }]   # world frame
 //! [planner]    # as in every scenario (swing_time "auto" = 2 T_freefall per swing)
 //! [solver]
@@ -106,6 +107,22 @@ fn default_lookahead() -> usize {
     1
 }
 
+/// The switch states of the joint plans of `[ladder] lookahead = k > 1` (docs/ladders.md,
+/// "Lookahead").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LookaheadSwitch {
+    /// Free but for the capture (the hand on the bar and at rest): each swing may end with the chain
+    /// moving in the way that suits the swings after it. The cheapest on an undisturbed ladder.
+    #[default]
+    Free,
+    /// The rest condition `planner.bounds.qd_end_max` at every switch too (every joint rate at most
+    /// `qd_end_max` when a bar is caught), as when each swing is planned alone: the joint plan only
+    /// chooses the switch pose. The variant that completes the disturbed rapier ladders: a chain
+    /// that arrives moving is what a heavier plant and a hit make miss the capture speed.
+    Rest,
+}
+
 /// The `[ladder]` section.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -136,6 +153,10 @@ pub struct Ladder {
     /// (docs/ladders.md, "Lookahead"). 1 to [`brachia::planning::MAX_JOINT_SWINGS`].
     #[serde(default = "default_lookahead")]
     pub lookahead: usize,
+    /// The joint plans' inner switch states when `lookahead > 1` (ignored at 1). Default
+    /// [`LookaheadSwitch::Free`].
+    #[serde(default)]
+    pub lookahead_switch: LookaheadSwitch,
 }
 
 /// A traverse scenario as written in a TOML file.

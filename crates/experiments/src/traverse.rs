@@ -502,7 +502,8 @@ fn plan_alone(
 
 /// The plan of swing `ls` (the chain that holds `grip`, its start state `x` in that grip frame) as the
 /// first swing of a joint plan through `bars` (world frame; `ladder.lookahead`; the switch states
-/// free but for the capture, the rest condition at the last bar only), with its iterations and time
+/// free but for the capture, the rest condition at the last bar only; with `rest_at_switches`,
+/// `ladder.lookahead_switch = "rest"`, at every bar), with its iterations and time
 /// those of the whole joint plan (its swing-by-swing warm start included). When the joint solve does
 /// not converge, the swing is planned alone ([`plan_alone`] with `previous`, the last joint plan's
 /// swing, the iterations and time of the failed joint plan counted in), so the traverse goes on as it
@@ -514,6 +515,7 @@ fn plan_ahead(
     bars: &[crate::ladder::Bar],
     obstacles: &[brachia::model::Circle],
     previous: Option<&brachia::planning::Plan>,
+    rest_at_switches: bool,
 ) -> Result<SwingPlan, Error> {
     let sc = &ls.scenario;
     let n = ls.robot.n();
@@ -523,7 +525,7 @@ fn plan_ahead(
             .chain(bars.iter().map(crate::ladder::Bar::p))
             .collect(),
         obstacles: obstacles.to_vec(),
-        rest_at_switches: false,
+        rest_at_switches,
     };
     let j = brachia::planning::plan_joint_swings(&ls.robot, &task, &sc.planner, &sc.solver)?;
     let iterations = j.reference.iter().map(|p| p.iterations).sum::<usize>()
@@ -547,6 +549,28 @@ fn plan_ahead(
         source: PlanSource::Joint,
         next: Some((second, swings)),
     })
+}
+
+/// How far the online re-plans of a joint-planned swing may end from the joint plan's switch pose,
+/// per joint, rad (`switch_pose_box`).
+pub const SWITCH_POSE_MARGIN_RAD: f64 = 0.1;
+
+/// The end box the online re-plans of the first swing of a joint plan aim at (`[tracking] replan`,
+/// `ladder.lookahead_switch = "rest"`; docs/ladders.md, "Lookahead"): each joint angle within
+/// [`SWITCH_POSE_MARGIN_RAD`] of the joint plan's own end pose of that swing (the switch pose it
+/// chose for the swings after it), the rates free (the rest condition of the planner's bounds holds
+/// there anyway).
+fn switch_pose_box(plan: &brachia::planning::Plan) -> Vec<[f64; 2]> {
+    let tr = &plan.trajectory;
+    let q = tr.q(tr.len() - 1);
+    let m = SWITCH_POSE_MARGIN_RAD;
+    q.iter()
+        .map(|v| [v - m, v + m])
+        .chain(std::iter::repeat_n(
+            [f64::NEG_INFINITY, f64::INFINITY],
+            q.len(),
+        ))
+        .collect()
 }
 
 /// The traverse; `None` when `stop` said so before it finished.
@@ -617,6 +641,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
                 &bars[k + 1..=last_bar],
                 &sc.ladder.obstacles,
                 next_guess.as_ref(),
+                sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest,
             )
         } else {
             plan_alone(&ls, next_guess.as_ref(), (0, 0.0))
@@ -668,15 +693,35 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         };
         let base = make_controller(sc.tracking.controller, &ls, reference)?;
         let mut replanning = match (&sc.tracking.replan, sc.tracking.controller) {
-            (Some(rs), crate::scenario::ControllerKind::Mpc) => Some(Replanning::build(
-                base,
-                robot.clone(),
-                &ls.scenario.task,
-                &ls.scenario.planner,
-                &ls.scenario.solver,
-                reference.clone(),
-                rs.clone(),
-            )?),
+            (Some(rs), crate::scenario::ControllerKind::Mpc) => {
+                let (task, planner, solver) =
+                    (&ls.scenario.task, &ls.scenario.planner, &ls.scenario.solver);
+                let aim = (plan_source == PlanSource::Joint
+                    && sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest)
+                    .then(|| switch_pose_box(p));
+                Some(match aim {
+                    // re-plans aim at the joint plan's switch pose, not at the swing's own optimum
+                    Some(b) => Replanning::build_toward_end_box(
+                        base,
+                        robot.clone(),
+                        task,
+                        planner,
+                        solver,
+                        reference.clone(),
+                        rs.clone(),
+                        &b,
+                    )?,
+                    None => Replanning::build(
+                        base,
+                        robot.clone(),
+                        task,
+                        planner,
+                        solver,
+                        reference.clone(),
+                        rs.clone(),
+                    )?,
+                })
+            }
             _ => {
                 plain = Some(base);
                 None

@@ -319,3 +319,66 @@ fn the_irregular_ladder_with_heavier_links_and_a_ball_completes_on_rapier_with_r
     // four bars: swing 2 is the irregular ladder's hardest under the mass mismatch
     disturbed_cut("ladder-irregular-disturbed-rapier.toml", 4);
 }
+
+/// `ladder.lookahead = 2` under the disturbed irregular ladder (a 4-bar cut of
+/// `scenarios/ladder-irregular-disturbed-rapier.toml`: every link mass +10 %, a ball on swing 1, MPC
+/// with online re-planning; docs/ladders.md, "Lookahead"). With the joint plans' switch states free
+/// (`lookahead_switch = "free"`, the behaviour before the fix) swing 1 ends with the chain moving
+/// and its hand arrives at bar 2 faster than the capture speed (1.35 cm, 0.101 m/s). With the
+/// scenario's `lookahead_switch = "rest"` (the rest condition at every switch) and the re-plans of
+/// each joint-planned swing aiming at the joint plan's switch pose, the cut completes, and with
+/// less positive work than the same cut planned swing by swing (lookahead 1).
+#[test]
+fn lookahead_two_completes_the_disturbed_irregular_ladder_with_rest_at_the_switches() {
+    let dir = tempfile::tempdir().unwrap();
+    let name = "ladder-irregular-disturbed-rapier.toml";
+    let run = |lookahead: i64, switch: Option<&str>| {
+        let sub = dir.path().join(format!("{lookahead}-{switch:?}"));
+        std::fs::create_dir_all(&sub).unwrap();
+        let path = cut(&sub, name, 4, |v| {
+            let l = v["ladder"].as_table_mut().unwrap();
+            l.insert("lookahead".into(), toml::Value::Integer(lookahead));
+            if let Some(s) = switch {
+                l.insert("lookahead_switch".into(), toml::Value::String(s.into()));
+            }
+        });
+        let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        run_traverse(&ll).unwrap()
+    };
+    let alone = run(1, None);
+    let ahead = run(2, None);
+    assert_eq!(
+        ahead.swings[0].plan_source,
+        brachia_experiments::PlanSource::Joint
+    );
+    for tr in [&alone, &ahead] {
+        assert!(tr.status.completed(), "{} ({:?})", tr.status, tr.swings);
+        for s in &tr.swings {
+            assert!(s.capture_error_m <= 0.02, "swing {}: {s:?}", s.swing);
+            assert!(s.switch_residual_m_s <= 0.1, "swing {}: {s:?}", s.swing);
+        }
+    }
+    let sources: Vec<_> = ahead.swings.iter().map(|s| s.plan_source).collect();
+    use brachia_experiments::PlanSource::{Joint, JointGuess};
+    assert_eq!(sources, [Joint, Joint, JointGuess]);
+    let work = |tr: &brachia_experiments::Traverse| {
+        tr.swings.iter().map(|s| s.positive_work_j).sum::<f64>()
+    };
+    eprintln!(
+        "positive work: lookahead 1 {}, 2 {}",
+        work(&alone),
+        work(&ahead)
+    );
+    assert!(
+        work(&ahead) < 0.9 * work(&alone),
+        "lookahead 2: {} J, 1: {} J",
+        work(&ahead),
+        work(&alone)
+    );
+
+    let free = run(2, Some("free"));
+    match &free.status {
+        TraverseStatus::CaptureMissed { swing, bar, .. } => assert_eq!((*swing, *bar), (1, 2)),
+        other => panic!("free switch states: expected a miss at bar 2, got {other}"),
+    }
+}

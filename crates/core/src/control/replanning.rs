@@ -181,6 +181,12 @@ pub struct ReplanEvent {
     pub plan_ee_error_m: f64,
     /// Whether the plan was adopted (converged and within 1 mm of the bar).
     pub adopted: bool,
+    /// True when the re-plan aimed at an end box ([`Replanning::build_toward_end_box`]) failed and
+    /// was solved again without it (the rest of the swing as [`Replanning::build`] would re-plan
+    /// it); the status, iterations and times are the two attempts' (the last status, the sums).
+    /// Absent (false) in every other re-plan.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub end_box_dropped: bool,
 }
 
 /// A re-planned swing waiting for its ready time.
@@ -202,6 +208,9 @@ pub struct Replanning<C> {
     /// The feedback of the miss prediction along the tracked plan ([`MissPrediction::Feedback`]).
     lqr: Option<Tvlqr>,
     events: Vec<ReplanEvent>,
+    /// Whether the planner aims at an end box ([`Replanning::build_toward_end_box`]) that a failed
+    /// re-plan drops.
+    end_box: bool,
     next_check: f64,
     last_trigger: Option<f64>,
     last_miss: f64,
@@ -263,6 +272,7 @@ impl<C: Controller> Replanning<C> {
             t_final,
             pending: None,
             events: Vec::with_capacity(settings.max_replans),
+            end_box: false,
             next_check: f64::NEG_INFINITY,
             last_trigger: None,
             last_miss: 0.0,
@@ -283,7 +293,52 @@ impl<C: Controller> Replanning<C> {
         reference: impl Into<Arc<Trajectory>>,
         settings: ReplanSettings,
     ) -> Result<Self> {
+        Self::build_with(inner, robot, task, planner, nlp, reference, settings, None)
+    }
+
+    /// [`Replanning::build`] for a swing whose reference ends at a state chosen for the swings
+    /// after it (the first swing of a joint multi-swing plan): every (re-)plan keeps its last knot in
+    /// the box `end_box` (2n entries `[lo, hi]`, q then qd; [`SwingPlanner::set_end_box`]), and the
+    /// cold plan starts from `reference` (resampled onto the re-planning mesh) instead of the
+    /// planner's own guess. A re-plan that does not converge is solved again without the box, and
+    /// the box stays dropped for the rest of the swing (what [`Replanning::build`] re-plans). Errors
+    /// as [`Replanning::build`] and on a box of the wrong length or not `lo <= hi`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build_toward_end_box(
+        inner: C,
+        robot: impl Into<Arc<Robot>>,
+        task: &SwingTask,
+        planner: &PlannerSettings,
+        nlp: &NlpSettings,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: ReplanSettings,
+        end_box: &[[f64; 2]],
+    ) -> Result<Self> {
+        Self::build_with(
+            inner,
+            robot,
+            task,
+            planner,
+            nlp,
+            reference,
+            settings,
+            Some(end_box),
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build_with(
+        inner: C,
+        robot: impl Into<Arc<Robot>>,
+        task: &SwingTask,
+        planner: &PlannerSettings,
+        nlp: &NlpSettings,
+        reference: impl Into<Arc<Trajectory>>,
+        settings: ReplanSettings,
+        end_box: Option<&[[f64; 2]]>,
+    ) -> Result<Self> {
         settings.validate("replanning")?;
+        let reference: Arc<Trajectory> = reference.into();
         let ps = PlannerSettings {
             transcription: Transcription::MultipleShooting,
             knot_dt: settings.knot_dt_s,
@@ -293,7 +348,15 @@ impl<C: Controller> Replanning<C> {
             backend: Backend::Ocp,
             ..nlp.clone()
         };
-        let mut p = SwingPlanner::new(robot, task.clone(), &ps, &nlp)?;
+        let mut p = match end_box {
+            None => SwingPlanner::new(robot, task.clone(), &ps, &nlp)?,
+            Some(r) => {
+                let mut p =
+                    SwingPlanner::with_guess(robot, task.clone(), &ps, &nlp, Some(&reference))?;
+                p.set_end_box(Some(r))?;
+                p
+            }
+        };
         let out = p.plan_outcome()?;
         if !out.converged() {
             return Err(Error::invalid(
@@ -303,7 +366,9 @@ impl<C: Controller> Replanning<C> {
                 "the cold plan on the re-planning mesh did not converge",
             ));
         }
-        Self::new(inner, p, reference, settings)
+        let mut r = Self::new(inner, p, reference, settings)?;
+        r.end_box = end_box.is_some();
+        Ok(r)
     }
 
     /// The re-plans so far.
@@ -384,7 +449,19 @@ impl<C: Controller> Replanning<C> {
     fn replan(&mut self, t: f64, x: &[f64], miss: f64) {
         self.last_trigger = Some(t);
         let start = Instant::now();
-        let out = self.planner.replan(t, x);
+        let mut out = self.planner.replan(t, x);
+        // a re-plan aimed at an end box that failed: solved again (from the same warm start, the
+        // last converged solution) without it, and without it for the rest of the swing
+        let mut end_box_dropped = false;
+        let mut spent = (0, 0.0);
+        if let (true, Ok(o)) = (self.end_box, out.as_ref()) {
+            if !o.converged() && self.planner.set_end_box(None).is_ok() {
+                self.end_box = false;
+                end_box_dropped = true;
+                spent = (o.iterations, o.solve_time_s);
+                out = self.planner.replan(t, x);
+            }
+        }
         let (status, iterations, solve_time_s, plan_err, mut traj) = match out {
             Ok(o) => {
                 let ok = o.converged() && o.ee_error_m <= ADOPT_EE_ERROR_M;
@@ -393,7 +470,13 @@ impl<C: Controller> Replanning<C> {
                 } else {
                     None
                 };
-                (o.status, o.iterations, o.solve_time_s, o.ee_error_m, traj)
+                (
+                    o.status,
+                    o.iterations + spent.0,
+                    o.solve_time_s + spent.1,
+                    o.ee_error_m,
+                    traj,
+                )
             }
             Err(e) => (
                 SolveStatus::Other(e.to_string()),
@@ -446,6 +529,7 @@ impl<C: Controller> Replanning<C> {
             t_switch_s: None,
             plan_ee_error_m: plan_err,
             adopted,
+            end_box_dropped,
         });
     }
 }

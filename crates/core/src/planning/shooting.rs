@@ -718,6 +718,9 @@ pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
     x_start: Vec<f64>,
     target: [f64; 2],
     bounds: Bounds,
+    /// A box `[lo, hi]` on each of the 2n state components at the last knot (rad, rad/s),
+    /// intersected with that knot's bounds (`None`: those bounds alone).
+    end_box: Option<Vec<[f64; 2]>>,
     tau_lo: Vec<f64>,
     tau_hi: Vec<f64>,
     guess: Primal,
@@ -829,6 +832,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             x_start: spec.x_start,
             target: spec.target,
             bounds: spec.bounds,
+            end_box: None,
             tau_lo,
             tau_hi,
             guess,
@@ -926,6 +930,40 @@ impl<D: PointDynamics> SwingOcp<D> {
     /// Set the box bounds of knots 1..K in place (no allocation).
     pub fn set_knot_bounds(&mut self, bounds: &Bounds) {
         self.bounds.clone_from(bounds);
+    }
+
+    /// A box on the state at the last knot (2n entries `[lo, hi]`: q then qd; rad, rad/s),
+    /// intersected with that knot's own bounds (a component whose intersection is empty keeps the
+    /// knot's bound), or `None` for the knot's bounds alone. Errors on a wrong length or a range that
+    /// is not `lo <= hi` (infinite ends allowed).
+    pub fn set_end_box(&mut self, b: Option<&[[f64; 2]]>) -> Result<()> {
+        if let Some(r) = b {
+            if r.len() != self.ctx.nx {
+                return Err(Error::Dimension {
+                    what: "shooting: end box".into(),
+                    expected: self.ctx.nx,
+                    got: r.len(),
+                });
+            }
+            if let Some(v) = r
+                .iter()
+                .find(|v| v[0].is_nan() || v[1].is_nan() || v[0] > v[1])
+            {
+                return Err(Error::invalid(
+                    "<shooting>",
+                    "end box",
+                    format!("{v:?}"),
+                    "must have lo <= hi",
+                ));
+            }
+        }
+        self.end_box = b.map(<[[f64; 2]]>::to_vec);
+        Ok(())
+    }
+
+    /// The box set by [`SwingOcp::set_end_box`].
+    pub fn end_box(&self) -> Option<&[[f64; 2]]> {
+        self.end_box.as_deref()
     }
 
     /// Set the target bar position in place, m.
@@ -1121,6 +1159,15 @@ impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
             for i in 0..n {
                 b.x_lo[n + i] = -qd;
                 b.x_hi[n + i] = qd;
+            }
+            if let (Some(e), true) = (&self.end_box, k == self.ctx.horizon) {
+                for (i, r) in e.iter().enumerate() {
+                    let (lo, hi) = (b.x_lo[i].max(r[0]), b.x_hi[i].min(r[1]));
+                    if lo <= hi {
+                        b.x_lo[i] = lo;
+                        b.x_hi[i] = hi;
+                    }
+                }
             }
         }
         if k < self.ctx.horizon {

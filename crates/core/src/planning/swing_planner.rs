@@ -30,6 +30,7 @@ use super::shooting::SwingOcp;
 use super::task::SwingTask;
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::trajectory::Trajectory;
 use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals};
 use std::sync::Arc;
 
@@ -165,6 +166,20 @@ impl SwingPlanner {
         settings: &PlannerSettings,
         nlp: &NlpSettings,
     ) -> Result<Self> {
+        Self::with_guess(robot, task, settings, nlp, None)
+    }
+
+    /// [`SwingPlanner::new`] whose cold plan ([`SwingPlanner::plan`]) starts from `guess` (a
+    /// trajectory of the same swing, resampled onto the knots, as [`super::plan_with_guess`] takes
+    /// it; e.g. the plan a controller tracks) instead of the setup's own guess (`None`). Errors as
+    /// [`SwingPlanner::new`] and on a guess that does not fit the robot.
+    pub fn with_guess(
+        robot: impl Into<Arc<Robot>>,
+        task: SwingTask,
+        settings: &PlannerSettings,
+        nlp: &NlpSettings,
+        guess: Option<&Trajectory>,
+    ) -> Result<Self> {
         let robot: Arc<Robot> = robot.into();
         let settings = PlannerSettings {
             transcription: super::settings::Transcription::MultipleShooting,
@@ -177,7 +192,7 @@ impl SwingPlanner {
             layout,
             t_final,
             freefall,
-        } = setup_shooting(&robot, &task, &settings, None)?;
+        } = setup_shooting(&robot, &task, &settings, guess)?;
         let solver = OcpSolver::new(ocp.dims()).map_err(|e| {
             Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
         })?;
@@ -314,6 +329,15 @@ impl SwingPlanner {
         self.ocp.set_target(target);
         self.task.target = target;
         Ok(())
+    }
+
+    /// A box on the state at the last knot of every (re-)plan (2n entries `[lo, hi]`: q then qd;
+    /// rad, rad/s), intersected with that knot's bounds (the rest condition `bounds.qd_end_max`
+    /// included); `None` removes it. What a re-plan inside a swing of a joint multi-swing plan aims
+    /// at: near that plan's switch state (docs/ladders.md, "Lookahead"). Errors on a wrong length or
+    /// a range that is not `lo <= hi`.
+    pub fn set_end_box(&mut self, b: Option<&[[f64; 2]]>) -> Result<()> {
+        self.ocp.set_end_box(b)
     }
 
     /// Cold plan of the whole swing from the task's start state (the setup's initial guess); the
@@ -730,6 +754,49 @@ mod tests {
             }
         }
         worst
+    }
+
+    /// An end box moves the last knot into it (a re-plan of the tracking swing whose end pose must
+    /// lie 0.05 rad past the free plan's on joint 2), the box is intersected with the knot's
+    /// bounds, and it is refused with the wrong length or `lo > hi`; `None` restores the plain
+    /// bounds.
+    #[test]
+    fn an_end_box_holds_the_last_knot_and_is_checked() {
+        let (s, nlp) = replan_settings(0.03);
+        let mut planner = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
+        let p = planner.plan().unwrap();
+        let tr = p.trajectory.clone();
+        let k_end = planner.intervals();
+        let q2_free = planner.knots().x[k_end][1];
+        let n = 4;
+        let mut b = vec![[f64::NEG_INFINITY, f64::INFINITY]; 2 * n];
+        b[1] = [q2_free + 0.05, q2_free + 0.1];
+        planner.set_end_box(Some(&b)).unwrap();
+        let mut sb = StageBounds::unbounded(planner.ocp.dims().stages[k_end]);
+        planner.ocp.bounds(k_end, &mut sb);
+        assert_eq!([sb.x_lo[1], sb.x_hi[1]], b[1]);
+        // the infinite ends keep the knot's own bounds
+        assert_eq!([sb.x_lo[0], sb.x_hi[0]], s.bounds.q1);
+        let j = tr.t.iter().position(|t| (t - T_NOW).abs() < 1e-9).unwrap();
+        let x = [tr.q(j), tr.qd(j)].concat();
+        let out = planner.replan(T_NOW, &x).unwrap();
+        assert!(out.converged(), "{:?}", out.status);
+        let q2 = planner.knots().x[k_end][1];
+        assert!(
+            q2 >= b[1][0] - 1e-8 && q2 <= b[1][1] + 1e-8,
+            "{q2} {:?}",
+            b[1]
+        );
+        assert!(out.ee_error_m < 1e-3, "{out:?}");
+        assert!(planner.set_end_box(Some(&b[..n])).is_err());
+        b[1] = [1.0, 0.0];
+        assert!(planner.set_end_box(Some(&b)).is_err());
+        planner.set_end_box(None).unwrap();
+        planner.ocp.bounds(k_end, &mut sb);
+        assert_eq!(
+            [sb.x_lo[1], sb.x_hi[1]],
+            [-s.bounds.q_rel_max, s.bounds.q_rel_max]
+        );
     }
 
     #[test]
