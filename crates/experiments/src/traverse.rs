@@ -699,28 +699,17 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
                 let aim = (plan_source == PlanSource::Joint
                     && sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest)
                     .then(|| switch_pose_box(p));
-                Some(match aim {
-                    // re-plans aim at the joint plan's switch pose, not at the swing's own optimum
-                    Some(b) => Replanning::build_toward_end_box(
-                        base,
-                        robot.clone(),
-                        task,
-                        planner,
-                        solver,
-                        reference.clone(),
-                        rs.clone(),
-                        &b,
-                    )?,
-                    None => Replanning::build(
-                        base,
-                        robot.clone(),
-                        task,
-                        planner,
-                        solver,
-                        reference.clone(),
-                        rs.clone(),
-                    )?,
-                })
+                // with an aim, re-plans go for the joint plan's switch pose, not the swing's own optimum
+                Some(Replanning::build_toward_end_box(
+                    base,
+                    robot.clone(),
+                    task,
+                    planner,
+                    solver,
+                    reference.clone(),
+                    rs.clone(),
+                    aim.as_deref(),
+                )?)
             }
             _ => {
                 plain = Some(base);

@@ -293,41 +293,19 @@ impl<C: Controller> Replanning<C> {
         reference: impl Into<Arc<Trajectory>>,
         settings: ReplanSettings,
     ) -> Result<Self> {
-        Self::build_with(inner, robot, task, planner, nlp, reference, settings, None)
+        Self::build_toward_end_box(inner, robot, task, planner, nlp, reference, settings, None)
     }
 
     /// [`Replanning::build`] for a swing whose reference ends at a state chosen for the swings
-    /// after it (the first swing of a joint multi-swing plan): every (re-)plan keeps its last knot in
-    /// the box `end_box` (2n entries `[lo, hi]`, q then qd; [`SwingPlanner::set_end_box`]), and the
-    /// cold plan starts from `reference` (resampled onto the re-planning mesh) instead of the
-    /// planner's own guess. A re-plan that does not converge is solved again without the box, and
-    /// the box stays dropped for the rest of the swing (what [`Replanning::build`] re-plans). Errors
-    /// as [`Replanning::build`] and on a box of the wrong length or not `lo <= hi`.
+    /// after it (the first swing of a joint multi-swing plan): with `Some(end_box)` every (re-)plan
+    /// keeps its last knot in the box (2n entries `[lo, hi]`, q then qd;
+    /// [`SwingPlanner::set_end_box`]), and the cold plan starts from `reference` (resampled onto the
+    /// re-planning mesh) instead of the planner's own guess. A re-plan that does not converge is
+    /// solved again without the box, and the box stays dropped for the rest of the swing (what
+    /// [`Replanning::build`] re-plans). `None` is [`Replanning::build`]. Errors as
+    /// [`Replanning::build`] and on a box of the wrong length or not `lo <= hi`.
     #[allow(clippy::too_many_arguments)]
     pub fn build_toward_end_box(
-        inner: C,
-        robot: impl Into<Arc<Robot>>,
-        task: &SwingTask,
-        planner: &PlannerSettings,
-        nlp: &NlpSettings,
-        reference: impl Into<Arc<Trajectory>>,
-        settings: ReplanSettings,
-        end_box: &[[f64; 2]],
-    ) -> Result<Self> {
-        Self::build_with(
-            inner,
-            robot,
-            task,
-            planner,
-            nlp,
-            reference,
-            settings,
-            Some(end_box),
-        )
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn build_with(
         inner: C,
         robot: impl Into<Arc<Robot>>,
         task: &SwingTask,
