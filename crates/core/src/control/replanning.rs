@@ -208,9 +208,6 @@ pub struct Replanning<C> {
     /// The feedback of the miss prediction along the tracked plan ([`MissPrediction::Feedback`]).
     lqr: Option<Tvlqr>,
     events: Vec<ReplanEvent>,
-    /// Whether the planner aims at an end box ([`Replanning::build_toward_end_box`]) that a failed
-    /// re-plan drops.
-    end_box: bool,
     next_check: f64,
     last_trigger: Option<f64>,
     last_miss: f64,
@@ -272,7 +269,6 @@ impl<C: Controller> Replanning<C> {
             t_final,
             pending: None,
             events: Vec::with_capacity(settings.max_replans),
-            end_box: false,
             next_check: f64::NEG_INFINITY,
             last_trigger: None,
             last_miss: 0.0,
@@ -344,9 +340,7 @@ impl<C: Controller> Replanning<C> {
                 "the cold plan on the re-planning mesh did not converge",
             ));
         }
-        let mut r = Self::new(inner, p, reference, settings)?;
-        r.end_box = end_box.is_some();
-        Ok(r)
+        Self::new(inner, p, reference, settings)
     }
 
     /// The re-plans so far.
@@ -432,9 +426,8 @@ impl<C: Controller> Replanning<C> {
         // last converged solution) without it, and without it for the rest of the swing
         let mut end_box_dropped = false;
         let mut spent = (0, 0.0);
-        if let (true, Ok(o)) = (self.end_box, out.as_ref()) {
+        if let (true, Ok(o)) = (self.planner.end_box().is_some(), out.as_ref()) {
             if !o.converged() && self.planner.set_end_box(None).is_ok() {
-                self.end_box = false;
                 end_box_dropped = true;
                 spent = (o.iterations, o.solve_time_s);
                 out = self.planner.replan(t, x);

@@ -340,6 +340,11 @@ impl SwingPlanner {
         self.ocp.set_end_box(b)
     }
 
+    /// The box set by [`SwingPlanner::set_end_box`], if any.
+    pub fn end_box(&self) -> Option<&[[f64; 2]]> {
+        self.ocp.end_box()
+    }
+
     /// Cold plan of the whole swing from the task's start state (the setup's initial guess); the
     /// solution becomes the one re-plans shift from. Allocates the [`Plan`].
     pub fn plan(&mut self) -> Result<Plan> {
