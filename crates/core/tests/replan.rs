@@ -179,3 +179,54 @@ fn replan_refuses_misuse() {
         Err(Error::InvalidValue { .. })
     ));
 }
+
+/// A checkpoint taken right after its solve puts the planner back exactly: a warm re-plan after a
+/// restore is the same, bit for bit, whether the planner re-planned (warm and cold, from other states)
+/// in between or not; the restore returns the checkpoint's own outcome and `current_plan` is the
+/// checkpoint's plan. (Before session 15 a restore re-solved the checkpoint's problem from whatever
+/// multipliers the last solve left, so a re-plan's iterations depended on what came before it.)
+#[test]
+fn a_restore_puts_the_planner_back_exactly_whatever_was_solved_in_between() {
+    let robot = Robot::paper();
+    let (s, nlp) = replan_settings(0.03);
+    let mut planner = SwingPlanner::new(robot.clone(), tracking_task(), &s, &nlp).unwrap();
+    let cold = planner.plan_outcome().unwrap();
+    assert!(cold.converged(), "{:?}", cold.status);
+    let plan = planner.current_plan().unwrap();
+    let cp = planner.checkpoint();
+    let k = (0.6 / cold.interval_s).round() as usize;
+    let t_now = planner.knot_time(k);
+    let x_nom = planner.knots().x[k].clone();
+    let states = disturbed(&x_nom, 4, 11);
+    assert!(
+        states.len() >= 3,
+        "{} states inside the bounds",
+        states.len()
+    );
+
+    let first = planner.replan(t_now, &states[0]).unwrap();
+    assert!(first.converged(), "{:?}", first.status);
+    let knots = planner.knots().clone();
+    // other solves in between: warm and cold re-plans from other states, a re-plan of a re-plan
+    assert!(planner.replan(t_now, &states[1]).unwrap().converged());
+    assert!(planner.replan_cold(t_now, &states[2]).unwrap().converged());
+    let later = planner.knot_time(5);
+    let x_later = planner.knots().x[5].clone();
+    assert!(planner.replan(later, &x_later).unwrap().converged());
+
+    let back = planner.restore(&cp).unwrap();
+    assert_eq!(back, cold, "the restore returns the checkpoint's outcome");
+    let replot = planner.current_plan().unwrap();
+    assert_eq!(replot.objective.to_bits(), plan.objective.to_bits());
+    assert_eq!(replot.trajectory.t, plan.trajectory.t);
+    let again = planner.replan(t_now, &states[0]).unwrap();
+    assert_eq!(again.iterations, first.iterations);
+    assert_eq!(again.objective.to_bits(), first.objective.to_bits());
+    assert_eq!(*planner.knots(), knots);
+
+    // a checkpoint of another mesh is refused and changes nothing
+    let (s2, _) = replan_settings(0.05);
+    let other = SwingPlanner::new(robot, tracking_task(), &s2, &nlp).unwrap();
+    assert!(planner.restore(&other.checkpoint()).is_err());
+    assert_eq!(*planner.knots(), knots);
+}

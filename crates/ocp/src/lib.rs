@@ -176,4 +176,4 @@ pub use settings::{
     MuStrategy, OcpError, OcpSettings, OcpStats, OcpStatus, OcpTimings, WarmDuals,
     MAX_CENTRALITY_CORRECTORS, MAX_EQUALITY_ROWS, MAX_STAGE_VARIABLES,
 };
-pub use solver::OcpSolver;
+pub use solver::{OcpSolver, WarmState};

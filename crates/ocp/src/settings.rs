@@ -289,6 +289,21 @@ pub enum OcpError {
         /// [`MAX_EQUALITY_ROWS`].
         limit: usize,
     },
+    /// A [`crate::WarmState`] read from a solver of other dimensions.
+    #[error(
+        "a warm state of {state_variables} variables and {state_slacks} slacks for a solver of \
+         {solver_variables} variables and {solver_slacks} slacks (or other stage sizes)"
+    )]
+    WarmStateMismatch {
+        /// Variables (sum of nx_k + nu_k) of the state given.
+        state_variables: usize,
+        /// Slacks (stage inequality rows) of the state given.
+        state_slacks: usize,
+        /// Variables of this solver.
+        solver_variables: usize,
+        /// Slacks of this solver.
+        solver_slacks: usize,
+    },
     /// A setting out of its range.
     #[error("setting {field} = {value}: {reason}")]
     InvalidSetting {

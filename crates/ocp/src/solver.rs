@@ -181,6 +181,26 @@ struct SavedStep {
     dvu: Vec<f64>,
 }
 
+/// What a warm start takes from the last solve besides its primal ([`OcpSolver::primal`]): the
+/// slacks of the stage inequalities, every multiplier (bound duals of the variables and of the
+/// slacks, dynamics, stage-row, terminal and fixed-state multipliers) and the equality-row
+/// penalty that last passed the inertia test. Read with [`OcpSolver::warm_state`] and put back
+/// with [`OcpSolver::set_warm_state`], so that a warm solve from a saved solution starts from the
+/// same numbers whatever was solved in between (e.g. a re-planner's checkpoint). Opaque: its
+/// layout is the solver's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarmState {
+    s: Vec<f64>,
+    zl: Vec<f64>,
+    zu: Vec<f64>,
+    vl: Vec<f64>,
+    vu: Vec<f64>,
+    eta: Vec<f64>,
+    mult: Multipliers,
+    rho_eq_last: f64,
+    has_iterate: bool,
+}
+
 /// How the complementarity rows of a right-hand side read ([`OcpSolver::solve_rhs`]): the
 /// barrier parameter for every bound, or the per-bound targets of the centrality correctors.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -532,6 +552,69 @@ impl OcpSolver {
                 }
             }
         }
+    }
+
+    /// A copy of the stored state besides the primal ([`WarmState`]; allocates).
+    pub fn warm_state(&self) -> WarmState {
+        WarmState {
+            s: self.s.clone(),
+            zl: self.zl.clone(),
+            zu: self.zu.clone(),
+            vl: self.vl.clone(),
+            vu: self.vu.clone(),
+            eta: self.eta.clone(),
+            mult: self.mult.clone(),
+            rho_eq_last: self.rho_eq_last,
+            has_iterate: self.has_iterate,
+        }
+    }
+
+    /// Puts back a state read by [`OcpSolver::warm_state`] of a solver of the same dimensions
+    /// (the primal goes back through [`OcpSolver::primal_mut`]). No allocation. Errors (and
+    /// changes nothing) if the sizes differ.
+    pub fn set_warm_state(&mut self, w: &WarmState) -> Result<(), OcpError> {
+        let shape = |m: &Multipliers| {
+            m.lam
+                .iter()
+                .map(Vec::len)
+                .eq(self.mult.lam.iter().map(Vec::len))
+                && m.mu
+                    .iter()
+                    .map(Vec::len)
+                    .eq(self.mult.mu.iter().map(Vec::len))
+                && m.nu.len() == self.mult.nu.len()
+        };
+        let same = w.s.len() == self.s.len()
+            && w.zl.len() == self.zl.len()
+            && w.zu.len() == self.zu.len()
+            && w.vl.len() == self.vl.len()
+            && w.vu.len() == self.vu.len()
+            && w.eta.len() == self.eta.len()
+            && shape(&w.mult);
+        if !same {
+            return Err(OcpError::WarmStateMismatch {
+                state_variables: w.zl.len(),
+                state_slacks: w.s.len(),
+                solver_variables: self.zl.len(),
+                solver_slacks: self.s.len(),
+            });
+        }
+        self.s.copy_from_slice(&w.s);
+        self.zl.copy_from_slice(&w.zl);
+        self.zu.copy_from_slice(&w.zu);
+        self.vl.copy_from_slice(&w.vl);
+        self.vu.copy_from_slice(&w.vu);
+        self.eta.copy_from_slice(&w.eta);
+        for (d, s) in self.mult.lam.iter_mut().zip(&w.mult.lam) {
+            d.copy_from_slice(s);
+        }
+        for (d, s) in self.mult.mu.iter_mut().zip(&w.mult.mu) {
+            d.copy_from_slice(s);
+        }
+        self.mult.nu.copy_from_slice(&w.mult.nu);
+        self.rho_eq_last = w.rho_eq_last;
+        self.has_iterate = w.has_iterate;
+        Ok(())
     }
 
     /// The feedback gain `K_k` (`nu_k x nx_k`, row-major) of the last Riccati factorisation: the

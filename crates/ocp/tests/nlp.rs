@@ -638,3 +638,50 @@ fn remapped_bound_duals_move_stage_by_stage_where_the_sizes_agree() {
         }
     }
 }
+
+/// A warm state read after a solve and put back later makes the next warm solve the same, bit for
+/// bit, whatever was solved in between; a state of other dimensions is refused and changes nothing.
+#[test]
+fn a_saved_warm_state_restarts_exactly_whatever_was_solved_in_between() {
+    let warm = OcpSettings {
+        warm_start: true,
+        warm_duals: WarmDuals::StoredBounds,
+        warm_bound_push: 1e-9,
+        mu_init: 1e-4,
+        mu_strategy: MuStrategy::Adaptive,
+        ..OcpSettings::default()
+    };
+    let mut p = pendulum();
+    let mut solver = OcpSolver::new(&p.dims).unwrap();
+    assert_eq!(
+        solver.solve(&mut p, &OcpSettings::default()).status,
+        OcpStatus::Solved
+    );
+    let (z0, w0) = (solver.primal().clone(), solver.warm_state());
+    p.x0 = [0.05, 0.0];
+    let first = solver.solve(&mut p, &warm);
+    assert_eq!(first.status, OcpStatus::Solved, "{first:?}");
+    let z1 = solver.primal().clone();
+    // other solves in between: another start, cold and warm
+    p.x0 = [-0.1, 0.3];
+    assert!(solver
+        .solve(&mut p, &OcpSettings::default())
+        .status
+        .is_converged());
+    assert!(solver.solve(&mut p, &warm).status.is_converged());
+    // the state alone is not enough: the primal goes back too
+    solver.primal_mut().copy_from(&z0);
+    solver.set_warm_state(&w0).unwrap();
+    p.x0 = [0.05, 0.0];
+    let again = solver.solve(&mut p, &warm);
+    assert_eq!(again.iterations, first.iterations);
+    assert_eq!(again.objective.to_bits(), first.objective.to_bits());
+    assert_eq!(*solver.primal(), z1);
+
+    let q = Pendulum::new(60, 0.05, 5.0);
+    let other = OcpSolver::new(&q.dims).unwrap();
+    let before = solver.warm_state();
+    let err = solver.set_warm_state(&other.warm_state()).unwrap_err();
+    assert!(matches!(err, OcpError::WarmStateMismatch { .. }), "{err}");
+    assert_eq!(solver.warm_state(), before);
+}

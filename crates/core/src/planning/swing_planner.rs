@@ -25,13 +25,16 @@ use super::plan_shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
 use super::planner::{Plan, WARM_START_MU_INIT};
+use super::settings::Bounds;
 use super::settings::PlannerSettings;
 use super::shooting::SwingOcp;
 use super::task::SwingTask;
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
-use brachia_ocp::{OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals};
+use brachia_ocp::{
+    OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals, WarmState,
+};
 use std::sync::Arc;
 
 /// How one (re-)plan ended, without allocating: the solver's status and diagnostics and the grid of
@@ -72,6 +75,19 @@ pub struct Checkpoint {
     /// The Riccati feedback gains `K_k` (`nu x nx`, row-major) of the solve that produced `z`
     /// ([`OcpSolver::feedback_gain`]), zero before the first factorisation.
     gains: Vec<Vec<f64>>,
+    /// The knot bounds of the problem `z` solves (a re-plan's are widened for its start).
+    bounds: Bounds,
+    /// The solver's state at `z` (slacks, multipliers) and how that solve ended, when the
+    /// checkpoint was taken right after it converged; `None` in the planner's own copy.
+    solved: Option<Box<Solved>>,
+}
+
+/// The solver's state after the converged solve of a [`Checkpoint`], and its outcome.
+#[derive(Debug, Clone, PartialEq)]
+struct Solved {
+    state: WarmState,
+    outcome: ReplanOutcome,
+    last: (SolveStatus, OcpStats, bool),
 }
 
 /// The primal point a warm re-plan starts from (docs/planner.md, "Re-planning").
@@ -153,6 +169,8 @@ pub struct SwingPlanner {
     /// Status and statistics of the last solve and whether it was warm (for the [`Plan`]); `None`
     /// before the first.
     last: Option<(SolveStatus, OcpStats, bool)>,
+    /// The outcome of the last solve; `None` before the first.
+    last_outcome: Option<ReplanOutcome>,
 }
 
 impl SwingPlanner {
@@ -216,6 +234,7 @@ impl SwingPlanner {
         let gains = dims.stages.iter().map(|d| vec![0.0; d.nu * d.nx]).collect();
         let nx = dims.stages[0].nx;
         let roll_bounds = StageBounds::unbounded(dims.stages[0]);
+        let bounds0 = settings.bounds.clone();
         Ok(SwingPlanner {
             robot,
             task,
@@ -227,6 +246,8 @@ impl SwingPlanner {
                 t0: 0.0,
                 h: layout.h,
                 gains,
+                bounds: bounds0,
+                solved: None,
             },
             warm_primal: WarmPrimal::default(),
             shift_duals: true,
@@ -246,6 +267,7 @@ impl SwingPlanner {
             t0: 0.0,
             x_full,
             last: None,
+            last_outcome: None,
         })
     }
 
@@ -429,36 +451,86 @@ impl SwingPlanner {
     }
 
     /// A copy of the solution re-plans shift from (allocates; restore it with
-    /// [`SwingPlanner::restore`]).
+    /// [`SwingPlanner::restore`]). Taken right after the solve that produced that solution
+    /// converged, it also holds the solver's state there (slacks and multipliers), so that a
+    /// restore puts the planner back exactly as it was.
     pub fn checkpoint(&self) -> Checkpoint {
-        self.prev.clone()
+        let mut cp = self.prev.clone();
+        if self.duals_of_prev {
+            if let (Some(last), Some(outcome)) = (&self.last, &self.last_outcome) {
+                cp.solved = Some(Box::new(Solved {
+                    state: self.solver.warm_state(),
+                    outcome: outcome.clone(),
+                    last: last.clone(),
+                }));
+            }
+        }
+        cp
     }
 
-    /// Make `cp` the solution re-plans shift from again, and re-solve its own problem warm from it
-    /// (so that the solver's stored multipliers are that solution's). No allocation.
+    /// Make `cp` the solution re-plans shift from again, with its problem (start state, swing time,
+    /// knot bounds). A checkpoint taken right after its solve converged ([`SwingPlanner::checkpoint`])
+    /// also puts the solver's state back as it was then, so that what follows (a warm re-plan, the
+    /// [`Plan`] of [`SwingPlanner::current_plan`]) is the same, bit for bit, whatever the planner
+    /// solved in between; it returns that solve's outcome. Any other checkpoint is re-solved warm
+    /// from its solution (so that the solver's stored multipliers are that solution's). The target
+    /// and the end box stay as they are. No allocation. Errors if `cp` comes from a planner of
+    /// other dimensions.
     pub fn restore(&mut self, cp: &Checkpoint) -> Result<ReplanOutcome> {
-        for (d, s) in self.prev.z.x.iter_mut().zip(&cp.z.x) {
-            d.copy_from_slice(s);
+        let same = cp.z.x.len() == self.prev.z.x.len()
+            && cp.gains.len() == self.prev.gains.len()
+            && cp
+                .z
+                .x
+                .iter()
+                .map(Vec::len)
+                .eq(self.prev.z.x.iter().map(Vec::len))
+            && cp
+                .z
+                .u
+                .iter()
+                .map(Vec::len)
+                .eq(self.prev.z.u.iter().map(Vec::len))
+            && cp
+                .gains
+                .iter()
+                .map(Vec::len)
+                .eq(self.prev.gains.iter().map(Vec::len));
+        if !same {
+            return Err(Error::invalid(
+                "planner",
+                "checkpoint",
+                format!("{} knots", cp.z.x.len()),
+                format!(
+                    "must come from a planner of the same robot and mesh ({} knots)",
+                    self.prev.z.x.len()
+                ),
+            ));
         }
-        for (d, s) in self.prev.z.u.iter_mut().zip(&cp.z.u) {
-            d.copy_from_slice(s);
+        if let Some(sv) = &cp.solved {
+            self.solver
+                .set_warm_state(&sv.state)
+                .map_err(|e| Error::invalid("planner", "checkpoint", e.to_string(), "refused"))?;
         }
+        self.prev.z.copy_from(&cp.z);
         for (d, s) in self.prev.gains.iter_mut().zip(&cp.gains) {
             d.copy_from_slice(s);
         }
         self.prev.t0 = cp.t0;
         self.prev.h = cp.h;
+        self.prev.bounds.clone_from(&cp.bounds);
         self.has_prev = true;
         let k = self.layout.intervals;
         self.ocp.set_start(&cp.z.x[0])?;
+        self.ocp.set_knot_bounds(&cp.bounds);
         self.ocp.set_swing_time(cp.h * k as f64)?;
         self.t0 = cp.t0;
-        let z = self.solver.primal_mut();
-        for (d, s) in z.x.iter_mut().zip(&cp.z.x) {
-            d.copy_from_slice(s);
-        }
-        for (d, s) in z.u.iter_mut().zip(&cp.z.u) {
-            d.copy_from_slice(s);
+        self.solver.primal_mut().copy_from(&cp.z);
+        if let Some(sv) = &cp.solved {
+            self.duals_of_prev = true;
+            self.last = Some(sv.last.clone());
+            self.last_outcome = Some(sv.outcome.clone());
+            return Ok(sv.outcome.clone());
         }
         let out = self.solve(true);
         self.adopt(&out);
@@ -549,7 +621,7 @@ impl SwingPlanner {
         let ee = self.robot.ee_position(&self.solver.primal().x[k_last][..n]);
         let tg = self.ocp.target();
         self.last = Some((status.clone(), stats.clone(), warm));
-        ReplanOutcome {
+        let out = ReplanOutcome {
             status,
             iterations: stats.iterations,
             solve_time_s: stats.time.total_s,
@@ -558,7 +630,9 @@ impl SwingPlanner {
             interval_s: self.ocp.interval(),
             ee_final: ee,
             ee_error_m: (ee[0] - tg[0]).hypot(ee[1] - tg[1]),
-        }
+        };
+        self.last_outcome = Some(out.clone());
+        out
     }
 
     /// A converged solution becomes the one the next re-plan shifts from.
@@ -574,6 +648,7 @@ impl SwingPlanner {
             }
             self.prev.t0 = out.t_start;
             self.prev.h = out.interval_s;
+            self.prev.bounds.clone_from(self.ocp.knot_bounds());
             self.has_prev = true;
             if self.last.as_ref().is_some_and(|l| l.1.factorizations > 0) {
                 for (k, d) in self.prev.gains.iter_mut().enumerate() {
