@@ -47,6 +47,7 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<planning::Plan>()?;
     m.add_class::<replan::SwingPlanner>()?;
     m.add_class::<replan::ReplanOutcome>()?;
+    m.add_class::<replan::Checkpoint>()?;
     m.add_class::<ladder::JointSwingPlan>()?;
     m.add_class::<ladder::JointPhase>()?;
     m.add_class::<control::Mpc>()?;

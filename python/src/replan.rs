@@ -113,6 +113,22 @@ pub struct SwingPlanner {
     x_in: Vec<f64>,
 }
 
+/// A copy of a ``SwingPlanner``'s solution (``SwingPlanner.checkpoint()``), opaque; give it back to
+/// the same planner's ``restore``.
+#[pyclass(module = "brachia", frozen)]
+pub struct Checkpoint {
+    inner: brachia::planning::Checkpoint,
+    /// The start state of the checkpoint's solution.
+    x_start: Vec<f64>,
+}
+
+#[pymethods]
+impl Checkpoint {
+    fn __repr__(&self) -> String {
+        format!("Checkpoint(n_links={})", self.x_start.len() / 2)
+    }
+}
+
 /// The start state `[q0, qd0]` of `task` into `out` (2n; an empty `qd0` is rest).
 fn task_start(task: &SwingTask, out: &mut [f64]) {
     let n = task.q0.len();
@@ -297,6 +313,34 @@ impl SwingPlanner {
             )));
         }
         arr2(py, v, cols)
+    }
+
+    /// A copy of the solution re-plans start from, to come back to with ``restore`` (e.g. to
+    /// re-plan many disturbed states from one plan). Taken right after a converged solve, it also
+    /// holds the solver's multipliers, so that a restore puts the planner back exactly.
+    fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            inner: self.inner.checkpoint(),
+            x_start: self.x_start.clone(),
+        }
+    }
+
+    /// Make a ``checkpoint()`` of this planner current again (its solution, problem and, where it
+    /// holds them, the solver's multipliers): what follows is the same, bit for bit, whatever was
+    /// solved in between. Returns the outcome of the checkpoint's solve. Raises ``BrachiaError`` for
+    /// a checkpoint of a planner of another robot or mesh (nothing changes).
+    fn restore(&mut self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
+        if checkpoint.x_start.len() != self.x_start.len() {
+            return Err(bad(format!(
+                "restore: a checkpoint of a {}-link robot for a {}-link planner",
+                checkpoint.x_start.len() / 2,
+                self.x_start.len() / 2
+            )));
+        }
+        let inner = &mut self.inner;
+        let out = py.detach(|| inner.restore(&checkpoint.inner)).map_err(rs)?;
+        self.x_start.copy_from_slice(&checkpoint.x_start);
+        Ok(ReplanOutcome { inner: out })
     }
 
     fn __repr__(&self) -> String {

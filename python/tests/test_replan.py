@@ -196,3 +196,32 @@ def test_reports_name_what_ran_whatever_the_settings_say(robot):
     )
     r = sp.plan().report
     assert r["transcription"] == "multiple-shooting" and r["backend"] == "ocp", r
+
+
+def test_restore_puts_the_planner_back_exactly(robot):
+    """A checkpoint taken after the cold plan, restored after other solves, gives the same re-plan
+    to the bit; a checkpoint of another mesh is refused and changes nothing."""
+    sp = brachia.SwingPlanner(robot, TASK, SETTINGS)
+    assert sp.plan().converged
+    cp = sp.checkpoint()
+    k = 20
+    t_now = sp.knot_times()[k]
+    rng = np.random.default_rng(5)
+    xs = [disturbed_state(sp, k, rng) for _ in range(3)]
+    first = sp.replan(t_now, xs[0])
+    assert first.converged, first.status
+    knots = sp.knot_states().copy()
+    assert sp.replan(t_now, xs[1]).converged
+    assert sp.replan_cold(t_now, xs[2]).converged
+    back = sp.restore(cp)
+    assert back.converged and back.t_start == 0.0
+    np.testing.assert_array_equal(sp.knot_states()[0], np.r_[TASK["q0"], np.zeros(4)])
+    again = sp.replan(t_now, xs[0])
+    assert again.iterations == first.iterations
+    assert again.objective == first.objective
+    np.testing.assert_array_equal(sp.knot_states(), knots)
+
+    other = brachia.SwingPlanner(robot, TASK, {"knot_dt": 0.05, "shooting": {"substeps": 1}})
+    with pytest.raises(brachia.BrachiaError):
+        sp.restore(other.checkpoint())
+    np.testing.assert_array_equal(sp.knot_states(), knots)
