@@ -392,6 +392,7 @@ pub(crate) fn eigen_solve(v: &[f64], d: &[f64], n: usize, b: &mut [f64], tmp: &m
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::values;
 
     #[test]
     fn cholesky_solves_a_small_system() {
@@ -456,20 +457,6 @@ mod tests {
         for i in 0..n {
             assert!((b[i] - x[i]).abs() < 1e-12);
         }
-    }
-
-    /// Deterministic values in [-1, 1) with varied exponents (no generator crate needed).
-    fn values(len: usize, seed: u64) -> Vec<f64> {
-        let mut x = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        (0..len)
-            .map(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                let u = (x >> 11) as f64 / (1u64 << 53) as f64;
-                (2.0 * u - 1.0) * [1.0, 1e-3, 37.0][(x % 3) as usize]
-            })
-            .collect()
     }
 
     #[test]

@@ -167,6 +167,8 @@ pub mod problem;
 mod riccati;
 mod settings;
 mod solver;
+#[doc(hidden)]
+pub mod testing;
 
 pub use problem::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,

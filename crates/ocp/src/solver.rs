@@ -110,16 +110,8 @@ pub struct OcpSolver {
     // trial
     z_t: Vec<f64>,
     s_t: Vec<f64>,
-    // step (multipliers as new values)
-    dz: Vec<f64>,
-    ds: Vec<f64>,
-    lam_n: Vec<f64>,
-    y_n: Vec<f64>,
-    eqm_n: Vec<f64>,
-    dzl: Vec<f64>,
-    dzu: Vec<f64>,
-    dvl: Vec<f64>,
-    dvu: Vec<f64>,
+    /// The Newton step of the current iteration.
+    step: Step,
     // KKT data
     g: Vec<f64>,
     /// The part of the condensed gradient that depends neither on the row residuals nor on mu.
@@ -165,20 +157,60 @@ pub struct OcpSolver {
     ctarget: Vec<f64>,
     ctarget_prev: Vec<f64>,
     /// The step before the last corrector (to undo one that is not kept).
-    saved: SavedStep,
+    step_saved: Step,
 }
 
-/// A copy of the Newton step (primal, slack, new multipliers and bound-dual steps).
-struct SavedStep {
+/// A Newton step: the primal and slack steps, the equality multipliers as new values, and the
+/// bound-dual steps. The solver holds two: the step of the current iteration and a copy of it taken
+/// before a centrality corrector, to undo one that is not kept.
+struct Step {
+    /// Primal step (nz).
     dz: Vec<f64>,
+    /// Slack step of the stage rows (nc).
     ds: Vec<f64>,
+    /// New dynamics multipliers (nl).
     lam_n: Vec<f64>,
+    /// New stage-row multipliers (nc).
     y_n: Vec<f64>,
+    /// New multipliers of the terminal rows, then of the fixed-state rows
+    /// ([`MAX_EQUALITY_ROWS`]; the first `n_terminal + fixed rows` are used).
     eqm_n: Vec<f64>,
+    /// Steps of the duals of the lower and upper bounds of z (nz).
     dzl: Vec<f64>,
     dzu: Vec<f64>,
+    /// Steps of the duals of the lower and upper bounds of the slacks (nc).
     dvl: Vec<f64>,
     dvu: Vec<f64>,
+}
+
+impl Step {
+    /// A zero step for `nz` variables, `nl` dynamics rows and `nc` stage rows.
+    fn zeros(nz: usize, nl: usize, nc: usize) -> Self {
+        Step {
+            dz: vec![0.0; nz],
+            ds: vec![0.0; nc],
+            lam_n: vec![0.0; nl],
+            y_n: vec![0.0; nc],
+            eqm_n: vec![0.0; MAX_EQUALITY_ROWS],
+            dzl: vec![0.0; nz],
+            dzu: vec![0.0; nz],
+            dvl: vec![0.0; nc],
+            dvu: vec![0.0; nc],
+        }
+    }
+
+    /// Copies `other` into `self` without allocating (both have the same dimensions).
+    fn copy_from(&mut self, other: &Step) {
+        self.dz.copy_from_slice(&other.dz);
+        self.ds.copy_from_slice(&other.ds);
+        self.lam_n.copy_from_slice(&other.lam_n);
+        self.y_n.copy_from_slice(&other.y_n);
+        self.eqm_n.copy_from_slice(&other.eqm_n);
+        self.dzl.copy_from_slice(&other.dzl);
+        self.dzu.copy_from_slice(&other.dzu);
+        self.dvl.copy_from_slice(&other.dvl);
+        self.dvu.copy_from_slice(&other.dvu);
+    }
 }
 
 /// What a warm start takes from the last solve besides its primal ([`OcpSolver::primal`]): the
@@ -444,15 +476,7 @@ impl OcpSolver {
             vu: vec![0.0; nc],
             z_t: vec![0.0; nz],
             s_t: vec![0.0; nc],
-            dz: vec![0.0; nz],
-            ds: vec![0.0; nc],
-            lam_n: vec![0.0; nl],
-            y_n: vec![0.0; nc],
-            eqm_n: vec![0.0; MAX_EQUALITY_ROWS],
-            dzl: vec![0.0; nz],
-            dzu: vec![0.0; nz],
-            dvl: vec![0.0; nc],
-            dvu: vec![0.0; nc],
+            step: Step::zeros(nz, nl, nc),
             g: vec![0.0; nz],
             g_base: vec![0.0; nz],
             g_bar: vec![0.0; nz],
@@ -483,17 +507,7 @@ impl OcpSolver {
             dreg: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
             ctarget: vec![0.0; 2 * (nz + nc)],
             ctarget_prev: vec![0.0; 2 * (nz + nc)],
-            saved: SavedStep {
-                dz: vec![0.0; nz],
-                ds: vec![0.0; nc],
-                lam_n: vec![0.0; nl],
-                y_n: vec![0.0; nc],
-                eqm_n: vec![0.0; MAX_EQUALITY_ROWS],
-                dzl: vec![0.0; nz],
-                dzu: vec![0.0; nz],
-                dvl: vec![0.0; nc],
-                dvu: vec![0.0; nc],
-            },
+            step_saved: Step::zeros(nz, nl, nc),
             dims: dims.clone(),
             lay,
             ric,
@@ -1218,29 +1232,30 @@ impl OcpSolver {
         for _ in 0..max {
             let (tp, td) = ((ap + CC_DELTA).min(1.0), (ad + CC_DELTA).min(1.0));
             self.ctarget_prev.copy_from_slice(&self.ctarget);
-            self.save_step();
+            self.step_saved.copy_from(&self.step);
             for i in 0..nz {
                 if self.kind[i] != Kind::Free {
                     continue;
                 }
-                let z = self.z[i] + tp * self.dz[i];
+                let z = self.z[i] + tp * self.step.dz[i];
                 if self.zlo[i].is_finite() {
-                    self.ctarget[i] += correction(z - self.zlo[i], self.zl[i] + td * self.dzl[i]);
+                    self.ctarget[i] +=
+                        correction(z - self.zlo[i], self.zl[i] + td * self.step.dzl[i]);
                 }
                 if self.zhi[i].is_finite() {
                     self.ctarget[nz + i] +=
-                        correction(self.zhi[i] - z, self.zu[i] + td * self.dzu[i]);
+                        correction(self.zhi[i] - z, self.zu[i] + td * self.step.dzu[i]);
                 }
             }
             for j in 0..nc {
-                let v = self.s[j] + tp * self.ds[j];
+                let v = self.s[j] + tp * self.step.ds[j];
                 if self.clo[j].is_finite() {
                     self.ctarget[os + j] +=
-                        correction(v - self.clo[j], self.vl[j] + td * self.dvl[j]);
+                        correction(v - self.clo[j], self.vl[j] + td * self.step.dvl[j]);
                 }
                 if self.chi[j].is_finite() {
                     self.ctarget[os + nc + j] +=
-                        correction(self.chi[j] - v, self.vu[j] + td * self.dvu[j]);
+                        correction(self.chi[j] - v, self.vu[j] + td * self.step.dvu[j]);
                 }
             }
             self.solve_rhs(Centring::Targets, None, stats)?;
@@ -1254,38 +1269,12 @@ impl OcpSolver {
                     break;
                 }
             } else {
-                self.restore_step();
+                self.step.copy_from(&self.step_saved);
                 self.ctarget.copy_from_slice(&self.ctarget_prev);
                 break;
             }
         }
         Ok(centring)
-    }
-
-    fn save_step(&mut self) {
-        let c = &mut self.saved;
-        c.dz.copy_from_slice(&self.dz);
-        c.ds.copy_from_slice(&self.ds);
-        c.lam_n.copy_from_slice(&self.lam_n);
-        c.y_n.copy_from_slice(&self.y_n);
-        c.eqm_n.copy_from_slice(&self.eqm_n);
-        c.dzl.copy_from_slice(&self.dzl);
-        c.dzu.copy_from_slice(&self.dzu);
-        c.dvl.copy_from_slice(&self.dvl);
-        c.dvu.copy_from_slice(&self.dvu);
-    }
-
-    fn restore_step(&mut self) {
-        let c = &self.saved;
-        self.dz.copy_from_slice(&c.dz);
-        self.ds.copy_from_slice(&c.ds);
-        self.lam_n.copy_from_slice(&c.lam_n);
-        self.y_n.copy_from_slice(&c.y_n);
-        self.eqm_n.copy_from_slice(&c.eqm_n);
-        self.dzl.copy_from_slice(&c.dzl);
-        self.dzu.copy_from_slice(&c.dzu);
-        self.dvl.copy_from_slice(&c.dvl);
-        self.dvu.copy_from_slice(&c.dvu);
     }
 
     /// Sum of the complementarity products (slack times bound dual) over all bounds of z and s
@@ -1296,24 +1285,24 @@ impl OcpSolver {
             if self.kind[i] != Kind::Free {
                 continue;
             }
-            let z = self.z[i] + ap * self.dz[i];
+            let z = self.z[i] + ap * self.step.dz[i];
             if self.zlo[i].is_finite() {
-                sum += (z - self.zlo[i]) * (self.zl[i] + ad * self.dzl[i]);
+                sum += (z - self.zlo[i]) * (self.zl[i] + ad * self.step.dzl[i]);
                 nb += 1;
             }
             if self.zhi[i].is_finite() {
-                sum += (self.zhi[i] - z) * (self.zu[i] + ad * self.dzu[i]);
+                sum += (self.zhi[i] - z) * (self.zu[i] + ad * self.step.dzu[i]);
                 nb += 1;
             }
         }
         for j in 0..self.s.len() {
-            let v = self.s[j] + ap * self.ds[j];
+            let v = self.s[j] + ap * self.step.ds[j];
             if self.clo[j].is_finite() {
-                sum += (v - self.clo[j]) * (self.vl[j] + ad * self.dvl[j]);
+                sum += (v - self.clo[j]) * (self.vl[j] + ad * self.step.dvl[j]);
                 nb += 1;
             }
             if self.chi[j].is_finite() {
-                sum += (self.chi[j] - v) * (self.vu[j] + ad * self.dvu[j]);
+                sum += (self.chi[j] - v) * (self.vu[j] + ad * self.step.dvu[j]);
                 nb += 1;
             }
         }
@@ -1624,9 +1613,9 @@ impl OcpSolver {
             lay,
             &self.g,
             &self.bdef,
-            &mut self.dz,
-            &mut self.lam_n,
-            &mut self.eqm_n[..m],
+            &mut self.step.dz,
+            &mut self.step.lam_n,
+            &mut self.step.eqm_n[..m],
         );
         // slack, inequality multiplier and bound-dual steps
         for k in 0..=kk {
@@ -1638,7 +1627,7 @@ impl OcpSolver {
                 // y+ = (Sigma (J dz + c^) + rbar) / (1 + Sigma D), ds = J dz + c^ - D y+
                 let mut lin = self.chat[nl + jj];
                 for a in 0..nz {
-                    lin += row[a] * self.dz[o + a];
+                    lin += row[a] * self.step.dz[o + a];
                 }
                 let (tl, tu) = s_targets(&self.ctarget, jj);
                 let (mut sig, mut rbar) = (0.0, 0.0);
@@ -1654,23 +1643,23 @@ impl OcpSolver {
                 }
                 let yn = (sig * lin + rbar) / (1.0 + sig * self.dreg[nl + jj]);
                 let ds = lin - self.dreg[nl + jj] * yn;
-                self.ds[jj] = ds;
-                self.dvl[jj] = 0.0;
-                self.dvu[jj] = 0.0;
+                self.step.ds[jj] = ds;
+                self.step.dvl[jj] = 0.0;
+                self.step.dvu[jj] = 0.0;
                 if self.clo[jj].is_finite() {
                     let sl = self.s[jj] - self.clo[jj];
-                    self.dvl[jj] = tl / sl - self.vl[jj] - (self.vl[jj] / sl) * ds;
+                    self.step.dvl[jj] = tl / sl - self.vl[jj] - (self.vl[jj] / sl) * ds;
                 }
                 if self.chi[jj].is_finite() {
                     let su = self.chi[jj] - self.s[jj];
-                    self.dvu[jj] = tu / su - self.vu[jj] + (self.vu[jj] / su) * ds;
+                    self.step.dvu[jj] = tu / su - self.vu[jj] + (self.vu[jj] / su) * ds;
                 }
-                self.y_n[jj] = yn;
+                self.step.y_n[jj] = yn;
             }
         }
         for i in 0..self.z.len() {
-            self.dzl[i] = 0.0;
-            self.dzu[i] = 0.0;
+            self.step.dzl[i] = 0.0;
+            self.step.dzu[i] = 0.0;
             if self.kind[i] != Kind::Free {
                 continue;
             }
@@ -1681,22 +1670,22 @@ impl OcpSolver {
             };
             if self.zlo[i].is_finite() {
                 let sl = self.z[i] - self.zlo[i];
-                self.dzl[i] = tl / sl - self.zl[i] - (self.zl[i] / sl) * self.dz[i];
+                self.step.dzl[i] = tl / sl - self.zl[i] - (self.zl[i] / sl) * self.step.dz[i];
             }
             if self.zhi[i].is_finite() {
                 let su = self.zhi[i] - self.z[i];
-                self.dzu[i] = tu / su - self.zu[i] + (self.zu[i] / su) * self.dz[i];
+                self.step.dzu[i] = tu / su - self.zu[i] + (self.zu[i] / su) * self.step.dz[i];
             }
         }
         // restoration slacks: dp = (l+ - rho + mu/p)/Sp, dn = (-l+ - rho + mu/n)/Sn
         if resto.is_some() {
             for i in 0..nrows {
                 let lp = if i < nl {
-                    self.lam_n[i]
+                    self.step.lam_n[i]
                 } else if i < nl + ncall {
-                    self.y_n[i - nl]
+                    self.step.y_n[i - nl]
                 } else {
-                    self.eqm_n[i - nl - ncall]
+                    self.step.eqm_n[i - nl - ncall]
                 };
                 let (p, n) = (self.rp[i], self.rn[i]);
                 let (sp, sn) = (self.rzp[i] / p, self.rzn[i] / n);
@@ -1707,10 +1696,10 @@ impl OcpSolver {
             }
         }
         stats.time.linear_algebra_s += t.elapsed().as_secs_f64();
-        if !(finite(&self.dz)
-            && finite(&self.ds)
-            && finite(&self.lam_n)
-            && finite(&self.eqm_n[..m]))
+        if !(finite(&self.step.dz)
+            && finite(&self.step.ds)
+            && finite(&self.step.lam_n)
+            && finite(&self.step.eqm_n[..m]))
         {
             return Err("non-finite Newton step".to_string());
         }
@@ -1786,16 +1775,16 @@ impl OcpSolver {
                 lay,
                 &self.g,
                 &self.bdef,
-                &mut self.dz,
-                &mut self.lam_n,
-                &mut self.eqm_n[..m],
+                &mut self.step.dz,
+                &mut self.step.lam_n,
+                &mut self.step.eqm_n[..m],
             );
         }
         let big = |v: &[f64]| v.iter().any(|x| x.is_nan() || x.abs() > 1e3);
-        if ok && !big(&self.lam_n) && !big(&self.eqm_n[..m]) {
-            self.lam.copy_from_slice(&self.lam_n);
-            self.nu.copy_from_slice(&self.eqm_n[..nr]);
-            self.eta[..m - nr].copy_from_slice(&self.eqm_n[nr..m]);
+        if ok && !big(&self.step.lam_n) && !big(&self.step.eqm_n[..m]) {
+            self.lam.copy_from_slice(&self.step.lam_n);
+            self.nu.copy_from_slice(&self.step.eqm_n[..nr]);
+            self.eta[..m - nr].copy_from_slice(&self.step.eqm_n[nr..m]);
         } else {
             self.lam.fill(0.0);
             self.nu.fill(0.0);
@@ -1825,40 +1814,40 @@ impl OcpSolver {
             if self.kind[i] != Kind::Free {
                 continue;
             }
-            let d = self.dz[i];
+            let d = self.step.dz[i];
             if self.zlo[i].is_finite() {
                 if d < 0.0 {
                     ap = ap.min(-tau * (self.z[i] - self.zlo[i]) / d);
                 }
-                if self.dzl[i] < 0.0 {
-                    ad = ad.min(-tau * self.zl[i] / self.dzl[i]);
+                if self.step.dzl[i] < 0.0 {
+                    ad = ad.min(-tau * self.zl[i] / self.step.dzl[i]);
                 }
             }
             if self.zhi[i].is_finite() {
                 if d > 0.0 {
                     ap = ap.min(tau * (self.zhi[i] - self.z[i]) / d);
                 }
-                if self.dzu[i] < 0.0 {
-                    ad = ad.min(-tau * self.zu[i] / self.dzu[i]);
+                if self.step.dzu[i] < 0.0 {
+                    ad = ad.min(-tau * self.zu[i] / self.step.dzu[i]);
                 }
             }
         }
         for j in 0..self.s.len() {
-            let d = self.ds[j];
+            let d = self.step.ds[j];
             if self.clo[j].is_finite() {
                 if d < 0.0 {
                     ap = ap.min(-tau * (self.s[j] - self.clo[j]) / d);
                 }
-                if self.dvl[j] < 0.0 {
-                    ad = ad.min(-tau * self.vl[j] / self.dvl[j]);
+                if self.step.dvl[j] < 0.0 {
+                    ad = ad.min(-tau * self.vl[j] / self.step.dvl[j]);
                 }
             }
             if self.chi[j].is_finite() {
                 if d > 0.0 {
                     ap = ap.min(tau * (self.chi[j] - self.s[j]) / d);
                 }
-                if self.dvu[j] < 0.0 {
-                    ad = ad.min(-tau * self.vu[j] / self.dvu[j]);
+                if self.step.dvu[j] < 0.0 {
+                    ad = ad.min(-tau * self.vu[j] / self.step.dvu[j]);
                 }
             }
         }
@@ -1891,7 +1880,7 @@ impl OcpSolver {
                         gi += mu / (self.zhi[i] - self.z[i]);
                     }
                 }
-                d += gi * self.dz[i];
+                d += gi * self.step.dz[i];
             }
         }
         for j in 0..self.s.len() {
@@ -1902,7 +1891,7 @@ impl OcpSolver {
             if self.chi[j].is_finite() {
                 gj += mu / (self.chi[j] - self.s[j]);
             }
-            d += gj * self.ds[j];
+            d += gj * self.step.ds[j];
         }
         d
     }
@@ -2266,7 +2255,7 @@ impl OcpSolver {
             let tiny = self
                 .z
                 .iter()
-                .zip(&self.dz)
+                .zip(&self.step.dz)
                 .all(|(z, d)| d.abs() <= 10.0 * f64::EPSILON * (1.0 + z.abs()));
             let alpha_min = if gphi < 0.0 {
                 let mut a = GAMMA_THETA.min(GAMMA_PHI * theta0 / -gphi);
@@ -2423,18 +2412,18 @@ impl OcpSolver {
             // accept: primal with alpha, equality multipliers with alpha, bound duals with alpha_dual
             std::mem::swap(&mut self.z, &mut self.z_t);
             std::mem::swap(&mut self.s, &mut self.s_t);
-            for (l, ln) in self.lam.iter_mut().zip(&self.lam_n) {
+            for (l, ln) in self.lam.iter_mut().zip(&self.step.lam_n) {
                 *l += alpha * (ln - *l);
             }
-            for (y, yn) in self.y.iter_mut().zip(&self.y_n) {
+            for (y, yn) in self.y.iter_mut().zip(&self.step.y_n) {
                 *y += alpha * (yn - *y);
             }
             let nr = self.dims.n_terminal;
             for j in 0..nr {
-                self.nu[j] += alpha * (self.eqm_n[j] - self.nu[j]);
+                self.nu[j] += alpha * (self.step.eqm_n[j] - self.nu[j]);
             }
             for j in 0..self.fixed_rows.len() {
-                self.eta[j] += alpha * (self.eqm_n[nr + j] - self.eta[j]);
+                self.eta[j] += alpha * (self.step.eqm_n[nr + j] - self.eta[j]);
             }
             let safeguard = |v: f64, slack: f64| {
                 v.min(KAPPA_SIGMA * mu / slack)
@@ -2445,21 +2434,21 @@ impl OcpSolver {
                     continue;
                 }
                 if self.zlo[i].is_finite() {
-                    let v = self.zl[i] + adual * self.dzl[i];
+                    let v = self.zl[i] + adual * self.step.dzl[i];
                     self.zl[i] = safeguard(v, self.z[i] - self.zlo[i]);
                 }
                 if self.zhi[i].is_finite() {
-                    let v = self.zu[i] + adual * self.dzu[i];
+                    let v = self.zu[i] + adual * self.step.dzu[i];
                     self.zu[i] = safeguard(v, self.zhi[i] - self.z[i]);
                 }
             }
             for j in 0..self.s.len() {
                 if self.clo[j].is_finite() {
-                    let v = self.vl[j] + adual * self.dvl[j];
+                    let v = self.vl[j] + adual * self.step.dvl[j];
                     self.vl[j] = safeguard(v, self.s[j] - self.clo[j]);
                 }
                 if self.chi[j].is_finite() {
-                    let v = self.vu[j] + adual * self.dvu[j];
+                    let v = self.vu[j] + adual * self.step.dvu[j];
                     self.vu[j] = safeguard(v, self.chi[j] - self.s[j]);
                 }
             }
@@ -2530,10 +2519,10 @@ impl OcpSolver {
         stats: &mut OcpStats,
     ) -> Option<(f64, f64, f64)> {
         for i in 0..self.z.len() {
-            self.z_t[i] = self.z[i] + alpha * self.dz[i];
+            self.z_t[i] = self.z[i] + alpha * self.step.dz[i];
         }
         for j in 0..self.s.len() {
-            self.s_t[j] = self.s[j] + alpha * self.ds[j];
+            self.s_t[j] = self.s[j] + alpha * self.step.ds[j];
         }
         let nrows = self.nrows();
         if in_resto {

@@ -137,20 +137,7 @@ fn add_lincomb_any(out: &mut [f64], c: &[f64], cs: usize, rows: &[f64], rs: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Deterministic values in [-1, 1) with varied magnitudes.
-    fn values(len: usize, seed: u64) -> Vec<f64> {
-        let mut x = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-        (0..len)
-            .map(|_| {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                let u = (x >> 11) as f64 / (1u64 << 53) as f64;
-                (2.0 * u - 1.0) * [1.0, 1e-3, 37.0][(x % 3) as usize]
-            })
-            .collect()
-    }
+    use brachia_ocp::testing::values;
 
     #[test]
     fn fixed_width_kernels_match_the_reference_bit_for_bit() {
