@@ -216,9 +216,6 @@ struct StageWork<D> {
     /// The stage point `[x_k, u_k]` of the recorded forward pass, and whether it is valid.
     rec_z: Vec<f64>,
     rec_valid: bool,
-    /// `xs`, `xsens` still hold the recorded pass's flow and its sensitivity (no value-only pass
-    /// since), so that a first-order evaluation at `rec_z` takes them as they are.
-    rec_flow: bool,
     /// Inputs of the RK4 evaluations, `ne x nz`.
     y: Vec<f64>,
     /// `d qdd / d y` at each evaluation, `ne x (n x nz)`.
@@ -257,7 +254,6 @@ impl<D: PointDynamics> StageWork<D> {
             clear,
             rec_z: vec![0.0; nz],
             rec_valid: false,
-            rec_flow: false,
             y: vec![0.0; ne * nz],
             jq: vec![0.0; ne * n * nz],
             sens: vec![0.0; ne * nz * nz],
@@ -389,13 +385,6 @@ impl<D: PointDynamics> StageWork<D> {
             self.rec_z[nx..].copy_from_slice(u);
             self.rec_valid = true;
         }
-        self.rec_flow = jac;
-    }
-
-    /// Whether the recorded forward pass is at `(x, u)`.
-    fn recorded_at(&self, x: &[f64], u: &[f64]) -> bool {
-        let nx = x.len();
-        self.rec_valid && self.rec_z[..nx] == *x && self.rec_z[nx..] == *u
     }
 
     /// Cost, dynamics and clearance of stage k into `ev`.
@@ -429,10 +418,7 @@ impl<D: PointDynamics> StageWork<D> {
             }
         }
         if k < ctx.horizon {
-            // a first-order pass at this point already done (by `SwingOcp::flow`) is not repeated
-            if !(first && self.rec_flow && self.recorded_at(x, u)) {
-                self.forward(ctx, x, u, first);
-            }
+            self.forward(ctx, x, u, first);
             ev.f.copy_from_slice(&self.xs);
             if first {
                 ev.jac_f.copy_from_slice(&self.xsens);
@@ -474,7 +460,8 @@ impl<D: PointDynamics> StageWork<D> {
         hess.fill(0.0);
         if k < ctx.horizon {
             let nz = ctx.nz;
-            if !self.recorded_at(x, u) {
+            let current = self.rec_valid && self.rec_z[..nx] == *x && self.rec_z[nx..] == *u;
+            if !current {
                 self.forward(ctx, x, u, true);
             }
             let hs = ctx.h / ctx.substeps as f64;
@@ -995,11 +982,9 @@ impl<D: PointDynamics> SwingOcp<D> {
     }
 
     /// The flow of stage `k < K` over the current interval, `x_{k+1} = Phi(x, u)` (the dynamics row
-    /// of [`OcpProblem::evaluate`]), into `out` (2n). Computed with its first derivatives and
-    /// recorded in stage k's scratch (no allocation), so that the next first-order evaluation of
-    /// the stage at `(x, u)` (a warm solve's first, from a rolled-out start) and the Hessian there
-    /// take them instead of integrating again (the same numbers: the value of a first-order pass
-    /// is that of a value-only one, bit for bit). Panics on `k >= K` or wrong sizes.
+    /// of [`OcpProblem::evaluate`], values only), into `out` (2n). Uses stage k's scratch (no
+    /// allocation; the recorded forward pass of the Hessian stays valid). Panics on `k >= K` or
+    /// wrong sizes.
     pub fn flow(&mut self, k: usize, x: &[f64], u: &[f64], out: &mut [f64]) {
         assert!(
             k < self.ctx.horizon,
@@ -1007,7 +992,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             self.ctx.horizon - 1
         );
         let w = &mut self.work[k];
-        w.forward(&self.ctx, x, u, true);
+        w.forward(&self.ctx, x, u, false);
         out.copy_from_slice(&w.xs);
     }
 
