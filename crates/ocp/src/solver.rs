@@ -2080,7 +2080,7 @@ impl OcpSolver {
 
         // slacks from c(z) at the initial point
         if let Err(EvalFail::Failed(e)) = self.evaluate(p, false, EvalLevel::FirstOrder, stats) {
-            self.finish(stats, st.mu_init);
+            self.finish(stats, st.mu_init, None);
             return OcpStatus::EvaluationError(e);
         }
         {
@@ -2127,8 +2127,12 @@ impl OcpSolver {
         let mut kkt_ref = [0.0_f64; KKT_REF_ITERS];
         let mut kkt_count = 0usize;
         let mut mu_max = f64::NAN;
+        // the residuals of the original problem at the iterate as it stands, if computed (for
+        // `finish`): from the top of an iteration until its step is accepted
+        let mut current: Option<Residuals>;
         let status = 'iterations: loop {
             let res = self.residuals(resto.as_ref());
+            current = resto.is_none().then_some(res);
             stats.iterations = iter;
             if resto.is_none() {
                 let e0 = res.e0();
@@ -2410,6 +2414,7 @@ impl OcpSolver {
                 );
             }
             // accept: primal with alpha, equality multipliers with alpha, bound duals with alpha_dual
+            current = None;
             std::mem::swap(&mut self.z, &mut self.z_t);
             std::mem::swap(&mut self.s, &mut self.s_t);
             for (l, ln) in self.lam.iter_mut().zip(&self.step.lam_n) {
@@ -2502,7 +2507,7 @@ impl OcpSolver {
             }
         };
         stats.iterations = iter;
-        self.finish(stats, mu);
+        self.finish(stats, mu, current);
         status
     }
 
@@ -2561,13 +2566,15 @@ impl OcpSolver {
         }
     }
 
-    /// Final statistics and the public copies of the iterate.
-    fn finish(&mut self, stats: &mut OcpStats, mu: f64) {
+    /// Final statistics and the public copies of the iterate. `res`: the residuals of the original
+    /// problem at the final iterate if the iterations computed them (a solve that stops on its
+    /// convergence test), else `None` (computed here).
+    fn finish(&mut self, stats: &mut OcpStats, mu: f64, res: Option<Residuals>) {
         Self::scatter_primal(&self.z, &self.lay, &mut self.zp);
         self.store_multipliers();
         stats.final_mu = mu;
         stats.objective = Self::cost(&self.ev);
-        let res = self.residuals(None);
+        let res = res.unwrap_or_else(|| self.residuals(None));
         stats.dual_infeasibility = res.dual_inf;
         // true violations: dynamics, terminal, fixed, c(z) against its bounds, simple bounds
         let lay = &self.lay;
