@@ -328,15 +328,8 @@ impl SwingPlanner {
     /// Make a ``checkpoint()`` of this planner current again (its solution, problem and, where it
     /// holds them, the solver's multipliers): what follows is the same, bit for bit, whatever was
     /// solved in between. Returns the outcome of the checkpoint's solve. Raises ``BrachiaError`` for
-    /// a checkpoint of a planner of another robot or mesh (nothing changes).
+    /// a checkpoint of another planner (nothing changes).
     fn restore(&mut self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
-        if checkpoint.x_start.len() != self.x_start.len() {
-            return Err(bad(format!(
-                "restore: a checkpoint of a {}-link robot for a {}-link planner",
-                checkpoint.x_start.len() / 2,
-                self.x_start.len() / 2
-            )));
-        }
         let inner = &mut self.inner;
         let out = py.detach(|| inner.restore(&checkpoint.inner)).map_err(rs)?;
         self.x_start.copy_from_slice(&checkpoint.x_start);

@@ -12,7 +12,9 @@
 //! shifted start instead of the default feedback rollout, [`WarmPrimal`]), `BRACHIA_REPLAN_SHIFT_DUALS=0`
 //! (the stored bound duals stage by stage, not moved with the shifted knots,
 //! [`SwingPlanner::set_warm_shift_duals`]), `BRACHIA_REPLAN_CC=k` (at most k centrality correctors per
-//! iteration, `OcpSettings::centrality_correctors`; 0 = off). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
+//! iteration, `OcpSettings::centrality_correctors`; 0 = off), `BRACHIA_REPLAN_SOC=k` (at most k
+//! second-order corrections, `OcpSettings::max_soc`). It also prints the solve times' median, p99 and max
+//! (the solver's own clock; noisy, the iterations are the figures to compare). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw).
 //!
@@ -56,6 +58,9 @@ fn main() -> Result<(), brachia::Error> {
     if let Some(v) = env("BRACHIA_REPLAN_CC").and_then(|v| v.parse().ok()) {
         w.centrality_correctors = v;
     }
+    if let Some(v) = env("BRACHIA_REPLAN_SOC").and_then(|v| v.parse().ok()) {
+        w.max_soc = v;
+    }
     if env("BRACHIA_REPLAN_ADAPTIVE").as_deref() == Some("1") {
         w.mu_strategy = MuStrategy::Adaptive;
     }
@@ -82,6 +87,7 @@ fn main() -> Result<(), brachia::Error> {
     let states = disturbed_starts(&x_nom, &s.bounds, 100, REPLAN_SEED);
     let cp = planner.checkpoint();
     let mut its = vec![];
+    let mut times = vec![];
     let mut conv = 0;
     let mut obj_sum = 0.0;
     let only: Option<usize> = env("BRACHIA_REPLAN_ONLY").and_then(|v| v.parse().ok());
@@ -99,6 +105,7 @@ fn main() -> Result<(), brachia::Error> {
         conv += usize::from(o.converged() && o.ee_error_m < 1e-6);
         obj_sum += o.objective;
         its.push(o.iterations);
+        times.push(o.solve_time_s);
         if list {
             println!(
                 "draw {i} iterations {} objective {:.15e} status {:?} ee_error {:.3e}",
@@ -124,6 +131,14 @@ fn main() -> Result<(), brachia::Error> {
         v[m / 2],
         v[m - 1],
         &sorted[..3.min(m)]
+    );
+    times.sort_by(f64::total_cmp);
+    println!(
+        "solve times: median {:.2} ms, p99 {:.2} ms, max {:.2} ms, sum {:.1} ms",
+        times[m / 2] * 1e3,
+        times[((0.99 * m as f64).ceil() as usize).clamp(1, m) - 1] * 1e3,
+        times[m - 1] * 1e3,
+        times.iter().sum::<f64>() * 1e3
     );
     Ok(())
 }

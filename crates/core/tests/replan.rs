@@ -224,9 +224,17 @@ fn a_restore_puts_the_planner_back_exactly_whatever_was_solved_in_between() {
     assert_eq!(again.objective.to_bits(), first.objective.to_bits());
     assert_eq!(*planner.knots(), knots);
 
-    // a checkpoint of another mesh is refused and changes nothing
+    // a checkpoint of another planner is refused and changes nothing: another mesh, or the same
+    // robot, task and mesh built again
     let (s2, _) = replan_settings(0.05);
-    let other = SwingPlanner::new(robot, tracking_task(), &s2, &nlp).unwrap();
-    assert!(planner.restore(&other.checkpoint()).is_err());
-    assert_eq!(*planner.knots(), knots);
+    let other = SwingPlanner::new(robot.clone(), tracking_task(), &s2, &nlp).unwrap();
+    let twin = SwingPlanner::new(robot, tracking_task(), &s, &nlp).unwrap();
+    for cp in [other.checkpoint(), twin.checkpoint()] {
+        let e = planner.restore(&cp).unwrap_err().to_string();
+        assert!(
+            e.contains("checkpoint") && e.contains("this planner"),
+            "{e}"
+        );
+        assert_eq!(*planner.knots(), knots);
+    }
 }

@@ -35,7 +35,11 @@ use crate::trajectory::Trajectory;
 use brachia_ocp::{
     OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals, WarmState,
 };
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+
+/// The id of the next [`SwingPlanner`] built in this process.
+static NEXT_PLANNER_ID: AtomicU64 = AtomicU64::new(0);
 
 /// How one (re-)plan ended, without allocating: the solver's status and diagnostics and the grid of
 /// the solution (read the knots with [`SwingPlanner::knots`]).
@@ -75,6 +79,8 @@ pub struct Checkpoint {
     /// The Riccati feedback gains `K_k` (`nu x nx`, row-major) of the solve that produced `z`
     /// ([`OcpSolver::feedback_gain`]), zero before the first factorisation.
     gains: Vec<Vec<f64>>,
+    /// The planner it was taken from ([`SwingPlanner`]'s `id`): a restore takes only its own.
+    planner: u64,
     /// The knot bounds of the problem `z` solves (a re-plan's are widened for its start).
     bounds: Bounds,
     /// The solver's state at `z` (slacks, multipliers) and how that solve ended, when the
@@ -140,6 +146,8 @@ pub enum WarmPrimal {
 /// # Ok::<(), brachia::Error>(())
 /// ```
 pub struct SwingPlanner {
+    /// Unique in the process (checkpoints name their planner).
+    id: u64,
     robot: Arc<Robot>,
     task: SwingTask,
     settings: PlannerSettings,
@@ -235,7 +243,9 @@ impl SwingPlanner {
         let nx = dims.stages[0].nx;
         let roll_bounds = StageBounds::unbounded(dims.stages[0]);
         let bounds0 = settings.bounds.clone();
+        let id = NEXT_PLANNER_ID.fetch_add(1, Ordering::Relaxed);
         Ok(SwingPlanner {
+            id,
             robot,
             task,
             settings,
@@ -246,6 +256,7 @@ impl SwingPlanner {
                 t0: 0.0,
                 h: layout.h,
                 gains,
+                planner: id,
                 bounds: bounds0,
                 solved: None,
             },
@@ -474,37 +485,15 @@ impl SwingPlanner {
     /// [`Plan`] of [`SwingPlanner::current_plan`]) is the same, bit for bit, whatever the planner
     /// solved in between; it returns that solve's outcome. Any other checkpoint is re-solved warm
     /// from its solution (so that the solver's stored multipliers are that solution's). The target
-    /// and the end box stay as they are. No allocation. Errors if `cp` comes from a planner of
-    /// other dimensions.
+    /// and the end box stay as they are. No allocation. Errors (and changes nothing) if `cp`
+    /// comes from another planner (of another robot, task or mesh, or the same ones built again).
     pub fn restore(&mut self, cp: &Checkpoint) -> Result<ReplanOutcome> {
-        let same = cp.z.x.len() == self.prev.z.x.len()
-            && cp.gains.len() == self.prev.gains.len()
-            && cp
-                .z
-                .x
-                .iter()
-                .map(Vec::len)
-                .eq(self.prev.z.x.iter().map(Vec::len))
-            && cp
-                .z
-                .u
-                .iter()
-                .map(Vec::len)
-                .eq(self.prev.z.u.iter().map(Vec::len))
-            && cp
-                .gains
-                .iter()
-                .map(Vec::len)
-                .eq(self.prev.gains.iter().map(Vec::len));
-        if !same {
+        if cp.planner != self.id {
             return Err(Error::invalid(
                 "planner",
                 "checkpoint",
-                format!("{} knots", cp.z.x.len()),
-                format!(
-                    "must come from a planner of the same robot and mesh ({} knots)",
-                    self.prev.z.x.len()
-                ),
+                format!("a checkpoint of planner #{}", cp.planner),
+                format!("must come from this planner (#{})", self.id),
             ));
         }
         if let Some(sv) = &cp.solved {
