@@ -118,14 +118,14 @@ pub struct SwingPlanner {
 #[pyclass(module = "brachia", frozen)]
 pub struct Checkpoint {
     inner: brachia::planning::Checkpoint,
-    /// The start state of the checkpoint's solution.
-    x_start: Vec<f64>,
+    /// Links of the planner's robot.
+    n_links: usize,
 }
 
 #[pymethods]
 impl Checkpoint {
     fn __repr__(&self) -> String {
-        format!("Checkpoint(n_links={})", self.x_start.len() / 2)
+        format!("Checkpoint(n_links={})", self.n_links)
     }
 }
 
@@ -321,18 +321,21 @@ impl SwingPlanner {
     fn checkpoint(&self) -> Checkpoint {
         Checkpoint {
             inner: self.inner.checkpoint(),
-            x_start: self.x_start.clone(),
+            n_links: self.inner.robot().n(),
         }
     }
 
     /// Make a ``checkpoint()`` of this planner current again (its solution, problem and, where it
     /// holds them, the solver's multipliers): what follows is the same, bit for bit, whatever was
-    /// solved in between. Returns the outcome of the checkpoint's solve. Raises ``BrachiaError`` for
-    /// a checkpoint of another planner (nothing changes).
+    /// solved in between, if the target is still the checkpoint's (otherwise its solution is
+    /// re-solved for the current target). Returns the outcome of the checkpoint's solve, or of that
+    /// re-solve. Raises ``BrachiaError`` for a checkpoint of another planner (nothing changes).
     fn restore(&mut self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
         let inner = &mut self.inner;
         let out = py.detach(|| inner.restore(&checkpoint.inner)).map_err(rs)?;
-        self.x_start.copy_from_slice(&checkpoint.x_start);
+        // the restored solution starts where the checkpoint's does (not necessarily at the last
+        // x_now handed in: that re-plan may not have converged)
+        self.x_start.copy_from_slice(&self.inner.knots().x[0]);
         Ok(ReplanOutcome { inner: out })
     }
 

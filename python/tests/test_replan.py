@@ -203,7 +203,8 @@ def test_restore_puts_the_planner_back_exactly(robot):
     to the bit; a checkpoint of another planner (another mesh, or the same one built again) is
     refused and changes nothing."""
     sp = brachia.SwingPlanner(robot, TASK, SETTINGS)
-    assert sp.plan().converged
+    cold = sp.plan()
+    assert cold.converged
     cp = sp.checkpoint()
     k = 20
     t_now = sp.knot_times()[k]
@@ -216,6 +217,8 @@ def test_restore_puts_the_planner_back_exactly(robot):
     assert sp.replan_cold(t_now, xs[2]).converged
     back = sp.restore(cp)
     assert back.converged and back.t_start == 0.0
+    assert back.objective == cold.objective
+    assert back.iterations == cold.iterations
     np.testing.assert_array_equal(sp.knot_states()[0], np.r_[TASK["q0"], np.zeros(4)])
     again = sp.replan(t_now, xs[0])
     assert again.iterations == first.iterations

@@ -121,7 +121,8 @@ fn main() -> Result<(), brachia::Error> {
     sorted.sort_by(|a, b| b.cmp(a));
     let mut v = its.clone();
     v.sort_unstable();
-    let p99 = v[((0.99 * m as f64).ceil() as usize).clamp(1, m) - 1];
+    let i99 = ((0.99 * m as f64).ceil() as usize).clamp(1, m) - 1;
+    let p99 = v[i99];
     println!(
         "{} re-plans ({}): {conv} converged, iterations mean {:.2}, median {}, p99 {p99}, max {}, \
          objective sum {obj_sum:.9}; slowest draws {:?}",
@@ -136,7 +137,7 @@ fn main() -> Result<(), brachia::Error> {
     println!(
         "solve times: median {:.2} ms, p99 {:.2} ms, max {:.2} ms, sum {:.1} ms",
         times[m / 2] * 1e3,
-        times[((0.99 * m as f64).ceil() as usize).clamp(1, m) - 1] * 1e3,
+        times[i99] * 1e3,
         times[m - 1] * 1e3,
         times.iter().sum::<f64>() * 1e3
     );

@@ -237,4 +237,47 @@ fn a_restore_puts_the_planner_back_exactly_whatever_was_solved_in_between() {
         );
         assert_eq!(*planner.knots(), knots);
     }
+
+    // another target: the checkpoint's solution is re-solved for it (the stored state belongs to
+    // the old target); back on the old target the restore is exact again
+    let target = planner.target();
+    planner
+        .set_target([target[0] - 0.02, target[1] + 0.01])
+        .unwrap();
+    let moved = planner.restore(&cp).unwrap();
+    assert!(moved.converged() && moved.iterations > 0, "{moved:?}");
+    assert!(moved.ee_error_m < 1e-6, "{moved:?}");
+    assert!(planner.current_plan().unwrap().replay_ee_error_m < 1e-3);
+    planner.set_target(target).unwrap();
+    assert_eq!(planner.restore(&cp).unwrap(), cold);
+    let again = planner.replan(t_now, &states[0]).unwrap();
+    assert_eq!(again.objective.to_bits(), first.objective.to_bits());
+}
+
+/// A checkpoint taken after a solve that did not converge holds no solver state: its restore
+/// re-solves the last converged solution warm.
+#[test]
+fn a_checkpoint_after_a_failed_solve_is_re_solved() {
+    let robot = Robot::paper();
+    let (s, nlp) = replan_settings(0.03);
+    let mut planner = SwingPlanner::new(robot, tracking_task(), &s, &nlp).unwrap();
+    let before = planner.checkpoint();
+    let cold = planner.plan_outcome().unwrap();
+    assert!(cold.converged(), "{:?}", cold.status);
+    let k = (0.6 / cold.interval_s).round() as usize;
+    let (t_now, x_nom) = (planner.knot_time(k), planner.knots().x[k].clone());
+    let x = &disturbed(&x_nom, 4, 11)[0];
+    planner.warm_settings_mut().max_iter = 1;
+    let failed = planner.replan(t_now, x).unwrap();
+    assert!(!failed.converged(), "{failed:?}");
+    let cp = planner.checkpoint();
+    planner.warm_settings_mut().max_iter = 200;
+    let back = planner.restore(&cp).unwrap();
+    assert!(back.converged() && back.iterations > 0, "{back:?}");
+    assert_eq!(back.t_start, 0.0);
+    assert!((back.objective - cold.objective).abs() < 1e-6 * cold.objective);
+    // a checkpoint taken before any plan restores the initial guess's problem and solves it
+    let fresh = planner.restore(&before).unwrap();
+    assert_eq!(fresh.t_start, 0.0);
+    assert!(fresh.iterations > 0, "{fresh:?}");
 }

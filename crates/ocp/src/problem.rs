@@ -229,6 +229,17 @@ impl Multipliers {
             nu: vec![0.0; dims.n_terminal],
         }
     }
+
+    /// Copy `src`, shaped like `self`, into `self` (no allocation). Panics on another shape.
+    pub fn copy_from(&mut self, src: &Multipliers) {
+        for (dst, s) in self.lam.iter_mut().zip(&src.lam) {
+            dst.copy_from_slice(s);
+        }
+        for (dst, s) in self.mu.iter_mut().zip(&src.mu) {
+            dst.copy_from_slice(s);
+        }
+        self.nu.copy_from_slice(&src.nu);
+    }
 }
 
 /// Why an evaluation failed (non-finite values, a model error); the solver shortens its step or stops.

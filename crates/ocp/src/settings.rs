@@ -291,8 +291,9 @@ pub enum OcpError {
     },
     /// A [`crate::WarmState`] read from a solver of other dimensions.
     #[error(
-        "a warm state of {state_variables} variables and {state_slacks} slacks for a solver of \
-         {solver_variables} variables and {solver_slacks} slacks (or other stage sizes)"
+        "a warm state of {state_variables} variables and {state_slacks} slacks (or of other \
+         dynamics, stage or terminal rows) for a solver of {solver_variables} variables and \
+         {solver_slacks} slacks"
     )]
     WarmStateMismatch {
         /// Variables (sum of nx_k + nu_k) of the state given.

@@ -130,6 +130,9 @@ pub struct OcpSolver {
     /// Scratch of [`OcpSolver::remap_bound_duals`] (nz).
     remap: Vec<f64>,
     delta_w_last: f64,
+    /// Number of fixed-state rows the multipliers `eta` belong to (those of the solve that left
+    /// them, or of a [`WarmState`] put back).
+    eta_rows: usize,
     /// Penalty `rho_eq a_j a_j^T` on the equality rows in the condensed Hessians of the current
     /// factorisation (0 = none), and the one that last passed the inertia test in this solve.
     rho_eq: f64,
@@ -228,6 +231,7 @@ pub struct WarmState {
     vl: Vec<f64>,
     vu: Vec<f64>,
     eta: Vec<f64>,
+    eta_rows: usize,
     mult: Multipliers,
     rho_eq_last: f64,
     has_iterate: bool,
@@ -489,6 +493,7 @@ impl OcpSolver {
             dr: vec![0.0; nz],
             remap: vec![0.0; nz],
             delta_w_last: 0.0,
+            eta_rows: 0,
             rho_eq: 0.0,
             rho_eq_last: 0.0,
             cv: vec![0.0; nl + nc + MAX_EQUALITY_ROWS],
@@ -577,6 +582,7 @@ impl OcpSolver {
             vl: self.vl.clone(),
             vu: self.vu.clone(),
             eta: self.eta.clone(),
+            eta_rows: self.eta_rows,
             mult: self.mult.clone(),
             rho_eq_last: self.rho_eq_last,
             has_iterate: self.has_iterate,
@@ -598,12 +604,16 @@ impl OcpSolver {
                     .eq(self.mult.mu.iter().map(Vec::len))
                 && m.nu.len() == self.mult.nu.len()
         };
-        let same = w.s.len() == self.s.len()
-            && w.zl.len() == self.zl.len()
-            && w.zu.len() == self.zu.len()
-            && w.vl.len() == self.vl.len()
-            && w.vu.len() == self.vu.len()
-            && w.eta.len() == self.eta.len()
+        let same = [
+            (&self.s, &w.s),
+            (&self.zl, &w.zl),
+            (&self.zu, &w.zu),
+            (&self.vl, &w.vl),
+            (&self.vu, &w.vu),
+            (&self.eta, &w.eta),
+        ]
+        .iter()
+        .all(|(a, b)| a.len() == b.len())
             && shape(&w.mult);
         if !same {
             return Err(OcpError::WarmStateMismatch {
@@ -613,19 +623,18 @@ impl OcpSolver {
                 solver_slacks: self.s.len(),
             });
         }
-        self.s.copy_from_slice(&w.s);
-        self.zl.copy_from_slice(&w.zl);
-        self.zu.copy_from_slice(&w.zu);
-        self.vl.copy_from_slice(&w.vl);
-        self.vu.copy_from_slice(&w.vu);
-        self.eta.copy_from_slice(&w.eta);
-        for (d, s) in self.mult.lam.iter_mut().zip(&w.mult.lam) {
+        for (d, s) in [
+            (&mut self.s, &w.s),
+            (&mut self.zl, &w.zl),
+            (&mut self.zu, &w.zu),
+            (&mut self.vl, &w.vl),
+            (&mut self.vu, &w.vu),
+            (&mut self.eta, &w.eta),
+        ] {
             d.copy_from_slice(s);
         }
-        for (d, s) in self.mult.mu.iter_mut().zip(&w.mult.mu) {
-            d.copy_from_slice(s);
-        }
-        self.mult.nu.copy_from_slice(&w.mult.nu);
+        self.mult.copy_from(&w.mult);
+        self.eta_rows = w.eta_rows;
         self.rho_eq_last = w.rho_eq_last;
         self.has_iterate = w.has_iterate;
         Ok(())
@@ -2042,7 +2051,6 @@ impl OcpSolver {
                 "the problem's dims differ from the solver's".to_string(),
             );
         }
-        let fixed_before = self.fixed_rows.len();
         if let Err(e) = self.read_bounds(p) {
             return OcpStatus::InvalidProblem(e);
         }
@@ -2059,9 +2067,10 @@ impl OcpSolver {
                 );
             }
         }
-        if !warm || self.fixed_rows.len() != fixed_before {
+        if !warm || self.fixed_rows.len() != self.eta_rows {
             self.eta.fill(0.0);
         }
+        self.eta_rows = self.fixed_rows.len();
         self.initialize(p, st, warm);
         self.has_iterate = true;
         self.delta_w_last = 0.0;

@@ -669,6 +669,11 @@ fn a_saved_warm_state_restarts_exactly_whatever_was_solved_in_between() {
         .status
         .is_converged());
     assert!(solver.solve(&mut p, &warm).status.is_converged());
+    assert_ne!(
+        solver.warm_state(),
+        w0,
+        "the solves in between moved the state"
+    );
     // the state alone is not enough: the primal goes back too
     solver.primal_mut().copy_from(&z0);
     solver.set_warm_state(&w0).unwrap();

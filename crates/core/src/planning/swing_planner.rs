@@ -94,6 +94,9 @@ struct Solved {
     state: WarmState,
     outcome: ReplanOutcome,
     last: (SolveStatus, OcpStats, bool),
+    /// The target and the end box that solve had: the state fits only the same problem.
+    target: [f64; 2],
+    end_box: Option<Vec<[f64; 2]>>,
 }
 
 /// The primal point a warm re-plan starts from (docs/planner.md, "Re-planning").
@@ -391,13 +394,7 @@ impl SwingPlanner {
         self.ocp.set_knot_bounds(&self.settings.bounds);
         self.ocp.set_swing_time(self.t_final)?;
         self.t0 = 0.0;
-        let g = self.ocp.guess_mut();
-        for (d, s) in g.x.iter_mut().zip(&self.guess.x) {
-            d.copy_from_slice(s);
-        }
-        for (d, s) in g.u.iter_mut().zip(&self.guess.u) {
-            d.copy_from_slice(s);
-        }
+        self.ocp.guess_mut().copy_from(&self.guess);
         let out = self.solve(false);
         self.adopt(&out);
         Ok(out)
@@ -463,8 +460,9 @@ impl SwingPlanner {
 
     /// A copy of the solution re-plans shift from (allocates; restore it with
     /// [`SwingPlanner::restore`]). Taken right after the solve that produced that solution
-    /// converged, it also holds the solver's state there (slacks and multipliers), so that a
-    /// restore puts the planner back exactly as it was.
+    /// converged, it also holds the solver's state there (slacks and multipliers) and that solve's
+    /// target and end box, so that a restore to the same target and end box puts the planner back
+    /// exactly as it was.
     pub fn checkpoint(&self) -> Checkpoint {
         let mut cp = self.prev.clone();
         if self.duals_of_prev {
@@ -473,6 +471,8 @@ impl SwingPlanner {
                     state: self.solver.warm_state(),
                     outcome: outcome.clone(),
                     last: last.clone(),
+                    target: self.ocp.target(),
+                    end_box: self.ocp.end_box().map(<[_]>::to_vec),
                 }));
             }
         }
@@ -480,13 +480,15 @@ impl SwingPlanner {
     }
 
     /// Make `cp` the solution re-plans shift from again, with its problem (start state, swing time,
-    /// knot bounds). A checkpoint taken right after its solve converged ([`SwingPlanner::checkpoint`])
-    /// also puts the solver's state back as it was then, so that what follows (a warm re-plan, the
-    /// [`Plan`] of [`SwingPlanner::current_plan`]) is the same, bit for bit, whatever the planner
-    /// solved in between; it returns that solve's outcome. Any other checkpoint is re-solved warm
-    /// from its solution (so that the solver's stored multipliers are that solution's). The target
-    /// and the end box stay as they are. No allocation. Errors (and changes nothing) if `cp`
-    /// comes from another planner (of another robot, task or mesh, or the same ones built again).
+    /// knot bounds; the target and the end box stay as they are now). If `cp` was taken right after
+    /// its solve converged ([`SwingPlanner::checkpoint`]) and the target and end box are that
+    /// solve's, the solver's state is put back as it was then and nothing is solved, so that what
+    /// follows (a warm re-plan, the [`Plan`] of [`SwingPlanner::current_plan`]) is the same, bit for
+    /// bit, whatever the planner solved in between; it returns that solve's outcome. Otherwise
+    /// `cp`'s solution is re-solved warm on the current target and end box (so that the solver's
+    /// stored multipliers are that solution's), and the outcome is that solve's. No allocation.
+    /// Errors, before changing anything, if `cp` comes from another planner (of another robot,
+    /// task or mesh, or the same ones built again).
     pub fn restore(&mut self, cp: &Checkpoint) -> Result<ReplanOutcome> {
         if cp.planner != self.id {
             return Err(Error::invalid(
@@ -496,11 +498,11 @@ impl SwingPlanner {
                 format!("must come from this planner (#{})", self.id),
             ));
         }
-        if let Some(sv) = &cp.solved {
-            self.solver
-                .set_warm_state(&sv.state)
-                .map_err(|e| Error::invalid("planner", "checkpoint", e.to_string(), "refused"))?;
-        }
+        let k = self.layout.intervals;
+        // the checkpoint's own start and swing time (valid: this planner solved them)
+        self.ocp.set_start(&cp.z.x[0])?;
+        self.ocp.set_swing_time(cp.h * k as f64)?;
+        self.ocp.set_knot_bounds(&cp.bounds);
         self.prev.z.copy_from(&cp.z);
         for (d, s) in self.prev.gains.iter_mut().zip(&cp.gains) {
             d.copy_from_slice(s);
@@ -509,13 +511,13 @@ impl SwingPlanner {
         self.prev.h = cp.h;
         self.prev.bounds.clone_from(&cp.bounds);
         self.has_prev = true;
-        let k = self.layout.intervals;
-        self.ocp.set_start(&cp.z.x[0])?;
-        self.ocp.set_knot_bounds(&cp.bounds);
-        self.ocp.set_swing_time(cp.h * k as f64)?;
         self.t0 = cp.t0;
         self.solver.primal_mut().copy_from(&cp.z);
-        if let Some(sv) = &cp.solved {
+        let exact = cp.solved.as_deref().filter(|sv| {
+            sv.target == self.ocp.target() && sv.end_box.as_deref() == self.ocp.end_box()
+        });
+        // a state read from this planner's own solver always fits it
+        if let Some(sv) = exact.filter(|sv| self.solver.set_warm_state(&sv.state).is_ok()) {
             self.duals_of_prev = true;
             self.last = Some(sv.last.clone());
             self.last_outcome = Some(sv.outcome.clone());
@@ -628,13 +630,7 @@ impl SwingPlanner {
     fn adopt(&mut self, out: &ReplanOutcome) {
         self.duals_of_prev = out.converged();
         if out.converged() {
-            let z = self.solver.primal();
-            for (d, s) in self.prev.z.x.iter_mut().zip(&z.x) {
-                d.copy_from_slice(s);
-            }
-            for (d, s) in self.prev.z.u.iter_mut().zip(&z.u) {
-                d.copy_from_slice(s);
-            }
+            self.prev.z.copy_from(self.solver.primal());
             self.prev.t0 = out.t_start;
             self.prev.h = out.interval_s;
             self.prev.bounds.clone_from(self.ocp.knot_bounds());
