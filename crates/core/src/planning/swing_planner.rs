@@ -92,11 +92,19 @@ pub struct Checkpoint {
 #[derive(Debug, Clone, PartialEq)]
 struct Solved {
     state: WarmState,
-    outcome: ReplanOutcome,
-    last: (SolveStatus, OcpStats, bool),
+    last: Last,
     /// The target and the end box that solve had: the state fits only the same problem.
     target: [f64; 2],
     end_box: Option<Vec<[f64; 2]>>,
+}
+
+/// The last solve: its outcome, the solver's statistics and whether it started warm (for the
+/// [`Plan`]).
+#[derive(Debug, Clone, PartialEq)]
+struct Last {
+    outcome: ReplanOutcome,
+    stats: OcpStats,
+    warm: bool,
 }
 
 /// The primal point a warm re-plan starts from (docs/planner.md, "Re-planning").
@@ -177,11 +185,8 @@ pub struct SwingPlanner {
     x_full: Vec<f64>,
     /// Scratch of the feedback rollout.
     roll: RolloutScratch,
-    /// Status and statistics of the last solve and whether it was warm (for the [`Plan`]); `None`
-    /// before the first.
-    last: Option<(SolveStatus, OcpStats, bool)>,
-    /// The outcome of the last solve; `None` before the first.
-    last_outcome: Option<ReplanOutcome>,
+    /// The last solve; `None` before the first.
+    last: Option<Last>,
 }
 
 impl SwingPlanner {
@@ -281,7 +286,6 @@ impl SwingPlanner {
             t0: 0.0,
             x_full,
             last: None,
-            last_outcome: None,
         })
     }
 
@@ -423,7 +427,11 @@ impl SwingPlanner {
     /// The [`Plan`] of the current solution (knot times from 0 at its start). Allocates.
     pub fn current_plan(&mut self) -> Result<Plan> {
         let z = self.solver.primal().clone();
-        let (status, stats, warm) = self.last.clone().ok_or_else(|| {
+        let Last {
+            outcome: ReplanOutcome { status, .. },
+            stats,
+            warm,
+        } = self.last.clone().ok_or_else(|| {
             Error::invalid(
                 "planner",
                 "current_plan",
@@ -466,10 +474,9 @@ impl SwingPlanner {
     pub fn checkpoint(&self) -> Checkpoint {
         let mut cp = self.prev.clone();
         if self.duals_of_prev {
-            if let (Some(last), Some(outcome)) = (&self.last, &self.last_outcome) {
+            if let Some(last) = &self.last {
                 cp.solved = Some(Box::new(Solved {
                     state: self.solver.warm_state(),
-                    outcome: outcome.clone(),
                     last: last.clone(),
                     target: self.ocp.target(),
                     end_box: self.ocp.end_box().map(<[_]>::to_vec),
@@ -520,8 +527,7 @@ impl SwingPlanner {
         if let Some(sv) = exact.filter(|sv| self.solver.set_warm_state(&sv.state).is_ok()) {
             self.duals_of_prev = true;
             self.last = Some(sv.last.clone());
-            self.last_outcome = Some(sv.outcome.clone());
-            return Ok(sv.outcome.clone());
+            return Ok(sv.last.outcome.clone());
         }
         let out = self.solve(true);
         self.adopt(&out);
@@ -611,7 +617,6 @@ impl SwingPlanner {
         let k_last = self.layout.intervals;
         let ee = self.robot.ee_position(&self.solver.primal().x[k_last][..n]);
         let tg = self.ocp.target();
-        self.last = Some((status.clone(), stats.clone(), warm));
         let out = ReplanOutcome {
             status,
             iterations: stats.iterations,
@@ -622,7 +627,11 @@ impl SwingPlanner {
             ee_final: ee,
             ee_error_m: (ee[0] - tg[0]).hypot(ee[1] - tg[1]),
         };
-        self.last_outcome = Some(out.clone());
+        self.last = Some(Last {
+            outcome: out.clone(),
+            stats,
+            warm,
+        });
         out
     }
 
@@ -635,7 +644,11 @@ impl SwingPlanner {
             self.prev.h = out.interval_s;
             self.prev.bounds.clone_from(self.ocp.knot_bounds());
             self.has_prev = true;
-            if self.last.as_ref().is_some_and(|l| l.1.factorizations > 0) {
+            if self
+                .last
+                .as_ref()
+                .is_some_and(|l| l.stats.factorizations > 0)
+            {
                 for (k, d) in self.prev.gains.iter_mut().enumerate() {
                     d.copy_from_slice(self.solver.feedback_gain(k));
                 }
