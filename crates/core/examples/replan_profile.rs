@@ -16,7 +16,8 @@
 //! second-order corrections, `OcpSettings::max_soc`). It also prints the solve times' median, p99 and max
 //! (the solver's own clock; noisy, the iterations are the figures to compare). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
-//! iterations, objective, status and end-effector miss (to compare optima draw by draw).
+//! iterations, objective, status and end-effector miss (to compare optima draw by draw), and below it
+//! the solver's factorisations, regularisations and time split ([`SwingPlanner::last_stats`]).
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
@@ -111,6 +112,19 @@ fn main() -> Result<(), brachia::Error> {
                 "draw {i} iterations {} objective {:.15e} status {:?} ee_error {:.3e}",
                 o.iterations, o.objective, o.status, o.ee_error_m
             );
+            if let Some(st) = planner.last_stats() {
+                let t = &st.time;
+                println!(
+                    "  factorizations {} regularizations {} time ms: total {:.2} eval {:.2} hess {:.2} linalg {:.2} ls {:.2}",
+                    st.factorizations,
+                    st.regularizations,
+                    t.total_s * 1e3,
+                    t.evaluation_s * 1e3,
+                    t.hessian_s * 1e3,
+                    t.linear_algebra_s * 1e3,
+                    t.line_search_s * 1e3
+                );
+            }
         }
     }
     if its.is_empty() {

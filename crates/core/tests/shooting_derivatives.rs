@@ -8,7 +8,9 @@ use brachia::fdcheck::assert_ocp_derivatives;
 use brachia::integrate::Rk4;
 mod common;
 
-use brachia::model::{Circle, ClearanceFn, LinkParams, Robot};
+use brachia::ad::{Diff, LocalFn};
+use brachia::math::Scalar;
+use brachia::model::{Circle, ClearanceFn, LinkParams, Robot, Scratch};
 use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::{
     AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
@@ -216,6 +218,153 @@ fn closed_form_and_automatic_differentiation_agree_stage_by_stage() {
                 close(&ha.stages[k].hess, &hb.stages[k].hess),
                 "n={n} stage {k} hess"
             );
+        }
+    }
+}
+
+// ---- free swing time: T as the last state component ----
+
+/// A free-swing-time problem (T in [0.05, 2] s) and a random point with T in [0.12, 0.3] s (3 intervals).
+fn free_problem<D: PointDynamics>(robot: &Robot, intervals: usize, substeps: usize) -> SwingOcp<D> {
+    problem::<D>(robot, intervals, substeps)
+        .with_free_swing_time(0.05, 2.0)
+        .unwrap()
+}
+
+fn random_free_point(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Primal {
+    let mut z = random_point(rng, dims);
+    let nx = z.x[0].len() - 1;
+    let t = rng.gen_range(0.12..0.3);
+    for x in &mut z.x {
+        // T slightly different per stage: the derivatives hold off the feasible set too
+        x[nx] = t * rng.gen_range(0.95..1.05);
+    }
+    z
+}
+
+#[test]
+fn free_swing_time_derivatives_match_finite_differences() {
+    for (n, substeps, seed) in [(3, 1, 11), (4, 1, 12), (4, 3, 13), (6, 2, 14)] {
+        let robot = robot(n);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut ocp: SwingOcp = free_problem(&robot, 3, substeps);
+        let mut probe: SwingOcp = free_problem(&robot, 3, substeps);
+        assert_eq!(ocp.dims().stages[0].nx, 2 * n + 1);
+        let z = random_free_point(&mut rng, ocp.dims());
+        let m = random_multipliers(&mut rng, ocp.dims());
+        let what = format!("free T, n={n} substeps={substeps}");
+        assert_ocp_derivatives(&what, &mut ocp, &mut probe, &z, 0.7, &m);
+        let mut ocp: SwingOcp<AdDynamics> = free_problem(&robot, 3, substeps);
+        let mut probe: SwingOcp<AdDynamics> = free_problem(&robot, 3, substeps);
+        assert_ocp_derivatives(&(what + " (AD points)"), &mut ocp, &mut probe, &z, 0.7, &m);
+    }
+}
+
+/// One stage's flow `Phi(q, qd, T, u)` (RK4, `substeps` steps of `T / (K substeps)`) written once for
+/// any scalar type: the AD oracle of the free-swing-time derivatives, independent of the shooting
+/// problem's forward and reverse sweeps.
+struct FreeFlowFn {
+    robot: Robot,
+    intervals: usize,
+    substeps: usize,
+}
+
+impl LocalFn for FreeFlowFn {
+    type Scratch<T: Scalar> = Scratch<T>;
+    fn n_in(&self) -> usize {
+        3 * self.robot.n()
+    }
+    fn n_out(&self) -> usize {
+        2 * self.robot.n()
+    }
+    fn scratch<T: Scalar>(&self) -> Scratch<T> {
+        Scratch::new(self.robot.n())
+    }
+    fn eval<T: Scalar>(&self, ws: &mut Scratch<T>, z: &[T], out: &mut [T]) {
+        let n = self.robot.n();
+        let nx = 2 * n;
+        let hs = z[nx] * (1.0 / (self.intervals * self.substeps) as f64);
+        let u = &z[nx + 1..];
+        let mut x: Vec<T> = z[..nx].to_vec();
+        let deriv = |ws: &mut Scratch<T>, y: &[T]| -> Vec<T> {
+            let mut k = vec![y[0] * 0.0; nx];
+            k[..n].copy_from_slice(&y[n..]);
+            let mut qdd = vec![y[0] * 0.0; n];
+            self.robot
+                .forward_dynamics_into(ws, &y[..n], &y[n..], u, &mut qdd);
+            k[n..].copy_from_slice(&qdd);
+            k
+        };
+        for _ in 0..self.substeps {
+            let k1 = deriv(ws, &x);
+            let y2: Vec<T> = (0..nx).map(|a| x[a] + hs * 0.5 * k1[a]).collect();
+            let k2 = deriv(ws, &y2);
+            let y3: Vec<T> = (0..nx).map(|a| x[a] + hs * 0.5 * k2[a]).collect();
+            let k3 = deriv(ws, &y3);
+            let y4: Vec<T> = (0..nx).map(|a| x[a] + hs * k3[a]).collect();
+            let k4 = deriv(ws, &y4);
+            for a in 0..nx {
+                x[a] += hs * (1.0 / 6.0) * (k1[a] + k2[a] * 2.0 + k3[a] * 2.0 + k4[a]);
+            }
+        }
+        out.copy_from_slice(&x);
+    }
+}
+
+#[test]
+fn free_swing_time_flow_derivatives_agree_with_automatic_differentiation_of_the_whole_flow() {
+    // The T column of the dynamics Jacobian and the T row of the Hessian of lam^T Phi are the
+    // shooting problem's own composition (tangent pass and second-order adjoint): AD of the whole
+    // flow, written independently above, is their oracle. sigma = 0 and mu = 0 leave Phi's part.
+    for (n, substeps) in [(3, 1), (4, 1), (4, 3), (6, 2)] {
+        let robot = robot(n);
+        let nx = 2 * n;
+        let k_int = 4;
+        let mut ocp: SwingOcp = free_problem(&robot, k_int, substeps);
+        let mut rng = ChaCha8Rng::seed_from_u64(60 + n as u64 + substeps as u64);
+        let z = random_free_point(&mut rng, ocp.dims());
+        let mut m = random_multipliers(&mut rng, ocp.dims());
+        for v in m.mu.iter_mut().flat_map(|v| v.iter_mut()) {
+            *v = 0.0;
+        }
+        let b = eval(&mut ocp, &z, EvalLevel::FirstOrder);
+        let mut hb = bufs(ocp.dims());
+        ocp.hessians(&z, 0.0, &m, &mut hb.stages).unwrap();
+        let f = FreeFlowFn {
+            robot: robot.clone(),
+            intervals: k_int,
+            substeps,
+        };
+        let mut diff = Diff::new(&f);
+        let nz = 3 * n;
+        for k in 0..k_int {
+            let zk = [z.x[k].as_slice(), &z.u[k]].concat();
+            let (mut val, mut jac, mut hess) =
+                (vec![0.0; nx], vec![0.0; nx * nz], vec![0.0; nz * nz]);
+            diff.jacobian(&f, &zk, &mut val, &mut jac);
+            diff.hessian_weighted(&f, &zk, &m.lam[k][..nx], &mut hess);
+            let close = |p: f64, q: f64| (p - q).abs() <= 1e-9 * p.abs().max(q.abs()).max(1.0);
+            for a in 0..nx {
+                assert!(close(val[a], b.stages[k].f[a]), "n={n} stage {k} f[{a}]");
+                for c in 0..nz {
+                    let (p, q) = (jac[a * nz + c], b.stages[k].jac_f[a * nz + c]);
+                    assert!(
+                        close(p, q),
+                        "n={n} m={substeps} stage {k} jac[{a}][{c}]: AD {p} vs {q}"
+                    );
+                }
+            }
+            // the T row of the dynamics: T_{k+1} = T_k
+            assert_eq!(b.stages[k].f[nx], z.x[k][nx]);
+            for a in 0..nz {
+                for c in 0..nz {
+                    let (p, q) = (hess[a * nz + c], hb.stages[k].hess[a * nz + c]);
+                    assert!(
+                        close(p, q),
+                        "n={n} m={substeps} stage {k} hess[{a}][{c}]: AD {p} vs {q}"
+                    );
+                }
+            }
         }
     }
 }

@@ -192,16 +192,44 @@ struct Ctx {
     r1: Vec<f64>,
     clearance: Option<DistanceClearanceFn>,
     n_clear: usize,
+    /// A free swing time `[T_min, T_max]` (s): then every state carries T as its last component
+    /// (`x_k = [q, qd, T]`, constant along the stages) and stage k's interval is `T_k / K`
+    /// ([`SwingOcp::with_free_swing_time`]); `None`: T fixed, the interval is `h`.
+    free: Option<[f64; 2]>,
 }
 
 impl Ctx {
-    /// Trapezoid weight of the state term at stage k.
-    fn state_weight(&self, k: usize) -> f64 {
+    /// Trapezoid weight of the state term at stage k for the interval `h`.
+    fn state_weight(&self, k: usize, h: f64) -> f64 {
         if k == 0 || k == self.horizon {
-            0.5 * self.h
+            0.5 * h
         } else {
-            self.h
+            h
         }
+    }
+
+    /// The interval of a stage whose (problem-layout) state is `x`: `T_k / K` with a free swing
+    /// time, `h` otherwise.
+    fn stage_h(&self, x: &[f64]) -> f64 {
+        match self.free {
+            Some(_) if x.len() > self.nx => x[self.nx] / self.horizon as f64,
+            _ => self.h,
+        }
+    }
+
+    /// Size of a stage's state in the problem's layout (`2n`, or `2n + 1` with a free swing time).
+    fn nx_problem(&self) -> usize {
+        self.nx + usize::from(self.free.is_some())
+    }
+}
+
+/// Column of internal stage variable `c` (`[q, qd, u]`) in the problem's layout, where a free swing
+/// time sits between the state and the input (`[q, qd, T, u]`).
+fn col(c: usize, nx: usize, free: bool) -> usize {
+    if free && c >= nx {
+        c + 1
+    } else {
+        c
     }
 }
 
@@ -240,6 +268,19 @@ struct StageWork<D> {
     /// Clearance Jacobian (`nc x n`) and weighted Hessian (`n x n`).
     cjac: Vec<f64>,
     chess: Vec<f64>,
+    /// The interval of the recorded forward pass, s.
+    rec_h: f64,
+    /// Free swing time only: each evaluation's acceleration `ne x n`, the derivatives w.r.t. the
+    /// interval h of each evaluation's state input `ne x nx` and stage derivative `ne x nx`, and of
+    /// Phi (`nx`); the h column of the Hessian (`nz`), a scratch row (`nz`) and the stage's Hessian
+    /// in the internal layout (`nz x nz`).
+    qdds: Vec<f64>,
+    ty: Vec<f64>,
+    tk: Vec<f64>,
+    tphi: Vec<f64>,
+    colh: Vec<f64>,
+    vrow: Vec<f64>,
+    hint: Vec<f64>,
 }
 
 impl<D: PointDynamics> StageWork<D> {
@@ -270,21 +311,92 @@ impl<D: PointDynamics> StageWork<D> {
             tmp: vec![0.0; nz * nz],
             cjac: vec![0.0; nc * n],
             chess: vec![0.0; n * n],
+            rec_h: 0.0,
+            qdds: vec![0.0; ne * n],
+            ty: vec![0.0; ne * nx],
+            tk: vec![0.0; ne * nx],
+            tphi: vec![0.0; nx],
+            colh: vec![0.0; nz],
+            vrow: vec![0.0; nz],
+            hint: vec![0.0; nz * nz],
         }
     }
 
-    /// Integrate `Phi(x, u)` into `self.xs`; with `jac`, also record every evaluation and leave
-    /// `d Phi / d z` in `self.xsens`.
-    fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool) {
+    /// Integrate `Phi(x, u)` over the interval `h` into `self.xs`; with `jac`, also record every
+    /// evaluation and leave `d Phi / d z` in `self.xsens` (and, with a free swing time, the
+    /// derivatives w.r.t. h in `self.ty`, `self.tk` and `self.tphi`).
+    fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, h: f64) {
         // the paper's 4 links with constant sizes (unrolled loops), any other count through the
         // same body: the same arithmetic either way
-        with_link_count!(ctx.n, |n| self.forward_n(ctx, x, u, jac, n));
+        with_link_count!(ctx.n, |n| self.forward_n(ctx, x, u, jac, n, h));
+        if jac && ctx.free.is_some() {
+            self.tangent(ctx, h);
+        }
+    }
+
+    /// The derivatives w.r.t. the interval h at the recorded forward pass (x and u fixed): of each
+    /// RK4 evaluation's state input (`ty`) and stage derivative (`tk`), and of Phi (`tphi`). The
+    /// step h enters RK4 only through the coefficients of `y_j = x_s + c_j (h/m) k_{j-1}` and
+    /// `x_{s+1} = x_s + (h/6m) sum b_j k_j`, so `ty_j = tx_s + c_j (h/m) tk_{j-1} + (c_j/m) k_{j-1}`
+    /// and `tk_j = F_y(y_j) [ty_j; 0]`.
+    fn tangent(&mut self, ctx: &Ctx, h: f64) {
+        let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
+        let m = ctx.substeps as f64;
+        let hs = h / m;
+        let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
+        let dcoef = [0.0, 0.5 / m, 0.5 / m, 1.0 / m];
+        let (c6, dc6) = (hs / 6.0, 1.0 / (6.0 * m));
+        let bw = [1.0, 2.0, 2.0, 1.0];
+        // stage derivative k_i = [qd part of y_i, qdd_i]
+        let kval = |y: &[f64], qdds: &[f64], i: usize, a: usize| {
+            if a < n {
+                y[i * nz + n + a]
+            } else {
+                qdds[i * n + a - n]
+            }
+        };
+        self.tphi[..nx].fill(0.0);
+        for s in 0..ctx.substeps {
+            for j in 0..4 {
+                let i = 4 * s + j;
+                for a in 0..nx {
+                    let mut v = self.tphi[a];
+                    if j > 0 {
+                        v += coef[j] * self.tk[(i - 1) * nx + a]
+                            + dcoef[j] * kval(&self.y, &self.qdds, i - 1, a);
+                    }
+                    self.ty[i * nx + a] = v;
+                }
+                let (ty, tk) = (
+                    &self.ty[i * nx..(i + 1) * nx],
+                    &mut self.tk[i * nx..(i + 1) * nx],
+                );
+                tk[..n].copy_from_slice(&ty[n..]);
+                let jq = &self.jq[i * n * nz..(i + 1) * n * nz];
+                for r in 0..n {
+                    let mut v = 0.0;
+                    for c in 0..nx {
+                        v += jq[r * nz + c] * ty[c];
+                    }
+                    tk[n + r] = v;
+                }
+            }
+            for a in 0..nx {
+                let (mut dv, mut kv) = (0.0, 0.0);
+                for (j, b) in bw.iter().enumerate() {
+                    let i = 4 * s + j;
+                    dv += b * self.tk[i * nx + a];
+                    kv += b * kval(&self.y, &self.qdds, i, a);
+                }
+                self.tphi[a] += c6 * dv + dc6 * kv;
+            }
+        }
     }
 
     /// [`Self::forward`] with the link count `n = ctx.n` as an argument (a stage with inputs:
     /// `nx = 2n`, `nz = 3n - 1`).
     #[inline(always)]
-    fn forward_n(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, n: usize) {
+    fn forward_n(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, n: usize, h: f64) {
         let (nx, nz) = (2 * n, 3 * n - 1);
         debug_assert!(ctx.nx == nx && ctx.nz == nz && u.len() == nz - nx);
         let (x, u) = (&x[..nx], &u[..nz - nx]);
@@ -294,7 +406,7 @@ impl<D: PointDynamics> StageWork<D> {
         let (yv, qdd) = (&mut self.yv[..nz], &mut self.qdd[..n]);
         let (ya, jqa) = (&mut self.y[..ne * nz], &mut self.jq[..ne * n * nz]);
         let sensa = &mut self.sens[..ne * nz * nz];
-        let hs = ctx.h / ctx.substeps as f64;
+        let hs = h / ctx.substeps as f64;
         let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
         xs.copy_from_slice(x);
         if jac {
@@ -356,6 +468,7 @@ impl<D: PointDynamics> StageWork<D> {
                             }
                         }
                     }
+                    self.qdds[i * n..(i + 1) * n].copy_from_slice(qdd);
                 } else {
                     self.dynamics[i].value(y, qdd);
                 }
@@ -383,11 +496,13 @@ impl<D: PointDynamics> StageWork<D> {
         if jac {
             self.rec_z[..nx].copy_from_slice(x);
             self.rec_z[nx..].copy_from_slice(u);
+            self.rec_h = h;
             self.rec_valid = true;
         }
     }
 
-    /// Cost, dynamics and clearance of stage k into `ev`.
+    /// Cost, dynamics and clearance of stage k into `ev` (problem layout: with a free swing time
+    /// `x` is `[q, qd, T]` and the stage variables `[q, qd, T, u]`).
     fn evaluate(
         &mut self,
         ctx: &Ctx,
@@ -398,14 +513,17 @@ impl<D: PointDynamics> StageWork<D> {
         ev: &mut StageEval,
     ) {
         let (n, nx) = (ctx.n, ctx.nx);
+        let free = ctx.free.is_some();
+        let nxp = ctx.nx_problem();
+        let h = ctx.stage_h(x);
         let first = level == EvalLevel::FirstOrder;
-        let wq = ctx.state_weight(k);
+        let wq = ctx.state_weight(k, h);
         let mut cost = 0.0;
         for i in 0..n {
             cost += wq * ctx.q1[i] * x[n + i] * x[n + i];
         }
         for (j, &v) in u.iter().enumerate() {
-            cost += ctx.h * ctx.r1[j] * v * v;
+            cost += h * ctx.r1[j] * v * v;
         }
         ev.cost = cost;
         if first {
@@ -414,14 +532,35 @@ impl<D: PointDynamics> StageWork<D> {
                 ev.grad[n + i] = 2.0 * wq * ctx.q1[i] * x[n + i];
             }
             for (j, &v) in u.iter().enumerate() {
-                ev.grad[nx + j] = 2.0 * ctx.h * ctx.r1[j] * v;
+                ev.grad[nxp + j] = 2.0 * h * ctx.r1[j] * v;
+            }
+            if free {
+                // the cost is linear in h = T / K
+                ev.grad[nx] = cost / (h * ctx.horizon as f64);
             }
         }
         if k < ctx.horizon {
-            self.forward(ctx, x, u, first);
-            ev.f.copy_from_slice(&self.xs);
+            self.forward(ctx, x, u, first, h);
+            ev.f[..nx].copy_from_slice(&self.xs);
+            if free {
+                ev.f[nx] = x[nx];
+            }
             if first {
-                ev.jac_f.copy_from_slice(&self.xsens);
+                if free {
+                    let (nz, nzp) = (ctx.nz, ctx.nz + 1);
+                    let kf = ctx.horizon as f64;
+                    ev.jac_f.fill(0.0);
+                    for a in 0..nx {
+                        let row = &mut ev.jac_f[a * nzp..(a + 1) * nzp];
+                        for c in 0..nz {
+                            row[col(c, nx, true)] = self.xsens[a * nz + c];
+                        }
+                        row[nx] = self.tphi[a] / kf;
+                    }
+                    ev.jac_f[nx * nzp + nx] = 1.0;
+                } else {
+                    ev.jac_f.copy_from_slice(&self.xsens);
+                }
             }
         }
         if let (Some(cd), true) = (&self.clear, k >= 1) {
@@ -443,7 +582,9 @@ impl<D: PointDynamics> StageWork<D> {
         }
     }
 
-    /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k).
+    /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k, problem
+    /// layout).
+    #[allow(clippy::too_many_arguments)]
     fn hessian(
         &mut self,
         ctx: &Ctx,
@@ -455,16 +596,98 @@ impl<D: PointDynamics> StageWork<D> {
         mu: &[f64],
         hess: &mut [f64],
     ) {
+        if ctx.free.is_none() {
+            self.hessian_internal(ctx, k, x, u, sigma, lam, mu, ctx.h, hess);
+            return;
+        }
+        // free swing time: the Hessian in [q, qd, u] (with its h column in `colh` and the h-h entry
+        // returned), then spread into [q, qd, T, u] with d/dT = (1/K) d/dh
         let (n, nx) = (ctx.n, ctx.nx);
+        let h = ctx.stage_h(x);
+        let kf = ctx.horizon as f64;
+        let nzi = nx + u.len();
+        let nzp = nzi + 1;
+        let mut hint = std::mem::take(&mut self.hint);
+        let hh = self.hessian_internal(
+            ctx,
+            k,
+            &x[..nx],
+            u,
+            sigma,
+            &lam[..lam.len().min(nx)],
+            mu,
+            h,
+            &mut hint[..nzi * nzi],
+        );
+        hess.fill(0.0);
+        for a in 0..nzi {
+            for b in 0..nzi {
+                hess[col(a, nx, true) * nzp + col(b, nx, true)] = hint[a * nzi + b];
+            }
+        }
+        self.hint = hint;
+        let t = nx;
+        if k < ctx.horizon {
+            for c in 0..nzi {
+                let v = self.colh[c] / kf;
+                let e = col(c, nx, true);
+                hess[t * nzp + e] += v;
+                hess[e * nzp + t] += v;
+            }
+            hess[t * nzp + t] += hh / (kf * kf);
+        }
+        // the cost is linear in h: d^2 l / dT dz = (d l / dz) / T
+        let wq = ctx.state_weight(k, h);
+        let tt = h * kf;
+        for i in 0..n {
+            let v = sigma * 2.0 * wq * ctx.q1[i] * x[n + i] / tt;
+            hess[t * nzp + n + i] += v;
+            hess[(n + i) * nzp + t] += v;
+        }
+        for (j, &uj) in u.iter().enumerate() {
+            let v = sigma * 2.0 * h * ctx.r1[j] * uj / tt;
+            hess[t * nzp + nx + 1 + j] += v;
+            hess[(nx + 1 + j) * nzp + t] += v;
+        }
+    }
+
+    /// [`Self::hessian`] in the internal layout `[q, qd, u]` (`x` the 2n state, `lam` 2n) for the
+    /// interval `h`. With a free swing time it also leaves the mixed derivatives
+    /// `d^2 (lam^T Phi) / dz dh` in `self.colh` (nz) and returns `d^2 (lam^T Phi) / dh^2` (0 otherwise):
+    /// by the second-order adjoint, each RK4 evaluation i adds `S_i^T (Hq_i [ty_i; 0] + F_y(y_i)^T w_i / h)`
+    /// and `ty_i^T Hq_i ty_i + 2 w_i . tk_i / h` (the coefficients of the combinations are `h` times
+    /// constants, whose adjoint weights are the stage derivatives' `w_i`; docs/planner.md, "Free swing time").
+    #[allow(clippy::too_many_arguments)]
+    fn hessian_internal(
+        &mut self,
+        ctx: &Ctx,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        sigma: f64,
+        lam: &[f64],
+        mu: &[f64],
+        h: f64,
+        hess: &mut [f64],
+    ) -> f64 {
+        let (n, nx) = (ctx.n, ctx.nx);
+        let free = ctx.free.is_some();
         let nzk = nx + u.len();
+        let mut hh = 0.0;
         hess.fill(0.0);
         if k < ctx.horizon {
             let nz = ctx.nz;
-            let current = self.rec_valid && self.rec_z[..nx] == *x && self.rec_z[nx..] == *u;
+            let current = self.rec_valid
+                && self.rec_h == h
+                && self.rec_z[..nx] == *x
+                && self.rec_z[nx..] == *u;
             if !current {
-                self.forward(ctx, x, u, true);
+                self.forward(ctx, x, u, true, h);
             }
-            let hs = ctx.h / ctx.substeps as f64;
+            if free {
+                self.colh.fill(0.0);
+            }
+            let hs = h / ctx.substeps as f64;
             self.abar.copy_from_slice(lam);
             for s in (0..ctx.substeps).rev() {
                 // Reverse sweep through the four evaluations of sub-step s (j = 3, 2, 1, 0):
@@ -495,6 +718,9 @@ impl<D: PointDynamics> StageWork<D> {
                     );
                     let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
                     add_sandwich_upper(nx, nz, sens, i, &self.hbuf, &mut self.tmp, hess);
+                    if free {
+                        hh += self.h_terms(ctx, i, j, h);
+                    }
                 }
                 for j in 0..4 {
                     for e in 0..nx {
@@ -509,12 +735,12 @@ impl<D: PointDynamics> StageWork<D> {
                 }
             }
         }
-        let wq = ctx.state_weight(k);
+        let wq = ctx.state_weight(k, h);
         for i in 0..n {
             hess[(n + i) * nzk + n + i] += 2.0 * sigma * wq * ctx.q1[i];
         }
         for j in 0..u.len() {
-            hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * ctx.h * ctx.r1[j];
+            hess[(nx + j) * nzk + nx + j] += 2.0 * sigma * h * ctx.r1[j];
         }
         if let (Some(cd), true) = (&self.clear, k >= 1) {
             let rec = self
@@ -528,6 +754,56 @@ impl<D: PointDynamics> StageWork<D> {
                 }
             }
         }
+        hh
+    }
+
+    /// The h terms of RK4 evaluation i (sub-step position j) in the reverse sweep, with its weights
+    /// `w_j`, its state adjoint `g_j` and its `Hq_i` in `hbuf` (see [`Self::hessian_internal`]):
+    /// adds `S_i^T v` to `colh`, `v = Hq_i [ty_i; 0] + [g_j; Jq_u^T w_j[n..]] / h`, and returns
+    /// `ty_i^T Hq_i ty_i + 2 w_j . tk_i / h`.
+    fn h_terms(&mut self, ctx: &Ctx, i: usize, j: usize, h: f64) -> f64 {
+        let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
+        let ty = &self.ty[i * nx..(i + 1) * nx];
+        let tk = &self.tk[i * nx..(i + 1) * nx];
+        let w = &self.w[j * nx..(j + 1) * nx];
+        let g = &self.g[j * nx..(j + 1) * nx];
+        let jq = &self.jq[i * n * nz..(i + 1) * n * nz];
+        let hq = &self.hbuf[..nz * nz];
+        let v = &mut self.vrow[..nz];
+        // Hq [ty; 0] by its first nx rows (Hq is symmetric; those rows are filled in full)
+        v.fill(0.0);
+        for (c, &t) in ty.iter().enumerate() {
+            let hrow = &hq[c * nz..(c + 1) * nz];
+            for a in 0..nz {
+                v[a] += hrow[a] * t;
+            }
+        }
+        let mut hh = 0.0;
+        for a in 0..nx {
+            hh += ty[a] * v[a];
+        }
+        for a in 0..nx {
+            hh += 2.0 * w[a] * tk[a] / h;
+            v[a] += g[a] / h;
+        }
+        for m in 0..nz - nx {
+            let mut sum = 0.0;
+            for r in 0..n {
+                sum += jq[r * nz + nx + m] * w[n + r];
+            }
+            v[nx + m] += sum / h;
+        }
+        let sens = &self.sens[i * nz * nz..(i + 1) * nz * nz];
+        for (r, &vr) in v.iter().enumerate() {
+            if vr == 0.0 {
+                continue;
+            }
+            let srow = &sens[r * nz..(r + 1) * nz];
+            for c in 0..nz {
+                self.colh[c] += srow[c] * vr;
+            }
+        }
+        hh
     }
 }
 
@@ -727,6 +1003,7 @@ pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
     term_fn: EeTerminalFn,
     term: Diff<EeTerminalFn>,
     term_val: Vec<f64>,
+    term_jac: Vec<f64>,
     term_hess: Vec<f64>,
     parallel: bool,
     /// Wall time spent in evaluations since construction (or the last reset by the caller).
@@ -808,6 +1085,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             r1: spec.r1_diag.clone(),
             clearance,
             n_clear,
+            free: None,
         };
         let stages: Vec<StageDims> = (0..=k_last)
             .map(|k| StageDims {
@@ -839,6 +1117,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             term: Diff::new(&term_fn),
             term_fn,
             term_val: vec![0.0; 4],
+            term_jac: vec![0.0; 4 * nx],
             term_hess: vec![0.0; nx * nx],
             parallel: k_last + 1 >= spec.parallel_min_stages,
             dims,
@@ -900,7 +1179,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             ));
         }
         self.x_start.copy_from_slice(x);
-        self.guess.x[0].copy_from_slice(x);
+        self.guess.x[0][..x.len()].copy_from_slice(x);
         Ok(())
     }
 
@@ -920,6 +1199,59 @@ impl<D: PointDynamics> SwingOcp<D> {
             w.rec_valid = false;
         }
         Ok(())
+    }
+
+    /// Make the swing time a decision variable in `[t_min, t_max]` (s): every state gets T as its
+    /// last component (`x_k = [q, qd, T]`, `2n + 1` values, carried unchanged from stage to stage by
+    /// the dynamics; stage k's interval is `T_k / K`, so all stages share one T at any feasible
+    /// point), bounded by `[t_min, t_max]` at every stage and free at stage 0. The cost (a quadrature
+    /// in time) and the flow then depend on T, the clearance and terminal rows do not. The guess
+    /// keeps its knots and takes the current swing time clamped into the range as its T. K is
+    /// unchanged. Errors on a range that is not `0 < t_min <= t_max < inf`. Fixes the problem's
+    /// dimensions: call it before building a solver on them.
+    pub fn with_free_swing_time(mut self, t_min: f64, t_max: f64) -> Result<Self> {
+        if !(t_min.is_finite() && t_max.is_finite() && t_min > 0.0 && t_min <= t_max) {
+            return Err(Error::invalid(
+                "<shooting>",
+                "free swing time",
+                format!("[{t_min}, {t_max}]"),
+                "must be 0 < min <= max, finite",
+            ));
+        }
+        let nx = self.ctx.nx;
+        let t0 = self.swing_time().clamp(t_min, t_max);
+        self.ctx.h = t0 / self.ctx.horizon as f64;
+        self.ctx.free = Some([t_min, t_max]);
+        for s in &mut self.dims.stages {
+            s.nx = nx + 1;
+        }
+        let mut guess = Primal::zeros(&self.dims);
+        for (dst, src) in guess.x.iter_mut().zip(&self.guess.x) {
+            dst[..nx].copy_from_slice(&src[..nx]);
+            dst[nx] = t0;
+        }
+        for (dst, src) in guess.u.iter_mut().zip(&self.guess.u) {
+            dst.copy_from_slice(src);
+        }
+        self.guess = guess;
+        for w in &mut self.work {
+            w.rec_valid = false;
+        }
+        Ok(self)
+    }
+
+    /// The range of a free swing time ([`Self::with_free_swing_time`]), `None` when T is fixed.
+    pub fn free_swing_time(&self) -> Option<[f64; 2]> {
+        self.ctx.free
+    }
+
+    /// The swing time of a point `z` of this problem: its T (stage 0's) with a free swing time, the
+    /// fixed T otherwise, s.
+    pub fn swing_time_of(&self, z: &Primal) -> f64 {
+        match self.ctx.free {
+            Some(_) => z.x[0][self.ctx.nx],
+            None => self.swing_time(),
+        }
     }
 
     /// The box bounds of knots 1..K on q and qd (knot 0 is the start state).
@@ -991,9 +1323,13 @@ impl<D: PointDynamics> SwingOcp<D> {
             "flow of stage {k}: the last is {}",
             self.ctx.horizon - 1
         );
+        let h = self.ctx.stage_h(x);
         let w = &mut self.work[k];
-        w.forward(&self.ctx, x, u, false);
-        out.copy_from_slice(&w.xs);
+        w.forward(&self.ctx, x, u, false, h);
+        out[..self.ctx.nx].copy_from_slice(&w.xs);
+        if out.len() > self.ctx.nx {
+            out[self.ctx.nx] = x[self.ctx.nx];
+        }
     }
 
     /// Evaluate the stages on the calling thread, or in parallel: the horizon split into one
@@ -1048,15 +1384,26 @@ impl<D: PointDynamics> SwingOcp<D> {
         self.for_stages(zx, zu, stages, |w, ctx, k, x, u, ev| {
             w.evaluate(ctx, k, x, u, level, ev)
         });
-        let xl = &zx[self.ctx.horizon];
         let nx = self.ctx.nx;
+        let xl = &zx[self.ctx.horizon][..nx];
         if level == EvalLevel::FirstOrder {
-            self.term.jacobian(
-                &self.term_fn,
-                xl,
-                &mut self.term_val,
-                &mut terminal.jac_r[..4 * nx],
-            );
+            if self.ctx.free.is_some() {
+                // the rows do not depend on T: its column stays zero
+                self.term
+                    .jacobian(&self.term_fn, xl, &mut self.term_val, &mut self.term_jac);
+                terminal.jac_r.fill(0.0);
+                for r in 0..4 {
+                    terminal.jac_r[r * (nx + 1)..r * (nx + 1) + nx]
+                        .copy_from_slice(&self.term_jac[r * nx..(r + 1) * nx]);
+                }
+            } else {
+                self.term.jacobian(
+                    &self.term_fn,
+                    xl,
+                    &mut self.term_val,
+                    &mut terminal.jac_r[..4 * nx],
+                );
+            }
         } else {
             self.term.value(&self.term_fn, xl, &mut self.term_val);
         }
@@ -1102,10 +1449,16 @@ impl<D: PointDynamics> SwingOcp<D> {
         let k_last = self.ctx.horizon;
         let nx = self.ctx.nx;
         self.term
-            .hessian_weighted(&self.term_fn, &zx[k_last], nu, &mut self.term_hess);
+            .hessian_weighted(&self.term_fn, &zx[k_last][..nx], nu, &mut self.term_hess);
+        let nxp = self.ctx.nx_problem();
         let hk = &mut stages[k_last].hess;
-        for (dst, src) in hk.iter_mut().zip(&self.term_hess[..nx * nx]) {
-            *dst += src;
+        for a in 0..nx {
+            for (dst, src) in hk[a * nxp..a * nxp + nx]
+                .iter_mut()
+                .zip(&self.term_hess[a * nx..(a + 1) * nx])
+            {
+                *dst += src;
+            }
         }
         self.timings.hessian_s += t0.elapsed().as_secs_f64();
         self.timings.hessian_calls += 1;
@@ -1143,10 +1496,14 @@ impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
     }
 
     fn bounds(&self, k: usize, b: &mut StageBounds) {
-        let n = self.ctx.n;
+        let (n, nx) = (self.ctx.n, self.ctx.nx);
+        if let Some([t_lo, t_hi]) = self.ctx.free {
+            b.x_lo[nx] = t_lo;
+            b.x_hi[nx] = t_hi;
+        }
         if k == 0 {
-            b.x_lo.copy_from_slice(&self.x_start);
-            b.x_hi.copy_from_slice(&self.x_start);
+            b.x_lo[..nx].copy_from_slice(&self.x_start);
+            b.x_hi[..nx].copy_from_slice(&self.x_start);
         } else {
             let bd = &self.bounds;
             b.x_lo[0] = bd.q1[0];

@@ -331,6 +331,12 @@ impl SwingPlanner {
         self.shift_duals = on;
     }
 
+    /// The solver's statistics of the last (re-)plan (iterations, factorisations, regularisations
+    /// and the time split); `None` before the first.
+    pub fn last_stats(&self) -> Option<&OcpStats> {
+        self.last.as_ref().map(|l| &l.stats)
+    }
+
     /// The full swing time T, s.
     pub fn swing_time(&self) -> f64 {
         self.t_final
