@@ -30,7 +30,8 @@ use crate::error::{Error, Result};
 use crate::integrate::Rk4;
 use crate::model::Robot;
 use crate::planning::{
-    Backend, NlpSettings, PlannerSettings, SolveStatus, SwingPlanner, SwingTask, Transcription,
+    Backend, NlpSettings, PlannerSettings, SolveStatus, SwingPlanner, SwingTask, SwingTime,
+    Transcription,
 };
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -313,9 +314,16 @@ impl<C: Controller> Replanning<C> {
     ) -> Result<Self> {
         settings.validate("replanning")?;
         let reference: Arc<Trajectory> = reference.into();
+        // a free swing time was resolved by the plan tracked: the re-plans keep its T
+        let swing_time = match (planner.free_swing_time, reference.t.last()) {
+            (Some(_), Some(&t_end)) => SwingTime::Seconds(t_end),
+            _ => planner.swing_time,
+        };
         let ps = PlannerSettings {
             transcription: Transcription::MultipleShooting,
             knot_dt: settings.knot_dt_s,
+            swing_time,
+            free_swing_time: None,
             ..planner.clone()
         };
         let nlp = NlpSettings {

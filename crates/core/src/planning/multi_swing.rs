@@ -537,6 +537,7 @@ pub fn plan_joint_swings(
     };
     settings.validate(n, "planner")?;
     nlp.validate()?;
+    settings.refuse_free_swing_time("planner", "a joint multi-swing plan")?;
     if nlp.backend != Backend::Ocp {
         return Err(Error::invalid(
             src,

@@ -120,14 +120,18 @@ pub(super) fn plan_shooting(
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
     let ShootingSetup {
-        ocp,
-        layout,
-        t_final,
+        mut ocp,
+        mut layout,
+        mut t_final,
         freefall,
     } = setup_shooting(robot, task, settings, guess)?;
+    // (a range of one value is that fixed T, which the setup has already clamped to)
+    if let Some([lo, hi]) = settings.free_swing_time.filter(|[lo, hi]| lo < hi) {
+        ocp = ocp.with_free_swing_time(lo, hi)?;
+    }
 
     // solve
-    let (z, status, objective, solves, mut ocp) = match nlp.backend {
+    let (mut z, status, objective, solves, mut ocp) = match nlp.backend {
         Backend::Ocp => {
             let mut solver = OcpSolver::new(ocp.dims()).map_err(|e| {
                 Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
@@ -157,6 +161,23 @@ pub(super) fn plan_shooting(
             (z, sol.status, sol.objective, solves, prob.into_problem())
         }
     };
+    if ocp.free_swing_time().is_some() {
+        // the plan at the optimal T: the same knots in the fixed-T layout
+        // (a solve that never started leaves a point without a valid T: keep the start's)
+        let t = ocp.swing_time_of(&z);
+        if t.is_finite() && t > 0.0 {
+            t_final = t;
+        }
+        ocp = ocp.with_fixed_swing_time(t_final)?;
+        z = ocp.strip_swing_time(&z);
+        layout = Layout::new(
+            robot.n,
+            robot.n - 1,
+            layout.intervals,
+            t_final,
+            Transcription::MultipleShooting,
+        );
+    }
     finish_plan(
         robot,
         task,
@@ -217,8 +238,18 @@ pub(super) fn setup_shooting(
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
     let (t_final, freefall) = swing_time(robot, task, settings)?;
+    // a free swing time starts from the task's T clamped into its range
+    let t_final = match settings.free_swing_time {
+        Some([lo, hi]) => t_final.clamp(lo, hi),
+        None => t_final,
+    };
     // the interval count follows from input: checked against brachia::limits before any allocation
-    let intervals = settings.grid(t_final, "planner")?;
+    // (with a free swing time, from its largest value: the knots are never further apart than
+    // knot_dt, whatever T the plan ends at)
+    let intervals = settings.grid(
+        settings.free_swing_time.map_or(t_final, |[_, hi]| hi),
+        "planner",
+    )?;
     let layout = Layout::new(
         n,
         n - 1,

@@ -183,8 +183,17 @@ impl Default for Bounds {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerSettings {
-    /// Swing time: `"auto"` (2 T_freefall) or seconds.
+    /// Swing time: `"auto"` (2 T_freefall) or seconds. With `free_swing_time`, the start of the
+    /// search (clamped into that range).
     pub swing_time: SwingTime,
+    /// A free swing time `[t_min, t_max]`, s: T becomes a decision variable of the plan in that range,
+    /// starting from `swing_time` clamped into it; the plan's `swing_time_s` is the optimum. Needs the
+    /// multiple-shooting transcription; single plans only (not the persistent re-planner or a
+    /// multi-swing plan). Default none: T is `swing_time`. The number of intervals K is
+    /// `round(t_max / knot_dt)` and stays fixed, so the plan's knot spacing `T / K` is at most
+    /// about `knot_dt`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub free_swing_time: Option<[f64; 2]>,
     /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
     /// 1 mm replay bar; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
     /// the number of intervals is `round(T / knot_dt)`.
@@ -216,6 +225,7 @@ impl Default for PlannerSettings {
     fn default() -> Self {
         PlannerSettings {
             swing_time: SwingTime::default(),
+            free_swing_time: None,
             knot_dt: DEFAULT_KNOT_DT_S,
             transcription: Transcription::default(),
             q1_diag: vec![],
@@ -258,6 +268,37 @@ impl PlannerSettings {
         }
         pos("knot_dt", self.knot_dt)?;
         pos("output_dt", self.output_dt)?;
+        if let Some([lo, hi]) = self.free_swing_time {
+            let range = format!("[{lo}, {hi}]");
+            if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+                return Err(Error::invalid(
+                    src,
+                    "free_swing_time",
+                    range,
+                    "must be [min, max] with 0 < min <= max, in seconds",
+                ));
+            }
+            if hi > limits::MAX_SWING_TIME_S {
+                return Err(Error::invalid(
+                    src,
+                    "free_swing_time",
+                    range,
+                    format!(
+                        "max must be at most {} s (brachia::limits::MAX_SWING_TIME_S)",
+                        limits::MAX_SWING_TIME_S
+                    ),
+                ));
+            }
+            if self.transcription != Transcription::MultipleShooting {
+                return Err(Error::invalid(
+                    src,
+                    "free_swing_time",
+                    range,
+                    "needs transcription = \"multiple-shooting\" (the collocation rules plan at a fixed T)",
+                ));
+            }
+            self.grid(hi, src)?;
+        }
         pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
         pos("bounds.qd_max", self.bounds.qd_max)?;
         if let Some(v) = self.bounds.qd_end_max {
@@ -334,6 +375,23 @@ impl PlannerSettings {
             }
         }
         Ok(())
+    }
+
+    /// An error naming `free_swing_time` when it is set, for a planner (`what`) that plans at a fixed
+    /// swing time; `src` names the origin.
+    pub fn refuse_free_swing_time(&self, src: &str, what: &str) -> Result<()> {
+        match self.free_swing_time {
+            Some([lo, hi]) => Err(Error::invalid(
+                src,
+                "free_swing_time",
+                format!("[{lo}, {hi}]"),
+                format!(
+                    "{what} plans at a fixed swing time: plan the swing once with a free one \
+                     (brachia::planning::plan) and give its swing_time_s as swing_time"
+                ),
+            )),
+            None => Ok(()),
+        }
     }
 
     /// The number of collocation intervals `N = round(T / knot_dt)` of a swing of `t_final` seconds,

@@ -1240,6 +1240,30 @@ impl<D: PointDynamics> SwingOcp<D> {
         Ok(self)
     }
 
+    /// Back to a fixed swing time `t` (s): the inverse of [`Self::with_free_swing_time`] (the guess
+    /// drops its T; the interval becomes `t / K`). Errors on a time that is not finite and positive.
+    pub fn with_fixed_swing_time(mut self, t: f64) -> Result<Self> {
+        let nx = self.ctx.nx;
+        self.set_swing_time(t)?;
+        if self.ctx.free.take().is_some() {
+            for s in &mut self.dims.stages {
+                s.nx = nx;
+            }
+            self.guess = self.strip_swing_time(&self.guess);
+        }
+        Ok(self)
+    }
+
+    /// A point of the free-swing-time layout without its T (`x_k = [q, qd]`); a point without T
+    /// is copied as it is.
+    pub fn strip_swing_time(&self, z: &Primal) -> Primal {
+        let nx = self.ctx.nx;
+        Primal {
+            x: z.x.iter().map(|x| x[..nx.min(x.len())].to_vec()).collect(),
+            u: z.u.clone(),
+        }
+    }
+
     /// The range of a free swing time ([`Self::with_free_swing_time`]), `None` when T is fixed.
     pub fn free_swing_time(&self) -> Option<[f64; 2]> {
         self.ctx.free

@@ -221,6 +221,7 @@ impl SwingPlanner {
         };
         settings.validate(robot.n, "planner")?;
         nlp.validate()?;
+        settings.refuse_free_swing_time("planner", "the persistent re-planner (SwingPlanner)")?;
         let ShootingSetup {
             ocp,
             layout,
