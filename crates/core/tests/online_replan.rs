@@ -254,3 +254,44 @@ fn replanning_refuses_bad_settings_and_an_unplanned_planner() {
     let mpc = tracker(&robot, &reference);
     assert!(Replanning::new(mpc, unplanned, reference, ReplanSettings::default()).is_err());
 }
+
+#[test]
+fn a_free_swing_time_plan_is_re_planned_at_its_own_swing_time() {
+    // The plan tracked chose its T (free_swing_time); the re-planner's persistent planner plans at a
+    // fixed T, that plan's: it is built from the same settings and re-plans the hit swing to the bar.
+    let robot = Arc::new(Robot::paper());
+    let s = PlannerSettings {
+        transcription: Transcription::MultipleShooting,
+        knot_dt: 0.03,
+        free_swing_time: Some([2.0, 2.4]),
+        ..Default::default()
+    };
+    let nlp = NlpSettings {
+        backend: Backend::Ocp,
+        ..Default::default()
+    };
+    let task = SwingTask::paper();
+    let p = brachia::planning::plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(p.converged(), "{:?}", p.status);
+    let t_star = p.swing_time_s;
+    assert!(
+        t_star > 2.0 + 1e-3 && (t_star - 2.23).abs() > 1e-3,
+        "T* = {t_star}"
+    );
+    let reference = Arc::new(p.trajectory);
+    let mpc = tracker(&robot, &reference);
+    let mut rp = Replanning::build(
+        mpc,
+        Arc::clone(&robot),
+        &task,
+        &s,
+        &nlp,
+        Arc::clone(&reference),
+        settings(),
+    )
+    .unwrap();
+    assert!((rp.planner().swing_time() - t_star).abs() < 1e-12);
+    let with = run(&robot, &reference, &mut rp, 1.3, &[0.0, 0.6, -0.6, 0.6]);
+    assert!(rp.events().iter().any(|e| e.adopted), "{:?}", rp.events());
+    assert!(with < 0.02, "MPC + re-planning ends {with} m off");
+}

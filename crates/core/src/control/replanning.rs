@@ -371,6 +371,11 @@ impl<C: Controller> Replanning<C> {
         &self.inner
     }
 
+    /// The persistent planner the re-plans run on (its swing time, mesh and current solution).
+    pub fn planner(&self) -> &SwingPlanner {
+        &self.planner
+    }
+
     /// The settings in use.
     pub fn settings(&self) -> &ReplanSettings {
         &self.settings
