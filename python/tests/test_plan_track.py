@@ -71,6 +71,18 @@ def test_plan_function_equals_scenario_plan(tracking_plan, scenario, robot):
     assert p.iterations == tracking_plan.iterations
 
 
+def test_free_swing_time_is_optimised_within_its_range(robot):
+    task = {"q0": [-2.35, 0.0, -1.55, 0.0], "target": [0.8, 0.0]}
+    # the optimum lies above 2.2 s on this swing: T ends on the range's top
+    p = brachia.plan(robot, task, free_swing_time=[2.0, 2.2])
+    assert p.converged, p.status
+    assert abs(p.swing_time - 2.2) < 1e-6
+    assert abs(p.t[-1] - p.swing_time) < 1e-9
+    assert p.report["swing_time_s"] == p.swing_time
+    with pytest.raises(brachia.BrachiaError, match="free_swing_time"):
+        brachia.plan(robot, task, free_swing_time=[3.0, 1.0])
+
+
 def test_plan_not_converged_is_a_status(robot):
     task = {"q0": [-2.35, 0.0, -1.55, 0.0], "target": [0.8, 0.0]}
     p = brachia.plan(robot, task, solver={"max_iter": 2})
