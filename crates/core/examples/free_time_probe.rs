@@ -50,9 +50,13 @@ fn main() -> brachia::Result<()> {
             p.replay_ee_error_m
         )
     };
+    let third = (hi - lo) / 3.0;
     for start in [
         SwingTime::default(),
+        SwingTime::Seconds(lo + 0.5 * third),
+        SwingTime::Seconds(lo + 1.5 * third),
         SwingTime::Seconds(3.0),
+        SwingTime::Seconds(lo + 2.5 * third),
         SwingTime::Seconds(3.5),
     ] {
         let p = plan(&robot, &task, &free(start), &nlp)?;

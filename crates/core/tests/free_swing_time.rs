@@ -237,3 +237,68 @@ fn what_is_not_a_range_is_refused_naming_the_field() {
         "{e}"
     );
 }
+
+#[test]
+fn several_starts_keep_the_lowest_local_optimum_and_report_every_start() {
+    // The objective has several local optima in T (docs/planner.md, "Free swing time"): with
+    // swing_time_starts = 4 the plan is the best of the four single-start plans, and its report
+    // carries all four starts' attempts, one adopted.
+    let robot = Robot::paper();
+    let s = PlannerSettings {
+        swing_time_starts: 4,
+        ..settings(Some([1.2, 4.0]))
+    };
+    let multi = plan(&robot, &tracking_task(), &s, &nlp(Backend::Ocp)).unwrap();
+    assert!(multi.converged());
+    assert_eq!(multi.solves.len(), 4);
+    assert_eq!(multi.solves.iter().filter(|a| a.adopted).count(), 1);
+    assert_eq!(
+        multi.iterations,
+        multi.solves.iter().map(|a| a.iterations).sum::<usize>()
+    );
+    // the task's T (2 T_freefall, "auto"), then the centres of three equal parts of the range
+    let starts = [
+        SwingTime::default(),
+        SwingTime::Seconds(1.2 + 2.8 / 6.0),
+        SwingTime::Seconds(1.2 + 2.8 / 2.0),
+        SwingTime::Seconds(1.2 + 2.8 * 5.0 / 6.0),
+    ];
+    let singles: Vec<f64> = starts
+        .iter()
+        .map(|&t0| {
+            let s1 = PlannerSettings {
+                swing_time: t0,
+                ..settings(Some([1.2, 4.0]))
+            };
+            let p = plan(&robot, &tracking_task(), &s1, &nlp(Backend::Ocp)).unwrap();
+            assert!(p.converged(), "from {t0:?}: {:?}", p.status);
+            p.objective
+        })
+        .collect();
+    let best = singles.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        rel(multi.objective, best) < 1e-9,
+        "{} vs {singles:?}",
+        multi.objective
+    );
+    // on this swing the starts find different optima: the first start's is not the best
+    assert!(singles[0] > best * 1.1, "{singles:?}");
+    for (bad, what) in [(0, "1..="), (17, "1..="), (2, "needs free_swing_time")] {
+        let s = PlannerSettings {
+            swing_time_starts: bad,
+            free_swing_time: if what.starts_with("needs") {
+                None
+            } else {
+                Some([1.2, 4.0])
+            },
+            ..settings(None)
+        };
+        let e = plan(&robot, &tracking_task(), &s, &nlp(Backend::Ocp))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("swing_time_starts") && e.contains(what),
+            "{bad}: {e}"
+        );
+    }
+}

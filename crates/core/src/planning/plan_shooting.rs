@@ -12,7 +12,7 @@ use super::planner::{
     SolveAttempt, Violations,
 };
 use super::profile::Clamped;
-use super::settings::{PlannerSettings, Transcription};
+use super::settings::{PlannerSettings, SwingTime, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
 use super::task::{check_task, SwingTask};
 use crate::error::{Error, Result};
@@ -113,6 +113,79 @@ pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
 /// settings and the guess and set the warm-start `mu_init`). Refuses `backend = "ocp"` with a
 /// collocation transcription.
 pub(super) fn plan_shooting(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
+    let starts = swing_time_starts(robot, task, settings)?;
+    if starts.len() <= 1 {
+        return plan_shooting_once(robot, task, settings, nlp, guess);
+    }
+    // a free swing time from several starts: the converged plan of lowest objective, every
+    // start's attempts in its report (labelled with the start, adopted only the chosen one's)
+    let mut plans = Vec::with_capacity(starts.len());
+    for &t0 in &starts {
+        let s = PlannerSettings {
+            swing_time: SwingTime::Seconds(t0),
+            ..settings.clone()
+        };
+        let mut p = plan_shooting_once(robot, task, &s, nlp, guess)?;
+        for a in &mut p.solves {
+            for pass in &mut a.passes {
+                pass.what = format!("{} from T = {t0:.4} s", pass.what);
+            }
+        }
+        plans.push(p);
+    }
+    let best = (0..plans.len())
+        .filter(|&i| plans[i].converged())
+        .min_by(|&a, &b| plans[a].objective.total_cmp(&plans[b].objective))
+        .unwrap_or(0);
+    let mut solves = Vec::new();
+    for (i, p) in plans.iter().enumerate() {
+        for a in &p.solves {
+            solves.push(SolveAttempt {
+                adopted: a.adopted && i == best,
+                ..a.clone()
+            });
+        }
+    }
+    let mut plan = plans.swap_remove(best);
+    plan.iterations = solves.iter().map(|a| a.iterations).sum();
+    plan.attempts = solves.len();
+    plan.solve_time_s = solves.iter().map(|a| a.time_s).sum();
+    plan.time_split = TimeSplit::default();
+    for a in &solves {
+        plan.time_split.add(&a.time_split);
+    }
+    plan.solves = solves;
+    Ok(plan)
+}
+
+/// Where a free swing time's solves start, s: the task's swing time clamped into the range, then
+/// `swing_time_starts - 1` more at the centres of as many equal parts of the range. One start (the
+/// task's swing time) without a free swing time.
+pub(super) fn swing_time_starts(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<Vec<f64>> {
+    let (t, _) = swing_time(robot, task, settings)?;
+    let Some([lo, hi]) = settings.free_swing_time else {
+        return Ok(vec![t]);
+    };
+    let k = settings.swing_time_starts.max(1);
+    let mut v = vec![t.clamp(lo, hi)];
+    for i in 0..k - 1 {
+        v.push(lo + (i as f64 + 0.5) * (hi - lo) / (k - 1) as f64);
+    }
+    Ok(v)
+}
+
+/// One multiple-shooting plan from one start (see [`plan_shooting`]).
+fn plan_shooting_once(
     robot: &Arc<Robot>,
     task: &SwingTask,
     settings: &PlannerSettings,

@@ -62,6 +62,17 @@ pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
 /// a third of the stages of 10 ms knots (docs/interpretations.md, docs/planner.md).
 pub const DEFAULT_KNOT_DT_S: f64 = 0.03;
 
+/// Largest [`PlannerSettings::swing_time_starts`] (each start is a whole plan).
+pub const MAX_SWING_TIME_STARTS: usize = 16;
+
+fn one() -> usize {
+    1
+}
+
+fn is_one(v: &usize) -> bool {
+    *v == 1
+}
+
 /// The swing time T.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -194,6 +205,12 @@ pub struct PlannerSettings {
     /// about `knot_dt`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub free_swing_time: Option<[f64; 2]>,
+    /// Solves of a free swing time from this many starts (1 ..= [`MAX_SWING_TIME_STARTS`]; default
+    /// 1): `swing_time` clamped into the range, then the centres of `starts - 1` equal parts of the
+    /// range; the plan is the converged one of lowest objective (the objective has several local
+    /// optima in T). Only with `free_swing_time`.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub swing_time_starts: usize,
     /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
     /// 1 mm replay bar; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
     /// the number of intervals is `round(T / knot_dt)`.
@@ -226,6 +243,7 @@ impl Default for PlannerSettings {
         PlannerSettings {
             swing_time: SwingTime::default(),
             free_swing_time: None,
+            swing_time_starts: 1,
             knot_dt: DEFAULT_KNOT_DT_S,
             transcription: Transcription::default(),
             q1_diag: vec![],
@@ -298,6 +316,22 @@ impl PlannerSettings {
                 ));
             }
             self.grid(hi, src)?;
+        }
+        if !(1..=MAX_SWING_TIME_STARTS).contains(&self.swing_time_starts) {
+            return Err(Error::invalid(
+                src,
+                "swing_time_starts",
+                self.swing_time_starts,
+                format!("must be in 1..={MAX_SWING_TIME_STARTS}"),
+            ));
+        }
+        if self.swing_time_starts > 1 && self.free_swing_time.is_none() {
+            return Err(Error::invalid(
+                src,
+                "swing_time_starts",
+                self.swing_time_starts,
+                "needs free_swing_time (a fixed swing time has one start)",
+            ));
         }
         pos("bounds.q_rel_max", self.bounds.q_rel_max)?;
         pos("bounds.qd_max", self.bounds.qd_max)?;
