@@ -213,7 +213,8 @@ pub(crate) fn plan_settings_from(
 /// ``task``: dict ``{"q0": (n,), "qd0": (n,) (optional, default at rest), "target": (2,),
 /// "obstacles": [{"center": (2,), "radius": r}, ...] (optional)}`` in rad, rad/s, m.
 /// ``settings`` (dict) and keyword arguments: the fields of a scenario's ``[planner]`` section
-/// (``swing_time`` = ``"auto"`` or seconds, ``knot_dt``, ``transcription``, ``q1_diag``, ``r1_diag``,
+/// (``swing_time`` = ``"auto"`` or seconds, ``free_swing_time`` = ``[min, max]`` to optimise T in that
+/// range, ``knot_dt``, ``transcription``, ``q1_diag``, ``r1_diag``,
 /// ``bounds``, ``obstacle_margin``, ...) and ``solver`` = a dict of ``[solver]`` fields (``backend``,
 /// ``max_iter``, ``tol``, ...); fields left out keep the Rust defaults.
 ///

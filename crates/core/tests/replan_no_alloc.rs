@@ -4,8 +4,8 @@
 //! checkpoint, after the first ones (the solver's filter and rayon's pool grow once). The same for the
 //! owned planner on the 30 ms re-planning mesh (`SwingPlanner`) and for the capture-miss
 //! prediction of `control::Replanning`; and repeated cold solves of the shooting problem with obstacle and
-//! self-collision rows (closed-form clearance derivatives) on one `OcpSolver` allocate nothing after the
-//! first solve. One `#[test]`: the counter is global to the binary.
+//! self-collision rows (closed-form clearance derivatives) on one `OcpSolver`, with a fixed or a free
+//! swing time, allocate nothing after the first solve. One `#[test]`: the counter is global to the binary.
 
 // A global allocator needs `unsafe impl GlobalAlloc`; it only forwards to `System`.
 #![allow(unsafe_code)]
@@ -139,8 +139,9 @@ fn count_owned_allocations() -> (usize, usize) {
 }
 
 /// Allocations of two cold solves, after a first one, of the 30 ms shooting problem with two
-/// obstacles (one near the swing's path, one far) and self-collision, started from a plan's knots.
-fn count_cold_solve_allocations_with_clearances() -> usize {
+/// obstacles (one near the swing's path, one far) and self-collision, started from a plan's knots;
+/// with `free`, the swing time free in [1.8, 2.6] s.
+fn count_cold_solve_allocations_with_clearances(free: bool) -> usize {
     let robot = Robot::paper();
     let (task, s, nlp) = problem(0.03, usize::MAX);
     let p = plan(&robot, &task, &s, &nlp).unwrap();
@@ -176,6 +177,10 @@ fn count_cold_solve_allocations_with_clearances() -> usize {
         if k < k_last {
             ocp.guess_mut().u[k] = p.points.tau(k).to_vec();
         }
+    }
+    if free {
+        ocp = ocp.with_free_swing_time(1.8, 2.6).unwrap();
+        assert_eq!(ocp.dims().stages[0].nx, 9);
     }
     let mut solver = OcpSolver::new(ocp.dims()).unwrap();
     let settings = OcpSettings::default();
@@ -230,9 +235,11 @@ fn warm_replan_does_not_allocate() {
         "{predictions} allocations over 4 miss predictions"
     );
     // cold solves of the shooting problem with clearance rows, on the calling thread
-    let allocs = count_cold_solve_allocations_with_clearances();
-    assert_eq!(
-        allocs, 0,
-        "cold solves with clearances: {allocs} allocations over 2 solves"
-    );
+    for free in [false, true] {
+        let allocs = count_cold_solve_allocations_with_clearances(free);
+        assert_eq!(
+            allocs, 0,
+            "cold solves with clearances (free swing time {free}): {allocs} allocations over 2 solves"
+        );
+    }
 }
