@@ -2,8 +2,8 @@
 //! "Free swing time"). `cargo run --release -p brachia --example free_time_probe [t_min t_max]`.
 
 use brachia::planning::{
-    plan, plan_with_guess, Backend, NlpSettings, PlannerSettings, SwingTask, SwingTime,
-    Transcription,
+    plan, plan_with_guess, Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask,
+    SwingTime, Transcription,
 };
 use brachia::Robot;
 
@@ -84,5 +84,19 @@ fn main() -> brachia::Result<()> {
         Some(&p0.points),
     )?;
     show("free from the fixed auto plan", &p);
+    // the persistent planner: the free solve, then the fixed-T problem at T* from it
+    let s = free(SwingTime::default());
+    let p = plan(&robot, &task, &s, &nlp)?;
+    let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
+    let out = planner.plan_outcome()?;
+    println!(
+        "SwingPlanner: {:?}, T {:.4} s, objective {:.6}, {} iterations ({} of them the free solve), {:.1} ms",
+        out.status,
+        planner.swing_time(),
+        out.objective,
+        out.iterations,
+        p.iterations,
+        out.solve_time_s * 1e3
+    );
     Ok(())
 }

@@ -89,7 +89,7 @@ fn a_free_swing_time_plan_is_the_minimum_over_fixed_swing_times_on_its_mesh() {
     assert!((p.trajectory.t.last().unwrap() - t).abs() < 1e-9);
     let k = p.layout.intervals;
     assert!((p.layout.h * k as f64 - t).abs() < 1e-12);
-    // knots never further apart than knot_dt: K from the range's top
+    // knots at most about knot_dt apart: K from the range's top
     assert_eq!(k, (4.0f64 / 0.03).round() as usize);
     // a local minimum in T: the same objective as the fixed-T plan at T* from it, and a lower one
     // than at T* -+ 0.05 s (the swing has other local optima: from the default guess the fixed-T
@@ -222,20 +222,63 @@ fn what_is_not_a_range_is_refused_naming_the_field() {
         e.contains("free_swing_time") && e.contains("multiple-shooting"),
         "{e}"
     );
-    // the persistent re-planner too, before it builds anything
+    // the persistent planner too, before it builds anything
     let e = SwingPlanner::new(
         Robot::paper(),
         tracking_task(),
-        &settings(Some([1.5, 3.0])),
+        &settings(Some([3.0, 1.5])),
         &nlp(Backend::Ocp),
     )
     .err()
     .expect("refused")
     .to_string();
+    assert!(e.contains("free_swing_time"), "{e}");
+}
+
+#[test]
+fn the_persistent_planner_plans_the_free_swing_time_then_re_plans_at_it() {
+    // (the wide range: from the default guess a cold solve of the fixed-T problem at T* finds
+    // another optimum, so the planner must carry the free solve's state over, not re-solve)
+    let robot = Robot::paper();
+    let s = settings(Some([1.2, 4.0]));
+    let p = plan(&robot, &tracking_task(), &s, &nlp(Backend::Ocp)).unwrap();
+    let mut planner =
+        SwingPlanner::new(robot.clone(), tracking_task(), &s, &nlp(Backend::Ocp)).unwrap();
+    let out = planner.plan_outcome().unwrap();
+    assert!(out.converged(), "{out:?}");
+    // the same free solve as plan(), then the fixed-T problem at that T from its solution
+    assert_eq!(planner.swing_time(), p.swing_time_s);
     assert!(
-        e.contains("free_swing_time") && e.contains("fixed swing time"),
-        "{e}"
+        rel(out.objective, p.objective) < 1e-9,
+        "{} vs {}",
+        out.objective,
+        p.objective
     );
+    let k = planner.intervals();
+    assert_eq!(k, p.layout.intervals);
+    assert!((out.interval_s * k as f64 - p.swing_time_s).abs() < 1e-12);
+    // the fixed-T solve starts exactly at the free solution (its multipliers too): it has nothing
+    // left to do
+    assert_eq!(out.iterations, p.iterations, "the free solve's, plus none");
+    // the plan is the free plan's, to the last digit of the knots
+    let cp = planner.current_plan().unwrap();
+    assert!(cp.converged());
+    assert_eq!(cp.swing_time_s, p.swing_time_s);
+    assert_eq!(cp.points.q(k), p.points.q(k));
+    // a re-plan from the plan's own state at 0.6 s keeps T*: its interval is (T* - 0.6) / K
+    let j = (0..=k)
+        .min_by(|&a, &b| {
+            let d = |i: usize| (planner.knot_time(i) - 0.6).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let t_now = planner.knot_time(j);
+    let mut x = planner.knots().x[j].clone();
+    x[1] += 0.02;
+    let r = planner.replan(t_now, &x).unwrap();
+    assert!(r.converged() && r.ee_error_m < 1e-6, "{r:?}");
+    assert!((r.interval_s * k as f64 - (p.swing_time_s - t_now)).abs() < 1e-12);
+    assert_eq!(planner.swing_time(), p.swing_time_s);
 }
 
 #[test]
@@ -301,4 +344,80 @@ fn several_starts_keep_the_lowest_local_optimum_and_report_every_start() {
             "{bad}: {e}"
         );
     }
+}
+
+#[test]
+fn starts_that_all_fail_return_the_first_with_every_attempt() {
+    let robot = Robot::paper();
+    let s = PlannerSettings {
+        swing_time_starts: 3,
+        ..settings(Some([1.5, 3.0]))
+    };
+    let few = NlpSettings {
+        max_iter: 2,
+        ..nlp(Backend::Ocp)
+    };
+    let p = plan(&robot, &tracking_task(), &s, &few).unwrap();
+    assert!(!p.converged(), "{:?}", p.status);
+    assert_eq!(p.solves.len(), 3);
+    assert!(p.solves[0].adopted && !p.solves[1].adopted && !p.solves[2].adopted);
+    assert!(
+        p.solves[0].passes[0].what.contains("from T = 2.2298"),
+        "{:?}",
+        p.solves[0].passes
+    );
+    // the task's free-fall time is kept though every start ran with its T in seconds
+    assert!(p.freefall_time_s.is_some());
+    assert_eq!(p.iterations, 6);
+}
+
+#[test]
+fn a_free_swing_time_plans_around_an_obstacle() {
+    // Section V-C's obstacle (radius 0.1 m at (0.55, -0.2), target (0.5, 0)) with T free in
+    // [1.8, 2.6] s: converged, every link clear of it, the replay at the bar.
+    let robot = Robot::paper();
+    let task = SwingTask {
+        q0: vec![-2.35, 0.0, -1.55, 0.0],
+        qd0: vec![],
+        target: [0.5, 0.0],
+        obstacles: vec![brachia::model::Circle {
+            center: [0.55, -0.2],
+            radius: 0.1,
+        }],
+    };
+    let p = plan(
+        &robot,
+        &task,
+        &settings(Some([1.8, 2.6])),
+        &nlp(Backend::Ocp),
+    )
+    .unwrap();
+    assert!(p.converged(), "{:?}", p.status);
+    assert!((1.8..=2.6).contains(&p.swing_time_s));
+    assert!(
+        p.min_obstacle_clearance_m.unwrap() > 0.0,
+        "{:?}",
+        p.min_obstacle_clearance_m
+    );
+    assert!(p.replay_ee_error_m < 1e-3, "{}", p.replay_ee_error_m);
+}
+
+#[test]
+fn a_joint_multi_swing_plan_refuses_a_free_swing_time() {
+    let task = brachia::planning::JointSwingTask {
+        x0: [tracking_task().q0, vec![0.0; 4]].concat(),
+        bars: vec![[0.0, 0.0], [0.8, 0.0], [1.6, 0.0]],
+        obstacles: vec![],
+        rest_at_switches: false,
+    };
+    let e = match brachia::planning::plan_joint_swings(
+        &Robot::paper(),
+        &task,
+        &settings(Some([1.5, 3.0])),
+        &nlp(Backend::Ocp),
+    ) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("a joint plan with a free swing time was accepted"),
+    };
+    assert!(e.contains("free_swing_time") && e.contains("joint"), "{e}");
 }

@@ -264,6 +264,8 @@ fn a_free_swing_time_plan_is_re_planned_at_its_own_swing_time() {
         transcription: Transcription::MultipleShooting,
         knot_dt: 0.03,
         free_swing_time: Some([2.0, 2.4]),
+        // (the starts are the plan's business: the re-planner plans at one T)
+        swing_time_starts: 2,
         ..Default::default()
     };
     let nlp = NlpSettings {

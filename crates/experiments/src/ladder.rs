@@ -556,6 +556,8 @@ impl LadderScenario {
             ),
             other => rename(other, "planner"),
         })?;
+        // a free swing time can end at its range's top: the grid and the run are sized by it
+        let t = sc.planner.longest_swing_time(t);
         sc.planner.grid(t, &src).map_err(|e| rename(e, "planner"))?;
         let ls = LoadedScenario {
             scenario: first,

@@ -305,6 +305,16 @@ pub enum OcpError {
         /// Slacks of this solver.
         solver_slacks: usize,
     },
+    /// [`crate::OcpSolver::warm_state_without_state`] asked for a component it cannot remove.
+    #[error("state component {component} at stage {stage} cannot be removed: {reason}")]
+    StateComponent {
+        /// The component asked for.
+        component: usize,
+        /// The first stage where it cannot be removed.
+        stage: usize,
+        /// Why.
+        reason: &'static str,
+    },
     /// A setting out of its range.
     #[error("setting {field} = {value}: {reason}")]
     InvalidSetting {

@@ -589,6 +589,61 @@ impl OcpSolver {
         }
     }
 
+    /// [`OcpSolver::warm_state`] for the same problem with state component `i` removed from every
+    /// stage: a parameter carried as a constant state (e.g. a free final time) once it is fixed.
+    /// The component's bound duals and the dynamics multipliers of its rows are dropped; the
+    /// slacks, the stage-row and terminal multipliers and the equality-row penalty are kept. So a
+    /// solver of the reduced problem, given this state and the primal without the component, starts
+    /// at the same point. Allocates. Errors if some stage has no component `i`, if the reduced stage
+    /// would have no state, or if the component is an equality row (`lo == hi` after stage 0) in the
+    /// last solve (its rows would remain in the Schur complement).
+    pub fn warm_state_without_state(&self, i: usize) -> Result<WarmState, OcpError> {
+        let lay = &self.lay;
+        for k in 0..=lay.kk {
+            if i >= lay.nx[k] || lay.nx[k] == 1 {
+                return Err(OcpError::StateComponent {
+                    component: i,
+                    stage: k,
+                    reason: "not a state component of this stage, or its only one",
+                });
+            }
+            if self.kind[lay.oz[k] + i] == Kind::FixedRow {
+                return Err(OcpError::StateComponent {
+                    component: i,
+                    stage: k,
+                    reason: "fixed (an equality row of the last solve)",
+                });
+            }
+        }
+        let drop_z = |v: &[f64]| -> Vec<f64> {
+            (0..=lay.kk)
+                .flat_map(|k| {
+                    let blk = &v[lay.oz[k]..lay.oz[k + 1]];
+                    blk.iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != i)
+                        .map(|(_, &x)| x)
+                })
+                .collect()
+        };
+        let mut mult = self.mult.clone();
+        for lam in mult.lam.iter_mut().filter(|l| l.len() > i) {
+            lam.remove(i);
+        }
+        Ok(WarmState {
+            s: self.s.clone(),
+            zl: drop_z(&self.zl),
+            zu: drop_z(&self.zu),
+            vl: self.vl.clone(),
+            vu: self.vu.clone(),
+            eta: self.eta.clone(),
+            eta_rows: self.eta_rows,
+            mult,
+            rho_eq_last: self.rho_eq_last,
+            has_iterate: self.has_iterate,
+        })
+    }
+
     /// Puts back a state read by [`OcpSolver::warm_state`] of a solver of the same dimensions
     /// (the primal goes back through [`OcpSolver::primal_mut`]). No allocation. Errors (and
     /// changes nothing) if the sizes differ.

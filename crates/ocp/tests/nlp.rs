@@ -517,6 +517,78 @@ fn free_final_time_as_a_free_initial_state_matches_a_one_dimensional_search() {
 }
 
 #[test]
+fn a_warm_state_without_the_free_time_restarts_the_fixed_time_problem_at_its_solution() {
+    // Solve for T, then hand the solution to the problem with T fixed at T* and removed from the
+    // state: with the reduced warm state (stored duals) it is already solved, at the closed-form
+    // minimum energy for that time.
+    let (kk, w) = (40, 0.5);
+    let mut free = FreeTime::new(kk, w);
+    let mut solver = OcpSolver::new(&free.dims).unwrap();
+    let stats = solver.solve(&mut free, &OcpSettings::default());
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let t_star = solver.primal().x[0][2];
+    let ws = solver.warm_state_without_state(2).unwrap();
+    let mut fixed = FixedTime::new(kk, t_star);
+    let mut fs = OcpSolver::new(&fixed.dims).unwrap();
+    // the unreduced state does not fit
+    assert!(matches!(
+        fs.set_warm_state(&solver.warm_state()),
+        Err(OcpError::WarmStateMismatch { .. })
+    ));
+    fs.set_warm_state(&ws).unwrap();
+    // stage by stage the bound duals of [p, v, u]: the free problem's without those of T
+    for k in 0..=kk {
+        let drop2 = |v: &[f64]| -> Vec<f64> {
+            v.iter()
+                .enumerate()
+                .filter(|&(j, _)| j != 2)
+                .map(|(_, &x)| x)
+                .collect()
+        };
+        let (a, b) = (solver.bound_duals(k), fs.bound_duals(k));
+        assert_eq!(drop2(a.0), b.0, "stage {k} lower");
+        assert_eq!(drop2(a.1), b.1, "stage {k} upper");
+    }
+    let z = solver.primal().clone();
+    for (d, s) in fs.primal_mut().x.iter_mut().zip(&z.x) {
+        d.copy_from_slice(&s[..2]);
+    }
+    for (d, s) in fs.primal_mut().u.iter_mut().zip(&z.u) {
+        d.copy_from_slice(s);
+    }
+    let warm = OcpSettings {
+        warm_start: true,
+        warm_duals: WarmDuals::Stored,
+        warm_bound_push: 1e-9,
+        mu_init: stats.final_mu,
+        ..OcpSettings::default()
+    };
+    let st = fs.solve(&mut fixed, &warm);
+    assert_eq!(st.status, OcpStatus::Solved, "{st:?}");
+    assert!(st.iterations <= 1, "{st:?}");
+    let e = min_energy_for_time(kk, t_star);
+    assert!((st.objective - e).abs() < 1e-9, "{} vs {e}", st.objective);
+    assert!((stats.objective - w * t_star - e).abs() < 1e-9);
+    // and the dynamics multipliers of p and v are the free problem's
+    for k in 0..kk {
+        for i in 0..2 {
+            let (a, b) = (solver.multipliers().lam[k][i], fs.multipliers().lam[k][i]);
+            assert!(
+                (a - b).abs() <= 1e-8 * a.abs().max(1.0),
+                "lam[{k}][{i}]: {a} vs {b}"
+            );
+        }
+    }
+    // components that cannot be removed
+    for i in [3, 7] {
+        assert!(matches!(
+            solver.warm_state_without_state(i),
+            Err(OcpError::StateComponent { component, .. }) if component == i
+        ));
+    }
+}
+
+#[test]
 fn free_time_lagrangian_hessian_matches_central_differences() {
     let mut p = FreeTime::new(3, 0.5);
     let dims = p.dims.clone();

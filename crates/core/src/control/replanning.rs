@@ -315,15 +315,16 @@ impl<C: Controller> Replanning<C> {
         settings.validate("replanning")?;
         let reference: Arc<Trajectory> = reference.into();
         // a free swing time was resolved by the plan tracked: the re-plans keep its T
-        let swing_time = match (planner.free_swing_time, reference.t.last()) {
-            (Some(_), Some(&t_end)) => SwingTime::Seconds(t_end),
-            _ => planner.swing_time,
+        let swing_time = match planner.free_swing_time {
+            Some(_) => SwingTime::Seconds(reference.duration()),
+            None => planner.swing_time,
         };
         let ps = PlannerSettings {
             transcription: Transcription::MultipleShooting,
             knot_dt: settings.knot_dt_s,
             swing_time,
             free_swing_time: None,
+            swing_time_starts: 1,
             ..planner.clone()
         };
         let nlp = NlpSettings {

@@ -92,9 +92,18 @@ impl MultiSwingOcp {
     /// `shifts[i]` the constant of `q'_1` at the switch after phase i (`phases.len() - 1` values,
     /// pi plus a multiple of 2 pi). The initial guess is the phases' guesses with each boundary state
     /// `[x_K; 0]`. Errors on no phase, more than [`MAX_JOINT_SWINGS`], phases of different link
-    /// counts, a wrong number of shifts or a non-finite one.
+    /// counts, a phase with a free swing time ([`SwingOcp::with_free_swing_time`]: the joint
+    /// problem's states are `[q, qd]`), a wrong number of shifts or a non-finite one.
     pub fn new(phases: Vec<SwingOcp>, shifts: &[f64]) -> Result<Self> {
         let count = phases.len();
+        if let Some(i) = phases.iter().position(|p| p.free_swing_time().is_some()) {
+            return Err(Error::invalid(
+                "<joint swings>",
+                "phases",
+                format!("phase {i} with a free swing time"),
+                "a joint multi-swing problem has fixed swing times",
+            ));
+        }
         if count == 0 || count > MAX_JOINT_SWINGS {
             return Err(Error::invalid(
                 "<joint swings>",

@@ -123,8 +123,9 @@ pub(super) fn plan_shooting(
     if starts.len() <= 1 {
         return plan_shooting_once(robot, task, settings, nlp, guess);
     }
-    // a free swing time from several starts: the converged plan of lowest objective, every
-    // start's attempts in its report (labelled with the start, adopted only the chosen one's)
+    // a free swing time from several starts: the converged plan of lowest objective (the first
+    // start's if none converged), every start's attempts and times in its report (labelled with
+    // the start, adopted only the chosen one's)
     let mut plans = Vec::with_capacity(starts.len());
     for &t0 in &starts {
         let s = PlannerSettings {
@@ -152,7 +153,19 @@ pub(super) fn plan_shooting(
             });
         }
     }
+    let mut callback_timings = CallbackTimings::default();
+    for p in &plans {
+        let c = &p.callback_timings;
+        callback_timings.objective_s += c.objective_s;
+        callback_timings.constraints_s += c.constraints_s;
+        callback_timings.jacobian_s += c.jacobian_s;
+        callback_timings.hessian_s += c.hessian_s;
+        callback_timings.hessian_calls += c.hessian_calls;
+    }
     let mut plan = plans.swap_remove(best);
+    plan.callback_timings = callback_timings;
+    // the task's free-fall time, not the start's (each start ran with its T in seconds)
+    plan.freefall_time_s = swing_time(robot, task, settings)?.1;
     plan.iterations = solves.iter().map(|a| a.iterations).sum();
     plan.attempts = solves.len();
     plan.solve_time_s = solves.iter().map(|a| a.time_s).sum();
@@ -173,11 +186,12 @@ pub(super) fn swing_time_starts(
     settings: &PlannerSettings,
 ) -> Result<Vec<f64>> {
     let (t, _) = swing_time(robot, task, settings)?;
-    let Some([lo, hi]) = settings.free_swing_time else {
-        return Ok(vec![t]);
-    };
+    let t0 = settings.start_swing_time(t);
     let k = settings.swing_time_starts.max(1);
-    let mut v = vec![t.clamp(lo, hi)];
+    let Some([lo, hi]) = settings.free_swing_time.filter(|[lo, hi]| lo < hi && k > 1) else {
+        return Ok(vec![t0]);
+    };
+    let mut v = vec![t0];
     for i in 0..k - 1 {
         v.push(lo + (i as f64 + 0.5) * (hi - lo) / (k - 1) as f64);
     }
@@ -238,8 +252,8 @@ fn plan_shooting_once(
         // the plan at the optimal T: the same knots in the fixed-T layout
         // (a solve that never started leaves a point without a valid T: keep the start's)
         let t = ocp.swing_time_of(&z);
-        if t.is_finite() && t > 0.0 {
-            t_final = t;
+        if let (true, Some([lo, hi])) = (t.is_finite(), ocp.free_swing_time()) {
+            t_final = t.clamp(lo, hi);
         }
         ocp = ocp.with_fixed_swing_time(t_final)?;
         z = ocp.strip_swing_time(&z);
@@ -312,17 +326,11 @@ pub(super) fn setup_shooting(
     let qd0 = check_task(robot, task, settings)?;
     let (t_final, freefall) = swing_time(robot, task, settings)?;
     // a free swing time starts from the task's T clamped into its range
-    let t_final = match settings.free_swing_time {
-        Some([lo, hi]) => t_final.clamp(lo, hi),
-        None => t_final,
-    };
+    let t_final = settings.start_swing_time(t_final);
     // the interval count follows from input: checked against brachia::limits before any allocation
-    // (with a free swing time, from its largest value: the knots are never further apart than
-    // knot_dt, whatever T the plan ends at)
-    let intervals = settings.grid(
-        settings.free_swing_time.map_or(t_final, |[_, hi]| hi),
-        "planner",
-    )?;
+    // (with a free swing time, from its largest value: the knots are at most about knot_dt apart,
+    // whatever T the plan ends at)
+    let intervals = settings.grid(settings.longest_swing_time(t_final), "planner")?;
     let layout = Layout::new(
         n,
         n - 1,

@@ -199,8 +199,8 @@ pub struct PlannerSettings {
     pub swing_time: SwingTime,
     /// A free swing time `[t_min, t_max]`, s: T becomes a decision variable of the plan in that range,
     /// starting from `swing_time` clamped into it; the plan's `swing_time_s` is the optimum. Needs the
-    /// multiple-shooting transcription; single plans only (not the persistent re-planner or a
-    /// multi-swing plan). Default none: T is `swing_time`. The number of intervals K is
+    /// multiple-shooting transcription; plans and the persistent planner (whose re-plans keep the
+    /// plan's T), not a joint multi-swing plan. Default none: T is `swing_time`. The number of intervals K is
     /// `round(t_max / knot_dt)` and stays fixed, so the plan's knot spacing `T / K` is at most
     /// about `knot_dt`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -208,7 +208,8 @@ pub struct PlannerSettings {
     /// Solves of a free swing time from this many starts (1 ..= [`MAX_SWING_TIME_STARTS`]; default
     /// 1): `swing_time` clamped into the range, then the centres of `starts - 1` equal parts of the
     /// range; the plan is the converged one of lowest objective (the objective has several local
-    /// optima in T). Only with `free_swing_time`.
+    /// optima in T), or the first start's if none converged. Only with `free_swing_time`; a range
+    /// of one value has one start.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub swing_time_starts: usize,
     /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
@@ -409,6 +410,18 @@ impl PlannerSettings {
             }
         }
         Ok(())
+    }
+
+    /// Where a plan of swing time `t` (s, `swing_time` resolved) starts: `t` clamped into
+    /// `free_swing_time`, or `t` itself.
+    pub fn start_swing_time(&self, t: f64) -> f64 {
+        self.free_swing_time.map_or(t, |[lo, hi]| t.clamp(lo, hi))
+    }
+
+    /// The longest swing a plan of swing time `t` (s, `swing_time` resolved) can end with: the top of
+    /// `free_swing_time`, or `t` itself. The grid ([`Self::grid`]) and a run's length are sized by it.
+    pub fn longest_swing_time(&self, t: f64) -> f64 {
+        self.free_swing_time.map_or(t, |[_, hi]| hi)
     }
 
     /// An error naming `free_swing_time` when it is set, for a planner (`what`) that plans at a fixed

@@ -15,6 +15,10 @@
 //! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
 //!   [`Bounds`]; torques from the robot's limits.
 //! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
+//! - **Free swing time** (optional, [`SwingOcp::with_free_swing_time`]): `x_k = [q_k, qd_k, T_k]`,
+//!   `T_{k+1} = T_k`, T bounded by `[t_min, t_max]` at every stage and not fixed at stage 0; stage k
+//!   integrates over `h_k = T_k / K` and its cost is that quadrature's; stage variables
+//!   `[q, qd, T, u]`.
 //!
 //! ## Derivatives (exact; derivation in docs/planner.md)
 //! The forward pass of `Phi` carries, through every RK4 evaluation `i`, the sensitivity `S_i = d y_i / d z_k`
@@ -180,6 +184,11 @@ pub struct ShootingTimings {
     pub hessian_calls: usize,
 }
 
+/// The classical RK4 tableau: the nodes `c_j` (evaluation j's input is `x + c_j s k_{j-1}` for a
+/// step s) and the weights times 6, `b_j` (`x+ = x + s/6 sum_j b_j k_j`).
+const RK4_C: [f64; 4] = [0.0, 0.5, 0.5, 1.0];
+const RK4_B6: [f64; 4] = [1.0, 2.0, 2.0, 1.0];
+
 /// Immutable data shared by the stages (read from every rayon worker).
 struct Ctx {
     n: usize,
@@ -212,8 +221,8 @@ impl Ctx {
     /// time, `h` otherwise.
     fn stage_h(&self, x: &[f64]) -> f64 {
         match self.free {
-            Some(_) if x.len() > self.nx => x[self.nx] / self.horizon as f64,
-            _ => self.h,
+            Some(_) => x[self.nx] / self.horizon as f64,
+            None => self.h,
         }
     }
 
@@ -343,10 +352,10 @@ impl<D: PointDynamics> StageWork<D> {
         let (n, nx, nz) = (ctx.n, ctx.nx, ctx.nz);
         let m = ctx.substeps as f64;
         let hs = h / m;
-        let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
-        let dcoef = [0.0, 0.5 / m, 0.5 / m, 1.0 / m];
+        let coef = RK4_C.map(|c| c * hs);
+        let dcoef = RK4_C.map(|c| c / m);
         let (c6, dc6) = (hs / 6.0, 1.0 / (6.0 * m));
-        let bw = [1.0, 2.0, 2.0, 1.0];
+        let bw = RK4_B6;
         // stage derivative k_i = [qd part of y_i, qdd_i]
         let kval = |y: &[f64], qdds: &[f64], i: usize, a: usize| {
             if a < n {
@@ -407,7 +416,7 @@ impl<D: PointDynamics> StageWork<D> {
         let (ya, jqa) = (&mut self.y[..ne * nz], &mut self.jq[..ne * n * nz]);
         let sensa = &mut self.sens[..ne * nz * nz];
         let hs = h / ctx.substeps as f64;
-        let coef = [0.0, 0.5 * hs, 0.5 * hs, hs];
+        let coef = RK4_C.map(|c| c * hs);
         xs.copy_from_slice(x);
         if jac {
             xsens.fill(0.0);
@@ -693,7 +702,7 @@ impl<D: PointDynamics> StageWork<D> {
                 // Reverse sweep through the four evaluations of sub-step s (j = 3, 2, 1, 0):
                 // w_j = b_j hs abar + a_{j+1} hs g_{j+1}, g_j = F_x(y_j)^T w_j.
                 let b = [hs / 6.0, hs / 3.0, hs / 3.0, hs / 6.0];
-                let a_next = [0.5 * hs, 0.5 * hs, hs];
+                let a_next = [RK4_C[1] * hs, RK4_C[2] * hs, RK4_C[3] * hs];
                 for j in (0..4).rev() {
                     for e in 0..nx {
                         let mut v = b[j] * self.abar[e];
@@ -1140,12 +1149,13 @@ impl<D: PointDynamics> SwingOcp<D> {
         &mut self.guess
     }
 
-    /// Shooting interval h = T / K, s.
+    /// Shooting interval h = T / K, s (with a free swing time, the start's).
     pub fn interval(&self) -> f64 {
         self.ctx.h
     }
 
-    /// Swing time T = K h, s.
+    /// Swing time T = K h, s (with a free swing time, the start's: a point's own is
+    /// [`Self::swing_time_of`]).
     pub fn swing_time(&self) -> f64 {
         self.ctx.h * self.ctx.horizon as f64
     }
@@ -1184,8 +1194,17 @@ impl<D: PointDynamics> SwingOcp<D> {
     }
 
     /// Set the swing time T in place, keeping K: the interval becomes h = T / K (the recorded
-    /// forward passes are dropped). Errors on a time that is not finite and positive.
+    /// forward passes are dropped). Errors on a time that is not finite and positive, and with a
+    /// free swing time (T is then each point's own; see [`Self::with_fixed_swing_time`]).
     pub fn set_swing_time(&mut self, t: f64) -> Result<()> {
+        if self.ctx.free.is_some() {
+            return Err(Error::invalid(
+                "<shooting>",
+                "swing_time_s",
+                t,
+                "the swing time is free (a decision variable): fix it with with_fixed_swing_time",
+            ));
+        }
         if !(t.is_finite() && t > 0.0) {
             return Err(Error::invalid(
                 "<shooting>",
@@ -1204,7 +1223,8 @@ impl<D: PointDynamics> SwingOcp<D> {
     /// Make the swing time a decision variable in `[t_min, t_max]` (s): every state gets T as its
     /// last component (`x_k = [q, qd, T]`, `2n + 1` values, carried unchanged from stage to stage by
     /// the dynamics; stage k's interval is `T_k / K`, so all stages share one T at any feasible
-    /// point), bounded by `[t_min, t_max]` at every stage and free at stage 0. The cost (a quadrature
+    /// point), bounded by `[t_min, t_max]` at every stage (and, unlike q and qd, not fixed at stage
+    /// 0: a decision variable). The cost (a quadrature
     /// in time) and the flow then depend on T, the clearance and terminal rows do not. The guess
     /// keeps its knots and takes the current swing time clamped into the range as its T. K is
     /// unchanged. Errors on a range that is not `0 < t_min <= t_max < inf`. Fixes the problem's
@@ -1213,7 +1233,7 @@ impl<D: PointDynamics> SwingOcp<D> {
         if !(t_min.is_finite() && t_max.is_finite() && t_min > 0.0 && t_min <= t_max) {
             return Err(Error::invalid(
                 "<shooting>",
-                "free swing time",
+                "free_swing_time",
                 format!("[{t_min}, {t_max}]"),
                 "must be 0 < min <= max, finite",
             ));
@@ -1244,8 +1264,9 @@ impl<D: PointDynamics> SwingOcp<D> {
     /// drops its T; the interval becomes `t / K`). Errors on a time that is not finite and positive.
     pub fn with_fixed_swing_time(mut self, t: f64) -> Result<Self> {
         let nx = self.ctx.nx;
+        let free = self.ctx.free.take();
         self.set_swing_time(t)?;
-        if self.ctx.free.take().is_some() {
+        if free.is_some() {
             for s in &mut self.dims.stages {
                 s.nx = nx;
             }
@@ -1338,20 +1359,28 @@ impl<D: PointDynamics> SwingOcp<D> {
     }
 
     /// The flow of stage `k < K` over the current interval, `x_{k+1} = Phi(x, u)` (the dynamics row
-    /// of [`OcpProblem::evaluate`], values only), into `out` (2n). Uses stage k's scratch (no
-    /// allocation; the recorded forward pass of the Hessian stays valid). Panics on `k >= K` or
-    /// wrong sizes.
+    /// of [`OcpProblem::evaluate`], values only), into `out`; `x` and `out` in the problem's layout
+    /// (2n, or 2n + 1 with a free swing time: then over `x`'s own T, carried into `out`). Uses
+    /// stage k's scratch (no allocation; the recorded forward pass of the Hessian stays valid).
+    /// Panics on `k >= K` or wrong sizes.
     pub fn flow(&mut self, k: usize, x: &[f64], u: &[f64], out: &mut [f64]) {
         assert!(
             k < self.ctx.horizon,
             "flow of stage {k}: the last is {}",
             self.ctx.horizon - 1
         );
+        let nxp = self.ctx.nx_problem();
+        assert!(
+            x.len() == nxp && out.len() == nxp,
+            "flow: x and out need {nxp} values, got {} and {}",
+            x.len(),
+            out.len()
+        );
         let h = self.ctx.stage_h(x);
         let w = &mut self.work[k];
         w.forward(&self.ctx, x, u, false, h);
         out[..self.ctx.nx].copy_from_slice(&w.xs);
-        if out.len() > self.ctx.nx {
+        if self.ctx.free.is_some() {
             out[self.ctx.nx] = x[self.ctx.nx];
         }
     }

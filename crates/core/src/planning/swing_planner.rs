@@ -187,6 +187,16 @@ pub struct SwingPlanner {
     roll: RolloutScratch,
     /// The last solve; `None` before the first.
     last: Option<Last>,
+    /// With a free swing time: the problem with T free and its solver, for the cold plan.
+    free: Option<Box<FreePlan>>,
+}
+
+/// The cold plan's problem with a free swing time ([`PlannerSettings::free_swing_time`]) and its
+/// own solver: [`SwingPlanner::plan`] solves it for T, then the fixed-T problem at that T from its
+/// solution, so that re-plans shift from a fixed-T solution and its solver state.
+struct FreePlan {
+    ocp: SwingOcp,
+    solver: OcpSolver,
 }
 
 impl SwingPlanner {
@@ -221,16 +231,28 @@ impl SwingPlanner {
         };
         settings.validate(robot.n, "planner")?;
         nlp.validate()?;
-        settings.refuse_free_swing_time("planner", "the persistent re-planner (SwingPlanner)")?;
         let ShootingSetup {
             ocp,
             layout,
             t_final,
             freefall,
         } = setup_shooting(&robot, &task, &settings, guess)?;
-        let solver = OcpSolver::new(ocp.dims()).map_err(|e| {
-            Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
-        })?;
+        let solver_for = |ocp: &SwingOcp| {
+            OcpSolver::new(ocp.dims()).map_err(|e| {
+                Error::invalid("ocp solver", "problem dimensions", e.to_string(), "refused")
+            })
+        };
+        let solver = solver_for(&ocp)?;
+        let free = match settings.free_swing_time.filter(|[lo, hi]| lo < hi) {
+            Some([lo, hi]) => {
+                let ocp = setup_shooting(&robot, &task, &settings, guess)?
+                    .ocp
+                    .with_free_swing_time(lo, hi)?;
+                let solver = solver_for(&ocp)?;
+                Some(Box::new(FreePlan { ocp, solver }))
+            }
+            None => None,
+        };
         let cold = ocp_settings(nlp);
         // the stored bound duals (the equality multipliers re-estimated at the moved start), a
         // small barrier parameter and bound push, the adaptive barrier update: the fewest
@@ -287,6 +309,7 @@ impl SwingPlanner {
             t0: 0.0,
             x_full,
             last: None,
+            free,
         })
     }
 
@@ -399,15 +422,83 @@ impl SwingPlanner {
         self.current_plan()
     }
 
-    /// [`SwingPlanner::plan`] without building the [`Plan`].
+    /// [`SwingPlanner::plan`] without building the [`Plan`]. With a free swing time
+    /// ([`PlannerSettings::free_swing_time`]) the plan first solves for T, then re-solves the
+    /// fixed-T problem at that T from that solution (the outcome counts the iterations and time of
+    /// both); [`SwingPlanner::swing_time`] is then the optimum and re-plans keep it. If the free
+    /// solve does not converge, its outcome is returned and the planner keeps its swing time.
     pub fn plan_outcome(&mut self) -> Result<ReplanOutcome> {
         self.ocp.set_start(&self.x_full)?;
         self.ocp.set_knot_bounds(&self.settings.bounds);
-        self.ocp.set_swing_time(self.t_final)?;
         self.t0 = 0.0;
+        if self.free.is_some() {
+            return self.plan_free_swing_time();
+        }
+        self.ocp.set_swing_time(self.t_final)?;
         self.ocp.guess_mut().copy_from(&self.guess);
         let out = self.solve(false);
         self.adopt(&out);
+        Ok(out)
+    }
+
+    /// [`SwingPlanner::plan_outcome`] with a free swing time: the free problem cold, then the
+    /// fixed-T problem at its T started exactly at its solution (the primal without T, the
+    /// solver state by [`OcpSolver::warm_state_without_state`], stored duals): so the plan is the
+    /// free plan's, and re-plans shift from a fixed-T solution with its multipliers.
+    fn plan_free_swing_time(&mut self) -> Result<ReplanOutcome> {
+        let f = self.free.as_mut().expect("a free swing time");
+        f.ocp.set_start(&self.x_full)?;
+        f.ocp.set_knot_bounds(&self.settings.bounds);
+        let first = f.solver.solve(&mut f.ocp, &self.cold);
+        let z = f.solver.primal();
+        let t_star = f.ocp.swing_time_of(z);
+        if !first.status.is_converged() {
+            let h = t_star / self.layout.intervals as f64;
+            let out = outcome_of(&self.robot, self.ocp.target(), 0.0, &first, z, h);
+            self.last = None;
+            return Ok(out);
+        }
+        let nx = 2 * self.robot.n;
+        let ws = f.solver.warm_state_without_state(nx).map_err(|e| {
+            Error::invalid("ocp solver", "free swing time", e.to_string(), "refused")
+        })?;
+        self.solver.set_warm_state(&ws).map_err(|e| {
+            Error::invalid("ocp solver", "free swing time", e.to_string(), "refused")
+        })?;
+        let dst = self.solver.primal_mut();
+        for (d, src) in dst.x.iter_mut().zip(&z.x) {
+            d.copy_from_slice(&src[..nx]);
+        }
+        for (d, src) in dst.u.iter_mut().zip(&z.u) {
+            d.copy_from_slice(src);
+        }
+        self.t_final = t_star;
+        self.ocp.set_swing_time(t_star)?;
+        let fix = OcpSettings {
+            warm_duals: WarmDuals::Stored,
+            ..self.warm.clone()
+        };
+        let stats = self.solver.solve(&mut self.ocp, &fix);
+        let mut out = self.record(stats, true);
+        out.iterations += first.iterations;
+        out.solve_time_s += first.time.total_s;
+        self.adopt(&out);
+        if out.converged()
+            && self
+                .last
+                .as_ref()
+                .is_some_and(|l| l.stats.factorizations == 0)
+        {
+            // no factorisation of the fixed problem yet: the free plan's gains without the T column
+            let f = self.free.as_ref().expect("a free swing time");
+            for (k, d) in self.prev.gains.iter_mut().enumerate() {
+                let g = f.solver.feedback_gain(k);
+                let nu = self.prev.z.u[k].len();
+                for r in 0..nu {
+                    d[r * nx..(r + 1) * nx].copy_from_slice(&g[r * (nx + 1)..r * (nx + 1) + nx]);
+                }
+            }
+        }
         Ok(out)
     }
 
@@ -619,27 +710,31 @@ impl SwingPlanner {
     fn solve(&mut self, warm: bool) -> ReplanOutcome {
         let st = if warm { &self.warm } else { &self.cold };
         let stats = self.solver.solve(&mut self.ocp, st);
-        let status = status_of(&stats.status);
-        let n = self.robot.n;
-        let k_last = self.layout.intervals;
-        let ee = self.robot.ee_position(&self.solver.primal().x[k_last][..n]);
-        let tg = self.ocp.target();
-        let out = ReplanOutcome {
-            status,
-            iterations: stats.iterations,
-            solve_time_s: stats.time.total_s,
-            objective: stats.objective,
-            t_start: self.t0,
-            interval_s: self.ocp.interval(),
-            ee_final: ee,
-            ee_error_m: (ee[0] - tg[0]).hypot(ee[1] - tg[1]),
-        };
+        self.record(stats, warm)
+    }
+
+    /// The outcome of the solve that ended with `stats` on the planner's own solver, recorded as
+    /// the last solve.
+    fn record(&mut self, stats: OcpStats, warm: bool) -> ReplanOutcome {
+        let out = self.outcome(&stats, self.solver.primal(), self.ocp.interval());
         self.last = Some(Last {
             outcome: out.clone(),
             stats,
             warm,
         });
         out
+    }
+
+    /// The outcome of a solve that ended with `stats` at `z` on knots `interval_s` apart.
+    fn outcome(&self, stats: &OcpStats, z: &Primal, interval_s: f64) -> ReplanOutcome {
+        outcome_of(
+            &self.robot,
+            self.ocp.target(),
+            self.t0,
+            stats,
+            z,
+            interval_s,
+        )
     }
 
     /// A converged solution becomes the one the next re-plan shifts from.
@@ -661,6 +756,30 @@ impl SwingPlanner {
                 }
             }
         }
+    }
+}
+
+/// The outcome of a solve that ended with `stats` at `z` (knot 0 at `t0`, knots `interval_s` apart)
+/// for the bar at `target`.
+fn outcome_of(
+    robot: &Robot,
+    target: [f64; 2],
+    t0: f64,
+    stats: &OcpStats,
+    z: &Primal,
+    interval_s: f64,
+) -> ReplanOutcome {
+    let n = robot.n;
+    let ee = robot.ee_position(&z.x[z.x.len() - 1][..n]);
+    ReplanOutcome {
+        status: status_of(&stats.status),
+        iterations: stats.iterations,
+        solve_time_s: stats.time.total_s,
+        objective: stats.objective,
+        t_start: t0,
+        interval_s,
+        ee_final: ee,
+        ee_error_m: (ee[0] - target[0]).hypot(ee[1] - target[1]),
     }
 }
 

@@ -916,6 +916,98 @@ impl OcpProblem for FreeTime {
     }
 }
 
+/// [`FreeTime`] with T fixed at `t` and removed from the state: x = [p, v], the same dynamics and
+/// stage costs (`w T` is then a constant and left out).
+#[derive(Debug, Clone)]
+pub struct FixedTime {
+    pub dims: OcpDims,
+    pub t: f64,
+}
+
+impl FixedTime {
+    pub fn new(kk: usize, t: f64) -> Self {
+        let stages = (0..=kk)
+            .map(|k| StageDims {
+                nx: 2,
+                nu: if k < kk { 1 } else { 0 },
+                nc: 0,
+            })
+            .collect();
+        FixedTime {
+            dims: OcpDims {
+                stages,
+                n_terminal: 2,
+            },
+            t,
+        }
+    }
+}
+
+impl OcpProblem for FixedTime {
+    fn dims(&self) -> &OcpDims {
+        &self.dims
+    }
+    fn bounds(&self, k: usize, b: &mut StageBounds) {
+        if k == 0 {
+            b.x_lo.fill(0.0);
+            b.x_hi.fill(0.0);
+        }
+    }
+    fn initial_guess(&self, _z: &mut Primal) {}
+    fn evaluate(
+        &mut self,
+        z: &Primal,
+        level: EvalLevel,
+        st: &mut [StageEval],
+        t: &mut TerminalEval,
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let h = self.t / kk as f64;
+        for k in 0..=kk {
+            let (p, v) = (z.x[k][0], z.x[k][1]);
+            let e = &mut st[k];
+            let u = if k < kk { z.u[k][0] } else { 0.0 };
+            e.cost = if k < kk { 0.5 * h * u * u } else { 0.0 };
+            if level == EvalLevel::FirstOrder {
+                e.grad.fill(0.0);
+                if k < kk {
+                    e.grad[2] = h * u;
+                }
+            }
+            if k < kk {
+                e.f[0] = p + h * v + 0.5 * h * h * u;
+                e.f[1] = v + h * u;
+                if level == EvalLevel::FirstOrder {
+                    e.jac_f.copy_from_slice(&[1.0, h, 0.5 * h * h, 0.0, 1.0, h]);
+                }
+            }
+        }
+        t.r[0] = z.x[kk][0] - 1.0;
+        t.r[1] = z.x[kk][1];
+        if level == EvalLevel::FirstOrder {
+            t.jac_r.copy_from_slice(&[1.0, 0.0, 0.0, 1.0]);
+        }
+        Ok(())
+    }
+    fn hessians(
+        &mut self,
+        _z: &Primal,
+        sigma: f64,
+        _m: &Multipliers,
+        st: &mut [StageEval],
+    ) -> Result<(), EvalError> {
+        let kk = self.dims.horizon();
+        let h = self.t / kk as f64;
+        for (k, e) in st.iter_mut().enumerate() {
+            e.hess.fill(0.0);
+            if k < kk {
+                e.hess[2 * 3 + 2] = sigma * h;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Energy of the discrete minimum-energy rest-to-rest transfer over 1 m in time `t` with `kk` steps.
 pub fn min_energy_for_time(kk: usize, t: f64) -> f64 {
     let h = t / kk as f64;
