@@ -231,3 +231,19 @@ def test_restore_puts_the_planner_back_exactly(robot):
         with pytest.raises(brachia.BrachiaError, match="checkpoint"):
             sp.restore(c)
         np.testing.assert_array_equal(sp.knot_states(), knots)
+
+
+def test_a_free_swing_time_is_planned_then_kept_by_the_re_plans(robot):
+    s = dict(SETTINGS, free_swing_time=[2.0, 2.6])
+    ref = brachia.plan(robot, TASK, s)
+    sp = brachia.SwingPlanner(robot, TASK, s)
+    p = sp.plan()
+    assert p.converged and ref.converged
+    assert sp.swing_time == ref.swing_time
+    assert 2.0 < sp.swing_time <= 2.6
+    assert p.objective == pytest.approx(ref.objective, rel=1e-9)
+    k = 20
+    t_now = sp.knot_times()[k]
+    out = sp.replan(t_now, sp.knot_states()[k])
+    assert out.converged
+    assert sp.swing_time == ref.swing_time

@@ -421,3 +421,19 @@ fn a_joint_multi_swing_plan_refuses_a_free_swing_time() {
     };
     assert!(e.contains("free_swing_time") && e.contains("joint"), "{e}");
 }
+
+#[test]
+fn a_bad_task_is_refused_before_the_starts_are_computed() {
+    // the starts need the task's swing time (its free fall): a task of the wrong size is an error,
+    // not a panic in the kinematics
+    let s = PlannerSettings {
+        swing_time_starts: 3,
+        ..settings(Some([1.5, 3.0]))
+    };
+    let bad = SwingTask {
+        q0: vec![0.0; 3],
+        ..tracking_task()
+    };
+    let e = plan(&Robot::paper(), &bad, &s, &nlp(Backend::Ocp)).unwrap_err();
+    assert!(e.to_string().contains("q0"), "{e}");
+}

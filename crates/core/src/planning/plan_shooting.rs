@@ -119,6 +119,11 @@ pub(super) fn plan_shooting(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    if settings.free_swing_time.is_none() || settings.swing_time_starts <= 1 {
+        return plan_shooting_once(robot, task, settings, nlp, guess);
+    }
+    // (the task is checked before its swing time is computed from it)
+    check_task(robot, task, settings)?;
     let starts = swing_time_starts(robot, task, settings)?;
     if starts.len() <= 1 {
         return plan_shooting_once(robot, task, settings, nlp, guess);
