@@ -3,6 +3,12 @@
 use serde::de::{Deserializer, Error as _};
 use serde::Deserialize;
 
+/// [`pair`] for an optional field (with `#[serde(default, deserialize_with =
+/// "brachia::serde_exact::opt_pair")]`: absent is `None`).
+pub fn opt_pair<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {
+    pair(d).map(Some)
+}
+
 /// Deserialize `[f64; 2]` from a sequence of exactly two numbers (for
 /// `#[serde(deserialize_with = "brachia::serde_exact::pair")]`).
 pub fn pair<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {

@@ -437,3 +437,50 @@ fn a_bad_task_is_refused_before_the_starts_are_computed() {
     let e = plan(&Robot::paper(), &bad, &s, &nlp(Backend::Ocp)).unwrap_err();
     assert!(e.to_string().contains("q0"), "{e}");
 }
+
+#[test]
+fn odd_ranges_wall_time_and_array_lengths() {
+    let robot = Robot::paper();
+    // a three-value array is an error, not a truncation
+    let e = toml::from_str::<PlannerSettings>("free_swing_time = [1.2, 2.0, 4.0]")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exactly 2"), "{e}");
+    let ok: PlannerSettings = toml::from_str("free_swing_time = [1.2, 4.0]").unwrap();
+    assert_eq!(ok.free_swing_time, Some([1.2, 4.0]));
+    // a range narrower than MIN_FREE_SWING_TIME_RANGE_S is the fixed T it starts from
+    let narrow = plan(
+        &robot,
+        &tracking_task(),
+        &settings(Some([2.0, 2.000001])),
+        &nlp(Backend::Ocp),
+    )
+    .unwrap();
+    assert!(narrow.converged(), "{:?}", narrow.status);
+    assert_eq!(narrow.swing_time_s, 2.000001);
+    // a range whose longest swing does not fit the grid names the range
+    let e = plan(
+        &robot,
+        &tracking_task(),
+        &settings(Some([1e-9, 1e-8])),
+        &nlp(Backend::Ocp),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("free_swing_time") && e.contains("knot_dt"),
+        "{e}"
+    );
+    // the wall-time limit bounds the whole multi-start search
+    let s = PlannerSettings {
+        swing_time_starts: 8,
+        ..settings(Some([1.2, 4.0]))
+    };
+    let short = NlpSettings {
+        max_wall_time_s: Some(0.02),
+        ..nlp(Backend::Ocp)
+    };
+    let p = plan(&robot, &tracking_task(), &s, &short).unwrap();
+    assert!(p.solves.len() < 8, "{} starts ran", p.solves.len());
+    assert!(!p.converged());
+}

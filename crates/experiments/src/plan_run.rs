@@ -262,7 +262,15 @@ pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
             toml::to_string(ls.robot.params()).unwrap_or_default()
         ),
     );
-    resolved.planner.swing_time = SwingTime::Seconds(p.swing_time_s);
+    // "auto" resolved to seconds; with a free swing time the resolved input is where the search
+    // started (the plan's T is its result, in the header and the report)
+    resolved.planner.swing_time = SwingTime::Seconds(match sc.planner.free_swing_time {
+        None => p.swing_time_s,
+        Some(_) => sc.planner.start_swing_time(match sc.planner.swing_time {
+            SwingTime::Seconds(t) => t,
+            SwingTime::Auto(_) => 2.0 * p.freefall_time_s.unwrap_or(0.5 * p.swing_time_s),
+        }),
+    });
     resolved.planner.q1_diag = sc.planner.q1(ls.robot.n());
     resolved.planner.r1_diag = sc.planner.r1(ls.robot.n());
     if resolved.task.qd0.is_empty() {

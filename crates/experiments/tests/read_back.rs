@@ -161,3 +161,27 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     let err = PlanFolder::read(&pdir).unwrap_err().to_string();
     assert!(err.contains("params.toml"), "{err}");
 }
+
+#[test]
+fn a_free_swing_time_plan_folder_re_runs_to_the_same_plan() {
+    // The resolved scenario.toml of a free-swing-time plan keeps the range and the start of the
+    // search (not the optimum, a result): planning it again gives the same T and objective.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/tracking.toml");
+    let mut ls = Scenario::load(&path).unwrap();
+    ls.scenario.planner.free_swing_time = Some([2.0, 2.6]);
+    let first = run_plan(&ls).unwrap();
+    assert!(first.plan.converged(), "{:?}", first.plan.status);
+    let dir = tempfile::tempdir().unwrap();
+    let pdir = dir.path().join("plan");
+    first.folder.write(&pdir).unwrap();
+    let back = PlanFolder::read(&pdir).unwrap();
+    let sp = &back.scenario.scenario.planner;
+    assert_eq!(sp.free_swing_time, Some([2.0, 2.6]));
+    assert_ne!(
+        sp.swing_time,
+        brachia::planning::SwingTime::Seconds(first.plan.swing_time_s)
+    );
+    let again = run_plan(&back.scenario).unwrap();
+    assert_eq!(again.plan.swing_time_s, first.plan.swing_time_s);
+    assert_eq!(again.plan.objective, first.plan.objective);
+}

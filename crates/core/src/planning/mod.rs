@@ -33,7 +33,8 @@ pub use planner::SolveAttempt;
 pub use planner::{freefall_time, plan, plan_with_guess, Plan, Violations, WARM_START_MU_INIT};
 pub use settings::{
     Bounds, PlannerSettings, ShootingSettings, SwingTime, Transcription, DEFAULT_KNOT_DT_S,
-    DEFAULT_SHOOTING_SUBSTEPS, MAX_SWING_TIME_STARTS, START_WIDEN_MARGIN,
+    DEFAULT_SHOOTING_SUBSTEPS, MAX_SWING_TIME_STARTS, MIN_FREE_SWING_TIME_RANGE_S,
+    START_WIDEN_MARGIN,
 };
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,

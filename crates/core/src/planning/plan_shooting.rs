@@ -119,7 +119,7 @@ pub(super) fn plan_shooting(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
-    if settings.free_swing_time.is_none() || settings.swing_time_starts <= 1 {
+    if settings.free_range().is_none() || settings.swing_time_starts <= 1 {
         return plan_shooting_once(robot, task, settings, nlp, guess);
     }
     // (the task is checked before its swing time is computed from it)
@@ -131,13 +131,26 @@ pub(super) fn plan_shooting(
     // a free swing time from several starts: the converged plan of lowest objective (the first
     // start's if none converged), every start's attempts and times in its report (labelled with
     // the start, adopted only the chosen one's)
+    // the wall-time limit is the whole search's: each start gets what is left, and none starts
+    // once it is spent
+    let t_start = std::time::Instant::now();
     let mut plans = Vec::with_capacity(starts.len());
     for &t0 in &starts {
+        let left = nlp
+            .max_wall_time_s
+            .map(|w| w - t_start.elapsed().as_secs_f64());
+        if left.is_some_and(|w| w <= 0.0) && !plans.is_empty() {
+            break;
+        }
+        let nlp_left = NlpSettings {
+            max_wall_time_s: left.map(|w| w.max(1e-3)),
+            ..nlp.clone()
+        };
         let s = PlannerSettings {
             swing_time: SwingTime::Seconds(t0),
             ..settings.clone()
         };
-        let mut p = plan_shooting_once(robot, task, &s, nlp, guess)?;
+        let mut p = plan_shooting_once(robot, task, &s, &nlp_left, guess)?;
         for a in &mut p.solves {
             for pass in &mut a.passes {
                 pass.what = format!("{} from T = {t0:.4} s", pass.what);
@@ -193,7 +206,7 @@ pub(super) fn swing_time_starts(
     let (t, _) = swing_time(robot, task, settings)?;
     let t0 = settings.start_swing_time(t);
     let k = settings.swing_time_starts.max(1);
-    let Some([lo, hi]) = settings.free_swing_time.filter(|[lo, hi]| lo < hi && k > 1) else {
+    let Some([lo, hi]) = settings.free_range().filter(|_| k > 1) else {
         return Ok(vec![t0]);
     };
     let mut v = vec![t0];
@@ -217,8 +230,9 @@ fn plan_shooting_once(
         mut t_final,
         freefall,
     } = setup_shooting(robot, task, settings, guess)?;
-    // (a range of one value is that fixed T, which the setup has already clamped to)
-    if let Some([lo, hi]) = settings.free_swing_time.filter(|[lo, hi]| lo < hi) {
+    // (a range of one value, or narrower than MIN_FREE_SWING_TIME_RANGE_S, is that fixed T, which
+    // the setup has already clamped to)
+    if let Some([lo, hi]) = settings.free_range() {
         ocp = ocp.with_free_swing_time(lo, hi)?;
     }
 

@@ -62,6 +62,11 @@ pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
 /// a third of the stages of 10 ms knots (docs/interpretations.md, docs/planner.md).
 pub const DEFAULT_KNOT_DT_S: f64 = 0.03;
 
+/// Narrowest [`PlannerSettings::free_swing_time`] range solved with T free, s: a narrower one is the
+/// fixed T it starts from (within the range, less than 1 ms from any T in it). Ranges of 1e-6 s
+/// ended in `NumericalError` (every stage's T bounds nearly coincide).
+pub const MIN_FREE_SWING_TIME_RANGE_S: f64 = 1e-3;
+
 /// Largest [`PlannerSettings::swing_time_starts`] (each start is a whole plan).
 pub const MAX_SWING_TIME_STARTS: usize = 16;
 
@@ -203,13 +208,19 @@ pub struct PlannerSettings {
     /// plan's T), not a joint multi-swing plan. Default none: T is `swing_time`. The number of intervals K is
     /// `round(t_max / knot_dt)` and stays fixed, so the plan's knot spacing `T / K` is at most
     /// about `knot_dt`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::serde_exact::opt_pair"
+    )]
     pub free_swing_time: Option<[f64; 2]>,
     /// Solves of a free swing time from this many starts (1 ..= [`MAX_SWING_TIME_STARTS`]; default
     /// 1): `swing_time` clamped into the range, then the centres of `starts - 1` equal parts of the
     /// range; the plan is the converged one of lowest objective (the objective has several local
     /// optima in T), or the first start's if none converged. Only with `free_swing_time`; a range
-    /// of one value has one start.
+    /// of one value (or narrower than [`MIN_FREE_SWING_TIME_RANGE_S`]) has one start. The solver's
+    /// `max_wall_time_s` bounds the whole search: each start gets what is left, and no start begins
+    /// once it is spent.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub swing_time_starts: usize,
     /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
@@ -316,7 +327,14 @@ impl PlannerSettings {
                     "needs transcription = \"multiple-shooting\" (the collocation rules plan at a fixed T)",
                 ));
             }
-            self.grid(hi, src)?;
+            self.grid(hi, src).map_err(|e| {
+                Error::invalid(
+                    src,
+                    "free_swing_time",
+                    format!("[{lo}, {hi}]"),
+                    format!("its longest swing does not fit the grid ({e})"),
+                )
+            })?;
         }
         if !(1..=MAX_SWING_TIME_STARTS).contains(&self.swing_time_starts) {
             return Err(Error::invalid(
@@ -410,6 +428,14 @@ impl PlannerSettings {
             }
         }
         Ok(())
+    }
+
+    /// The range of a free swing time that is planned as one: `free_swing_time` when at least
+    /// [`MIN_FREE_SWING_TIME_RANGE_S`] wide (a narrower one is planned at [`Self::start_swing_time`],
+    /// as a fixed T), else `None`.
+    pub fn free_range(&self) -> Option<[f64; 2]> {
+        self.free_swing_time
+            .filter(|[lo, hi]| hi - lo >= MIN_FREE_SWING_TIME_RANGE_S)
     }
 
     /// Where a plan of swing time `t` (s, `swing_time` resolved) starts: `t` clamped into

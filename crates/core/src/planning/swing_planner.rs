@@ -243,7 +243,7 @@ impl SwingPlanner {
             })
         };
         let solver = solver_for(&ocp)?;
-        let free = match settings.free_swing_time.filter(|[lo, hi]| lo < hi) {
+        let free = match settings.free_range() {
             Some([lo, hi]) => {
                 let ocp = setup_shooting(&robot, &task, &settings, guess)?
                     .ocp
