@@ -484,3 +484,22 @@ fn odd_ranges_wall_time_and_array_lengths() {
     assert!(p.solves.len() < 8, "{} starts ran", p.solves.len());
     assert!(!p.converged());
 }
+
+#[test]
+fn a_free_swing_time_plan_that_does_not_converge_is_a_status_of_the_persistent_planner() {
+    let few = NlpSettings {
+        max_iter: 2,
+        ..nlp(Backend::Ocp)
+    };
+    let mut planner = SwingPlanner::new(
+        Robot::paper(),
+        tracking_task(),
+        &settings(Some([1.5, 3.0])),
+        &few,
+    )
+    .unwrap();
+    let p = planner.plan().unwrap();
+    assert!(!p.converged(), "{:?}", p.status);
+    assert!((1.5..=3.0).contains(&p.swing_time_s));
+    assert!(!planner.has_plan());
+}

@@ -125,9 +125,6 @@ pub(super) fn plan_shooting(
     // (the task is checked before its swing time is computed from it)
     check_task(robot, task, settings)?;
     let starts = swing_time_starts(robot, task, settings)?;
-    if starts.len() <= 1 {
-        return plan_shooting_once(robot, task, settings, nlp, guess);
-    }
     // a free swing time from several starts: the converged plan of lowest objective (the first
     // start's if none converged), every start's attempts and times in its report (labelled with
     // the start, adopted only the chosen one's)
@@ -196,16 +193,16 @@ pub(super) fn plan_shooting(
 }
 
 /// Where a free swing time's solves start, s: the task's swing time clamped into the range, then
-/// `swing_time_starts - 1` more at the centres of as many equal parts of the range. One start (the
-/// task's swing time) without a free swing time.
-pub(super) fn swing_time_starts(
+/// `swing_time_starts - 1` more at the centres of as many equal parts of the range. Without a free
+/// range (or with one start), the task's swing time alone.
+fn swing_time_starts(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
 ) -> Result<Vec<f64>> {
     let (t, _) = swing_time(robot, task, settings)?;
     let t0 = settings.start_swing_time(t);
-    let k = settings.swing_time_starts.max(1);
+    let k = settings.swing_time_starts;
     let Some([lo, hi]) = settings.free_range().filter(|_| k > 1) else {
         return Ok(vec![t0]);
     };

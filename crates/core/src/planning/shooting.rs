@@ -1285,6 +1285,18 @@ impl<D: PointDynamics> SwingOcp<D> {
         }
     }
 
+    /// [`Self::strip_swing_time`] into `dst`, a point of the fixed-T layout (no allocation).
+    /// Panics on a `dst` of other sizes.
+    pub fn strip_swing_time_into(&self, z: &Primal, dst: &mut Primal) {
+        let nx = self.ctx.nx;
+        for (d, s) in dst.x.iter_mut().zip(&z.x) {
+            d.copy_from_slice(&s[..nx]);
+        }
+        for (d, s) in dst.u.iter_mut().zip(&z.u) {
+            d.copy_from_slice(s);
+        }
+    }
+
     /// The range of a free swing time ([`Self::with_free_swing_time`]), `None` when T is fixed.
     pub fn free_swing_time(&self) -> Option<[f64; 2]> {
         self.ctx.free

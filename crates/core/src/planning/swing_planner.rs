@@ -452,28 +452,30 @@ impl SwingPlanner {
         let first = f.solver.solve(&mut f.ocp, &self.cold);
         let z = f.solver.primal();
         let t_star = f.ocp.swing_time_of(z);
+        // the free solve's point in the fixed-T layout, at its own T (a failed solve's too, so
+        // that current_plan shows where it stopped)
+        f.ocp.strip_swing_time_into(z, self.solver.primal_mut());
+        if let (true, Some([lo, hi])) = (t_star.is_finite(), f.ocp.free_swing_time()) {
+            self.ocp.set_swing_time(t_star.clamp(lo, hi))?;
+        }
         if !first.status.is_converged() {
-            let h = t_star / self.layout.intervals as f64;
-            let out = outcome_of(&self.robot, self.ocp.target(), 0.0, &first, z, h);
-            self.last = None;
+            let out = self.outcome(&first, self.solver.primal(), self.ocp.interval());
+            self.last = Some(Last {
+                outcome: out.clone(),
+                stats: first,
+                warm: false,
+            });
+            self.adopt(&out);
             return Ok(out);
         }
         let nx = 2 * self.robot.n;
         let ws = f.solver.warm_state_without_state(nx).map_err(|e| {
-            Error::invalid("ocp solver", "free swing time", e.to_string(), "refused")
+            Error::invalid("ocp solver", "free_swing_time", e.to_string(), "refused")
         })?;
         self.solver.set_warm_state(&ws).map_err(|e| {
-            Error::invalid("ocp solver", "free swing time", e.to_string(), "refused")
+            Error::invalid("ocp solver", "free_swing_time", e.to_string(), "refused")
         })?;
-        let dst = self.solver.primal_mut();
-        for (d, src) in dst.x.iter_mut().zip(&z.x) {
-            d.copy_from_slice(&src[..nx]);
-        }
-        for (d, src) in dst.u.iter_mut().zip(&z.u) {
-            d.copy_from_slice(src);
-        }
-        self.t_final = t_star;
-        self.ocp.set_swing_time(t_star)?;
+        self.t_final = self.ocp.swing_time();
         let fix = OcpSettings {
             warm_duals: WarmDuals::Stored,
             ..self.warm.clone()
