@@ -49,6 +49,16 @@ const OBSTACLES: [Circle; 2] = [
 ];
 
 fn problem<D: PointDynamics>(robot: &Robot, intervals: usize, substeps: usize) -> SwingOcp<D> {
+    // from 3 stages on, half of them on the problem's helper thread: exercise that path too
+    problem_split::<D>(robot, intervals, substeps, 3)
+}
+
+fn problem_split<D: PointDynamics>(
+    robot: &Robot,
+    intervals: usize,
+    substeps: usize,
+    parallel_min_stages: usize,
+) -> SwingOcp<D> {
     let n = robot.n();
     let clearance = DistanceClearanceFn::new(
         ClearanceFn::new(robot.clone(), &OBSTACLES[..], 0.01)
@@ -64,7 +74,7 @@ fn problem<D: PointDynamics>(robot: &Robot, intervals: usize, substeps: usize) -
         x_start: vec![0.0; 2 * n],
         target: [0.3, -0.1],
         bounds: Bounds::default(),
-        parallel_min_stages: 3, // exercise the parallel path too
+        parallel_min_stages,
     };
     SwingOcp::with_dynamics(robot.clone(), spec, Some(clearance)).unwrap()
 }
@@ -365,6 +375,87 @@ fn free_swing_time_flow_derivatives_agree_with_automatic_differentiation_of_the_
                     );
                 }
             }
+        }
+    }
+}
+
+/// Half the stages on the problem's helper thread give the numbers of every stage on the calling
+/// thread, bit for bit: values, first order and Hessians at several points, in an order where a
+/// Hessian follows a value-only evaluation at another point (the recorded forward pass), with a
+/// fixed and a free swing time.
+#[test]
+fn the_helper_thread_evaluates_the_same_numbers_as_the_calling_thread() {
+    let robot = robot(4);
+    for free in [false, true] {
+        let build = |min_stages: usize| {
+            let p: SwingOcp = problem_split(&robot, 9, 2, min_stages);
+            if free {
+                p.with_free_swing_time(0.05, 2.0).unwrap()
+            } else {
+                p
+            }
+        };
+        let (mut split, mut serial) = (build(0), build(usize::MAX));
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let point = |rng: &mut ChaCha8Rng, dims: &OcpDims| {
+            if free {
+                random_free_point(rng, dims)
+            } else {
+                random_point(rng, dims)
+            }
+        };
+        let same = |a: &Bufs, b: &Bufs, what: &str| {
+            for (k, (x, y)) in a.stages.iter().zip(&b.stages).enumerate() {
+                let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                assert_eq!(x.cost.to_bits(), y.cost.to_bits(), "{what}: cost at {k}");
+                for (name, u, v) in [
+                    ("grad", &x.grad, &y.grad),
+                    ("f", &x.f, &y.f),
+                    ("jac_f", &x.jac_f, &y.jac_f),
+                    ("c", &x.c, &y.c),
+                    ("jac_c", &x.jac_c, &y.jac_c),
+                    ("hess", &x.hess, &y.hess),
+                ] {
+                    assert_eq!(
+                        bits(u),
+                        bits(v),
+                        "{what}: {name} at stage {k} (free {free})"
+                    );
+                }
+            }
+            assert_eq!(a.term.r, b.term.r, "{what}: terminal rows");
+            assert_eq!(a.term.jac_r, b.term.jac_r, "{what}: terminal Jacobian");
+        };
+        for round in 0..3 {
+            let z1 = point(&mut rng, split.dims());
+            let z2 = point(&mut rng, split.dims());
+            let m = random_multipliers(&mut rng, split.dims());
+            let (mut a, mut b) = (bufs(split.dims()), bufs(serial.dims()));
+            for (ocp, out) in [(&mut split, &mut a), (&mut serial, &mut b)] {
+                ocp.evaluate(&z1, EvalLevel::FirstOrder, &mut out.stages, &mut out.term)
+                    .unwrap();
+            }
+            same(&a, &b, &format!("first order, round {round}"));
+            for (ocp, out) in [(&mut split, &mut a), (&mut serial, &mut b)] {
+                ocp.evaluate(&z2, EvalLevel::Values, &mut out.stages, &mut out.term)
+                    .unwrap();
+                ocp.hessians(&z1, 0.7, &m, &mut out.stages).unwrap();
+            }
+            same(
+                &a,
+                &b,
+                &format!("values at z2, Hessian at z1, round {round}"),
+            );
+            for (ocp, out) in [(&mut split, &mut a), (&mut serial, &mut b)] {
+                ocp.evaluate(&z2, EvalLevel::FirstOrder, &mut out.stages, &mut out.term)
+                    .unwrap();
+                ocp.hessians(&z2, 1.3, &m, &mut out.stages).unwrap();
+            }
+            same(
+                &a,
+                &b,
+                &format!("first order and Hessian at z2, round {round}"),
+            );
         }
     }
 }

@@ -18,6 +18,7 @@ pub mod settings;
 pub mod shooting;
 pub mod swing_planner;
 pub mod task;
+mod worker;
 pub mod workload;
 
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks};

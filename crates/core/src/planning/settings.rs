@@ -35,8 +35,9 @@ pub struct ShootingSettings {
     /// default 30 ms knots, RK4 steps of 10 ms, the step the paper's knots have (one step per 30 ms
     /// interval misses the bar by up to 2 cm on the long swings of the parameter study; docs/planner.md).
     pub substeps: usize,
-    /// Evaluate the stages in parallel (rayon) when the problem has at least this many stages;
-    /// 0 = always, a huge value = never. Default 64 (measured break-even on 2 cores: docs/planner.md).
+    /// Evaluate half the stages on a helper thread when the problem has at least this many stages
+    /// (and rayon has more than one thread); 0 = always, a huge value = never. Default 16
+    /// (docs/planner.md, "Memory and threads").
     pub parallel_min_stages: usize,
 }
 
@@ -44,7 +45,7 @@ impl Default for ShootingSettings {
     fn default() -> Self {
         ShootingSettings {
             substeps: DEFAULT_SHOOTING_SUBSTEPS,
-            parallel_min_stages: 64,
+            parallel_min_stages: 16,
         }
     }
 }

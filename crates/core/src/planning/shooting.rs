@@ -32,12 +32,16 @@
 //! so the Hessian at the point of the last first-order evaluation reuses that evaluation's
 //! factorisation and first derivatives ([`PointDynamics::hessian_weighted_reuse`]).
 //!
-//! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. Stages are evaluated in
-//! parallel with rayon when the horizon has at least `parallel_min_stages` stages.
+//! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. When the horizon has at
+//! least `parallel_min_stages` stages and rayon has more than one thread, the problem owns a helper
+//! thread (`planning::worker::SpinWorker`) that evaluates the second half of the stages while the
+//! calling thread evaluates the first; called from inside a rayon worker (a parameter study's cells),
+//! every stage is evaluated on the calling thread.
 
 use super::collocation::EeTerminalFn;
 use super::planner::DistanceClearanceFn;
 use super::settings::Bounds;
+use super::worker::{Job, SpinWorker};
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
 use crate::model::kernels::add_lincomb;
@@ -48,7 +52,6 @@ use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
 };
-use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -56,7 +59,7 @@ use std::time::Instant;
 /// the seam through which the shooting problem gets them (automatic differentiation now, the closed
 /// form later; the AD path then stays as the test oracle). Layouts as [`crate::ad::Diff`]:
 /// Jacobian row-major `n x (3n - 1)`, Hessian full symmetric row-major `(3n - 1) x (3n - 1)`.
-pub trait PointDynamics: Send + Sized {
+pub trait PointDynamics: Send + Sized + 'static {
     /// Buffers for `robot` (allocated once; the robot shared, not copied).
     fn new(robot: &Arc<Robot>) -> Self;
     /// `qdd = f(y)`.
@@ -189,7 +192,9 @@ pub struct ShootingTimings {
 const RK4_C: [f64; 4] = [0.0, 0.5, 0.5, 1.0];
 const RK4_B6: [f64; 4] = [1.0, 2.0, 2.0, 1.0];
 
-/// Immutable data shared by the stages (read from every rayon worker).
+/// Data shared by the stages (the helper thread keeps a copy, whose `h` and `free` are refreshed
+/// before each of its jobs).
+#[derive(Clone)]
 struct Ctx {
     n: usize,
     nx: usize,
@@ -994,11 +999,54 @@ fn sandwich_upper_body<const SPARSE_Q: bool>(
     }
 }
 
+/// What the helper thread computes for its stages.
+#[derive(Debug, Clone, Copy)]
+enum TailJob {
+    /// [`StageWork::evaluate`] at this level.
+    Evaluate(EvalLevel),
+    /// [`StageWork::hessian`] with this cost factor.
+    Hessian(f64),
+}
+
+/// The stages `first..=K` of a [`SwingOcp`] with a helper thread: their scratch, and copies of
+/// their inputs and outputs (allocated once; the owner copies in before and out after each job).
+struct Tail<D> {
+    first: usize,
+    ctx: Ctx,
+    work: Vec<StageWork<D>>,
+    zx: Vec<Vec<f64>>,
+    zu: Vec<Vec<f64>>,
+    lam: Vec<Vec<f64>>,
+    mu: Vec<Vec<f64>>,
+    sigma: f64,
+    out: Vec<StageEval>,
+    job: TailJob,
+}
+
+impl<D: PointDynamics> Job for Tail<D> {
+    fn run(&mut self) {
+        for (j, w) in self.work.iter_mut().enumerate() {
+            let k = self.first + j;
+            let (x, u, ev) = (&self.zx[j], &self.zu[j], &mut self.out[j]);
+            match self.job {
+                TailJob::Evaluate(level) => w.evaluate(&self.ctx, k, x, u, level, ev),
+                TailJob::Hessian(sigma) => {
+                    let (lam, mu) = (&self.lam[j], &self.mu[j]);
+                    w.hessian(&self.ctx, k, x, u, sigma, lam, mu, &mut ev.hess)
+                }
+            }
+        }
+    }
+}
+
 /// The swing as an [`OcpProblem`] by multiple shooting (see the module docs). Generic over the source
 /// of the per-point dynamics derivatives.
 pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
     ctx: Ctx,
+    /// The scratch of stages `0..first` ([`Tail::first`]; all stages without a helper thread).
     work: Vec<StageWork<D>>,
+    /// The stages `first..=K`, evaluated on the helper thread.
+    tail: Option<SpinWorker<Tail<D>>>,
     dims: OcpDims,
     x_start: Vec<f64>,
     target: [f64; 2],
@@ -1014,7 +1062,6 @@ pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
     term_val: Vec<f64>,
     term_jac: Vec<f64>,
     term_hess: Vec<f64>,
-    parallel: bool,
     /// Wall time spent in evaluations since construction (or the last reset by the caller).
     pub timings: ShootingTimings,
 }
@@ -1107,15 +1154,40 @@ impl<D: PointDynamics> SwingOcp<D> {
             stages,
             n_terminal: 4,
         };
-        let work = (0..=k_last).map(|_| StageWork::new(&robot, &ctx)).collect();
+        let parallel = k_last + 1 >= spec.parallel_min_stages
+            && rayon::current_num_threads() > 1
+            && rayon::current_thread_index().is_none();
+        let first = if parallel {
+            k_last.div_ceil(2)
+        } else {
+            k_last + 1
+        };
+        let work = (0..first).map(|_| StageWork::new(&robot, &ctx)).collect();
+        let tail = parallel.then(|| {
+            SpinWorker::spawn(Tail {
+                first,
+                ctx: ctx.clone(),
+                work: (first..=k_last)
+                    .map(|_| StageWork::new(&robot, &ctx))
+                    .collect(),
+                zx: Vec::new(),
+                zu: Vec::new(),
+                lam: Vec::new(),
+                mu: Vec::new(),
+                sigma: 0.0,
+                out: Vec::new(),
+                job: TailJob::Evaluate(EvalLevel::Values),
+            })
+        });
         let mut guess = Primal::zeros(&dims);
         guess.x[0].copy_from_slice(&spec.x_start);
         let tau_lo = robot.tau_min.clone();
         let tau_hi = robot.tau_max.clone();
         let term_fn = EeTerminalFn::new(robot);
-        Ok(SwingOcp {
+        let mut ocp = SwingOcp {
             ctx,
             work,
+            tail,
             x_start: spec.x_start,
             target: spec.target,
             bounds: spec.bounds,
@@ -1128,10 +1200,42 @@ impl<D: PointDynamics> SwingOcp<D> {
             term_val: vec![0.0; 4],
             term_jac: vec![0.0; 4 * nx],
             term_hess: vec![0.0; nx * nx],
-            parallel: k_last + 1 >= spec.parallel_min_stages,
             dims,
             timings: ShootingTimings::default(),
-        })
+        };
+        ocp.size_tail();
+        Ok(ocp)
+    }
+
+    /// (Re)size the helper's input and output buffers to the problem's dims (construction, and a
+    /// change between a fixed and a free swing time).
+    fn size_tail(&mut self) {
+        let Some(tail) = &self.tail else { return };
+        let mut t = tail.state();
+        let first = t.first;
+        let stages = &self.dims.stages;
+        let nx_next = |k: usize| stages.get(k + 1).map_or(0, |d| d.nx);
+        t.zx = stages[first..].iter().map(|d| vec![0.0; d.nx]).collect();
+        t.zu = stages[first..].iter().map(|d| vec![0.0; d.nu]).collect();
+        t.lam = (first..stages.len())
+            .map(|k| vec![0.0; nx_next(k)])
+            .collect();
+        t.mu = stages[first..].iter().map(|d| vec![0.0; d.nc]).collect();
+        t.out = (first..stages.len())
+            .map(|k| StageEval::zeros(stages[k], nx_next(k)))
+            .collect();
+    }
+
+    /// Mark every stage's recorded forward pass stale (the interval or the layout changed).
+    fn invalidate_records(&mut self) {
+        for w in &mut self.work {
+            w.rec_valid = false;
+        }
+        if let Some(tail) = &self.tail {
+            for w in &mut tail.state().work {
+                w.rec_valid = false;
+            }
+        }
     }
 
     /// The robot (shared).
@@ -1214,9 +1318,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             ));
         }
         self.ctx.h = t / self.ctx.horizon as f64;
-        for w in &mut self.work {
-            w.rec_valid = false;
-        }
+        self.invalidate_records();
         Ok(())
     }
 
@@ -1254,9 +1356,8 @@ impl<D: PointDynamics> SwingOcp<D> {
             dst.copy_from_slice(src);
         }
         self.guess = guess;
-        for w in &mut self.work {
-            w.rec_valid = false;
-        }
+        self.invalidate_records();
+        self.size_tail();
         Ok(self)
     }
 
@@ -1271,6 +1372,7 @@ impl<D: PointDynamics> SwingOcp<D> {
                 s.nx = nx;
             }
             self.guess = self.strip_swing_time(&self.guess);
+            self.size_tail();
         }
         Ok(self)
     }
@@ -1389,47 +1491,112 @@ impl<D: PointDynamics> SwingOcp<D> {
             out.len()
         );
         let h = self.ctx.stage_h(x);
-        let w = &mut self.work[k];
-        w.forward(&self.ctx, x, u, false, h);
-        out[..self.ctx.nx].copy_from_slice(&w.xs);
+        let nx = self.ctx.nx;
+        if k < self.work.len() {
+            let w = &mut self.work[k];
+            w.forward(&self.ctx, x, u, false, h);
+            out[..nx].copy_from_slice(&w.xs);
+        } else if let Some(tail) = &self.tail {
+            let mut t = tail.state();
+            let j = k - t.first;
+            let w = &mut t.work[j];
+            w.forward(&self.ctx, x, u, false, h);
+            out[..nx].copy_from_slice(&w.xs);
+        }
         if self.ctx.free.is_some() {
             out[self.ctx.nx] = x[self.ctx.nx];
         }
     }
 
-    /// Evaluate the stages on the calling thread, or in parallel: the horizon split into one
-    /// contiguous chunk per rayon thread (a task per stage costs more in scheduling than a stage's
-    /// evaluation on 2 cores; see docs/planner.md).
+    /// Evaluate the stages: the first half on the calling thread while the helper thread runs
+    /// `job` on the second (its inputs copied in, its results copied out), or all of them on the
+    /// calling thread (no helper, or called from inside a rayon worker, where the cores are taken).
+    /// `op` is `job` for one stage. The multipliers `lam`, `mu` (one entry per stage) are read by a
+    /// Hessian job only.
+    #[allow(clippy::too_many_arguments)]
     fn for_stages(
         &mut self,
         zx: &[Vec<f64>],
         zu: &[Vec<f64>],
+        lam: &[Vec<f64>],
+        mu: &[Vec<f64>],
+        job: TailJob,
         stages: &mut [StageEval],
-        op: impl Fn(&mut StageWork<D>, &Ctx, usize, &[f64], &[f64], &mut StageEval) + Sync,
-    ) {
+        op: impl Fn(&mut StageWork<D>, &Ctx, usize, &[f64], &[f64], &mut StageEval),
+    ) -> std::result::Result<(), EvalError> {
         let ctx = &self.ctx;
-        let threads = if self.parallel {
-            rayon::current_num_threads()
-        } else {
-            1
-        };
-        if threads > 1 {
-            let chunk = self.work.len().div_ceil(threads);
-            self.work
-                .par_chunks_mut(chunk)
-                .zip(stages.par_chunks_mut(chunk))
-                .enumerate()
-                .for_each(|(c, (ws, evs))| {
-                    for (j, (w, ev)) in ws.iter_mut().zip(evs.iter_mut()).enumerate() {
-                        let k = c * chunk + j;
-                        op(w, ctx, k, &zx[k], &zu[k], ev);
-                    }
-                });
-        } else {
+        let own = self.work.len();
+        let Some(tail) = &self.tail else {
             for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
                 op(w, ctx, k, &zx[k], &zu[k], ev);
             }
+            return Ok(());
+        };
+        let threaded = tail.has_thread() && rayon::current_thread_index().is_none();
+        if !threaded {
+            for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
+                op(w, ctx, k, &zx[k], &zu[k], ev);
+            }
+            let mut t = tail.state();
+            for (j, w) in t.work.iter_mut().enumerate() {
+                let k = own + j;
+                op(w, ctx, k, &zx[k], &zu[k], &mut stages[k]);
+            }
+            return Ok(());
         }
+        {
+            let mut t = tail.state();
+            let t = &mut *t;
+            t.ctx.h = ctx.h;
+            t.ctx.free = ctx.free;
+            t.job = job;
+            for (j, (dx, du)) in t.zx.iter_mut().zip(t.zu.iter_mut()).enumerate() {
+                dx.copy_from_slice(&zx[own + j]);
+                du.copy_from_slice(&zu[own + j]);
+            }
+            if let TailJob::Hessian(sigma) = job {
+                t.sigma = sigma;
+                // lam at the last stage is not read (and may have any size)
+                for (j, (dl, dm)) in t.lam.iter_mut().zip(t.mu.iter_mut()).enumerate() {
+                    let n = dl.len().min(lam[own + j].len());
+                    dl[..n].copy_from_slice(&lam[own + j][..n]);
+                    dm.copy_from_slice(&mu[own + j]);
+                }
+            }
+        }
+        tail.post();
+        for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
+            op(w, ctx, k, &zx[k], &zu[k], ev);
+        }
+        if let Err(msg) = tail.wait() {
+            return Err(EvalError {
+                stage: own,
+                reason: format!("a stage evaluation on the helper thread failed: {msg}"),
+            });
+        }
+        let t = tail.state();
+        let k_last = ctx.horizon;
+        for (k, (src, dst)) in (own..).zip(t.out.iter().zip(&mut stages[own..])) {
+            match job {
+                TailJob::Evaluate(level) => {
+                    // stage K's f and jac_f are not the problem's (they may have any size)
+                    dst.cost = src.cost;
+                    dst.c.copy_from_slice(&src.c);
+                    if k < k_last {
+                        dst.f.copy_from_slice(&src.f);
+                    }
+                    if level == EvalLevel::FirstOrder {
+                        dst.grad.copy_from_slice(&src.grad);
+                        dst.jac_c.copy_from_slice(&src.jac_c);
+                        if k < k_last {
+                            dst.jac_f.copy_from_slice(&src.jac_f);
+                        }
+                    }
+                }
+                TailJob::Hessian(_) => dst.hess.copy_from_slice(&src.hess),
+            }
+        }
+        Ok(())
     }
 
     /// [`OcpProblem::evaluate`] on the knots `zx`, `zu` (K + 1 each) given as slices, so that a
@@ -1446,9 +1613,15 @@ impl<D: PointDynamics> SwingOcp<D> {
     ) -> std::result::Result<(), EvalError> {
         self.check_sizes(zx, zu, stages.len())?;
         let t0 = Instant::now();
-        self.for_stages(zx, zu, stages, |w, ctx, k, x, u, ev| {
-            w.evaluate(ctx, k, x, u, level, ev)
-        });
+        self.for_stages(
+            zx,
+            zu,
+            &[],
+            &[],
+            TailJob::Evaluate(level),
+            stages,
+            |w, ctx, k, x, u, ev| w.evaluate(ctx, k, x, u, level, ev),
+        )?;
         let nx = self.ctx.nx;
         let xl = &zx[self.ctx.horizon][..nx];
         if level == EvalLevel::FirstOrder {
@@ -1508,9 +1681,15 @@ impl<D: PointDynamics> SwingOcp<D> {
             });
         }
         let t0 = Instant::now();
-        self.for_stages(zx, zu, stages, |w, ctx, k, x, u, ev| {
-            w.hessian(ctx, k, x, u, sigma, &lam[k], &mu[k], &mut ev.hess)
-        });
+        self.for_stages(
+            zx,
+            zu,
+            lam,
+            mu,
+            TailJob::Hessian(sigma),
+            stages,
+            |w, ctx, k, x, u, ev| w.hessian(ctx, k, x, u, sigma, &lam[k], &mu[k], &mut ev.hess),
+        )?;
         let k_last = self.ctx.horizon;
         let nx = self.ctx.nx;
         self.term
@@ -1536,9 +1715,10 @@ impl<D: PointDynamics> SwingOcp<D> {
         zu: &[Vec<f64>],
         n_stages: usize,
     ) -> std::result::Result<(), EvalError> {
-        let ok = n_stages == self.work.len()
-            && zx.len() == self.work.len()
-            && zu.len() == self.work.len()
+        let n = self.ctx.horizon + 1;
+        let ok = n_stages == n
+            && zx.len() == n
+            && zu.len() == n
             && zx
                 .iter()
                 .zip(zu)

@@ -1,0 +1,228 @@
+//! A persistent helper thread for the stage evaluations of one problem: the second core's share of
+//! every evaluation, handed over without a wake-up.
+//!
+//! A thread pool's workers (rayon's) fall asleep between the evaluations of a solve, and waking one
+//! costs 50-80 us on this project's 2-core machines: more than the half of a 74-stage evaluation it
+//! would take over (measured: rayon's split of a plan's stages was 0.96x of serial; docs/planner.md).
+//! A [`SpinWorker`] owns its state (the stages it evaluates and their buffers) behind a mutex, runs
+//! [`Job::run`] on it whenever its owner posts, and between posts keeps polling (yielding the core to
+//! any other runnable thread) for [`SPIN`] before it parks, so within a solve, whose evaluations
+//! come every few hundred microseconds, a post is seen within a microsecond, and an idle problem
+//! costs nothing. The owner reads and writes the state only between a [`SpinWorker::wait`] and the
+//! next [`SpinWorker::post`]. A panic inside a job is caught on the worker and handed to the owner
+//! by [`SpinWorker::wait`]; the thread is stopped and joined when the worker is dropped.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+/// How long the worker keeps polling for the next job before it parks.
+pub(crate) const SPIN: Duration = Duration::from_millis(2);
+
+/// How long the owner polls for the end of a job before it yields the core between polls.
+const WAIT_SPIN: Duration = Duration::from_micros(200);
+
+/// Work that a [`SpinWorker`] runs on its own state.
+pub(crate) trait Job: Send + 'static {
+    /// Run the job the owner last described in the state.
+    fn run(&mut self);
+}
+
+struct Shared<S> {
+    state: Mutex<S>,
+    /// Jobs posted and jobs finished (each a count; equal when the worker is idle).
+    posted: AtomicU64,
+    done: AtomicU64,
+    /// The message of a job that panicked, taken by the next `wait`.
+    panic: Mutex<Option<String>>,
+    stop: AtomicBool,
+}
+
+/// A helper thread that runs [`Job::run`] on its state `S` when posted (module docs).
+pub(crate) struct SpinWorker<S: Job> {
+    shared: Arc<Shared<S>>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl<S: Job> std::fmt::Debug for SpinWorker<S> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SpinWorker")
+            .field("posted", &self.shared.posted.load(Ordering::Relaxed))
+            .finish()
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a panic with a non-string payload".to_string()
+    }
+}
+
+impl<S: Job> SpinWorker<S> {
+    /// Start the thread with `state`. If the system refuses a thread, the worker has none and
+    /// [`Self::post`] runs the job on the caller's thread ([`Self::has_thread`] tells).
+    pub(crate) fn spawn(state: S) -> Self {
+        let shared = Arc::new(Shared {
+            state: Mutex::new(state),
+            posted: AtomicU64::new(0),
+            done: AtomicU64::new(0),
+            panic: Mutex::new(None),
+            stop: AtomicBool::new(false),
+        });
+        let theirs = Arc::clone(&shared);
+        let handle = std::thread::Builder::new()
+            .name("brachia-stages".into())
+            .spawn(move || worker_loop(&theirs))
+            .ok();
+        SpinWorker { shared, handle }
+    }
+
+    /// Whether the jobs run on a thread of their own.
+    pub(crate) fn has_thread(&self) -> bool {
+        self.handle.is_some()
+    }
+
+    /// The state, for the owner to describe the next job or read the last one's results. Call it
+    /// only while the worker is idle (before [`Self::post`] or after [`Self::wait`]); the worker
+    /// holds the lock while it runs a job.
+    pub(crate) fn state(&self) -> MutexGuard<'_, S> {
+        lock(&self.shared.state)
+    }
+
+    /// Have the worker run the job described in the state (on the caller's thread, finished on
+    /// return, if the worker has no thread).
+    pub(crate) fn post(&self) {
+        let Some(h) = &self.handle else {
+            let r = catch_unwind(AssertUnwindSafe(|| lock(&self.shared.state).run()));
+            if let Err(p) = r {
+                *lock(&self.shared.panic) = Some(panic_text(&*p));
+            }
+            return;
+        };
+        self.shared.posted.fetch_add(1, Ordering::SeqCst);
+        h.thread().unpark();
+    }
+
+    /// Wait for the posted job to finish (polling: the job runs now). `Err` with the panic message
+    /// if the job panicked (the state is then as the panic left it).
+    pub(crate) fn wait(&self) -> Result<(), String> {
+        let target = self.shared.posted.load(Ordering::SeqCst);
+        let start = Instant::now();
+        let mut polls = 0u32;
+        while self.shared.done.load(Ordering::Acquire) < target {
+            polls = polls.wrapping_add(1);
+            if polls.is_multiple_of(64) {
+                if self.handle.as_ref().is_some_and(JoinHandle::is_finished) {
+                    return Err("the stage worker thread ended".to_string());
+                }
+                // past a job's usual length, give the core away if another thread wants it (the
+                // worker itself, when more threads than cores are runnable)
+                if start.elapsed() > WAIT_SPIN {
+                    std::thread::yield_now();
+                }
+            }
+            std::hint::spin_loop();
+        }
+        match lock(&self.shared.panic).take() {
+            Some(msg) => Err(msg),
+            None => Ok(()),
+        }
+    }
+}
+
+impl<S: Job> Drop for SpinWorker<S> {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::SeqCst);
+        if let Some(h) = self.handle.take() {
+            h.thread().unpark();
+            // a worker that panicked outside a job has nothing left to report
+            let _ = h.join();
+        }
+    }
+}
+
+fn worker_loop<S: Job>(sh: &Shared<S>) {
+    let mut seen = 0u64;
+    loop {
+        let mut idle_since = Instant::now();
+        loop {
+            if sh.stop.load(Ordering::SeqCst) {
+                return;
+            }
+            if sh.posted.load(Ordering::SeqCst) > seen {
+                break;
+            }
+            if idle_since.elapsed() > SPIN {
+                // a post after this check unparks the thread (the token makes park return)
+                std::thread::park();
+                idle_since = Instant::now();
+            } else {
+                std::thread::yield_now();
+            }
+        }
+        seen += 1;
+        let r = catch_unwind(AssertUnwindSafe(|| lock(&sh.state).run()));
+        if let Err(p) = r {
+            *lock(&sh.panic) = Some(panic_text(&*p));
+        }
+        sh.done.store(seen, Ordering::Release);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Sum {
+        input: Vec<f64>,
+        out: f64,
+        fail: bool,
+    }
+
+    impl Job for Sum {
+        fn run(&mut self) {
+            assert!(!self.fail, "asked to fail");
+            self.out = self.input.iter().sum();
+        }
+    }
+
+    #[test]
+    fn jobs_run_on_the_worker_in_order_and_panics_come_back_as_errors() {
+        let w = SpinWorker::spawn(Sum {
+            input: vec![],
+            out: 0.0,
+            fail: false,
+        });
+        assert!(w.has_thread());
+        for n in 1..200usize {
+            w.state().input = (0..n).map(|i| i as f64).collect();
+            w.post();
+            w.wait().unwrap();
+            assert_eq!(w.state().out, (n * (n - 1) / 2) as f64);
+            if n % 50 == 0 {
+                // past the spin time the worker parks; a post must wake it
+                std::thread::sleep(SPIN * 2);
+            }
+        }
+        w.state().fail = true;
+        w.post();
+        let e = w.wait().unwrap_err();
+        assert!(e.contains("asked to fail"), "{e}");
+        // the worker survives a panicking job
+        w.state().fail = false;
+        w.state().input = vec![1.0, 2.0];
+        w.post();
+        w.wait().unwrap();
+        assert_eq!(w.state().out, 3.0);
+    }
+}
