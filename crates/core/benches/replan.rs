@@ -1,6 +1,7 @@
 //! Warm re-plans of the tracking swing (`scenarios/tracking.toml`: params/paper.toml, T auto ~ 2.23 s,
-//! multiple shooting on the re-planning mesh: 30 ms knots, 74 intervals, which meets the 1 mm replay
-//! bar; `BRACHIA_REPLAN_KNOT_DT=0.01` for the 10 ms mesh): from the planned state at t = 0.6 s disturbed by uniform +-0.1 rad
+//! multiple shooting on the re-planning mesh [`REPLAN_KNOT_DT`]: 40 ms knots, 56 intervals, which meets
+//! the 1 mm replay bar; `BRACHIA_REPLAN_KNOT_DT=0.03` for session 16's 30 ms mesh, 0.01 for the 10 ms
+//! one): from the planned state at t = 0.6 s disturbed by uniform +-0.1 rad
 //! and +-0.5 rad/s on each joint (seeded, 100 draws, those inside the bounds), re-plan to the bar over
 //! the remaining time.
 //! - warm: [`SwingPlanner::replan`] (shifted previous solution, the solver's stored multipliers);
@@ -12,7 +13,9 @@
 //! times every re-plan of every draw and prints median, p99, mean iterations, convergence counts and
 //! the ratios; the criterion groups then time warm and cold over the draws in turn.
 
-use brachia::planning::workload::{disturbed_starts, replan_settings, REPLAN_SEED, REPLAN_T_NOW};
+use brachia::planning::workload::{
+    disturbed_starts, replan_settings, REPLAN_KNOT_DT, REPLAN_SEED, REPLAN_T_NOW,
+};
 use brachia::planning::{
     solve, Backend, NlpSettings, OcpNlp, PlannerSettings, SparseNlp, SwingOcp, SwingOcpSpec,
     SwingPlanner, SwingTask,
@@ -22,13 +25,13 @@ use brachia_ocp::{OcpSettings, Primal, WarmDuals};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::{Duration, Instant};
 
-/// The bar's re-planning mesh (30 ms knots unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
+/// The bar's re-planning mesh ([`REPLAN_KNOT_DT`] unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
 fn settings() -> (PlannerSettings, NlpSettings) {
     replan_settings(
         std::env::var("BRACHIA_REPLAN_KNOT_DT")
             .ok()
             .and_then(|v| v.parse().ok())
-            .unwrap_or(0.03),
+            .unwrap_or(REPLAN_KNOT_DT),
     )
 }
 

@@ -1,5 +1,6 @@
 //! A fixed re-planning workload for instruction counts (callgrind): the warm re-plan set of
-//! `benches/replan.rs` (the tracking swing, multiple shooting, 30 ms knots, one RK4 step, K = 74; from
+//! `benches/replan.rs` (the tracking swing, multiple shooting, 40 ms knots (`REPLAN_KNOT_DT`;
+//! `BRACHIA_REPLAN_KNOT_DT` for another), one RK4 step, K = 56; from
 //! the planned state at t = 0.6 s disturbed by uniform +-0.1 rad and +-0.5 rad/s per joint, 100
 //! seeded draws, those inside the bounds). `replan_profile N` re-plans the first N draws warm (each
 //! after restoring the undisturbed plan) and prints the iterations (mean, p99, max, the slowest
@@ -17,11 +18,16 @@
 //! (the solver's own clock; noisy, the iterations are the figures to compare). Diagnosis: `BRACHIA_REPLAN_ONLY=i`
 //! re-plans draw i only (after the same restore), `BRACHIA_REPLAN_LIST=1` prints every draw's
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw), and below it
-//! the solver's factorisations, regularisations and time split ([`SwingPlanner::last_stats`]).
+//! the solver's factorisations, regularisations and time split ([`SwingPlanner::last_stats`]);
+//! `BRACHIA_REPLAN_REPLAY=1` replays every re-plan's held torques open loop (untimed) and prints the
+//! largest end-effector miss (the bar's accuracy rule: <= 1 mm); `BRACHIA_REPLAN_GAP_MS=t` idles t ms
+//! before each re-plan (untimed), as a closed loop does between re-plans.
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.
 
-use brachia::planning::workload::{disturbed_starts, replan_settings, REPLAN_SEED, REPLAN_T_NOW};
+use brachia::planning::workload::{
+    disturbed_starts, replan_settings, REPLAN_KNOT_DT, REPLAN_SEED, REPLAN_T_NOW,
+};
 use brachia::planning::{SwingPlanner, SwingTask, WarmPrimal};
 use brachia::Robot;
 use brachia_ocp::{MuStrategy, WarmDuals};
@@ -36,7 +42,7 @@ fn main() -> Result<(), brachia::Error> {
         std::env::var("BRACHIA_REPLAN_KNOT_DT")
             .ok()
             .and_then(|v| v.parse().ok())
-            .unwrap_or(0.03),
+            .unwrap_or(REPLAN_KNOT_DT),
     );
     let mut planner = SwingPlanner::new(robot.clone(), task.clone(), &s, &nlp)?;
     let env = |k: &str| std::env::var(k).ok();
@@ -93,11 +99,17 @@ fn main() -> Result<(), brachia::Error> {
     let mut obj_sum = 0.0;
     let only: Option<usize> = env("BRACHIA_REPLAN_ONLY").and_then(|v| v.parse().ok());
     let list = env("BRACHIA_REPLAN_LIST").as_deref() == Some("1");
+    let replay = env("BRACHIA_REPLAN_REPLAY").as_deref() == Some("1");
+    let gap_ms: Option<f64> = env("BRACHIA_REPLAN_GAP_MS").and_then(|v| v.parse().ok());
+    let mut replay_max = 0.0f64;
     for (i, x) in states.iter().enumerate().take(count) {
         if only.is_some_and(|o| o != i) {
             continue;
         }
         planner.restore(&cp)?;
+        if let Some(ms) = gap_ms {
+            std::thread::sleep(std::time::Duration::from_secs_f64(ms * 1e-3));
+        }
         let o = if warm {
             planner.replan(REPLAN_T_NOW, x)?
         } else {
@@ -107,6 +119,10 @@ fn main() -> Result<(), brachia::Error> {
         obj_sum += o.objective;
         its.push(o.iterations);
         times.push(o.solve_time_s);
+        if replay {
+            // the re-plan's own held torques replayed open loop from x (untimed)
+            replay_max = replay_max.max(planner.current_plan()?.replay_ee_error_m);
+        }
         if list {
             println!(
                 "draw {i} iterations {} objective {:.15e} status {:?} ee_error {:.3e}",
@@ -147,6 +163,9 @@ fn main() -> Result<(), brachia::Error> {
         v[m - 1],
         &sorted[..3.min(m)]
     );
+    if replay {
+        println!("largest replay miss of the re-plans: {replay_max:.3e} m");
+    }
     times.sort_by(f64::total_cmp);
     println!(
         "solve times: median {:.2} ms, p99 {:.2} ms, max {:.2} ms, sum {:.1} ms",

@@ -8,8 +8,10 @@
 //! [`Job::run`] on it whenever its owner posts, and between posts keeps polling (yielding the core to
 //! any other runnable thread) for [`SPIN`] before it parks, so within a solve, whose evaluations
 //! come every few hundred microseconds, a post is seen within a microsecond, and an idle problem
-//! costs nothing. The owner reads and writes the state only between a [`SpinWorker::wait`] and the
-//! next [`SpinWorker::post`]. A panic inside a job is caught on the worker and handed to the owner
+//! costs nothing. A job the worker has not started by the time its owner waits for it (a parked
+//! thread whose core was asleep) is run by the owner itself, so a split job is never slower than
+//! the owner alone by more than the copies. The owner reads and writes the state only between a
+//! [`SpinWorker::wait`] and the next [`SpinWorker::post`]. A panic inside a job is caught on the worker and handed to the owner
 //! by [`SpinWorker::wait`]; the thread is stopped and joined when the worker is dropped.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -32,8 +34,10 @@ pub(crate) trait Job: Send + 'static {
 
 struct Shared<S> {
     state: Mutex<S>,
-    /// Jobs posted and jobs finished (each a count; equal when the worker is idle).
+    /// Jobs posted, claimed (by the worker, or by the owner when the worker has not started the
+    /// job by the time the owner waits for it) and finished, each a count; all equal when idle.
     posted: AtomicU64,
+    claimed: AtomicU64,
     done: AtomicU64,
     /// The message of a job that panicked, taken by the next `wait`.
     panic: Mutex<Option<String>>,
@@ -75,6 +79,7 @@ impl<S: Job> SpinWorker<S> {
         let shared = Arc::new(Shared {
             state: Mutex::new(state),
             posted: AtomicU64::new(0),
+            claimed: AtomicU64::new(0),
             done: AtomicU64::new(0),
             panic: Mutex::new(None),
             stop: AtomicBool::new(false),
@@ -103,20 +108,29 @@ impl<S: Job> SpinWorker<S> {
     /// return, if the worker has no thread).
     pub(crate) fn post(&self) {
         let Some(h) = &self.handle else {
-            let r = catch_unwind(AssertUnwindSafe(|| lock(&self.shared.state).run()));
-            if let Err(p) = r {
-                *lock(&self.shared.panic) = Some(panic_text(&*p));
-            }
+            run_job(&self.shared);
             return;
         };
         self.shared.posted.fetch_add(1, Ordering::SeqCst);
         h.thread().unpark();
     }
 
-    /// Wait for the posted job to finish (polling: the job runs now). `Err` with the panic message
-    /// if the job panicked (the state is then as the panic left it).
+    /// Wait for the posted job to finish: if the worker has not started it yet (a parked thread
+    /// that is slow to wake, a core that is taken), run it here instead; otherwise poll until it
+    /// is done. `Err` with the panic message if the job panicked (the state is then as the panic
+    /// left it).
     pub(crate) fn wait(&self) -> Result<(), String> {
-        let target = self.shared.posted.load(Ordering::SeqCst);
+        let sh = &self.shared;
+        let target = sh.posted.load(Ordering::SeqCst);
+        if target > 0
+            && sh
+                .claimed
+                .compare_exchange(target - 1, target, Ordering::AcqRel, Ordering::Acquire)
+                .is_ok()
+        {
+            run_job(sh);
+            sh.done.store(target, Ordering::Release);
+        }
         let start = Instant::now();
         let mut polls = 0u32;
         while self.shared.done.load(Ordering::Acquire) < target {
@@ -151,6 +165,14 @@ impl<S: Job> Drop for SpinWorker<S> {
     }
 }
 
+/// Run the job on the calling thread, a panic kept for the owner's `wait`.
+fn run_job<S: Job>(sh: &Shared<S>) {
+    let r = catch_unwind(AssertUnwindSafe(|| lock(&sh.state).run()));
+    if let Err(p) = r {
+        *lock(&sh.panic) = Some(panic_text(&*p));
+    }
+}
+
 fn worker_loop<S: Job>(sh: &Shared<S>) {
     let mut seen = 0u64;
     loop {
@@ -171,11 +193,15 @@ fn worker_loop<S: Job>(sh: &Shared<S>) {
             }
         }
         seen += 1;
-        let r = catch_unwind(AssertUnwindSafe(|| lock(&sh.state).run()));
-        if let Err(p) = r {
-            *lock(&sh.panic) = Some(panic_text(&*p));
+        // the owner may have run this job itself (it claims a job the worker has not started)
+        if sh
+            .claimed
+            .compare_exchange(seen - 1, seen, Ordering::AcqRel, Ordering::Acquire)
+            .is_ok()
+        {
+            run_job(sh);
+            sh.done.store(seen, Ordering::Release);
         }
-        sh.done.store(seen, Ordering::Release);
     }
 }
 
@@ -187,12 +213,14 @@ mod tests {
         input: Vec<f64>,
         out: f64,
         fail: bool,
+        runs: usize,
     }
 
     impl Job for Sum {
         fn run(&mut self) {
             assert!(!self.fail, "asked to fail");
             self.out = self.input.iter().sum();
+            self.runs += 1;
         }
     }
 
@@ -202,6 +230,7 @@ mod tests {
             input: vec![],
             out: 0.0,
             fail: false,
+            runs: 0,
         });
         assert!(w.has_thread());
         for n in 1..200usize {
@@ -213,6 +242,16 @@ mod tests {
                 // past the spin time the worker parks; a post must wake it
                 std::thread::sleep(SPIN * 2);
             }
+        }
+        // a job posted and waited for at once, often before the worker has seen it (then the owner
+        // runs it: both paths must give the job's result, exactly once per post)
+        let runs = w.state().runs;
+        for n in 0..5000usize {
+            w.state().input = vec![n as f64, 1.0];
+            w.post();
+            w.wait().unwrap();
+            assert_eq!(w.state().out, n as f64 + 1.0);
+            assert_eq!(w.state().runs, runs + n + 1, "each job runs once");
         }
         w.state().fail = true;
         w.post();
