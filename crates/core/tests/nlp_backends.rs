@@ -5,6 +5,7 @@
 mod nlp_problems;
 
 use brachia::fdcheck;
+use brachia::planning::nlp::RIPOPT_MAX_UNKNOWNS;
 use brachia::planning::{solve, Backend, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 use nlp_problems::{DoubleIntegrator, Hs071, Infeasible, LogBarrier, RosenbrockDisk};
 
@@ -350,6 +351,34 @@ fn iteration_limit_is_a_status_with_the_last_iterate() {
         // The objective is re-evaluated at the returned point.
         assert_eq!(sol.objective, Hs071::default().objective(&sol.x));
     }
+}
+
+#[test]
+fn ripopt_refuses_a_kkt_system_too_large_for_its_dense_factorisation() {
+    // 3 * 401 variables and 2 * 400 + 2 dynamics and end rows: past RIPOPT_MAX_UNKNOWNS
+    let t = std::time::Instant::now();
+    let sol = solve(
+        &mut DoubleIntegrator { n_int: 400 },
+        &settings(Backend::Ripopt),
+    );
+    match &sol.status {
+        SolveStatus::InvalidProblem(msg) => {
+            assert!(
+                msg.contains(&format!("at most {RIPOPT_MAX_UNKNOWNS} unknowns")),
+                "{msg}"
+            );
+            assert!(msg.contains("1203 + "), "{msg}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(sol.iterations, 0);
+    assert!(t.elapsed().as_secs_f64() < 5.0, "{:?}", t.elapsed());
+    // the same size is no problem for pounce
+    let sol = solve(
+        &mut DoubleIntegrator { n_int: 400 },
+        &settings(Backend::Pounce),
+    );
+    assert_converged(&sol);
 }
 
 #[test]

@@ -572,18 +572,28 @@ pub const WARM_START_MU_INIT: f64 = 1e-4;
 /// Solve `problem` with the seam's backend; when that does not converge (and the barrier strategy was
 /// not already adaptive), a second attempt with the adaptive barrier update, which recovers from initial
 /// guesses that cut through obstacles (measured on the paper's obstacle scenario; docs/planner.md). The
-/// second is adopted when it converged or ended less infeasible. Returns the adopted solution and every
-/// attempt (exactly one marked adopted).
+/// second is adopted when it converged or ended less infeasible. `max_wall_time_s` bounds both together:
+/// the second gets what the first left, and does not run when nothing is left. Returns the adopted
+/// solution and every attempt (exactly one marked adopted).
 pub(super) fn solve_with_retry(
     problem: &mut dyn SparseNlp,
     nlp: &NlpSettings,
 ) -> (NlpSolution, Vec<SolveAttempt>) {
+    let start = std::time::Instant::now();
     let mut sol = solve(problem, nlp);
     let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
     let mut adopted = 0;
-    if !sol.status.is_converged() && nlp.mu_strategy != MuStrategy::Adaptive {
+    // the wall-time limit is the whole call's: the retry gets what is left, and none once it is spent
+    let left = nlp
+        .max_wall_time_s
+        .map(|w| w - start.elapsed().as_secs_f64());
+    if !sol.status.is_converged()
+        && nlp.mu_strategy != MuStrategy::Adaptive
+        && !left.is_some_and(|w| w <= 0.0)
+    {
         let retry = NlpSettings {
             mu_strategy: MuStrategy::Adaptive,
+            max_wall_time_s: left,
             ..nlp.clone()
         };
         let second = solve(problem, &retry);

@@ -34,6 +34,7 @@
 
 mod pounce;
 mod ripopt;
+pub use ripopt::RIPOPT_MAX_UNKNOWNS;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
