@@ -14,6 +14,7 @@
 //! [`SpinWorker::wait`] and the next [`SpinWorker::post`]. A panic inside a job is caught on the worker and handed to the owner
 //! by [`SpinWorker::wait`]; the thread is stopped and joined when the worker is dropped.
 
+use super::nlp::panic_text;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -60,16 +61,6 @@ impl<S: Job> std::fmt::Debug for SpinWorker<S> {
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
-    if let Some(s) = p.downcast_ref::<&str>() {
-        (*s).to_string()
-    } else if let Some(s) = p.downcast_ref::<String>() {
-        s.clone()
-    } else {
-        "a panic with a non-string payload".to_string()
-    }
 }
 
 impl<S: Job> SpinWorker<S> {
