@@ -386,16 +386,26 @@ fn free_swing_time_flow_derivatives_agree_with_automatic_differentiation_of_the_
 #[test]
 fn the_helper_thread_evaluates_the_same_numbers_as_the_calling_thread() {
     let robot = robot(4);
-    for free in [false, true] {
+    // a fixed T, a free T, and a fixed T again after a free one (the helper's buffers resized twice)
+    for (free, round_trip) in [(false, false), (true, false), (false, true)] {
         let build = |min_stages: usize| {
             let p: SwingOcp = problem_split(&robot, 9, 2, min_stages);
             if free {
                 p.with_free_swing_time(0.05, 2.0).unwrap()
+            } else if round_trip {
+                p.with_free_swing_time(0.05, 2.0)
+                    .unwrap()
+                    .with_fixed_swing_time(0.5)
+                    .unwrap()
             } else {
                 p
             }
         };
         let (mut split, mut serial) = (build(0), build(usize::MAX));
+        assert!(!serial.has_helper_thread());
+        if rayon::current_num_threads() > 1 {
+            assert!(split.has_helper_thread());
+        }
         let mut rng = ChaCha8Rng::seed_from_u64(17);
         let point = |rng: &mut ChaCha8Rng, dims: &OcpDims| {
             if free {

@@ -191,6 +191,28 @@ fn the_wall_time_limit_bounds_the_retry_too() {
 }
 
 #[test]
+fn a_refusal_is_not_retried() {
+    // ripopt refuses the tracking swing's 30 ms shooting problem (2158 unknowns): another barrier
+    // strategy cannot change that, so there is one attempt
+    let s = PlannerSettings {
+        transcription: Transcription::MultipleShooting,
+        knot_dt: 0.03,
+        ..Default::default()
+    };
+    let nlp = NlpSettings {
+        backend: Backend::Ripopt,
+        ..Default::default()
+    };
+    let p = plan(&Robot::paper(), &SwingTask::paper(), &s, &nlp).unwrap();
+    assert!(
+        matches!(p.status, SolveStatus::InvalidProblem(_)),
+        "{:?}",
+        p.status
+    );
+    assert_eq!((p.attempts, p.solves.len(), p.iterations), (1, 1, 0));
+}
+
+#[test]
 fn the_ocp_attempt_is_labelled_with_the_barrier_update_it_ran() {
     // The `ocp` backend used to label every attempt `Monotone`, and ignored `mu_strategy`; it now
     // runs the update asked for and reports it (warm re-plans, adaptive: tests/replan.rs).

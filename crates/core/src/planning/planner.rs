@@ -587,7 +587,13 @@ pub(super) fn solve_with_retry(
     let left = nlp
         .max_wall_time_s
         .map(|w| w - start.elapsed().as_secs_f64());
+    // a refusal (settings, problem) is the same under another barrier strategy
+    let refused = matches!(
+        sol.status,
+        SolveStatus::InvalidProblem(_) | SolveStatus::InvalidSettings(_)
+    );
     if !sol.status.is_converged()
+        && !refused
         && nlp.mu_strategy != MuStrategy::Adaptive
         && !left.is_some_and(|w| w <= 0.0)
     {

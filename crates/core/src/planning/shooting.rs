@@ -168,7 +168,8 @@ pub struct SwingOcpSpec {
     pub target: [f64; 2],
     /// Box bounds on q and qd (torque limits come from the robot).
     pub bounds: Bounds,
-    /// Evaluate the stages in parallel (rayon) when there are at least this many; `usize::MAX` never.
+    /// Evaluate half the stages on the problem's helper thread when there are at least this many
+    /// (module docs); `usize::MAX` never.
     pub parallel_min_stages: usize,
 }
 
@@ -1018,7 +1019,6 @@ struct Tail<D> {
     zu: Vec<Vec<f64>>,
     lam: Vec<Vec<f64>>,
     mu: Vec<Vec<f64>>,
-    sigma: f64,
     out: Vec<StageEval>,
     job: TailJob,
 }
@@ -1174,7 +1174,6 @@ impl<D: PointDynamics> SwingOcp<D> {
                 zu: Vec::new(),
                 lam: Vec::new(),
                 mu: Vec::new(),
-                sigma: 0.0,
                 out: Vec::new(),
                 job: TailJob::Evaluate(EvalLevel::Values),
             })
@@ -1236,6 +1235,11 @@ impl<D: PointDynamics> SwingOcp<D> {
                 w.rec_valid = false;
             }
         }
+    }
+
+    /// Whether half the stages are evaluated on the problem's helper thread (module docs).
+    pub fn has_helper_thread(&self) -> bool {
+        self.tail.as_ref().is_some_and(SpinWorker::has_thread)
     }
 
     /// The robot (shared).
@@ -1526,7 +1530,7 @@ impl<D: PointDynamics> SwingOcp<D> {
     ) -> std::result::Result<(), EvalError> {
         let ctx = &self.ctx;
         let own = self.work.len();
-        let Some(tail) = &self.tail else {
+        let Some(tail) = &mut self.tail else {
             for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
                 op(w, ctx, k, &zx[k], &zu[k], ev);
             }
@@ -1554,12 +1558,13 @@ impl<D: PointDynamics> SwingOcp<D> {
                 dx.copy_from_slice(&zx[own + j]);
                 du.copy_from_slice(&zu[own + j]);
             }
-            if let TailJob::Hessian(sigma) = job {
-                t.sigma = sigma;
+            if let TailJob::Hessian(_) = job {
                 // lam at the last stage is not read (and may have any size)
+                let k_last = ctx.horizon;
                 for (j, (dl, dm)) in t.lam.iter_mut().zip(t.mu.iter_mut()).enumerate() {
-                    let n = dl.len().min(lam[own + j].len());
-                    dl[..n].copy_from_slice(&lam[own + j][..n]);
+                    if own + j < k_last {
+                        dl.copy_from_slice(&lam[own + j]);
+                    }
                     dm.copy_from_slice(&mu[own + j]);
                 }
             }
@@ -1571,7 +1576,9 @@ impl<D: PointDynamics> SwingOcp<D> {
         if let Err(msg) = tail.wait() {
             return Err(EvalError {
                 stage: own,
-                reason: format!("a stage evaluation on the helper thread failed: {msg}"),
+                reason: format!(
+                    "a stage evaluation on the helper thread (stages {own}..) failed: {msg}"
+                ),
             });
         }
         let t = tail.state();

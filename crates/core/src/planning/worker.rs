@@ -51,14 +51,6 @@ pub(crate) struct SpinWorker<S: Job> {
     handle: Option<JoinHandle<()>>,
 }
 
-impl<S: Job> std::fmt::Debug for SpinWorker<S> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SpinWorker")
-            .field("posted", &self.shared.posted.load(Ordering::Relaxed))
-            .finish()
-    }
-}
-
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
 }
@@ -96,8 +88,10 @@ impl<S: Job> SpinWorker<S> {
     }
 
     /// Have the worker run the job described in the state (on the caller's thread, finished on
-    /// return, if the worker has no thread).
-    pub(crate) fn post(&self) {
+    /// return, if the worker has no thread). A job posted before and never waited for (its owner
+    /// unwound in between) is settled first: not run if it had not started, its outcome dropped.
+    pub(crate) fn post(&mut self) {
+        let _ = self.finish(false);
         let Some(h) = &self.handle else {
             run_job(&self.shared);
             return;
@@ -110,7 +104,13 @@ impl<S: Job> SpinWorker<S> {
     /// that is slow to wake, a core that is taken), run it here instead; otherwise poll until it
     /// is done. `Err` with the panic message if the job panicked (the state is then as the panic
     /// left it).
-    pub(crate) fn wait(&self) -> Result<(), String> {
+    pub(crate) fn wait(&mut self) -> Result<(), String> {
+        self.finish(true)
+    }
+
+    /// End the posted job: claim it if the worker has not (and then run it here when `run`, or drop
+    /// it), else poll until the worker has finished it; then take its panic message, if any.
+    fn finish(&mut self, run: bool) -> Result<(), String> {
         let sh = &self.shared;
         let target = sh.posted.load(Ordering::SeqCst);
         if target > 0
@@ -119,26 +119,24 @@ impl<S: Job> SpinWorker<S> {
                 .compare_exchange(target - 1, target, Ordering::AcqRel, Ordering::Acquire)
                 .is_ok()
         {
-            run_job(sh);
+            if run {
+                run_job(sh);
+            }
             sh.done.store(target, Ordering::Release);
         }
+        // the worker claimed the job and runs it (it catches every panic, so it finishes)
         let start = Instant::now();
         let mut polls = 0u32;
-        while self.shared.done.load(Ordering::Acquire) < target {
+        while sh.done.load(Ordering::Acquire) < target {
             polls = polls.wrapping_add(1);
-            if polls.is_multiple_of(64) {
-                if self.handle.as_ref().is_some_and(JoinHandle::is_finished) {
-                    return Err("the stage worker thread ended".to_string());
-                }
-                // past a job's usual length, give the core away if another thread wants it (the
-                // worker itself, when more threads than cores are runnable)
-                if start.elapsed() > WAIT_SPIN {
-                    std::thread::yield_now();
-                }
+            // past a job's usual length, give the core away if another thread wants it (the worker
+            // itself, when more threads than cores are runnable)
+            if polls.is_multiple_of(64) && start.elapsed() > WAIT_SPIN {
+                std::thread::yield_now();
             }
             std::hint::spin_loop();
         }
-        match lock(&self.shared.panic).take() {
+        match lock(&sh.panic).take() {
             Some(msg) => Err(msg),
             None => Ok(()),
         }
@@ -217,7 +215,7 @@ mod tests {
 
     #[test]
     fn jobs_run_on_the_worker_in_order_and_panics_come_back_as_errors() {
-        let w = SpinWorker::spawn(Sum {
+        let mut w = SpinWorker::spawn(Sum {
             input: vec![],
             out: 0.0,
             fail: false,
@@ -248,6 +246,17 @@ mod tests {
         w.post();
         let e = w.wait().unwrap_err();
         assert!(e.contains("asked to fail"), "{e}");
+        // a failed job posted and never waited for (its owner unwound) leaves neither its error nor
+        // a second run to the next job
+        w.state().fail = true;
+        w.post();
+        w.state().fail = false;
+        w.state().input = vec![4.0, 5.0];
+        let runs = w.state().runs;
+        w.post();
+        w.wait().unwrap();
+        assert_eq!(w.state().out, 9.0);
+        assert_eq!(w.state().runs, runs + 1);
         // the worker survives a panicking job
         w.state().fail = false;
         w.state().input = vec![1.0, 2.0];

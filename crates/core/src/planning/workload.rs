@@ -33,9 +33,9 @@ pub const REPLAN_SEED: u64 = 2026;
 /// knots (K = 74; replay 3.1e-5 m); docs/benchmarks.md, "Session 17".
 pub const REPLAN_KNOT_DT: f64 = 0.04;
 
-/// The re-planning mesh of the bar: multiple shooting with knots `knot_dt` (s) apart (0.03 s: K = 74
-/// on the tracking swing), one RK4 step per interval, on the Riccati (`ocp`) backend with its default
-/// settings; everything else the planner's defaults.
+/// The re-planning mesh: multiple shooting with knots `knot_dt` (s) apart (the bar's is
+/// [`REPLAN_KNOT_DT`]: K = 56 on the tracking swing), one RK4 step per interval, on the Riccati (`ocp`)
+/// backend with its default settings; everything else the planner's defaults.
 pub fn replan_settings(knot_dt: f64) -> (PlannerSettings, NlpSettings) {
     (
         PlannerSettings {
