@@ -467,5 +467,26 @@ fn the_helper_thread_evaluates_the_same_numbers_as_the_calling_thread() {
                 &format!("first order and Hessian at z2, round {round}"),
             );
         }
+        // called from a rayon worker, the problem with a helper evaluates every stage there
+        let z = point(&mut rng, split.dims());
+        let m = random_multipliers(&mut rng, split.dims());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let a = pool.install(|| {
+            let mut a = bufs(split.dims());
+            split
+                .evaluate(&z, EvalLevel::FirstOrder, &mut a.stages, &mut a.term)
+                .unwrap();
+            split.hessians(&z, 0.9, &m, &mut a.stages).unwrap();
+            a
+        });
+        let mut b = bufs(serial.dims());
+        serial
+            .evaluate(&z, EvalLevel::FirstOrder, &mut b.stages, &mut b.term)
+            .unwrap();
+        serial.hessians(&z, 0.9, &m, &mut b.stages).unwrap();
+        same(&a, &b, "on a rayon worker");
     }
 }

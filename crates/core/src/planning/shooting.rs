@@ -1023,18 +1023,41 @@ struct Tail<D> {
     job: TailJob,
 }
 
+impl TailJob {
+    /// Run the job on stage k (its scratch `w`, point `x`, `u`, multipliers `lam`, `mu`: read by a
+    /// Hessian job only).
+    #[allow(clippy::too_many_arguments)]
+    fn run<D: PointDynamics>(
+        self,
+        w: &mut StageWork<D>,
+        ctx: &Ctx,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        lam: &[f64],
+        mu: &[f64],
+        ev: &mut StageEval,
+    ) {
+        match self {
+            TailJob::Evaluate(level) => w.evaluate(ctx, k, x, u, level, ev),
+            TailJob::Hessian(sigma) => w.hessian(ctx, k, x, u, sigma, lam, mu, &mut ev.hess),
+        }
+    }
+}
+
+/// Entry k of per-stage multipliers, empty where there are none (an evaluation job).
+fn at(v: &[Vec<f64>], k: usize) -> &[f64] {
+    v.get(k).map_or(&[], Vec::as_slice)
+}
+
 impl<D: PointDynamics> Job for Tail<D> {
     fn run(&mut self) {
         for (j, w) in self.work.iter_mut().enumerate() {
-            let k = self.first + j;
-            let (x, u, ev) = (&self.zx[j], &self.zu[j], &mut self.out[j]);
-            match self.job {
-                TailJob::Evaluate(level) => w.evaluate(&self.ctx, k, x, u, level, ev),
-                TailJob::Hessian(sigma) => {
-                    let (lam, mu) = (&self.lam[j], &self.mu[j]);
-                    w.hessian(&self.ctx, k, x, u, sigma, lam, mu, &mut ev.hess)
-                }
-            }
+            let (x, u) = (&self.zx[j], &self.zu[j]);
+            let (lam, mu) = (&self.lam[j], &self.mu[j]);
+            let ev = &mut self.out[j];
+            self.job
+                .run(w, &self.ctx, self.first + j, x, u, lam, mu, ev);
         }
     }
 }
@@ -1515,9 +1538,7 @@ impl<D: PointDynamics> SwingOcp<D> {
     /// Evaluate the stages: the first half on the calling thread while the helper thread runs
     /// `job` on the second (its inputs copied in, its results copied out), or all of them on the
     /// calling thread (no helper, or called from inside a rayon worker, where the cores are taken).
-    /// `op` is `job` for one stage. The multipliers `lam`, `mu` (one entry per stage) are read by a
-    /// Hessian job only.
-    #[allow(clippy::too_many_arguments)]
+    /// The multipliers `lam`, `mu` (one entry per stage) are read by a Hessian job only.
     fn for_stages(
         &mut self,
         zx: &[Vec<f64>],
@@ -1526,28 +1547,28 @@ impl<D: PointDynamics> SwingOcp<D> {
         mu: &[Vec<f64>],
         job: TailJob,
         stages: &mut [StageEval],
-        op: impl Fn(&mut StageWork<D>, &Ctx, usize, &[f64], &[f64], &mut StageEval),
     ) -> std::result::Result<(), EvalError> {
         let ctx = &self.ctx;
         let own = self.work.len();
-        let Some(tail) = &mut self.tail else {
+        let here = |w: &mut StageWork<D>, k: usize, ev: &mut StageEval| {
+            job.run(w, ctx, k, &zx[k], &zu[k], at(lam, k), at(mu, k), ev)
+        };
+        let threaded = self
+            .tail
+            .as_ref()
+            .is_some_and(|t| t.has_thread() && rayon::current_thread_index().is_none());
+        let Some(tail) = self.tail.as_mut().filter(|_| threaded) else {
+            // every stage here: the first ones, then the helper's (if any) in its scratch
             for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
-                op(w, ctx, k, &zx[k], &zu[k], ev);
+                here(w, k, ev);
+            }
+            if let Some(tail) = &self.tail {
+                for (j, w) in tail.state().work.iter_mut().enumerate() {
+                    here(w, own + j, &mut stages[own + j]);
+                }
             }
             return Ok(());
         };
-        let threaded = tail.has_thread() && rayon::current_thread_index().is_none();
-        if !threaded {
-            for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
-                op(w, ctx, k, &zx[k], &zu[k], ev);
-            }
-            let mut t = tail.state();
-            for (j, w) in t.work.iter_mut().enumerate() {
-                let k = own + j;
-                op(w, ctx, k, &zx[k], &zu[k], &mut stages[k]);
-            }
-            return Ok(());
-        }
         {
             let mut t = tail.state();
             let t = &mut *t;
@@ -1571,7 +1592,7 @@ impl<D: PointDynamics> SwingOcp<D> {
         }
         tail.post();
         for (k, (w, ev)) in self.work.iter_mut().zip(stages.iter_mut()).enumerate() {
-            op(w, ctx, k, &zx[k], &zu[k], ev);
+            here(w, k, ev);
         }
         if let Err(msg) = tail.wait() {
             return Err(EvalError {
@@ -1620,15 +1641,7 @@ impl<D: PointDynamics> SwingOcp<D> {
     ) -> std::result::Result<(), EvalError> {
         self.check_sizes(zx, zu, stages.len())?;
         let t0 = Instant::now();
-        self.for_stages(
-            zx,
-            zu,
-            &[],
-            &[],
-            TailJob::Evaluate(level),
-            stages,
-            |w, ctx, k, x, u, ev| w.evaluate(ctx, k, x, u, level, ev),
-        )?;
+        self.for_stages(zx, zu, &[], &[], TailJob::Evaluate(level), stages)?;
         let nx = self.ctx.nx;
         let xl = &zx[self.ctx.horizon][..nx];
         if level == EvalLevel::FirstOrder {
@@ -1688,15 +1701,7 @@ impl<D: PointDynamics> SwingOcp<D> {
             });
         }
         let t0 = Instant::now();
-        self.for_stages(
-            zx,
-            zu,
-            lam,
-            mu,
-            TailJob::Hessian(sigma),
-            stages,
-            |w, ctx, k, x, u, ev| w.hessian(ctx, k, x, u, sigma, &lam[k], &mu[k], &mut ev.hess),
-        )?;
+        self.for_stages(zx, zu, lam, mu, TailJob::Hessian(sigma), stages)?;
         let k_last = self.ctx.horizon;
         let nx = self.ctx.nx;
         self.term
