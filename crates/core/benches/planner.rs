@@ -186,7 +186,8 @@ fn report(robot: &Robot) {
     }
     let (par, serial) = (median(tp), median(ts));
     eprintln!(
-        "plan/tracking multiple-shooting/ocp, interleaved: helper thread {:.1} ms, serial stages          {:.1} ms, parallel / serial {:.2}",
+        "plan/tracking multiple-shooting/ocp, interleaved: helper thread {:.1} ms, serial stages \
+         {:.1} ms, parallel / serial {:.2}",
         par * 1e3,
         serial * 1e3,
         par / serial
