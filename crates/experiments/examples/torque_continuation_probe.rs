@@ -62,6 +62,88 @@ fn solve(
     Ok(plan)
 }
 
+/// A random smooth guess of `samples` points over `[0, t]`: every joint moves from `q0` by a smooth
+/// step to `q0 + d` plus `a1 sin(pi r) + a2 sin(2 pi r)` (r = time fraction), zero torque; `d`, `a1`,
+/// `a2` uniform in +-`amp` rad per joint.
+fn random_guess(q0: &[f64], t: f64, amp: f64, rng: &mut impl rand::Rng) -> Trajectory {
+    use std::f64::consts::PI;
+    let n = q0.len();
+    let mut draw = || -> Vec<f64> { (0..n).map(|_| rng.gen_range(-amp..=amp)).collect() };
+    let (d, a1, a2) = (draw(), draw(), draw());
+    let samples = 101;
+    let mut tr = Trajectory::new(n);
+    let (mut q, mut qd) = (vec![0.0; n], vec![0.0; n]);
+    for k in 0..samples {
+        let r = k as f64 / (samples - 1) as f64;
+        let (st, sdt) = (r * r * (3.0 - 2.0 * r), 6.0 * r * (1.0 - r) / t);
+        for i in 0..n {
+            let (w1, w2) = (PI * r, 2.0 * PI * r);
+            q[i] = q0[i] + st * d[i] + a1[i] * w1.sin() + a2[i] * w2.sin();
+            qd[i] = sdt * d[i] + (a1[i] * PI * w1.cos() + a2[i] * 2.0 * PI * w2.cos()) / t;
+        }
+        tr.push(r * t, &q, &qd, &vec![0.0; n - 1]);
+    }
+    tr
+}
+
+/// `seeds [R2] [OFFSET_S] [N] [AMP_RAD] [LIMITS...]`: N random smooth guesses (seeds 0..N, in
+/// parallel), each planned through the torque limits given (default 20 12 9 7 6 5 N m), each warm from
+/// the previous limit's plan; prints per seed the last limit solved and its energy and largest |tau|.
+fn seeds(
+    base: &RobotParams,
+    r2: f64,
+    task: &SwingTask,
+    t: f64,
+    s: &ParameterStudySettings,
+    nums: &[f64],
+) -> Result<(), Box<dyn std::error::Error>> {
+    use rand::SeedableRng;
+    use rayon::prelude::*;
+    let n_seeds = nums.get(2).copied().unwrap_or(32.0).clamp(1.0, 10_000.0) as u64;
+    let amp = nums.get(3).copied().unwrap_or(1.0);
+    let limits: Vec<f64> = if nums.len() > 4 {
+        nums[4..].to_vec()
+    } else {
+        vec![20.0, 12.0, 9.0, 7.0, 6.0, 5.0]
+    };
+    let robots = limits
+        .iter()
+        .map(|&l| limited(base, r2, l, s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let rows: Vec<String> = (0..n_seeds)
+        .into_par_iter()
+        .map(|seed| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let mut guess = random_guess(&task.q0, t, amp, &mut rng);
+            let mut line = format!("seed {seed:4}:");
+            for (robot, lim) in robots.iter().zip(&limits) {
+                let planner = PlannerSettings {
+                    swing_time: SwingTime::Seconds(t),
+                    ..s.planner.clone()
+                };
+                let plan = match plan_with_guess(robot, task, &planner, &s.solver, Some(&guess)) {
+                    Ok(p) => p,
+                    Err(e) => return format!("{line} error {e}"),
+                };
+                let tmax = (0..plan.trajectory.t.len())
+                    .flat_map(|k| plan.trajectory.tau(k).to_vec())
+                    .fold(0.0f64, |a, b| a.max(b.abs()));
+                if !plan.converged() {
+                    line += &format!(" | {lim} {:?} {} it", plan.status, plan.iterations);
+                    break;
+                }
+                line += &format!(" | {lim} E {:.3} tau {tmax:.2}", plan.energy_j);
+                guess = plan.trajectory;
+            }
+            line
+        })
+        .collect();
+    for r in rows {
+        println!("{r}");
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let s = ParameterStudySettings::default();
     let mut args = std::env::args().skip(1);
@@ -154,7 +236,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 guess = Some(plan.trajectory);
             }
         }
-        other => return Err(format!("unknown mode {other:?}: torque, time or r2").into()),
+        "seeds" => seeds(&base, r2, &task, 2.0 * ff + arg(1, -0.5), &s, &nums)?,
+        other => {
+            return Err(format!("unknown mode {other:?}: torque, time, r2 or seeds").into())
+        }
     }
     Ok(())
 }
