@@ -92,6 +92,26 @@ def test_plan_not_converged_is_a_status(robot):
     assert p.failure_message
 
 
+def test_a_swing_short_of_torque_says_how_much_it_needs(root):
+    text = (root / "params" / "paper.toml").read_text()
+    weak = text.replace("tau_min = [-5.0, -5.0, -5.0]", "tau_min = [-0.4, -0.4, -0.4]")
+    weak = weak.replace("tau_max = [5.0, 5.0, 5.0]", "tau_max = [0.4, 0.4, 0.4]")
+    assert weak != text
+    robot = brachia.Robot.from_toml_str(weak, "weak.toml")
+    task = {"q0": [-2.35, 0.0, -1.55, 0.0], "target": [0.8, 0.0]}
+    p = brachia.plan(robot, task)
+    assert not p.converged
+    assert "likely torque-limited" in p.failure_message
+    t = p.report["torque_continuation"]
+    assert t["relaxed_converged"] is True
+    assert 1.0 <= t["failed_scale"] < t["reached_scale"]
+    assert max(t["peak_torque_nm"]) > 0.4
+    # off: the cold plan's failure alone
+    q = brachia.plan(robot, task, torque_continuation=False)
+    assert not q.converged and q.report["torque_continuation"] is None
+    assert q.iterations < p.iterations
+
+
 def test_track_with_mpc_reaches_the_bar(tracking_plan, robot):
     mpc = brachia.Mpc(robot, tracking_plan)
     res = brachia.track(robot, tracking_plan, controller=mpc)

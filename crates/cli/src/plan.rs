@@ -56,7 +56,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
             .failure_message()
             .unwrap_or_else(|| format!("the planner did not converge ({:?})", p.status));
         Err(CliError::Failed(format!(
-            "{msg}; the report (blockage in report.json) is in {}",
+            "{msg}; the report (blockage, torque_continuation in report.json) is in {}",
             a.out.display()
         )))
     }

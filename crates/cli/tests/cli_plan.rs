@@ -124,6 +124,45 @@ fn non_convergence_writes_the_report_and_exits_1() {
     assert_eq!(r["status"], "max_iterations");
 }
 
+/// The tracking swing with every torque limit at 0.4 N m fails; the message and the report say how far
+/// the continuation on the limits got (brachia::planning::torque_continuation).
+#[test]
+fn a_swing_short_of_torque_says_how_much_it_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = std::fs::read_to_string(root().join("params/paper.toml"))
+        .unwrap()
+        .replace(
+            "tau_min = [-5.0, -5.0, -5.0]",
+            "tau_min = [-0.4, -0.4, -0.4]",
+        )
+        .replace("tau_max = [5.0, 5.0, 5.0]", "tau_max = [0.4, 0.4, 0.4]");
+    assert!(params.contains("[0.4, 0.4, 0.4]"));
+    std::fs::write(dir.path().join("weak.toml"), params).unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
+        .unwrap()
+        .replace(
+            "params = \"../params/paper.toml\"",
+            "params = \"weak.toml\"",
+        );
+    let (o, out) = plan_in(dir.path(), "weak_swing.toml", &text);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("likely torque-limited"), "{err}");
+    let r = report(&out);
+    assert_eq!(r["converged"], false);
+    let t = &r["torque_continuation"];
+    assert_eq!(t["relaxed_converged"], true, "{t}");
+    let (hi, lo) = (
+        t["reached_scale"].as_f64().unwrap(),
+        t["failed_scale"].as_f64().unwrap(),
+    );
+    assert!(1.0 <= lo && lo < hi, "{t}");
+    assert_eq!(t["limit_nm"], serde_json::json!([0.4, 0.4, 0.4]));
+    let peak = t["peak_torque_nm"].as_array().unwrap();
+    assert!(peak.iter().any(|p| p.as_f64().unwrap() > 0.4), "{t}");
+    assert!(r["iterations"].as_u64().unwrap() > t["iterations"].as_u64().unwrap());
+}
+
 #[test]
 fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
     let dir = tempfile::tempdir().unwrap();

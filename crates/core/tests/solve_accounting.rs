@@ -135,6 +135,8 @@ fn a_retry_that_is_not_adopted_still_counts() {
     let s = PlannerSettings {
         transcription: Transcription::Trapezoidal,
         knot_dt: 0.05,
+        // the retry's accounting is tested, not the continuation on the torque limits after it
+        torque_continuation: false,
         ..Default::default()
     };
     let nlp = NlpSettings {

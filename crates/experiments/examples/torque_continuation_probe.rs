@@ -237,9 +237,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         "seeds" => seeds(&base, r2, &task, 2.0 * ff + arg(1, -0.5), &s, &nums)?,
-        other => {
-            return Err(format!("unknown mode {other:?}: torque, time, r2 or seeds").into())
-        }
+        other => return Err(format!("unknown mode {other:?}: torque, time, r2 or seeds").into()),
     }
     Ok(())
 }

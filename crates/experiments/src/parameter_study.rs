@@ -527,6 +527,12 @@ pub struct StudyCell {
     /// Independent open-loop replay of the adopted plan's own torque profile: distance of the end
     /// effector from the bar at T, m (`None` for a cell the planner refused).
     pub replay_ee_error_m: Option<f64>,
+    /// When the cell's cold plan failed within the torque limits: the smallest factor on the limits
+    /// at which the planner's continuation on them converged (`Some(1.0)`: it planned the cell within
+    /// the limits; above 1: the cell likely needs that much more torque). `None` when the continuation
+    /// did not run or no widened plan converged (`brachia::planning::torque_continuation`).
+    #[serde(default)]
+    pub torque_scale_reached: Option<f64>,
 }
 
 /// Per-r2 summary.
@@ -681,6 +687,7 @@ fn make_cell(
         solve_time_s,
         start,
         replay_ee_error_m: Some(p.replay_ee_error_m),
+        torque_scale_reached: p.torque_continuation.as_ref().and_then(|t| t.reached_scale),
     }
 }
 
@@ -700,6 +707,7 @@ fn refused_cell(setup: &RowSetup, offset_s: f64, e: &Error) -> StudyCell {
         solve_time_s: 0.0,
         start: CellStart::Cold,
         replay_ee_error_m: None,
+        torque_scale_reached: None,
     }
 }
 
@@ -1173,9 +1181,10 @@ pub(crate) fn r2_tag(r2: f64) -> String {
 
 /// The run folder of a study:
 /// - `cells.csv`: one row per cell, header
-///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m`
+///   `r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m,torque_scale_reached`
 ///   (energy, work and objective empty for a cell that did not converge, the replay miss for a cell
-///   the planner refused);
+///   the planner refused, the torque scale where the continuation on the limits did not run or
+///   reached nothing);
 /// - `freefall.csv`: per r2, `r2,l1_m,..,ln_m,freefall_time_s,swing_time_s,energy_at_t_j,
 ///   argmin_swing_time_s,argmin_offset_s,min_energy_j,failed_cells`;
 /// - `report.json`: the settings (with the base parameters resolved), the start pose, the per-r2
@@ -1185,12 +1194,12 @@ pub(crate) fn r2_tag(r2: f64) -> String {
 pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
     let mut folder = RunFolder::default();
     let mut csv = String::from(
-        "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m\n",
+        "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,solve_time_s,start,replay_ee_error_m,torque_scale_reached\n",
     );
     for c in &study.cells {
         let _ = writeln!(
             csv,
-            "{},{},{:.6},{},{},{},{},{},{},{:.4},{},{}",
+            "{},{},{:.6},{},{},{},{},{},{},{:.4},{},{},{}",
             c.r2,
             c.offset_s,
             c.swing_time_s,
@@ -1204,7 +1213,8 @@ pub fn parameter_study_folder(study: &ParameterStudy) -> RunFolder {
             c.start.name(),
             c.replay_ee_error_m
                 .map(|v| format!("{v:e}"))
-                .unwrap_or_default()
+                .unwrap_or_default(),
+            opt(c.torque_scale_reached)
         );
     }
     folder.add("cells.csv", csv);

@@ -7,7 +7,7 @@ use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
     plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime,
-    TimeSplit, Transcription, Violations,
+    TimeSplit, TorqueContinuation, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -160,6 +160,10 @@ pub struct PlanReport {
     /// obstacle's closest approach to every link with its time (`brachia::planning::Blockage`).
     #[serde(default)]
     pub blockage: Option<Blockage>,
+    /// When the cold plan failed within the torque limits: the continuation on the limits, how far it
+    /// got and the peak torques there (`brachia::planning::TorqueContinuation`).
+    #[serde(default)]
+    pub torque_continuation: Option<TorqueContinuation>,
 }
 
 impl PlanReport {
@@ -206,6 +210,7 @@ impl PlanReport {
             trajectory_clamped: p.resample_clamped,
             min_obstacle_clearance_m: p.min_obstacle_clearance_m,
             blockage: p.blockage.clone(),
+            torque_continuation: p.torque_continuation.clone(),
         }
     }
 

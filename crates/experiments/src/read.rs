@@ -424,9 +424,13 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
     }
     let file = cfile.display().to_string();
     let text = limits::read_text_capped(&cfile, limits::MAX_CSV_BYTES, "cells.csv")?;
-    let header = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
-                  iterations,solve_time_s,start,replay_ee_error_m";
-    let rows = csv_rows(&text, &file, header)?;
+    // folders written before the torque continuation have no last column
+    let old = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
+               iterations,solve_time_s,start,replay_ee_error_m";
+    let header = format!("{old},torque_scale_reached");
+    let has_scale = text.lines().next().map(str::trim) != Some(old);
+    let rows = csv_rows(&text, &file, if has_scale { &header } else { old })?;
+    let columns = if has_scale { 13 } else { 12 };
     if rows.len() != rep.cells {
         return Err(Error::invalid(
             &file,
@@ -437,12 +441,12 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
     }
     let mut cells = Vec::with_capacity(rows.len());
     for (line, row) in rows {
-        if row.len() != 12 {
+        if row.len() != columns {
             return Err(Error::invalid(
                 &file,
                 format!("line {line}"),
                 row.join(","),
-                format!("expected 12 columns: {header}"),
+                format!("expected {columns} columns: {header}"),
             ));
         }
         let num = |i: usize, c: &str| number(&file, line, c, row[i]);
@@ -482,6 +486,11 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
                 },
             )?,
             replay_ee_error_m: opt(11, "replay_ee_error_m")?,
+            torque_scale_reached: if has_scale {
+                opt(12, "torque_scale_reached")?
+            } else {
+                None
+            },
         });
     }
     let mut sticks = Vec::with_capacity(rep.stick_r2.len());

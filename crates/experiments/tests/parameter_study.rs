@@ -214,6 +214,8 @@ fn a_centre_that_fails_cold_is_continued_from_the_neighbouring_row() {
         ..Default::default()
     };
     s.planner.self_collision = false;
+    // the continuation in r2 is tested, not the one on the torque limits
+    s.planner.torque_continuation = false;
     let study = run_parameter_study(&s, &no_progress).unwrap();
     let (lower, upper) = (study.cell(0, 0), study.cell(1, 0));
     assert!(lower.converged, "r2 = 0.8: {:?}", lower.status);
@@ -761,4 +763,34 @@ fn cells_the_planner_refuses_are_failed_cells_not_a_failed_study() {
     let f = parameter_study_folder(&study);
     let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
     assert_eq!(cells.lines().count(), 5);
+}
+
+/// A study folder reads back to the same cells, the torque scale of the last column included; a folder
+/// written before that column existed (12 columns) still reads, with no scale.
+#[test]
+fn cells_read_back_with_and_without_the_torque_scale_column() {
+    let mut study = run_parameter_study(&quick(vec![0.5], vec![0.0]), &no_progress).unwrap();
+    study.cells[0].torque_scale_reached = Some(1.703125);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    parameter_study_folder(&study).write(&out).unwrap();
+    let back = brachia_experiments::read_parameter_study(&out).unwrap();
+    assert_eq!(back.cells.len(), 1);
+    assert_eq!(back.cells[0].torque_scale_reached, Some(1.703125));
+    assert_eq!(back.cells[0].status, study.cells[0].status);
+
+    let path = out.join("cells.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let old: String = text
+        .lines()
+        .map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()]))
+        .collect();
+    assert!(old.starts_with("r2,") && old.lines().next().unwrap().ends_with(",replay_ee_error_m"));
+    std::fs::write(&path, old).unwrap();
+    let back = brachia_experiments::read_parameter_study(&out).unwrap();
+    assert_eq!(back.cells[0].torque_scale_reached, None);
+    assert_eq!(
+        back.cells[0].energy_j,
+        study.cells[0].energy_j.map(|e| (e * 1e9).round() / 1e9)
+    );
 }

@@ -27,6 +27,7 @@ use super::nlp::NlpSettings;
 use super::planner::{plan_single, target_pose, Plan};
 use super::settings::PlannerSettings;
 use super::task::SwingTask;
+use super::torque_continuation::with_torque_scale;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
 use crate::trajectory::Trajectory;
@@ -199,20 +200,6 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
         (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
             < r_last + margin
     })
-}
-
-/// `robot` with its torque limits scaled by `k` (> 0).
-fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
-    let mut prm = robot.params().clone();
-    for v in prm
-        .actuators
-        .tau_min
-        .iter_mut()
-        .chain(prm.actuators.tau_max.iter_mut())
-    {
-        *v *= k;
-    }
-    Robot::from_params(prm, "planner (actuator-limit continuation)")
 }
 
 /// Add the cost of `p` to the totals of `r`.

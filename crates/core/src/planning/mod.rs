@@ -18,6 +18,7 @@ pub mod settings;
 pub mod shooting;
 pub mod swing_planner;
 pub mod task;
+pub mod torque_continuation;
 mod worker;
 pub mod workload;
 
@@ -42,3 +43,4 @@ pub use shooting::{
 };
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
+pub use torque_continuation::TorqueContinuation;

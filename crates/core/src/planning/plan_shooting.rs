@@ -474,6 +474,7 @@ pub(super) fn finish_plan(
         min_obstacle_clearance_m,
         guess: None,
         blockage: None,
+        torque_continuation: None,
     })
 }
 

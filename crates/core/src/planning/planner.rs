@@ -139,7 +139,8 @@ pub struct Plan {
     /// Iterations of the NLP solver, summed over every attempt and pass (adopted or not).
     pub iterations: usize,
     /// Solver attempts: 1, or 2 when the first did not converge and was retried with the adaptive
-    /// barrier strategy (`solves.len()`).
+    /// barrier strategy (`solves.len()`); with the obstacle strategies (`guess`) or the continuation
+    /// on the torque limits (`torque_continuation`), every attempt of every solve they made.
     pub attempts: usize,
     /// Every solver attempt, in order, with its passes; exactly one is `adopted`.
     pub solves: Vec<SolveAttempt>,
@@ -189,6 +190,11 @@ pub struct Plan {
     /// When no strategy converged on a task with obstacles: which obstacle blocks which link
     /// ([`crate::planning::guess::Blockage`], its `Display` is the message); `None` otherwise.
     pub blockage: Option<crate::planning::guess::Blockage>,
+    /// When a cold plan without obstacles did not converge within the torque limits (and
+    /// `settings.torque_continuation` is on): what the continuation on the limits found (see
+    /// [`crate::planning::torque_continuation`]); the plan is its result when it reached the real
+    /// limits. `None` otherwise.
+    pub torque_continuation: Option<crate::planning::torque_continuation::TorqueContinuation>,
 }
 
 impl Plan {
@@ -203,10 +209,14 @@ impl Plan {
         if self.converged() {
             return None;
         }
-        Some(match &self.blockage {
+        let mut msg = match &self.blockage {
             Some(b) => format!("the planner did not converge ({:?}): {b}", self.status),
             None => format!("the planner did not converge ({:?})", self.status),
-        })
+        };
+        if let Some(t) = &self.torque_continuation {
+            msg += &format!("; {t}");
+        }
+        Some(msg)
     }
 }
 
@@ -683,7 +693,18 @@ pub fn plan_with_guess(
         check_task(robot, task, settings)?;
         return super::guess::plan_around_obstacles(robot, task, settings, nlp);
     }
-    plan_single(robot, task, settings, nlp, guess)
+    let started = std::time::Instant::now();
+    let p = plan_single(robot, task, settings, nlp, guess)?;
+    if guess.is_none()
+        && !p.converged()
+        && settings.torque_continuation
+        && super::torque_continuation::worth_continuing(&p.status)
+    {
+        return super::torque_continuation::plan_by_torque_continuation(
+            robot, task, settings, nlp, p, started,
+        );
+    }
+    Ok(p)
 }
 
 /// One plan from one initial guess (the guess given, or the smooth step): [`plan_with_guess`] without
@@ -829,6 +850,7 @@ pub(super) fn plan_single(
         min_obstacle_clearance_m,
         guess: None,
         blockage: None,
+        torque_continuation: None,
     })
 }
 

@@ -249,6 +249,11 @@ pub struct PlannerSettings {
     /// Initial guess with obstacles (`"continuation"`, default, or `"direct"`); see
     /// [`crate::planning::guess`].
     pub obstacle_guess: crate::planning::guess::ObstacleGuess,
+    /// When a cold plan without obstacles does not converge: plan it again with the torque limits
+    /// widened and tighten them back by continuation, returning the plan within the limits when one is
+    /// found, else the failure with how much torque the swing likely needs (default true; see
+    /// [`crate::planning::torque_continuation`]).
+    pub torque_continuation: bool,
 }
 
 impl Default for PlannerSettings {
@@ -268,6 +273,7 @@ impl Default for PlannerSettings {
             output_dt: 0.001,
             shooting: ShootingSettings::default(),
             obstacle_guess: crate::planning::guess::ObstacleGuess::default(),
+            torque_continuation: true,
         }
     }
 }

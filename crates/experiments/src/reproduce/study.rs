@@ -351,6 +351,30 @@ pub(crate) fn markdown(st: &ParameterStudy, figs: &Path) -> String {
         );
     }
     s.push('\n');
+    for c in st.cells.iter().filter(|c| !c.converged) {
+        let _ = write!(
+            s,
+            "- Failed: r2 = {}, T {:+} s (T = {:.3} s): `{}` after {} iterations",
+            c.r2,
+            c.offset_s,
+            c.swing_time_s,
+            crate::parameter_study::status_name(&c.status),
+            c.iterations
+        );
+        match c.torque_scale_reached {
+            Some(k) => {
+                let _ = writeln!(
+                    s,
+                    "; the planner's continuation on the torque limits converged at {k:.3}x the \
+                     limits, not closer: likely torque-limited (a local estimate, not a proof)."
+                );
+            }
+            None => s.push_str(".\n"),
+        }
+    }
+    if st.failed_cells() > 0 {
+        s.push('\n');
+    }
     for (name, alt) in [
         (
             "fig3_energy_heatmap",

@@ -1,0 +1,124 @@
+//! The planner's continuation on the torque limits (brachia::planning::torque_continuation), on the
+//! parameter study's r2 = 0.1 robot at T - 0.5 s (T = 2 T_freefall - 0.5 s), the swing the study fails
+//! within the paper's 5 N m (docs/parameter-study.md). Units: N m, s.
+use brachia::model::Robot;
+use brachia::planning::{
+    freefall_time, plan_with_guess, torque_continuation, Plan, PlannerSettings, SwingTask,
+    SwingTime,
+};
+use brachia_experiments::parameter_study::{scaled_params, start_pose, ParameterStudySettings};
+
+/// The study's r2 = 0.1 robot with symmetric limits `lim`, its task and T - 0.5 s planner settings.
+fn cell(
+    lim: f64,
+    continuation: bool,
+) -> (Robot, SwingTask, PlannerSettings, ParameterStudySettings) {
+    let s = ParameterStudySettings::default();
+    let mut p = scaled_params(Robot::paper().params(), 0.1, s.arm_length_m).unwrap();
+    p.actuators.tau_min = vec![-lim; 3];
+    p.actuators.tau_max = vec![lim; 3];
+    let robot = Robot::from_params(p, "test").unwrap();
+    let q0 = start_pose(&robot, s.start).unwrap();
+    let ff = freefall_time(&robot, &q0, 0.5 * (s.start[0] + s.target[0])).unwrap();
+    let task = SwingTask {
+        q0,
+        qd0: vec![],
+        target: s.target,
+        obstacles: vec![],
+    };
+    let planner = PlannerSettings {
+        swing_time: SwingTime::Seconds(2.0 * ff - 0.5),
+        torque_continuation: continuation,
+        ..s.planner.clone()
+    };
+    (robot, task, planner, s)
+}
+
+fn peak(p: &Plan) -> f64 {
+    (0..p.points.len())
+        .flat_map(|k| p.points.tau(k).to_vec())
+        .fold(0.0, |a: f64, b| a.max(b.abs()))
+}
+
+/// With 10 N m limits the cold solve fails (the premise, checked with the continuation off); the
+/// continuation plans the swing at 20 N m and then within the real limits, and says so.
+#[test]
+fn a_cold_plan_that_fails_within_the_limits_is_rescued_by_widening_them() {
+    let (robot, task, off, s) = cell(10.0, false);
+    let first = plan_with_guess(&robot, &task, &off, &s.solver, None).unwrap();
+    assert!(!first.converged(), "premise: {:?}", first.status);
+    assert!(first.torque_continuation.is_none());
+
+    let on = PlannerSettings {
+        torque_continuation: true,
+        ..off
+    };
+    let p = plan_with_guess(&robot, &task, &on, &s.solver, None).unwrap();
+    assert!(p.converged(), "{:?}", p.failure_message());
+    let t = p
+        .torque_continuation
+        .as_ref()
+        .expect("the continuation ran");
+    assert!(t.within_limits() && t.relaxed_converged, "{t:?}");
+    assert_eq!(t.failed_scale, None);
+    assert!(t.relaxed_scale > 1.0 && t.solves >= 2, "{t:?}");
+    assert_eq!(t.limit_nm, vec![10.0; 3]);
+    // the plan is within the real limits, and it is the continuation's, not the relaxed one
+    assert!(peak(&p) <= 10.0 + 1e-6, "peak {}", peak(&p));
+    assert!((peak(&p) - t.peak_torque_nm.iter().fold(0.0f64, |a, &b| a.max(b))).abs() < 1e-12);
+    // every solve is counted: the failed cold plan and the continuation's
+    assert_eq!(p.iterations, first.iterations + t.iterations);
+    assert_eq!(p.attempts, first.attempts + t.solves);
+    assert!(p.replay_ee_error_m < 1e-3, "replay {}", p.replay_ee_error_m);
+}
+
+/// Within the paper's 5 N m the cell fails; the plan says how far the continuation got: a bracket
+/// above the limits whose converged end's plan exceeds them and stays within the widened ones.
+#[test]
+fn a_swing_that_needs_more_torque_fails_with_the_scale_it_reached() {
+    let (robot, task, planner, s) = cell(5.0, true);
+    let p = plan_with_guess(&robot, &task, &planner, &s.solver, None).unwrap();
+    assert!(!p.converged(), "{:?}", p.status);
+    let t = p
+        .torque_continuation
+        .as_ref()
+        .expect("the continuation ran");
+    assert!(t.relaxed_converged, "{t:?}");
+    let (hi, lo) = (t.reached_scale.unwrap(), t.failed_scale.unwrap());
+    assert!(1.0 <= lo && lo < hi && hi <= t.relaxed_scale, "{t:?}");
+    let (j, pk, lim) = t.worst_joint().unwrap();
+    assert!(j < 3 && lim == 5.0, "{t:?}");
+    assert!(pk > 5.0 && pk <= 5.0 * hi + 1e-6, "{t:?}");
+    let msg = p.failure_message().unwrap();
+    assert!(msg.contains("likely torque-limited"), "{msg}");
+    assert!(msg.contains(&format!("{hi:.3}")), "{msg}");
+    // the failed plan returned is the cold one at the real limits
+    assert!(peak(&p) <= 5.0 + 1e-6);
+    assert!(p.iterations > t.iterations);
+}
+
+/// A warm-started plan (the caller's guess) gets no continuation, nor does a plan whose time budget
+/// is spent.
+#[test]
+fn no_continuation_with_a_guess_or_without_time() {
+    let (robot, task, planner, s) = cell(5.0, true);
+    let wide = cell(20.0, true);
+    let g = plan_with_guess(&wide.0, &wide.1, &wide.2, &s.solver, None).unwrap();
+    assert!(g.converged() && g.torque_continuation.is_none());
+    let p = plan_with_guess(&robot, &task, &planner, &s.solver, Some(&g.points)).unwrap();
+    assert!(!p.converged(), "{:?}", p.status);
+    assert!(p.torque_continuation.is_none());
+
+    let spent = brachia::planning::NlpSettings {
+        max_wall_time_s: Some(1e-9),
+        ..s.solver.clone()
+    };
+    let p = plan_with_guess(&robot, &task, &planner, &spent, None).unwrap();
+    assert!(!p.converged());
+    assert!(
+        !torque_continuation::worth_continuing(&p.status),
+        "{:?}",
+        p.status
+    );
+    assert!(p.torque_continuation.is_none());
+}
