@@ -354,7 +354,7 @@ pub(crate) fn markdown(st: &ParameterStudy, figs: &Path) -> String {
     for c in st.cells.iter().filter(|c| !c.converged) {
         let _ = write!(
             s,
-            "- Failed: r2 = {}, T {:+} s (T = {:.3} s): `{}` after {} iterations",
+            "- Failed: r2 = {}, offset {:+} s (T = {:.3} s): `{}` after {} iterations",
             c.r2,
             c.offset_s,
             c.swing_time_s,
