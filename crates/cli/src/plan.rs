@@ -55,8 +55,22 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         let msg = p
             .failure_message()
             .unwrap_or_else(|| format!("the planner did not converge ({:?})", p.status));
+        let fields: Vec<&str> = [
+            p.blockage.is_some().then_some("blockage"),
+            p.torque_continuation
+                .is_some()
+                .then_some("torque_continuation"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let what = if fields.is_empty() {
+            String::new()
+        } else {
+            format!(" ({} in report.json)", fields.join(", "))
+        };
         Err(CliError::Failed(format!(
-            "{msg}; the report (blockage, torque_continuation in report.json) is in {}",
+            "{msg}; the report{what} is in {}",
             a.out.display()
         )))
     }

@@ -31,6 +31,8 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
+    // --out must not be (or hold) the scenario folder it reads (a run folder's files are replaced)
+    brachia_experiments::check_out_apart(&a.out, &a.scenarios, "--scenarios", false)?;
     let opts = ReproduceOptions {
         scenarios: a.scenarios,
         quick: a.quick,

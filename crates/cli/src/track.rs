@@ -1,9 +1,10 @@
 //! `brachia track`: plan (or read a plan) and track it in closed loop at 1 kHz.
 
 use crate::{check_cancel, exp_error, CliError};
+use brachia::sim::DIVERGENCE_BOUND;
 use brachia_experiments::{
-    check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind, PlantKind, RunFolder,
-    Scenario, TrackOutcome, REPLAY_TRUST_M,
+    check_out_apart, check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind,
+    PlantKind, RunFolder, Scenario, TrackOutcome, REPLAY_TRUST_M,
 };
 use std::path::PathBuf;
 
@@ -65,12 +66,24 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         None => None,
     };
     check_out_dir(&a.out, a.force)?;
+    if let Some(dir) = &a.plan {
+        // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
+        check_out_apart(&a.out, dir, "--plan", true)?;
+    }
     let outcome = run_track(&ls, controller, plant, reference)?;
     check_cancel(cancel, &a.out)?;
     match outcome {
         TrackOutcome::Tracked(run) => {
             run.folder.write(&a.out).map_err(exp_error(&a.out))?;
             let s = &run.summary;
+            if let Some(t) = s.diverged_at_s {
+                return Err(CliError::Failed(format!(
+                    "the closed loop diverged at t = {t:.3} s (a state beyond {DIVERGENCE_BOUND:e} rad \
+                     or rad/s or not finite, or a non-finite torque): the results cannot be trusted; the \
+                     run up to then is in {}",
+                    a.out.display()
+                )));
+            }
             eprintln!(
                 "track: EE final error {:.2e} m (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
                 s.ee_final_error_m, s.ee_error_max_m, s.joint_rms_error_rad, s.energy_j, s.control_step_us_p50

@@ -664,7 +664,8 @@ fn run_job(
         disturbance: job.disturbance.clone(),
         level: job.level,
         seed: job.seed,
-        success: err.is_finite() && err <= SUCCESS_RADIUS_M,
+        // a diverged closed loop is a failure wherever its last finite row happens to end
+        success: s.diverged_at_s.is_none() && err.is_finite() && err <= SUCCESS_RADIUS_M,
         final_error_m: err,
         energy_j: s.energy_j,
         peak_torque_nm: s.tau_min.abs().max(s.tau_max.abs()),

@@ -35,7 +35,7 @@ pub use plan_run::{
 };
 pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
-pub use run_folder::{check_out_dir, RunFolder, MANIFEST};
+pub use run_folder::{check_out_apart, check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,

@@ -32,7 +32,10 @@
 //!   cold, and a warm-started cell that does not converge is solved again cold (its iterations and
 //!   time are then the sum of both solves). `solver.max_iter` caps each attempt.
 //! - A cell that fails keeps its [`SolveStatus`], iterations and time and has no energy; nothing is
-//!   dropped.
+//!   dropped. A cold solve that fails is continued on the torque limits by the planner
+//!   (`[planner] torque_continuation`, [`brachia::planning::torque_continuation`]; about 1-2 s per such
+//!   cell): the cell converges if that reaches the real limits, else it records the scale reached
+//!   ([`StudyCell::torque_scale_reached`]).
 //!
 //! Energy of a cell: paper eq. (18), `E = sum_{i=2..n} int_0^T qd_i tau_i dt` (signed work of the
 //! actuated joints, J), i.e. [`brachia::planning::Plan::energy_j`].
@@ -824,7 +827,12 @@ fn continue_centres(
             });
         // a planner error here (it accepted the cell cold) keeps the cold attempt's result
         if solved.is_ok() {
+            // a warm attempt that fails too keeps the cold attempt's torque diagnosis
+            let scale = centres[i].cell.torque_scale_reached;
             centres[i] = centre_of(s, settings, wants_stick(s.r2), solved);
+            if !centres[i].cell.converged && centres[i].cell.torque_scale_reached.is_none() {
+                centres[i].cell.torque_scale_reached = scale;
+            }
         }
     }
 }

@@ -446,7 +446,10 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
                 &file,
                 format!("line {line}"),
                 row.join(","),
-                format!("expected {columns} columns: {header}"),
+                format!(
+                    "expected {columns} columns: {}",
+                    if has_scale { header.as_str() } else { old }
+                ),
             ));
         }
         let num = |i: usize, c: &str| number(&file, line, c, row[i]);

@@ -70,6 +70,7 @@ impl RunFolder {
         let stage = stage_for(dir)?;
         let written = self.write_into(&stage);
         match written {
+            // install removes the staging folder itself when it cannot be renamed into place
             Ok(()) => install(&stage, dir),
             Err(e) => {
                 let _ = std::fs::remove_dir_all(&stage);
@@ -173,6 +174,10 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
 
 /// The files a run folder's manifest lists, or `None` when `dir` has no manifest.
 pub fn read_manifest(dir: &Path) -> Option<BTreeSet<PathBuf>> {
+    // a regular file only: a FIFO named like the manifest would block the read forever
+    if !dir.join(MANIFEST).is_file() {
+        return None;
+    }
     let text = std::fs::read_to_string(dir.join(MANIFEST)).ok()?;
     Some(
         text.lines()
@@ -197,13 +202,98 @@ pub(crate) fn write_manifest(dir: &Path, files: &BTreeSet<PathBuf>) -> Result<()
     std::fs::rename(&tmp, &path).map_err(|e| werr(&path, e))
 }
 
-/// Refuse an output folder before any work: a path that exists but is not a folder, a non-empty folder
-/// that is not a brachia run folder (unless `force`), or a place where nothing can be written.
+/// `dir` without a trailing `/` or `/.` (through which the OS would follow a symbolic link).
+fn normalized(dir: &Path) -> PathBuf {
+    dir.components().collect()
+}
+
+/// Where `dir` points when it (its last component) is a symbolic link.
+fn symlink_target(dir: &Path) -> Option<PathBuf> {
+    let d = normalized(dir);
+    if d.is_symlink() {
+        Some(std::fs::read_link(&d).unwrap_or(d))
+    } else {
+        None
+    }
+}
+
+/// `path` made absolute with every symbolic link resolved, also when its last components do not exist
+/// yet: component by component, each existing prefix canonicalized, `..` after a missing folder taken
+/// lexically (as creating the missing folders first would make it).
+fn resolved(path: &Path) -> Option<PathBuf> {
+    use std::path::Component;
+    let abs = if path.is_absolute() {
+        path.to_path_buf()
+    } else {
+        std::env::current_dir().ok()?.join(path)
+    };
+    let mut cur = PathBuf::new();
+    for c in abs.components() {
+        match c {
+            Component::Prefix(_) | Component::RootDir => cur.push(c.as_os_str()),
+            Component::CurDir => {}
+            Component::ParentDir => {
+                cur.pop();
+            }
+            Component::Normal(name) => {
+                cur.push(name);
+                if let Ok(canon) = cur.canonicalize() {
+                    cur = canon;
+                }
+            }
+        }
+    }
+    Some(cur)
+}
+
+/// Refuse an output folder `out` that would overwrite an input folder `input` (named by its flag, e.g.
+/// `--plan`) before any work: `out` is that folder (also through a symbolic link), or holds it (a run
+/// replaces the files of its output folder, and the input's files would be among them); with
+/// `refuse_inside`, also an `out` inside `input` (a run must not add folders to its input). Paths are
+/// compared canonicalized; `out` need not exist yet.
+pub fn check_out_apart(
+    out: &Path,
+    input: &Path,
+    flag: &str,
+    refuse_inside: bool,
+) -> Result<(), ExpError> {
+    let (Some(o), Some(i)) = (resolved(out), resolved(input)) else {
+        return Ok(());
+    };
+    let relation = if o == i {
+        "is the same folder as"
+    } else if i.starts_with(&o) {
+        "holds"
+    } else if refuse_inside && o.starts_with(&i) {
+        "lies inside"
+    } else {
+        return Ok(());
+    };
+    Err(ExpError::OutDir {
+        path: out.to_path_buf(),
+        reason: format!(
+            "--out {relation} the {flag} folder {}: the run would replace or change the files it \
+             reads; choose an --out outside it",
+            input.display()
+        ),
+    })
+}
+
+/// Refuse an output folder before any work: a symbolic link (with or without `force`), a path that
+/// exists but is not a folder, a non-empty folder that is not a brachia run folder (unless `force`), or a
+/// place where nothing can be written.
 pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
     let bad = |reason: String| ExpError::OutDir {
         path: dir.to_path_buf(),
         reason,
     };
+    if let Some(target) = symlink_target(dir) {
+        return Err(bad(format!(
+            "is a symbolic link (to {}); --out must be a real folder, not a link: pass the folder it \
+             points to (a run replaces --out, and would replace the link and move your files)",
+            target.display()
+        )));
+    }
     if dir.exists() || dir.is_symlink() {
         if !dir.is_dir() {
             return Err(bad(
@@ -270,6 +360,24 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
 /// module docs). Files of a previous run folder at `dir` that its manifest does not list are moved into
 /// the new folder; nothing but files brachia wrote is ever removed.
 pub fn install(stage: &Path, dir: &Path) -> Result<(), ExpError> {
+    let installed = install_stage(stage, dir);
+    if installed.is_err() && stage.is_dir() {
+        // not renamed into place: nothing of this run may be left behind
+        let _ = std::fs::remove_dir_all(stage);
+    }
+    installed
+}
+
+fn install_stage(stage: &Path, dir: &Path) -> Result<(), ExpError> {
+    if let Some(target) = symlink_target(dir) {
+        return Err(ExpError::OutDir {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "is a symbolic link (to {}); --out must be a real folder",
+                target.display()
+            ),
+        });
+    }
     let mut manifest = String::from(MANIFEST_HEADER);
     manifest.push('\n');
     for f in files_under(stage) {

@@ -206,6 +206,14 @@ pub enum TraverseStatus {
         /// Why.
         message: String,
     },
+    /// The closed loop of a swing diverged (a state beyond [`brachia::sim::DIVERGENCE_BOUND`] or not
+    /// finite, or a non-finite torque); the swing's log holds the rows before it.
+    Diverged {
+        /// The swing.
+        swing: usize,
+        /// When, s (the plant's time, from the traverse's start).
+        t_s: f64,
+    },
 }
 
 impl TraverseStatus {
@@ -238,6 +246,10 @@ impl std::fmt::Display for TraverseStatus {
             TraverseStatus::SwitchFailed { swing, message } => {
                 write!(f, "swing {swing}: {message}")
             }
+            TraverseStatus::Diverged { swing, t_s } => write!(
+                f,
+                "swing {swing}: the closed loop diverged at t = {t_s:.3} s: the results cannot be trusted"
+            ),
         }
     }
 }
@@ -746,6 +758,15 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let replans = replan_events.len();
         drop(replanning);
         drop(plain);
+        let diverged_at = log.diverged_at_s;
+        if log.is_empty() {
+            // diverged at its first step (a non-finite torque): nothing to record of this swing
+            status = TraverseStatus::Diverged {
+                swing: k,
+                t_s: diverged_at.unwrap_or(t_start),
+            };
+            break;
+        }
         let summary = log.summary();
         let xe = log.x(log.len() - 1).to_vec();
         let ee = robot.ee_position(&xe[..n]);
@@ -753,7 +774,9 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let bar = bars[k + 1].p();
         let miss = (grip[0] + ee[0] - bar[0]).hypot(grip[1] + ee[1] - bar[1]);
         let speed = v[0].hypot(v[1]);
-        let captured = miss <= sc.ladder.capture_radius && speed <= sc.ladder.capture_speed;
+        let captured = diverged_at.is_none()
+            && miss <= sc.ladder.capture_radius
+            && speed <= sc.ladder.capture_speed;
         let duration = log.t[log.len() - 1] - log.t[0];
         let mut rec = SwingRecord {
             swing: k,
@@ -802,6 +825,11 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             }
         }
         logs.push(log);
+        if let Some(t_s) = diverged_at {
+            swings.push(rec);
+            status = TraverseStatus::Diverged { swing: k, t_s };
+            break;
+        }
         if !captured {
             swings.push(rec);
             status = TraverseStatus::CaptureMissed {

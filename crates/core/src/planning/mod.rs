@@ -43,4 +43,4 @@ pub use shooting::{
 };
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
-pub use torque_continuation::TorqueContinuation;
+pub use torque_continuation::{ContinuationStop, TorqueContinuation};

@@ -133,9 +133,7 @@ pub(super) fn plan_shooting(
     let t_start = std::time::Instant::now();
     let mut plans = Vec::with_capacity(starts.len());
     for &t0 in &starts {
-        let left = nlp
-            .max_wall_time_s
-            .map(|w| w - t_start.elapsed().as_secs_f64());
+        let left = nlp.time_left(t_start);
         if left.is_some_and(|w| w <= 0.0) && !plans.is_empty() {
             break;
         }

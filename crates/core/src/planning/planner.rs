@@ -136,17 +136,22 @@ pub struct Plan {
     pub status: SolveStatus,
     /// The backend that ran.
     pub backend: Backend,
-    /// Iterations of the NLP solver, summed over every attempt and pass (adopted or not).
+    /// Iterations of the NLP solver, summed over every attempt and pass (adopted or not); with the
+    /// obstacle strategies (`guess`) or the continuation on the torque limits
+    /// (`torque_continuation`), over every solve they made.
     pub iterations: usize,
     /// Solver attempts: 1, or 2 when the first did not converge and was retried with the adaptive
     /// barrier strategy (`solves.len()`); with the obstacle strategies (`guess`) or the continuation
     /// on the torque limits (`torque_continuation`), every attempt of every solve they made.
     pub attempts: usize,
-    /// Every solver attempt, in order, with its passes; exactly one is `adopted`.
+    /// Every solver attempt of the solve that produced this plan, in order, with its passes; exactly
+    /// one is `adopted`. (With `guess` or `torque_continuation` the other solves are counted in
+    /// `iterations`, `attempts` and `solve_time_s` only, not listed here.)
     pub solves: Vec<SolveAttempt>,
-    /// Wall-clock time of every attempt together, s (the sum of `solves[..].time_s`).
+    /// Wall-clock time of every attempt together, s (the sum of `solves[..].time_s`; with `guess` or
+    /// `torque_continuation`, of every solve they made).
     pub solve_time_s: f64,
-    /// Where `solve_time_s` went (the sum of the attempts' splits; see [`TimeSplit`]).
+    /// Where the time of the attempts in `solves` went (the sum of their splits; see [`TimeSplit`]).
     pub time_split: TimeSplit,
     /// Time spent in the problem's callbacks by kind, over every attempt (the transcription's own
     /// measurement, inside `time_split.callbacks_s`).
@@ -594,9 +599,7 @@ pub(super) fn solve_with_retry(
     let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
     let mut adopted = 0;
     // the wall-time limit is the whole call's: the retry gets what is left, and none once it is spent
-    let left = nlp
-        .max_wall_time_s
-        .map(|w| w - start.elapsed().as_secs_f64());
+    let left = nlp.time_left(start);
     // a refusal (settings, problem) is the same under another barrier strategy
     let refused = matches!(
         sol.status,
@@ -679,6 +682,12 @@ pub(super) fn clearance_rows(
 /// [`crate::planning::guess`] (`settings.obstacle_guess`): detour seeds, then continuation on the
 /// obstacle radii, when the solve from the smooth step fails; the plan then reports the strategy and
 /// the summed cost of every solve, and names what blocks the swing when nothing converged.
+///
+/// Without a guess and without obstacles, a plan that does not converge is continued on the torque
+/// limits (`settings.torque_continuation`, [`crate::planning::torque_continuation`]): up to 3 widened
+/// cold plans and [`crate::planning::torque_continuation::MAX_STEPS`] warm ones, about 1-2 s on the
+/// parameter study's failing cell; the plan within the limits when one is found, else the failure
+/// with how much torque the swing likely needs. `nlp.max_wall_time_s` bounds the whole call.
 pub fn plan_with_guess(
     robot: &Robot,
     task: &SwingTask,

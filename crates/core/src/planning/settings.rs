@@ -305,6 +305,18 @@ impl PlannerSettings {
         }
         pos("knot_dt", self.knot_dt)?;
         pos("output_dt", self.output_dt)?;
+        if self.output_dt > limits::MAX_OUTPUT_DT_S {
+            return Err(Error::invalid(
+                src,
+                "output_dt",
+                self.output_dt,
+                format!(
+                    "must be at most {} s (brachia::limits::MAX_OUTPUT_DT_S): the energy and the \
+                     tracked reference come from the resampled trajectory",
+                    limits::MAX_OUTPUT_DT_S
+                ),
+            ));
+        }
         if let Some([lo, hi]) = self.free_swing_time {
             let range = format!("[{lo}, {hi}]");
             if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
@@ -579,5 +591,22 @@ mod tests {
         // a relative angle just past the bound: the bound plus the margin
         let w = b.widened_for_start(&[-1.0, 2.95, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         assert!((w.q_rel_max - 3.05).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_output_period_too_coarse_for_the_energy_is_refused() {
+        let at = |dt: f64| {
+            PlannerSettings {
+                output_dt: dt,
+                ..PlannerSettings::default()
+            }
+            .validate(4, "s.toml")
+        };
+        assert!(at(limits::MAX_OUTPUT_DT_S).is_ok());
+        let e = at(0.5).unwrap_err().to_string();
+        assert!(
+            e.contains("s.toml") && e.contains("output_dt") && e.contains("MAX_OUTPUT_DT_S"),
+            "{e}"
+        );
     }
 }

@@ -4,9 +4,9 @@
 //! A cold plan (no warm-start guess, no obstacles) that does not converge is planned again with every
 //! joint's torque limits scaled by [`RELAX_SCALES`] (2, 4, then 8), cold. When one of those
 //! converges, the limits are tightened towards the real ones, each solve warm-started from the last
-//! converged plan: first the real limits directly; when that fails, bisection of the scale between the
-//! last converged and the last failed one, until they are within [`SCALE_TOL`] of each other (relative)
-//! or [`MAX_STEPS`] solves were made. A plan converged at the real limits is the result (the cold guess
+//! converged plan: first the real limits directly; when that fails, bisection of the scale (geometric
+//! midpoints) between the last converged and the last failed one, until they are within [`SCALE_TOL`]
+//! of each other (relative) or [`MAX_STEPS`] plans were made. A plan converged at the real limits is the result (the cold guess
 //! led the solver astray, the continuation did not). Otherwise the failed plan is returned with a
 //! [`TorqueContinuation`] that says the swing is likely torque-limited and by how much: the smallest
 //! scale reached and the plan's peak torque per joint there.
@@ -36,11 +36,29 @@ pub const RELAX_SCALES: [f64; 3] = [2.0, 4.0, 8.0];
 /// Relative width of the final bracket: the bisection stops when the failed scale is within this
 /// fraction of the converged one.
 pub const SCALE_TOL: f64 = 0.05;
-/// Most warm solves of the tightening (the real limits first, then the bisection).
-pub const MAX_STEPS: usize = 8;
-/// Iteration limit of one intermediate tightening solve (the solve at the real limits keeps the
-/// settings' `max_iter`).
+/// Most warm plans of the tightening (the real limits first, then the bisection, then the real limits
+/// once more): enough to close a bracket from 8x to [`SCALE_TOL`] by geometric midpoints (6 steps).
+pub const MAX_STEPS: usize = 10;
+/// Iteration limit of each solver attempt of an intermediate tightening plan (the planner's retry
+/// with the adaptive barrier can double it; the plan at the real limits keeps the settings'
+/// `max_iter`).
 pub const STEP_MAX_ITER: usize = 80;
+
+/// Why the continuation on the actuator limits stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContinuationStop {
+    /// A plan converged within the real limits (it is the plan returned).
+    WithinLimits,
+    /// The converged and the failed scale are within [`SCALE_TOL`] of each other.
+    Bracketed,
+    /// [`MAX_STEPS`] plans were made before the bracket closed.
+    StepsSpent,
+    /// The call's `max_wall_time_s` ran out (a solve ended for lack of time, or none could start).
+    TimeSpent,
+    /// No relaxed cold plan converged.
+    NothingConverged,
+}
 
 /// What the continuation on the actuator limits found (`Plan::torque_continuation`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -53,15 +71,18 @@ pub struct TorqueContinuation {
     /// Smallest limit scale at which a plan of the continuation converged; `Some(1.0)`: the plan returned
     /// is within the real limits. `None` when no relaxed solve converged.
     pub reached_scale: Option<f64>,
-    /// Smallest scale tried after `reached_scale`'s plan whose solve (warm from a converged plan) failed:
-    /// the bracket's lower end (`None` when the real limits converged).
+    /// The largest scale below `reached_scale` whose plan failed (the last failure of the bisection,
+    /// warm-started from the converged plan of that moment, not necessarily `reached_scale`'s): the
+    /// bracket's lower end. `None` when the real limits converged or no warm plan failed.
     pub failed_scale: Option<f64>,
+    /// Why the continuation stopped.
+    pub stopped: ContinuationStop,
     /// Largest |tau| of the plan at `reached_scale` per actuated joint, over its collocation points, N m
     /// (empty when none converged).
     pub peak_torque_nm: Vec<f64>,
     /// The real limit of each actuated joint, `max(|tau_min|, |tau_max|)`, N m.
     pub limit_nm: Vec<f64>,
-    /// Solves of the continuation (not counting the failed cold plan before it).
+    /// Solver attempts of the continuation (not counting the failed cold plan before it).
     pub solves: usize,
     /// Solver iterations of the continuation.
     pub iterations: usize,
@@ -110,8 +131,24 @@ impl fmt::Display for TorqueContinuation {
                 if let Some(lo) = self.failed_scale {
                     write!(f, ", not at {lo:.3}")?;
                 }
+                match self.stopped {
+                    ContinuationStop::StepsSpent => write!(
+                        f,
+                        " (the bracket was not closed within {MAX_STEPS} plans)"
+                    )?,
+                    ContinuationStop::TimeSpent => {
+                        write!(f, " (the continuation ran out of max_wall_time_s)")?
+                    }
+                    _ => {}
+                }
                 write!(f, " (a local estimate, not a proof)")
             }
+            None if self.stopped == ContinuationStop::TimeSpent => write!(
+                f,
+                "the continuation on the torque limits ran out of max_wall_time_s before a widened \
+                 plan (up to {:.0}x) converged",
+                self.relaxed_scale
+            ),
             None => write!(
                 f,
                 "widening the torque limits up to {:.0}x did not help: no plan converged with them either",
@@ -181,6 +218,7 @@ pub(super) fn plan_by_torque_continuation(
         relaxed_converged: false,
         reached_scale: None,
         failed_scale: None,
+        stopped: ContinuationStop::NothingConverged,
         peak_torque_nm: vec![],
         limit_nm: (0..m)
             .map(|j| a.tau_min[j].abs().max(a.tau_max[j].abs()))
@@ -191,9 +229,7 @@ pub(super) fn plan_by_torque_continuation(
     };
     // what is left of the call's time budget; `None` when there is no budget
     let budget = |cap: usize| -> Option<NlpSettings> {
-        let left = nlp
-            .max_wall_time_s
-            .map(|w| w - started.elapsed().as_secs_f64());
+        let left = nlp.time_left(started);
         if left.is_some_and(|w| w <= 0.0) {
             return None;
         }
@@ -210,7 +246,10 @@ pub(super) fn plan_by_torque_continuation(
     };
     let mut reached: Option<Plan> = None;
     for &k in &RELAX_SCALES {
-        let Some(run) = budget(usize::MAX) else { break };
+        let Some(run) = budget(usize::MAX) else {
+            rep.stopped = ContinuationStop::TimeSpent;
+            break;
+        };
         rep.relaxed_scale = k;
         let p = plan_single(&with_torque_scale(robot, k)?, task, settings, &run, None)?;
         count(&mut rep, &p);
@@ -220,16 +259,26 @@ pub(super) fn plan_by_torque_continuation(
             reached = Some(p);
             break;
         }
+        if p.status == SolveStatus::MaxWallTime {
+            rep.stopped = ContinuationStop::TimeSpent;
+            break;
+        }
+    }
+    if rep.solves == 0 {
+        // nothing ran (the budget was spent by the cold plan): no continuation to report
+        return Ok(failed);
     }
     let mut within: Option<Plan> = None;
     if let Some(mut ok) = reached {
         let mut s_ok = rep.relaxed_scale;
+        rep.stopped = ContinuationStop::StepsSpent;
         // the real limits first (warm from the relaxed plan), then the bisection; when the bracket
         // closes on the real limits, they are tried once more from the closest converged plan
         let (mut s_try, mut retried) = (1.0, false);
         for _ in 0..MAX_STEPS {
             let last = s_try == 1.0;
             let Some(run) = budget(if last { usize::MAX } else { STEP_MAX_ITER }) else {
+                rep.stopped = ContinuationStop::TimeSpent;
                 break;
             };
             let r = if last {
@@ -243,8 +292,13 @@ pub(super) fn plan_by_torque_continuation(
                 s_ok = s_try;
                 ok = p;
                 if last {
+                    rep.stopped = ContinuationStop::WithinLimits;
                     break;
                 }
+            } else if p.status == SolveStatus::MaxWallTime {
+                // out of time, not out of torque: no failure to record
+                rep.stopped = ContinuationStop::TimeSpent;
+                break;
             } else {
                 rep.failed_scale = Some(s_try);
             }
@@ -255,9 +309,10 @@ pub(super) fn plan_by_torque_continuation(
                     s_try = 1.0;
                     continue;
                 }
+                rep.stopped = ContinuationStop::Bracketed;
                 break;
             }
-            s_try = 0.5 * (s_ok + s_fail);
+            s_try = (s_ok * s_fail).sqrt();
         }
         rep.reached_scale = Some(s_ok);
         rep.peak_torque_nm = peak_torques(&ok, m);

@@ -116,6 +116,21 @@ pub struct ClosedLoopLog {
     pub control_us: Vec<f64>,
     /// Iterations reported by the controller.
     pub iterations: Vec<usize>,
+    /// Time at which the closed loop diverged, s: the plant's state left [`DIVERGENCE_BOUND`] (or
+    /// became NaN or infinite), or the controller returned a non-finite torque. The run stopped there;
+    /// the log holds the rows before it (every value finite). `None` for a run that did not diverge.
+    pub diverged_at_s: Option<f64>,
+}
+
+/// A closed loop whose plant state has an entry beyond this bound (rad, rad/s; or NaN, or infinite) has
+/// diverged: no swing turns a joint a million radians or spins it at a million rad/s. The run stops at
+/// the first such state ([`ClosedLoopLog::diverged_at_s`]), so the log and its metrics stay finite.
+pub const DIVERGENCE_BOUND: f64 = 1e6;
+
+/// True when some entry of `v` is NaN, infinite or beyond [`DIVERGENCE_BOUND`].
+fn diverged(v: &[f64]) -> bool {
+    v.iter()
+        .any(|x| !x.is_finite() || x.abs() > DIVERGENCE_BOUND)
 }
 
 /// Scalar metrics of a run.
@@ -142,6 +157,10 @@ pub struct RunSummary {
     pub control_step_us_max: f64,
     /// Mean controller iterations per step.
     pub qp_iterations_mean: f64,
+    /// Time at which the closed loop diverged, s ([`ClosedLoopLog::diverged_at_s`]; the metrics above
+    /// cover the rows before it); absent when it did not. A diverged run's results are not to be trusted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub diverged_at_s: Option<f64>,
 }
 
 impl ClosedLoopLog {
@@ -196,6 +215,7 @@ impl ClosedLoopLog {
             control_step_us_p99: 0.0,
             control_step_us_max: 0.0,
             qp_iterations_mean: 0.0,
+            diverged_at_s: self.diverged_at_s,
         };
         if rows == 0 {
             return s;
@@ -398,7 +418,8 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
     /// against `reference` (sampled by linear interpolation at the control instants, held after its
     /// end). The plant's current state and time are the start; times in the log are the plant's.
     /// `robot` (the controller's model: torque limits, EE positions of the log) and `reference` may
-    /// be owned values or shared `Arc`s.
+    /// be owned values or shared `Arc`s. A start state that is not finite, or has an entry beyond
+    /// [`DIVERGENCE_BOUND`], is refused.
     pub fn new(
         plant: P,
         controller: C,
@@ -418,6 +439,16 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
         }
         reference.check_reference(&robot)?;
         let (nx, nu) = (2 * n, n - 1);
+        let mut x = vec![0.0; nx];
+        plant.true_state(&mut x);
+        if diverged(&x) {
+            return Err(Error::invalid(
+                "closed loop",
+                "start state",
+                format!("{x:?}"),
+                format!("must be finite, every entry within {DIVERGENCE_BOUND:e} rad or rad/s"),
+            ));
+        }
         let steps = settings.steps();
         let rows = steps + 1;
         let log = ClosedLoopLog {
@@ -432,6 +463,7 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
             ref_ee: Vec::with_capacity(rows),
             control_us: Vec::with_capacity(rows),
             iterations: Vec::with_capacity(rows),
+            diverged_at_s: None,
         };
         Ok(ClosedLoop {
             plant,
@@ -442,18 +474,23 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
             steps,
             done: 0,
             log,
-            x: vec![0.0; nx],
+            x,
             xm: vec![0.0; nx],
             xr: vec![0.0; nx],
             tau: vec![0.0; nu],
         })
     }
 
-    /// Log the plant's true state and the reference at the plant's time into a new row.
-    fn log_state(&mut self) -> f64 {
+    /// Log the plant's true state and the reference at the plant's time into a new row; `None` (and
+    /// nothing logged, the divergence recorded) when that state has diverged.
+    fn log_state(&mut self) -> Option<f64> {
         let n = self.robot.n;
         let t = self.plant.time();
         self.plant.true_state(&mut self.x);
+        if diverged(&self.x) {
+            self.log.diverged_at_s = Some(t);
+            return None;
+        }
         self.reference.state_at(t, &mut self.xr);
         let log = &mut self.log;
         log.t.push(t);
@@ -461,20 +498,33 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
         log.ee.push(self.robot.ee_position(&self.x[..n]));
         log.ref_x.extend_from_slice(&self.xr);
         log.ref_ee.push(self.robot.ee_position(&self.xr[..n]));
-        t
+        Some(t)
     }
 
     /// One control period: measure, control, clamp to the robot's torque limits, advance the plant,
-    /// log. `None` (nothing done) once the run's duration is reached.
+    /// log. `None` (nothing done) once the run's duration is reached, or once the loop diverged: the
+    /// plant's state left [`DIVERGENCE_BOUND`] (that state is not logged) or the controller returned a
+    /// non-finite torque (not applied: that row logs zero torque); the time is recorded in
+    /// [`ClosedLoopLog::diverged_at_s`] ([`ClosedLoop::diverged_at`]). The log of a diverged loop has at
+    /// least one row: a start state beyond the bound is refused by [`ClosedLoop::new`].
     pub fn step(&mut self) -> Option<StepInfo> {
-        if self.done >= self.steps {
+        if self.is_done() {
             return None;
         }
-        let t = self.log_state();
+        let t = self.log_state()?;
         self.plant.state(&mut self.xm);
         let start = Instant::now();
         let info = self.controller.control(t, &self.xm, &mut self.tau);
         let us = start.elapsed().as_secs_f64() * 1e6;
+        if self.tau.iter().any(|v| !v.is_finite()) {
+            // not applied: the row keeps its (finite) state with zero torque, and the run stops
+            self.tau.iter_mut().for_each(|v| *v = 0.0);
+            self.log.tau.extend_from_slice(&self.tau);
+            self.log.control_us.push(us);
+            self.log.iterations.push(info.iterations);
+            self.log.diverged_at_s = Some(t);
+            return None;
+        }
         for (j, v) in self.tau.iter_mut().enumerate() {
             *v = v.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
         }
@@ -495,9 +545,14 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
         while self.step().is_some() {}
     }
 
-    /// True once the run's duration is reached.
+    /// True once the run's duration is reached or the loop diverged.
     pub fn is_done(&self) -> bool {
-        self.done >= self.steps
+        self.done >= self.steps || self.log.diverged_at_s.is_some()
+    }
+
+    /// The time at which the loop diverged ([`ClosedLoopLog::diverged_at_s`]), if it did.
+    pub fn diverged_at(&self) -> Option<f64> {
+        self.log.diverged_at_s
     }
 
     /// Steps taken so far.
@@ -553,11 +608,13 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
 
     /// Append the final state (its torque repeats the last applied one, its timing entries are zero)
     /// and return the log, the plant and the controller.
+    /// A diverged loop appends nothing: its log ends with the last finite row.
     pub fn into_parts(mut self) -> (P, C, ClosedLoopLog) {
-        self.log_state();
-        self.log.tau.extend_from_slice(&self.tau);
-        self.log.control_us.push(0.0);
-        self.log.iterations.push(0);
+        if self.log.diverged_at_s.is_none() && self.log_state().is_some() {
+            self.log.tau.extend_from_slice(&self.tau);
+            self.log.control_us.push(0.0);
+            self.log.iterations.push(0);
+        }
         (self.plant, self.controller, self.log)
     }
 

@@ -207,6 +207,15 @@ fn write(folder: &crate::RunFolder, dir: &Path, files: &mut Vec<PathBuf>) -> Res
 
 /// Plan `ls`, then track that plan with each `(controller, plant)`. `Err(plan)` if the plan did not
 /// converge.
+/// A failure entry when the closed loop of `run` diverged (its run folder holds the rows before it).
+fn note_divergence(name: &str, run: &TrackRun, failures: &mut Vec<String>) {
+    if let Some(t) = run.summary.diverged_at_s {
+        failures.push(format!(
+            "{name}: the closed loop diverged at t = {t:.3} s (the run folder holds the rows before it)"
+        ));
+    }
+}
+
 fn plan_and_track(
     ls: &LoadedScenario,
     runs: &[(ControllerKind, PlantKind)],
@@ -286,6 +295,8 @@ pub fn reproduce_cancellable(
         Ok(runs) => {
             write(&runs[0].folder, &out.join("tracking"), &mut files)?;
             write(&runs[1].folder, &out.join("tracking-model"), &mut files)?;
+            note_divergence("tracking", &runs[0], &mut failures);
+            note_divergence("tracking-model", &runs[1], &mut failures);
         }
         Err(p) => {
             write(&p.folder, &out.join("tracking/plan"), &mut files)?;
@@ -335,6 +346,11 @@ pub fn reproduce_cancellable(
                     &out.join("robustness").join(&r.log.controller),
                     &mut files,
                 )?;
+                note_divergence(
+                    &format!("robustness ({})", r.log.controller),
+                    r,
+                    &mut failures,
+                );
             }
             cancel.check()?;
             match run_track(
@@ -345,6 +361,7 @@ pub fn reproduce_cancellable(
             )? {
                 TrackOutcome::Tracked(r) => {
                     write(&r.folder, &out.join("robustness-paper"), &mut files)?;
+                    note_divergence("robustness (paper placement)", &r, &mut failures);
                 }
                 TrackOutcome::PlanFailed(p) => {
                     write(&p.folder, &out.join("robustness-paper/plan"), &mut files)?;

@@ -1045,7 +1045,13 @@ pub(crate) fn publish(
     std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
     // the previous publication's figures go first (only those it listed)
     let mut previous = std::collections::BTreeSet::new();
-    if let Ok(text) = std::fs::read_to_string(dir.join(PAGE_MANIFEST)) {
+    // a regular file only: a FIFO of that name would block the read forever
+    let page_manifest = dir.join(PAGE_MANIFEST);
+    let listed = page_manifest
+        .is_file()
+        .then(|| std::fs::read_to_string(&page_manifest).ok())
+        .flatten();
+    if let Some(text) = listed {
         for name in text
             .lines()
             .filter(|l| !l.starts_with('#') && !l.is_empty())

@@ -185,6 +185,14 @@ impl Default for NlpSettings {
 }
 
 impl NlpSettings {
+    /// What is left of `max_wall_time_s` at this moment for a call that began at `since`, s (may be
+    /// <= 0 once it is spent); `None` without a limit. The one place where a planning call shares its
+    /// time limit among its solves (retry, starts, continuation).
+    pub fn time_left(&self, since: std::time::Instant) -> Option<f64> {
+        self.max_wall_time_s
+            .map(|w| w - since.elapsed().as_secs_f64())
+    }
+
     /// Check every field; the error names the offending field and value.
     pub fn validate(&self) -> Result<()> {
         let src = "<nlp settings>";
@@ -195,9 +203,25 @@ impl NlpSettings {
                 Err(Error::invalid(src, field, v, "must be finite and > 0"))
             }
         };
-        positive("tol", self.tol)?;
-        positive("constr_viol_tol", self.constr_viol_tol)?;
-        positive("acceptable_tol", self.acceptable_tol)?;
+        for (field, v) in [
+            ("tol", self.tol),
+            ("constr_viol_tol", self.constr_viol_tol),
+            ("acceptable_tol", self.acceptable_tol),
+        ] {
+            positive(field, v)?;
+            if v > crate::limits::MAX_SOLVER_TOL {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    v,
+                    format!(
+                        "must be at most {} (brachia::limits::MAX_SOLVER_TOL): a looser tolerance \
+                         calls points far from the optimum solved",
+                        crate::limits::MAX_SOLVER_TOL
+                    ),
+                ));
+            }
+        }
         if let Some(t) = self.max_wall_time_s {
             positive("max_wall_time_s", t)?;
         }
@@ -1052,8 +1076,34 @@ mod tests {
                 mu_init: Some(0.0),
                 ..s.clone()
             },
+            NlpSettings {
+                tol: 1e308,
+                ..s.clone()
+            },
+            NlpSettings {
+                constr_viol_tol: 0.03,
+                ..s.clone()
+            },
+            NlpSettings {
+                acceptable_tol: 1.0,
+                ..s.clone()
+            },
         ] {
             assert!(bad.validate().is_err(), "{bad:?} should be rejected");
         }
+        // the largest tolerance is accepted, and the message names the rule
+        let edge = NlpSettings {
+            tol: crate::limits::MAX_SOLVER_TOL,
+            ..s.clone()
+        };
+        assert!(edge.validate().is_ok());
+        let e = NlpSettings {
+            tol: 0.5,
+            ..s.clone()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("tol") && e.contains("MAX_SOLVER_TOL"), "{e}");
     }
 }
