@@ -35,6 +35,11 @@ pub const MIN_INTERVALS: usize = 10;
 /// 2000-interval Hermite-Simpson problem already takes about a second).
 pub const MAX_INTERVALS: usize = 2000;
 
+/// Largest `n^2 x N` of a plan (n links, N intervals): the 4-link robot's [`MAX_INTERVALS`] (16 x 2000).
+/// The planner's memory grows with the links squared per interval (a 12-link Hermite-Simpson plan of
+/// 2000 intervals reached 5.7 GB on pounce): a 6-link plan may have 888 intervals, a 12-link one 222.
+pub const MAX_LINK_INTERVALS: usize = 16 * MAX_INTERVALS;
+
 /// Most samples of a resampled output trajectory (`T / output_dt + 1`): 200 000 (200 s at 1 ms).
 pub const MAX_OUTPUT_SAMPLES: usize = 200_000;
 

@@ -558,7 +558,9 @@ impl LadderScenario {
         })?;
         // a free swing time can end at its range's top: the grid and the run are sized by it
         let t = sc.planner.longest_swing_time(t);
-        sc.planner.grid(t, &src).map_err(|e| rename(e, "planner"))?;
+        sc.planner
+            .grid(robot.n(), t, &src)
+            .map_err(|e| rename(e, "planner"))?;
         let ls = LoadedScenario {
             scenario: first,
             robot: robot.clone(),

@@ -320,7 +320,7 @@ impl Scenario {
         // a free swing time can end at its range's top: the grid and the run are sized by it
         let swing_time = sc.planner.longest_swing_time(swing_time);
         sc.planner
-            .grid(swing_time, &src)
+            .grid(robot.n(), swing_time, &src)
             .map_err(|e| rename(e, "planner"))?;
         let ls = LoadedScenario {
             scenario: sc,

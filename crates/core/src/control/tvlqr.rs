@@ -23,8 +23,18 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-/// Largest number of grid intervals of the gain schedule.
+/// Largest number of grid intervals of the gain schedule of a 4-link robot (state dimension 8); a
+/// robot of state dimension `nx` gets `MAX_TVLQR_STAGES * 64 / nx^2` (at most this), since the memory
+/// of the backward pass grows with `nx^2` per stage ([`max_tvlqr_stages`]; a 12-link schedule of
+/// 200 000 stages took 3.4 GB).
 pub const MAX_TVLQR_STAGES: usize = 200_000;
+
+/// Largest number of grid intervals of the gain schedule for an `n`-link robot (see
+/// [`MAX_TVLQR_STAGES`]).
+pub fn max_tvlqr_stages(n: usize) -> usize {
+    let nx = (2 * n).max(1);
+    (MAX_TVLQR_STAGES * 64 / (nx * nx)).min(MAX_TVLQR_STAGES)
+}
 
 /// Settings of [`Tvlqr`] (weights are densities per second of the tracking error).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -204,14 +214,15 @@ fn compute_gains(robot: &Robot, reference: &Trajectory, s: &TvlqrSettings) -> Re
     let t_end = reference.duration();
     let t0 = reference.t[0];
     let count = (t_end / dt).ceil().max(1.0);
-    if !count.is_finite() || count > MAX_TVLQR_STAGES as f64 {
+    let cap = max_tvlqr_stages(n);
+    if !count.is_finite() || count > cap as f64 {
         return Err(Error::invalid(
             "TvlqrSettings",
             "dt",
             dt,
             format!(
-                "the plan's {t_end} s would need more than {MAX_TVLQR_STAGES} grid intervals \
-                 (brachia::control::tvlqr::MAX_TVLQR_STAGES)"
+                "the plan's {t_end} s would need more than {cap} grid intervals for {n} links \
+                 (brachia::control::tvlqr::max_tvlqr_stages: MAX_TVLQR_STAGES scaled by 64 / (2n)^2)"
             ),
         ));
     }
@@ -394,5 +405,18 @@ mod tests {
             assert!(e.contains("TvlqrSettings"), "{e}");
         }
         TvlqrSettings::default().validate(4).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod stage_limit_tests {
+    use super::*;
+
+    #[test]
+    fn the_stage_limit_shrinks_with_the_state_dimension_squared() {
+        assert_eq!(max_tvlqr_stages(4), MAX_TVLQR_STAGES);
+        assert_eq!(max_tvlqr_stages(2), MAX_TVLQR_STAGES);
+        assert_eq!(max_tvlqr_stages(12), MAX_TVLQR_STAGES * 64 / 576);
+        assert!(max_tvlqr_stages(MAX_LINKS) >= 1);
     }
 }

@@ -594,7 +594,7 @@ pub fn plan_joint_swings(
     validate_task(robot, &first, &settings, src, "swing 0.")?;
     // the first swing's interval count, checked against brachia::limits before anything is planned
     let (t_first, _) = swing_time(robot, &first, &settings)?;
-    settings.grid(t_first, "planner")?;
+    settings.grid(robot.n, t_first, "planner")?;
     let chains = [Arc::new(robot.clone()), Arc::new(robot.rerooted()?)];
 
     // swing by swing, each from the map of the last one's planned end state

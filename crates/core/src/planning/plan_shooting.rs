@@ -344,7 +344,7 @@ pub(super) fn setup_shooting(
     // the interval count follows from input: checked against brachia::limits before any allocation
     // (with a free swing time, from its largest value: the knots are at most about knot_dt apart,
     // whatever T the plan ends at)
-    let intervals = settings.grid(settings.longest_swing_time(t_final), "planner")?;
+    let intervals = settings.grid(n, settings.longest_swing_time(t_final), "planner")?;
     let layout = Layout::new(
         n,
         n - 1,

@@ -758,7 +758,7 @@ pub(super) fn plan_single(
     let n = robot.n;
     let qd0 = check_task(robot, task, settings)?;
     let (t_final, freefall) = swing_time(robot, task, settings)?;
-    let intervals = settings.grid(t_final, "planner")?;
+    let intervals = settings.grid(robot.n, t_final, "planner")?;
     let layout = Layout::new(n, n - 1, intervals, t_final, settings.transcription);
     let path = clearance_rows(&shared, task, settings)?.map(DistanceClearanceFn::new);
     let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);

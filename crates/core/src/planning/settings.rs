@@ -301,7 +301,7 @@ impl PlannerSettings {
                     ),
                 ));
             }
-            self.grid(t, src)?;
+            self.grid(n, t, src)?;
         }
         pos("knot_dt", self.knot_dt)?;
         pos("output_dt", self.output_dt)?;
@@ -346,7 +346,7 @@ impl PlannerSettings {
                     "needs transcription = \"multiple-shooting\" (the collocation rules plan at a fixed T)",
                 ));
             }
-            self.grid(hi, src).map_err(|e| {
+            self.grid(n, hi, src).map_err(|e| {
                 Error::invalid(
                     src,
                     "free_swing_time",
@@ -487,10 +487,14 @@ impl PlannerSettings {
     }
 
     /// The number of collocation intervals `N = round(T / knot_dt)` of a swing of `t_final` seconds,
-    /// checked against [`limits::MIN_INTERVALS`], [`limits::MAX_INTERVALS`] and the output samples
+    /// checked against [`limits::MIN_INTERVALS`], [`limits::MAX_INTERVALS`] and, for a robot of
+    /// `links` links, [`limits::MAX_LINK_INTERVALS`]` / links^2`, and the output samples
     /// `T / output_dt` against [`limits::MAX_OUTPUT_SAMPLES`] (before anything of that size is allocated).
-    pub fn grid(&self, t_final: f64, src: &str) -> Result<usize> {
-        let (lo, hi) = (limits::MIN_INTERVALS, limits::MAX_INTERVALS);
+    pub fn grid(&self, links: usize, t_final: f64, src: &str) -> Result<usize> {
+        let (lo, hi) = (
+            limits::MIN_INTERVALS,
+            (limits::MAX_LINK_INTERVALS / (links * links).max(1)).min(limits::MAX_INTERVALS),
+        );
         let n = limits::count(t_final, self.knot_dt, hi);
         match n {
             Some(n) if n >= lo => {}
@@ -500,7 +504,7 @@ impl PlannerSettings {
                     "knot_dt",
                     self.knot_dt,
                     format!(
-                        "a swing of {t_final:.4} s needs between {lo} and {hi} intervals (brachia::limits); knot_dt must be in [{:.3e}, {:.3e}] s",
+                        "a swing of {t_final:.4} s needs between {lo} and {hi} intervals for {links} links (brachia::limits: MIN_INTERVALS, MAX_INTERVALS, MAX_LINK_INTERVALS / links^2); knot_dt must be in [{:.3e}, {:.3e}] s",
                         t_final / hi as f64,
                         t_final / lo as f64
                     ),
@@ -591,6 +595,24 @@ mod tests {
         // a relative angle just past the bound: the bound plus the margin
         let w = b.widened_for_start(&[-1.0, 2.95, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
         assert!((w.q_rel_max - 3.05).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_interval_limit_shrinks_with_the_links_squared() {
+        let s = PlannerSettings {
+            knot_dt: 0.01,
+            ..PlannerSettings::default()
+        };
+        // 4 links: the plain limit (2000); 12 links: 32000 / 144 = 222 intervals
+        assert_eq!(s.grid(4, 2.5, "s.toml").unwrap(), 250);
+        assert_eq!(s.grid(12, 2.2, "s.toml").unwrap(), 220);
+        let e = s.grid(12, 2.5, "s.toml").unwrap_err().to_string();
+        assert!(
+            e.contains("knot_dt") && e.contains("222") && e.contains("12 links"),
+            "{e}"
+        );
+        assert!(s.grid(4, 20.5, "s.toml").is_err());
+        assert_eq!(s.grid(2, 20.0, "s.toml").unwrap(), 2000);
     }
 
     #[test]
