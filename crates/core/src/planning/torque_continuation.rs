@@ -93,7 +93,7 @@ pub struct TorqueContinuation {
 impl TorqueContinuation {
     /// True when the continuation planned the swing within the real limits.
     pub fn within_limits(&self) -> bool {
-        self.reached_scale == Some(1.0)
+        self.stopped == ContinuationStop::WithinLimits
     }
 
     /// The actuated joint (0-based among the actuated ones) whose peak torque exceeds its limit the

@@ -516,21 +516,23 @@ impl<P: Plant, C: Controller> ClosedLoop<P, C> {
         let start = Instant::now();
         let info = self.controller.control(t, &self.xm, &mut self.tau);
         let us = start.elapsed().as_secs_f64() * 1e6;
-        if self.tau.iter().any(|v| !v.is_finite()) {
-            // not applied: the row keeps its (finite) state with zero torque, and the run stops
-            self.tau.iter_mut().for_each(|v| *v = 0.0);
-            self.log.tau.extend_from_slice(&self.tau);
-            self.log.control_us.push(us);
-            self.log.iterations.push(info.iterations);
-            self.log.diverged_at_s = Some(t);
-            return None;
-        }
+        // a non-finite torque is not applied: the row keeps its (finite) state with zero torque (inside
+        // the limits, which bracket 0), and the run stops
+        let bad = self.tau.iter().any(|v| !v.is_finite());
         for (j, v) in self.tau.iter_mut().enumerate() {
-            *v = v.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            *v = if bad {
+                0.0
+            } else {
+                v.clamp(self.robot.tau_min[j], self.robot.tau_max[j])
+            };
         }
         self.log.tau.extend_from_slice(&self.tau);
         self.log.control_us.push(us);
         self.log.iterations.push(info.iterations);
+        if bad {
+            self.log.diverged_at_s = Some(t);
+            return None;
+        }
         self.plant.step(&self.tau, self.control_dt);
         self.done += 1;
         Some(StepInfo {
