@@ -161,6 +161,24 @@ fn a_swing_short_of_torque_says_how_much_it_needs() {
     let peak = t["peak_torque_nm"].as_array().unwrap();
     assert!(peak.iter().any(|p| p.as_f64().unwrap() > 0.4), "{t}");
     assert!(r["iterations"].as_u64().unwrap() > t["iterations"].as_u64().unwrap());
+    // every solve is in the report, tagged: the cold plan, then the continuation's scales
+    let solves = r["solves"].as_array().unwrap();
+    assert_eq!(solves.len() as u64, r["attempts"].as_u64().unwrap());
+    assert_eq!(solves[0]["role"]["kind"], "task", "{}", solves[0]);
+    let scaled: Vec<f64> = solves
+        .iter()
+        .filter(|a| a["role"]["kind"] == "torque-scale")
+        .map(|a| a["role"]["scale"].as_f64().unwrap())
+        .collect();
+    assert!(scaled.contains(&hi) && scaled.contains(&lo), "{scaled:?}");
+    let it: u64 = solves
+        .iter()
+        .map(|a| a["iterations"].as_u64().unwrap())
+        .sum();
+    assert_eq!(it, r["iterations"].as_u64().unwrap());
+    // and in the message's account of the work
+    let out_text = String::from_utf8_lossy(&o.stdout) + err.clone();
+    assert!(out_text.contains("torque limits x"), "{out_text}");
 }
 
 #[test]

@@ -6,8 +6,8 @@
 
 use brachia::model::Robot;
 use brachia::planning::{
-    plan, plan_with_guess, Backend, NlpSettings, Plan, PlannerSettings, ShootingSettings,
-    SwingPlanner, SwingTask, SwingTime, Transcription,
+    plan, plan_with_guess, solve_log, Backend, NlpSettings, Plan, PlannerSettings,
+    ShootingSettings, SolveRole, SwingPlanner, SwingTask, SwingTime, Transcription,
 };
 
 fn tracking_task() -> SwingTask {
@@ -363,11 +363,20 @@ fn starts_that_all_fail_return_the_first_with_every_attempt() {
     assert!(!p.converged(), "{:?}", p.status);
     assert_eq!(p.solves.len(), 3);
     assert!(p.solves[0].adopted && !p.solves[1].adopted && !p.solves[2].adopted);
-    assert!(
-        p.solves[0].passes[0].what.contains("from T = 2.2298"),
-        "{:?}",
-        p.solves[0].passes
-    );
+    // each start is its own solve, labelled with its swing time
+    for (k, a) in p.solves.iter().enumerate() {
+        assert_eq!(a.solve, k);
+        assert!(
+            matches!(a.role, SolveRole::FreeTimeStart { .. }),
+            "{:?}",
+            a.role
+        );
+    }
+    let SolveRole::FreeTimeStart { t0_s } = p.solves[0].role else {
+        unreachable!()
+    };
+    assert!((t0_s - 2.2298).abs() < 1e-4, "{t0_s}");
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
     // the task's free-fall time is kept though every start ran with its T in seconds
     assert!(p.freefall_time_s.is_some());
     assert_eq!(p.iterations, 6);

@@ -9,7 +9,8 @@ use brachia::planning::cspace::{cspace_path, cspace_seed, MAX_CELLS, MAX_DISCOVE
 use brachia::planning::detour::{detour_seeds, SeedKind, EXTRA_CLEARANCE};
 use brachia::planning::guess::{diagnose, path_placements, Placement};
 use brachia::planning::{
-    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask, Transcription,
+    plan, solve_log, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SolveRole,
+    SwingTask, Transcription,
 };
 
 fn tracking() -> SwingTask {
@@ -107,6 +108,9 @@ fn the_continuation_plans_around_an_obstacle_the_smooth_step_hits() {
         // the plan's counts are the totals over every solve
         assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
         assert!(p.iterations > 0 && g.solve_time_s == p.solve_time_s);
+        // and every solve is listed, the smooth step's first
+        assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+        assert_eq!((p.solves[0].role, p.solves[0].solve), (SolveRole::Task, 0));
         if g.strategy == GuessStrategy::Continuation {
             assert!(g.solves >= 2 && g.scales[0] == 0.0 && *g.scales.last().unwrap() == 1.0);
         }
@@ -280,6 +284,22 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
     assert!(g.seeds[..at].iter().all(|r| r.converged == Some(false)));
     assert!(g.seeds[at + 1..].iter().all(|r| r.converged.is_none()));
     assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
+    // the adopted attempt is the winning seed's (or its resume's), after the smooth step, the
+    // obstacle-free plan and the failed seeds
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+    let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
+    assert!(
+        adopted.role == SolveRole::DetourSeed { index: at } || adopted.role == SolveRole::Resumed,
+        "{:?}",
+        adopted.role
+    );
+    assert!(p.solves.iter().any(|a| a.role == SolveRole::ObstacleFree));
+    for k in 0..at {
+        assert!(p
+            .solves
+            .iter()
+            .any(|a| a.role == SolveRole::DetourSeed { index: k }));
+    }
     assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
     assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
     assert!(p.blockage.is_none());
@@ -481,6 +501,7 @@ fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
     // the smooth step, the obstacle-free plan, each detour seed, the C-space seed (and resumes)
     assert!(g.solves >= 3 + g.seeds.len(), "{g:?}");
     assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
     assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
     assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
     assert!(p.blockage.is_none());

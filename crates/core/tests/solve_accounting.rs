@@ -162,6 +162,10 @@ fn a_retry_that_is_not_adopted_still_counts() {
         assert!((a.time_s - t).abs() < 1e-9);
     }
     assert_eq!(p.iterations, 16, "both attempts count");
+    assert_eq!(
+        brachia::planning::solve_log::audit(&p),
+        Vec::<String>::new()
+    );
     let t: f64 = p.solves.iter().map(|a| a.time_s).sum();
     assert!((p.solve_time_s - t).abs() < 1e-12 && p.solve_time_s > adopted.time_s);
     assert!((p.time_split.total_s() - p.solve_time_s).abs() < 1e-9);

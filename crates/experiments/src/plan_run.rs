@@ -6,8 +6,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
-    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveStatus, SwingTime,
-    TimeSplit, TorqueContinuation, Transcription, Violations,
+    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveRole, SolveStatus,
+    SwingTime, TimeSplit, TorqueContinuation, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -27,8 +27,8 @@ pub struct PlanRun {
     pub folder: RunFolder,
 }
 
-/// The solver's work on a plan in one line: every attempt, its barrier strategy, outcome and
-/// passes, then the totals and the time split, e.g. `attempt 1 (monotone, restoration_failed):
+/// The solver's work on a plan in one line: every attempt, what its solve was for (unless the task
+/// itself, e.g. `torque limits x2.000`), its barrier strategy, outcome and passes, then the totals and the time split, e.g. `attempt 1 (monotone, restoration_failed):
 /// pounce 10 it 0.52 s; attempt 2 (adopted, adaptive, solved): pounce 143 it 5.61 s | 153
 /// iterations in 6.13 s: callbacks 4.20 s, linear algebra 1.51 s, line search and rest 0.42 s`.
 pub fn solver_work_text(p: &Plan) -> String {
@@ -45,10 +45,15 @@ fn work_text(solves: &[SolveAttempt], iterations: usize, time_s: f64, t: &TimeSp
     for (k, a) in solves.iter().enumerate() {
         let _ = write!(
             s,
-            "{}attempt {} ({}{}, {}):",
+            "{}attempt {} ({}{}{}, {}):",
             if k > 0 { "; " } else { "" },
             k + 1,
             if a.adopted { "adopted, " } else { "" },
+            if a.role == SolveRole::Task {
+                String::new()
+            } else {
+                format!("{}, ", a.role)
+            },
             snake(&json!(a.mu_strategy)),
             snake(&json!(a.status))
         );

@@ -3,8 +3,8 @@
 //! within the paper's 5 N m (docs/parameter-study.md). Units: N m, s.
 use brachia::model::Robot;
 use brachia::planning::{
-    freefall_time, plan_with_guess, torque_continuation, ContinuationStop, Plan, PlannerSettings,
-    SwingTask, SwingTime,
+    freefall_time, plan_with_guess, solve_log, torque_continuation, ContinuationStop, Plan,
+    PlannerSettings, SolveRole, SwingTask, SwingTime,
 };
 use brachia_experiments::parameter_study::{scaled_params, start_pose, ParameterStudySettings};
 
@@ -69,6 +69,26 @@ fn a_cold_plan_that_fails_within_the_limits_is_rescued_by_widening_them() {
     // every solve is counted: the failed cold plan and the continuation's
     assert_eq!(p.iterations, first.iterations + t.iterations);
     assert_eq!(p.attempts, first.attempts + t.solves);
+    // and listed: the cold plan's attempts first, then the continuation's, the adopted one a solve
+    // at the real limits
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+    assert!(p.solves[..first.attempts]
+        .iter()
+        .all(|a| a.role == SolveRole::Task && a.solve == 0));
+    assert!(p.solves[first.attempts..]
+        .iter()
+        .all(|a| matches!(a.role, SolveRole::TorqueScale { .. }) && a.solve > 0));
+    let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
+    assert_eq!(adopted.role, SolveRole::TorqueScale { scale: 1.0 });
+    assert_eq!(
+        p.solves[first.attempts].role,
+        SolveRole::TorqueScale { scale: 2.0 }
+    );
+    let t_split: f64 = p.time_split.total_s();
+    assert!(
+        t_split > first.time_split.total_s(),
+        "the continuation's time is in the split"
+    );
     assert!(p.replay_ee_error_m < 1e-3, "replay {}", p.replay_ee_error_m);
 }
 
@@ -106,6 +126,19 @@ fn a_swing_that_needs_more_torque_fails_with_the_scale_it_reached() {
     assert_eq!(p.points.q, cold.points.q);
     assert_eq!(p.iterations, cold.iterations + t.iterations);
     assert_eq!(p.attempts, cold.attempts + t.solves);
+    // every solve listed, the cold one's attempt adopted, the bracket's ends among the scales tried
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+    let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
+    assert_eq!((adopted.role, adopted.solve), (SolveRole::Task, 0));
+    let scales: Vec<f64> = p
+        .solves
+        .iter()
+        .filter_map(|a| match a.role {
+            SolveRole::TorqueScale { scale } => Some(scale),
+            _ => None,
+        })
+        .collect();
+    assert!(scales.contains(&hi) && scales.contains(&lo), "{scales:?}");
 }
 
 /// With an iteration cap too small for any solve, no widened plan converges and the message says that

@@ -23,9 +23,10 @@
 //! The guesses of steps 2 to 4 are trajectories (a plan's knots or collocation points), so the
 //! strategies work for every transcription and backend. Units: m, s.
 
-use super::nlp::NlpSettings;
+use super::nlp::{NlpSettings, SolveStatus};
 use super::planner::{plan_single, target_pose, Plan};
 use super::settings::PlannerSettings;
+use super::solve_log::{SolveLog, SolveRole};
 use super::task::SwingTask;
 use super::torque_continuation::with_torque_scale;
 use crate::error::Result;
@@ -99,6 +100,10 @@ pub struct GuessReport {
     /// detour seed failed, so it was not run).
     #[serde(default)]
     pub cspace: Option<super::cspace::CspaceReport>,
+    /// True when the call's time limit (`max_wall_time_s`) ended the strategies before one
+    /// converged or all were tried.
+    #[serde(default)]
+    pub out_of_time: bool,
 }
 
 /// The closest approach of one link to one obstacle over a plan's attempt.
@@ -200,13 +205,6 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
         (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
             < r_last + margin
     })
-}
-
-/// Add the cost of `p` to the totals of `r`.
-fn count(r: &mut GuessReport, p: &Plan) {
-    r.solves += p.attempts;
-    r.iterations += p.iterations;
-    r.solve_time_s += p.solve_time_s;
 }
 
 /// `task` with every obstacle's radius scaled by `s`.
@@ -323,15 +321,18 @@ pub fn diagnose(
 }
 
 /// Plan with a collision-free initial guess (see the module docs); called by
-/// [`super::plan_with_guess`] without a guess when obstacles are avoided. The returned plan counts
-/// every solve in `iterations`, `attempts` and `solve_time_s`, carries a [`GuessReport`], and, when it
-/// did not converge, a [`Blockage`].
+/// [`super::plan_with_guess`] without a guess when obstacles are avoided. The returned plan lists
+/// every solve in `solves` (and counts them in `iterations`, `attempts` and `solve_time_s`), carries
+/// a [`GuessReport`], and, when it did not converge, a [`Blockage`]. `nlp.max_wall_time_s` bounds
+/// the whole call: each solve gets what is left, and none starts once it is spent (the smooth
+/// step's attempt is then returned).
 pub(super) fn plan_around_obstacles(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
     nlp: &NlpSettings,
 ) -> Result<Plan> {
+    let started = std::time::Instant::now();
     let clear = smooth_step_is_clear(robot, task, settings)?;
     let mut rep = GuessReport {
         strategy: GuessStrategy::SmoothStep,
@@ -342,43 +343,53 @@ pub(super) fn plan_around_obstacles(
         scales: vec![],
         seeds: vec![],
         cspace: None,
+        out_of_time: false,
     };
     // the smooth step first, always: where it converged before, the plan is the same
-    let mut best: Option<Plan> = {
-        let p = plan_single(robot, task, settings, nlp, None)?;
-        count(&mut rep, &p);
-        // an obstacle on the bar: no guess can help, the first solve's attempt is diagnosed
-        if p.converged()
-            || settings.obstacle_guess == ObstacleGuess::Direct
-            || obstacle_on_bar(robot, task, settings.obstacle_margin).is_some()
-        {
-            return Ok(finish(robot, task, settings, p, rep, None));
-        }
-        Some(p)
-    };
+    let mut log = SolveLog::default();
+    let mut best = plan_single(robot, task, settings, nlp, None)?;
+    log.record(&mut best, SolveRole::Task);
+    // an obstacle on the bar: no guess can help, the first solve's attempt is diagnosed
+    if best.converged()
+        || settings.obstacle_guess == ObstacleGuess::Direct
+        || obstacle_on_bar(robot, task, settings.obstacle_margin).is_some()
+    {
+        return Ok(finish(robot, task, settings, best, rep, log, None));
+    }
+    // `nlp` with what is left of the call's time limit and at most `cap` iterations; `None` once
+    // the time is spent
+    let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
     rep.strategy = GuessStrategy::Continuation;
     let no_obstacles = SwingTask {
         obstacles: vec![],
         ..task.clone()
     };
-    let free = plan_single(robot, &no_obstacles, settings, nlp, None);
+    let Some(run) = within(usize::MAX) else {
+        rep.out_of_time = true;
+        return Ok(finish(robot, task, settings, best, rep, log, None));
+    };
     // an obstacle-free task can still be refused (e.g. a target out of reach): that is the error
-    let free = free?;
-    count(&mut rep, &free);
+    let mut free = plan_single(robot, &no_obstacles, settings, &run, None)?;
+    log.record(&mut free, SolveRole::ObstacleFree);
     let free_final = free.points.q(free.points.len() - 1).to_vec();
+    let ff = Some(free_final.as_slice());
     if !free.converged() {
-        let p = best.unwrap_or(free);
-        return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+        rep.out_of_time = free.status == SolveStatus::MaxWallTime;
+        return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
     // detour seeds in order, each solved at full radius until one converges
     rep.strategy = GuessStrategy::Detour;
     let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     for (i, (_, g)) in seeds.iter().enumerate() {
-        let p = solve_seed(robot, task, settings, nlp, g, &mut rep)?;
+        let role = SolveRole::DetourSeed { index: i };
+        let Some(p) = solve_seed(robot, task, settings, &within, g, role, &mut log)? else {
+            rep.out_of_time = true;
+            return Ok(finish(robot, task, settings, best, rep, log, ff));
+        };
         rep.seeds[i].converged = Some(p.converged());
         if p.converged() {
-            return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+            return Ok(finish(robot, task, settings, p, rep, log, ff));
         }
         // a failed seed's plan is not the one returned: the smooth step's attempt (`best`) shows the
         // obstacle cutting through the swing, which is what the diagnosis names
@@ -388,107 +399,113 @@ pub(super) fn plan_around_obstacles(
     let (mut crep, seed) =
         super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
     if let Some(g) = seed {
-        let p = solve_seed(robot, task, settings, nlp, &g, &mut rep)?;
+        let role = SolveRole::CspaceSeed;
+        let Some(p) = solve_seed(robot, task, settings, &within, &g, role, &mut log)? else {
+            rep.cspace = Some(crep);
+            rep.out_of_time = true;
+            return Ok(finish(robot, task, settings, best, rep, log, ff));
+        };
         crep.converged = Some(p.converged());
         if p.converged() {
             rep.cspace = Some(crep);
-            return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+            return Ok(finish(robot, task, settings, p, rep, log, ff));
         }
         // continuation on the actuator limits: the seed's path, timed over T, needs more torque than
         // the limits allow; planned with the limits widened, then at the real ones from that plan
         let wide = with_torque_scale(robot, TORQUE_RELAX)?;
-        let p = plan_single(&wide, task, settings, nlp, Some(&g))?;
-        count(&mut rep, &p);
-        crep.relaxed_converged = Some(p.converged());
-        if p.converged() {
-            let p = plan_single(robot, task, settings, nlp, Some(&p.points))?;
-            count(&mut rep, &p);
+        let mut relaxed = None;
+        if let Some(run) = within(usize::MAX) {
+            let mut p = plan_single(&wide, task, settings, &run, Some(&g))?;
+            log.record(
+                &mut p,
+                SolveRole::TorqueScale {
+                    scale: TORQUE_RELAX,
+                },
+            );
+            crep.relaxed_converged = Some(p.converged());
+            relaxed = Some(p);
+        }
+        if let (Some(w), Some(run)) = (relaxed.filter(|p| p.converged()), within(usize::MAX)) {
+            let mut p = plan_single(robot, task, settings, &run, Some(&w.points))?;
+            log.record(&mut p, SolveRole::TorqueScale { scale: 1.0 });
             crep.converged = Some(p.converged());
             if p.converged() {
                 rep.cspace = Some(crep);
-                return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+                return Ok(finish(robot, task, settings, p, rep, log, ff));
             }
         }
     }
     rep.cspace = Some(crep);
     rep.strategy = GuessStrategy::Continuation;
     rep.scales.push(0.0);
-    let step_nlp = NlpSettings {
-        max_iter: nlp.max_iter.min(STEP_MAX_ITER),
-        ..nlp.clone()
-    };
     let mut guess = free.points;
     let (mut done, mut step) = (0.0f64, FIRST_SCALE_STEP);
     while step >= MIN_SCALE_STEP {
         let s = (done + step).min(1.0);
         let last = s >= 1.0;
-        let p = plan_single(
-            robot,
-            &scaled(task, s),
-            settings,
-            if last { nlp } else { &step_nlp },
-            Some(&guess),
-        )?;
-        count(&mut rep, &p);
+        let Some(run) = within(if last { usize::MAX } else { STEP_MAX_ITER }) else {
+            rep.out_of_time = true;
+            break;
+        };
+        let mut p = plan_single(robot, &scaled(task, s), settings, &run, Some(&guess))?;
+        log.record(&mut p, SolveRole::ObstacleScale { scale: s });
         if p.converged() {
             rep.scales.push(s);
             if last {
-                return Ok(finish(robot, task, settings, p, rep, Some(&free_final)));
+                return Ok(finish(robot, task, settings, p, rep, log, ff));
             }
             guess = p.points;
             done = s;
             step *= 2.0;
         } else {
-            if last && best.is_none() {
-                best = Some(p);
-            }
             step *= 0.5;
         }
     }
-    let p = match best {
-        Some(b) => b,
-        // the last full-radius attempt, or plan directly for a plan to return
-        None => {
-            let p = plan_single(robot, task, settings, &step_nlp, Some(&guess))?;
-            count(&mut rep, &p);
-            p
-        }
-    };
-    Ok(finish(robot, task, settings, p, rep, Some(&free_final)))
+    // nothing converged: the smooth step's attempt, diagnosed
+    Ok(finish(robot, task, settings, best, rep, log, ff))
 }
 
-/// Plan from the seed `g`, counted in `rep`; a solve that ran out of iterations, not of ideas,
+/// Plan from the seed `g` (a solve for `role`, recorded in `log`) with the settings `within` gives
+/// (`None`: the time is spent, nothing solved); a solve that ran out of iterations, not of ideas,
 /// resumes once from where it stopped.
 fn solve_seed(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
-    nlp: &NlpSettings,
+    within: &dyn Fn(usize) -> Option<NlpSettings>,
     g: &Trajectory,
-    rep: &mut GuessReport,
-) -> Result<Plan> {
-    let mut p = plan_single(robot, task, settings, nlp, Some(g))?;
-    count(rep, &p);
-    if p.status == super::nlp::SolveStatus::MaxIterations {
-        let resumed = plan_single(robot, task, settings, nlp, Some(&p.points))?;
-        count(rep, &resumed);
-        p = resumed;
+    role: SolveRole,
+    log: &mut SolveLog,
+) -> Result<Option<Plan>> {
+    let Some(run) = within(usize::MAX) else {
+        return Ok(None);
+    };
+    let mut p = plan_single(robot, task, settings, &run, Some(g))?;
+    log.record(&mut p, role);
+    if p.status == SolveStatus::MaxIterations {
+        if let Some(run) = within(usize::MAX) {
+            let mut resumed = plan_single(robot, task, settings, &run, Some(&p.points))?;
+            log.record(&mut resumed, SolveRole::Resumed);
+            p = resumed;
+        }
     }
-    Ok(p)
+    Ok(Some(p))
 }
 
-/// Attach the totals, the report and (if not converged) the diagnosis to `p`.
+/// Attach every solve (`log`), the totals, the report and (if not converged) the diagnosis to `p`.
+#[allow(clippy::too_many_arguments)]
 fn finish(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
     mut p: Plan,
-    rep: GuessReport,
+    mut rep: GuessReport,
+    log: SolveLog,
     free_final: Option<&[f64]>,
 ) -> Plan {
-    p.iterations = rep.iterations;
-    p.attempts = rep.solves;
-    p.solve_time_s = rep.solve_time_s;
+    let all = log.totals(|_| true);
+    (rep.solves, rep.iterations, rep.solve_time_s) = (all.attempts, all.iterations, all.time_s);
+    log.finish(&mut p);
     if !p.converged() {
         p.blockage = diagnose(robot, task, settings, &p.points, free_final)
             .ok()

@@ -16,6 +16,7 @@ pub mod planner;
 pub mod profile;
 pub mod settings;
 pub mod shooting;
+pub mod solve_log;
 pub mod swing_planner;
 pub mod task;
 pub mod torque_continuation;
@@ -41,6 +42,7 @@ pub use settings::{
 pub use shooting::{
     AdDynamics, AnalyticDynamics, PointDynamics, ShootingTimings, SwingOcp, SwingOcpSpec,
 };
+pub use solve_log::SolveRole;
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
 pub use torque_continuation::{ContinuationStop, TorqueContinuation};

@@ -14,6 +14,7 @@ use super::planner::{
 use super::profile::Clamped;
 use super::settings::{PlannerSettings, SwingTime, Transcription};
 use super::shooting::{SwingOcp, SwingOcpSpec};
+use super::solve_log::{SolveLog, SolveRole};
 use super::task::{check_task, SwingTask};
 use crate::error::{Error, Result};
 use crate::integrate;
@@ -87,6 +88,8 @@ pub(super) fn ocp_attempt(
             status: Some(status),
             returned: true,
         }],
+        role: SolveRole::Task,
+        solve: 0,
     }
 }
 
@@ -126,8 +129,8 @@ pub(super) fn plan_shooting(
     check_task(robot, task, settings)?;
     let starts = swing_time_starts(robot, task, settings)?;
     // a free swing time from several starts: the converged plan of lowest objective (the first
-    // start's if none converged), every start's attempts and times in its report (labelled with
-    // the start, adopted only the chosen one's)
+    // start's if none converged), every start's attempts and times in its report (a solve each,
+    // `SolveRole::FreeTimeStart`, adopted only the chosen one's)
     // the wall-time limit is the whole search's: each start gets what is left, and none starts
     // once it is spent
     let t_start = std::time::Instant::now();
@@ -145,48 +148,20 @@ pub(super) fn plan_shooting(
             swing_time: SwingTime::Seconds(t0),
             ..settings.clone()
         };
-        let mut p = plan_shooting_once(robot, task, &s, &nlp_left, guess)?;
-        for a in &mut p.solves {
-            for pass in &mut a.passes {
-                pass.what = format!("{} from T = {t0:.4} s", pass.what);
-            }
-        }
-        plans.push(p);
+        plans.push(plan_shooting_once(robot, task, &s, &nlp_left, guess)?);
     }
     let best = (0..plans.len())
         .filter(|&i| plans[i].converged())
         .min_by(|&a, &b| plans[a].objective.total_cmp(&plans[b].objective))
         .unwrap_or(0);
-    let mut solves = Vec::new();
-    for (i, p) in plans.iter().enumerate() {
-        for a in &p.solves {
-            solves.push(SolveAttempt {
-                adopted: a.adopted && i == best,
-                ..a.clone()
-            });
-        }
-    }
-    let mut callback_timings = CallbackTimings::default();
-    for p in &plans {
-        let c = &p.callback_timings;
-        callback_timings.objective_s += c.objective_s;
-        callback_timings.constraints_s += c.constraints_s;
-        callback_timings.jacobian_s += c.jacobian_s;
-        callback_timings.hessian_s += c.hessian_s;
-        callback_timings.hessian_calls += c.hessian_calls;
+    let mut log = SolveLog::default();
+    for (p, &t0_s) in plans.iter_mut().zip(&starts) {
+        log.record(p, SolveRole::FreeTimeStart { t0_s });
     }
     let mut plan = plans.swap_remove(best);
-    plan.callback_timings = callback_timings;
+    log.finish(&mut plan);
     // the task's free-fall time, not the start's (each start ran with its T in seconds)
     plan.freefall_time_s = swing_time(robot, task, settings)?.1;
-    plan.iterations = solves.iter().map(|a| a.iterations).sum();
-    plan.attempts = solves.len();
-    plan.solve_time_s = solves.iter().map(|a| a.time_s).sum();
-    plan.time_split = TimeSplit::default();
-    for a in &solves {
-        plan.time_split.add(&a.time_split);
-    }
-    plan.solves = solves;
     Ok(plan)
 }
 

@@ -9,6 +9,7 @@ use super::nlp::{
 };
 use super::profile::{replay_ee_error, resample, Clamped};
 use super::settings::{PlannerSettings, SwingTime, Transcription};
+use super::solve_log::SolveRole;
 use super::task::check_task;
 use super::task::SwingTask;
 use crate::ad::LocalFn;
@@ -113,6 +114,14 @@ pub struct SolveAttempt {
     pub time_split: TimeSplit,
     /// Every pass the backend ran in this call.
     pub passes: Vec<PassStats>,
+    /// What the solve this attempt belongs to was for (the task itself, unless the planning call
+    /// made several solves; see [`crate::planning::solve_log`]).
+    #[serde(default)]
+    pub role: SolveRole,
+    /// 0-based index of that solve in the planning call (one solve is one problem, solved in one or
+    /// two attempts); 0 when the call made one solve.
+    #[serde(default)]
+    pub solve: usize,
 }
 
 impl SolveAttempt {
@@ -125,6 +134,8 @@ impl SolveAttempt {
             time_s: sol.solve_time_s,
             time_split: sol.time_split,
             passes: sol.passes.clone(),
+            role: SolveRole::Task,
+            solve: 0,
         }
     }
 }
@@ -136,25 +147,24 @@ pub struct Plan {
     pub status: SolveStatus,
     /// The backend that ran.
     pub backend: Backend,
-    /// Iterations of the NLP solver, summed over every attempt and pass (adopted or not); with the
-    /// obstacle strategies (`guess`) or the continuation on the torque limits
-    /// (`torque_continuation`), over every solve they made.
+    /// Iterations of the NLP solver, summed over every attempt in `solves` (adopted or not) and
+    /// every pass.
     pub iterations: usize,
-    /// Solver attempts: 1, or 2 when the first did not converge and was retried with the adaptive
-    /// barrier strategy (`solves.len()`); with the obstacle strategies (`guess`) or the continuation
-    /// on the torque limits (`torque_continuation`), every attempt of every solve they made.
+    /// Solver attempts, `solves.len()`: 1, or 2 when the first did not converge and was retried
+    /// with the adaptive barrier strategy; more when the planning call made several solves (the
+    /// obstacle strategies `guess`, the continuation on the torque limits `torque_continuation`,
+    /// the starts of a free swing time).
     pub attempts: usize,
-    /// Every solver attempt of the solve that produced this plan, in order, with its passes; exactly
-    /// one is `adopted`. (With `guess` or `torque_continuation` the other solves are counted in
-    /// `iterations`, `attempts` and `solve_time_s` only, not listed here.)
+    /// Every solver attempt of the planning call, in the order they ran, with its passes, the
+    /// solve it belongs to (`solve`) and what that solve was for (`role`); exactly one is
+    /// `adopted`: the one this plan's point comes from.
     pub solves: Vec<SolveAttempt>,
-    /// Wall-clock time of every attempt together, s (the sum of `solves[..].time_s`; with `guess` or
-    /// `torque_continuation`, of every solve they made).
+    /// Wall-clock time of every attempt together, s (the sum of `solves[..].time_s`).
     pub solve_time_s: f64,
     /// Where the time of the attempts in `solves` went (the sum of their splits; see [`TimeSplit`]).
     pub time_split: TimeSplit,
-    /// Time spent in the problem's callbacks by kind, over every attempt (the transcription's own
-    /// measurement, inside `time_split.callbacks_s`).
+    /// Time spent in the problems' callbacks by kind, over every attempt of every solve (the
+    /// transcription's own measurement, inside `time_split.callbacks_s`).
     pub callback_timings: crate::planning::collocation::CallbackTimings,
     /// Objective value (the transcription's quadrature of ||qd||^2_Q1 + ||tau||^2_R1).
     pub objective: f64,

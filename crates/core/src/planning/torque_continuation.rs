@@ -21,6 +21,7 @@
 use super::nlp::{NlpSettings, SolveStatus};
 use super::planner::{plan_single, Plan};
 use super::settings::PlannerSettings;
+use super::solve_log::{SolveLog, SolveRole};
 use super::task::SwingTask;
 use crate::error::Result;
 use crate::model::Robot;
@@ -228,22 +229,11 @@ pub(super) fn plan_by_torque_continuation(
         solve_time_s: 0.0,
     };
     // what is left of the call's time budget; `None` when there is no budget
-    let budget = |cap: usize| -> Option<NlpSettings> {
-        let left = nlp.time_left(started);
-        if left.is_some_and(|w| w <= 0.0) {
-            return None;
-        }
-        Some(NlpSettings {
-            max_wall_time_s: left,
-            max_iter: nlp.max_iter.min(cap),
-            ..nlp.clone()
-        })
-    };
-    let count = |rep: &mut TorqueContinuation, p: &Plan| {
-        rep.solves += p.attempts;
-        rep.iterations += p.iterations;
-        rep.solve_time_s += p.solve_time_s;
-    };
+    let budget = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
+    let mut failed = failed;
+    let mut log = SolveLog::default();
+    log.record(&mut failed, SolveRole::Task);
+    let mut ran = 0;
     let mut reached: Option<Plan> = None;
     for &k in &RELAX_SCALES {
         let Some(run) = budget(usize::MAX) else {
@@ -251,8 +241,9 @@ pub(super) fn plan_by_torque_continuation(
             break;
         };
         rep.relaxed_scale = k;
-        let p = plan_single(&with_torque_scale(robot, k)?, task, settings, &run, None)?;
-        count(&mut rep, &p);
+        let mut p = plan_single(&with_torque_scale(robot, k)?, task, settings, &run, None)?;
+        log.record(&mut p, SolveRole::TorqueScale { scale: k });
+        ran += 1;
         if p.converged() {
             rep.relaxed_converged = true;
             rep.reached_scale = Some(k);
@@ -264,7 +255,7 @@ pub(super) fn plan_by_torque_continuation(
             break;
         }
     }
-    if rep.solves == 0 {
+    if ran == 0 {
         // nothing ran (the budget was spent by the cold plan): no continuation to report
         return Ok(failed);
     }
@@ -286,8 +277,8 @@ pub(super) fn plan_by_torque_continuation(
             } else {
                 with_torque_scale(robot, s_try)?
             };
-            let p = plan_single(&r, task, settings, &run, Some(&ok.points))?;
-            count(&mut rep, &p);
+            let mut p = plan_single(&r, task, settings, &run, Some(&ok.points))?;
+            log.record(&mut p, SolveRole::TorqueScale { scale: s_try });
             if p.converged() {
                 s_ok = s_try;
                 ok = p;
@@ -321,12 +312,11 @@ pub(super) fn plan_by_torque_continuation(
             within = Some(ok);
         }
     }
-    // the totals: the failed cold plan and every solve of the continuation
-    let first = (failed.iterations, failed.attempts, failed.solve_time_s);
+    // the continuation's own totals; the plan's are those of the failed cold plan and every solve
+    let own = log.totals(|r| matches!(r, SolveRole::TorqueScale { .. }));
+    (rep.solves, rep.iterations, rep.solve_time_s) = (own.attempts, own.iterations, own.time_s);
     let mut p = within.unwrap_or(failed);
-    p.iterations = first.0 + rep.iterations;
-    p.attempts = first.1 + rep.solves;
-    p.solve_time_s = first.2 + rep.solve_time_s;
+    log.finish(&mut p);
     p.torque_continuation = Some(rep);
     Ok(p)
 }

@@ -193,6 +193,26 @@ impl NlpSettings {
             .map(|w| w - since.elapsed().as_secs_f64())
     }
 
+    /// These settings for a solve of a call that began at `since`: `max_wall_time_s` cut to what
+    /// is left of it (see [`NlpSettings::time_left`]); `None` once it is spent. Without a limit, a copy.
+    pub fn remaining(&self, since: std::time::Instant) -> Option<NlpSettings> {
+        match self.time_left(since) {
+            Some(w) if w <= 0.0 => None,
+            left => Some(NlpSettings {
+                max_wall_time_s: left,
+                ..self.clone()
+            }),
+        }
+    }
+
+    /// These settings with at most `cap` iterations.
+    pub fn capped(self, cap: usize) -> NlpSettings {
+        NlpSettings {
+            max_iter: self.max_iter.min(cap),
+            ..self
+        }
+    }
+
     /// Check every field; the error names the offending field and value.
     pub fn validate(&self) -> Result<()> {
         let src = "<nlp settings>";

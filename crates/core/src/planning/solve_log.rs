@@ -1,0 +1,177 @@
+//! The record of a planning call that made several solves (the obstacle strategies, the continuation
+//! on the torque limits, the free swing time's starts): every solver attempt of every solve, in the
+//! order they ran, each tagged with what it was for ([`SolveRole`]) and which solve it belongs to, so
+//! that the returned [`Plan`] lists all of them in `solves`, and its `iterations`, `attempts`,
+//! `solve_time_s` and `time_split` are their totals. Exactly one attempt stays `adopted`: the one the
+//! returned plan's point comes from.
+//!
+//! Units: times in seconds; scales are factors (1 = as the task or robot gives it).
+
+use super::collocation::CallbackTimings;
+use super::nlp::TimeSplit;
+use super::planner::{Plan, SolveAttempt};
+use serde::{Deserialize, Serialize};
+
+/// What a solve of a planning call was for.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum SolveRole {
+    /// The task as given, from the caller's guess or the planner's own.
+    #[default]
+    Task,
+    /// The task without its obstacles: the swing the detour seeds deform.
+    ObstacleFree,
+    /// The task from detour seed `index` (0-based, in the order of `GuessReport::seeds`).
+    DetourSeed {
+        /// Which seed.
+        index: usize,
+    },
+    /// The task from the configuration-space seed.
+    CspaceSeed,
+    /// The task again, from the point where the solve before it stopped at its iteration cap.
+    Resumed,
+    /// The task with every obstacle radius scaled by `scale` (continuation on the radii).
+    ObstacleScale {
+        /// Factor on the radii.
+        scale: f64,
+    },
+    /// The task with every actuator limit scaled by `scale` (continuation on the torque limits; 1 =
+    /// the real limits, solved from a plan with wider ones).
+    TorqueScale {
+        /// Factor on the limits.
+        scale: f64,
+    },
+    /// The task with the swing time fixed at `t0_s` (one start of a free swing time's search).
+    FreeTimeStart {
+        /// The start's swing time, s.
+        t0_s: f64,
+    },
+}
+
+/// Totals over some attempts: how many, their iterations and their time (s).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct Totals {
+    pub attempts: usize,
+    pub iterations: usize,
+    pub time_s: f64,
+}
+
+/// Every attempt of the solves of one planning call, in order (see the module docs).
+#[derive(Debug, Default)]
+pub(crate) struct SolveLog {
+    attempts: Vec<SolveAttempt>,
+    callbacks: CallbackTimings,
+    solves: usize,
+}
+
+impl SolveLog {
+    /// Record the solve that produced `p` as the next one, for `role`: its attempts are tagged in `p`
+    /// too, so that [`SolveLog::finish`] knows them when `p` is returned.
+    pub fn record(&mut self, p: &mut Plan, role: SolveRole) {
+        for a in &mut p.solves {
+            a.role = role;
+            a.solve = self.solves;
+        }
+        self.solves += 1;
+        self.attempts.extend(p.solves.iter().cloned());
+        let (c, d) = (&mut self.callbacks, &p.callback_timings);
+        c.objective_s += d.objective_s;
+        c.constraints_s += d.constraints_s;
+        c.jacobian_s += d.jacobian_s;
+        c.hessian_s += d.hessian_s;
+        c.hessian_calls += d.hessian_calls;
+    }
+
+    /// Totals over the recorded attempts whose role passes `keep`.
+    pub fn totals(&self, keep: impl Fn(&SolveRole) -> bool) -> Totals {
+        let mut t = Totals::default();
+        for a in self.attempts.iter().filter(|a| keep(&a.role)) {
+            t.attempts += 1;
+            t.iterations += a.iterations;
+            t.time_s += a.time_s;
+        }
+        t
+    }
+
+    /// Make `p`, one of the recorded plans, the call's result: it lists every recorded attempt, the
+    /// adopted one only among its own, and its counts, times and callback timings are the totals.
+    pub fn finish(self, p: &mut Plan) {
+        let own = p.solves.first().map(|a| a.solve);
+        let mut all = self.attempts;
+        for a in &mut all {
+            a.adopted = a.adopted && Some(a.solve) == own;
+        }
+        p.iterations = all.iter().map(|a| a.iterations).sum();
+        p.attempts = all.len();
+        p.solve_time_s = all.iter().map(|a| a.time_s).sum();
+        p.time_split = TimeSplit::default();
+        for a in &all {
+            p.time_split.add(&a.time_split);
+        }
+        p.callback_timings = self.callbacks;
+        p.solves = all;
+    }
+}
+
+impl std::fmt::Display for SolveRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SolveRole::Task => write!(f, "the task"),
+            SolveRole::ObstacleFree => write!(f, "without obstacles"),
+            SolveRole::DetourSeed { index } => write!(f, "detour seed {}", index + 1),
+            SolveRole::CspaceSeed => write!(f, "c-space seed"),
+            SolveRole::Resumed => write!(f, "resumed"),
+            SolveRole::ObstacleScale { scale } => write!(f, "radii x{scale:.3}"),
+            SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
+            SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
+        }
+    }
+}
+
+/// What is wrong with `p`'s account of its solves, one line each (empty when nothing is): every plan
+/// keeps `attempts == solves.len()`, `iterations`, `solve_time_s` and `time_split` the totals of
+/// `solves`, exactly one attempt adopted, with `p.status`, and solve indices starting at 0 and
+/// never going back. Tests run it on plans of every kind; a program can run it on a read-back report.
+pub fn audit(p: &Plan) -> Vec<String> {
+    let mut bad = Vec::new();
+    let s = &p.solves;
+    if p.attempts != s.len() {
+        bad.push(format!("attempts {} != {} listed", p.attempts, s.len()));
+    }
+    let it: usize = s.iter().map(|a| a.iterations).sum();
+    if p.iterations != it {
+        bad.push(format!("iterations {} != {it} summed", p.iterations));
+    }
+    let t: f64 = s.iter().map(|a| a.time_s).sum();
+    let tol = 1e-9 * (1.0 + t);
+    if (p.solve_time_s - t).abs() > tol {
+        bad.push(format!("solve_time_s {} != {t} summed", p.solve_time_s));
+    }
+    let mut split = TimeSplit::default();
+    for a in s {
+        split.add(&a.time_split);
+    }
+    if (p.time_split.total_s() - split.total_s()).abs() > tol {
+        bad.push(format!(
+            "time_split {} s != {} s summed",
+            p.time_split.total_s(),
+            split.total_s()
+        ));
+    }
+    let adopted: Vec<_> = s.iter().filter(|a| a.adopted).collect();
+    match adopted.as_slice() {
+        [a] if a.status != p.status => bad.push(format!(
+            "the adopted attempt ended {:?}, the plan {:?}",
+            a.status, p.status
+        )),
+        [_] => {}
+        _ => bad.push(format!("{} attempts adopted", adopted.len())),
+    }
+    if s.first().is_some_and(|a| a.solve != 0) || s.windows(2).any(|w| w[1].solve < w[0].solve) {
+        bad.push(format!(
+            "solve indices {:?}",
+            s.iter().map(|a| a.solve).collect::<Vec<_>>()
+        ));
+    }
+    bad
+}
