@@ -508,3 +508,47 @@ fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
     // the seed's own solve converged: the actuator-limit continuation was not needed
     assert_eq!(c.relaxed_converged, None, "{c:?}");
 }
+
+#[test]
+fn the_obstacle_strategies_share_the_time_limit() {
+    let robot = Robot::paper();
+    let (mut s, nlp) = settings();
+    s.knot_dt = 0.03;
+    // the placement of the C-space fallback above: the smooth step, the obstacle-free plan and every
+    // detour seed fail or run before the seed that converges
+    let (s10, _) = settings();
+    let (_, places) = swing_and_placements(&robot, &s10, &nlp);
+    let task = with_obstacle(&places[17]);
+    let full = plan(&robot, &task, &s, &nlp).unwrap();
+    assert!(full.converged());
+    let g = full.guess.as_ref().unwrap();
+    assert!(!g.out_of_time, "{g:?}");
+    // a limit of a quarter of what the chain took: the strategies stop early and say why
+    let limit = full.solve_time_s / 4.0;
+    let short = NlpSettings {
+        max_wall_time_s: Some(limit),
+        ..nlp.clone()
+    };
+    let p = plan(&robot, &task, &s, &short).unwrap();
+    eprintln!(
+        "full {} s, {} solves; limited {} s, {} solves",
+        full.solve_time_s, full.attempts, p.solve_time_s, p.attempts
+    );
+    assert!(!p.converged(), "{:?}", p.guess);
+    let g = p.guess.as_ref().unwrap();
+    assert!(g.out_of_time, "{g:?}");
+    assert!(
+        p.attempts < full.attempts,
+        "{} {}",
+        p.attempts,
+        full.attempts
+    );
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+    // a backend checks the limit between iterations: the solves together overrun it by at most an
+    // iteration each (a few ms on this 30 ms mesh), far less than the chain's own time
+    assert!(
+        p.solve_time_s < limit + 0.5 * (full.solve_time_s - limit),
+        "{} {limit}",
+        p.solve_time_s
+    );
+}
