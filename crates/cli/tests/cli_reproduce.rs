@@ -187,6 +187,18 @@ fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {
         "a staging folder was left: {names:?}"
     );
     eprintln!("brachia report redrew {} files in {secs:.1} s", drawn.len());
+    // a run folder removed: refused naming a file of it, nothing redrawn (REPORT.md as it was)
+    let aside = out.join("pd-aside");
+    std::fs::rename(out.join("robustness/pd"), &aside).unwrap();
+    let o = brachia().arg("report").arg(out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("robustness/pd/") && err.contains("missing"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(out.join("REPORT.md")).unwrap(), md);
+    std::fs::rename(&aside, out.join("robustness/pd")).unwrap();
 }
 
 #[test]

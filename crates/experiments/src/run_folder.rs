@@ -220,7 +220,7 @@ fn symlink_target(dir: &Path) -> Option<PathBuf> {
 /// `path` made absolute with every symbolic link resolved, also when its last components do not exist
 /// yet: component by component, each existing prefix canonicalized, `..` after a missing folder taken
 /// lexically (as creating the missing folders first would make it).
-fn resolved(path: &Path) -> Option<PathBuf> {
+pub(crate) fn resolved(path: &Path) -> Option<PathBuf> {
     use std::path::Component;
     let abs = if path.is_absolute() {
         path.to_path_buf()

@@ -273,7 +273,7 @@ pub fn reproduce_cancellable(
     // the output places are checked before any work
     crate::run_folder::check_out_dir(out, opts.force)?;
     if let Some(page) = &opts.results_page {
-        report::check_page(page)?;
+        report::check_page(page, out)?;
     }
     let final_out = out;
     let stage = crate::run_folder::stage_for(out)?;
@@ -530,6 +530,7 @@ pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
             return Err(not_a_reproduction(dir, need));
         }
     }
+    check_complete(dir)?;
     let spath = dir.join("summary.json");
     let sum: Value = crate::read::read_json(&spath)?;
     let field = |k: &str| {
@@ -579,6 +580,30 @@ pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
     top.write_into(&stage)?;
     let files = put_in_place(dir, &stage, &drawn, true)?;
     Ok(Redraw { files, failures })
+}
+
+/// Every file the manifest of the reproduction folder `dir` lists, except the figures and REPORT.md
+/// that [`redraw`] draws again, must be there: a run folder removed (or a file of it) would silently drop
+/// its section from the report, so it is refused, naming the first file missing.
+fn check_complete(dir: &Path) -> Result<(), ExpError> {
+    let listed = crate::run_folder::read_manifest(dir).unwrap_or_default();
+    let redrawn = |p: &Path| p.starts_with("figures") || p == Path::new("REPORT.md");
+    match listed
+        .iter()
+        .find(|p| !redrawn(p) && !dir.join(p).is_file())
+    {
+        None => Ok(()),
+        Some(p) => Err(ExpError::Input(brachia::Error::invalid(
+            dir.display().to_string(),
+            p.display().to_string(),
+            "missing",
+            format!(
+                "a reproduction's report is redrawn from every file its manifest ({}) lists; \
+                 run `brachia reproduce` again to rebuild the folder",
+                crate::MANIFEST
+            ),
+        ))),
+    }
 }
 
 /// Move the figures `drawn` (in `stage/figures/`, each PNG with its SVG) into `dir/figures/` and, with

@@ -5,6 +5,7 @@
 
 use super::figures::{self, FigureDir};
 use super::{summary_skeleton, Results};
+use crate::run_folder::resolved;
 use crate::ExpError;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -980,7 +981,7 @@ const PAGE_MANIFEST: &str = ".brachia-page";
 
 /// Check a results page before any work: a `.md` file (not a folder) whose folder of figures (the page
 /// path without `.md`) is not a regular file, in a place that can be written.
-pub(crate) fn check_page(page: &Path) -> Result<(), ExpError> {
+pub(crate) fn check_page(page: &Path, out: &Path) -> Result<(), ExpError> {
     let bad = |reason: String| ExpError::OutDir {
         path: page.to_path_buf(),
         reason,
@@ -996,6 +997,19 @@ pub(crate) fn check_page(page: &Path) -> Result<(), ExpError> {
         return Err(bad("is a folder; --results-page must be a .md file".into()));
     }
     let dir = page.with_extension("");
+    // the page and its figure folder apart from --out: a run replaces --out (the page would be
+    // dropped with the old run, or written over REPORT.md), and the page's figures are copied from it
+    let (r_out, r_dir) = (resolved(out), resolved(&dir));
+    if let (Some(o), Some(d)) = (r_out, r_dir) {
+        if o == d || o.starts_with(&d) || d.starts_with(&o) {
+            return Err(bad(format!(
+                "it or its figure folder {} overlaps --out {}; put the results page outside --out \
+                 (e.g. docs/results.md)",
+                dir.display(),
+                out.display()
+            )));
+        }
+    }
     if dir.exists() && !dir.is_dir() {
         return Err(bad(format!(
             "{} (where the page's figures go) exists and is not a folder",
@@ -1035,7 +1049,7 @@ pub(crate) fn publish(
     out: &Path,
     page: &Path,
 ) -> Result<(), ExpError> {
-    check_page(page)?;
+    check_page(page, out)?;
     let dir = page.with_extension("");
     let rel = Path::new(dir.file_name().unwrap_or_default());
     let werr = |path: &Path, source| ExpError::Write {
