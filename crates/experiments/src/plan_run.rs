@@ -6,8 +6,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
-    plan, Backend, Blockage, CallbackTimings, Plan, SolveAttempt, SolveRole, SolveStatus,
-    SwingTime, TimeSplit, TorqueContinuation, Transcription, Violations,
+    plan, Backend, Blockage, CallbackTimings, GuessReport, Plan, SolveAttempt, SolveRole,
+    SolveStatus, SwingTime, TimeSplit, TorqueContinuation, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -28,7 +28,8 @@ pub struct PlanRun {
 }
 
 /// The solver's work on a plan in one line: every attempt, what its solve was for (unless the task
-/// itself, e.g. `torque limits x2.000`), its barrier strategy, outcome and passes, then the totals and the time split, e.g. `attempt 1 (monotone, restoration_failed):
+/// itself, e.g. `torque limits x2.000`), its barrier strategy, outcome and passes, then the totals
+/// and the time split, e.g. `attempt 1 (monotone, restoration_failed):
 /// pounce 10 it 0.52 s; attempt 2 (adopted, adaptive, solved): pounce 143 it 5.61 s | 153
 /// iterations in 6.13 s: callbacks 4.20 s, linear algebra 1.51 s, line search and rest 0.42 s`.
 pub fn solver_work_text(p: &Plan) -> String {
@@ -49,10 +50,10 @@ fn work_text(solves: &[SolveAttempt], iterations: usize, time_s: f64, t: &TimeSp
             if k > 0 { "; " } else { "" },
             k + 1,
             if a.adopted { "adopted, " } else { "" },
-            if a.role == SolveRole::Task {
-                String::new()
-            } else {
-                format!("{}, ", a.role)
+            match (a.within, a.role) {
+                (None, SolveRole::Task) => String::new(),
+                (None, role) => format!("{role}, "),
+                (Some(within), role) => format!("{within}, {role}, "),
             },
             snake(&json!(a.mu_strategy)),
             snake(&json!(a.status))
@@ -169,6 +170,11 @@ pub struct PlanReport {
     /// got and the peak torques there (`brachia::planning::TorqueContinuation`).
     #[serde(default)]
     pub torque_continuation: Option<TorqueContinuation>,
+    /// On a task with obstacles planned without a guess: which strategies ran (smooth step, detour
+    /// and C-space seeds, radius continuation), what each found, and whether `max_wall_time_s` ended
+    /// them (`out_of_time`) (`brachia::planning::GuessReport`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guess: Option<GuessReport>,
 }
 
 impl PlanReport {
@@ -216,6 +222,7 @@ impl PlanReport {
             min_obstacle_clearance_m: p.min_obstacle_clearance_m,
             blockage: p.blockage.clone(),
             torque_continuation: p.torque_continuation.clone(),
+            guess: p.guess.clone(),
         }
     }
 

@@ -230,3 +230,39 @@ fn no_continuation_with_a_guess_or_without_time() {
     );
     assert!(p.torque_continuation.is_none());
 }
+
+/// A free swing time with two starts inside the continuation: every plan of the continuation is a
+/// search over two starts, and the report keeps each start a solve of its own (its role
+/// `free-time-start`, the continuation's step as `within`), with indices in order and one adopted.
+#[test]
+fn each_start_of_a_free_swing_time_stays_a_solve_of_its_own() {
+    let (robot, task, mut planner, s) = cell(5.0, true);
+    let SwingTime::Seconds(t) = planner.swing_time else {
+        unreachable!()
+    };
+    planner.transcription = brachia::planning::Transcription::MultipleShooting;
+    planner.free_swing_time = Some([t - 0.02, t]);
+    planner.swing_time_starts = 2;
+    let p = plan_with_guess(&robot, &task, &planner, &s.solver, None).unwrap();
+    assert!(!p.converged());
+    assert!(p.torque_continuation.is_some());
+    assert_eq!(solve_log::audit(&p), Vec::<String>::new());
+    let starts_of = |within: fn(&SolveRole) -> bool| {
+        let mut idx: Vec<usize> = p
+            .solves
+            .iter()
+            .filter(|a| a.within.as_ref().is_some_and(within))
+            .inspect(|a| assert!(matches!(a.role, SolveRole::FreeTimeStart { .. }), "{a:?}"))
+            .map(|a| a.solve)
+            .collect();
+        idx.dedup();
+        idx
+    };
+    // the failed cold plan's two starts, then the continuation's, each its own solve
+    assert_eq!(starts_of(|r| *r == SolveRole::Task), [0, 1]);
+    let steps = starts_of(|r| matches!(r, SolveRole::TorqueScale { .. }));
+    assert!(steps.len() >= 2 && steps[0] == 2, "{steps:?}");
+    // the returned plan is the cold one's chosen start
+    let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
+    assert_eq!(adopted.within, Some(SolveRole::Task));
+}

@@ -379,6 +379,10 @@ pub(super) fn plan_around_obstacles(
     }
     // detour seeds in order, each solved at full radius until one converges
     rep.strategy = GuessStrategy::Detour;
+    if within(usize::MAX).is_none() {
+        rep.out_of_time = true;
+        return Ok(finish(robot, task, settings, best, rep, log, ff));
+    }
     let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     for (i, (_, g)) in seeds.iter().enumerate() {
@@ -396,6 +400,10 @@ pub(super) fn plan_around_obstacles(
     }
     // the configuration-space seed: a path of another homotopy class than the obstacle-free swing's
     rep.strategy = GuessStrategy::Cspace;
+    if within(usize::MAX).is_none() {
+        rep.out_of_time = true;
+        return Ok(finish(robot, task, settings, best, rep, log, ff));
+    }
     let (mut crep, seed) =
         super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
     if let Some(g) = seed {
@@ -461,7 +469,9 @@ pub(super) fn plan_around_obstacles(
             step *= 0.5;
         }
     }
-    // nothing converged: the smooth step's attempt, diagnosed
+    // nothing converged: the smooth step's attempt, diagnosed (the last step may have been the one
+    // the time limit stopped)
+    rep.out_of_time |= within(usize::MAX).is_none();
     Ok(finish(robot, task, settings, best, rep, log, ff))
 }
 

@@ -90,6 +90,7 @@ pub(super) fn ocp_attempt(
         }],
         role: SolveRole::Task,
         solve: 0,
+        within: None,
     }
 }
 
@@ -136,13 +137,14 @@ pub(super) fn plan_shooting(
     let t_start = std::time::Instant::now();
     let mut plans = Vec::with_capacity(starts.len());
     for &t0 in &starts {
-        let left = nlp.time_left(t_start);
-        if left.is_some_and(|w| w <= 0.0) && !plans.is_empty() {
-            break;
-        }
-        let nlp_left = NlpSettings {
-            max_wall_time_s: left.map(|w| w.max(1e-3)),
-            ..nlp.clone()
+        // the first start always runs (a plan is returned), with at least 1 ms
+        let nlp_left = match nlp.remaining(t_start) {
+            Some(n) => n,
+            None if plans.is_empty() => NlpSettings {
+                max_wall_time_s: Some(1e-3),
+                ..nlp.clone()
+            },
+            None => break,
         };
         let s = PlannerSettings {
             swing_time: SwingTime::Seconds(t0),

@@ -122,6 +122,11 @@ pub struct SolveAttempt {
     /// two attempts); 0 when the call made one solve.
     #[serde(default)]
     pub solve: usize,
+    /// The role of the enclosing solve when this attempt is one start of a free swing time's search
+    /// made as one solve of an obstacle strategy or of the continuation on the torque limits (`role`
+    /// is then the start's `free-time-start`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within: Option<SolveRole>,
 }
 
 impl SolveAttempt {
@@ -136,6 +141,7 @@ impl SolveAttempt {
             passes: sol.passes.clone(),
             role: SolveRole::Task,
             solve: 0,
+            within: None,
         }
     }
 }
@@ -230,6 +236,9 @@ impl Plan {
         };
         if let Some(t) = &self.torque_continuation {
             msg += &format!("; {t}");
+        }
+        if self.guess.as_ref().is_some_and(|g| g.out_of_time) {
+            msg += "; the obstacle strategies stopped at max_wall_time_s before one converged";
         }
         Some(msg)
     }
@@ -608,22 +617,18 @@ pub(super) fn solve_with_retry(
     let mut sol = solve(problem, nlp);
     let mut solves = vec![SolveAttempt::new(&sol, nlp.mu_strategy)];
     let mut adopted = 0;
-    // the wall-time limit is the whole call's: the retry gets what is left, and none once it is spent
-    let left = nlp.time_left(start);
     // a refusal (settings, problem) is the same under another barrier strategy
     let refused = matches!(
         sol.status,
         SolveStatus::InvalidProblem(_) | SolveStatus::InvalidSettings(_)
     );
-    if !sol.status.is_converged()
-        && !refused
-        && nlp.mu_strategy != MuStrategy::Adaptive
-        && !left.is_some_and(|w| w <= 0.0)
-    {
+    let retry_wanted =
+        !sol.status.is_converged() && !refused && nlp.mu_strategy != MuStrategy::Adaptive;
+    // the wall-time limit is the whole call's: the retry gets what is left, and none once it is spent
+    if let Some(left) = nlp.remaining(start).filter(|_| retry_wanted) {
         let retry = NlpSettings {
             mu_strategy: MuStrategy::Adaptive,
-            max_wall_time_s: left,
-            ..nlp.clone()
+            ..left
         };
         let second = solve(problem, &retry);
         solves.push(SolveAttempt::new(&second, MuStrategy::Adaptive));

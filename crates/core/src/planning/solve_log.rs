@@ -67,12 +67,23 @@ pub(crate) struct SolveLog {
 impl SolveLog {
     /// Record the solve that produced `p` as the next one, for `role`: its attempts are tagged in `p`
     /// too, so that [`SolveLog::finish`] knows them when `p` is returned.
+    ///
+    /// A plan that already holds several solves (a free swing time's starts, each tagged by the
+    /// search's own log) keeps them apart: their indices follow this log's, each keeps its role and
+    /// gets `role` as `within`.
     pub fn record(&mut self, p: &mut Plan, role: SolveRole) {
+        let base = self.solves;
+        let mut inner = 1;
         for a in &mut p.solves {
-            a.role = role;
-            a.solve = self.solves;
+            inner = inner.max(a.solve + 1);
+            a.solve += base;
+            if a.role == SolveRole::Task && a.within.is_none() {
+                a.role = role;
+            } else {
+                a.within = Some(role);
+            }
         }
-        self.solves += 1;
+        self.solves += inner;
         self.attempts.extend(p.solves.iter().cloned());
         let (c, d) = (&mut self.callbacks, &p.callback_timings);
         c.objective_s += d.objective_s;
@@ -82,10 +93,14 @@ impl SolveLog {
         c.hessian_calls += d.hessian_calls;
     }
 
-    /// Totals over the recorded attempts whose role passes `keep`.
+    /// Totals over the recorded attempts whose solve's role (`within`, else `role`) passes `keep`.
     pub fn totals(&self, keep: impl Fn(&SolveRole) -> bool) -> Totals {
         let mut t = Totals::default();
-        for a in self.attempts.iter().filter(|a| keep(&a.role)) {
+        for a in self
+            .attempts
+            .iter()
+            .filter(|a| keep(&a.within.unwrap_or(a.role)))
+        {
             t.attempts += 1;
             t.iterations += a.iterations;
             t.time_s += a.time_s;
@@ -96,10 +111,10 @@ impl SolveLog {
     /// Make `p`, one of the recorded plans, the call's result: it lists every recorded attempt, the
     /// adopted one only among its own, and its counts, times and callback timings are the totals.
     pub fn finish(self, p: &mut Plan) {
-        let own = p.solves.first().map(|a| a.solve);
+        let own: Vec<usize> = p.solves.iter().map(|a| a.solve).collect();
         let mut all = self.attempts;
         for a in &mut all {
-            a.adopted = a.adopted && Some(a.solve) == own;
+            a.adopted = a.adopted && own.contains(&a.solve);
         }
         p.iterations = all.iter().map(|a| a.iterations).sum();
         p.attempts = all.len();
@@ -118,7 +133,7 @@ impl std::fmt::Display for SolveRole {
         match self {
             SolveRole::Task => write!(f, "the task"),
             SolveRole::ObstacleFree => write!(f, "without obstacles"),
-            SolveRole::DetourSeed { index } => write!(f, "detour seed {}", index + 1),
+            SolveRole::DetourSeed { index } => write!(f, "detour seed {index}"),
             SolveRole::CspaceSeed => write!(f, "c-space seed"),
             SolveRole::Resumed => write!(f, "resumed"),
             SolveRole::ObstacleScale { scale } => write!(f, "radii x{scale:.3}"),
@@ -128,10 +143,12 @@ impl std::fmt::Display for SolveRole {
     }
 }
 
-/// What is wrong with `p`'s account of its solves, one line each (empty when nothing is): every plan
-/// keeps `attempts == solves.len()`, `iterations`, `solve_time_s` and `time_split` the totals of
-/// `solves`, exactly one attempt adopted, with `p.status`, and solve indices starting at 0 and
-/// never going back. Tests run it on plans of every kind; a program can run it on a read-back report.
+/// What is wrong with `p`'s account of its solves, one line each (empty when nothing is): a plan of
+/// [`super::plan`] or [`super::SwingPlanner`] keeps `attempts == solves.len()`, `iterations`,
+/// `solve_time_s` and each part of `time_split` the totals of `solves`, exactly one attempt adopted,
+/// ended with `p.status`, and solve indices 0, 1, 2, ... in order (an attempt has the index of the one
+/// before it or the next). The tests run it on plans of every kind. (The phases of a joint multi-swing
+/// plan list no attempts of their own: the joint solve's are in its report.)
 pub fn audit(p: &Plan) -> Vec<String> {
     let mut bad = Vec::new();
     let s = &p.solves;
@@ -151,12 +168,20 @@ pub fn audit(p: &Plan) -> Vec<String> {
     for a in s {
         split.add(&a.time_split);
     }
-    if (p.time_split.total_s() - split.total_s()).abs() > tol {
-        bad.push(format!(
-            "time_split {} s != {} s summed",
-            p.time_split.total_s(),
-            split.total_s()
-        ));
+    let (q, r) = (&p.time_split, &split);
+    let parts = [
+        ("callbacks", q.callbacks_s, r.callbacks_s),
+        ("linear algebra", q.linear_algebra_s, r.linear_algebra_s),
+        (
+            "line search",
+            q.line_search_and_other_s,
+            r.line_search_and_other_s,
+        ),
+    ];
+    for (name, have, sum) in parts {
+        if (have - sum).abs() > tol {
+            bad.push(format!("time_split {name} {have} s != {sum} s summed"));
+        }
     }
     let adopted: Vec<_> = s.iter().filter(|a| a.adopted).collect();
     match adopted.as_slice() {
@@ -167,7 +192,8 @@ pub fn audit(p: &Plan) -> Vec<String> {
         [_] => {}
         _ => bad.push(format!("{} attempts adopted", adopted.len())),
     }
-    if s.first().is_some_and(|a| a.solve != 0) || s.windows(2).any(|w| w[1].solve < w[0].solve) {
+    let stepped = |w: &[SolveAttempt]| w[1].solve == w[0].solve || w[1].solve == w[0].solve + 1;
+    if s.first().is_some_and(|a| a.solve != 0) || !s.windows(2).all(stepped) {
         bad.push(format!(
             "solve indices {:?}",
             s.iter().map(|a| a.solve).collect::<Vec<_>>()
