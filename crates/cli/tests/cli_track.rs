@@ -111,6 +111,11 @@ fn mpc_absorbs_ten_percent_heavier_links() {
         // a miss is said (exit 0: the run is trustworthy), a catch is not called a miss
         let said = String::from_utf8_lossy(&o.stderr).contains("this swing misses the bar");
         assert_eq!(said, e > 0.02, "{ctrl}: error {e} m");
+        assert_eq!(
+            report(&out)["reaches_bar"],
+            e <= 0.02,
+            "{ctrl}: error {e} m"
+        );
         errs.push(e);
     }
     // the open loop on the heavier plant misses (the note above was printed for it)

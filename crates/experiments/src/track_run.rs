@@ -66,6 +66,12 @@ pub struct TrackReport {
     /// The re-plans, in time order.
     #[serde(default)]
     pub replans: Vec<ReplanEvent>,
+    /// Whether the swing ends at the bar: the EE's final distance to the reference's final point
+    /// within the robustness benchmark's success radius ([`crate::benchmark::SUCCESS_RADIUS_M`],
+    /// 2 cm) and the closed loop not diverged. A run that misses is still a trustworthy run (exit 0);
+    /// this is its verdict. Absent in reports written before session 20.
+    #[serde(default)]
+    pub reaches_bar: Option<bool>,
     /// The closed loop's metrics.
     #[serde(flatten)]
     pub summary: RunSummary,
@@ -372,6 +378,10 @@ pub fn track_plan(
         replanning: replanning.is_some(),
         replan_count: replans.len(),
         replans,
+        reaches_bar: Some(
+            summary.diverged_at_s.is_none()
+                && summary.ee_final_error_m <= crate::benchmark::SUCCESS_RADIUS_M,
+        ),
         summary,
     };
     folder.add_json("report.json", &report.to_json());
