@@ -477,17 +477,21 @@ fn the_cspace_seed_plans_a_placement_no_detour_seed_converged_on() {
     assert!((ee[0] - 0.8).hypot(ee[1]) < 1e-6, "{ee:?}");
 }
 
-#[test]
-fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
+/// #18 of the scan (link 3 at 1.73 s on the 10 ms swing), a failure of every detour seed, on the
+/// planner's default mesh (30 ms knots: the whole strategy chain in a few seconds): the robot, the
+/// task and the settings.
+fn every_detour_seed_fails() -> (Robot, SwingTask, PlannerSettings, NlpSettings) {
     let robot = Robot::paper();
     let (mut s, nlp) = settings();
-    // the planner's default mesh (30 ms knots): the whole strategy chain in a few seconds
+    let (_, places) = swing_and_placements(&robot, &s, &nlp);
     s.knot_dt = 0.03;
-    // #18 of the scan (link 3 at 1.73 s on the 10 ms swing), a failure of every detour seed
-    let (s10, _) = settings();
-    let (_, places) = swing_and_placements(&robot, &s10, &nlp);
-    let pl = places[17];
-    let task = with_obstacle(&pl);
+    let task = with_obstacle(&places[17]);
+    (robot, task, s, nlp)
+}
+
+#[test]
+fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
+    let (robot, task, s, nlp) = every_detour_seed_fails();
     let p = plan(&robot, &task, &s, &nlp).unwrap();
     assert!(p.converged(), "{:?}", p.failure_message());
     let g = p.guess.as_ref().unwrap();
@@ -511,14 +515,9 @@ fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
 
 #[test]
 fn the_obstacle_strategies_share_the_time_limit() {
-    let robot = Robot::paper();
-    let (mut s, nlp) = settings();
-    s.knot_dt = 0.03;
     // the placement of the C-space fallback above: the smooth step, the obstacle-free plan and every
     // detour seed fail or run before the seed that converges
-    let (s10, _) = settings();
-    let (_, places) = swing_and_placements(&robot, &s10, &nlp);
-    let task = with_obstacle(&places[17]);
+    let (robot, task, s, nlp) = every_detour_seed_fails();
     let full = plan(&robot, &task, &s, &nlp).unwrap();
     assert!(full.converged());
     let g = full.guess.as_ref().unwrap();

@@ -335,6 +335,15 @@ impl CallbackTimings {
     pub fn total_s(&self) -> f64 {
         self.objective_s + self.constraints_s + self.jacobian_s + self.hessian_s
     }
+
+    /// Add `other` to `self`, kind by kind.
+    pub fn add(&mut self, other: &CallbackTimings) {
+        self.objective_s += other.objective_s;
+        self.constraints_s += other.constraints_s;
+        self.jacobian_s += other.jacobian_s;
+        self.hessian_s += other.hessian_s;
+        self.hessian_calls += other.hessian_calls;
+    }
 }
 
 /// A fixed sparsity pattern and the slot of every emitted entry.

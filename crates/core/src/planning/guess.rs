@@ -100,8 +100,8 @@ pub struct GuessReport {
     /// detour seed failed, so it was not run).
     #[serde(default)]
     pub cspace: Option<super::cspace::CspaceReport>,
-    /// True when the call's time limit (`max_wall_time_s`) ended the strategies before one
-    /// converged or all were tried.
+    /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
+    /// first solve, none converged, and the limit was spent.
     #[serde(default)]
     pub out_of_time: bool,
 }
@@ -333,6 +333,24 @@ pub(super) fn plan_around_obstacles(
     nlp: &NlpSettings,
 ) -> Result<Plan> {
     let started = std::time::Instant::now();
+    let mut p = strategies(robot, task, settings, nlp, started)?;
+    // the time limit ended the strategies: they went past the first solve, none converged, and
+    // nothing is left of the limit (a solve it stopped ends once it is spent)
+    let spent = !p.converged() && nlp.remaining(started).is_none();
+    if let Some(g) = p.guess.as_mut() {
+        g.out_of_time = spent && g.strategy != GuessStrategy::SmoothStep;
+    }
+    Ok(p)
+}
+
+/// The strategies of [`plan_around_obstacles`], for a call that began at `started`.
+fn strategies(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+) -> Result<Plan> {
     let clear = smooth_step_is_clear(robot, task, settings)?;
     let mut rep = GuessReport {
         strategy: GuessStrategy::SmoothStep,
@@ -365,7 +383,6 @@ pub(super) fn plan_around_obstacles(
         ..task.clone()
     };
     let Some(run) = within(usize::MAX) else {
-        rep.out_of_time = true;
         return Ok(finish(robot, task, settings, best, rep, log, None));
     };
     // an obstacle-free task can still be refused (e.g. a target out of reach): that is the error
@@ -374,13 +391,11 @@ pub(super) fn plan_around_obstacles(
     let free_final = free.points.q(free.points.len() - 1).to_vec();
     let ff = Some(free_final.as_slice());
     if !free.converged() {
-        rep.out_of_time = free.status == SolveStatus::MaxWallTime;
         return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
     // detour seeds in order, each solved at full radius until one converges
     rep.strategy = GuessStrategy::Detour;
     if within(usize::MAX).is_none() {
-        rep.out_of_time = true;
         return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
     let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
@@ -388,7 +403,6 @@ pub(super) fn plan_around_obstacles(
     for (i, (_, g)) in seeds.iter().enumerate() {
         let role = SolveRole::DetourSeed { index: i };
         let Some(p) = solve_seed(robot, task, settings, &within, g, role, &mut log)? else {
-            rep.out_of_time = true;
             return Ok(finish(robot, task, settings, best, rep, log, ff));
         };
         rep.seeds[i].converged = Some(p.converged());
@@ -401,7 +415,6 @@ pub(super) fn plan_around_obstacles(
     // the configuration-space seed: a path of another homotopy class than the obstacle-free swing's
     rep.strategy = GuessStrategy::Cspace;
     if within(usize::MAX).is_none() {
-        rep.out_of_time = true;
         return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
     let (mut crep, seed) =
@@ -410,7 +423,6 @@ pub(super) fn plan_around_obstacles(
         let role = SolveRole::CspaceSeed;
         let Some(p) = solve_seed(robot, task, settings, &within, &g, role, &mut log)? else {
             rep.cspace = Some(crep);
-            rep.out_of_time = true;
             return Ok(finish(robot, task, settings, best, rep, log, ff));
         };
         crep.converged = Some(p.converged());
@@ -452,7 +464,6 @@ pub(super) fn plan_around_obstacles(
         let s = (done + step).min(1.0);
         let last = s >= 1.0;
         let Some(run) = within(if last { usize::MAX } else { STEP_MAX_ITER }) else {
-            rep.out_of_time = true;
             break;
         };
         let mut p = plan_single(robot, &scaled(task, s), settings, &run, Some(&guess))?;
@@ -469,9 +480,7 @@ pub(super) fn plan_around_obstacles(
             step *= 0.5;
         }
     }
-    // nothing converged: the smooth step's attempt, diagnosed (the last step may have been the one
-    // the time limit stopped)
-    rep.out_of_time |= within(usize::MAX).is_none();
+    // nothing converged: the smooth step's attempt, diagnosed
     Ok(finish(robot, task, settings, best, rep, log, ff))
 }
 

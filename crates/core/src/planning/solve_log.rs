@@ -85,12 +85,7 @@ impl SolveLog {
         }
         self.solves += inner;
         self.attempts.extend(p.solves.iter().cloned());
-        let (c, d) = (&mut self.callbacks, &p.callback_timings);
-        c.objective_s += d.objective_s;
-        c.constraints_s += d.constraints_s;
-        c.jacobian_s += d.jacobian_s;
-        c.hessian_s += d.hessian_s;
-        c.hessian_calls += d.hessian_calls;
+        self.callbacks.add(&p.callback_timings);
     }
 
     /// Totals over the recorded attempts whose solve's role (`within`, else `role`) passes `keep`.
