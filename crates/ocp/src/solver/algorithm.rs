@@ -43,8 +43,8 @@ impl OcpSolver {
             }
             let probing = self.update_barrier(&mut barrier, &res);
             let in_resto = self.resto.active();
-            // the Newton step (the Hessian of the Lagrangian with sigma = 0 in restoration)
-            let sigma = if in_resto { 0.0 } else { 1.0 };
+            // the Newton step (the Hessian of the Lagrangian without the cost in restoration)
+            let sigma = self.resto.cost_weight();
             if let Err(e) = self.it.hessians(p, &self.data.lay, sigma, stats) {
                 break OcpStatus::EvaluationError(e);
             }
@@ -178,9 +178,7 @@ impl OcpSolver {
             acc.adual,
             mu,
         );
-        if self.resto.active() {
-            self.resto.accept(self.data.nrows(), acc.adual, mu);
-        }
+        self.resto.accept(self.data.nrows(), acc.adual, mu);
         let (data, it) = (&self.data, &self.it);
         self.resto
             .mu_orig()

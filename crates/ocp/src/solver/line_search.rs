@@ -90,11 +90,7 @@ impl OcpSolver {
     /// Directional derivative of the barrier function of the current phase along the step.
     fn barrier_slope(&self, mu: f64) -> f64 {
         let lay = &self.data.lay;
-        let mut d = if self.resto.active() {
-            self.resto.slope(self.data.nrows(), mu)
-        } else {
-            0.0
-        };
+        let mut d = self.resto.slope(self.data.nrows(), mu);
         let (data, it, step) = (&self.data, &self.it, &self.step);
         for k in 0..=lay.kk {
             let o = lay.oz[k];
@@ -139,20 +135,16 @@ impl OcpSolver {
         stats: &mut OcpStats,
     ) -> Option<(f64, f64, f64)> {
         self.trial.set(&self.it, &self.step, alpha);
-        let nrows = self.data.nrows();
-        let in_resto = self.resto.active();
-        if in_resto {
-            self.resto.set_trial(nrows, alpha);
-        }
+        self.resto.set_trial(self.data.nrows(), alpha);
         self.trial.evaluate(p, &self.data.lay, stats).ok()?;
         let mut cv = std::mem::take(&mut self.trial.cv);
         let t = &self.trial;
         self.data.row_values(&t.z, &t.s, &t.ev, &t.term, &mut cv);
         let (to, _) = self.theta_of(&cv, None);
-        let tt = if in_resto {
-            self.theta_of(&cv, self.resto.slacks(true)).0
-        } else {
-            to
+        // the phase's violation: relaxed by restoration's slacks while that phase runs
+        let tt = match self.resto.slacks(true) {
+            Some(pn) => self.theta_of(&cv, Some(pn)).0,
+            None => to,
         };
         self.trial.cv = cv;
         let bt = self.barrier(true);

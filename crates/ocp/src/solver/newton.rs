@@ -41,13 +41,11 @@ impl OcpSolver {
         let (data, it) = (&self.data, &self.it);
         self.kkt
             .solve(data, it, centring, &self.cc.ctarget, &mut self.step, stats)?;
-        if self.resto.active() {
-            let mu = match centring {
-                Centring::Mu(mu) => mu,
-                Centring::Targets => f64::NAN,
-            };
-            self.resto.recover_step(&self.step, data, mu);
-        }
+        let mu = match centring {
+            Centring::Mu(mu) => mu,
+            Centring::Targets => f64::NAN,
+        };
+        self.resto.recover_step(&self.step, data, mu);
         Ok(())
     }
 
@@ -61,11 +59,7 @@ impl OcpSolver {
     /// Largest step in (0, 1] keeping the primal and the dual variables a fraction tau inside:
     /// `(alpha_primal, alpha_dual)` (restoration's slacks included while it runs).
     pub(super) fn max_step(&self, tau: f64) -> (f64, f64) {
-        let (mut ap, mut ad) = if self.resto.active() {
-            self.resto.max_step(self.data.nrows(), tau)
-        } else {
-            (1.0_f64, 1.0_f64)
-        };
+        let (mut ap, mut ad) = self.resto.max_step(self.data.nrows(), tau);
         let (data, it, step) = (&self.data, &self.it, &self.step);
         for i in 0..it.z.len() {
             if data.kind[i] != Kind::Free {

@@ -53,25 +53,25 @@ impl OcpSolver {
         (t1, ti)
     }
 
-    /// Original constraint violation (l1, inf) at the iterate (refreshes `cv`).
-    pub(super) fn theta_current(&mut self) -> (f64, f64) {
+    /// Refreshes the constraint rows `cv` at the iterate.
+    fn refresh_rows(&mut self) {
         let mut cv = std::mem::take(&mut self.it.cv);
         let it = &self.it;
         self.data
             .row_values(&it.z, &it.s, &it.ev, &it.term, &mut cv);
-        let r = self.theta_of(&cv, None);
         self.it.cv = cv;
-        r
+    }
+
+    /// Original constraint violation (l1, inf) at the iterate (refreshes `cv`).
+    pub(super) fn theta_current(&mut self) -> (f64, f64) {
+        self.refresh_rows();
+        self.theta_of(&self.it.cv, None)
     }
 
     /// Barrier sum `-sum ln(slack)` over all bounded entries at the iterate or the trial point,
     /// the restoration slacks included while that phase runs.
     pub(super) fn barrier(&self, trial: bool) -> f64 {
-        let b0 = if self.resto.active() {
-            self.resto.barrier(self.data.nrows(), trial)
-        } else {
-            0.0
-        };
+        let b0 = self.resto.barrier(self.data.nrows(), trial);
         if trial {
             self.data.barrier_from(b0, &self.trial.z, &self.trial.s)
         } else {
@@ -139,11 +139,9 @@ impl OcpSolver {
             res.dual_inf = res.dual_inf.max((-it.y[j] - it.vl[j] + it.vu[j]).abs());
         }
         self.it.rz = rz;
-        let (mut t1, mut ti) = self.theta_current();
-        if self.resto.active() {
-            (t1, ti) = self.theta_of(&self.it.cv, self.resto.slacks(false));
-            res.dual_inf = self.resto.dual_inf(&self.it, &self.data, res.dual_inf);
-        }
+        self.refresh_rows();
+        let (t1, ti) = self.theta_of(&self.it.cv, self.resto.slacks(false));
+        res.dual_inf = self.resto.dual_inf(&self.it, &self.data, res.dual_inf);
         res.theta_1 = t1;
         res.theta_inf = ti;
         let (data, it) = (&self.data, &self.it);
@@ -177,10 +175,8 @@ impl OcpSolver {
                 nb += 1;
             }
         }
-        if self.resto.active() {
-            self.resto
-                .complementarity(data.nrows(), &mut comp, &mut bsum, &mut nb);
-        }
+        self.resto
+            .complementarity(data.nrows(), &mut comp, &mut bsum, &mut nb);
         let nfix = data.fixed_rows.len();
         let esum: f64 = it
             .lam
@@ -208,10 +204,7 @@ impl OcpSolver {
     /// Barrier error E_mu: complementarity measured against mu (for the current phase).
     pub(super) fn e_mu(&self, res: &Residuals, mu: f64) -> f64 {
         let (data, it) = (&self.data, &self.it);
-        let mut comp = 0.0_f64;
-        if self.resto.active() {
-            comp = self.resto.centrality(data.nrows(), mu);
-        }
+        let mut comp = self.resto.centrality(data.nrows(), mu);
         for i in 0..it.z.len() {
             if data.kind[i] != Kind::Free {
                 continue;

@@ -8,6 +8,8 @@
 //! relaxation slacks `p, n` and their duals live here; the iteration sees them through the terms
 //! this phase adds to the objective, the barrier, the residuals, the row residuals of the Newton
 //! system (condensed: a diagonal per row, soft dynamics in the Riccati recursion) and the step.
+//! Outside the phase every such term is neutral (nothing added, no bound on the step), so the
+//! shared routines read the same for both problems.
 
 use super::data::{Kind, ProblemData};
 use super::filter::Filter;
@@ -96,6 +98,16 @@ impl Restoration {
         })
     }
 
+    /// The weight of the problem's cost in the phase's objective (0 in restoration, whose
+    /// objective is its own).
+    pub(super) fn cost_weight(&self) -> f64 {
+        if self.active() {
+            0.0
+        } else {
+            1.0
+        }
+    }
+
     /// The original barrier parameter, if the phase runs.
     pub(super) fn mu_orig(&self) -> Option<f64> {
         self.origin.map(|o| o.mu)
@@ -147,6 +159,9 @@ impl Restoration {
     /// Largest dual residual of the slacks' optimality conditions (`rho -+ l - z_p,n`), given the
     /// iterate's row multipliers.
     pub(super) fn dual_inf(&self, it: &Iterate, data: &ProblemData, dual_inf: f64) -> f64 {
+        if !self.active() {
+            return dual_inf;
+        }
         let (nl, nc, nr) = (data.lay.n_l(), data.lay.n_c(), data.dims.n_terminal);
         let mut d = dual_inf;
         for i in 0..data.nrows() {
@@ -167,6 +182,9 @@ impl Restoration {
         bsum: &mut f64,
         nb: &mut usize,
     ) {
+        if !self.active() {
+            return;
+        }
         for i in 0..nrows {
             *comp = comp
                 .max((self.p[i] * self.zp[i]).abs())
@@ -179,6 +197,9 @@ impl Restoration {
     /// Largest deviation of the slacks' complementarity products from `mu`.
     pub(super) fn centrality(&self, nrows: usize, mu: f64) -> f64 {
         let mut comp = 0.0_f64;
+        if !self.active() {
+            return comp;
+        }
         for i in 0..nrows {
             comp = comp
                 .max((self.p[i] * self.zp[i] - mu).abs())
@@ -213,6 +234,9 @@ impl Restoration {
     /// The slacks' steps from the new row multipliers of the Newton step:
     /// `dp = (l+ - rho + mu/p)/S_p`, `dn = (-l+ - rho + mu/n)/S_n`, and their duals' steps.
     pub(super) fn recover_step(&mut self, step: &Step, data: &ProblemData, mu: f64) {
+        if !self.active() {
+            return;
+        }
         let (nl, ncall) = (data.lay.n_l(), data.lay.n_c());
         for i in 0..data.nrows() {
             let lp = if i < nl {
@@ -235,6 +259,9 @@ impl Restoration {
     /// a fraction `tau` inside.
     pub(super) fn max_step(&self, nrows: usize, tau: f64) -> (f64, f64) {
         let (mut ap, mut ad) = (1.0_f64, 1.0_f64);
+        if !self.active() {
+            return (ap, ad);
+        }
         for i in 0..nrows {
             for (v, d) in [(self.p[i], self.dp[i]), (self.n[i], self.dn[i])] {
                 if d < 0.0 {
@@ -252,8 +279,10 @@ impl Restoration {
 
     /// The slacks' barrier `-sum ln p + ln n` at the iterate or the trial point.
     pub(super) fn barrier(&self, nrows: usize, trial: bool) -> f64 {
-        let (p, n) = self.slacks(trial).unwrap_or((&[], &[]));
         let mut b = 0.0;
+        let Some((p, n)) = self.slacks(trial) else {
+            return b;
+        };
         for i in 0..nrows {
             b -= p[i].ln() + n[i].ln();
         }
@@ -263,6 +292,9 @@ impl Restoration {
     /// Directional derivative of the slacks' part of the barrier function along their step.
     pub(super) fn slope(&self, nrows: usize, mu: f64) -> f64 {
         let mut d = 0.0;
+        if !self.active() {
+            return d;
+        }
         for i in 0..nrows {
             d += (RHO_RESTO - mu / self.p[i]) * self.dp[i]
                 + (RHO_RESTO - mu / self.n[i]) * self.dn[i];
@@ -272,6 +304,9 @@ impl Restoration {
 
     /// Sets the slacks' trial point `p + alpha dp`, `n + alpha dn`.
     pub(super) fn set_trial(&mut self, nrows: usize, alpha: f64) {
+        if !self.active() {
+            return;
+        }
         for i in 0..nrows {
             self.p_t[i] = self.p[i] + alpha * self.dp[i];
             self.n_t[i] = self.n[i] + alpha * self.dn[i];
@@ -280,6 +315,9 @@ impl Restoration {
 
     /// Moves the slacks to their trial point and their duals by `adual` (safeguarded).
     pub(super) fn accept(&mut self, nrows: usize, adual: f64, mu: f64) {
+        if !self.active() {
+            return;
+        }
         std::mem::swap(&mut self.p, &mut self.p_t);
         std::mem::swap(&mut self.n, &mut self.n_t);
         for i in 0..nrows {
