@@ -1,19 +1,137 @@
 //! Conversions between Python values and the library's: numpy arrays in and out, settings dicts through
 //! JSON into the library's serde types, errors into `BrachiaError`.
 //!
-//! Arrays in: anything `numpy.asarray(x, dtype=float64)` accepts (a float64 array is read without a
-//! copy of the Python object). Every vector is checked for its length and for finite values before it
-//! reaches the library; the message names the argument, the expected length and what it holds.
+//! Arrays in: every array argument of every entry point is read here, by [`vector`], [`read_vector`],
+//! [`any_vector`] or [`matrix`], with the same rules:
+//! - **dtype**: real numbers only. Float arrays of any width and integer arrays convert to float64;
+//!   booleans, complex numbers, Python objects, text and dates are refused (numpy would drop an
+//!   imaginary part or turn `True` into 1.0 without a word).
+//! - **byte order and layout**: a native-endian float64 buffer is read as it is (no copy of the Python
+//!   object); anything else (big-endian, strided, Fortran order, another dtype) goes through
+//!   `numpy.ascontiguousarray(a, dtype=float64)`, which swaps bytes and copies as needed.
+//! - **shape**: the exact number of dimensions and lengths the argument needs.
+//! - **finiteness and range**: every value finite, and inside the [`Range`] of its quantity (the rule
+//!   the CLI applies to the same quantity, e.g. `|q| <= brachia::limits::MAX_ANGLE_RAD`).
+//!
+//! A refusal is a `BrachiaError` naming the argument (and the index), the value and the rule.
 
 use crate::BrachiaError;
+use brachia::limits;
 use pyo3::buffer::PyBuffer;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyByteArray, PyDict};
 
-/// `numpy.asarray` and `numpy.frombuffer`, looked up once.
+/// `numpy.asarray`, `numpy.ascontiguousarray` and `numpy.frombuffer`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+static CONTIGUOUS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 static FROMBUFFER: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
+
+/// Largest joint acceleration accepted (``inverse_dynamics``' ``qdd``), rad/s^2.
+pub(crate) const MAX_ACCEL_RAD_S2: f64 = 1e6;
+/// Largest torque accepted (``qdd``'s ``tau``; a trajectory's torques), N m: the largest torque
+/// limit a parameters file may give.
+pub(crate) const MAX_TORQUE_NM: f64 = 1e6;
+/// Largest coordinate of a position (a target, a bar), m: the planner's rule for obstacles.
+pub(crate) const MAX_POSITION_M: f64 = 1e3;
+
+/// The rule for the values of an array argument (every value must also be finite).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Range {
+    /// Joint angles, rad: `|v| <= MAX_ANGLE_RAD` (the CLI's rule for a start pose).
+    Angle,
+    /// Joint velocities, rad/s: `|v| <= MAX_RATE_RAD_S` (the CLI's rule for a start velocity).
+    Rate,
+    /// States `[q (n), qd (n)]`: the first half of each row angles, the second half velocities.
+    State,
+    /// Joint accelerations, rad/s^2: `|v| <= MAX_ACCEL_RAD_S2`.
+    Accel,
+    /// Torques, N m: `|v| <= MAX_TORQUE_NM`.
+    Torque,
+    /// Positions, m: `|v| <= MAX_POSITION_M`.
+    Position,
+    /// Times, s: `0 <= t <= MAX_RUN_DURATION_S`.
+    Time,
+}
+
+impl Range {
+    /// The rule broken by `v` in column `col` of rows of `cols` values, if any.
+    fn broken(self, v: f64, col: usize, cols: usize) -> Option<String> {
+        if !v.is_finite() {
+            return Some("must be finite".into());
+        }
+        let abs = |max: f64, unit: &str, what: &str, limit: &str| {
+            (v.abs() > max)
+                .then(|| format!("must be at most {max} {unit} in magnitude ({what}; {limit})"))
+        };
+        match self {
+            Range::Angle => abs(
+                limits::MAX_ANGLE_RAD,
+                "rad",
+                "a joint angle",
+                "brachia::limits::MAX_ANGLE_RAD",
+            ),
+            Range::Rate => abs(
+                limits::MAX_RATE_RAD_S,
+                "rad/s",
+                "a joint velocity",
+                "brachia::limits::MAX_RATE_RAD_S",
+            ),
+            Range::State if 2 * col < cols => Range::Angle.broken(v, col, cols),
+            Range::State => Range::Rate.broken(v, col, cols),
+            Range::Accel => abs(
+                MAX_ACCEL_RAD_S2,
+                "rad/s^2",
+                "a joint acceleration",
+                "docs/python.md",
+            ),
+            Range::Torque => abs(
+                MAX_TORQUE_NM,
+                "N m",
+                "a torque; the largest limit a robot may have",
+                "docs/python.md",
+            ),
+            Range::Position => abs(
+                MAX_POSITION_M,
+                "m",
+                "a position in the grip frame",
+                "docs/python.md",
+            ),
+            Range::Time => (!(0.0..=limits::MAX_RUN_DURATION_S).contains(&v)).then(|| {
+                format!(
+                    "must lie in [0, {}] s (brachia::limits::MAX_RUN_DURATION_S)",
+                    limits::MAX_RUN_DURATION_S
+                )
+            }),
+        }
+    }
+}
+
+/// An array argument: its name as the user writes it, what it holds (for shape messages) and the rule
+/// for its values.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Arg<'a> {
+    pub name: &'a str,
+    pub what: &'a str,
+    pub range: Range,
+}
+
+impl<'a> Arg<'a> {
+    pub(crate) const fn new(name: &'a str, what: &'a str, range: Range) -> Self {
+        Arg { name, what, range }
+    }
+}
+
+/// `x` for a message: plain for ordinary magnitudes, in exponent form for huge or tiny ones (Rust
+/// writes `1e300` with 300 digits otherwise).
+pub(crate) fn num(x: f64) -> String {
+    let a = x.abs();
+    if a.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
 
 /// A `BrachiaError` with this text.
 pub(crate) fn bad(msg: impl Into<String>) -> PyErr {
@@ -30,115 +148,186 @@ pub(crate) fn exp(e: brachia_experiments::ExpError) -> PyErr {
     bad(e.to_string())
 }
 
-/// The float64 buffer of `obj`: directly for a float64 array (or any float64 buffer), else of
-/// `numpy.asarray(obj, dtype=float64)`; a value numpy cannot convert is a `BrachiaError` naming `name`.
-fn buffer(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<PyBuffer<f64>> {
-    if let Ok(b) = PyBuffer::<f64>::get(obj) {
-        return Ok(b);
-    }
-    let py = obj.py();
-    let asarray = ASARRAY.import(py, "numpy", "asarray")?;
-    let arr = asarray
-        .call1((obj, "float64"))
-        .map_err(|e| bad(format!("{name}: not an array of numbers ({e})")))?;
-    PyBuffer::<f64>::get(&arr).map_err(|e| bad(format!("{name}: not an array of numbers ({e})")))
-}
-
-/// The first non-finite entry of `v`, as an error naming `name[i]`.
-fn check_finite(v: &[f64], name: &str) -> PyResult<()> {
-    match v.iter().position(|x| !x.is_finite()) {
-        Some(i) => Err(bad(format!("{name}[{i}] = {}: must be finite", v[i]))),
-        None => Ok(()),
+/// True when a buffer of this `struct` format holds native-endian float64 values. (PyO3's own check
+/// takes `>d`, big-endian, as native on a little-endian machine.)
+fn native_f64_format(format: &[u8]) -> bool {
+    match format {
+        b"d" | b"@d" | b"=d" => true,
+        b"<d" => cfg!(target_endian = "little"),
+        b">d" | b"!d" => cfg!(target_endian = "big"),
+        _ => false,
     }
 }
 
-/// A 1-D array of exactly `len` finite numbers (`what` says what they are, for the message).
-pub(crate) fn vector(
+/// Why numpy's dtype kind `kind` (`dtype.kind`) cannot be read as real numbers, if it cannot.
+fn refused_kind(kind: &str) -> Option<&'static str> {
+    match kind {
+        "f" | "i" | "u" => None,
+        "b" => Some("booleans are not numbers here"),
+        "c" => Some("complex numbers are refused (the imaginary part would be dropped)"),
+        "O" => Some("Python objects that are not all real numbers (or a ragged list)"),
+        "U" | "S" => Some("text is not a number"),
+        "M" | "m" => Some("dates and durations are not numbers here"),
+        _ => Some("not an array of real numbers"),
+    }
+}
+
+/// Run `f` on the native float64 buffer of `obj`: `obj`'s own when it has one, else the buffer of
+/// `numpy.ascontiguousarray(obj, dtype=float64)` after the dtype check. Errors name `name`.
+fn with_buffer<R>(
     obj: &Bound<'_, PyAny>,
     name: &str,
-    len: usize,
-    what: &str,
-) -> PyResult<Vec<f64>> {
+    f: impl FnOnce(&PyBuffer<f64>) -> PyResult<R>,
+) -> PyResult<R> {
+    if let Ok(b) = PyBuffer::<f64>::get(obj) {
+        if native_f64_format(b.format().to_bytes()) {
+            return f(&b);
+        }
+    }
+    let py = obj.py();
+    let not_numbers = |e: PyErr| bad(format!("{name}: not an array of numbers ({e})"));
+    let arr = ASARRAY
+        .import(py, "numpy", "asarray")?
+        .call1((obj,))
+        .map_err(not_numbers)?;
+    let dtype = arr.getattr("dtype")?;
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    if let Some(why) = refused_kind(&kind) {
+        return Err(bad(format!("{name}: dtype {}: {why}", dtype.str()?)));
+    }
+    let arr = CONTIGUOUS
+        .import(py, "numpy", "ascontiguousarray")?
+        .call1((arr, "float64"))
+        .map_err(not_numbers)?;
+    let b = PyBuffer::<f64>::get(&arr).map_err(not_numbers)?;
+    f(&b)
+}
+
+/// The values of a C-contiguous copy of `b` into `out` (`out.len() == b.item_count()`).
+fn copy_out(py: Python<'_>, b: &PyBuffer<f64>, out: &mut [f64]) -> PyResult<()> {
+    b.copy_to_slice(py, out)
+}
+
+/// Check every value of `v` (rows of `cols` values) against `arg.range`; `two_d` names entries
+/// `name[row][col]`, else `name[i]`.
+fn check_values(v: &[f64], arg: &Arg<'_>, cols: usize, two_d: bool) -> PyResult<()> {
+    let cols = cols.max(1);
+    for (i, &x) in v.iter().enumerate() {
+        if let Some(rule) = arg.range.broken(x, i % cols, cols) {
+            let at = if two_d {
+                format!("{}[{}][{}]", arg.name, i / cols, i % cols)
+            } else {
+                format!("{}[{i}]", arg.name)
+            };
+            return Err(bad(format!("{at} = {}: {rule}", num(x))));
+        }
+    }
+    Ok(())
+}
+
+/// A 1-D array of exactly `len` values.
+pub(crate) fn vector(obj: &Bound<'_, PyAny>, arg: Arg<'_>, len: usize) -> PyResult<Vec<f64>> {
     let mut out = vec![0.0; len];
-    read_vector(obj, name, what, &mut out)?;
+    read_vector(obj, arg, &mut out)?;
     Ok(out)
 }
 
-/// Read a 1-D array of exactly `out.len()` finite numbers into `out` (no allocation when `obj` is a
-/// float64 array).
-pub(crate) fn read_vector(
-    obj: &Bound<'_, PyAny>,
-    name: &str,
-    what: &str,
-    out: &mut [f64],
-) -> PyResult<()> {
+/// Read a 1-D array of exactly `out.len()` values into `out` (no allocation when `obj` is a native
+/// float64 array). On an error `out` may hold part of the input.
+pub(crate) fn read_vector(obj: &Bound<'_, PyAny>, arg: Arg<'_>, out: &mut [f64]) -> PyResult<()> {
     let len = out.len();
-    let b = buffer(obj, name)?;
-    if b.dimensions() != 1 || b.item_count() != len {
-        return Err(bad(format!(
-            "{name}: expected a 1-D array of {len} values ({what}), got shape {:?}",
-            b.shape()
-        )));
-    }
-    b.copy_to_slice(obj.py(), out)?;
-    check_finite(out, name)
+    with_buffer(obj, arg.name, |b| {
+        if b.dimensions() != 1 || b.item_count() != len {
+            return Err(bad(format!(
+                "{}: expected a 1-D array of {len} values ({}), got shape {:?}",
+                arg.name,
+                arg.what,
+                b.shape()
+            )));
+        }
+        copy_out(obj.py(), b, out)
+    })?;
+    check_values(out, &arg, len, false)
 }
 
-/// A 1-D array of finite numbers of any length up to `max`.
-pub(crate) fn any_vector(obj: &Bound<'_, PyAny>, name: &str, max: usize) -> PyResult<Vec<f64>> {
-    let b = buffer(obj, name)?;
-    if b.dimensions() != 1 || b.item_count() > max {
-        return Err(bad(format!(
-            "{name}: expected a 1-D array of at most {max} values, got shape {:?}",
-            b.shape()
-        )));
-    }
-    let v = b.to_vec(obj.py())?;
-    check_finite(&v, name)?;
+/// A 1-D array of `min..=max` values.
+pub(crate) fn any_vector(
+    obj: &Bound<'_, PyAny>,
+    arg: Arg<'_>,
+    min: usize,
+    max: usize,
+) -> PyResult<Vec<f64>> {
+    let v = with_buffer(obj, arg.name, |b| {
+        if b.dimensions() != 1 || !(min..=max).contains(&b.item_count()) {
+            return Err(bad(format!(
+                "{}: expected a 1-D array of {min} to {max} values ({}), got shape {:?}",
+                arg.name,
+                arg.what,
+                b.shape()
+            )));
+        }
+        b.to_vec(obj.py())
+    })?;
+    check_values(&v, &arg, v.len(), false)?;
     Ok(v)
 }
 
-/// The number of columns of a 2-D array.
-pub(crate) fn columns(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<usize> {
-    let b = buffer(obj, name)?;
-    match b.shape() {
-        [_, c] => Ok(*c),
-        s => Err(bad(format!(
-            "{name}: expected a 2-D array, got shape {s:?}"
-        ))),
-    }
-}
-
-/// A 2-D array of finite numbers with `cols` columns (any number of rows when `rows` is `None`):
-/// `(values row-major, rows)`.
+/// A 2-D array of `rows` x `cols` values (any number of rows or columns where `None`; at least
+/// one column): `(values row-major, rows, cols)`.
 pub(crate) fn matrix(
     obj: &Bound<'_, PyAny>,
-    name: &str,
+    arg: Arg<'_>,
     rows: Option<usize>,
-    cols: usize,
-    what: &str,
-) -> PyResult<(Vec<f64>, usize)> {
-    let b = buffer(obj, name)?;
-    let shape = b.shape().to_vec();
-    let ok = shape.len() == 2 && shape[1] == cols && rows.is_none_or(|r| shape[0] == r);
-    if !ok {
-        let want = match rows {
-            Some(r) => format!("({r}, {cols})"),
-            None => format!("(samples, {cols})"),
-        };
-        return Err(bad(format!(
-            "{name}: expected an array of shape {want} ({what}), got shape {shape:?}"
-        )));
+    cols: Option<usize>,
+) -> PyResult<(Vec<f64>, usize, usize)> {
+    let (v, r, c) = with_buffer(obj, arg.name, |b| {
+        let shape = b.shape().to_vec();
+        let ok = shape.len() == 2
+            && rows.is_none_or(|r| shape[0] == r)
+            && cols.is_none_or(|c| shape[1] == c)
+            && shape[1] > 0;
+        if !ok {
+            let dim = |d: Option<usize>, any: &str| d.map_or(any.to_string(), |d| d.to_string());
+            return Err(bad(format!(
+                "{}: expected an array of shape ({}, {}) ({}), got shape {shape:?}",
+                arg.name,
+                dim(rows, "samples"),
+                dim(cols, "columns"),
+                arg.what
+            )));
+        }
+        Ok((b.to_vec(obj.py())?, shape[0], shape[1]))
+    })?;
+    check_values(&v, &arg, c, true)?;
+    Ok((v, r, c))
+}
+
+/// A scalar argument: finite and, when `range` is given, inside it (`[lo, hi]`, `unit` for the
+/// message).
+pub(crate) fn scalar(name: &str, v: f64, range: Option<([f64; 2], &str)>) -> PyResult<f64> {
+    if !v.is_finite() {
+        return Err(bad(format!("{name} = {v}: must be finite")));
     }
-    let v = b.to_vec(obj.py())?;
+    if let Some(([lo, hi], unit)) = range {
+        if !(lo..=hi).contains(&v) {
+            return Err(bad(format!(
+                "{name} = {}: must lie in [{lo}, {hi}] {unit}",
+                num(v)
+            )));
+        }
+    }
+    Ok(v)
+}
+
+/// Check that a result is finite before it is returned: a non-finite value means the inputs
+/// overflowed the computation, which is an error, never a silent NaN.
+pub(crate) fn finite_result<'v>(v: &'v [f64], what: &str) -> PyResult<&'v [f64]> {
     match v.iter().position(|x| !x.is_finite()) {
         Some(i) => Err(bad(format!(
-            "{name}[{}][{}] = {}: must be finite",
-            i / cols,
-            i % cols,
+            "{what}: entry {i} of the result is {} (the inputs overflow the computation)",
             v[i]
         ))),
-        None => Ok((v, shape[0])),
+        None => Ok(v),
     }
 }
 
