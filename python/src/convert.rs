@@ -7,8 +7,8 @@
 //!   booleans, complex numbers, Python objects, text and dates are refused (numpy would drop an
 //!   imaginary part or turn `True` into 1.0 without a word).
 //! - **byte order and layout**: a native-endian float64 buffer is read as it is (no copy of the Python
-//!   object); anything else (big-endian, strided, Fortran order, another dtype) goes through
-//!   `numpy.ascontiguousarray(a, dtype=float64)`, which swaps bytes and copies as needed.
+//!   object); anything else (big-endian, another dtype, a list) goes through
+//!   `numpy.asarray(a, dtype=float64, order="C")`, which swaps bytes and copies as needed.
 //! - **shape**: the exact number of dimensions and lengths the argument needs.
 //! - **finiteness and range**: every value finite, and inside the [`Range`] of its quantity (the rule
 //!   the CLI applies to the same quantity, e.g. `|q| <= brachia::limits::MAX_ANGLE_RAD`).
@@ -22,9 +22,8 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyByteArray, PyDict};
 
-/// `numpy.asarray`, `numpy.ascontiguousarray` and `numpy.frombuffer`, looked up once.
+/// `numpy.asarray` and `numpy.frombuffer`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
-static CONTIGUOUS: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 static FROMBUFFER: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
 /// Largest joint acceleration accepted (``inverse_dynamics``' ``qdd``), rad/s^2.
@@ -125,6 +124,12 @@ impl<'a> Arg<'a> {
 /// `x` for a message: plain for ordinary magnitudes, in exponent form for huge or tiny ones (Rust
 /// writes `1e300` with 300 digits otherwise).
 pub(crate) fn num(x: f64) -> String {
+    if x.is_nan() {
+        return "nan".into();
+    }
+    if x.is_infinite() {
+        return if x > 0.0 { "inf" } else { "-inf" }.into();
+    }
     let a = x.abs();
     if a.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
         format!("{x:e}")
@@ -172,40 +177,100 @@ fn refused_kind(kind: &str) -> Option<&'static str> {
     }
 }
 
-/// Run `f` on the native float64 buffer of `obj`: `obj`'s own when it has one, else the buffer of
-/// `numpy.ascontiguousarray(obj, dtype=float64)` after the dtype check. Errors name `name`.
-fn with_buffer<R>(
-    obj: &Bound<'_, PyAny>,
-    name: &str,
-    f: impl FnOnce(&PyBuffer<f64>) -> PyResult<R>,
-) -> PyResult<R> {
-    if let Ok(b) = PyBuffer::<f64>::get(obj) {
-        if native_f64_format(b.format().to_bytes()) {
-            return f(&b);
+/// The shape an array argument must have.
+#[derive(Clone, Copy, Debug)]
+enum Want {
+    /// 1-D with `min..=max` values.
+    Vector { min: usize, max: usize },
+    /// 2-D; rows and columns fixed where given, at least one column.
+    Matrix {
+        rows: Option<usize>,
+        cols: Option<usize>,
+    },
+}
+
+impl Want {
+    fn fits(self, shape: &[usize]) -> bool {
+        match (self, shape) {
+            (Want::Vector { min, max }, [len]) => (min..=max).contains(len),
+            (Want::Matrix { rows, cols }, [r, c]) => {
+                *c > 0 && rows.is_none_or(|x| x == *r) && cols.is_none_or(|x| x == *c)
+            }
+            _ => false,
         }
     }
+
+    /// The refusal of `shape` for `arg`.
+    fn refuse(self, arg: &Arg<'_>, shape: &[usize]) -> PyErr {
+        let want = match self {
+            Want::Vector { min, max } if min == max => format!("a 1-D array of {min} values"),
+            Want::Vector { min, max } => format!("a 1-D array of {min} to {max} values"),
+            Want::Matrix { rows, cols } => {
+                let dim =
+                    |d: Option<usize>, any: &str| d.map_or(any.to_string(), |d| d.to_string());
+                format!(
+                    "an array of shape ({}, {})",
+                    dim(rows, "samples"),
+                    dim(cols, "columns")
+                )
+            }
+        };
+        bad(format!(
+            "{}: expected {want} ({}), got shape {shape:?}",
+            arg.name, arg.what
+        ))
+    }
+}
+
+/// The values (row-major, native float64) and shape of `obj`, once its shape fits `want`: read
+/// from `obj`'s own buffer when it holds native float64 values (into `out` when given, without
+/// allocating), else from `numpy.asarray(obj, dtype=float64, order="C")` after the dtype check.
+/// Only the values are returned when `out` is given (the vector is then empty).
+fn read(
+    obj: &Bound<'_, PyAny>,
+    arg: &Arg<'_>,
+    want: Want,
+    out: Option<&mut [f64]>,
+) -> PyResult<(Vec<f64>, Vec<usize>)> {
     let py = obj.py();
+    let take = |b: &PyBuffer<f64>, out: Option<&mut [f64]>| -> PyResult<(Vec<f64>, Vec<usize>)> {
+        let shape = b.shape().to_vec();
+        if !want.fits(&shape) {
+            return Err(want.refuse(arg, &shape));
+        }
+        match out {
+            Some(o) if o.len() == b.item_count() => {
+                b.copy_to_slice(py, o)?;
+                Ok((Vec::new(), shape))
+            }
+            Some(_) => Err(want.refuse(arg, &shape)),
+            None => Ok((b.to_vec(py)?, shape)),
+        }
+    };
+    if let Ok(b) = PyBuffer::<f64>::get(obj) {
+        if native_f64_format(b.format().to_bytes()) {
+            return take(&b, out);
+        }
+    }
+    let name = arg.name;
     let not_numbers = |e: PyErr| bad(format!("{name}: not an array of numbers ({e})"));
-    let arr = ASARRAY
-        .import(py, "numpy", "asarray")?
-        .call1((obj,))
-        .map_err(not_numbers)?;
+    let asarray = ASARRAY.import(py, "numpy", "asarray")?;
+    let arr = asarray.call1((obj,)).map_err(not_numbers)?;
     let dtype = arr.getattr("dtype")?;
     let kind: String = dtype.getattr("kind")?.extract()?;
     if let Some(why) = refused_kind(&kind) {
         return Err(bad(format!("{name}: dtype {}: {why}", dtype.str()?)));
     }
-    let arr = CONTIGUOUS
-        .import(py, "numpy", "ascontiguousarray")?
-        .call1((arr, "float64"))
-        .map_err(not_numbers)?;
+    let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
+    if !want.fits(&shape) {
+        return Err(want.refuse(arg, &shape));
+    }
+    let kw = PyDict::new(py);
+    kw.set_item("dtype", "float64")?;
+    kw.set_item("order", "C")?;
+    let arr = asarray.call((arr,), Some(&kw)).map_err(not_numbers)?;
     let b = PyBuffer::<f64>::get(&arr).map_err(not_numbers)?;
-    f(&b)
-}
-
-/// The values of a C-contiguous copy of `b` into `out` (`out.len() == b.item_count()`).
-fn copy_out(py: Python<'_>, b: &PyBuffer<f64>, out: &mut [f64]) -> PyResult<()> {
-    b.copy_to_slice(py, out)
+    take(&b, out)
 }
 
 /// Check every value of `v` (rows of `cols` values) against `arg.range`; `two_d` names entries
@@ -236,17 +301,12 @@ pub(crate) fn vector(obj: &Bound<'_, PyAny>, arg: Arg<'_>, len: usize) -> PyResu
 /// float64 array). On an error `out` may hold part of the input.
 pub(crate) fn read_vector(obj: &Bound<'_, PyAny>, arg: Arg<'_>, out: &mut [f64]) -> PyResult<()> {
     let len = out.len();
-    with_buffer(obj, arg.name, |b| {
-        if b.dimensions() != 1 || b.item_count() != len {
-            return Err(bad(format!(
-                "{}: expected a 1-D array of {len} values ({}), got shape {:?}",
-                arg.name,
-                arg.what,
-                b.shape()
-            )));
-        }
-        copy_out(obj.py(), b, out)
-    })?;
+    read(
+        obj,
+        &arg,
+        Want::Vector { min: len, max: len },
+        Some(&mut *out),
+    )?;
     check_values(out, &arg, len, false)
 }
 
@@ -257,17 +317,7 @@ pub(crate) fn any_vector(
     min: usize,
     max: usize,
 ) -> PyResult<Vec<f64>> {
-    let v = with_buffer(obj, arg.name, |b| {
-        if b.dimensions() != 1 || !(min..=max).contains(&b.item_count()) {
-            return Err(bad(format!(
-                "{}: expected a 1-D array of {min} to {max} values ({}), got shape {:?}",
-                arg.name,
-                arg.what,
-                b.shape()
-            )));
-        }
-        b.to_vec(obj.py())
-    })?;
+    let (v, _) = read(obj, &arg, Want::Vector { min, max }, None)?;
     check_values(&v, &arg, v.len(), false)?;
     Ok(v)
 }
@@ -280,33 +330,16 @@ pub(crate) fn matrix(
     rows: Option<usize>,
     cols: Option<usize>,
 ) -> PyResult<(Vec<f64>, usize, usize)> {
-    let (v, r, c) = with_buffer(obj, arg.name, |b| {
-        let shape = b.shape().to_vec();
-        let ok = shape.len() == 2
-            && rows.is_none_or(|r| shape[0] == r)
-            && cols.is_none_or(|c| shape[1] == c)
-            && shape[1] > 0;
-        if !ok {
-            let dim = |d: Option<usize>, any: &str| d.map_or(any.to_string(), |d| d.to_string());
-            return Err(bad(format!(
-                "{}: expected an array of shape ({}, {}) ({}), got shape {shape:?}",
-                arg.name,
-                dim(rows, "samples"),
-                dim(cols, "columns"),
-                arg.what
-            )));
-        }
-        Ok((b.to_vec(obj.py())?, shape[0], shape[1]))
-    })?;
-    check_values(&v, &arg, c, true)?;
-    Ok((v, r, c))
+    let (v, shape) = read(obj, &arg, Want::Matrix { rows, cols }, None)?;
+    check_values(&v, &arg, shape[1], true)?;
+    Ok((v, shape[0], shape[1]))
 }
 
 /// A scalar argument: finite and, when `range` is given, inside it (`[lo, hi]`, `unit` for the
 /// message).
 pub(crate) fn scalar(name: &str, v: f64, range: Option<([f64; 2], &str)>) -> PyResult<f64> {
     if !v.is_finite() {
-        return Err(bad(format!("{name} = {v}: must be finite")));
+        return Err(bad(format!("{name} = {}: must be finite", num(v))));
     }
     if let Some(([lo, hi], unit)) = range {
         if !(lo..=hi).contains(&v) {
