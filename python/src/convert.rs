@@ -290,6 +290,12 @@ fn check_values(v: &[f64], arg: &Arg<'_>, cols: usize, two_d: bool) -> PyResult<
     Ok(())
 }
 
+/// Check the values of a vector that came in another way (a field of a dict) against `range`;
+/// `name` names it as the user wrote it (`task.q0`).
+pub(crate) fn check_slice(v: &[f64], name: &str, range: Range) -> PyResult<()> {
+    check_values(v, &Arg::new(name, "", range), v.len(), false)
+}
+
 /// A 1-D array of exactly `len` values.
 pub(crate) fn vector(obj: &Bound<'_, PyAny>, arg: Arg<'_>, len: usize) -> PyResult<Vec<f64>> {
     let mut out = vec![0.0; len];

@@ -6,7 +6,7 @@
 //! hand B: the chain re-rooted at the other end). `x0 = [q, qd]` (2n) of the chain as written holding
 //! `bars[0]`; rad, rad/s, N m, J.
 
-use crate::convert::{arr1, bad, matrix, rs, to_json, to_py, vector, Arg, Range};
+use crate::convert::{arr1, bad, check_slice, matrix, rs, to_json, to_py, vector, Arg, Range};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, Plan};
 use brachia::model::Circle;
@@ -210,6 +210,14 @@ pub(crate) fn plan_joint_swings(
         Some(o) => serde_json::from_str(&to_json(o, "obstacles")?)
             .map_err(|e| bad(format!("obstacles: {e}")))?,
     };
+    for (i, o) in obstacles.iter().enumerate() {
+        let shape = [o.center[0], o.center[1], o.radius];
+        check_slice(
+            &shape,
+            &format!("obstacles[{i}] (center, radius)"),
+            Range::Position,
+        )?;
+    }
     let (mut planner, nlp) = plan_settings_from(settings, kwargs)?;
     // what the joint plan runs, whatever the settings say, so that the swings' reports name it
     planner.transcription = Transcription::MultipleShooting;

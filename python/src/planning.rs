@@ -6,7 +6,7 @@
 //! dict with the fields of `brachia::planning::NlpSettings` (`[solver]`); a field left out keeps the
 //! Rust default. The plan's arrays are the 1 ms output trajectory (`t`, `q`, `qd`, `tau`, `ee`).
 
-use crate::convert::{arr1, arr2, bad, exp, from_value, merged, rs, to_py};
+use crate::convert::{arr1, arr2, bad, check_slice, exp, from_value, merged, rs, to_py, Range};
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;
@@ -188,9 +188,25 @@ impl Plan {
 }
 
 /// The task dict as a `SwingTask`.
+///
+/// Its values obey the binding's rules for their quantities before the planner checks the task
+/// against the robot and the settings: `q0` angles, `qd0` velocities, `target` and the obstacles'
+/// centres and radii positions (within 1000 m).
 pub(crate) fn task_from(task: &Bound<'_, PyAny>) -> PyResult<SwingTask> {
     let v = merged(Some(task), None, "task")?;
-    from_value(v, "task")
+    let task: SwingTask = from_value(v, "task")?;
+    check_slice(&task.q0, "task.q0", Range::Angle)?;
+    check_slice(&task.qd0, "task.qd0", Range::Rate)?;
+    check_slice(&task.target, "task.target", Range::Position)?;
+    for (i, o) in task.obstacles.iter().enumerate() {
+        let shape = [o.center[0], o.center[1], o.radius];
+        check_slice(
+            &shape,
+            &format!("task.obstacles[{i}] (center, radius)"),
+            Range::Position,
+        )?;
+    }
+    Ok(task)
 }
 
 /// Planner and solver settings from a dict and keyword arguments (`solver` = the NLP settings).

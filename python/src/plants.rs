@@ -10,7 +10,7 @@
 //! Both classes keep their state behind a lock (`crate::shared`): any thread may use them, one call
 //! at a time.
 
-use crate::convert::{arr1, bad, num, read_vector, rs, settings_from, Arg, Range};
+use crate::convert::{arr1, bad, check_slice, num, read_vector, rs, settings_from, Arg, Range};
 use crate::model::Robot;
 use crate::shared::Shared;
 use brachia::sim::{Plant, DIVERGENCE_BOUND};
@@ -287,6 +287,9 @@ impl RapierPlant {
         }
         for (i, o) in obstacles.iter().enumerate() {
             o.validate("obstacles", i).map_err(rs)?;
+            let (c, r) = o.shape();
+            let name = format!("obstacles[{i}] (center, radius)");
+            check_slice(&[c[0], c[1], r], &name, Range::Position)?;
         }
         let x = start_state(&robot.inner, "x0", x0)?;
         let plant = Self::build(&robot.inner, &x, &settings, &obstacles)?;

@@ -444,3 +444,28 @@ def test_a_plant_in_a_running_track_waits_for_it(robot, tracking_plan):
     errors = run_threads(work, 2)
     assert errors == []
     assert times[0] in (0.0, pytest.approx(0.5))
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda r: brachia.plan(r, {"q0": [-2.35, 0, -1.55, 0], "target": [0.8, 1e300]}),
+         r"^task.target\[1\] = 1e300: must be at most 1000 m"),
+        (lambda r: brachia.SwingPlanner(r, {"q0": [-2.35, 0, -1e300, 0], "target": [0.8, 0]}),
+         r"^task.q0\[2\] = -1e300: must be at most 12.56"),
+        (lambda r: brachia.SwingPlanner(r, {**TASK, "qd0": [0, 0, 0, 1e200]}),
+         r"^task.qd0\[3\] = 1e200: must be at most 1000 rad/s"),
+        (lambda r: brachia.SwingPlanner(r, {**TASK, "obstacles": [{"center": [1e300, 0], "radius": 0.1}]}),
+         r"^task.obstacles\[0\] \(center, radius\)\[0\] = 1e300: must be at most 1000 m"),
+        (lambda r: brachia.RapierPlant(r, obstacles=[{"kind": "circle", "center": big([0.5, 1e300]), "radius": 0.1}]),
+         r"^obstacles\[0\] \(center, radius\)\[1\] = 1e300: must be at most 1000 m"),
+        (lambda r: brachia.plan_joint_swings(r, np.zeros(8), [[0, 0], [0.8, 0]], obstacles=[{"center": [0, 0], "radius": 1e300}]),
+         r"^obstacles\[0\] \(center, radius\)\[2\] = 1e300: must be at most 1000 m"),
+        (lambda r: brachia.Mpc(r, brachia.Trajectory([0, 1], np.zeros((2, 4)), np.zeros((2, 4)), np.zeros((2, 3))),
+                               q_diag=np.ones(8, dtype=complex)),
+         r"^mpc settings: cannot be read"),
+    ],
+)
+def test_values_inside_dicts_obey_the_same_rules(robot, call, message):
+    with pytest.raises(brachia.BrachiaError, match=message):
+        call(robot)
