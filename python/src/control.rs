@@ -13,12 +13,12 @@ use crate::convert::{
 };
 use crate::model::{Robot, Trajectory};
 use crate::planning::Plan;
-use crate::shared::Shared;
+use crate::shared::{Guard, Shared};
 use brachia::control::MpcSettings;
 use brachia::sim::Controller;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::{Arc, MutexGuard};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The reference of a `Plan` or a `Trajectory`.
@@ -59,7 +59,7 @@ pub(crate) struct MpcState {
 
 impl Mpc {
     /// The locked controller, to run in a closed loop.
-    pub(crate) fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, MpcState>> {
+    pub(crate) fn lock(&self, py: Python<'_>) -> PyResult<Guard<'_, MpcState>> {
         self.state.lock(py)
     }
 }

@@ -12,12 +12,12 @@
 
 use crate::convert::{arr1, bad, check_slice, num, read_vector, rs, settings_from, Arg, Range};
 use crate::model::Robot;
-use crate::shared::Shared;
+use crate::shared::{Guard, Shared};
 use brachia::sim::{Plant, DIVERGENCE_BOUND};
 use brachia_rapier::{ContactBody, Obstacle, RapierSettings};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::sync::{Arc, MutexGuard};
+use std::sync::Arc;
 
 /// Largest `dt` of one plant step, s.
 const MAX_STEP_DT: f64 = 1.0;
@@ -153,7 +153,7 @@ impl ModelPlant {
     pub(crate) fn lock(
         &self,
         py: Python<'_>,
-    ) -> PyResult<MutexGuard<'_, PlantCell<brachia::sim::ModelPlant>>> {
+    ) -> PyResult<Guard<'_, PlantCell<brachia::sim::ModelPlant>>> {
         self.cell.lock(py)
     }
 
@@ -254,7 +254,7 @@ impl RapierPlant {
     pub(crate) fn lock(
         &self,
         py: Python<'_>,
-    ) -> PyResult<MutexGuard<'_, PlantCell<brachia_rapier::RapierPlant>>> {
+    ) -> PyResult<Guard<'_, PlantCell<brachia_rapier::RapierPlant>>> {
         self.cell.lock(py)
     }
 }

@@ -9,14 +9,13 @@
 use crate::convert::{arr1, arr2, bad, read_vector, rs, Arg, Range};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
-use crate::shared::Shared;
+use crate::shared::{Guard, Shared};
 use brachia::planning::{
     validate_task, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription,
 };
 use brachia_experiments::parameter_study::status_name;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::MutexGuard;
 
 /// How one plan or re-plan of a ``SwingPlanner`` ended: the solver's status and diagnostics.
 ///
@@ -203,7 +202,7 @@ impl PlannerState {
 
 impl SwingPlanner {
     /// The locked planner.
-    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, PlannerState>> {
+    fn lock(&self, py: Python<'_>) -> PyResult<Guard<'_, PlannerState>> {
         self.state.lock(py)
     }
 }

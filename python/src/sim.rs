@@ -10,6 +10,7 @@ use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, to_py};
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::plants::{ModelPlant, RapierPlant};
+use crate::shared::Guard;
 use brachia::control::{OpenLoop, Pd, PdSettings};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, NoiseSettings, Noisy, Plant, RunSettings,
@@ -18,7 +19,7 @@ use brachia::sim::{
 use brachia_experiments::RunFolder;
 use pyo3::prelude::*;
 use std::path::PathBuf;
-use std::sync::{Arc, MutexGuard};
+use std::sync::Arc;
 
 /// A closed-loop run: arrays of the log (one row per control instant), its summary and, for a
 /// scenario's run, the report ``brachia track`` writes.
@@ -184,7 +185,7 @@ impl TrackResult {
 
 /// The controller of a `track` call: a given `Mpc` (locked for the run) or one made for it.
 enum Ctrl<'a> {
-    Given(MutexGuard<'a, MpcState>),
+    Given(Guard<'a, MpcState>),
     Owned(Box<dyn Controller + Send>),
 }
 

@@ -474,3 +474,33 @@ def test_a_plant_in_a_running_track_waits_for_it(robot, tracking_plan):
 def test_values_inside_dicts_obey_the_same_rules(robot, call, message):
     with pytest.raises(brachia.BrachiaError, match=message):
         call(robot)
+
+
+class CallsBack:
+    """An array-like whose conversion calls back into the object it is handed to."""
+
+    def __init__(self, call, value):
+        self.call, self.value = call, value
+
+    def __array__(self, dtype=None, copy=None):
+        self.call()
+        return np.asarray(self.value, dtype=dtype)
+
+
+def test_a_call_from_inside_its_own_call_is_refused_not_a_hang(robot, tracking_plan, planned):
+    sp, _, cp = planned
+    mpc = brachia.Mpc(robot, tracking_plan)
+    x = tracking_plan.trajectory.state_at(0.0)
+    with pytest.raises(brachia.BrachiaError, match="^x: .*Mpc: called again from inside one of its own calls"):
+        mpc.control(0.0, CallsBack(lambda: mpc.control(0.0, x), x))
+    assert np.all(np.isfinite(mpc.control(0.0, x)))
+    plant = brachia.ModelPlant(robot)
+    with pytest.raises(brachia.BrachiaError, match="^tau: .*ModelPlant: called again"):
+        plant.step(CallsBack(lambda: plant.state(), TAU), 1e-3)
+    assert plant.time == 0.0
+    sp.restore(cp)
+    xk = kicked_state(sp, 5)
+    with pytest.raises(brachia.BrachiaError, match="^x_now: .*SwingPlanner: called again"):
+        sp.replan(float(sp.knot_times()[5]), CallsBack(lambda: sp.knot_states(), xk))
+    assert sp.replan(float(sp.knot_times()[5]), xk).converged
+    sp.restore(cp)
