@@ -28,12 +28,15 @@ pub struct Plan {
     pub(crate) trajectory: Arc<brachia::trajectory::Trajectory>,
     pub(crate) report: serde_json::Value,
     pub(crate) folder: Option<RunFolder>,
+    /// The task it was planned for (its start, target and obstacles).
+    pub(crate) task: SwingTask,
 }
 
 impl Plan {
-    /// Wrap a library plan with its report (and the run folder, for a scenario's plan).
+    /// Wrap a library plan of `task` with its report (and the run folder, for a scenario's plan).
     pub(crate) fn new(
         robot: Arc<brachia::Robot>,
+        task: SwingTask,
         plan: brachia::planning::Plan,
         report: serde_json::Value,
         folder: Option<RunFolder>,
@@ -44,6 +47,7 @@ impl Plan {
             robot,
             report,
             folder,
+            task,
         }
     }
 }
@@ -278,5 +282,6 @@ pub(crate) fn plan_with_report(
         path: Path::new("<python>").to_path_buf(),
     };
     let report = brachia_experiments::plan_report(&ls, &p);
-    Plan::new(robot, p, report, None)
+    let task = ls.scenario.task;
+    Plan::new(robot, task, p, report, None)
 }

@@ -8,6 +8,7 @@ The robot is the paper's (params/paper.toml); the swing is the tracking task on 
 knots (as test_replan.py). Units: s, m, rad, rad/s, N m.
 """
 
+import re
 import threading
 import time
 
@@ -504,3 +505,31 @@ def test_a_call_from_inside_its_own_call_is_refused_not_a_hang(robot, tracking_p
         sp.replan(float(sp.knot_times()[5]), CallsBack(lambda: sp.knot_states(), xk))
     assert sp.replan(float(sp.knot_times()[5]), xk).converged
     sp.restore(cp)
+
+
+def test_a_scenario_tracks_only_a_plan_of_its_own_task(tmp_path, root, scenario, tracking_plan):
+    text = (root / "scenarios" / "tracking.toml").read_text()
+    text = text.replace('params = "../params/paper.toml"', f'params = "{root / "params" / "paper.toml"}"')
+    assert "target = [0.8, 0.0]" in text
+    other = tmp_path / "other-bar.toml"
+    other.write_text(text.replace("target = [0.8, 0.0]", "target = [0.75, 0.05]"))
+    with pytest.raises(brachia.BrachiaError, match=r"^reference: a plan for another task: its target = \[0.8, 0.0\], .*other-bar.toml's task.target = \[0.75, 0.05\]"):
+        brachia.Scenario.from_toml(other).track(reference=tracking_plan)
+    params = re.sub(r"mass = ([0-9.]+)", lambda m: f"mass = {1.5 * float(m.group(1))}",
+                    (root / "params" / "paper.toml").read_text(), count=1)
+    (tmp_path / "heavy.toml").write_text(params)
+    heavy = tmp_path / "heavy-robot.toml"
+    heavy.write_text(text.replace(f'params = "{root / "params" / "paper.toml"}"', f'params = "{tmp_path / "heavy.toml"}"'))
+    with pytest.raises(brachia.BrachiaError, match=r"^reference: a plan for another robot"):
+        brachia.Scenario.from_toml(heavy).track(reference=tracking_plan)
+    # a plan of the same task by brachia.plan is this scenario's plan
+    again = brachia.plan(scenario.robot, scenario.task, scenario.plan_settings)
+    res = scenario.track(reference=again, controller="open-loop")
+    assert res.tracked
+    # a re-planned solution starts elsewhere: not this scenario's task
+    sp = brachia.SwingPlanner(scenario.robot, scenario.task, SETTINGS)
+    sp.plan()
+    k = sp.intervals // 2
+    sp.replan(float(sp.knot_times()[k]), kicked_state(sp, k))
+    with pytest.raises(brachia.BrachiaError, match=r"^reference: a plan for another task: its q0 = "):
+        scenario.track(reference=sp.current_plan())
