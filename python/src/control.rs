@@ -9,7 +9,8 @@
 //! `set_reference` swaps the plan in place (`brachia::control::Mpc::set_reference`).
 
 use crate::convert::{
-    arr1, bad, finite_result, read_vector, rs, scalar, settings_from, to_py, Arg, Range,
+    arr1, bad, finite_result, read_vector, rs, scalar, settings_from, to_py, Arg, Count, Range,
+    Real,
 };
 use crate::model::{Robot, Trajectory};
 use crate::planning::Plan;
@@ -94,10 +95,10 @@ impl Mpc {
     fn control<'py>(
         &self,
         py: Python<'py>,
-        t: f64,
+        t: Real,
         x: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let t = scalar("t", t, None)?;
+        let t = scalar("t", t.0, None)?;
         let mut s = self.lock(py)?;
         let s = &mut *s;
         let n = s.x.len() / 2;
@@ -147,19 +148,20 @@ impl Mpc {
 /// ``t_k`` (the same sequence ``bench/mpc_step.py`` makes from Python), to compare the two in one
 /// process.
 #[pyfunction]
-#[pyo3(signature = (robot, reference, steps, dt = 0.001, settings = None))]
+#[pyo3(signature = (robot, reference, steps, dt = Real(0.001), settings = None))]
 pub(crate) fn rust_mpc_step_times<'py>(
     py: Python<'py>,
     robot: &Robot,
     reference: &Bound<'py, PyAny>,
-    steps: usize,
-    dt: f64,
+    steps: Count,
+    dt: Real,
     settings: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if steps == 0 || steps > 1_000_000 {
-        return Err(bad(format!("steps = {steps}: must be in 1..=1000000")));
-    }
-    let dt = scalar("dt", dt, Some(([1e-6, 0.1], "s")))?;
+    let steps = match usize::try_from(steps.0) {
+        Ok(k) if (1..=1_000_000).contains(&k) => k,
+        _ => return Err(bad(format!("steps = {}: must be in 1..=1000000", steps.0))),
+    };
+    let dt = scalar("dt", dt.0, Some(([1e-6, 0.1], "s")))?;
     let settings: MpcSettings = settings_from(settings, None, "mpc settings")?;
     let reference = reference_of(reference)?;
     let n = robot.inner.n();

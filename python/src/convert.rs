@@ -20,7 +20,7 @@ use brachia::limits;
 use pyo3::buffer::PyBuffer;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyByteArray, PyDict};
+use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt};
 
 /// `numpy.asarray` and `numpy.frombuffer`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
@@ -339,6 +339,89 @@ pub(crate) fn matrix(
     let (v, shape) = read(obj, &arg, Want::Matrix { rows, cols }, None)?;
     check_values(&v, &arg, shape[1], true)?;
     Ok((v, shape[0], shape[1]))
+}
+
+/// A real-number scalar argument: a Python `int` or `float`, a numpy real scalar or a 0-d real
+/// array. Booleans, complex numbers (numpy would drop the imaginary part with a warning), text and
+/// arrays of more than one value are refused with `BrachiaError` (the traceback's note names the
+/// argument). Its range is checked by [`scalar`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Real(pub f64);
+
+/// A count argument (`substeps`, `steps`, `seed`): a Python `int` or a numpy integer, `>= 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Count(pub u64);
+
+/// `obj` as a 0-d numpy array of real numbers (after the dtype check), for a scalar argument.
+fn scalar_array<'py>(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Bound<'py, PyAny>> {
+    let type_name = obj.get_type().name()?;
+    let arr = ASARRAY
+        .import(obj.py(), "numpy", "asarray")?
+        .call1((obj,))
+        .map_err(|e| bad(format!("expected {what}, got {type_name} ({e})")))?;
+    let dtype = arr.getattr("dtype")?;
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    if let Some(why) = refused_kind(&kind) {
+        return Err(bad(format!(
+            "expected {what}, got dtype {}: {why}",
+            dtype.str()?
+        )));
+    }
+    let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
+    if !shape.is_empty() {
+        return Err(bad(format!(
+            "expected {what}, got an array of shape {shape:?}"
+        )));
+    }
+    Ok(arr)
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Real {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let obj = obj.to_owned();
+        let what = "a real number";
+        if obj.is_instance_of::<PyBool>() {
+            return Err(bad(format!("expected {what}, got a bool ({obj})")));
+        }
+        if obj.is_instance_of::<PyFloat>() || obj.is_instance_of::<PyInt>() {
+            return obj
+                .extract::<f64>()
+                .map(Real)
+                .map_err(|e| bad(format!("expected {what}: {e}")));
+        }
+        let item = scalar_array(&obj, what)?.call_method0("item")?;
+        Ok(Real(
+            item.extract::<f64>()
+                .map_err(|e| bad(format!("expected {what}: {e}")))?,
+        ))
+    }
+}
+
+impl<'a, 'py> FromPyObject<'a, 'py> for Count {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        let obj = obj.to_owned();
+        let what = "a whole number >= 0";
+        if obj.is_instance_of::<PyBool>() {
+            return Err(bad(format!("expected {what}, got a bool ({obj})")));
+        }
+        let item = if obj.is_instance_of::<PyInt>() {
+            obj.clone()
+        } else {
+            let arr = scalar_array(&obj, what)?;
+            let kind: String = arr.getattr("dtype")?.getattr("kind")?.extract()?;
+            if kind == "f" {
+                return Err(bad(format!("expected {what}, got {obj}")));
+            }
+            arr.call_method0("item")?
+        };
+        item.extract::<u64>()
+            .map(Count)
+            .map_err(|_| bad(format!("expected {what}, got {item}")))
+    }
 }
 
 /// A scalar argument: finite and, when `range` is given, inside it (`[lo, hi]`, `unit` for the

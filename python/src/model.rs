@@ -7,6 +7,7 @@
 
 use crate::convert::{
     any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, to_py, vector, Arg, Range,
+    Real,
 };
 use brachia::model::{Scratch, MAX_LINKS};
 use pyo3::prelude::*;
@@ -386,8 +387,8 @@ impl Trajectory {
 
     /// State ``[q, qd]`` at time ``t`` (linear interpolation between samples, held past the ends),
     /// shape ``(2n,)``.
-    fn state_at<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyAny>> {
-        let t = scalar("t", t, None)?;
+    fn state_at<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyAny>> {
+        let t = scalar("t", t.0, None)?;
         let mut x = vec![0.0; 2 * self.inner.n];
         self.inner.state_at(t, &mut x);
         arr1(py, &x)

@@ -10,7 +10,9 @@
 //! Both classes keep their state behind a lock (`crate::shared`): any thread may use them, one call
 //! at a time.
 
-use crate::convert::{arr1, bad, check_slice, num, read_vector, rs, settings_from, Arg, Range};
+use crate::convert::{
+    arr1, bad, check_slice, num, read_vector, rs, settings_from, Arg, Count, Range, Real,
+};
 use crate::model::Robot;
 use crate::shared::{Guard, Shared};
 use brachia::sim::{Plant, DIVERGENCE_BOUND};
@@ -41,12 +43,12 @@ pub(crate) fn start_state(
 }
 
 /// Check a substep count.
-fn check_substeps(substeps: usize) -> PyResult<()> {
+fn check_substeps(substeps: u64) -> PyResult<usize> {
     let kmax = brachia::limits::MAX_SUBSTEPS;
-    if substeps == 0 || substeps > kmax {
-        return Err(bad(format!("substeps = {substeps}: must be 1..={kmax}")));
+    match usize::try_from(substeps) {
+        Ok(k) if (1..=kmax).contains(&k) => Ok(k),
+        _ => Err(bad(format!("substeps = {substeps}: must be 1..={kmax}"))),
     }
-    Ok(())
 }
 
 /// A plant with the buffers of its calls and whether it diverged.
@@ -107,8 +109,9 @@ impl<P: Plant> PlantCell<P> {
     }
 
     /// One step: `tau` held for `dt`.
-    fn step(&mut self, tau: &Bound<'_, PyAny>, dt: f64) -> PyResult<()> {
+    fn step(&mut self, tau: &Bound<'_, PyAny>, dt: Real) -> PyResult<()> {
         self.usable("step")?;
+        let dt = dt.0;
         if !(dt.is_finite() && dt > 0.0 && dt <= MAX_STEP_DT) {
             return Err(bad(format!(
                 "dt = {}: must be in (0, {MAX_STEP_DT}] s",
@@ -167,9 +170,9 @@ impl ModelPlant {
 #[pymethods]
 impl ModelPlant {
     #[new]
-    #[pyo3(signature = (robot, x0 = None, substeps = 1))]
-    fn new(robot: &Robot, x0: Option<&Bound<'_, PyAny>>, substeps: usize) -> PyResult<Self> {
-        check_substeps(substeps)?;
+    #[pyo3(signature = (robot, x0 = None, substeps = Count(1)))]
+    fn new(robot: &Robot, x0: Option<&Bound<'_, PyAny>>, substeps: Count) -> PyResult<Self> {
+        let substeps = check_substeps(substeps.0)?;
         let x = start_state(&robot.inner, "x0", x0)?;
         let plant = Self::build(&robot.inner, &x, substeps);
         Ok(ModelPlant {
@@ -192,7 +195,7 @@ impl ModelPlant {
     }
 
     /// Hold ``tau`` (n - 1 values, N m; clamped to the limits) for ``dt`` seconds (0 < dt <= 1).
-    fn step(&self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: f64) -> PyResult<()> {
+    fn step(&self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: Real) -> PyResult<()> {
         self.lock(py)?.step(tau, dt)
     }
 
@@ -316,7 +319,7 @@ impl RapierPlant {
 
     /// Hold ``tau`` (n - 1 values, N m; clamped to the limits) for ``dt`` seconds (0 < dt <= 1;
     /// ``substeps`` engine steps).
-    fn step(&self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: f64) -> PyResult<()> {
+    fn step(&self, py: Python<'_>, tau: &Bound<'_, PyAny>, dt: Real) -> PyResult<()> {
         self.lock(py)?.step(tau, dt)
     }
 

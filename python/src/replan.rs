@@ -6,7 +6,7 @@
 //! `q[0]` absolute from +x, the rest relative; torques of joints 2..n. Knot times are absolute (0 at
 //! the start of the swing); a `Plan` of a re-plan runs on its own clock, 0 at `t_now`.
 
-use crate::convert::{arr1, arr2, bad, read_vector, rs, Arg, Range};
+use crate::convert::{arr1, arr2, bad, read_vector, rs, Arg, Range, Real};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
 use crate::shared::{Guard, Shared};
@@ -255,10 +255,10 @@ impl SwingPlanner {
     fn replan(
         &self,
         py: Python<'_>,
-        t_now: f64,
+        t_now: Real,
         x_now: &Bound<'_, PyAny>,
     ) -> PyResult<ReplanOutcome> {
-        self.lock(py)?.replan_from(py, t_now, x_now, true)
+        self.lock(py)?.replan_from(py, t_now.0, x_now, true)
     }
 
     /// The same re-plan started cold (the shifted solution as the initial guess, multipliers reset),
@@ -266,10 +266,10 @@ impl SwingPlanner {
     fn replan_cold(
         &self,
         py: Python<'_>,
-        t_now: f64,
+        t_now: Real,
         x_now: &Bound<'_, PyAny>,
     ) -> PyResult<ReplanOutcome> {
-        self.lock(py)?.replan_from(py, t_now, x_now, false)
+        self.lock(py)?.replan_from(py, t_now.0, x_now, false)
     }
 
     /// The current solution as a ``Plan`` (1 ms trajectory from 0 at its first knot, report

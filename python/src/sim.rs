@@ -6,7 +6,7 @@
 //! released, holding the locks of the plant and of an `Mpc` it was given (`crate::shared`).
 
 use crate::control::{reference_of, Mpc, MpcState};
-use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, to_py};
+use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, to_py, Count, Real};
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::plants::{ModelPlant, RapierPlant};
@@ -252,14 +252,14 @@ fn run_released(
 
 /// The run settings of a `track` call, checked as the CLI checks a scenario's `[tracking]`.
 fn run_settings(
-    duration: Option<f64>,
-    control_dt: f64,
+    duration: Option<Real>,
+    control_dt: Real,
     reference: &brachia::trajectory::Trajectory,
 ) -> PyResult<RunSettings> {
     let dmax = brachia::limits::MAX_RUN_DURATION_S;
-    let control_dt = scalar("control_dt", control_dt, Some(([1e-6, 0.1], "s")))?;
+    let control_dt = scalar("control_dt", control_dt.0, Some(([1e-6, 0.1], "s")))?;
     let duration_s = match duration {
-        Some(d) => scalar("duration", d, Some(([0.0, dmax], "s")))?,
+        Some(d) => scalar("duration", d.0, Some(([0.0, dmax], "s")))?,
         None => reference.duration(),
     };
     let settings = RunSettings {
@@ -291,27 +291,27 @@ fn run_settings(
 /// the GIL released; the plant and a given ``Mpc`` are locked for it.
 #[pyfunction]
 #[pyo3(signature = (robot, reference, controller = None, plant = None, duration = None,
-    control_dt = 0.001, noise_q_std = 0.0, noise_qd_std = 0.0, seed = 0))]
+    control_dt = Real(0.001), noise_q_std = Real(0.0), noise_qd_std = Real(0.0), seed = Count(0)))]
 pub(crate) fn track(
     py: Python<'_>,
     robot: &Robot,
     reference: &Bound<'_, PyAny>,
     controller: Option<&Bound<'_, PyAny>>,
     plant: Option<&Bound<'_, PyAny>>,
-    duration: Option<f64>,
-    control_dt: f64,
-    noise_q_std: f64,
-    noise_qd_std: f64,
-    seed: u64,
+    duration: Option<Real>,
+    control_dt: Real,
+    noise_q_std: Real,
+    noise_qd_std: Real,
+    seed: Count,
 ) -> PyResult<TrackResult> {
     let r = robot.inner.clone();
     let reference = reference_of(reference)?;
     reference.check_reference(&r).map_err(rs)?;
     let settings = run_settings(duration, control_dt, &reference)?;
     let noise = NoiseSettings {
-        q_std: noise_q_std,
-        qd_std: noise_qd_std,
-        seed,
+        q_std: noise_q_std.0,
+        qd_std: noise_qd_std.0,
+        seed: seed.0,
     };
     noise.validate().map_err(rs)?;
     // the plant's lock first, then the controller's (the one order of two locks: crate::shared)

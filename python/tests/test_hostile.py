@@ -533,3 +533,37 @@ def test_a_scenario_tracks_only_a_plan_of_its_own_task(tmp_path, root, scenario,
     sp.replan(float(sp.knot_times()[k]), kicked_state(sp, k))
     with pytest.raises(brachia.BrachiaError, match=r"^reference: a plan for another task: its q0 = "):
         scenario.track(reference=sp.current_plan())
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda r, p: brachia.ModelPlant(r).step(TAU, np.complex128(1e-3 + 1j)), r"^expected a real number, got dtype complex128"),
+        (lambda r, p: brachia.ModelPlant(r).step(TAU, np.complex128(1e-3)), r"^expected a real number, got dtype complex128"),
+        (lambda r, p: brachia.ModelPlant(r).step(TAU, True), r"^expected a real number, got a bool"),
+        (lambda r, p: brachia.ModelPlant(r).step(TAU, np.array([1e-3, 2e-3])), r"^expected a real number, got an array of shape \[2\]"),
+        (lambda r, p: brachia.ModelPlant(r).step(TAU, "0.001"), r"^expected a real number, got dtype <U5: text"),
+        (lambda r, p: brachia.Mpc(r, p).control(1j, np.zeros(8)), r"^expected a real number, got dtype complex128"),
+        (lambda r, p: p.trajectory.state_at(np.bool_(True)), r"^expected a real number, got dtype bool"),
+        (lambda r, p: brachia.track(r, p, control_dt=1e-3 + 0j), r"^expected a real number, got dtype complex128"),
+        (lambda r, p: brachia.track(r, p, seed=-1), r"^expected a whole number >= 0, got -1"),
+        (lambda r, p: brachia.track(r, p, seed=1.5), r"^expected a whole number >= 0, got 1.5"),
+        (lambda r, p: brachia.ModelPlant(r, substeps=True), r"^expected a whole number >= 0, got a bool"),
+        (lambda r, p: brachia.ModelPlant(r, substeps=2**70), r"^expected a whole number >= 0, got 1180591620717411303424"),
+        (lambda r, p: brachia.rust_mpc_step_times(r, p, steps=np.float64(3.0)), r"^expected a whole number >= 0"),
+    ],
+)
+def test_scalars_are_real_numbers(robot, tracking_plan, call, message):
+    with pytest.raises(brachia.BrachiaError, match=message):
+        call(robot, tracking_plan)
+
+
+def test_real_scalars_of_any_numeric_type_convert(robot):
+    a, b = brachia.ModelPlant(robot), brachia.ModelPlant(robot)
+    for dt in (np.float32(2.0**-10), np.int64(1) / 1000, np.array(2e-3), np.longdouble(1e-3)):
+        a.step(TAU, dt)
+    for dt in (2.0**-10, 1e-3, 2e-3, float(np.longdouble(1e-3))):
+        b.step(TAU, dt)
+    assert a.time == b.time
+    np.testing.assert_array_equal(a.state(), b.state())
+    assert brachia.ModelPlant(robot, substeps=np.int32(3)).substeps == 3
