@@ -8,10 +8,8 @@
 //! The library's `Mpc` owns its robot and reference (`Arc`s), so this class holds it directly;
 //! `set_reference` swaps the plan in place (`brachia::control::Mpc::set_reference`).
 
-use crate::convert::{
-    arr1, bad, finite_result, read_vector, rs, scalar, settings_from, to_py, Arg, Count, Range,
-    Real,
-};
+use crate::convert::{arr1, bad, finite_result, read_vector, rs, scalar, Arg, Count, Range, Real};
+use crate::dicts::{settings_from, to_py};
 use crate::model::{Robot, Trajectory};
 use crate::planning::Plan;
 use crate::shared::{Guard, Shared};

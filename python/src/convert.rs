@@ -1,5 +1,5 @@
-//! Conversions between Python values and the library's: numpy arrays in and out, settings dicts through
-//! JSON into the library's serde types, errors into `BrachiaError`.
+//! Conversions between Python values and the library's: numpy arrays and scalars in and out, errors
+//! into `BrachiaError` (dicts and settings: `crate::dicts`).
 //!
 //! Arrays in: every array argument of every entry point is read here, by [`vector`], [`read_vector`],
 //! [`any_vector`] or [`matrix`], with the same rules:
@@ -471,87 +471,4 @@ pub(crate) fn arr1<'py>(py: Python<'py>, v: &[f64]) -> PyResult<Bound<'py, PyAny
 pub(crate) fn arr2<'py>(py: Python<'py>, v: Vec<f64>, cols: usize) -> PyResult<Bound<'py, PyAny>> {
     let rows = v.len().checked_div(cols).unwrap_or(0);
     arr1(py, &v)?.call_method1("reshape", (rows, cols))
-}
-
-/// JSON fallback for `json.dumps`: numpy arrays and scalars as Python lists and numbers.
-#[pyfunction]
-#[pyo3(name = "_jsonable")]
-pub(crate) fn jsonable<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-    obj.call_method0("tolist")
-}
-
-/// `obj` (dicts, lists, numbers, strings, numpy arrays) as JSON text; `name` names it in errors.
-pub(crate) fn to_json(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
-    let py = obj.py();
-    let json = py.import("json")?;
-    let kw = PyDict::new(py);
-    kw.set_item("default", wrap_pyfunction!(jsonable, py)?)?;
-    kw.set_item("allow_nan", false)?;
-    let s = json
-        .call_method("dumps", (obj,), Some(&kw))
-        .map_err(|e| bad(format!("{name}: cannot be read as settings data ({e})")))?;
-    s.extract::<String>()
-}
-
-/// A Python dict (or `None` = `{}`) with `kwargs` merged over it, as a serde value of type `T`;
-/// `name` names it in errors (serde's message names the unknown or mistyped field).
-pub(crate) fn settings_from<T: serde::de::DeserializeOwned>(
-    obj: Option<&Bound<'_, PyAny>>,
-    kwargs: Option<&Bound<'_, PyDict>>,
-    name: &str,
-) -> PyResult<T> {
-    let value = merged(obj, kwargs, name)?;
-    from_value(value, name)
-}
-
-/// A serde value as `T`; `name` names it in errors.
-pub(crate) fn from_value<T: serde::de::DeserializeOwned>(
-    v: serde_json::Value,
-    name: &str,
-) -> PyResult<T> {
-    serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
-}
-
-/// A dict (or `None`) with `kwargs` merged over it, as a JSON object.
-pub(crate) fn merged(
-    obj: Option<&Bound<'_, PyAny>>,
-    kwargs: Option<&Bound<'_, PyDict>>,
-    name: &str,
-) -> PyResult<serde_json::Value> {
-    let mut map = serde_json::Map::new();
-    if let Some(o) = obj.filter(|o| !o.is_none()) {
-        if !o.is_instance_of::<PyDict>() {
-            return Err(bad(format!(
-                "{name}: expected a dict of settings, got {}",
-                o.get_type().name()?
-            )));
-        }
-        map = object(o, name)?;
-    }
-    if let Some(kw) = kwargs {
-        map.extend(object(kw.as_any(), name)?);
-    }
-    Ok(serde_json::Value::Object(map))
-}
-
-/// A Python dict as a JSON object.
-fn object(
-    o: &Bound<'_, PyAny>,
-    name: &str,
-) -> PyResult<serde_json::Map<String, serde_json::Value>> {
-    let text = to_json(o, name)?;
-    match serde_json::from_str(&text) {
-        Ok(serde_json::Value::Object(m)) => Ok(m),
-        Ok(_) => Err(bad(format!("{name}: expected a dict of settings"))),
-        Err(e) => Err(bad(format!("{name}: {e}"))),
-    }
-}
-
-/// A serde-serialisable value as a Python object (dicts, lists, floats, strings, None).
-pub(crate) fn to_py<'py>(
-    py: Python<'py>,
-    v: &impl serde::Serialize,
-) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(v).map_err(|e| bad(format!("serialising a result: {e}")))?;
-    py.import("json")?.call_method1("loads", (text,))
 }

@@ -6,7 +6,8 @@
 //! hand B: the chain re-rooted at the other end). `x0 = [q, qd]` (2n) of the chain as written holding
 //! `bars[0]`; rad, rad/s, N m, J.
 
-use crate::convert::{arr1, bad, check_slice, matrix, rs, to_json, to_py, vector, Arg, Range};
+use crate::convert::{arr1, bad, check_slice, matrix, rs, vector, Arg, Range};
+use crate::dicts::{to_json, to_py};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, Plan};
 use brachia::model::Circle;

@@ -30,6 +30,7 @@ use pyo3::prelude::*;
 
 mod control;
 mod convert;
+mod dicts;
 mod ladder;
 mod model;
 mod planning;
@@ -69,6 +70,6 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
-    m.add_function(wrap_pyfunction!(convert::jsonable, m)?)?;
+    m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;
     Ok(())
 }

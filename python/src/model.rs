@@ -6,9 +6,9 @@
 //! `(2, n)`.
 
 use crate::convert::{
-    any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, to_py, vector, Arg, Range,
-    Real,
+    any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, vector, Arg, Range, Real,
 };
+use crate::dicts::to_py;
 use brachia::model::{Scratch, MAX_LINKS};
 use pyo3::prelude::*;
 use std::path::PathBuf;

@@ -6,7 +6,8 @@
 //! dict with the fields of `brachia::planning::NlpSettings` (`[solver]`); a field left out keeps the
 //! Rust default. The plan's arrays are the 1 ms output trajectory (`t`, `q`, `qd`, `tau`, `ee`).
 
-use crate::convert::{arr1, arr2, bad, check_slice, exp, from_value, merged, rs, to_py, Range};
+use crate::convert::{arr1, arr2, bad, check_slice, exp, rs, Range};
+use crate::dicts::{from_value, merged, to_py};
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;

@@ -10,9 +10,8 @@
 //! Both classes keep their state behind a lock (`crate::shared`): any thread may use them, one call
 //! at a time.
 
-use crate::convert::{
-    arr1, bad, check_slice, num, read_vector, rs, settings_from, Arg, Count, Range, Real,
-};
+use crate::convert::{arr1, bad, check_slice, num, read_vector, rs, Arg, Count, Range, Real};
+use crate::dicts::settings_from;
 use crate::model::Robot;
 use crate::shared::{Guard, Shared};
 use brachia::sim::{Plant, DIVERGENCE_BOUND};
@@ -276,7 +275,7 @@ impl RapierPlant {
         let settings: RapierSettings = settings_from(settings, kwargs, "rapier settings")?;
         let obstacles: Vec<Obstacle> = match obstacles {
             Some(o) if !o.is_none() => {
-                let text = crate::convert::to_json(o, "obstacles")?;
+                let text = crate::dicts::to_json(o, "obstacles")?;
                 serde_json::from_str(&text).map_err(|e| bad(format!("obstacles: {e}")))?
             }
             _ => Vec::new(),

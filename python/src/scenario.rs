@@ -2,7 +2,8 @@
 //! exactly as `brachia plan` and `brachia track` do (the same library calls, the same reports and run
 //! folders).
 
-use crate::convert::{bad, rs, to_py};
+use crate::convert::{bad, rs};
+use crate::dicts::to_py;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;

@@ -6,7 +6,8 @@
 //! released, holding the locks of the plant and of an `Mpc` it was given (`crate::shared`).
 
 use crate::control::{reference_of, Mpc, MpcState};
-use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, to_py, Count, Real};
+use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, Count, Real};
+use crate::dicts::to_py;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::plants::{ModelPlant, RapierPlant};
