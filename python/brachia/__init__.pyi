@@ -2,6 +2,11 @@
 
 Units: m, kg, s, rad, N m, J. State ``x = [q, qd]`` (2n); ``q[0]`` absolute angle of link 1 from +x,
 ``q[1:]`` relative; torques ``tau`` of joints 2..n (n - 1). Arrays are float64 numpy arrays.
+
+Array arguments: real numbers in any byte order and layout (converted), checked for shape, finiteness
+and range (``|q| <= 4 pi`` rad, ``|qd| <= 1000`` rad/s, ``|tau| <= 1e6`` N m, positions within 1000 m);
+anything else raises ``BrachiaError`` (docs/python.md, "Validation"). Every object may be used from any
+thread (``Mpc``, ``SwingPlanner`` and the plants run one call at a time).
 """
 
 from os import PathLike
@@ -85,7 +90,8 @@ class Trajectory:
     """A sampled trajectory (a controller's reference)."""
 
     def __init__(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> None:
-        """t (samples,), q and qd (samples, n), tau (samples, n - 1)."""
+        """t (samples,): 2 or more times in [0, 600] s, at least 1e-6 s apart; q and qd (samples, n),
+        tau (samples, n - 1)."""
     @property
     def n_links(self) -> int: ...
     @property
@@ -190,7 +196,9 @@ class ReplanOutcome:
     def ee_error_m(self) -> float: ...
 
 class SwingPlanner:
-    """The persistent multiple-shooting planner: a cold plan, then warm re-plans from measured states."""
+    """The persistent multiple-shooting planner: a cold plan, then warm re-plans from measured states.
+
+    Usable from several threads: calls run one after the other, solves with the GIL released."""
 
     def __init__(
         self,
@@ -218,7 +226,8 @@ class SwingPlanner:
     @property
     def target(self) -> Array: ...
     def set_target(self, target: ArrayLike) -> None:
-        """Move the target bar (m) for the next plan or re-plan."""
+        """Move the target bar (m) for the next plan or re-plan; checked as the constructor checks the
+        task's target (a refused one leaves the planner as it was)."""
     def knot_times(self) -> Array:
         """Absolute knot times, shape (K + 1,), s."""
     def knot_states(self) -> Array:
@@ -287,7 +296,7 @@ def plan_joint_swings(
     """Plan the swings from x0 (2n, holding bars[0]) through bars[1:] (world, m) as one problem."""
 
 class Mpc:
-    """The linear MPC tracker (paper Section IV)."""
+    """The linear MPC tracker (paper Section IV); usable from several threads, one call at a time."""
 
     def __init__(
         self,
@@ -310,7 +319,9 @@ class Mpc:
     def reference(self) -> Trajectory: ...
 
 class ModelPlant:
-    """RK4 integration of the robot's model."""
+    """RK4 integration of the robot's model. A step that diverges raises ``BrachiaError`` and the
+    plant refuses every use but ``reset`` from then on. Usable from several threads, one call at a
+    time."""
 
     def __init__(self, robot: Robot, x0: Optional[ArrayLike] = None, substeps: int = 1) -> None: ...
     def reset(self, x: ArrayLike) -> None: ...
@@ -323,7 +334,9 @@ class ModelPlant:
     def energy(self) -> float: ...
 
 class RapierPlant:
-    """The rapier2d physics-engine plant with contacts."""
+    """The rapier2d physics-engine plant with contacts. A step that diverges raises ``BrachiaError``
+    and the plant refuses every use but ``reset`` from then on. Usable from several threads, one call
+    at a time."""
 
     def __init__(
         self,
@@ -346,6 +359,9 @@ class TrackResult:
 
     @property
     def tracked(self) -> bool: ...
+    @property
+    def diverged_at_s(self) -> Optional[float]:
+        """Time at which the closed loop diverged (the run stopped there), else None."""
     @property
     def t(self) -> Array: ...
     @property

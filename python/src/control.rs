@@ -8,9 +8,11 @@
 //! The library's `Mpc` owns its robot and reference (`Arc`s), so this class holds it directly;
 //! `set_reference` swaps the plan in place (`brachia::control::Mpc::set_reference`).
 
-use crate::convert::{arr1, bad, read_vector, rs, settings_from, to_py};
+use crate::convert::{arr1, bad, finite_result, read_vector, rs, scalar, Arg, Count, Range, Real};
+use crate::dicts::{settings_from, to_py};
 use crate::model::{Robot, Trajectory};
 use crate::planning::Plan;
+use crate::shared::{Guard, Shared};
 use brachia::control::MpcSettings;
 use brachia::sim::Controller;
 use pyo3::prelude::*;
@@ -40,17 +42,24 @@ pub(crate) fn reference_of(
 /// ``Trajectory``; ``settings`` (dict) and keyword arguments are ``[tracking.mpc]`` fields
 /// (``horizon``, ``dt_mpc``, ``q_diag``, ``w_diag``, ``r_diag``, ``rate_diag``, ``terminal_factor``,
 /// ``discretization``, ``torque_reference``, ``linearization``, ``prediction``, ``qp``).
-#[pyclass(module = "brachia")]
+///
+/// Usable from any thread: calls on one ``Mpc`` run one after the other (its warm start is state).
+#[pyclass(module = "brachia", frozen)]
 pub struct Mpc {
+    state: Shared<MpcState>,
+}
+
+/// The controller and the buffers of its calls.
+pub(crate) struct MpcState {
     pub(crate) inner: brachia::control::Mpc,
     x: Vec<f64>,
     tau: Vec<f64>,
 }
 
 impl Mpc {
-    /// The controller, to run in a closed loop.
-    pub(crate) fn with_controller<R>(&mut self, f: impl FnOnce(&mut dyn Controller) -> R) -> R {
-        f(&mut self.inner)
+    /// The locked controller, to run in a closed loop.
+    pub(crate) fn lock(&self, py: Python<'_>) -> PyResult<Guard<'_, MpcState>> {
+        self.state.lock(py)
     }
 }
 
@@ -69,66 +78,66 @@ impl Mpc {
         let n = robot.inner.n();
         let inner =
             brachia::control::Mpc::new(robot.inner.clone(), reference, settings).map_err(rs)?;
-        Ok(Mpc {
+        let state = MpcState {
             inner,
             x: vec![0.0; 2 * n],
             tau: vec![0.0; n - 1],
+        };
+        Ok(Mpc {
+            state: Shared::new("Mpc", state),
         })
     }
 
     /// Torques of joints 2..n (shape ``(n - 1,)``, N m) at time ``t`` (s) for the measured state
     /// ``x = [q, qd]`` (2n values, rad and rad/s).
     fn control<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
-        t: f64,
+        t: Real,
         x: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        if !t.is_finite() {
-            return Err(bad(format!("t = {t}: must be finite")));
-        }
-        let n = self.x.len() / 2;
-        read_vector(
-            x,
-            "x",
-            &format!("[q, qd] of the {n}-link robot"),
-            &mut self.x,
-        )?;
-        self.inner.control(t, &self.x, &mut self.tau);
-        arr1(py, &self.tau)
+        let t = scalar("t", t.0, None)?;
+        let mut s = self.lock(py)?;
+        let s = &mut *s;
+        let n = s.x.len() / 2;
+        let what = format!("[q, qd] of the {n}-link robot, rad and rad/s");
+        read_vector(x, Arg::new("x", &what, Range::State), &mut s.x)?;
+        s.inner.control(t, &s.x, &mut s.tau);
+        arr1(py, finite_result(&s.tau, "Mpc.control")?)
     }
 
     /// Track a new reference (a ``Plan`` or a ``Trajectory`` of the same robot) with the same
     /// settings, without rebuilding the controller; a reference that does not fit the robot
     /// raises ``BrachiaError`` and the old one is kept.
-    fn set_reference(&mut self, reference: &Bound<'_, PyAny>) -> PyResult<()> {
+    fn set_reference(&self, py: Python<'_>, reference: &Bound<'_, PyAny>) -> PyResult<()> {
         let reference = reference_of(reference)?;
-        self.inner.set_reference(reference).map_err(rs)
+        self.lock(py)?.inner.set_reference(reference).map_err(rs)
     }
 
     /// Forget the previous solution and the last applied torque (the next call starts cold).
-    fn reset(&mut self) {
-        self.inner.reset();
+    fn reset(&self, py: Python<'_>) -> PyResult<()> {
+        self.lock(py)?.inner.reset();
+        Ok(())
     }
 
     /// The settings in use (per-link defaults filled in) as a dict.
     #[getter]
     fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, self.inner.settings())
+        to_py(py, self.lock(py)?.inner.settings())
     }
 
     /// Iterations of the last QP solve (``None`` before the first call).
     #[getter]
-    fn last_qp_iterations(&self) -> Option<usize> {
-        self.inner.last_qp_info().map(|i| i.iterations)
+    fn last_qp_iterations(&self, py: Python<'_>) -> PyResult<Option<usize>> {
+        Ok(self.lock(py)?.inner.last_qp_info().map(|i| i.iterations))
     }
 
     /// The reference being tracked.
     #[getter]
-    fn reference(&self) -> Trajectory {
-        Trajectory {
-            inner: self.inner.reference().clone(),
-        }
+    fn reference(&self, py: Python<'_>) -> PyResult<Trajectory> {
+        Ok(Trajectory {
+            inner: self.lock(py)?.inner.reference().clone(),
+        })
     }
 }
 
@@ -137,21 +146,20 @@ impl Mpc {
 /// ``t_k`` (the same sequence ``bench/mpc_step.py`` makes from Python), to compare the two in one
 /// process.
 #[pyfunction]
-#[pyo3(signature = (robot, reference, steps, dt = 0.001, settings = None))]
+#[pyo3(signature = (robot, reference, steps, dt = Real(0.001), settings = None))]
 pub(crate) fn rust_mpc_step_times<'py>(
     py: Python<'py>,
     robot: &Robot,
     reference: &Bound<'py, PyAny>,
-    steps: usize,
-    dt: f64,
+    steps: Count,
+    dt: Real,
     settings: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    if steps == 0 || steps > 1_000_000 {
-        return Err(bad(format!("steps = {steps}: must be in 1..=1000000")));
-    }
-    if !(dt.is_finite() && dt > 0.0) {
-        return Err(bad(format!("dt = {dt}: must be finite and > 0")));
-    }
+    let steps = match usize::try_from(steps.0) {
+        Ok(k) if (1..=1_000_000).contains(&k) => k,
+        _ => return Err(bad(format!("steps = {}: must be in 1..=1000000", steps.0))),
+    };
+    let dt = scalar("dt", dt.0, Some(([1e-6, 0.1], "s")))?;
     let settings: MpcSettings = settings_from(settings, None, "mpc settings")?;
     let reference = reference_of(reference)?;
     let n = robot.inner.n();

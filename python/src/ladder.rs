@@ -6,7 +6,8 @@
 //! hand B: the chain re-rooted at the other end). `x0 = [q, qd]` (2n) of the chain as written holding
 //! `bars[0]`; rad, rad/s, N m, J.
 
-use crate::convert::{arr1, bad, matrix, rs, to_json, to_py, vector};
+use crate::convert::{arr1, bad, check_slice, matrix, rs, vector, Arg, Range};
+use crate::dicts::{to_json, to_py};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, Plan};
 use brachia::model::Circle;
@@ -194,8 +195,10 @@ pub(crate) fn plan_joint_swings(
     kwargs: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<JointSwingPlan> {
     let n = robot.inner.n();
-    let x0 = vector(x0, "x0", 2 * n, "the start state [q, qd], rad and rad/s")?;
-    let (flat, rows) = matrix(bars, "bars", None, 2, "the grip, then one bar per swing, m")?;
+    let what = "the start state [q, qd], rad and rad/s";
+    let x0 = vector(x0, Arg::new("x0", what, Range::State), 2 * n)?;
+    let what = "the grip, then one bar per swing, world frame, m";
+    let (flat, rows, _) = matrix(bars, Arg::new("bars", what, Range::Position), None, Some(2))?;
     if !(2..=MAX_JOINT_SWINGS + 1).contains(&rows) {
         return Err(bad(format!(
             "bars: {rows} rows: must be 2 to {} (the grip, then one bar per swing)",
@@ -208,6 +211,14 @@ pub(crate) fn plan_joint_swings(
         Some(o) => serde_json::from_str(&to_json(o, "obstacles")?)
             .map_err(|e| bad(format!("obstacles: {e}")))?,
     };
+    for (i, o) in obstacles.iter().enumerate() {
+        let shape = [o.center[0], o.center[1], o.radius];
+        check_slice(
+            &shape,
+            &format!("obstacles[{i}] (center, radius)"),
+            Range::Position,
+        )?;
+    }
     let (mut planner, nlp) = plan_settings_from(settings, kwargs)?;
     // what the joint plan runs, whatever the settings say, so that the swings' reports name it
     planner.transcription = Transcription::MultipleShooting;

@@ -14,19 +14,30 @@
 //! ## Errors
 //! Bad input raises `brachia.BrachiaError` (a `ValueError`) whose text is the Rust error's `Display`
 //! unchanged (file, field, value, rule). A solve that does not converge is a `Plan` with its status,
-//! not an exception. Input arrays are checked (length, finiteness) before any Rust call, so no call
-//! with a wrong shape reaches an assertion.
+//! not an exception. Every input array goes through one reader (`convert`): dtype (real numbers only),
+//! byte order, shape, finiteness and the range of its quantity are checked before any Rust call, so no
+//! call with a wrong shape reaches an assertion and no out-of-range value reaches the model. Results
+//! are checked finite before they are returned (a non-finite one raises).
+//!
+//! ## Threads
+//! Immutable classes (`Robot`, `Trajectory`, `Plan`, `Scenario`, results) are shared freely. The
+//! classes with state (`Mpc`, `SwingPlanner`, `ModelPlant`, `RapierPlant`) hold it behind a lock
+//! (`shared`): any thread may call them, calls on one object run one at a time, long work runs with the
+//! GIL released.
 
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 mod control;
 mod convert;
+mod dicts;
 mod ladder;
 mod model;
 mod planning;
+mod plants;
 mod replan;
 mod scenario;
+mod shared;
 mod sim;
 
 pyo3::create_exception!(
@@ -51,14 +62,14 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ladder::JointSwingPlan>()?;
     m.add_class::<ladder::JointPhase>()?;
     m.add_class::<control::Mpc>()?;
-    m.add_class::<sim::ModelPlant>()?;
-    m.add_class::<sim::RapierPlant>()?;
+    m.add_class::<plants::ModelPlant>()?;
+    m.add_class::<plants::RapierPlant>()?;
     m.add_class::<sim::TrackResult>()?;
     m.add_class::<scenario::Scenario>()?;
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
-    m.add_function(wrap_pyfunction!(convert::jsonable, m)?)?;
+    m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;
     Ok(())
 }

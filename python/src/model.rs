@@ -5,7 +5,10 @@
 //! `M` is `(n, n)`, `Cqd`, `G`, `qdd` are `(n,)`, `joint_positions` is `(n + 1, 2)`, `ee_jacobian` is
 //! `(2, n)`.
 
-use crate::convert::{arr1, arr2, bad, matrix, rs, to_py, vector};
+use crate::convert::{
+    any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, vector, Arg, Range, Real,
+};
+use crate::dicts::to_py;
 use brachia::model::{Scratch, MAX_LINKS};
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -24,12 +27,28 @@ pub struct Robot {
 impl Robot {
     /// `q` (n values, rad).
     fn q(&self, q: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-        vector(q, "q", self.inner.n(), "joint angles, rad")
+        vector(
+            q,
+            Arg::new("q", "joint angles, rad", Range::Angle),
+            self.inner.n(),
+        )
     }
     /// `qd` (n values, rad/s).
     fn qd(&self, qd: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
-        vector(qd, "qd", self.inner.n(), "joint velocities, rad/s")
+        let arg = Arg::new("qd", "joint velocities, rad/s", Range::Rate);
+        vector(qd, arg, self.inner.n())
     }
+}
+
+/// `v` as a numpy vector once it is finite (`what` names the call).
+fn out1<'py>(py: Python<'py>, v: &[f64], what: &str) -> PyResult<Bound<'py, PyAny>> {
+    arr1(py, finite_result(v, what)?)
+}
+
+/// `v` (rows of `cols`) as a numpy matrix once it is finite (`what` names the call).
+fn out2<'py>(py: Python<'py>, v: Vec<f64>, cols: usize, what: &str) -> PyResult<Bound<'py, PyAny>> {
+    finite_result(&v, what)?;
+    arr2(py, v, cols)
 }
 
 #[pymethods]
@@ -135,7 +154,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        arr2(py, self.inner.mass_matrix(&q), self.inner.n())
+        out2(py, self.inner.mass_matrix(&q), self.inner.n(), "M")
     }
 
     /// Coriolis and centrifugal forces ``C(q, qd) qd``, shape ``(n,)``, N m.
@@ -151,7 +170,7 @@ impl Robot {
         let mut out = vec![0.0; n];
         self.inner
             .coriolis_into(&mut Scratch::new(n), &q, &qd, &mut out);
-        arr1(py, &out)
+        out1(py, &out, "Cqd")
     }
 
     /// Gravity forces ``G(q) = dV/dq``, shape ``(n,)``, N m.
@@ -165,7 +184,7 @@ impl Robot {
         let n = self.inner.n();
         let mut out = vec![0.0; n];
         self.inner.gravity_into(&mut Scratch::new(n), &q, &mut out);
-        arr1(py, &out)
+        out1(py, &out, "G")
     }
 
     /// Forward dynamics ``qdd = M^-1 (B tau - C qd - G)``, shape ``(n,)``, rad/s^2; ``tau`` has n - 1
@@ -178,8 +197,9 @@ impl Robot {
         tau: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
-        let tau = vector(tau, "tau", self.inner.nu(), "torques of joints 2..n, N m")?;
-        arr1(py, &self.inner.forward_dynamics(&q, &qd, &tau))
+        let arg = Arg::new("tau", "torques of joints 2..n, N m", Range::Torque);
+        let tau = vector(tau, arg, self.inner.nu())?;
+        out1(py, &self.inner.forward_dynamics(&q, &qd, &tau), "qdd")
     }
 
     /// Inverse dynamics ``M qdd + C qd + G``, shape ``(n,)``, N m: entry 0 (the passive grip) is zero
@@ -193,11 +213,12 @@ impl Robot {
     ) -> PyResult<Bound<'py, PyAny>> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
         let n = self.inner.n();
-        let qdd = vector(qdd, "qdd", n, "joint accelerations, rad/s^2")?;
+        let arg = Arg::new("qdd", "joint accelerations, rad/s^2", Range::Accel);
+        let qdd = vector(qdd, arg, n)?;
         let mut out = vec![0.0; n];
         self.inner
             .inverse_dynamics_into(&mut Scratch::new(n), &q, &qd, &qdd, &mut out);
-        arr1(py, &out)
+        out1(py, &out, "inverse_dynamics")
     }
 
     /// Joint positions, shape ``(n + 1, 2)``, m: row 0 the grip (origin), row i the distal end of
@@ -210,7 +231,7 @@ impl Robot {
         let q = self.q(q)?;
         let mut pts = vec![[0.0; 2]; self.inner.n() + 1];
         self.inner.joint_positions(&q, &mut pts);
-        arr2(py, pts.concat(), 2)
+        out2(py, pts.concat(), 2, "joint_positions")
     }
 
     /// End-effector (distal tip of link n) position ``[x, y]``, m, shape ``(2,)``.
@@ -220,7 +241,7 @@ impl Robot {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = self.q(q)?;
-        arr1(py, &self.inner.ee_position(&q))
+        out1(py, &self.inner.ee_position(&q), "ee_position")
     }
 
     /// End-effector velocity ``J(q) qd``, m/s, shape ``(2,)``.
@@ -231,7 +252,7 @@ impl Robot {
         qd: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
-        arr1(py, &self.inner.ee_velocity(&q, &qd))
+        out1(py, &self.inner.ee_velocity(&q, &qd), "ee_velocity")
     }
 
     /// End-effector Jacobian ``J = d ee / d q``, shape ``(2, n)``, m/rad.
@@ -244,13 +265,13 @@ impl Robot {
         let n = self.inner.n();
         let mut jac = vec![0.0; 2 * n];
         self.inner.ee_jacobian(&q, &mut jac);
-        arr2(py, jac, n)
+        out2(py, jac, n, "ee_jacobian")
     }
 
     /// Total mechanical energy (kinetic + potential, zero potential at the grip height), J.
     fn energy(&self, q: &Bound<'_, PyAny>, qd: &Bound<'_, PyAny>) -> PyResult<f64> {
         let (q, qd) = (self.q(q)?, self.qd(qd)?);
-        Ok(self.inner.energy(&q, &qd))
+        Ok(finite_result(&[self.inner.energy(&q, &qd)], "energy")?[0])
     }
 
     fn __repr__(&self) -> String {
@@ -273,10 +294,16 @@ pub struct Trajectory {
 /// Largest number of samples accepted from Python (the planner's own output cap).
 const MAX_SAMPLES: usize = brachia::limits::MAX_OUTPUT_SAMPLES;
 
+/// Shortest time between two samples of a trajectory, s (the planner's finest output is 0.2 ms;
+/// closer samples only come from a time column in the wrong unit, or from numerical noise).
+pub(crate) const MIN_SAMPLE_DT_S: f64 = 1e-6;
+
 #[pymethods]
 impl Trajectory {
-    /// A trajectory from arrays: ``t`` (samples,) strictly increasing; ``q``, ``qd``
-    /// (samples, n); ``tau`` (samples, n - 1). n is read from ``q`` (2..=12 links).
+    /// A trajectory from arrays: ``t`` (samples,) from 0 to at most 600 s, increasing by at least
+    /// 1e-6 s per sample; ``q``, ``qd`` (samples, n); ``tau`` (samples, n - 1). n is read from ``q``
+    /// (2..=12 links); at least 2 samples. Angles, velocities and torques obey the rules of
+    /// docs/python.md (``|q| <= 4 pi`` rad, ``|qd| <= 1000`` rad/s, ``|tau| <= 1e6`` N m).
     #[new]
     fn new(
         t: &Bound<'_, PyAny>,
@@ -284,36 +311,33 @@ impl Trajectory {
         qd: &Bound<'_, PyAny>,
         tau: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
-        let tv = crate::convert::any_vector(t, "t", MAX_SAMPLES)?;
-        let len = tv.len();
-        if len == 0 || len > MAX_SAMPLES {
+        let targ = Arg::new("t", "sample times, s", Range::Time);
+        let tv = any_vector(t, targ, 2, MAX_SAMPLES)?;
+        if let Some(k) = (1..tv.len()).find(|&k| tv[k] - tv[k - 1] < MIN_SAMPLE_DT_S) {
             return Err(bad(format!(
-                "t: {len} samples; a trajectory needs 1..={MAX_SAMPLES} (brachia::limits::MAX_OUTPUT_SAMPLES)"
-            )));
-        }
-        if let Some(k) = (1..len).find(|&k| tv[k] <= tv[k - 1]) {
-            return Err(bad(format!(
-                "t[{k}] = {}: times must increase strictly (t[{}] = {})",
-                tv[k],
+                "t[{k}] = {}: times must increase by at least {MIN_SAMPLE_DT_S:e} s per sample \
+                 (t[{}] = {})",
+                num(tv[k]),
                 k - 1,
-                tv[k - 1]
+                num(tv[k - 1])
             )));
         }
-        let n = crate::convert::columns(q, "q")?;
+        let len = tv.len();
+        let qarg = Arg::new("q", "joint angles per sample, rad", Range::Angle);
+        let (qv, _, n) = matrix(q, qarg, Some(len), None)?;
         if !(2..=MAX_LINKS).contains(&n) {
             return Err(bad(format!(
                 "q: {n} columns; a robot has 2..={MAX_LINKS} links (one column per joint)"
             )));
         }
-        let (qv, _) = matrix(q, "q", Some(len), n, "joint angles per sample, rad")?;
-        let (qdv, _) = matrix(qd, "qd", Some(len), n, "joint velocities per sample, rad/s")?;
-        let (tauv, _) = matrix(
-            tau,
+        let qdarg = Arg::new("qd", "joint velocities per sample, rad/s", Range::Rate);
+        let (qdv, _, _) = matrix(qd, qdarg, Some(len), Some(n))?;
+        let tauarg = Arg::new(
             "tau",
-            Some(len),
-            n - 1,
             "torques of joints 2..n per sample, N m",
-        )?;
+            Range::Torque,
+        );
+        let (tauv, _, _) = matrix(tau, tauarg, Some(len), Some(n - 1))?;
         Ok(Trajectory {
             inner: Arc::new(brachia::trajectory::Trajectory {
                 n,
@@ -363,10 +387,8 @@ impl Trajectory {
 
     /// State ``[q, qd]`` at time ``t`` (linear interpolation between samples, held past the ends),
     /// shape ``(2n,)``.
-    fn state_at<'py>(&self, py: Python<'py>, t: f64) -> PyResult<Bound<'py, PyAny>> {
-        if !t.is_finite() {
-            return Err(bad(format!("t = {t}: must be finite")));
-        }
+    fn state_at<'py>(&self, py: Python<'py>, t: Real) -> PyResult<Bound<'py, PyAny>> {
+        let t = scalar("t", t.0, None)?;
         let mut x = vec![0.0; 2 * self.inner.n];
         self.inner.state_at(t, &mut x);
         arr1(py, &x)

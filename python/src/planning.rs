@@ -6,7 +6,8 @@
 //! dict with the fields of `brachia::planning::NlpSettings` (`[solver]`); a field left out keeps the
 //! Rust default. The plan's arrays are the 1 ms output trajectory (`t`, `q`, `qd`, `tau`, `ee`).
 
-use crate::convert::{arr1, arr2, bad, exp, from_value, merged, rs, to_py};
+use crate::convert::{arr1, arr2, bad, check_slice, exp, rs, Range};
+use crate::dicts::{from_value, merged, to_py};
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;
@@ -28,12 +29,15 @@ pub struct Plan {
     pub(crate) trajectory: Arc<brachia::trajectory::Trajectory>,
     pub(crate) report: serde_json::Value,
     pub(crate) folder: Option<RunFolder>,
+    /// The task it was planned for (its start, target and obstacles).
+    pub(crate) task: SwingTask,
 }
 
 impl Plan {
-    /// Wrap a library plan with its report (and the run folder, for a scenario's plan).
+    /// Wrap a library plan of `task` with its report (and the run folder, for a scenario's plan).
     pub(crate) fn new(
         robot: Arc<brachia::Robot>,
+        task: SwingTask,
         plan: brachia::planning::Plan,
         report: serde_json::Value,
         folder: Option<RunFolder>,
@@ -44,6 +48,7 @@ impl Plan {
             robot,
             report,
             folder,
+            task,
         }
     }
 }
@@ -188,9 +193,25 @@ impl Plan {
 }
 
 /// The task dict as a `SwingTask`.
+///
+/// Its values obey the binding's rules for their quantities before the planner checks the task
+/// against the robot and the settings: `q0` angles, `qd0` velocities, `target` and the obstacles'
+/// centres and radii positions (within 1000 m).
 pub(crate) fn task_from(task: &Bound<'_, PyAny>) -> PyResult<SwingTask> {
     let v = merged(Some(task), None, "task")?;
-    from_value(v, "task")
+    let task: SwingTask = from_value(v, "task")?;
+    check_slice(&task.q0, "task.q0", Range::Angle)?;
+    check_slice(&task.qd0, "task.qd0", Range::Rate)?;
+    check_slice(&task.target, "task.target", Range::Position)?;
+    for (i, o) in task.obstacles.iter().enumerate() {
+        let shape = [o.center[0], o.center[1], o.radius];
+        check_slice(
+            &shape,
+            &format!("task.obstacles[{i}] (center, radius)"),
+            Range::Position,
+        )?;
+    }
+    Ok(task)
 }
 
 /// Planner and solver settings from a dict and keyword arguments (`solver` = the NLP settings).
@@ -262,5 +283,6 @@ pub(crate) fn plan_with_report(
         path: Path::new("<python>").to_path_buf(),
     };
     let report = brachia_experiments::plan_report(&ls, &p);
-    Plan::new(robot, p, report, None)
+    let task = ls.scenario.task;
+    Plan::new(robot, task, p, report, None)
 }

@@ -6,10 +6,13 @@
 //! `q[0]` absolute from +x, the rest relative; torques of joints 2..n. Knot times are absolute (0 at
 //! the start of the swing); a `Plan` of a re-plan runs on its own clock, 0 at `t_now`.
 
-use crate::convert::{arr1, arr2, bad, read_vector, rs};
+use crate::convert::{arr1, arr2, bad, read_vector, rs, Arg, Range, Real};
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
-use brachia::planning::{Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
+use crate::shared::{Guard, Shared};
+use brachia::planning::{
+    validate_task, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription,
+};
 use brachia_experiments::parameter_study::status_name;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -102,8 +105,16 @@ impl ReplanOutcome {
 ///
 /// The number of intervals K is fixed for the planner's life: a re-plan from ``t_now`` spreads the
 /// K intervals over the remaining ``T - t_now``.
-#[pyclass(module = "brachia")]
+///
+/// Usable from any thread: calls on one planner run one after the other (a ``replan`` made while
+/// another thread's ``replan`` runs waits for it), with the GIL released while solving.
+#[pyclass(module = "brachia", frozen)]
 pub struct SwingPlanner {
+    state: Shared<PlannerState>,
+}
+
+/// The planner and what the binding keeps beside it.
+struct PlannerState {
     inner: brachia::planning::SwingPlanner,
     planner: PlannerSettings,
     nlp: NlpSettings,
@@ -139,7 +150,7 @@ fn task_start(task: &SwingTask, out: &mut [f64]) {
     }
 }
 
-impl SwingPlanner {
+impl PlannerState {
     /// The task of the current solution: the planner's, started from `x_start`.
     fn current_task(&self) -> SwingTask {
         let n = self.inner.robot().n();
@@ -159,12 +170,8 @@ impl SwingPlanner {
         x_now: &Bound<'_, PyAny>,
         warm: bool,
     ) -> PyResult<ReplanOutcome> {
-        read_vector(
-            x_now,
-            "x_now",
-            "the state [q, qd], rad and rad/s",
-            &mut self.x_in,
-        )?;
+        let what = "the state [q, qd], rad and rad/s";
+        read_vector(x_now, Arg::new("x_now", what, Range::State), &mut self.x_in)?;
         let (inner, x) = (&mut self.inner, &self.x_in);
         let out = py
             .detach(|| {
@@ -177,6 +184,26 @@ impl SwingPlanner {
             .map_err(rs)?;
         self.x_start.copy_from_slice(&self.x_in);
         Ok(ReplanOutcome { inner: out })
+    }
+
+    /// The current solution as a `Plan`.
+    fn current_plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
+        let inner = &mut self.inner;
+        let p = py.detach(|| inner.current_plan()).map_err(rs)?;
+        Ok(plan_with_report(
+            self.inner.robot().clone(),
+            self.current_task(),
+            self.planner.clone(),
+            self.nlp.clone(),
+            p,
+        ))
+    }
+}
+
+impl SwingPlanner {
+    /// The locked planner.
+    fn lock(&self, py: Python<'_>) -> PyResult<Guard<'_, PlannerState>> {
+        self.state.lock(py)
     }
 }
 
@@ -199,112 +226,121 @@ impl SwingPlanner {
             .map_err(rs)?;
         let mut x_start = vec![0.0; 2 * robot.inner.n()];
         task_start(inner.task(), &mut x_start);
-        Ok(SwingPlanner {
+        let state = PlannerState {
             inner,
             planner,
             nlp,
             x_in: x_start.clone(),
             x_start,
+        };
+        Ok(SwingPlanner {
+            state: Shared::new("SwingPlanner", state),
         })
     }
 
     /// Plan the whole swing cold from the task's start state; the solution becomes the one re-plans
     /// start from. Returns the ``Plan`` (with its report), converged or not.
-    fn plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
-        let inner = &mut self.inner;
+    fn plan(&self, py: Python<'_>) -> PyResult<Plan> {
+        let mut s = self.lock(py)?;
+        let s = &mut *s;
+        let inner = &mut s.inner;
         py.detach(|| inner.plan_outcome()).map_err(rs)?;
-        task_start(self.inner.task(), &mut self.x_start);
-        self.current_plan(py)
+        task_start(s.inner.task(), &mut s.x_start);
+        s.current_plan(py)
     }
 
     /// Warm re-plan from the measured state ``x_now`` (shape ``(2n,)``: ``[q, qd]``) at the absolute
     /// time ``t_now`` (s, in ``[0, T)``) to the target over the remaining time. Needs a converged
     /// plan first. Returns a ``ReplanOutcome``; the trajectory is ``current_plan()``.
     fn replan(
-        &mut self,
+        &self,
         py: Python<'_>,
-        t_now: f64,
+        t_now: Real,
         x_now: &Bound<'_, PyAny>,
     ) -> PyResult<ReplanOutcome> {
-        self.replan_from(py, t_now, x_now, true)
+        self.lock(py)?.replan_from(py, t_now.0, x_now, true)
     }
 
     /// The same re-plan started cold (the shifted solution as the initial guess, multipliers reset),
     /// for comparison with ``replan``.
     fn replan_cold(
-        &mut self,
+        &self,
         py: Python<'_>,
-        t_now: f64,
+        t_now: Real,
         x_now: &Bound<'_, PyAny>,
     ) -> PyResult<ReplanOutcome> {
-        self.replan_from(py, t_now, x_now, false)
+        self.lock(py)?.replan_from(py, t_now.0, x_now, false)
     }
 
     /// The current solution as a ``Plan`` (1 ms trajectory from 0 at its first knot, report
     /// included). Raises ``BrachiaError`` before any solve.
-    fn current_plan(&mut self, py: Python<'_>) -> PyResult<Plan> {
-        let inner = &mut self.inner;
-        let p = py.detach(|| inner.current_plan()).map_err(rs)?;
-        Ok(plan_with_report(
-            self.inner.robot().clone(),
-            self.current_task(),
-            self.planner.clone(),
-            self.nlp.clone(),
-            p,
-        ))
+    fn current_plan(&self, py: Python<'_>) -> PyResult<Plan> {
+        self.lock(py)?.current_plan(py)
     }
 
     /// True once a solve converged (a re-plan has a solution to start from).
     #[getter]
-    fn has_plan(&self) -> bool {
-        self.inner.has_plan()
+    fn has_plan(&self, py: Python<'_>) -> PyResult<bool> {
+        Ok(self.lock(py)?.inner.has_plan())
     }
 
     /// The full swing time T, s.
     #[getter]
-    fn swing_time(&self) -> f64 {
-        self.inner.swing_time()
+    fn swing_time(&self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.lock(py)?.inner.swing_time())
     }
 
     /// Number of intervals K (fixed for the planner's life).
     #[getter]
-    fn intervals(&self) -> usize {
-        self.inner.intervals()
+    fn intervals(&self, py: Python<'_>) -> PyResult<usize> {
+        Ok(self.lock(py)?.inner.intervals())
     }
 
     /// The target bar position, shape ``(2,)``, m.
     #[getter]
     fn target<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        arr1(py, &self.inner.target())
+        arr1(py, &self.lock(py)?.inner.target())
     }
 
-    /// Move the target bar (shape ``(2,)``, m) for the next plan or re-plan.
-    fn set_target(&mut self, target: &Bound<'_, PyAny>) -> PyResult<()> {
+    /// Move the target bar (shape ``(2,)``, m) for the next plan or re-plan. Checked as the
+    /// constructor checks the task's ``target`` (within reach of the grip, outside the obstacles);
+    /// a refused target leaves the planner as it was.
+    fn set_target(&self, py: Python<'_>, target: &Bound<'_, PyAny>) -> PyResult<()> {
         let mut t = [0.0; 2];
-        read_vector(target, "target", "the bar position, m", &mut t)?;
-        self.inner.set_target(t).map_err(rs)
+        let arg = Arg::new("target", "the bar position, m", Range::Position);
+        read_vector(target, arg, &mut t)?;
+        let mut s = self.lock(py)?;
+        let task = SwingTask {
+            target: t,
+            ..s.inner.task().clone()
+        };
+        validate_task(s.inner.robot(), &task, &s.planner, "set_target", "").map_err(rs)?;
+        s.inner.set_target(t).map_err(rs)
     }
 
     /// Absolute times of the current solution's K + 1 knots, shape ``(K + 1,)``, s.
     fn knot_times<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let t: Vec<f64> = (0..=self.inner.intervals())
-            .map(|k| self.inner.knot_time(k))
+        let s = self.lock(py)?;
+        let t: Vec<f64> = (0..=s.inner.intervals())
+            .map(|k| s.inner.knot_time(k))
             .collect();
         arr1(py, &t)
     }
 
     /// States of the current solution's knots, shape ``(K + 1, 2n)``: ``[q, qd]``, rad and rad/s.
     fn knot_states<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let z = self.inner.knots();
-        let cols = 2 * self.inner.robot().n();
+        let s = self.lock(py)?;
+        let z = s.inner.knots();
+        let cols = 2 * s.inner.robot().n();
         arr2(py, z.x.concat(), cols)
     }
 
     /// Torques of the current solution's K intervals (held over each), shape ``(K, n - 1)``, N m.
     fn knot_torques<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let z = self.inner.knots();
-        let cols = self.inner.robot().n() - 1;
-        let k = self.inner.intervals();
+        let s = self.lock(py)?;
+        let z = s.inner.knots();
+        let cols = s.inner.robot().n() - 1;
+        let k = s.inner.intervals();
         let v: Vec<f64> = z.u[..k].concat();
         if v.len() != k * cols {
             return Err(bad(format!(
@@ -318,11 +354,12 @@ impl SwingPlanner {
     /// A copy of the solution re-plans start from, to come back to with ``restore`` (e.g. to
     /// re-plan many disturbed states from one plan). Taken right after a converged solve, it also
     /// holds the solver's multipliers, so that a restore puts the planner back exactly.
-    fn checkpoint(&self) -> Checkpoint {
-        Checkpoint {
-            inner: self.inner.checkpoint(),
-            n_links: self.inner.robot().n(),
-        }
+    fn checkpoint(&self, py: Python<'_>) -> PyResult<Checkpoint> {
+        let s = self.lock(py)?;
+        Ok(Checkpoint {
+            inner: s.inner.checkpoint(),
+            n_links: s.inner.robot().n(),
+        })
     }
 
     /// Make a ``checkpoint()`` of this planner current again (its solution, problem and, where it
@@ -330,22 +367,25 @@ impl SwingPlanner {
     /// solved in between, if the target is still the checkpoint's (otherwise its solution is
     /// re-solved for the current target). Returns the outcome of the checkpoint's solve, or of that
     /// re-solve. Raises ``BrachiaError`` for a checkpoint of another planner (nothing changes).
-    fn restore(&mut self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
-        let inner = &mut self.inner;
+    fn restore(&self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
+        let mut s = self.lock(py)?;
+        let s = &mut *s;
+        let inner = &mut s.inner;
         let out = py.detach(|| inner.restore(&checkpoint.inner)).map_err(rs)?;
         // the restored solution starts where the checkpoint's does (not necessarily at the last
         // x_now handed in: that re-plan may not have converged)
-        self.x_start.copy_from_slice(&self.inner.knots().x[0]);
+        s.x_start.copy_from_slice(&s.inner.knots().x[0]);
         Ok(ReplanOutcome { inner: out })
     }
 
-    fn __repr__(&self) -> String {
-        format!(
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let s = self.lock(py)?;
+        Ok(format!(
             "SwingPlanner(n_links={}, intervals={}, swing_time={:.6}, has_plan={})",
-            self.inner.robot().n(),
-            self.inner.intervals(),
-            self.inner.swing_time(),
-            self.inner.has_plan()
-        )
+            s.inner.robot().n(),
+            s.inner.intervals(),
+            s.inner.swing_time(),
+            s.inner.has_plan()
+        ))
     }
 }

@@ -2,10 +2,12 @@
 //! exactly as `brachia plan` and `brachia track` do (the same library calls, the same reports and run
 //! folders).
 
-use crate::convert::{bad, rs, to_py};
+use crate::convert::{bad, rs};
+use crate::dicts::to_py;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;
+use brachia::model::RobotParams;
 use brachia_experiments::scenario::LoadedScenario;
 use brachia_experiments::{
     run_plan, run_track, ControllerKind, PlanReport, PlantKind, RunFolder, TrackOutcome, Uses,
@@ -51,6 +53,71 @@ fn plant_kind(name: &str) -> PyResult<PlantKind> {
         other => Err(bad(format!(
             "plant = {other:?}: expected \"model\" or \"rapier\""
         ))),
+    }
+}
+
+impl Scenario {
+    /// Refuse a plan made for another robot or another task than this scenario's: every field they
+    /// share (the robot's parameters, the start state, the target, the obstacles) must agree.
+    fn check_reference(&self, plan: &Plan) -> PyResult<()> {
+        let file = self.ls.path.display();
+        let (mine, theirs) = (self.robot.params(), plan.robot.params());
+        let same_robot = RobotParams {
+            name: mine.name.clone(),
+            ..theirs.clone()
+        } == *mine;
+        if !same_robot {
+            return Err(bad(format!(
+                "reference: a plan for another robot ({:?}, {} links) than {file}'s params ({:?}, \
+                 {} links, or other link values): plan it with this scenario",
+                theirs.name,
+                plan.robot.n(),
+                mine.name,
+                self.robot.n()
+            )));
+        }
+        let n = self.robot.n();
+        let rest = |qd: &[f64]| {
+            if qd.is_empty() {
+                vec![0.0; n]
+            } else {
+                qd.to_vec()
+            }
+        };
+        let (a, b) = (&self.ls.scenario.task, &plan.task);
+        let fields: [(&str, String, String, bool); 4] = [
+            (
+                "q0",
+                format!("{:?}", b.q0),
+                format!("{:?}", a.q0),
+                a.q0 == b.q0,
+            ),
+            (
+                "qd0",
+                format!("{:?}", rest(&b.qd0)),
+                format!("{:?}", rest(&a.qd0)),
+                rest(&a.qd0) == rest(&b.qd0),
+            ),
+            (
+                "target",
+                format!("{:?}", b.target),
+                format!("{:?}", a.target),
+                a.target == b.target,
+            ),
+            (
+                "obstacles",
+                format!("{:?}", b.obstacles),
+                format!("{:?}", a.obstacles),
+                a.obstacles == b.obstacles,
+            ),
+        ];
+        match fields.into_iter().find(|f| !f.3) {
+            Some((field, theirs, mine, _)) => Err(bad(format!(
+                "reference: a plan for another task: its {field} = {theirs}, {file}'s task.{field} = \
+                 {mine}; a reference must be planned for this scenario's task"
+            ))),
+            None => Ok(()),
+        }
     }
 }
 
@@ -119,14 +186,15 @@ impl Scenario {
         let report = folder_report(&run.folder);
         Ok(Plan::new(
             self.robot.clone(),
+            ls.scenario.task.clone(),
             run.plan,
             report,
             Some(run.folder),
         ))
     }
 
-    /// Plan (or take ``reference``, a ``Plan`` of this scenario) and track it in closed loop as
-    /// ``brachia track`` does. ``controller`` (``"mpc"``, ``"pd"``, ``"open-loop"``) and ``plant``
+    /// Plan (or take ``reference``, a ``Plan`` of this scenario: made for its robot and task, else
+    /// ``BrachiaError``) and track it in closed loop as ``brachia track`` does. ``controller`` (``"mpc"``, ``"pd"``, ``"open-loop"``) and ``plant``
     /// (``"model"``, ``"rapier"``) default to the scenario's. When the plan does not converge nothing
     /// is tracked: ``TrackResult.tracked`` is False and ``TrackResult.plan`` has the status.
     #[pyo3(signature = (controller = None, plant = None, reference = None))]
@@ -149,6 +217,7 @@ impl Scenario {
         let given = match reference {
             Some(r) => {
                 let r = r.get();
+                self.check_reference(r)?;
                 let report: PlanReport = serde_json::from_value(r.report.clone()).map_err(|e| {
                     bad(format!(
                         "reference: its report is not a brachia plan report: {e}"
@@ -165,7 +234,13 @@ impl Scenario {
                 let plan = match run.plan {
                     Some(pr) => {
                         let rep = folder_report(&pr.folder);
-                        let plan = Plan::new(self.robot.clone(), pr.plan, rep, Some(pr.folder));
+                        let plan = Plan::new(
+                            self.robot.clone(),
+                            ls.scenario.task.clone(),
+                            pr.plan,
+                            rep,
+                            Some(pr.folder),
+                        );
                         Some(Py::new(py, plan)?)
                     }
                     None => reference.map(|r| r.clone().unbind()),
@@ -180,7 +255,13 @@ impl Scenario {
             }
             TrackOutcome::PlanFailed(pr) => {
                 let rep = folder_report(&pr.folder);
-                let plan = Plan::new(self.robot.clone(), pr.plan, rep, Some(pr.folder));
+                let plan = Plan::new(
+                    self.robot.clone(),
+                    ls.scenario.task.clone(),
+                    pr.plan,
+                    rep,
+                    Some(pr.folder),
+                );
                 Ok(TrackResult::new(
                     Default::default(),
                     None,

@@ -1,254 +1,26 @@
-//! Plants (`ModelPlant`, `RapierPlant`), the closed loop `track(...)` and its `TrackResult`.
+//! The closed loop `track(...)` and its `TrackResult`.
 //!
-//! Conventions: a plant's state is `x = [q, qd]` (2n; rad, rad/s; q1 absolute, the rest relative);
-//! `step(tau, dt)` holds the torques of joints 2..n (n - 1 values, N m, clamped to the robot's limits)
-//! for `dt` seconds. Logs are row-major arrays with one row per control instant (`steps + 1` rows; the
-//! last row is the final state).
+//! Conventions: a state is `x = [q, qd]` (2n; rad, rad/s; q1 absolute, the rest relative); torques
+//! are those of joints 2..n (n - 1 values, N m). Logs are row-major arrays with one row per control
+//! instant (`steps + 1` rows; the last row is the final state). The closed loop runs with the GIL
+//! released, holding the locks of the plant and of an `Mpc` it was given (`crate::shared`).
 
-use crate::control::{reference_of, Mpc};
-use crate::convert::{arr1, arr2, bad, exp, read_vector, rs, settings_from, to_py};
+use crate::control::{reference_of, Mpc, MpcState};
+use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, Count, Real};
+use crate::dicts::to_py;
 use crate::model::Robot;
 use crate::planning::Plan;
+use crate::plants::{ModelPlant, RapierPlant};
+use crate::shared::Guard;
 use brachia::control::{OpenLoop, Pd, PdSettings};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, NoiseSettings, Noisy, Plant, RunSettings,
     RunSummary,
 };
 use brachia_experiments::RunFolder;
-use brachia_rapier::{ContactBody, Obstacle, RapierSettings};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
 use std::path::PathBuf;
 use std::sync::Arc;
-
-/// Largest `dt` of one plant step, s.
-const MAX_STEP_DT: f64 = 1.0;
-
-/// `x0` (or the robot at rest hanging straight down when `None`) as a checked state.
-fn start_state(robot: &brachia::Robot, x0: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
-    let n = robot.n();
-    match x0 {
-        Some(x) => {
-            let mut v = vec![0.0; 2 * n];
-            read_vector(x, "x", &format!("[q, qd] of the {n}-link robot"), &mut v)?;
-            Ok(v)
-        }
-        None => {
-            let mut v = vec![0.0; 2 * n];
-            v[0] = -std::f64::consts::FRAC_PI_2;
-            Ok(v)
-        }
-    }
-}
-
-/// Check `tau` and `dt` of a plant step; `tau` is read into `buf`.
-fn step_input(tau: &Bound<'_, PyAny>, dt: f64, buf: &mut [f64]) -> PyResult<()> {
-    if !(dt.is_finite() && dt > 0.0 && dt <= MAX_STEP_DT) {
-        return Err(bad(format!("dt = {dt}: must be in (0, {MAX_STEP_DT}] s")));
-    }
-    read_vector(tau, "tau", "torques of joints 2..n, N m", buf)
-}
-
-/// Check a substep count.
-fn check_substeps(substeps: usize) -> PyResult<()> {
-    let kmax = brachia::limits::MAX_SUBSTEPS;
-    if substeps == 0 || substeps > kmax {
-        return Err(bad(format!("substeps = {substeps}: must be 1..={kmax}")));
-    }
-    Ok(())
-}
-
-/// The model plant: the robot's own dynamics integrated by RK4 (``substeps`` steps per ``step``).
-///
-/// ``ModelPlant(robot, x0=None, substeps=1)``; ``x0 = [q, qd]`` (default: hanging straight down at
-/// rest). Torques are clamped to the robot's limits.
-#[pyclass(module = "brachia")]
-pub struct ModelPlant {
-    robot: Arc<brachia::Robot>,
-    pub(crate) plant: brachia::sim::ModelPlant,
-    tau: Vec<f64>,
-}
-
-#[pymethods]
-impl ModelPlant {
-    #[new]
-    #[pyo3(signature = (robot, x0 = None, substeps = 1))]
-    fn new(robot: &Robot, x0: Option<&Bound<'_, PyAny>>, substeps: usize) -> PyResult<Self> {
-        check_substeps(substeps)?;
-        let x = start_state(&robot.inner, x0)?;
-        let mut plant = brachia::sim::ModelPlant::new((*robot.inner).clone(), &x);
-        plant.substeps = substeps;
-        Ok(ModelPlant {
-            tau: vec![0.0; robot.inner.nu()],
-            robot: robot.inner.clone(),
-            plant,
-        })
-    }
-
-    /// Restart at state ``x = [q, qd]`` and time 0.
-    fn reset(&mut self, x: &Bound<'_, PyAny>) -> PyResult<()> {
-        let x = start_state(&self.robot, Some(x))?;
-        let substeps = self.plant.substeps;
-        self.plant = brachia::sim::ModelPlant::new((*self.robot).clone(), &x);
-        self.plant.substeps = substeps;
-        Ok(())
-    }
-
-    /// Hold ``tau`` (n - 1 values, N m; clamped to the limits) for ``dt`` seconds (0 < dt <= 1).
-    fn step(&mut self, tau: &Bound<'_, PyAny>, dt: f64) -> PyResult<()> {
-        step_input(tau, dt, &mut self.tau)?;
-        self.plant.step(&self.tau, dt);
-        Ok(())
-    }
-
-    /// The state ``[q, qd]``, shape ``(2n,)``.
-    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut x = vec![0.0; self.robot.nx()];
-        self.plant.state(&mut x);
-        arr1(py, &x)
-    }
-
-    /// Simulated time, s.
-    #[getter]
-    fn time(&self) -> f64 {
-        self.plant.time()
-    }
-
-    /// RK4 steps per ``step`` call.
-    #[getter]
-    fn substeps(&self) -> usize {
-        self.plant.substeps
-    }
-
-    /// Total mechanical energy of the robot, J.
-    fn energy(&self) -> f64 {
-        self.plant.energy()
-    }
-}
-
-/// The rapier2d physics-engine plant, with contacts against obstacles (``brachia_rapier``).
-///
-/// ``RapierPlant(robot, x0=None, settings=None, obstacles=None, **kwargs)``: settings (dict and/or
-/// keyword arguments) are ``substeps``, ``self_contacts``, ``link_friction``, ``link_restitution``;
-/// ``obstacles`` a list of dicts ``{"kind": "circle", "center": (2,), "radius": r}`` or ``{"kind":
-/// "ball", "center", "radius", "mass", "restitution", "gravity"}`` (m, kg).
-#[pyclass(module = "brachia", unsendable)]
-pub struct RapierPlant {
-    robot: Arc<brachia::Robot>,
-    settings: RapierSettings,
-    obstacles: Vec<Obstacle>,
-    pub(crate) plant: brachia_rapier::RapierPlant,
-    tau: Vec<f64>,
-}
-
-impl RapierPlant {
-    /// A world at `x` with the obstacles added.
-    fn build(
-        robot: &brachia::Robot,
-        x: &[f64],
-        settings: &RapierSettings,
-        obstacles: &[Obstacle],
-    ) -> PyResult<brachia_rapier::RapierPlant> {
-        let mut p = brachia_rapier::RapierPlant::new(robot, x, settings).map_err(rs)?;
-        for o in obstacles {
-            p.add_obstacle(o).map_err(rs)?;
-        }
-        Ok(p)
-    }
-}
-
-#[pymethods]
-impl RapierPlant {
-    #[new]
-    #[pyo3(signature = (robot, x0 = None, settings = None, obstacles = None, **kwargs))]
-    fn new(
-        robot: &Robot,
-        x0: Option<&Bound<'_, PyAny>>,
-        settings: Option<&Bound<'_, PyAny>>,
-        obstacles: Option<&Bound<'_, PyAny>>,
-        kwargs: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<Self> {
-        let settings: RapierSettings = settings_from(settings, kwargs, "rapier settings")?;
-        let obstacles: Vec<Obstacle> = match obstacles {
-            Some(o) if !o.is_none() => {
-                let text = crate::convert::to_json(o, "obstacles")?;
-                serde_json::from_str(&text).map_err(|e| bad(format!("obstacles: {e}")))?
-            }
-            _ => Vec::new(),
-        };
-        let max = brachia::planning::MAX_OBSTACLES;
-        if obstacles.len() > max {
-            return Err(bad(format!(
-                "obstacles: {} obstacles; at most {max}",
-                obstacles.len()
-            )));
-        }
-        for (i, o) in obstacles.iter().enumerate() {
-            o.validate("obstacles", i).map_err(rs)?;
-        }
-        let x = start_state(&robot.inner, x0)?;
-        let plant = Self::build(&robot.inner, &x, &settings, &obstacles)?;
-        Ok(RapierPlant {
-            tau: vec![0.0; robot.inner.nu()],
-            robot: robot.inner.clone(),
-            settings,
-            obstacles,
-            plant,
-        })
-    }
-
-    /// Rebuild the world at state ``x = [q, qd]``, time 0, obstacles at their starting places.
-    fn reset(&mut self, x: &Bound<'_, PyAny>) -> PyResult<()> {
-        let x = start_state(&self.robot, Some(x))?;
-        self.plant = Self::build(&self.robot, &x, &self.settings, &self.obstacles)?;
-        Ok(())
-    }
-
-    /// Hold ``tau`` (n - 1 values, N m; clamped to the limits) for ``dt`` seconds (0 < dt <= 1;
-    /// ``substeps`` engine steps).
-    fn step(&mut self, tau: &Bound<'_, PyAny>, dt: f64) -> PyResult<()> {
-        step_input(tau, dt, &mut self.tau)?;
-        self.plant.step(&self.tau, dt);
-        Ok(())
-    }
-
-    /// The state ``[q, qd]`` read from the engine, shape ``(2n,)``.
-    fn state<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let mut x = vec![0.0; self.robot.nx()];
-        self.plant.state(&mut x);
-        arr1(py, &x)
-    }
-
-    /// Simulated time, s.
-    #[getter]
-    fn time(&self) -> f64 {
-        self.plant.time()
-    }
-
-    /// Total mechanical energy of the robot from the engine's bodies, J.
-    fn energy(&self) -> f64 {
-        self.plant.energy()
-    }
-
-    /// Every contact of a link so far: dicts ``{"t": s, "link": 1..n, "body": "obstacle_<id>" |
-    /// "link_<j>", "impulse": N s}``.
-    fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
-        let list = PyList::empty(py);
-        for c in self.plant.contacts() {
-            let d = PyDict::new(py);
-            d.set_item("t", c.t)?;
-            d.set_item("link", c.link + 1)?;
-            let body = match c.body {
-                ContactBody::Obstacle(id) => format!("obstacle_{id}"),
-                ContactBody::Link(j) => format!("link_{}", j + 1),
-            };
-            d.set_item("body", body)?;
-            d.set_item("impulse", c.impulse)?;
-            list.append(d)?;
-        }
-        Ok(list)
-    }
-}
 
 /// A closed-loop run: arrays of the log (one row per control instant), its summary and, for a
 /// scenario's run, the report ``brachia track`` writes.
@@ -354,6 +126,14 @@ impl TrackResult {
         to_py(py, &self.report)
     }
 
+    /// Time at which the closed loop diverged, s (the plant's state left 1e6 or stopped being
+    /// finite, or the controller returned a non-finite torque): the run stopped there and the arrays
+    /// hold the rows before it; a diverged run is not to be trusted. ``None`` when it did not.
+    #[getter]
+    fn diverged_at_s(&self) -> Option<f64> {
+        self.log.diverged_at_s
+    }
+
     /// The plan that was tracked, when it was planned by ``Scenario.track`` (else ``None``).
     #[getter]
     fn plan(&self, py: Python<'_>) -> Option<Py<Plan>> {
@@ -404,95 +184,172 @@ impl TrackResult {
     }
 }
 
+/// The controller of a `track` call: a given `Mpc` (locked for the run) or one made for it.
+enum Ctrl<'a> {
+    Given(Guard<'a, MpcState>),
+    Owned(Box<dyn Controller + Send>),
+}
+
+impl Ctrl<'_> {
+    fn get(&mut self) -> &mut (dyn Controller + Send) {
+        match self {
+            Ctrl::Given(m) => &mut m.inner,
+            Ctrl::Owned(c) => c.as_mut(),
+        }
+    }
+}
+
+/// The controller `controller` names (or the `Mpc` it is), for `reference`.
+fn controller_for<'a>(
+    py: Python<'_>,
+    controller: Option<&'a Bound<'_, PyAny>>,
+    robot: &Arc<brachia::Robot>,
+    reference: &Arc<brachia::trajectory::Trajectory>,
+) -> PyResult<Ctrl<'a>> {
+    let names = "expected an Mpc or one of \"mpc\", \"pd\", \"open-loop\"";
+    let name = match controller.filter(|c| !c.is_none()) {
+        None => "mpc".to_string(),
+        Some(c) => {
+            if let Ok(m) = c.cast::<Mpc>() {
+                let m: &'a Mpc = m.get();
+                let g = m.lock(py)?;
+                reference.check_reference(g.inner.robot()).map_err(rs)?;
+                return Ok(Ctrl::Given(g));
+            }
+            c.extract::<String>()
+                .map_err(|_| bad(format!("controller: {names}")))?
+        }
+    };
+    let (r, t) = (robot.clone(), reference.clone());
+    let c: Box<dyn Controller + Send> = match name.as_str() {
+        "mpc" => Box::new(brachia::control::Mpc::new(r, t, Default::default()).map_err(rs)?),
+        "pd" => Box::new(Pd::new(r, t, PdSettings::default()).map_err(rs)?),
+        "open-loop" => Box::new(OpenLoop::new(r, t).map_err(rs)?),
+        other => return Err(bad(format!("controller = {other:?}: {names}"))),
+    };
+    Ok(Ctrl::Owned(c))
+}
+
+/// Run `ctrl` against `plant` with the GIL released.
+fn run_released(
+    py: Python<'_>,
+    plant: &mut (dyn Plant + Send),
+    ctrl: &mut (dyn Controller + Send),
+    reference: &brachia::trajectory::Trajectory,
+    robot: &brachia::Robot,
+    settings: &RunSettings,
+    noise: NoiseSettings,
+) -> PyResult<ClosedLoopLog> {
+    py.detach(|| {
+        if noise.q_std == 0.0 && noise.qd_std == 0.0 {
+            run_closed_loop(plant, ctrl, reference, robot, settings)
+        } else {
+            let mut noisy = Noisy::new(plant, noise)?;
+            run_closed_loop(&mut noisy, ctrl, reference, robot, settings)
+        }
+    })
+    .map_err(rs)
+}
+
+/// The run settings of a `track` call, checked as the CLI checks a scenario's `[tracking]`.
+fn run_settings(
+    duration: Option<Real>,
+    control_dt: Real,
+    reference: &brachia::trajectory::Trajectory,
+) -> PyResult<RunSettings> {
+    let dmax = brachia::limits::MAX_RUN_DURATION_S;
+    let control_dt = scalar("control_dt", control_dt.0, Some(([1e-6, 0.1], "s")))?;
+    let duration_s = match duration {
+        Some(d) => scalar("duration", d.0, Some(([0.0, dmax], "s")))?,
+        None => reference.duration(),
+    };
+    let settings = RunSettings {
+        duration_s,
+        control_dt,
+    };
+    settings.validate().map_err(rs)?;
+    if settings.steps() == 0 {
+        return Err(bad(format!(
+            "duration = {} s: shorter than half a control period (control_dt = {} s): nothing \
+             would be tracked",
+            num(duration_s),
+            num(control_dt)
+        )));
+    }
+    Ok(settings)
+}
+
 /// Run ``controller`` against ``plant`` in closed loop from the plant's current state, logging
 /// against ``reference`` (a ``Plan`` or a ``Trajectory``).
 ///
 /// ``controller``: an ``Mpc`` (used as it is; its state carries over), or ``"mpc"`` (default: an
 /// ``Mpc`` with default settings), ``"pd"``, ``"open-loop"``. ``plant``: a ``ModelPlant`` or a
 /// ``RapierPlant`` (stepped in place), or ``None`` for a model plant at the reference's first state.
-/// ``duration`` defaults to the reference's; ``control_dt`` is the control period (s; the torque is
-/// held over it); ``noise_q_std`` / ``noise_qd_std`` add Gaussian sensor noise (rad, rad/s) seeded by
-/// ``seed``. Returns a ``TrackResult``; raises ``BrachiaError`` on bad input.
+/// ``duration`` defaults to the reference's (at least one control period); ``control_dt`` is the
+/// control period (s, at most 0.1; the torque is held over it); ``noise_q_std`` / ``noise_qd_std``
+/// add Gaussian sensor noise (rad, rad/s) seeded by ``seed``. Returns a ``TrackResult`` (a run that
+/// diverged stops there: ``diverged_at_s``); raises ``BrachiaError`` on bad input. The loop runs with
+/// the GIL released; the plant and a given ``Mpc`` are locked for it.
 #[pyfunction]
 #[pyo3(signature = (robot, reference, controller = None, plant = None, duration = None,
-    control_dt = 0.001, noise_q_std = 0.0, noise_qd_std = 0.0, seed = 0))]
+    control_dt = Real(0.001), noise_q_std = Real(0.0), noise_qd_std = Real(0.0), seed = Count(0)))]
 pub(crate) fn track(
+    py: Python<'_>,
     robot: &Robot,
     reference: &Bound<'_, PyAny>,
     controller: Option<&Bound<'_, PyAny>>,
     plant: Option<&Bound<'_, PyAny>>,
-    duration: Option<f64>,
-    control_dt: f64,
-    noise_q_std: f64,
-    noise_qd_std: f64,
-    seed: u64,
+    duration: Option<Real>,
+    control_dt: Real,
+    noise_q_std: Real,
+    noise_qd_std: Real,
+    seed: Count,
 ) -> PyResult<TrackResult> {
     let r = robot.inner.clone();
     let reference = reference_of(reference)?;
-    let settings = RunSettings {
-        duration_s: duration.unwrap_or_else(|| reference.duration()),
-        control_dt,
-    };
-    settings.validate().map_err(rs)?;
+    reference.check_reference(&r).map_err(rs)?;
+    let settings = run_settings(duration, control_dt, &reference)?;
     let noise = NoiseSettings {
-        q_std: noise_q_std,
-        qd_std: noise_qd_std,
-        seed,
+        q_std: noise_q_std.0,
+        qd_std: noise_qd_std.0,
+        seed: seed.0,
     };
     noise.validate().map_err(rs)?;
-    let run = |plant: &mut dyn Plant, ctrl: &mut dyn Controller| -> PyResult<ClosedLoopLog> {
-        if noise.q_std == 0.0 && noise.qd_std == 0.0 {
-            run_closed_loop(plant, ctrl, &reference, &r, &settings).map_err(rs)
-        } else {
-            let mut noisy = Noisy::new(plant, noise).map_err(rs)?;
-            run_closed_loop(&mut noisy, ctrl, &reference, &r, &settings).map_err(rs)
-        }
-    };
-    let with_controller = |plant: &mut dyn Plant| -> PyResult<ClosedLoopLog> {
-        match controller.filter(|c| !c.is_none()) {
-            Some(c) if c.is_instance_of::<Mpc>() => {
-                let mut m = c.cast::<Mpc>()?.try_borrow_mut()?;
-                m.with_controller(|ctrl| run(plant, ctrl))
-            }
-            Some(c) => {
-                let name: String = c.extract().map_err(|_| {
-                    bad("controller: expected an Mpc or one of \"mpc\", \"pd\", \"open-loop\"")
-                })?;
-                match name.as_str() {
-                    "mpc" => {
-                        let mut m = brachia::control::Mpc::new(r.clone(), reference.clone(), Default::default())
-                            .map_err(rs)?;
-                        run(plant, &mut m)
-                    }
-                    "pd" => {
-                        let mut m = Pd::new(r.clone(), reference.clone(), PdSettings::default()).map_err(rs)?;
-                        run(plant, &mut m)
-                    }
-                    "open-loop" => {
-                        let mut m = OpenLoop::new(r.clone(), reference.clone()).map_err(rs)?;
-                        run(plant, &mut m)
-                    }
-                    other => Err(bad(format!(
-                        "controller = {other:?}: expected an Mpc or one of \"mpc\", \"pd\", \"open-loop\""
-                    ))),
-                }
-            }
-            None => {
-                let mut m =
-                    brachia::control::Mpc::new(r.clone(), reference.clone(), Default::default())
-                        .map_err(rs)?;
-                run(plant, &mut m)
-            }
-        }
-    };
+    // the plant's lock first, then the controller's (the one order of two locks: crate::shared)
     let log = match plant.filter(|p| !p.is_none()) {
         Some(p) if p.is_instance_of::<ModelPlant>() => {
-            let mut p = p.cast::<ModelPlant>()?.try_borrow_mut()?;
-            with_controller(&mut p.plant)?
+            let p: &ModelPlant = p.cast::<ModelPlant>()?.get();
+            let mut cell = p.lock(py)?;
+            cell.usable("track")?;
+            let mut ctrl = controller_for(py, controller, &r, &reference)?;
+            let log = run_released(
+                py,
+                &mut cell.plant,
+                ctrl.get(),
+                &reference,
+                &r,
+                &settings,
+                noise,
+            );
+            cell.note_divergence();
+            log?
         }
         Some(p) if p.is_instance_of::<RapierPlant>() => {
-            let mut p = p.cast::<RapierPlant>()?.try_borrow_mut()?;
-            with_controller(&mut p.plant)?
+            let p: &RapierPlant = p.cast::<RapierPlant>()?.get();
+            let mut cell = p.lock(py)?;
+            cell.usable("track")?;
+            let mut ctrl = controller_for(py, controller, &r, &reference)?;
+            let log = run_released(
+                py,
+                &mut cell.plant,
+                ctrl.get(),
+                &reference,
+                &r,
+                &settings,
+                noise,
+            );
+            cell.note_divergence();
+            log?
         }
         Some(p) => {
             return Err(bad(format!(
@@ -501,16 +358,10 @@ pub(crate) fn track(
             )))
         }
         None => {
-            if reference.n != r.n() {
-                return Err(bad(format!(
-                    "reference: a trajectory of {} links for the {}-link robot",
-                    reference.n,
-                    r.n()
-                )));
-            }
             let x0 = [reference.q(0), reference.qd(0)].concat();
-            let mut p = brachia::sim::ModelPlant::new((*r).clone(), &x0);
-            with_controller(&mut p)?
+            let mut p = brachia::sim::ModelPlant::new(r.clone(), &x0);
+            let mut ctrl = controller_for(py, controller, &r, &reference)?;
+            run_released(py, &mut p, ctrl.get(), &reference, &r, &settings, noise)?
         }
     };
     let summary = log.summary();

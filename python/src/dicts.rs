@@ -1,0 +1,90 @@
+//! Dicts and other structured values between Python and the library: settings, tasks and obstacles
+//! go through JSON into the library's serde types (numpy arrays of any byte order become lists first,
+//! NaN and infinities are refused), and results come back as Python dicts and lists.
+
+use crate::convert::bad;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// JSON fallback for `json.dumps`: numpy arrays and scalars as Python lists and numbers.
+#[pyfunction]
+#[pyo3(name = "_jsonable")]
+pub(crate) fn jsonable<'py>(obj: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    obj.call_method0("tolist")
+}
+
+/// `obj` (dicts, lists, numbers, strings, numpy arrays) as JSON text; `name` names it in errors.
+pub(crate) fn to_json(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
+    let py = obj.py();
+    let json = py.import("json")?;
+    let kw = PyDict::new(py);
+    kw.set_item("default", wrap_pyfunction!(jsonable, py)?)?;
+    kw.set_item("allow_nan", false)?;
+    let s = json
+        .call_method("dumps", (obj,), Some(&kw))
+        .map_err(|e| bad(format!("{name}: cannot be read as settings data ({e})")))?;
+    s.extract::<String>()
+}
+
+/// A Python dict (or `None` = `{}`) with `kwargs` merged over it, as a serde value of type `T`;
+/// `name` names it in errors (serde's message names the unknown or mistyped field).
+pub(crate) fn settings_from<T: serde::de::DeserializeOwned>(
+    obj: Option<&Bound<'_, PyAny>>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+    name: &str,
+) -> PyResult<T> {
+    let value = merged(obj, kwargs, name)?;
+    from_value(value, name)
+}
+
+/// A serde value as `T`; `name` names it in errors.
+pub(crate) fn from_value<T: serde::de::DeserializeOwned>(
+    v: serde_json::Value,
+    name: &str,
+) -> PyResult<T> {
+    serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
+}
+
+/// A dict (or `None`) with `kwargs` merged over it, as a JSON object.
+pub(crate) fn merged(
+    obj: Option<&Bound<'_, PyAny>>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+    name: &str,
+) -> PyResult<serde_json::Value> {
+    let mut map = serde_json::Map::new();
+    if let Some(o) = obj.filter(|o| !o.is_none()) {
+        if !o.is_instance_of::<PyDict>() {
+            return Err(bad(format!(
+                "{name}: expected a dict of settings, got {}",
+                o.get_type().name()?
+            )));
+        }
+        map = object(o, name)?;
+    }
+    if let Some(kw) = kwargs {
+        map.extend(object(kw.as_any(), name)?);
+    }
+    Ok(serde_json::Value::Object(map))
+}
+
+/// A Python dict as a JSON object.
+fn object(
+    o: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<serde_json::Map<String, serde_json::Value>> {
+    let text = to_json(o, name)?;
+    match serde_json::from_str(&text) {
+        Ok(serde_json::Value::Object(m)) => Ok(m),
+        Ok(_) => Err(bad(format!("{name}: expected a dict of settings"))),
+        Err(e) => Err(bad(format!("{name}: {e}"))),
+    }
+}
+
+/// A serde-serialisable value as a Python object (dicts, lists, floats, strings, None).
+pub(crate) fn to_py<'py>(
+    py: Python<'py>,
+    v: &impl serde::Serialize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(v).map_err(|e| bad(format!("serialising a result: {e}")))?;
+    py.import("json")?.call_method1("loads", (text,))
+}
