@@ -75,6 +75,13 @@ pub struct JointSwingPlan {
     report: serde_json::Value,
 }
 
+impl JointSwingPlan {
+    /// `v` when a joint solve ran and `v` is finite, else `None` (never a NaN standing for "none").
+    fn joint(&self, v: f64) -> Option<f64> {
+        (self.inner.solve.is_some() && !self.inner.phases.is_empty() && v.is_finite()).then_some(v)
+    }
+}
+
 #[pymethods]
 impl JointSwingPlan {
     /// ``"converged"``, ``"joint_failed"`` or ``"reference_failed"``.
@@ -99,40 +106,43 @@ impl JointSwingPlan {
         self.inner.converged()
     }
 
-    /// The joint objective (sum of the swings' costs; NaN when no joint solve ran).
+    /// The joint objective (sum of the swings' costs; ``None`` when no joint solve ran).
     #[getter]
-    fn objective(&self) -> f64 {
-        self.inner.objective
+    fn objective(&self) -> Option<f64> {
+        self.joint(self.inner.objective)
     }
 
-    /// The same sum over the swing-by-swing plans (NaN when no joint solve ran).
+    /// The same sum over the swing-by-swing plans (``None`` when no joint solve ran).
     #[getter]
-    fn reference_objective(&self) -> f64 {
-        self.inner.reference_objective
+    fn reference_objective(&self) -> Option<f64> {
+        self.joint(self.inner.reference_objective)
     }
 
-    /// Paper eq. 18 summed over the joint plan's swings, J.
+    /// Paper eq. 18 summed over the joint plan's swings, J (``None`` when no joint solve ran).
     #[getter]
-    fn energy(&self) -> f64 {
-        self.inner.energy_j()
+    fn energy(&self) -> Option<f64> {
+        self.joint(self.inner.energy_j())
     }
 
-    /// Paper eq. 18 summed over the swing-by-swing plans, J.
+    /// Paper eq. 18 summed over the swing-by-swing plans that were made, J.
     #[getter]
     fn reference_energy(&self) -> f64 {
         self.inner.reference_energy_j()
     }
 
-    /// Largest defect of the joint plan's transitions (shooting, capture, grip switch), rad or rad/s.
+    /// Largest defect of the joint plan's transitions (shooting, capture, grip switch), rad or
+    /// rad/s (``None`` when no joint solve ran).
     #[getter]
-    fn max_defect(&self) -> f64 {
-        self.inner.max_defect
+    fn max_defect(&self) -> Option<f64> {
+        self.joint(self.inner.max_defect)
     }
 
-    /// The largest capture residuals over the switches and the last bar: ``(distance m, speed m/s)``.
+    /// The largest capture residuals over the switches and the last bar: ``(distance m, speed
+    /// m/s)`` (``None`` when no joint solve ran).
     #[getter]
-    fn capture_residual(&self) -> (f64, f64) {
-        self.inner.capture_residual()
+    fn capture_residual(&self) -> Option<(f64, f64)> {
+        let (d, v) = self.inner.capture_residual();
+        Some((self.joint(d)?, self.joint(v)?))
     }
 
     /// Iterations of the joint solve (``None`` when none ran).

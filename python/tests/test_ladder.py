@@ -94,3 +94,12 @@ def test_swing_reports_name_multiple_shooting_whatever_the_settings_say(robot, j
     assert j.objective == pytest.approx(joint.objective, rel=1e-9)
     for p in [ph.plan for ph in j.phases] + j.reference:
         assert p.report["transcription"] == "multiple-shooting", p.report["transcription"]
+
+
+def test_no_joint_solve_reports_none_not_nan(robot):
+    # two iterations are too few for the first swing-by-swing plan: no joint solve runs
+    j = brachia.plan_joint_swings(robot, X0, BARS, settings={**SETTINGS, "solver": {"max_iter": 2}})
+    assert j.status == "reference_failed" and not j.converged and j.phases == []
+    assert j.objective is None and j.reference_objective is None and j.energy is None
+    assert j.max_defect is None and j.capture_residual is None and j.iterations is None
+    assert np.isfinite(j.reference_energy)
