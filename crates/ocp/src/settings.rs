@@ -51,7 +51,7 @@ pub struct OcpSettings {
     /// each corrector aims at a longer step, moves the complementarity products of that trial point
     /// back into a band around mu (outliers only) by one more right-hand side with the same
     /// factorisation, and is kept only if the step to the boundary grows enough (docs/ocp.md,
-    /// section 6 and "Session 14"). Not in the restoration phase. Default 0.
+    /// sections 6 and 13). Not in the restoration phase. Default 0.
     pub centrality_correctors: usize,
 }
 

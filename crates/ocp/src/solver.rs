@@ -50,7 +50,7 @@ const SIGMA_MAX: f64 = 100.0;
 const RHO_RESTO: f64 = 1e3;
 // Centrality correctors (Gondzio 1996): the trial step's increase delta, the band
 // [beta_min mu, beta_max mu] of the complementarity products, and the fraction gamma of delta by
-// which the step to the boundary must grow for a corrector to be kept (docs/ocp.md, "Session 14").
+// which the step to the boundary must grow for a corrector to be kept (docs/ocp.md, sections 6 and 13).
 const CC_DELTA: f64 = 0.1;
 const CC_BETA_MIN: f64 = 0.1;
 const CC_BETA_MAX: f64 = 10.0;
@@ -549,7 +549,7 @@ impl OcpSolver {
     /// the solution rests on move with it. The states of stage k take those of stage `src(k)` if
     /// both have the same `nx`, the inputs likewise with `nu`; otherwise, and for `src(k) > K`,
     /// stage k keeps its own. The slacks of the stage inequalities, their duals and the
-    /// multipliers stay where they are (docs/ocp.md, "Session 12": moving them as well was
+    /// multipliers stay where they are (docs/ocp.md, section 13: moving them as well was
     /// measured slower on the robot's warm re-plans). No allocation.
     pub fn remap_bound_duals(&mut self, src: impl Fn(usize) -> usize) {
         let lay = &self.lay;

@@ -59,7 +59,7 @@ pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
 
 /// Default knot spacing, s: 30 ms shooting intervals of [`DEFAULT_SHOOTING_SUBSTEPS`] RK4 steps each
 /// (10 ms steps, the paper's knot spacing, with the torque held over 30 ms). The plan's own torques,
-/// replayed open loop, reach the bar to well under the 1 mm bar on every scenario and study cell, with
+/// replayed open loop, reach the bar to well under 1 mm on every scenario and study cell, with
 /// a third of the stages of 10 ms knots (docs/interpretations.md, docs/planner.md).
 pub const DEFAULT_KNOT_DT_S: f64 = 0.03;
 
@@ -224,8 +224,8 @@ pub struct PlannerSettings {
     /// once it is spent.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub swing_time_starts: usize,
-    /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
-    /// 1 mm replay bar; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
+    /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that replays
+    /// within 1 mm; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
     /// the number of intervals is `round(T / knot_dt)`.
     pub knot_dt: f64,
     /// Collocation rule.
