@@ -75,8 +75,8 @@ pub struct ReplanSettings {
     pub min_spacing_s: f64,
     /// No re-plan with less than this left before T, s. Default 0.15.
     pub min_remaining_s: f64,
-    /// Time from a re-plan's trigger to the switch of references, s; `None` (default): the measured
-    /// wall time of the re-plan (solve and plan building), which makes a run irreproducible.
+    /// Time from a re-plan's trigger to the switch of references, s; `None`: the measured wall time
+    /// of the re-plan (solve and plan building), which makes a run irreproducible. Default `None`.
     pub latency_s: Option<f64>,
     /// Knot interval of the re-planning mesh that [`Replanning::build`] plans on, s (the planner
     /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's

@@ -201,7 +201,7 @@ impl Default for Bounds {
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerSettings {
     /// Swing time: `"auto"` (2 T_freefall) or seconds. With `free_swing_time`, the start of the
-    /// search (clamped into that range).
+    /// search (clamped into that range). Default `auto`.
     pub swing_time: SwingTime,
     /// A free swing time `[t_min, t_max]`, s: T becomes a decision variable of the plan in that range,
     /// starting from `swing_time` clamped into it; the plan's `swing_time_s` is the optimum. Needs the
@@ -228,11 +228,11 @@ pub struct PlannerSettings {
     /// within 1 mm; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
     /// the number of intervals is `round(T / knot_dt)`.
     pub knot_dt: f64,
-    /// Collocation rule.
+    /// How the dynamics are imposed between knots. Default `multiple-shooting`.
     pub transcription: Transcription,
-    /// Diagonal of Q1, the weight on joint velocities (n values; empty = 0.01 each).
+    /// Diagonal of Q1, the weight on joint velocities (n values). Default empty: 0.01 each.
     pub q1_diag: Vec<f64>,
-    /// Diagonal of R1, the weight on torques (n - 1 values; empty = 1 each).
+    /// Diagonal of R1, the weight on torques (n - 1 values). Default empty: 1 each.
     pub r1_diag: Vec<f64>,
     /// Box bounds.
     pub bounds: Bounds,
@@ -246,8 +246,8 @@ pub struct PlannerSettings {
     pub output_dt: f64,
     /// Multiple-shooting settings (used by `transcription = "multiple-shooting"` only).
     pub shooting: ShootingSettings,
-    /// Initial guess with obstacles (`"continuation"`, default, or `"direct"`); see
-    /// [`crate::planning::guess`].
+    /// Initial guess with obstacles, `"continuation"` or `"direct"` (see
+    /// [`crate::planning::guess`]). Default `continuation`.
     pub obstacle_guess: crate::planning::guess::ObstacleGuess,
     /// When a cold plan without obstacles does not converge: plan it again with the torque limits
     /// widened and tighten them back by continuation, returning the plan within the limits when one is
