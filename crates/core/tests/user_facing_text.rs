@@ -97,7 +97,8 @@ fn scanned(path: &Path) -> bool {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
     matches!(ext, "md" | "rs" | "toml" | "py" | "pyi" | "txt" | "sh")
-        || (path.parent().is_some_and(|p| p.ends_with(".ci")) && ext.is_empty())
+        || (path.parent().and_then(Path::file_name) == Some(std::ffi::OsStr::new(".ci"))
+            && ext.is_empty())
         || name == "README"
 }
 
