@@ -27,7 +27,7 @@ def scenario() -> brachia.Scenario:
 
 @pytest.fixture(scope="session")
 def tracking_plan(scenario: brachia.Scenario) -> brachia.Plan:
-    """The V-B swing planned once per test session (about 2 s)."""
+    """The V-B swing planned once per pytest run (about 2 s)."""
     p = scenario.plan()
     assert p.converged, p.status
     return p

@@ -1,6 +1,6 @@
 """Planning and tracking through the bindings, against the CLI and against each other.
 
-The V-B swing (scenarios/tracking.toml) is planned once per session (conftest.py). With BRACHIA_BIN
+The V-B swing (scenarios/tracking.toml) is planned once per pytest run (conftest.py). With BRACHIA_BIN
 set to the built `brachia` binary, its `brachia plan` output must equal the Python plan's arrays.
 """
 

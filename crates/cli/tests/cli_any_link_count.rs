@@ -1,4 +1,4 @@
-//! Issue 11, "any n from 2 to 12 end to end", as a user runs it: the 3- and 6-link scenarios of
+//! Any n from 2 to 12 end to end, as a user runs it: the 3- and 6-link scenarios of
 //! scenarios/ (robots params/three-link.toml and params/six-link.toml) are planned with `brachia plan`
 //! and the plan folder is tracked with `brachia track` on the model plant and on the rapier plant, each
 //! command exiting 0 with files for n joints; a plan of one link count tracked with the other's scenario

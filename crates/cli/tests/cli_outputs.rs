@@ -1,5 +1,5 @@
-//! Issue 11, outputs that never destroy: `reproduce --out D` deleted the user's own `figures/` and
-//! `tracking/` in D, an interrupted reproduce left the old results half-removed. A run now writes into a
+//! Outputs that never destroy: `reproduce --out D` must not delete the user's own `figures/` or
+//! `tracking/` in D, nor an interrupted reproduce leave the old results half-removed. A run writes into a
 //! staging folder, renames it into place, and keeps every file its manifest does not list; these tests
 //! use the fast `simulate` (and an interrupted `reproduce`).
 

@@ -9,7 +9,7 @@ use common::brachia;
 fn quick_reproduction_writes_report_figures_and_run_folders() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("rep");
-    // issue 11: the user's own files in --out (with --force) and beside the results page survive
+    // the user's own files in --out (with --force) and beside the results page survive
     let mine = [
         (out.join("figures/mine.png"), "my figure"),
         (out.join("tracking/notes.txt"), "my notes"),
@@ -120,7 +120,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
             < 0.01
     );
     assert_eq!(s["parameter_study"]["grid"], serde_json::json!([3, 3]));
-    // issue 14: the quick mode traverses the first three bars of the even ladder
+    // the quick mode traverses the first three bars of the even ladder
     assert_eq!(s["ladder"]["completed"], true, "{}", s["ladder"]);
     assert_eq!(s["ladder"]["swings"].as_array().unwrap().len(), 2);
     assert!(md.contains("## E. A ladder traverse"));
@@ -141,7 +141,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
     redraw_from_the_run_folders(&out, &md);
 }
 
-/// Issue 12: `brachia report` redraws every figure and REPORT.md of the reproduction from its run folders
+/// `brachia report` redraws every figure and REPORT.md of the reproduction from its run folders
 /// (no planning, no simulation): figures deleted, REPORT.md comes back byte-identical, every linked
 /// figure is back, and the user's file among the figures is kept.
 fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {

@@ -110,7 +110,7 @@ fn bad_input_exits_2_names_the_problem_and_writes_nothing() {
     );
 }
 
-/// Issue 11: any link count from 2 to 12 works end to end; the 3- and 6-link robots of params/ simulate
+/// Any link count from 2 to 12 works end to end; the 3- and 6-link robots of params/ simulate
 /// with energy conserved.
 #[test]
 fn three_and_six_link_robots_simulate() {

@@ -74,7 +74,7 @@ fn mpc_tracks_the_paper_swing_on_the_model_plant() {
     let r2 = report(&out2);
     assert_eq!(r2["controller"], "open-loop");
     // open loop on the exact model: the plan's mean torque held over each 1 ms period replays the
-    // plan (within its 1 mm replay bar); the MPC, starting on the plan, stays within it too
+    // plan (its replay within 1 mm); the MPC, starting on the plan, stays within it too
     let open = r2["ee_final_error_m"].as_f64().unwrap();
     let mpc = r["ee_final_error_m"].as_f64().unwrap();
     assert!(open < 1e-3 && mpc < 1e-3, "open loop {open} m, MPC {mpc} m");

@@ -1,4 +1,4 @@
-//! Issue 11: the corpus of hostile inputs (`tests/hostile/cases.txt`, files beside it). Every case is a
+//! The corpus of hostile inputs (`tests/hostile/cases.txt`, files beside it). Every case is a
 //! bad input that must be refused fast and cleanly: the binary runs under a time limit and a memory cap,
 //! and each case asserts no panic or abort, the expected exit code, a one-line refusal naming the field
 //! (and the file), no output folder and no staging folder left behind, and no user file touched.
@@ -11,7 +11,7 @@
 //! `sigint:MS` sends SIGINT (Ctrl-C) after MS ms; `fsize:BLOCKS` runs under `ulimit -f BLOCKS`, so that
 //! writing the results fails (an I/O failure, exit 3).
 //!
-//! Bars (issue 11), measured per case from the child's own resource use (`wait4`): every refusal
+//! Limits, measured per case from the child's own resource use (`wait4`): every refusal
 //! (exit 2) uses at most 1 s of CPU time and 200 MB of peak resident memory; every case ends within its
 //! time limit (10 s; 60 s for a case interrupted by SIGINT). The test prints the medians and maxima.
 
@@ -532,7 +532,7 @@ fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
     if !left.is_empty() {
         return fail(format!("left behind: {left:?}"));
     }
-    // the bars of a refusal (issue 11): CPU time and peak memory of the child itself
+    // the limits of a refusal: CPU time and peak memory of the child itself
     if case.exit == 2 {
         if o.cpu_s > REFUSAL_CPU_S {
             return fail(format!(

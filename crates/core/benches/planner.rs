@@ -128,7 +128,7 @@ fn report(robot: &Robot) {
         }
         let p = last.unwrap();
         assert!(p.converged(), "{name}: {:?}", p.status);
-        // the accuracy bar: the replayed torques reach the bar within 1 mm
+        // the accuracy rule: the replayed torques reach the bar within 1 mm
         assert!(
             p.replay_ee_error_m <= 1e-3,
             "{name}: open-loop replay misses the bar by {} m",
@@ -209,7 +209,7 @@ fn report(robot: &Robot) {
         eprintln!(
             "plan/tracking multiple-shooting/ocp knot_dt {:.0} ms substeps {substeps}: median {:.1} ms \
              ({} intervals, {} iterations, converged {}), objective {:.6} ({:+.2e} relative to 10 ms), \
-             replay EE error {:.3e} m (bar 1e-3), hermite-simpson pounce / this {:.1}",
+             replay EE error {:.3e} m (at most 1e-3), hermite-simpson pounce / this {:.1}",
             knot_dt * 1e3,
             m * 1e3,
             p.layout.intervals,

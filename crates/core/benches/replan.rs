@@ -1,6 +1,6 @@
 //! Warm re-plans of the tracking swing (`scenarios/tracking.toml`: params/paper.toml, T auto ~ 2.23 s,
 //! multiple shooting on the re-planning mesh [`REPLAN_KNOT_DT`]: 40 ms knots, 56 intervals, which meets
-//! the 1 mm replay bar; `BRACHIA_REPLAN_KNOT_DT=0.03` for session 16's 30 ms mesh, 0.01 for the 10 ms
+//! the 1 mm replay accuracy; `BRACHIA_REPLAN_KNOT_DT=0.03` for the 30 ms mesh, 0.01 for the 10 ms
 //! one): from the planned state at t = 0.6 s disturbed by uniform +-0.1 rad
 //! and +-0.5 rad/s on each joint (seeded, 100 draws, those inside the bounds), re-plan to the bar over
 //! the remaining time.
@@ -25,7 +25,7 @@ use brachia_ocp::{OcpSettings, Primal, WarmDuals};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::{Duration, Instant};
 
-/// The bar's re-planning mesh ([`REPLAN_KNOT_DT`] unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
+/// The benchmark's re-planning mesh ([`REPLAN_KNOT_DT`] unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
 fn settings() -> (PlannerSettings, NlpSettings) {
     replan_settings(
         std::env::var("BRACHIA_REPLAN_KNOT_DT")

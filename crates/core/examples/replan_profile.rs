@@ -20,7 +20,7 @@
 //! iterations, objective, status and end-effector miss (to compare optima draw by draw), and below it
 //! the solver's factorisations, regularisations and time split ([`SwingPlanner::last_stats`]);
 //! `BRACHIA_REPLAN_REPLAY=1` replays every re-plan's held torques open loop (untimed) and prints the
-//! largest end-effector miss (the bar's accuracy rule: <= 1 mm); `BRACHIA_REPLAN_GAP_MS=t` idles t ms
+//! largest end-effector miss (the accuracy rule: <= 1 mm); `BRACHIA_REPLAN_GAP_MS=t` idles t ms
 //! before each re-plan (untimed), as a closed loop does between re-plans.
 //!
 //! Conventions: rad, rad/s, m, s; q1 absolute from +x, the rest relative.

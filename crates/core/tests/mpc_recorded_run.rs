@@ -1,9 +1,9 @@
 //! The MPC computes the same torques as the recorded run: `data/mpc_recorded_run.csv` holds the
 //! torques (N m) applied by seven MPC variants at every 10th of 1000 control calls (1 kHz), recorded
-//! at commit be4412c, before the MPC step was made faster (session 6). Every rewrite of the step
+//! with the MPC step written plainly, before it was made faster. Every rewrite of the step
 //! (linearisation, discretisation, condensing, QP) must reproduce them to [`TOL`] (1e-8 N m: the
 //! rounding of reordered sums, which moved the worst-conditioned variant, `model_prediction`, by
-//! 3.4e-9 N m in session 10's constant-size step; a change of the mathematics moves torques by
+//! 3.4e-9 N m in the constant-size step; a change of the mathematics moves torques by
 //! orders of magnitude more, and `tests/mpc_condensing.rs` checks the condensed QP itself).
 //!
 //! The measured states do not depend on the MPC: the model plant (RK4, 1 ms) runs open loop under the

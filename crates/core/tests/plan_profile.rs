@@ -1,4 +1,4 @@
-//! Regression (issue 10): what the plan hands on between its collocation points.
+//! Regression: what the plan hands on between its collocation points.
 //!
 //! - `replay_ee_error_m` replayed torques interpolated linearly between 1 ms samples, not the profile
 //!   the transcription assumed (Euler: held; trapezoidal: linear; Hermite-Simpson: quadratic). It now

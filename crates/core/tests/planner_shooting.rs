@@ -253,7 +253,7 @@ fn the_defaults_plan_by_multiple_shooting_on_ocp_within_the_replay_bar() {
         p.layout.intervals,
         (p.swing_time_s / s.knot_dt).round() as usize
     );
-    // the accuracy bar of the default mesh: the independent replay of the plan's torques misses the
+    // the accuracy rule of the default mesh: the independent replay of the plan's torques misses the
     // bar by at most 1 mm (measured 5e-7 m, docs/benchmarks.md)
     assert!(p.replay_ee_error_m < 1e-4, "replay {}", p.replay_ee_error_m);
 }

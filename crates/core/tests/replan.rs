@@ -73,7 +73,7 @@ fn warm_replans_from_disturbed_states_converge_reach_the_bar_and_beat_cold_start
         let c = planner.replan_cold(t_now, x).unwrap();
         assert!(c.converged(), "cold {:?} from {x:?}", c.status);
         // the same local optimum, or (the cold start is the planner's IK guess, not the plan being
-        // tracked) another one: since session 11 (end-point self-collision rows, widened re-plan bounds) one of these
+        // tracked) another one: one of these
         // draws goes cold to a lower optimum (5.352 against 6.487; no self-collision row is near
         // active, it is the barrier path that differs) while warm stays in the tracked plan's basin
         if (c.objective - w.objective).abs() <= 1e-5 * w.objective.abs().max(1.0) {
@@ -183,8 +183,8 @@ fn replan_refuses_misuse() {
 /// A checkpoint taken right after its solve puts the planner back exactly: a warm re-plan after a
 /// restore is the same, bit for bit, whether the planner re-planned (warm and cold, from other states)
 /// in between or not; the restore returns the checkpoint's own outcome and `current_plan` is the
-/// checkpoint's plan. (Before session 15 a restore re-solved the checkpoint's problem from whatever
-/// multipliers the last solve left, so a re-plan's iterations depended on what came before it.)
+/// checkpoint's plan. (A restore that re-solved the checkpoint's problem from whatever multipliers the
+/// last solve left would make a re-plan's iterations depend on what came before it.)
 #[test]
 fn a_restore_puts_the_planner_back_exactly_whatever_was_solved_in_between() {
     let robot = Robot::paper();

@@ -1,4 +1,4 @@
-//! Regression: report.json under-reported the solver's work (issue 10). pounce's scale audit
+//! Regression: report.json under-reported the solver's work. pounce's scale audit
 //! re-solves a converged problem from its answer and its statistics then describe one pass only, and
 //! the planner's retry with the adaptive barrier dropped its iterations and time when it was not
 //! adopted (6 iterations / 0.48 s reported for a run of 57 iterations / 6 s). Every pass and every

@@ -1,4 +1,4 @@
-//! Tracking under sensor noise, delay and motor lag (issue 13): the Kalman-filter wrapper
+//! Tracking under sensor noise, delay and motor lag: the Kalman-filter wrapper
 //! (`Estimated`), the MPC's input-rate penalty, delay prediction, and the TVLQR baseline, on the RK4
 //! model plant (paper robot, +-5 N m) tracking a feasible 1.5 s reference.
 //!
@@ -70,9 +70,9 @@ fn mpc_kf(robot: &Robot, tr: &Trajectory, est: EstimatorSettings) -> Estimated<M
     Estimated::new(mpc, robot.clone(), tr.clone(), est, 1e-3).unwrap()
 }
 
-/// Issue 13's bar under sigma_q = 0.005 rad (seeded): RMS(tau - tau_plan) <= 0.2 N m, no jump above
+/// The requirement under sigma_q = 0.005 rad (seeded): RMS(tau - tau_plan) <= 0.2 N m, no jump above
 /// 1 N m between 1 ms steps, final EE error <= 5 mm; the MPC without filter and rate penalty fails
-/// the same bar (the test can fail).
+/// the same requirement (the test can fail).
 #[test]
 fn kalman_filter_removes_the_torque_chatter_under_sensor_noise() {
     let robot = paper_robot(5.0);
@@ -209,7 +209,7 @@ fn estimator_settings_are_validated() {
     }
 }
 
-/// Issue 13's bar: with a 5 ms actuation delay and a 10 ms motor time constant the MPC ends within
+/// With a 5 ms actuation delay and a 10 ms motor time constant the MPC ends within
 /// 2 cm (with and without the prediction); at 40 ms of delay only the MPC that predicts over the
 /// known delay stays on the plan. Plants: the `disturb` wrappers `ActuationDelay` and `MotorLag`.
 #[test]

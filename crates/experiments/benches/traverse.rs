@@ -1,13 +1,13 @@
 //! One traverse of the irregular ladder (`scenarios/ladder-irregular.toml`: the paper robot, 6 bars,
 //! spacing 0.7-1.2 m, heights +-0.2 m; every swing planned from the state the last one left, multiple
 //! shooting on backend `ocp` at 30 ms knots, tracked by the MPC on the model plant, the grip switched at
-//! every bar), **planning included**: the issue's bar "one traverse of the irregular ladder runs faster
-//! than real time on 2 cores".
+//! every bar), **planning included**: whether one traverse of the irregular ladder runs faster than real time
+//! on 2 cores.
 //!
 //! A manual pass runs the traverse once and prints its simulated duration (the sum of the tracked
 //! swings' durations) beside the wall time and their ratio, the real-time factor (> 1 is faster than
 //! real time), with the planning and tracking shares; then the criterion group times whole traverses
-//! (10 samples). No run folder is written (figures and the GIF are not part of the bar).
+//! (10 samples). No run folder is written (figures and the GIF are not timed).
 //! `BRACHIA_TRAVERSE_BENCH_ONCE=1` runs only the manual pass (for `valgrind --tool=callgrind`, with
 //! `RAYON_NUM_THREADS=1`).
 //!

@@ -111,7 +111,7 @@ impl BaseParams {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ParameterStudySettings {
-    /// The robot scaled to every r2. Default the bundled Table I.
+    /// The robot scaled to every r2. Default `paper` (the bundled Table I).
     pub base_params: BaseParams,
     /// Length of each arm, `L1 + L2 = L3 + L4`, m. Default 0.71.
     pub arm_length_m: f64,
@@ -125,7 +125,7 @@ pub struct ParameterStudySettings {
     /// Target bar, m. Default (1, 0).
     pub target: [f64; 2],
     /// r2 values whose swing at their own T is kept as a 1 ms trajectory for stick diagrams (Fig. 4b).
-    /// Default 0.2 and 0.8 (a short and a long lower arm).
+    /// Default [0.2, 0.8] (a short and a long lower arm).
     pub stick_r2: Vec<f64>,
     /// Warm-start each cell from its converged neighbour in the row. Default true.
     pub warm_start: bool,

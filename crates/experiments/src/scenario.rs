@@ -119,12 +119,12 @@ pub struct TrackingSettings {
     pub control_dt: f64,
     /// Sensor noise on q (rad) and qd (rad/s), standard deviations. Default 0.
     pub noise_q_std: f64,
-    /// See `noise_q_std`.
+    /// See `noise_q_std`. Default 0.
     pub noise_qd_std: f64,
-    /// Noise seed.
+    /// Noise seed. Default 0.
     pub seed: u64,
     /// Online re-planning around the MPC (see `brachia::control::ReplanSettings`,
-    /// docs/replanning.md); absent: none. Only with `controller = "mpc"`.
+    /// docs/replanning.md); absent: none. Only with `controller = "mpc"`. Default none.
     pub replan: Option<ReplanSettings>,
 }
 
@@ -151,7 +151,7 @@ impl Default for TrackingSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlantSettings {
-    /// Plant kind. Default the RK4 model.
+    /// Plant kind. Default `model` (the RK4 model).
     pub kind: PlantKind,
     /// Factor on every link mass and inertia of the plant (1 = the planner's model). Default 1.
     pub mass_scale: f64,

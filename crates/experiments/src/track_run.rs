@@ -56,8 +56,8 @@ pub struct TrackReport {
     /// The tracked plan's report.
     pub plan: PlanReport,
     /// Online re-planning (`[tracking] replan`): whether it ran, and every re-plan (trigger time,
-    /// predicted miss, status, iterations, solve and wall time, latency, switch time). Absent in
-    /// reports written before re-planning existed.
+    /// predicted miss, status, iterations, solve and wall time, latency, switch time). False when
+    /// a report read back lacks it (one written by an earlier version).
     #[serde(default)]
     pub replanning: bool,
     /// Number of re-plans (`replans.len()`).
@@ -69,7 +69,8 @@ pub struct TrackReport {
     /// Whether the swing ends at the bar: the EE's final distance to the reference's final point
     /// within the robustness benchmark's success radius ([`crate::benchmark::SUCCESS_RADIUS_M`],
     /// 2 cm) and the closed loop not diverged. A run that misses is still a trustworthy run (exit 0);
-    /// this is its verdict. Absent in reports written before session 20.
+    /// this is its verdict. `brachia track` always writes it; `None` when a report read back lacks it
+    /// (one written by an earlier version).
     #[serde(default)]
     pub reaches_bar: Option<bool>,
     /// The closed loop's metrics.

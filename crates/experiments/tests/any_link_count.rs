@@ -1,4 +1,4 @@
-//! Issue 11: "any link count 2..12 works end to end". A 3-link and a 6-link robot (params/three-link.toml,
+//! Any link count 2..12 works end to end. A 3-link and a 6-link robot (params/three-link.toml,
 //! params/six-link.toml) plan their swing and are tracked by the MPC and the PD baseline on the model plant
 //! and by the MPC on the rapier plant, with the per-link default weights and gains (their scenarios have no
 //! `[tracking]` section). Before the fix the 4-link MPC and PD defaults made every other link count fail

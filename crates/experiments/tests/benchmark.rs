@@ -1,4 +1,4 @@
-//! Torque timing (issue 13 item 6) and the robustness benchmark (item 5): open loop on the exact model
+//! Torque timing and the robustness benchmark: open loop on the exact model
 //! plant replays a plan to the plan's own accuracy; the plant clock counts steps; `[disturbances]` is
 //! validated; the benchmark is deterministic for any number of worker threads.
 //!

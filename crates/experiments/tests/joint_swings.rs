@@ -1,4 +1,4 @@
-//! Issue 14, the joint multi-swing plan (docs/ladders.md, "The joint multi-swing plan"): two swings of
+//! The joint multi-swing plan (docs/ladders.md, "The joint multi-swing plan"): two swings of
 //! the even ladder (the paper's robot, `scenarios/ladder-even.toml` as written) planned as one problem
 //! sharing the switch state, against the same swings planned one by one: the joint solve converges from
 //! the swing-by-swing plans put end to end and lowers their summed objective, every capture holds to the

@@ -1,4 +1,4 @@
-//! Issue 14, ladders: a 3-link and a 5-link robot traverse a short even ladder on the model plant (plan
+//! Ladders: a 3-link and a 5-link robot traverse a short even ladder on the model plant (plan
 //! every swing from the state the last left, MPC, capture, grip switch, re-rooted swing), and bars out
 //! of reach or too close are refused before any planning, naming the bar.
 //!

@@ -198,7 +198,7 @@ fn small_grid_runs_and_fills_the_run_folder() {
 /// from the planner's own guess within 80 iterations (it stops at the cap), but it does warm-started
 /// from the converged r2 = 0.8 centre, its time axis rescaled (41 iterations). The study solves it
 /// that way: the cell converges, says `warm-from-row`, counts both attempts, and its plan meets the
-/// replay bar of its own mesh. (With self-collision on, the r2 = 0.9 centre does not converge on this
+/// replay accuracy of its own mesh (1 mm). (With self-collision on, the r2 = 0.9 centre does not converge on this
 /// mesh even so: docs/parameter-study.md.)
 #[test]
 fn a_centre_that_fails_cold_is_continued_from_the_neighbouring_row() {
@@ -374,7 +374,7 @@ fn bad_settings_name_the_field() {
 
 #[test]
 fn a_cancelled_study_stops_between_solves_and_returns_nothing() {
-    // issue 11: a cancel flag set from the progress callback after the first solve; the rest of the
+    // a cancel flag set from the progress callback after the first solve; the rest of the
     // grid (3 x 2 cells, one row per worker) is skipped, the study ends with Cancelled
     let s = quick(vec![0.3, 0.5, 0.7], vec![0.0, 0.2]);
     let cancel = CancelToken::new();
@@ -437,8 +437,8 @@ fn a_cancelled_reproduction_writes_nothing() {
     assert_eq!(names, vec!["rep".to_string()]);
 }
 
-/// The 4-link rule as it was before it was generalised to n links (session 5), kept here to pin the
-/// generalised rule to it bit for bit.
+/// The scaling rule written for 4 links alone, an independent statement that pins the n-link rule to it
+/// bit for bit.
 fn four_link_rule(base: &RobotParams, r2: f64, arm: f64) -> RobotParams {
     let (lower, upper) = (r2 * arm, (1.0 - r2) * arm);
     let mut p = base.clone();

@@ -1,4 +1,4 @@
-//! Issue 14 on the rapier plant: a short ladder traverse against the physics engine, where every
+//! Ladders on the rapier plant: a short ladder traverse against the physics engine, where every
 //! capture rebuilds the multibody rooted at the bar the hand caught (docs/ladders.md, "The rapier
 //! plant"); a forced miss ends the run with a status naming the swing and the miss; traverse
 //! `[disturbances]` take only the per-link factors.
@@ -245,7 +245,7 @@ fn a_ball_on_swing_1_is_hit_by_the_swinging_hand_on_rapier() {
     assert!(r["ball_contact_events"].as_u64().unwrap() > 0);
 }
 
-/// Issue 14's disturbed-traverse bar on a cut of `scenarios/ladder-{even,irregular}-disturbed-rapier.toml`
+/// The disturbed traverse on a cut of `scenarios/ladder-{even,irregular}-disturbed-rapier.toml`
 /// (every link mass +10 %, a ball on swing 1, MPC with online re-planning): the cut completes with
 /// every capture within 2 cm, the ball is hit by the chain during swing 1 and re-planned after; the
 /// same cut without re-planning misses swing 0 (the mass mismatch alone).

@@ -1,4 +1,4 @@
-//! Issue 12: run folders read back. A plan folder and a track folder (rapier plant, a ball that is hit:
+//! Run folders read back. A plan folder and a track folder (rapier plant, a ball that is hit:
 //! contacts and obstacle tracks) are written, read with `PlanFolder::read` / `TrackFolder::read`, and
 //! the data must equal what was written (to the CSVs' 9 decimals, times to 6); damaged files are refused
 //! with the file, the field and the value named.

@@ -35,8 +35,8 @@ pub struct OcpSettings {
     /// Relative distance by which a cold initial point is pushed inside its bounds (IPOPT's
     /// `bound_push` and `bound_frac`), in (0, 0.5). Default 1e-2.
     pub bound_push: f64,
-    /// The same for a warm start (small: keep the active set of the stored solution), in (0, 0.5).
-    /// Default 1e-9.
+    /// The same for a warm start, in (0, 0.5). Default 1e-2; a small value (1e-9) keeps the active
+    /// set of the stored solution (the robot's warm re-plans take 1e-9).
     pub warm_bound_push: f64,
     /// What a warm start does with the stored multipliers. Default [`WarmDuals::Reset`].
     pub warm_duals: WarmDuals,
@@ -51,7 +51,7 @@ pub struct OcpSettings {
     /// each corrector aims at a longer step, moves the complementarity products of that trial point
     /// back into a band around mu (outliers only) by one more right-hand side with the same
     /// factorisation, and is kept only if the step to the boundary grows enough (docs/ocp.md,
-    /// section 6 and "Session 14"). Not in the restoration phase. Default 0.
+    /// sections 6 and 13). Not in the restoration phase. Default 0.
     pub centrality_correctors: usize,
 }
 

@@ -453,7 +453,7 @@ fn stage_sizes_that_vary_along_the_horizon_match_clarabel() {
 fn centrality_correctors_shorten_convex_solves_to_the_same_optimum() {
     // Gondzio's correctors (OcpSettings::centrality_correctors) lengthen the steps cut by the
     // fraction to the boundary; on convex QPs with active bounds they save iterations (docs/ocp.md,
-    // section 6). The robot-sized random QP of examples/iterations.rs (K = 223, nx = 8, nu = 3,
+    // sections 6 and 12). The robot-sized random QP of examples/iterations.rs (K = 223, nx = 8, nu = 3,
     // two stage rows, four terminal rows) and the random suite, against clarabel.
     let solve_with = |p: &mut LqProblem, k: usize| {
         let mut solver = OcpSolver::new(&p.dims.clone()).unwrap();

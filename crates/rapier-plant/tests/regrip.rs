@@ -1,4 +1,4 @@
-//! Grip switching on the rapier plant (issue 14): at capture the chain is rebuilt in the same world,
+//! Grip switching on the rapier plant: at capture the chain is rebuilt in the same world,
 //! rooted by a new joint at the hand that caught the bar, with the re-rooted chain's parameters and
 //! state from the grasp-switch map of the core crate (`brachia::model::switch_grip`). The switch keeps
 //! every joint's world position (to `REGRIP_TOLERANCE_M`, in fact ~1e-15 m), stops the hand when it

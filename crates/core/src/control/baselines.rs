@@ -71,9 +71,11 @@ impl Controller for OpenLoop {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PdSettings {
-    /// Proportional gains on the actuated joint angles q2..qn (n - 1 values), N m/rad. Default 20.
+    /// Proportional gains on the actuated joint angles q2..qn (n - 1 values), N m/rad. Default empty:
+    /// 20 each, filled when the controller is built.
     pub kp: Vec<f64>,
-    /// Derivative gains on qd2..qdn (n - 1 values), N m s/rad. Default 1.
+    /// Derivative gains on qd2..qdn (n - 1 values), N m s/rad. Default empty: 1 each, filled when the
+    /// controller is built.
     pub kd: Vec<f64>,
     /// Add the planned torque as a feed-forward term. Default true.
     pub feedforward: bool,

@@ -85,18 +85,20 @@ pub struct MpcSettings {
     pub horizon: usize,
     /// MPC step, s (the control period is set by the caller; default 0.02 s, so the horizon spans 0.4 s).
     pub dt_mpc: f64,
-    /// Diagonal of the state weight Q2 (2n values: q then qd; 1/rad^2, s^2/rad^2). Default
-    /// `[100 x n, 1 x n]`.
+    /// Diagonal of the state weight Q2 (2n values: q then qd; 1/rad^2, s^2/rad^2). Default empty:
+    /// `[100 x n, 1 x n]` for n links, filled when the controller is built.
     pub q_diag: Vec<f64>,
     /// Diagonal of the EE weight W (2 values, 1/m^2). Default `[2000, 2000]`.
     pub w_diag: Vec<f64>,
-    /// Diagonal of the torque weight R2 (n - 1 values, 1/(N m)^2). Default `[0.01 x (n-1)]`.
+    /// Diagonal of the torque weight R2 (n - 1 values, 1/(N m)^2). Default empty: `[0.01 x (n-1)]`,
+    /// filled when the controller is built.
     pub r_diag: Vec<f64>,
     /// Factor on Q2 and W at the last stage (>= 0). Default 5.
     pub terminal_factor: f64,
     /// Diagonal of the input-rate weight Rd (n - 1 values, 1/(N m)^2; >= 0): adds
     /// `sum_{k=0}^{N-1} |u_k - u_{k-1}|^2_Rd` with `u_{-1}` the torque applied at the previous call.
-    /// Default `[0.1 x (n-1)]` (empty = the default; zeros switch the penalty off).
+    /// Default empty: `[0.1 x (n-1)]`, filled when the controller is built (zeros switch the penalty
+    /// off).
     pub rate_diag: Vec<f64>,
     /// Discretisation over `dt_mpc`. Default [`Discretization::Zoh`].
     pub discretization: Discretization,

@@ -1,4 +1,4 @@
-//! Online re-planning around a tracking controller (issue 13 item 3; docs/replanning.md).
+//! Online re-planning around a tracking controller (docs/replanning.md).
 //!
 //! [`Replanning`] holds a persistent planner ([`SwingPlanner`], usually on a coarse mesh) and a
 //! tracking controller (usually the [`crate::control::Mpc`]). Every `check_period_s` it predicts the
@@ -75,12 +75,12 @@ pub struct ReplanSettings {
     pub min_spacing_s: f64,
     /// No re-plan with less than this left before T, s. Default 0.15.
     pub min_remaining_s: f64,
-    /// Time from a re-plan's trigger to the switch of references, s; `None` (default): the measured
-    /// wall time of the re-plan (solve and plan building), which makes a run irreproducible.
+    /// Time from a re-plan's trigger to the switch of references, s; `None`: the measured wall time
+    /// of the re-plan (solve and plan building), which makes a run irreproducible. Default `None`.
     pub latency_s: Option<f64>,
     /// Knot interval of the re-planning mesh that [`Replanning::build`] plans on, s (the planner
     /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's
-    /// swing planned at 30 ms knots replays within the 1 mm bar).
+    /// swing planned at 30 ms knots replays within 1 mm of the bar).
     pub knot_dt_s: f64,
     /// How the miss is predicted. Default [`MissPrediction::Feedback`].
     pub prediction: MissPrediction,

@@ -43,11 +43,13 @@ pub struct TvlqrSettings {
     /// Grid spacing of the gain schedule, s. Default 0.005.
     pub dt: f64,
     /// Diagonal of Q (2n values: q then qd; 1/(rad^2 s), 1/((rad/s)^2 s)). Default
-    /// `[5000 x n, 50 x n]` (the MPC's per-step weights divided by its 20 ms step).
+    /// empty: `[5000 x n, 50 x n]` for n links (the MPC's per-step weights divided by its 20 ms step),
+    /// filled when the controller is built.
     pub q_diag: Vec<f64>,
     /// Diagonal of the EE weight W (2 values, 1/(m^2 s)). Default `[1e5, 1e5]`.
     pub w_diag: Vec<f64>,
-    /// Diagonal of R (n - 1 values, 1/((N m)^2 s), > 0). Default `[0.5 x (n - 1)]`.
+    /// Diagonal of R (n - 1 values, 1/((N m)^2 s), > 0). Default empty: `[0.5 x (n - 1)]`, filled
+    /// when the controller is built.
     pub r_diag: Vec<f64>,
     /// Terminal weight as a time: `S_N = terminal_s Qt_N`, s (>= 0). Default 0.1.
     pub terminal_s: f64,

@@ -23,7 +23,7 @@ use std::sync::Arc;
 
 /// The clearance constraints the planner imposes: the exact surface distance, not its square,
 /// `g = sqrt(d^2 + eps^2) - (r_a + r_b + margin) >= 0` for every row of a [`ClearanceFn`] (the paper's
-/// eq. (12) compares a squared distance with a length; the issue asks for `d >= R`). The squared form
+/// eq. (12) compares a squared distance with a length; what is meant is `d >= R`). The squared form
 /// `d^2 - R^2` has a vanishing gradient when a link passes through an obstacle's centre (`grad d^2 =
 /// 2 d grad d`), which stalls the solver's restoration phase on initial guesses that cut through an
 /// obstacle; `sqrt(d^2 + eps^2)` keeps a unit-size gradient everywhere and differs from `d` by less

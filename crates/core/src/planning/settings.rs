@@ -59,7 +59,7 @@ pub const MAX_SHOOTING_SUBSTEPS: usize = 100;
 
 /// Default knot spacing, s: 30 ms shooting intervals of [`DEFAULT_SHOOTING_SUBSTEPS`] RK4 steps each
 /// (10 ms steps, the paper's knot spacing, with the torque held over 30 ms). The plan's own torques,
-/// replayed open loop, reach the bar to well under the 1 mm bar on every scenario and study cell, with
+/// replayed open loop, reach the bar to well under 1 mm on every scenario and study cell, with
 /// a third of the stages of 10 ms knots (docs/interpretations.md, docs/planner.md).
 pub const DEFAULT_KNOT_DT_S: f64 = 0.03;
 
@@ -201,7 +201,7 @@ impl Default for Bounds {
 #[serde(deny_unknown_fields, default)]
 pub struct PlannerSettings {
     /// Swing time: `"auto"` (2 T_freefall) or seconds. With `free_swing_time`, the start of the
-    /// search (clamped into that range).
+    /// search (clamped into that range). Default `auto`.
     pub swing_time: SwingTime,
     /// A free swing time `[t_min, t_max]`, s: T becomes a decision variable of the plan in that range,
     /// starting from `swing_time` clamped into it; the plan's `swing_time_s` is the optimum. Needs the
@@ -224,15 +224,15 @@ pub struct PlannerSettings {
     /// once it is spent.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub swing_time_starts: usize,
-    /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that meets the
-    /// 1 mm replay bar; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
+    /// Knot spacing, s (default [`DEFAULT_KNOT_DT_S`] = 0.03, the multiple-shooting mesh that replays
+    /// within 1 mm; the paper's 10 ms knots are `0.01`, the value to give with a collocation rule);
     /// the number of intervals is `round(T / knot_dt)`.
     pub knot_dt: f64,
-    /// Collocation rule.
+    /// How the dynamics are imposed between knots. Default `multiple-shooting`.
     pub transcription: Transcription,
-    /// Diagonal of Q1, the weight on joint velocities (n values; empty = 0.01 each).
+    /// Diagonal of Q1, the weight on joint velocities (n values). Default empty: 0.01 each.
     pub q1_diag: Vec<f64>,
-    /// Diagonal of R1, the weight on torques (n - 1 values; empty = 1 each).
+    /// Diagonal of R1, the weight on torques (n - 1 values). Default empty: 1 each.
     pub r1_diag: Vec<f64>,
     /// Box bounds.
     pub bounds: Bounds,
@@ -246,8 +246,8 @@ pub struct PlannerSettings {
     pub output_dt: f64,
     /// Multiple-shooting settings (used by `transcription = "multiple-shooting"` only).
     pub shooting: ShootingSettings,
-    /// Initial guess with obstacles (`"continuation"`, default, or `"direct"`); see
-    /// [`crate::planning::guess`].
+    /// Initial guess with obstacles, `"continuation"` or `"direct"` (see
+    /// [`crate::planning::guess`]). Default `continuation`.
     pub obstacle_guess: crate::planning::guess::ObstacleGuess,
     /// When a cold plan without obstacles does not converge: plan it again with the torque limits
     /// widened and tighten them back by continuation, returning the plan within the limits when one is

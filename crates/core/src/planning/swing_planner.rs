@@ -257,7 +257,7 @@ impl SwingPlanner {
         // the stored bound duals (the equality multipliers re-estimated at the moved start), a
         // small barrier parameter and bound push, the adaptive barrier update: the fewest
         // iterations of the variants measured in benches/replan.rs and examples/replan_profile.rs
-        // (docs/planner.md, "Re-planning"; docs/ocp.md section 12 and "Session 11")
+        // (docs/planner.md, "Re-planning"; docs/ocp.md section 13)
         let warm = OcpSettings {
             warm_start: true,
             mu_init: nlp.mu_init.unwrap_or(WARM_START_MU_INIT),
@@ -350,7 +350,7 @@ impl SwingPlanner {
     /// Whether warm re-plans move the solver's stored bound duals onto the new knots with the
     /// shifted solution, each knot taking the duals of the previous solution's knot nearest in time
     /// ([`OcpSolver::remap_bound_duals`]; default true). False keeps them stage by stage (the
-    /// behaviour before session 12, docs/ocp.md).
+    /// alternative measured in docs/ocp.md, section 13).
     pub fn set_warm_shift_duals(&mut self, on: bool) {
         self.shift_duals = on;
     }
@@ -829,8 +829,8 @@ impl Rollout<'_> {
     /// (stage 1's for stage 0, whose fixed `x_0` zeroes its gain), then `x_{k+1} = Phi_k(x_k,
     /// u_k)`. False (and `dst` partly overwritten) as soon as a state leaves its bounds or is not
     /// finite: the rollout then crosses the bounds the solution is pressed against, and a start
-    /// projected back into them converges more slowly than the shifted one (docs/ocp.md, session
-    /// 11). No allocation.
+    /// projected back into them converges more slowly than the shifted one (docs/ocp.md, section
+    /// 13). No allocation.
     fn run(&self, ocp: &mut SwingOcp, w: &mut RolloutScratch, dst: &mut Primal) -> bool {
         let k_last = dst.x.len() - 1;
         let nx = w.x_ref.len();
@@ -1097,7 +1097,7 @@ mod tests {
             let rel = (objective[1] - objective[0]).abs() / objective[0].abs();
             assert!(rel < 1e-6, "objectives {objective:?}");
         }
-        // measured 48 against 41 with examples/replan_profile.rs (docs/ocp.md, session 12)
+        // measured 48 against 41 with examples/replan_profile.rs (docs/ocp.md, section 13)
         assert!(
             worst[1] < worst[0],
             "slowest draw: kept {} moved {}",
@@ -1128,7 +1128,7 @@ mod tests {
             assert!(rel < 1e-6, "objectives {objective:?}");
         }
         // measured 648 against 546 over the 100 draws with the default warm settings (docs/ocp.md,
-        // session 11)
+        // section 13)
         assert!(
             iterations[1] + 25 <= iterations[0],
             "shifted {} rollout {}",

@@ -27,10 +27,9 @@ pub const REPLAN_DQD_RAD_S: f64 = 0.5;
 /// The seed of the bench's 100 draws.
 pub const REPLAN_SEED: u64 = 2026;
 
-/// The knot spacing of the bar's re-planning mesh, s: 40 ms (K = 56 on the tracking swing), whose
+/// The knot spacing of the benchmark's re-planning mesh, s: 40 ms (K = 56 on the tracking swing), whose
 /// cold plan's independent replay misses the bar by 1.4e-4 m and the 100 re-plans' by at most
-/// 8.9e-5 m, within the bars' accuracy rule (1 mm). Up to session 16 the bar was measured on 30 ms
-/// knots (K = 74; replay 3.1e-5 m); docs/benchmarks.md, "Session 17".
+/// 8.9e-5 m, within the accuracy rule (1 mm); docs/benchmarks.md, "Re-planning".
 pub const REPLAN_KNOT_DT: f64 = 0.04;
 
 /// The re-planning mesh: multiple shooting with knots `knot_dt` (s) apart (the bar's is

@@ -7,7 +7,7 @@
 //! - one run folder per experiment (`parameter-study/`, `tracking/`, `tracking-model/`,
 //!   `obstacle/avoid/`, `obstacle/ignored/`, `robustness/{mpc,pd,open-loop}/`, `robustness-paper/`),
 //!   each with its resolved inputs, CSVs and `report.json`, as `brachia plan` / `brachia track` write them;
-//! - `ladder/`: the even ladder traversed on the model plant (issue 14, beyond the paper; `--quick`
+//! - `ladder/`: the even ladder traversed on the model plant (beyond the paper; `--quick`
 //!   traverses its first three bars), as `brachia traverse` writes it (`traverse.gif` among them).
 //!
 //! Everything is written into a staging folder next to `DIR` and renamed into place when complete
@@ -383,7 +383,7 @@ pub fn reproduce_cancellable(
 
     cancel.check()?;
 
-    // issue 14: a ladder traverse on the model plant
+    // a ladder traverse on the model plant
     let tr = crate::run_traverse_cancellable(&ll_ladder, cancel)?;
     let mut ladder_folder = tr.folder(&ll_ladder)?;
     // the joint multi-swing plan of its first swings against swing-by-swing planning, in the same
