@@ -2227,6 +2227,9 @@ impl OcpSolver {
                     break OcpStatus::MaxWallTime;
                 }
             }
+            if st.cancel.as_ref().is_some_and(|c| c.is_cancelled()) {
+                break OcpStatus::Cancelled;
+            }
             if let Some(r) = resto.as_mut() {
                 r.iters += 1;
                 if r.iters > st.max_restoration_iter {
