@@ -22,6 +22,7 @@ use pyo3::prelude::*;
 
 mod control;
 mod convert;
+mod interrupt;
 mod ladder;
 mod model;
 mod planning;

@@ -7,6 +7,7 @@
 //! Rust default. The plan's arrays are the 1 ms output trajectory (`t`, `q`, `qd`, `tau`, `ee`).
 
 use crate::convert::{arr1, arr2, bad, exp, from_value, merged, rs, to_py};
+use crate::interrupt::interruptible;
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;
@@ -230,11 +231,16 @@ pub(crate) fn plan(
     kwargs: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Plan> {
     let task = task_from(task)?;
-    let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+    let (planner, mut nlp) = plan_settings_from(settings, kwargs)?;
     let r = robot.inner.clone();
-    let p = py
-        .detach(|| brachia::planning::plan(&r, &task, &planner, &nlp))
-        .map_err(rs)?;
+    // Ctrl-C stops the solve at its next iteration and raises KeyboardInterrupt
+    let cancel = brachia::CancelToken::new();
+    nlp.cancel = Some(cancel.clone());
+    let p = interruptible(py, &cancel, || {
+        brachia::planning::plan(&r, &task, &planner, &nlp)
+    })?
+    .map_err(rs)?;
+    nlp.cancel = None;
     Ok(plan_with_report(r, task, planner, nlp, p))
 }
 

@@ -432,6 +432,7 @@ pub(crate) fn track(
     let settings = RunSettings {
         duration_s: duration.unwrap_or_else(|| reference.duration()),
         control_dt,
+        cancel: None,
     };
     settings.validate().map_err(rs)?;
     let noise = NoiseSettings {
