@@ -229,7 +229,7 @@ pub(crate) fn plan_joint_swings(
             Range::Position,
         )?;
     }
-    let (mut planner, nlp) = plan_settings_from(settings, kwargs)?;
+    let (mut planner, mut nlp) = plan_settings_from(settings, kwargs)?;
     // what the joint plan runs, whatever the settings say, so that the swings' reports name it
     planner.transcription = Transcription::MultipleShooting;
     let task = JointSwingTask {
@@ -239,9 +239,13 @@ pub(crate) fn plan_joint_swings(
         rest_at_switches,
     };
     let r = robot.inner.clone();
-    let j = py
-        .detach(|| brachia::planning::plan_joint_swings(&r, &task, &planner, &nlp))
-        .map_err(rs)?;
+    let cancel = brachia::CancelToken::new();
+    nlp.cancel = Some(cancel.clone());
+    let j = crate::interrupt::interruptible(py, &cancel, || {
+        brachia::planning::plan_joint_swings(&r, &task, &planner, &nlp)
+    })?
+    .map_err(rs)?;
+    nlp.cancel = None;
     let chains = [r.clone(), Arc::new(r.rerooted().map_err(rs)?)];
     // a Plan per swing, with the report `brachia plan` would write for its swing task
     let wrap = |i: usize, p: &brachia::planning::Plan| -> PyResult<Py<Plan>> {

@@ -31,6 +31,7 @@ use pyo3::prelude::*;
 mod control;
 mod convert;
 mod dicts;
+mod interrupt;
 mod ladder;
 mod model;
 mod planning;

@@ -8,6 +8,7 @@
 
 use crate::convert::{arr1, arr2, bad, check_slice, exp, rs, Range};
 use crate::dicts::{from_value, merged, to_py};
+use crate::interrupt::interruptible;
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;
@@ -251,11 +252,16 @@ pub(crate) fn plan(
     kwargs: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Plan> {
     let task = task_from(task)?;
-    let (planner, nlp) = plan_settings_from(settings, kwargs)?;
+    let (planner, mut nlp) = plan_settings_from(settings, kwargs)?;
     let r = robot.inner.clone();
-    let p = py
-        .detach(|| brachia::planning::plan(&r, &task, &planner, &nlp))
-        .map_err(rs)?;
+    // Ctrl-C stops the solve at its next iteration and raises KeyboardInterrupt
+    let cancel = brachia::CancelToken::new();
+    nlp.cancel = Some(cancel.clone());
+    let p = interruptible(py, &cancel, || {
+        brachia::planning::plan(&r, &task, &planner, &nlp)
+    })?
+    .map_err(rs)?;
+    nlp.cancel = None;
     Ok(plan_with_report(r, task, planner, nlp, p))
 }
 

@@ -4,6 +4,7 @@
 
 use crate::convert::{bad, rs};
 use crate::dicts::to_py;
+use crate::interrupt::interruptible;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;
@@ -181,8 +182,8 @@ impl Scenario {
     /// Plan the swing as ``brachia plan`` does; the ``Plan`` keeps its run folder (``Plan.write``).
     /// A solve that does not converge is a ``Plan`` with its status.
     fn plan(&self, py: Python<'_>) -> PyResult<Plan> {
-        let ls = &self.ls;
-        let run = py.detach(|| run_plan(ls)).map_err(rs)?;
+        let (ls, cancel) = with_cancel(&self.ls);
+        let run = interruptible(py, &cancel, || run_plan(&ls))?.map_err(rs)?;
         let report = folder_report(&run.folder);
         Ok(Plan::new(
             self.robot.clone(),
@@ -227,7 +228,8 @@ impl Scenario {
             }
             None => None,
         };
-        let out = py.detach(|| run_track(ls, c, p, given)).map_err(rs)?;
+        let (ls, cancel) = with_cancel(ls);
+        let out = interruptible(py, &cancel, || run_track(&ls, c, p, given))?.map_err(rs)?;
         match out {
             TrackOutcome::Tracked(run) => {
                 let report = folder_report(&run.folder);
@@ -281,4 +283,12 @@ impl Scenario {
             self.robot.n()
         )
     }
+}
+
+/// A copy of `ls` whose solves and closed loops stop once the returned token is set (Ctrl-C).
+fn with_cancel(ls: &LoadedScenario) -> (LoadedScenario, brachia::CancelToken) {
+    let cancel = brachia::CancelToken::new();
+    let mut ls = ls.clone();
+    ls.scenario.solver.cancel = Some(cancel.clone());
+    (ls, cancel)
 }

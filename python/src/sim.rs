@@ -266,6 +266,7 @@ fn run_settings(
     let settings = RunSettings {
         duration_s,
         control_dt,
+        cancel: None,
     };
     settings.validate().map_err(rs)?;
     if settings.steps() == 0 {

@@ -1,9 +1,10 @@
 //! `brachia benchmark`: the robustness benchmark of a scenario (library:
 //! `brachia_experiments::benchmark`; docs/robustness.md).
 
-use crate::CliError;
+use crate::{check_cancel, exp_error, interrupted, CliError};
 use brachia_experiments::{
-    check_out_dir, run_benchmark, BenchmarkOutcome, BenchmarkSettings, Progress, Scenario,
+    check_out_dir, run_benchmark, BenchmarkOutcome, BenchmarkSettings, CancelToken, Progress,
+    Scenario,
 };
 use std::path::PathBuf;
 
@@ -57,7 +58,7 @@ pub enum Part {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let ls = Scenario::load(&a.scenario)?;
     let mut s = if a.quick {
         BenchmarkSettings::quick()
@@ -69,6 +70,7 @@ pub fn run(a: Args) -> Result<(), CliError> {
     s.monte_carlo_runs = a.monte_carlo.unwrap_or(s.monte_carlo_runs);
     s.only_sweeps = a.sweep;
     s.only_controllers = a.controller;
+    s.cancel = Some(cancel.clone());
     let conflict = |flag: &str, value: String, part: &str| {
         brachia::Error::invalid(
             "command line",
@@ -101,9 +103,13 @@ pub fn run(a: Args) -> Result<(), CliError> {
     let show = |p: Progress| crate::io::show_progress(&bar, p);
     let out = run_benchmark(&ls, &s, &show);
     bar.finish_and_clear();
-    match out? {
+    check_cancel(cancel, &a.out)?;
+    let out = out?;
+    match out {
+        BenchmarkOutcome::Cancelled => Err(interrupted(&a.out)),
         BenchmarkOutcome::Done(b) => {
-            b.write(&a.out)?;
+            b.write_cancellable(&a.out, cancel)
+                .map_err(exp_error(&a.out))?;
             eprintln!(
                 "benchmark: {} runs in {:.1} s; summary {}",
                 b.rows.len(),

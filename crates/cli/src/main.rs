@@ -72,7 +72,8 @@ pub fn check_cancel(cancel: &CancelToken, out: &std::path::Path) -> Result<(), C
     }
 }
 
-fn interrupted(out: &std::path::Path) -> CliError {
+/// The error of a command stopped by Ctrl-C before it wrote `out`.
+pub fn interrupted(out: &std::path::Path) -> CliError {
     CliError::Interrupted(format!(
         "interrupted (Ctrl-C): nothing was written; {} is as it was",
         out.display()
@@ -129,8 +130,8 @@ fn main() -> ExitCode {
         Command::Track(a) => track::run(a, &cancel),
         Command::Traverse(a) => traverse::run(a, &cancel),
         Command::Reproduce(a) => reproduce::run(a, &cancel),
-        Command::Report(a) => report::run(a),
-        Command::Benchmark(a) => benchmark::run(a),
+        Command::Report(a) => report::run(a, &cancel),
+        Command::Benchmark(a) => benchmark::run(a, &cancel),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -22,10 +22,13 @@ pub struct Args {
 
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
-    let ls = Scenario::load_for(&a.scenario, Uses::Plan)?;
+    let mut ls = Scenario::load_for(&a.scenario, Uses::Plan)?;
     check_out_dir(&a.out, a.force)?;
-    let run = run_plan(&ls)?;
+    // every solve checks the token between its iterations, every strategy before its solves
+    ls.scenario.solver.cancel = Some(cancel.clone());
+    let run = run_plan(&ls);
     check_cancel(cancel, &a.out)?;
+    let run = run?;
     run.folder.write(&a.out).map_err(exp_error(&a.out))?;
     let p = &run.plan;
     eprintln!(

@@ -1,8 +1,9 @@
 //! `brachia report DIR`: redraw every figure and REPORT.md of a reproduction folder from its run folders,
 //! without planning or simulating.
 
-use crate::CliError;
-use brachia_experiments::reproduce::redraw;
+use crate::{exp_error, CliError};
+use brachia_experiments::reproduce::redraw_cancellable;
+use brachia_experiments::CancelToken;
 use std::path::PathBuf;
 
 /// Arguments of `brachia report`.
@@ -13,8 +14,11 @@ pub struct Args {
 }
 
 /// Run the command.
-pub fn run(a: Args) -> Result<(), CliError> {
-    let r = redraw(&a.dir)?;
+pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
+    let r = redraw_cancellable(&a.dir, cancel).map_err(|e| match e {
+        brachia_experiments::ExpError::Cancelled => exp_error(&a.dir)(e),
+        other => other.into(),
+    })?;
     eprintln!(
         "report: {} files redrawn in {}; report {}",
         r.files.len(),

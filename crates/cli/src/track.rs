@@ -49,7 +49,9 @@ enum PlantArg {
 
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
-    let ls = Scenario::load(&a.scenario)?;
+    let mut ls = Scenario::load(&a.scenario)?;
+    // the plan's solves, the re-plans and the closed loop check the token
+    ls.scenario.solver.cancel = Some(cancel.clone());
     let controller = match a.controller {
         Some(ControllerArg::Mpc) => ControllerKind::Mpc,
         Some(ControllerArg::Pd) => ControllerKind::Pd,
@@ -71,8 +73,9 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
         check_out_apart(&a.out, dir, "--plan", true)?;
     }
-    let outcome = run_track(&ls, controller, plant, reference)?;
+    let outcome = run_track(&ls, controller, plant, reference);
     check_cancel(cancel, &a.out)?;
+    let outcome = outcome?;
     match outcome {
         TrackOutcome::Tracked(run) => {
             run.folder.write(&a.out).map_err(exp_error(&a.out))?;

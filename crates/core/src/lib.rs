@@ -164,5 +164,6 @@ pub mod serde_exact;
 pub mod sim;
 pub mod trajectory;
 
+pub use brachia_ocp::{CancelToken, Cancelled};
 pub use error::{Error, Result};
 pub use model::Robot;

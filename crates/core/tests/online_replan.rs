@@ -117,6 +117,7 @@ fn run_on<C: Controller>(
     let rs = RunSettings {
         duration_s: reference.duration(),
         control_dt: dt,
+        cancel: None,
     };
     let mut cl = ClosedLoop::new(plant, c, Arc::clone(robot), Arc::clone(reference), &rs).unwrap();
     cl.run();

@@ -18,7 +18,7 @@
 //! Units: s, m, rad, rad/s, N m, N s, J, kg. See docs/robustness.md.
 
 use crate::plan_run::run_plan;
-use crate::progress::{Progress, ProgressFn};
+use crate::progress::{CancelToken, Progress, ProgressFn};
 use crate::run_folder::{install, stage_for, RunFolder};
 use crate::scenario::{LoadedScenario, PlantKind};
 use crate::ExpError;
@@ -364,6 +364,10 @@ pub struct BenchmarkSettings {
     pub only_controllers: Vec<String>,
     /// Base seed of the Monte Carlo draws and the sweeps' noise.
     pub seed: u64,
+    /// A cancel flag, checked before every run and by the plan's solves at every iteration: once it
+    /// is set, no further run starts and the benchmark ends as [`BenchmarkOutcome::Cancelled`].
+    /// Default `None`.
+    pub cancel: Option<CancelToken>,
 }
 
 impl BenchmarkSettings {
@@ -377,6 +381,7 @@ impl BenchmarkSettings {
             only_sweeps: Vec::new(),
             only_controllers: Vec::new(),
             seed: 0,
+            cancel: None,
         }
     }
 
@@ -610,6 +615,7 @@ fn run_job(
     let settings = RunSettings {
         duration_s: reference.duration(),
         control_dt: dt,
+        cancel: sc.solver.cancel.clone(),
     };
     let mut built = (entry.build)(ls, reference)?;
     let ctrl = built.controller();
@@ -731,6 +737,8 @@ pub enum BenchmarkOutcome {
     Done(Box<Benchmark>),
     /// The scenario's plan did not converge (its status): nothing was run.
     PlanFailed(String),
+    /// [`BenchmarkSettings::cancel`] was set before the benchmark finished: nothing of it is returned.
+    Cancelled,
 }
 
 /// Plan the scenario, then run the benchmark (see the module docs). `progress` is called once per
@@ -742,7 +750,20 @@ pub fn run_benchmark(
     progress: ProgressFn<'_>,
 ) -> Result<BenchmarkOutcome, Error> {
     settings.validate()?;
+    let cancelled = || settings.cancel.as_ref().is_some_and(|c| c.is_cancelled());
+    let mut with_token;
+    let ls = match &settings.cancel {
+        Some(c) => {
+            with_token = ls.clone();
+            with_token.scenario.solver.cancel = Some(c.clone());
+            &with_token
+        }
+        None => ls,
+    };
     let plan = run_plan(ls)?;
+    if cancelled() {
+        return Ok(BenchmarkOutcome::Cancelled);
+    }
     if !plan.plan.converged() {
         return Ok(BenchmarkOutcome::PlanFailed(format!(
             "{:?}",
@@ -750,11 +771,19 @@ pub fn run_benchmark(
         )));
     }
     let reference = Arc::new(plan.plan.trajectory.clone());
-    let b = run_benchmark_on(ls, reference, settings, progress)?;
+    // a run stopped by the token may fail on its way out (a re-planner whose cold plan was
+    // cancelled): the benchmark was cancelled, not refused
+    let b = run_benchmark_on(ls, reference, settings, progress);
+    if cancelled() {
+        return Ok(BenchmarkOutcome::Cancelled);
+    }
+    let b = b?;
     Ok(BenchmarkOutcome::Done(Box::new(b)))
 }
 
-/// The benchmark of a given plan `reference` (1 ms samples of a converged plan of `ls`).
+/// The benchmark of a given plan `reference` (1 ms samples of a converged plan of `ls`). Once
+/// `settings.cancel` is set, the runs not yet started are skipped: the rows then miss them (check the
+/// token; [`run_benchmark`] says [`BenchmarkOutcome::Cancelled`]).
 pub fn run_benchmark_on(
     ls: &LoadedScenario,
     reference: Arc<Trajectory>,
@@ -839,9 +868,11 @@ pub fn run_benchmark_on(
     let total = jobs.len() as u64;
     let done = AtomicU64::new(0);
     let wall = Instant::now();
+    let cancelled = || settings.cancel.as_ref().is_some_and(|c| c.is_cancelled());
     let work = || -> Result<Vec<BenchRow>, Error> {
         jobs.par_iter()
             .with_max_len(1)
+            .filter(|_| !cancelled())
             .map(|job| {
                 let r = run_job(ls, &reference, &entries[job.controller], job);
                 progress(Progress {
@@ -1086,11 +1117,20 @@ impl Benchmark {
 
     /// Write the run folder `dir` (staged next to it and renamed into place).
     pub fn write(&self, dir: &Path) -> Result<(), ExpError> {
+        self.write_cancellable(dir, &CancelToken::new())
+    }
+
+    /// [`Benchmark::write`] that can be cancelled: once `cancel` is set before the staged folder is
+    /// renamed into place, it is removed and the write ends with [`ExpError::Cancelled`] (`dir` is as
+    /// it was).
+    pub fn write_cancellable(&self, dir: &Path, cancel: &CancelToken) -> Result<(), ExpError> {
         let stage = stage_for(dir)?;
         let r = self
             .folder()
             .write_into(&stage)
-            .and_then(|()| self.draw_plots(&stage));
+            .and_then(|()| cancel.check().map_err(ExpError::from))
+            .and_then(|()| self.draw_plots(&stage))
+            .and_then(|()| cancel.check().map_err(ExpError::from));
         match r {
             Ok(()) => install(&stage, dir),
             Err(e) => {

@@ -74,3 +74,9 @@ pub enum ExpError {
         source: std::io::Error,
     },
 }
+
+impl From<brachia::Cancelled> for ExpError {
+    fn from(_: brachia::Cancelled) -> Self {
+        ExpError::Cancelled
+    }
+}

@@ -1040,16 +1040,20 @@ pub fn run_parameter_study(
         .ok_or_else(|| Error::InfeasibleTask("the parameter study was cancelled".into()))
 }
 
-/// [`run_parameter_study`] that can be cancelled: `cancel` is checked before every solve; once it is
-/// set the remaining cells are skipped and the study ends with [`ExpError::Cancelled`] (nothing of it
-/// is returned). A solve already running finishes first.
+/// [`run_parameter_study`] that can be cancelled: `cancel` is checked before every solve and by the
+/// solves themselves at every iteration; once it is set the remaining cells are skipped and the study
+/// ends with [`ExpError::Cancelled`] (nothing of it is returned).
 pub fn run_parameter_study_cancellable(
     settings: &ParameterStudySettings,
     progress: ProgressFn<'_>,
     cancel: &CancelToken,
 ) -> Result<ParameterStudy, ExpError> {
+    let mut settings = settings.clone();
+    settings.solver.cancel = Some(cancel.clone());
     let stop = || cancel.is_cancelled();
-    study(settings, progress, &stop)?.ok_or(ExpError::Cancelled)
+    let done = study(&settings, progress, &stop);
+    cancel.check()?;
+    done?.ok_or(ExpError::Cancelled)
 }
 
 /// The study; `None` when `stop` said so before it finished.

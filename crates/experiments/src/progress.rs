@@ -19,42 +19,10 @@ pub type ProgressFn<'a> = &'a (dyn Fn(Progress) + Sync);
 /// A callback that ignores every report.
 pub fn no_progress(_: Progress) {}
 
-/// A cancel flag for long work (a reproduction, the parameter study, a traverse): set from anywhere
-/// (the CLI's Ctrl-C handler, another thread), checked by the library between units of work (a
-/// parameter-study cell, an experiment, a swing). Cheap to clone; clones share the flag. Work that sees
-/// it set stops with [`crate::ExpError::Cancelled`] and writes nothing: staged output is removed, never
-/// renamed into place, so the previous results stay as they were.
-#[derive(Debug, Clone, Default)]
-pub struct CancelToken(std::sync::Arc<std::sync::atomic::AtomicBool>);
-
-impl CancelToken {
-    /// A flag that is not set.
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Set the flag (idempotent).
-    pub fn cancel(&self) {
-        self.0.store(true, std::sync::atomic::Ordering::SeqCst);
-    }
-
-    /// The shared flag itself, for code that sets it from a signal handler (the CLI registers it
-    /// for SIGINT).
-    pub fn flag(&self) -> std::sync::Arc<std::sync::atomic::AtomicBool> {
-        std::sync::Arc::clone(&self.0)
-    }
-
-    /// True once [`CancelToken::cancel`] was called on this token or a clone.
-    pub fn is_cancelled(&self) -> bool {
-        self.0.load(std::sync::atomic::Ordering::SeqCst)
-    }
-
-    /// `Err(ExpError::Cancelled)` once the flag is set: `token.check()?` between units of work.
-    pub fn check(&self) -> Result<(), crate::ExpError> {
-        if self.is_cancelled() {
-            Err(crate::ExpError::Cancelled)
-        } else {
-            Ok(())
-        }
-    }
-}
+/// The cancel flag of long work (a plan, a reproduction, the parameter study, a traverse, the
+/// benchmark): one type for every layer, [`brachia::CancelToken`] (whose home is the solver crate, the
+/// lowest that checks it). Set from anywhere (the CLI's Ctrl-C handler, another thread, Python),
+/// checked by the library between units of work and by every solver between iterations. Work that
+/// sees it set stops with [`crate::ExpError::Cancelled`] and writes nothing: staged output is removed,
+/// never renamed into place, so the previous results stay as they were.
+pub use brachia::CancelToken;

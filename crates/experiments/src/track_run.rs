@@ -324,6 +324,8 @@ pub fn track_plan(
     let settings = RunSettings {
         duration_s: reference.duration() + sc.tracking.hold_s,
         control_dt: sc.tracking.control_dt,
+        // the scenario's cancel token (set by the caller, e.g. on Ctrl-C) stops the loop too
+        cancel: sc.solver.cancel.clone(),
     };
     let noise = NoiseSettings {
         q_std: sc.tracking.noise_q_std,

@@ -434,15 +434,19 @@ pub fn run_traverse(ll: &LoadedLadder) -> Result<Traverse, Error> {
     traverse(ll, &never)?.ok_or_else(|| Error::InfeasibleTask("the traverse was cancelled".into()))
 }
 
-/// [`run_traverse`] that can be cancelled: `cancel` is checked before every swing (a swing already
-/// planning or tracking finishes first); once it is set the traverse ends with
-/// [`crate::ExpError::Cancelled`] and nothing of it is returned.
+/// [`run_traverse`] that can be cancelled: `cancel` is checked before every swing and by every solve
+/// at every iteration; once it is set the traverse ends with [`crate::ExpError::Cancelled`] and
+/// nothing of it is returned.
 pub fn run_traverse_cancellable(
     ll: &LoadedLadder,
     cancel: &crate::CancelToken,
 ) -> Result<Traverse, crate::ExpError> {
+    let mut ll = ll.clone();
+    ll.scenario.solver.cancel = Some(cancel.clone());
     let stop = || cancel.is_cancelled();
-    traverse(ll, &stop)?.ok_or(crate::ExpError::Cancelled)
+    let done = traverse(&ll, &stop);
+    cancel.check()?;
+    done?.ok_or(crate::ExpError::Cancelled)
 }
 
 /// Where the plan a swing was tracked from came from (`ladder.lookahead`; docs/ladders.md,
@@ -738,6 +742,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let settings = RunSettings {
             duration_s: reference.duration() + sc.tracking.hold_s,
             control_dt: sc.tracking.control_dt,
+            cancel: sc.solver.cancel.clone(),
         };
         let noise = NoiseSettings {
             q_std: sc.tracking.noise_q_std,

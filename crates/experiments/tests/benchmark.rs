@@ -112,6 +112,7 @@ fn the_benchmark_is_deterministic_for_any_number_of_jobs() {
         only_sweeps: vec!["actuation_delay".into(), "push".into(), "noise_q".into()],
         only_controllers: vec!["pd".into(), "open-loop".into(), "mpc+replan".into()],
         seed: 3,
+        cancel: None,
     };
     let a = run_benchmark_on(&ls, Arc::clone(&reference), &settings(1), &no_progress).unwrap();
     let b = run_benchmark_on(&ls, Arc::clone(&reference), &settings(2), &no_progress).unwrap();

@@ -78,7 +78,8 @@
 //! [`OcpStatus::EvaluationError`] (a callback returned `Err`, non-finite values or panicked at the
 //! current point; at a line-search trial point the step is only shortened),
 //! [`OcpStatus::InvalidProblem`] (dims differ from the solver's, `lo > hi`, `c_lo >= c_hi`, too many
-//! equality rows), [`OcpStatus::InvalidSettings`].
+//! equality rows), [`OcpStatus::InvalidSettings`], [`OcpStatus::Cancelled`] ([`OcpSettings::cancel`]
+//! was set; checked once per iteration, restoration iterations included).
 //!
 //! # Timings ([`OcpTimings`])
 //! `evaluation_s` in `evaluate` (trials included), `hessian_s` in `hessians`, `linear_algebra_s` in
@@ -162,6 +163,7 @@ macro_rules! dispatch_width {
     };
 }
 
+mod cancel;
 mod dense;
 pub mod problem;
 mod riccati;
@@ -170,6 +172,7 @@ mod solver;
 #[doc(hidden)]
 pub mod testing;
 
+pub use cancel::{CancelToken, Cancelled};
 pub use problem::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,

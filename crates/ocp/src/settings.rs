@@ -53,6 +53,12 @@ pub struct OcpSettings {
     /// factorisation, and is kept only if the step to the boundary grows enough (docs/ocp.md,
     /// sections 6 and 13). Not in the restoration phase. Default 0.
     pub centrality_correctors: usize,
+    /// A cancel flag checked once per iteration (restoration iterations included), beside
+    /// `max_wall_time_s`: once it is set the solve ends with [`OcpStatus::Cancelled`] at the next
+    /// iteration, returning the iterate it reached. Not part of a settings file (skipped by serde).
+    /// Default `None`.
+    #[serde(skip)]
+    pub cancel: Option<crate::CancelToken>,
 }
 
 /// Limit on [`OcpSettings::centrality_correctors`].
@@ -76,6 +82,7 @@ impl Default for OcpSettings {
             max_restoration_iter: 50,
             max_soc: 4,
             centrality_correctors: 0,
+            cancel: None,
         }
     }
 }
@@ -181,6 +188,8 @@ pub enum OcpStatus {
     MaxIterations,
     /// `max_wall_time_s` exceeded.
     MaxWallTime,
+    /// [`OcpSettings::cancel`] was set: the solve stopped at the next iteration.
+    Cancelled,
     /// The restoration phase could not reduce the constraint violation: the constraints are (locally)
     /// infeasible.
     LocallyInfeasible,

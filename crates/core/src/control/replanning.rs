@@ -38,6 +38,14 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// Least `check_period_s`, s: one control period at 1 kHz (with a smaller period every control step
+/// predicts, and a tiny one such as 1e-300 s only multiplies the work).
+pub const MIN_CHECK_PERIOD_S: f64 = 1e-3;
+
+/// Least `check_period_s x predict_dt_s`, s^2: bounds the rollout work to `2 T / 1e-6` RK4 steps per
+/// simulated second (the defaults give 1e-4).
+pub const MIN_CHECK_TIMES_STEP_S2: f64 = 1e-6;
+
 /// Most re-plans one run may do (`max_replans` is refused above it; the event log is allocated once).
 pub const MAX_REPLANS: usize = 100;
 
@@ -152,6 +160,32 @@ impl ReplanSettings {
                 "predict_dt_s",
                 self.predict_dt_s,
                 "must be >= 1e-4 s",
+            ));
+        }
+        // every check rolls the model out to T twice: the checks are bounded in number (one per
+        // control period at 1 kHz at most) and in work (rollout steps per simulated second)
+        if self.check_period_s < MIN_CHECK_PERIOD_S {
+            return Err(Error::invalid(
+                src,
+                "check_period_s",
+                self.check_period_s,
+                format!(
+                    "must be >= {MIN_CHECK_PERIOD_S} s (brachia::control::replanning::\
+                     MIN_CHECK_PERIOD_S): every check rolls the model out to the swing's end"
+                ),
+            ));
+        }
+        if self.check_period_s * self.predict_dt_s < MIN_CHECK_TIMES_STEP_S2 {
+            return Err(Error::invalid(
+                src,
+                "check_period_s",
+                self.check_period_s,
+                format!(
+                    "check_period_s x predict_dt_s = {:e} s^2 must be >= {MIN_CHECK_TIMES_STEP_S2} \
+                     s^2 (brachia::control::replanning::MIN_CHECK_TIMES_STEP_S2): each check costs \
+                     (T - t) / predict_dt_s rollout steps, so finer checks need a coarser step",
+                    self.check_period_s * self.predict_dt_s
+                ),
             ));
         }
         Ok(())

@@ -40,6 +40,7 @@ pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
         OcpStatus::SolvedToAcceptableLevel => SolveStatus::SolvedToAcceptableLevel,
         OcpStatus::MaxIterations => SolveStatus::MaxIterations,
         OcpStatus::MaxWallTime => SolveStatus::MaxWallTime,
+        OcpStatus::Cancelled => SolveStatus::Cancelled,
         OcpStatus::LocallyInfeasible => SolveStatus::LocallyInfeasible,
         OcpStatus::RestorationFailed => SolveStatus::RestorationFailed,
         OcpStatus::NumericalError(_) => SolveStatus::NumericalError,
@@ -109,6 +110,7 @@ pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
         acceptable_iter: nlp.acceptable_iter,
         mu_init: nlp.mu_init.unwrap_or(d.mu_init),
         max_wall_time_s: nlp.max_wall_time_s,
+        cancel: nlp.cancel.clone(),
         ..d
     }
 }

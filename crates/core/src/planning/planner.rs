@@ -710,6 +710,24 @@ pub fn plan_with_guess(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    let mut p = plan_strategies(robot, task, settings, nlp, guess)?;
+    // a cancelled call ends between strategies or inside a solve: whatever it returns did not
+    // converge and is no failure of the task
+    if nlp.is_cancelled() && !p.converged() {
+        p.status = SolveStatus::Cancelled;
+    }
+    Ok(p)
+}
+
+/// The strategies of [`plan_with_guess`] (obstacles, torque continuation), each stopping once
+/// `nlp.max_wall_time_s` is spent or `nlp.cancel` is set.
+fn plan_strategies(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
     if guess.is_none() && settings.avoid_obstacles && !task.obstacles.is_empty() {
         settings.validate(robot.n, "planner")?;
         nlp.validate()?;

@@ -58,7 +58,8 @@ pub use disturbances::{Disturbances, MAX_MISMATCH_FACTOR, MAX_START_OFFSET_RAD};
 pub use model_plant::ModelPlant;
 pub use noisy::{NoiseSettings, Noisy};
 pub use runner::{
-    run_closed_loop, ClosedLoop, ClosedLoopLog, RunSettings, RunSummary, StepInfo, DIVERGENCE_BOUND,
+    run_closed_loop, ClosedLoop, ClosedLoopLog, RunSettings, RunSummary, StepInfo,
+    CANCEL_CHECK_STEPS, DIVERGENCE_BOUND,
 };
 
 /// Something a controller can drive: a simulator of the model, a physics engine, a wrapper adding noise.

@@ -6,6 +6,7 @@
 
 use crate::read::TrackFolder;
 use crate::track_run::PlantWorld;
+use crate::CancelToken;
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
 use brachia_plot::{
@@ -23,26 +24,37 @@ pub(crate) struct FigureDir {
     dir: PathBuf,
     /// Every figure file asked for (`dir/<name>.png` or `.gif`; the caller drops those not written).
     pub written: Vec<PathBuf>,
+    /// Once set, no further figure is drawn (see [`FigureDir::path`]).
+    cancel: CancelToken,
 }
 
 impl FigureDir {
-    pub(crate) fn new(dir: &Path) -> Self {
+    pub(crate) fn new(dir: &Path, cancel: &CancelToken) -> Self {
         FigureDir {
             dir: dir.to_path_buf(),
             written: Vec::new(),
+            cancel: cancel.clone(),
         }
     }
 
-    pub(crate) fn png(&mut self, name: &str) -> PathBuf {
-        let p = self.dir.join(format!("{name}.png"));
+    /// `dir/<name>.<ext>`; once the cancel token is set, a path the plotting refuses by its extension
+    /// before it draws anything, so the figures left are skipped at once (the caller then discards
+    /// the whole drawing).
+    fn path(&mut self, name: &str, ext: &str) -> PathBuf {
+        if self.cancel.is_cancelled() {
+            return self.dir.join(format!("{name}.{ext}.cancelled"));
+        }
+        let p = self.dir.join(format!("{name}.{ext}"));
         self.written.push(p.clone());
         p
     }
 
+    pub(crate) fn png(&mut self, name: &str) -> PathBuf {
+        self.path(name, "png")
+    }
+
     pub(crate) fn gif(&mut self, name: &str) -> PathBuf {
-        let p = self.dir.join(format!("{name}.gif"));
-        self.written.push(p.clone());
-        p
+        self.path(name, "gif")
     }
 }
 

@@ -195,8 +195,15 @@ impl Results {
     }
 }
 
-fn load(opts: &ReproduceOptions, name: &str) -> Result<LoadedScenario, ExpError> {
-    Ok(Scenario::load(&opts.scenarios.join(name))?)
+/// Load scenario `name`; its solves, re-plans and closed loops stop once `cancel` is set.
+fn load(
+    opts: &ReproduceOptions,
+    name: &str,
+    cancel: &CancelToken,
+) -> Result<LoadedScenario, ExpError> {
+    let mut ls = Scenario::load(&opts.scenarios.join(name))?;
+    ls.scenario.solver.cancel = Some(cancel.clone());
+    Ok(ls)
 }
 
 fn write(folder: &crate::RunFolder, dir: &Path, files: &mut Vec<PathBuf>) -> Result<(), ExpError> {
@@ -259,11 +266,11 @@ pub fn reproduce_cancellable(
 ) -> Result<Reproduction, ExpError> {
     let start = Instant::now();
     // load every scenario first: bad input stops the run before anything is computed or written
-    let ls_track = load(opts, "tracking.toml")?;
-    let ls_avoid = load(opts, "obstacle.toml")?;
-    let ls_ignored = load(opts, "obstacle-ignored.toml")?;
-    let ls_robust = load(opts, "robustness.toml")?;
-    let ls_robust_paper = load(opts, "robustness-paper.toml")?;
+    let ls_track = load(opts, "tracking.toml", cancel)?;
+    let ls_avoid = load(opts, "obstacle.toml", cancel)?;
+    let ls_ignored = load(opts, "obstacle-ignored.toml", cancel)?;
+    let ls_robust = load(opts, "robustness.toml", cancel)?;
+    let ls_robust_paper = load(opts, "robustness-paper.toml", cancel)?;
     let mut ll_ladder = crate::LadderScenario::load(&opts.scenarios.join(LADDER_SCENARIO))?;
     if opts.quick {
         ll_ladder.scenario.ladder.bars.truncate(QUICK_BARS);
@@ -429,7 +436,8 @@ pub fn reproduce_cancellable(
     res.cores = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    let (failures, figs) = draw_figures_into(&res, failures, out)?;
+    let (failures, figs) = draw_figures_into(&res, failures, out, cancel)?;
+    cancel.check()?;
     files.extend(figs);
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);
@@ -472,13 +480,14 @@ fn draw_figures_into(
     res: &Results,
     mut failures: Vec<String>,
     out: &Path,
+    cancel: &CancelToken,
 ) -> Result<(Vec<String>, Vec<PathBuf>), ExpError> {
     let fig_dir = out.join("figures");
     std::fs::create_dir_all(&fig_dir).map_err(|source| ExpError::Write {
         path: fig_dir.clone(),
         source,
     })?;
-    let mut figs = FigureDir::new(&fig_dir);
+    let mut figs = FigureDir::new(&fig_dir, cancel);
     failures.extend(report::draw_figures(res, &mut figs));
     // a figure that failed was never written (the folder started empty)
     figs.written.retain(|p| p.is_file());
@@ -518,12 +527,19 @@ fn not_a_reproduction(dir: &Path, missing: &str) -> ExpError {
 /// the figures of the previous drawing that are not drawn again are removed (only those its manifest
 /// lists), the user's files are never touched.
 pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
+    redraw_cancellable(dir, &CancelToken::new())
+}
+
+/// [`redraw`] that can be cancelled: `cancel` is checked before every figure and before anything is
+/// put in place; once it is set the drawing ends with [`ExpError::Cancelled`], its staging folder is
+/// removed and `dir` is as it was.
+pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, ExpError> {
     if !dir.is_dir() {
         return Err(not_a_reproduction(dir, "(the folder itself)"));
     }
     let single = dir.join("report.json").is_file() && !dir.join("summary.json").is_file();
     if single && dir.join(crate::MANIFEST).is_file() {
-        return redraw_run(dir);
+        return redraw_run(dir, cancel);
     }
     for need in [crate::MANIFEST, "summary.json"] {
         if !dir.join(need).is_file() {
@@ -567,7 +583,8 @@ pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
     // staged: draw into a hidden folder inside dir, then rename each file into place
     let stage = redraw_stage(dir)?;
     let _cleanup = RemoveOnDrop(stage.clone());
-    let (failures, drawn) = draw_figures_into(&res, run_failures, &stage)?;
+    let (failures, drawn) = draw_figures_into(&res, run_failures, &stage, cancel)?;
+    cancel.check()?;
     let md = report::markdown(
         &res,
         &failures,
@@ -578,6 +595,7 @@ pub fn redraw(dir: &Path) -> Result<Redraw, ExpError> {
     let mut top = crate::RunFolder::default();
     top.add("REPORT.md", md);
     top.write_into(&stage)?;
+    cancel.check()?;
     let files = put_in_place(dir, &stage, &drawn, true)?;
     Ok(Redraw { files, failures })
 }
@@ -676,7 +694,7 @@ fn redraw_stage(dir: &Path) -> Result<PathBuf, ExpError> {
 /// [`redraw`] of a single `brachia plan` or `brachia track` run folder: its figures into `dir/figures/`
 /// (a plan: stick diagram and animation; a track run: joints, EE path and error, and, when it planned,
 /// stick diagram and animation).
-fn redraw_run(dir: &Path) -> Result<Redraw, ExpError> {
+fn redraw_run(dir: &Path, cancel: &CancelToken) -> Result<Redraw, ExpError> {
     let stage = redraw_stage(dir)?;
     let _cleanup = RemoveOnDrop(stage.clone());
     let fig_dir = stage.join("figures");
@@ -684,13 +702,14 @@ fn redraw_run(dir: &Path) -> Result<Redraw, ExpError> {
         path: fig_dir.clone(),
         source,
     })?;
-    let mut figs = FigureDir::new(&fig_dir);
+    let mut figs = FigureDir::new(&fig_dir, cancel);
     let failures = if dir.join("closed_loop.csv").is_file() {
         report::draw_track_run(&TrackFolder::read(dir)?, &mut figs)
     } else {
         report::draw_plan_run(&PlanFolder::read(dir)?, &mut figs)
     };
     figs.written.retain(|p| p.is_file());
+    cancel.check()?;
     let files = put_in_place(dir, &stage, &figs.written, false)?;
     Ok(Redraw { files, failures })
 }

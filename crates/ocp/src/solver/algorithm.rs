@@ -155,6 +155,9 @@ impl OcpSolver {
                 return Some(OcpStatus::MaxWallTime);
             }
         }
+        if st.cancel.as_ref().is_some_and(|c| c.is_cancelled()) {
+            return Some(OcpStatus::Cancelled);
+        }
         if !self.resto.count_iteration(st.max_restoration_iter) {
             let (t1, _) = self.theta_current();
             return Some(self.resto.failure(t1));

@@ -34,6 +34,7 @@
 
 mod pounce;
 mod ripopt;
+mod stop;
 pub use ripopt::RIPOPT_MAX_UNKNOWNS;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -42,6 +43,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::CancelToken;
+use stop::Stop;
 
 /// Magnitude the backends read as an infinite bound (both treat `|b| >= 1e19` as infinite).
 pub(crate) const BACKEND_INF: f64 = 2e19;
@@ -164,6 +167,12 @@ pub struct NlpSettings {
     /// (IPOPT's `warm_start_init_point`; ripopt's `warm_start`). Ignored when the problem has no
     /// multipliers to offer. Default `false`.
     pub warm_start: bool,
+    /// A cancel flag checked once per iteration by every backend and before every solve of a
+    /// planning strategy ([`NlpSettings::remaining`]): once it is set, the solve running ends with
+    /// [`SolveStatus::Cancelled`] at its next iteration and no further solve starts. Not part of a
+    /// settings file (skipped by serde). Default `None`.
+    #[serde(skip)]
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for NlpSettings {
@@ -180,6 +189,7 @@ impl Default for NlpSettings {
             mu_strategy: MuStrategy::Monotone,
             mu_init: None,
             warm_start: false,
+            cancel: None,
         }
     }
 }
@@ -193,9 +203,18 @@ impl NlpSettings {
             .map(|w| w - since.elapsed().as_secs_f64())
     }
 
+    /// True once [`NlpSettings::cancel`] is set.
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.as_ref().is_some_and(|c| c.is_cancelled())
+    }
+
     /// These settings for a solve of a call that began at `since`: `max_wall_time_s` cut to what
-    /// is left of it (see [`NlpSettings::time_left`]); `None` once it is spent. Without a limit, a copy.
+    /// is left of it (see [`NlpSettings::time_left`]); `None` once it is spent or once
+    /// [`NlpSettings::cancel`] is set, so no further solve starts. Without a limit, a copy.
     pub fn remaining(&self, since: std::time::Instant) -> Option<NlpSettings> {
+        if self.is_cancelled() {
+            return None;
+        }
         match self.time_left(since) {
             Some(w) if w <= 0.0 => None,
             left => Some(NlpSettings {
@@ -311,6 +330,8 @@ pub enum SolveStatus {
     InvalidSettings(String),
     /// Anything else the backend reported (including a backend panic), with its description.
     Other(String),
+    /// [`NlpSettings::cancel`] was set: the solve stopped at its next iteration (or never started).
+    Cancelled,
 }
 
 impl SolveStatus {
@@ -909,6 +930,7 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
     if let Err(e) = settings.validate() {
         return fail(SolveStatus::InvalidSettings(e.to_string()), Vec::new(), 0);
     }
+    let stop = Stop::new(settings, start);
     let prep = match catch_unwind(AssertUnwindSafe(|| Prepared::new(&*nlp, settings))) {
         Ok(Ok(p)) => p,
         Ok(Err(msg)) => return fail(SolveStatus::InvalidProblem(msg), Vec::new(), 0),
@@ -923,11 +945,14 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
             )
         }
     };
+    if stop.cancelled() {
+        return fail(SolveStatus::Cancelled, prep.x0.clone(), prep.m);
+    }
     let backend_start = Instant::now();
     let mut outcome =
         match backend {
-            Backend::Pounce => pounce::run(nlp, &prep, settings),
-            Backend::Ripopt => ripopt::run(nlp, &prep, settings),
+            Backend::Pounce => pounce::run(nlp, &prep, settings, &stop),
+            Backend::Ripopt => ripopt::run(nlp, &prep, settings, &stop),
             Backend::Ocp => return fail(
                 SolveStatus::InvalidSettings(
                     "backend \"ocp\" solves stage-structured optimal-control problems only (the \
@@ -939,6 +964,10 @@ pub fn solve(nlp: &mut dyn SparseNlp, settings: &NlpSettings) -> NlpSolution {
                 prep.m,
             ),
         };
+    outcome.status = stop.verdict(outcome.status);
+    if let Some(p) = outcome.passes.iter_mut().find(|p| p.returned) {
+        p.status = Some(outcome.status.clone());
+    }
     let x = outcome
         .x
         .filter(|x| x.len() == prep.n)

@@ -29,7 +29,7 @@ use pounce_rs::{
 
 use super::{
     panic_text, BackendOutcome, Evaluator, IterFingerprint, MuStrategy, NlpSettings, Prepared,
-    SolveStatus, SparseNlp,
+    SolveStatus, SparseNlp, Stop,
 };
 
 /// Stack of the solver thread (pounce's recursion depth is modest; this is generous).
@@ -86,6 +86,8 @@ struct Proxy {
     rx: Receiver<Reply>,
     /// Set by the calling thread when a callback panicked: stop as soon as possible.
     abort: Arc<AtomicBool>,
+    /// The caller's cancel token and the wall-clock limit, checked at every iteration.
+    stop: Stop,
     bufs: (Vec<f64>, Vec<f64>, Vec<f64>),
     fin: Final,
 }
@@ -262,7 +264,9 @@ impl TNLP for Proxy {
                 s.alpha_pr.to_bits(),
             ],
         };
-        self.call(kind, &[], &[], 0).is_some() && !self.abort.load(Ordering::Relaxed)
+        self.call(kind, &[], &[], 0).is_some()
+            && !self.abort.load(Ordering::Relaxed)
+            && !self.stop.now()
     }
 }
 
@@ -353,6 +357,7 @@ fn solver_thread(
     tx: Sender<Request>,
     rx: Receiver<Reply>,
     abort: Arc<AtomicBool>,
+    stop: Stop,
 ) -> ThreadResult {
     let mut app = IpoptApplication::new();
     if let Err(e) = app.initialize() {
@@ -377,6 +382,7 @@ fn solver_thread(
         tx,
         rx,
         abort: abort.clone(),
+        stop,
         bufs: Default::default(),
         fin: Final::default(),
     }));
@@ -454,19 +460,27 @@ pub(crate) fn run(
     nlp: &mut dyn SparseNlp,
     prep: &Prepared,
     settings: &NlpSettings,
+    stop: &Stop,
 ) -> BackendOutcome {
     let (req_tx, req_rx) = channel::<Request>();
     let (rep_tx, rep_rx) = channel::<Reply>();
     let abort = Arc::new(AtomicBool::new(false));
     let mut eval = Evaluator::new(nlp, prep);
-    let (thread_prep, thread_settings, thread_abort) =
-        (prep.clone(), settings.clone(), abort.clone());
+    let (thread_prep, thread_settings, thread_abort, thread_stop) =
+        (prep.clone(), settings.clone(), abort.clone(), stop.clone());
     let joined = std::thread::scope(|s| {
         let handle = std::thread::Builder::new()
             .name("brachia-pounce".into())
             .stack_size(SOLVER_STACK_BYTES)
             .spawn_scoped(s, move || {
-                solver_thread(thread_prep, thread_settings, req_tx, rep_rx, thread_abort)
+                solver_thread(
+                    thread_prep,
+                    thread_settings,
+                    req_tx,
+                    rep_rx,
+                    thread_abort,
+                    thread_stop,
+                )
             });
         let handle = match handle {
             Ok(h) => h,

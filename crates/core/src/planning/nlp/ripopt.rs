@@ -7,6 +7,12 @@
 //! `initial_multipliers`), `nlp_{lower,upper}_bound_inf = -+1e19`. Everything else keeps ripopt's
 //! defaults (its acceptable tolerance is fixed at 1e-6).
 //!
+//! **Stopping.** ripopt polls its clock only every tenth iteration after the tenth, and its l1 retry
+//! starts a new clock, so `max_wall_time` alone let a solve run several iterations (seconds, with
+//! the dense factorisation) past it. The seam installs ripopt's intermediate callback (per thread,
+//! for the duration of the call) and stops the solve at the first iteration after the deadline or
+//! after the cancel token was set ([`super::Stop`]).
+//!
 //! **Linear solver: dense.** ripopt is built without its default `feral` feature, because feral 0.5
 //! (ripopt) and feral 0.22 (pounce) export the same `#[no_mangle]` C functions and any binary
 //! linking both fails with duplicate symbols. Its remaining sparse path (faer 0.20 `SparseLdl`)
@@ -17,13 +23,60 @@
 //! cross-check problems (a few hundred unknowns), slow for a full-size transcription.
 
 use std::cell::RefCell;
+use std::os::raw::{c_double, c_int, c_void};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use ripopt::{NlpProblem, SolveStatus as RipStatus, SolverOptions};
 
 use super::{
-    panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus,
+    panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus, Stop,
 };
+
+thread_local! {
+    /// The stop rule of the ripopt solve running on this thread (ripopt calls its intermediate
+    /// callback on the thread that called `ripopt::solve`).
+    static STOP: RefCell<Option<Stop>> = const { RefCell::new(None) };
+}
+
+/// ripopt's intermediate callback: 1 to go on, 0 to stop (ripopt then ends with
+/// `UserRequestedStop`, which [`Stop::verdict`] turns into the reason).
+#[allow(clippy::too_many_arguments)]
+extern "C" fn keep_going(
+    _alg_mod: c_int,
+    _iter: c_int,
+    _obj_value: c_double,
+    _inf_pr: c_double,
+    _inf_du: c_double,
+    _mu: c_double,
+    _d_norm: c_double,
+    _regularization_size: c_double,
+    _alpha_du: c_double,
+    _alpha_pr: c_double,
+    _ls_trials: c_int,
+    _user_data: *mut c_void,
+) -> c_int {
+    let stop = STOP.with(|s| s.borrow().as_ref().is_some_and(Stop::now));
+    c_int::from(!stop)
+}
+
+/// Installs [`keep_going`] with `stop` for this thread; uninstalls both when dropped.
+struct StopHook;
+
+impl StopHook {
+    fn install(stop: &Stop) -> StopHook {
+        STOP.with(|s| *s.borrow_mut() = Some(stop.clone()));
+        let cb = keep_going as ripopt::c_api::IntermediateCb;
+        ripopt::intermediate::set_intermediate_callback(Some((cb, std::ptr::null_mut())));
+        StopHook
+    }
+}
+
+impl Drop for StopHook {
+    fn drop(&mut self) {
+        ripopt::intermediate::set_intermediate_callback(None);
+        STOP.with(|s| *s.borrow_mut() = None);
+    }
+}
 
 struct Adapter<'a> {
     prep: &'a Prepared,
@@ -153,6 +206,7 @@ pub(crate) fn run(
     nlp: &mut dyn super::SparseNlp,
     prep: &Prepared,
     settings: &NlpSettings,
+    stop: &Stop,
 ) -> BackendOutcome {
     if prep.n + prep.m > RIPOPT_MAX_UNKNOWNS {
         let status = SolveStatus::InvalidProblem(format!(
@@ -175,7 +229,10 @@ pub(crate) fn run(
         prep,
         eval: RefCell::new(Evaluator::new(nlp, prep)),
     };
-    let result = catch_unwind(AssertUnwindSafe(|| ripopt::solve(&adapter, &opts)));
+    let result = {
+        let _hook = StopHook::install(stop);
+        catch_unwind(AssertUnwindSafe(|| ripopt::solve(&adapter, &opts)))
+    };
     // ripopt runs one pass as far as an observer can tell (no per-iteration events here); a
     // fallback it used is named in the pass.
     let mut eval = adapter.eval.into_inner();

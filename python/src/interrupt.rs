@@ -1,0 +1,50 @@
+//! Ctrl-C (`KeyboardInterrupt`) during long Rust work. Python runs its signal handlers only on the
+//! main thread, between bytecodes: a call that stays in Rust would see Ctrl-C only when it returns.
+//! So the work runs on a scoped worker thread with a cancel token in its settings, while the calling
+//! thread waits without the GIL in short slices and, between them, asks Python for pending signals
+//! (`Python::check_signals`). A pending `KeyboardInterrupt` (or any exception a signal handler raises)
+//! sets the token; the worker's solves stop at their next iteration, its loops at their next check,
+//! and the call raises that exception once the worker has returned.
+
+use brachia::CancelToken;
+use pyo3::prelude::*;
+use std::time::Duration;
+
+/// How long the calling thread waits without the GIL between two checks for signals.
+const POLL: Duration = Duration::from_millis(20);
+
+/// Run `work(token)` on a worker thread, checking for Python signals every [`POLL`]: on a signal the
+/// token is set and the signal's exception is raised after the work has stopped. `cancel` is the
+/// token the work was given (its settings carry it).
+pub(crate) fn interruptible<T: Send>(
+    py: Python<'_>,
+    cancel: &CancelToken,
+    work: impl FnOnce() -> T + Send,
+) -> PyResult<T> {
+    std::thread::scope(|s| {
+        let handle = s.spawn(work);
+        let mut raised: Option<PyErr> = None;
+        while !handle.is_finished() {
+            py.detach(|| {
+                let step = Duration::from_millis(1);
+                let mut waited = Duration::ZERO;
+                while waited < POLL && !handle.is_finished() {
+                    std::thread::sleep(step);
+                    waited += step;
+                }
+            });
+            if raised.is_none() {
+                if let Err(e) = py.check_signals() {
+                    cancel.cancel();
+                    raised = Some(e);
+                }
+            }
+        }
+        let out = py.detach(|| handle.join());
+        match (raised, out) {
+            (Some(e), _) => Err(e),
+            (None, Ok(v)) => Ok(v),
+            (None, Err(p)) => std::panic::resume_unwind(p),
+        }
+    })
+}
