@@ -141,9 +141,6 @@ fn three_and_six_link_robots_simulate() {
         let csv = csv
             .strip_prefix("# brachia trajectory schema 1\n")
             .expect("the schema line");
-        let csv = csv
-            .strip_prefix("# brachia trajectory schema 1\n")
-            .expect("the schema line");
         let header = csv.lines().next().unwrap();
         assert!(
             header.contains(&format!(",q{n},")) && header.contains(&format!(",tau{n},")),
