@@ -6,6 +6,9 @@
 //! [`Error::InvalidValue`] naming the file, the field (line and column), the value and the rule. Nothing
 //! here plans or simulates.
 //!
+//! Every JSON file must carry `schema_version` 1 and every CSV file its schema line
+//! (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must lie inside it ([`inside`]).
+//!
 //! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
 //! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`ClosedLoopLog::to_csv`];
 //! `contacts.csv` `t,link,body,impulse`; `obstacles.csv` `t,obstacle_0_x,obstacle_0_y,...`.
@@ -139,16 +142,14 @@ fn past_schema_line(e: Error) -> Error {
             value,
             reason,
         } => {
-            let field = match field.strip_prefix("line ").and_then(|r| {
+            let shifted = field.strip_prefix("line ").and_then(|r| {
                 let digits: String = r.chars().take_while(char::is_ascii_digit).collect();
                 digits
                     .parse::<usize>()
                     .ok()
                     .map(|n| format!("line {}{}", n + 1, &r[digits.len()..]))
-            }) {
-                Some(f) => f,
-                None => field,
-            };
+            });
+            let field = shifted.unwrap_or(field);
             Error::InvalidValue {
                 source_name,
                 field,

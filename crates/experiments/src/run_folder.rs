@@ -160,7 +160,7 @@ fn pid_alive(pid: u32) -> bool {
 
 /// Create a fresh, empty staging folder next to `dir` (`.NAME.partial-PID-K`, a name no folder has
 /// yet), first clearing staging folders of the same target left by processes that no longer run (only
-/// the files their manifest proves are brachia's; see [`remove_stale_stage`]).
+/// the files their manifest proves are brachia's).
 pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
     let parent = parent_of(dir);
     std::fs::create_dir_all(&parent).map_err(|e| werr(&parent, e))?;
@@ -368,15 +368,15 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
         )));
     }
     if dir.exists() || dir.is_symlink() {
-        // a manifest brachia cannot read (another schema, a path leaving the folder) is refused here,
-        // before any work
-        manifest::read_manifest(dir)?;
         if !dir.is_dir() {
             return Err(bad(
                 "exists and is not a folder; --out needs a folder (new, empty or a brachia run folder)"
                     .into(),
             ));
         }
+        // a manifest brachia cannot read (another schema, a path leaving the folder) is refused here,
+        // before any work
+        manifest::read_manifest(dir)?;
         let empty = std::fs::read_dir(dir)
             .map_err(|e| bad(format!("cannot be read: {e}")))?
             .next()
