@@ -16,6 +16,8 @@ import brachia
 
 def read_csv(path):
     with open(path) as f:
+        first = f.readline()
+        assert first.startswith("# brachia ") and first.rstrip().endswith(" schema 1"), first
         rows = list(csv.reader(f))
     header, data = rows[0], np.array(rows[1:], dtype=float)
     return header, data

@@ -26,6 +26,9 @@ fn plan_and_track(scenario: &str, n: usize, dir: &Path) {
     let r = report(&plan);
     assert_eq!(r["status"], "solved", "{scenario}: {r}");
     let csv = std::fs::read_to_string(plan.join("trajectory.csv")).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia trajectory schema 1\n")
+        .expect("the schema line");
     let header = csv.lines().next().unwrap();
     assert!(
         header.contains(&format!(",q{n},qd1,")) && header.contains(&format!(",tau{n},ee_x")),
@@ -54,6 +57,9 @@ fn plan_and_track(scenario: &str, n: usize, dir: &Path) {
             "{scenario} on {plant}: ends {err} m from the bar"
         );
         let log = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
+        let log = log
+            .strip_prefix("# brachia closed_loop schema 1\n")
+            .expect("the schema line");
         let head = log.lines().next().unwrap();
         assert!(
             head.starts_with("t,q1,") && head.contains(&format!(",tau{n},")),

@@ -39,6 +39,9 @@ fn plan_writes_the_run_folder_contract() {
     let ee = r["ee_final"].as_array().unwrap();
     assert!((ee[0].as_f64().unwrap() - 0.8).abs() < 1e-3 && ee[1].as_f64().unwrap().abs() < 1e-3);
     let traj = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let traj = traj
+        .strip_prefix("# brachia trajectory schema 1\n")
+        .expect("the schema line");
     assert!(traj.starts_with("t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y\n"));
     let rows = traj.lines().count() - 1;
     let t = r["swing_time_s"].as_f64().unwrap();

@@ -28,6 +28,9 @@ fn simulate_writes_trajectory_and_report() {
         .unwrap();
     assert!(st.success());
     let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia trajectory schema 1\n")
+        .expect("the schema line");
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
@@ -135,6 +138,9 @@ fn three_and_six_link_robots_simulate() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        let csv = csv
+            .strip_prefix("# brachia trajectory schema 1\n")
+            .expect("the schema line");
         let header = csv.lines().next().unwrap();
         assert!(
             header.contains(&format!(",q{n},")) && header.contains(&format!(",tau{n},")),

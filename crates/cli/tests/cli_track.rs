@@ -47,6 +47,9 @@ fn mpc_tracks_the_paper_swing_on_the_model_plant() {
         "executed {e} J vs planned {ep} J"
     );
     let csv = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia closed_loop schema 1\n")
+        .expect("the schema line");
     assert!(
         csv.starts_with("t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y,ref_q1"),
         "{}",
@@ -152,10 +155,16 @@ fn robustness_on_rapier_writes_contacts_and_obstacle_tracks() {
     assert!((0.5..=0.7).contains(&hit), "first contact {hit} s");
     assert!(r["ee_final_error_m"].as_f64().unwrap() < 0.02);
     let contacts = std::fs::read_to_string(out.join("contacts.csv")).unwrap();
+    let contacts = contacts
+        .strip_prefix("# brachia contacts schema 1\n")
+        .expect("the schema line");
     let first: Vec<&str> = contacts.lines().nth(1).unwrap().split(',').collect();
     assert_eq!(first.len(), 4);
     assert_eq!(first[2], "obstacle_0");
     let obstacles = std::fs::read_to_string(out.join("obstacles.csv")).unwrap();
+    let obstacles = obstacles
+        .strip_prefix("# brachia obstacles schema 1\n")
+        .expect("the schema line");
     assert!(obstacles.starts_with("t,obstacle_0_x,obstacle_0_y\n"));
     let (start, end) = (
         obstacles.lines().nth(1).unwrap(),

@@ -66,6 +66,9 @@ fn traverse_writes_the_run_folder_of_a_short_ladder() {
         }
     }
     let csv = std::fs::read_to_string(out.join("traverse.csv")).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia traverse schema 1\n")
+        .expect("the schema line");
     let header = csv.lines().next().unwrap();
     assert!(header.starts_with("t,q1,q2,q3,qd1,qd2,qd3,tau2,tau3,ee_x,ee_y,swing,holding_hand"));
     // no staging folder is left next to the run folder

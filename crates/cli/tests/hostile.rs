@@ -245,7 +245,10 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
             );
             match name {
                 "repcorrupt" => file(d.join("summary.json"), b"{\"mode\": \"quick\", \"wall"),
-                "repmissingfield" => file(d.join("summary.json"), b"{\"wall_time_s\": 1.0}\n"),
+                "repmissingfield" => file(
+                    d.join("summary.json"),
+                    b"{\"schema_version\": 1, \"wall_time_s\": 1.0}\n",
+                ),
                 _ => sparse(&d.join("summary.json")),
             }
         }
@@ -258,6 +261,23 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
             file(env.out.join("trajectory.csv"), b"t,q1\n0,0\n");
             file(env.out.join("report.json"), b"{\"previous\": true}\n");
             file(env.out.join("notes.txt"), b"the user's own notes\n");
+        }
+        // OUT is a run folder whose manifest lists a file outside OUT, which must survive
+        "escapemanifest" => {
+            file(env.t.join("victim.txt"), b"outside the output");
+            file(
+                env.out.join(".brachia-run"),
+                b"# brachia run folder\ntrajectory.csv\n../victim.txt\n",
+            );
+            file(env.out.join("trajectory.csv"), b"t,q1\n0,0\n");
+        }
+        // OUT is a run folder whose manifest is of a schema this brachia does not know
+        "futuremanifest" => {
+            file(
+                env.out.join(".brachia-run"),
+                b"# brachia run-folder manifest, schema 9\n",
+            );
+            file(env.out.join("trajectory.csv"), b"t,q1\n0,0\n");
         }
         // {T}/run: a copy of the corpus' plan run folder with one file damaged: `run:FILE=HOW`
         other if other.starts_with("run:") => {

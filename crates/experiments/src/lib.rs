@@ -10,6 +10,7 @@
 
 pub mod benchmark;
 pub mod ladder;
+pub mod manifest;
 pub mod parameter_study;
 pub mod plan_run;
 pub mod progress;
@@ -17,6 +18,7 @@ pub mod read;
 pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
+pub mod schema;
 pub mod track_run;
 pub mod traverse;
 

@@ -6,6 +6,9 @@
 //! [`Error::InvalidValue`] naming the file, the field (line and column), the value and the rule. Nothing
 //! here plans or simulates.
 //!
+//! Every JSON file must carry `schema_version` 1 and every CSV file its schema line
+//! (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must lie inside it ([`inside`]).
+//!
 //! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
 //! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`ClosedLoopLog::to_csv`];
 //! `contacts.csv` `t,link,body,impulse`; `obstacles.csv` `t,obstacle_0_x,obstacle_0_y,...`.
@@ -26,28 +29,149 @@ use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 
-/// `dir/name`, refused (naming `what` the folder should be) when it is not a file.
-fn need(dir: &Path, name: &str, what: &str) -> Result<PathBuf, Error> {
-    let p = dir.join(name);
-    if p.is_file() {
-        Ok(p)
-    } else {
-        Err(Error::invalid(
+/// `dir/name` (a plain relative name), refused (naming `what` the folder should be) when it is missing,
+/// or (see [`inside`]) when it leaves `dir` or is not a regular file.
+pub fn need(dir: &Path, name: &str, what: &str) -> Result<PathBuf, Error> {
+    match inside(dir, name)? {
+        Some(p) => Ok(p),
+        None => Err(Error::invalid(
             dir.display().to_string(),
             name,
             "missing",
             format!("{what} holds {name}"),
-        ))
+        )),
     }
 }
 
+/// `dir/name` when it exists, `None` when it does not. A folder read back is untrusted input: the
+/// entry is refused when it leaves `dir` (a `..` or absolute name, or a symbolic link, on the way or
+/// at the end, that resolves outside `dir`) or is not a regular file (a folder, FIFO or device).
+pub fn inside(dir: &Path, name: &str) -> Result<Option<PathBuf>, Error> {
+    let file = dir.join(name).display().to_string();
+    if crate::manifest::inside_rel(name).is_none() {
+        return Err(Error::invalid(
+            &file,
+            "(the path)",
+            name,
+            "a file of a run folder is a plain path inside it (no `..`, no absolute path)",
+        ));
+    }
+    let p = dir.join(name);
+    if std::fs::symlink_metadata(&p).is_err() {
+        return Ok(None);
+    }
+    let (Ok(root), Ok(real)) = (dir.canonicalize(), p.canonicalize()) else {
+        return Err(Error::invalid(
+            &file,
+            "(the path)",
+            name,
+            "a symbolic link that leads nowhere (or a loop); a run folder's files are regular files",
+        ));
+    };
+    if !real.starts_with(&root) {
+        return Err(Error::invalid(
+            &file,
+            "(the path)",
+            real.display(),
+            format!(
+                "leads outside the folder {}; a run folder's files lie inside it",
+                dir.display()
+            ),
+        ));
+    }
+    if !real.is_file() {
+        return Err(Error::invalid(
+            &file,
+            "(the path)",
+            if real.is_dir() {
+                "a folder"
+            } else {
+                "not a regular file"
+            },
+            "must be a regular file",
+        ));
+    }
+    Ok(Some(p))
+}
+
+/// `dir/name` as a sub-folder inside `dir` when it is one (also through a symbolic link that stays
+/// inside `dir`), `None` when there is nothing of that name; refused when it leads outside `dir`.
+pub fn inside_dir(dir: &Path, name: &str) -> Result<Option<PathBuf>, Error> {
+    let p = dir.join(name);
+    if std::fs::symlink_metadata(&p).is_err() {
+        return Ok(None);
+    }
+    let ok = match (dir.canonicalize(), p.canonicalize()) {
+        (Ok(root), Ok(real)) => real.starts_with(&root) && real != root,
+        _ => false,
+    };
+    if !ok {
+        return Err(Error::invalid(
+            p.display().to_string(),
+            "(the path)",
+            name,
+            format!(
+                "leads outside the folder {} (or nowhere); a run folder's sub-folders lie inside it",
+                dir.display()
+            ),
+        ));
+    }
+    Ok(p.is_dir().then_some(p))
+}
+
 /// Read and parse a JSON file (at most [`limits::MAX_JSON_BYTES`]).
+/// The file must carry the schema version this brachia reads ([`crate::schema::json_version`]).
 pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
     let text = limits::read_text_capped(path, limits::MAX_JSON_BYTES, "JSON file")?;
-    serde_json::from_str(&text).map_err(|e| Error::Parse {
+    let parse = |e: serde_json::Error| Error::Parse {
         path: path.to_path_buf(),
         message: e.to_string(),
-    })
+    };
+    let value: serde_json::Value = serde_json::from_str(&text).map_err(parse)?;
+    crate::schema::json_version(&value, &path.display().to_string())?;
+    serde_json::from_value(value).map_err(parse)
+}
+
+/// An error of a CSV parser given the text after the schema line ([`read_csv_text`]): its `line N`
+/// counted from the header becomes the file's line, `line N+1`.
+fn past_schema_line(e: Error) -> Error {
+    match e {
+        Error::InvalidValue {
+            source_name,
+            field,
+            value,
+            reason,
+        } => {
+            let shifted = field.strip_prefix("line ").and_then(|r| {
+                let digits: String = r.chars().take_while(char::is_ascii_digit).collect();
+                digits
+                    .parse::<usize>()
+                    .ok()
+                    .map(|n| format!("line {}{}", n + 1, &r[digits.len()..]))
+            });
+            let field = shifted.unwrap_or(field);
+            Error::InvalidValue {
+                source_name,
+                field,
+                value,
+                reason,
+            }
+        }
+        other => other,
+    }
+}
+
+/// Read a CSV file brachia wrote (at most [`limits::MAX_CSV_BYTES`]): its schema line is checked
+/// ([`crate::schema::csv_body`]) and the text after it returned.
+pub fn read_csv_text(path: &Path, what: &str) -> Result<String, Error> {
+    let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, what)?;
+    let name = path
+        .file_name()
+        .map(|f| f.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let kind = crate::schema::csv_kind(&name).unwrap_or(what);
+    let body = crate::schema::csv_body(&text, &path.display().to_string(), kind)?;
+    Ok(body.to_string())
 }
 
 /// Read a plan's 1 ms `trajectory.csv` for an `n`-link robot (`whose` names the robot in the message):
@@ -56,7 +180,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
 /// [`limits::MAX_SWING_TIME_S`].
 pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajectory, Error> {
     let tpath = file.display().to_string();
-    let text = limits::read_text_capped(file, limits::MAX_CSV_BYTES, "trajectory.csv")?;
+    let text = read_csv_text(file, "trajectory")?;
     let header = text.lines().next().unwrap_or("");
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let links = cols
@@ -81,7 +205,7 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
             ),
         ));
     }
-    let traj = Trajectory::from_csv(&text, n, &tpath)?;
+    let traj = Trajectory::from_csv(&text, n, &tpath).map_err(past_schema_line)?;
     if traj.len() < 2 {
         return Err(Error::invalid(
             &tpath,
@@ -101,7 +225,7 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
             let j = if name == "tau" { col + 2 } else { col + 1 };
             return Err(Error::invalid(
                 &tpath,
-                format!("line {}, {name}{j}", row + 2),
+                format!("line {}, {name}{j}", row + 3),
                 x,
                 "every value of a plan must be finite",
             ));
@@ -110,7 +234,7 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     if let Some((k, x)) = traj.t.iter().enumerate().find(|(_, x)| !x.is_finite()) {
         return Err(Error::invalid(
             &tpath,
-            format!("line {}, t", k + 2),
+            format!("line {}, t", k + 3),
             x,
             "every value of a plan must be finite",
         ));
@@ -118,7 +242,7 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
         return Err(Error::invalid(
             &tpath,
-            format!("line {}, t", k + 2),
+            format!("line {}, t", k + 3),
             traj.t[k],
             format!(
                 "times must increase strictly (previous row: {})",
@@ -129,7 +253,7 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     if traj.t[0].abs() > 1e-9 {
         return Err(Error::invalid(
             &tpath,
-            "line 2, t",
+            "line 3, t",
             traj.t[0],
             "a plan starts at t = 0",
         ));
@@ -144,6 +268,28 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
         ));
     }
     Ok(traj)
+}
+
+/// The robot file `params` a plan folder's `scenario.toml` (`sfile`) names must be a file of the
+/// folder `dir` (as `brachia plan` writes it): a path that leaves the folder is refused.
+fn check_params_inside(dir: &Path, sfile: &Path, params: &Path) -> Result<(), Error> {
+    let ok = match (dir.canonicalize(), params.canonicalize()) {
+        (Ok(root), Ok(real)) => real.starts_with(&root) && real.is_file(),
+        _ => false,
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::invalid(
+            sfile.display().to_string(),
+            "params",
+            params.display(),
+            format!(
+                "a plan folder's scenario names its robot file inside the folder {} (params.toml)",
+                dir.display()
+            ),
+        ))
+    }
 }
 
 /// A plan's run folder read back (`brachia plan`, or the `plan/` of a track run).
@@ -170,7 +316,16 @@ impl PlanFolder {
         let sfile = need(dir, "scenario.toml", PLAN_FOLDER)?;
         let rfile = need(dir, "report.json", PLAN_FOLDER)?;
         let tfile = need(dir, "trajectory.csv", PLAN_FOLDER)?;
+        // the robot file the scenario names is checked before anything reads it
+        let stext = limits::read_text_capped(&sfile, limits::MAX_TOML_BYTES, "scenario file")?;
+        let named = toml::from_str::<toml::Table>(&stext)
+            .ok()
+            .and_then(|t| t.get("params").and_then(|v| v.as_str().map(PathBuf::from)));
+        if let Some(params) = named {
+            check_params_inside(dir, &sfile, &dir.join(params))?;
+        }
         let scenario = Scenario::load_for(&sfile, Uses::Plan)?;
+        check_params_inside(dir, &sfile, &scenario.scenario.params)?;
         let report: PlanReport = read_json(&rfile)?;
         let whose = format!("the robot of {}", sfile.display());
         let trajectory = read_plan_trajectory(&tfile, scenario.robot.n(), &whose)?;
@@ -209,26 +364,24 @@ impl TrackFolder {
         let rfile = need(dir, "report.json", TRACK_FOLDER)?;
         let lfile = need(dir, "closed_loop.csv", TRACK_FOLDER)?;
         let report: TrackReport = read_json(&rfile)?;
-        let text = limits::read_text_capped(&lfile, limits::MAX_CSV_BYTES, "closed_loop.csv")?;
-        let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())?;
+        let text = read_csv_text(&lfile, "closed_loop")?;
+        let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())
+            .map_err(past_schema_line)?;
         log.controller = report.controller.clone();
         log.plant = report.plant.clone();
         let mut world = PlantWorld {
             obstacles: report.plant_obstacles.clone(),
             ..PlantWorld::default()
         };
-        let cfile = dir.join("contacts.csv");
-        if cfile.is_file() {
+        if let Some(cfile) = inside(dir, "contacts.csv")? {
             world.contacts = read_contacts(&cfile, log.n, world.obstacles.len())?;
         }
-        let ofile = dir.join("obstacles.csv");
-        if ofile.is_file() {
+        if let Some(ofile) = inside(dir, "obstacles.csv")? {
             world.track = read_obstacle_track(&ofile, &world.obstacles)?;
         }
-        let plan = if dir.join("plan").is_dir() {
-            Some(PlanFolder::read(&dir.join("plan"))?)
-        } else {
-            None
+        let plan = match inside_dir(dir, "plan")? {
+            Some(p) => Some(PlanFolder::read(&p)?),
+            None => None,
         };
         Ok(TrackFolder {
             dir: dir.to_path_buf(),
@@ -260,7 +413,7 @@ fn csv_rows<'a>(
     Ok(lines
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| (i + 2, l.split(',').map(str::trim).collect()))
+        .map(|(i, l)| (i + 3, l.split(',').map(str::trim).collect()))
         .collect())
 }
 
@@ -286,7 +439,7 @@ fn number(file: &str, line: usize, col: &str, v: &str) -> Result<f64, Error> {
 /// `contacts.csv` of an `n`-link robot in a world of `obstacles` obstacles.
 fn read_contacts(path: &Path, n: usize, obstacles: usize) -> Result<Vec<ContactEvent>, Error> {
     let file = path.display().to_string();
-    let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, "contacts.csv")?;
+    let text = read_csv_text(path, "contacts")?;
     let mut out = Vec::new();
     for (line, row) in csv_rows(&text, &file, "t,link,body,impulse")? {
         if row.len() != 4 {
@@ -340,7 +493,7 @@ fn read_contacts(path: &Path, n: usize, obstacles: usize) -> Result<Vec<ContactE
 /// `obstacles.csv`: one column pair per obstacle of the report.
 fn read_obstacle_track(path: &Path, obstacles: &[Obstacle]) -> Result<Vec<Vec<f64>>, Error> {
     let file = path.display().to_string();
-    let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, "obstacles.csv")?;
+    let text = read_csv_text(path, "obstacles")?;
     let mut header = String::from("t");
     for i in 0..obstacles.len() {
         header.push_str(&format!(",obstacle_{i}_x,obstacle_{i}_y"));
@@ -423,14 +576,11 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
         ));
     }
     let file = cfile.display().to_string();
-    let text = limits::read_text_capped(&cfile, limits::MAX_CSV_BYTES, "cells.csv")?;
-    // folders written before the torque continuation have no last column
-    let old = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
-               iterations,solve_time_s,start,replay_ee_error_m";
-    let header = format!("{old},torque_scale_reached");
-    let has_scale = text.lines().next().map(str::trim) != Some(old);
-    let rows = csv_rows(&text, &file, if has_scale { &header } else { old })?;
-    let columns = if has_scale { 13 } else { 12 };
+    let text = read_csv_text(&cfile, "cells")?;
+    let header = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
+                  iterations,solve_time_s,start,replay_ee_error_m,torque_scale_reached";
+    let rows = csv_rows(&text, &file, header)?;
+    let columns = 13;
     if rows.len() != rep.cells {
         return Err(Error::invalid(
             &file,
@@ -446,10 +596,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
                 &file,
                 format!("line {line}"),
                 row.join(","),
-                format!(
-                    "expected {columns} columns: {}",
-                    if has_scale { header.as_str() } else { old }
-                ),
+                format!("expected {columns} columns: {header}"),
             ));
         }
         let num = |i: usize, c: &str| number(&file, line, c, row[i]);
@@ -489,11 +636,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
                 },
             )?,
             replay_ee_error_m: opt(11, "replay_ee_error_m")?,
-            torque_scale_reached: if has_scale {
-                opt(12, "torque_scale_reached")?
-            } else {
-                None
-            },
+            torque_scale_reached: opt(12, "torque_scale_reached")?,
         });
     }
     let mut sticks = Vec::with_capacity(rep.stick_r2.len());

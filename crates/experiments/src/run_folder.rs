@@ -1,30 +1,30 @@
-//! Run folders, written so that nothing is ever half-written and no user file is ever deleted.
+//! Run folders, written so that nothing is ever half-written and no file but brachia's own is ever
+//! removed or replaced.
 //!
 //! Every file of a run is queued in memory and written at the end into a *staging folder* next to the
-//! target (`.NAME.partial-PID`), with a manifest [`MANIFEST`] that lists every file the run wrote. Only
-//! when everything is written is the staging folder renamed into place:
-//! - no target folder (or an empty one): the staging folder simply becomes it;
-//! - a target that is a brachia run folder (it has a manifest): the old folder is renamed aside, the new
-//!   one into place, and every file of the old folder that its manifest does not list (the user's own)
-//!   is moved into the new folder (a name the new run also wrote is kept as `NAME.user`); only then is
-//!   the old folder, holding nothing but files brachia wrote, removed;
-//! - a non-empty folder without a manifest is refused by [`check_out_dir`] unless `force` is given;
-//!   with `force` its files are kept as above.
+//! target (`.NAME.partial-PID-K`, created afresh by this run). Only when everything is written is it
+//! installed, under an exclusive lock held on the target folder (so two runs into one folder install one
+//! after the other, never interleaved):
+//! - each new file is renamed into the target folder, which is created if missing and otherwise kept as
+//!   it is (its permissions, the user's files and empty sub-folders stay);
+//! - a name that clashes with a file the previous run did not provably write (the user's) moves that file
+//!   aside as `NAME.user` (or `NAME.user.2`, ...) first; nothing is overwritten;
+//! - the files of the previous run that this run did not write again are removed, but only those brachia
+//!   can prove it wrote ([`crate::manifest::proven`]: listed in the manifest [`MANIFEST`], a plain file
+//!   inside the folder, of the listed size and CRC-32);
+//! - last, the manifest is rewritten to list the new files.
 //!
-//! An interrupted run leaves the previous results as they were (and a hidden staging folder, removed by
-//! the next run into the same place once its process is gone).
+//! A non-empty folder without a manifest is refused by [`check_out_dir`] unless `force` is given. An
+//! interrupted run leaves the previous results as they were (and, when it was killed outright, a hidden
+//! staging folder, whose provable files the next run into the same place removes).
 
+use crate::manifest::{self, manifest_text, proven_files, Stamp};
 use crate::ExpError;
-use std::collections::BTreeSet;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// The manifest of a run folder: one relative path per line (after a header line) of every file the run
-/// wrote. Its presence marks a folder as a brachia run folder.
-pub const MANIFEST: &str = ".brachia-run";
-
-const MANIFEST_HEADER: &str =
-    "# brachia run folder: the files this run wrote (a re-run replaces only these)";
+pub use crate::manifest::MANIFEST;
 
 /// The files of one run.
 #[derive(Debug, Default, Clone)]
@@ -39,10 +39,22 @@ fn werr(path: &Path, source: std::io::Error) -> ExpError {
     }
 }
 
+/// A name no other write of this process uses (`PID-K`).
+fn unique() -> String {
+    static COUNTER: AtomicUsize = AtomicUsize::new(0);
+    format!(
+        "{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    )
+}
+
 impl RunFolder {
-    /// Queue a file (a name relative to the run folder; may contain `/`).
+    /// Queue a file (a name relative to the run folder; may contain `/`). A JSON object or a CSV file
+    /// gets its schema version ([`crate::schema::stamp`]).
     pub fn add(&mut self, name: &str, contents: impl Into<Vec<u8>>) {
-        self.files.push((name.to_string(), contents.into()));
+        let data = crate::schema::stamp(name, contents.into());
+        self.files.push((name.to_string(), data));
     }
 
     /// Queue a pretty-printed JSON file.
@@ -64,13 +76,22 @@ impl RunFolder {
             .map(|(_, d)| d.as_slice())
     }
 
-    /// Write the run folder `dir`: into a staging folder next to it, then renamed into place (see the
-    /// module docs; the user's files in a previous run folder are kept).
+    /// Write the run folder `dir`: into a staging folder next to it, then installed in place (see the
+    /// module docs; the user's files, sub-folders and the folder's permissions are kept).
     pub fn write(&self, dir: &Path) -> Result<(), ExpError> {
         let stage = stage_for(dir)?;
-        let written = self.write_into(&stage);
+        // the staging folder's manifest lists every file before it is written: a run killed half-way
+        // leaves a staging folder whose files the next run can prove are brachia's
+        let stamps: BTreeMap<PathBuf, Stamp> = self
+            .files
+            .iter()
+            .filter_map(|(n, d)| manifest::inside_rel(n).map(|p| (p, Stamp::of(d))))
+            .collect();
+        let written = std::fs::write(stage.join(MANIFEST), manifest_text(&stamps))
+            .map_err(|e| werr(&stage, e))
+            .and_then(|()| self.write_into(&stage));
         match written {
-            // install removes the staging folder itself when it cannot be renamed into place
+            // install removes the staging folder itself
             Ok(()) => install(&stage, dir),
             Err(e) => {
                 let _ = std::fs::remove_dir_all(&stage);
@@ -79,13 +100,20 @@ impl RunFolder {
         }
     }
 
-    /// Write every file into the existing folder `dir` (created if missing), each under a temporary name
-    /// renamed into place; other files in `dir` are left alone. For pages published into folders that
+    /// Write every file into the folder `dir` (created if missing), each under a fresh temporary name
+    /// renamed into place; other files in `dir` are left alone. Every name must be a plain relative
+    /// path (no `..`, no absolute path). For staging folders and for pages published into folders that
     /// also hold the user's files.
     pub fn write_into(&self, dir: &Path) -> Result<(), ExpError> {
         std::fs::create_dir_all(dir).map_err(|e| werr(dir, e))?;
         for (name, data) in &self.files {
-            let path = dir.join(name);
+            let Some(rel) = manifest::inside_rel(name) else {
+                return Err(ExpError::OutDir {
+                    path: dir.join(name),
+                    reason: "a file of a run must lie inside its folder".into(),
+                });
+            };
+            let path = dir.join(&rel);
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent).map_err(|e| werr(parent, e))?;
             }
@@ -93,9 +121,20 @@ impl RunFolder {
                 .file_name()
                 .map(|f| f.to_string_lossy().to_string())
                 .unwrap_or_default();
-            let tmp = path.with_file_name(format!(".{file}.partial"));
-            std::fs::write(&tmp, data).map_err(|e| werr(&tmp, e))?;
-            std::fs::rename(&tmp, &path).map_err(|e| werr(&path, e))?;
+            let tmp = path.with_file_name(format!(".{file}.partial-{}", unique()));
+            let created = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&tmp)
+                .and_then(|mut f| std::io::Write::write_all(&mut f, data));
+            if let Err(e) = created {
+                let _ = std::fs::remove_file(&tmp);
+                return Err(werr(&tmp, e));
+            }
+            std::fs::rename(&tmp, &path).map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                werr(&path, e)
+            })?;
         }
         Ok(())
     }
@@ -119,10 +158,10 @@ fn pid_alive(pid: u32) -> bool {
     pid == std::process::id() || Path::new(&format!("/proc/{pid}")).exists()
 }
 
-/// Create a fresh, empty staging folder next to `dir` (`.NAME.partial-PID-K`), removing staging folders
-/// of the same target left by processes that no longer run.
+/// Create a fresh, empty staging folder next to `dir` (`.NAME.partial-PID-K`, a name no folder has
+/// yet), first clearing staging folders of the same target left by processes that no longer run (only
+/// the files their manifest proves are brachia's).
 pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
     let parent = parent_of(dir);
     std::fs::create_dir_all(&parent).map_err(|e| werr(&parent, e))?;
     let name = name_of(dir);
@@ -134,26 +173,50 @@ pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
                 continue;
             };
             let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
-            if pid.is_some_and(|p| !pid_alive(p)) && e.path().join(MANIFEST).is_file() {
-                let _ = std::fs::remove_dir_all(e.path());
+            let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
+            if is_dir && pid.is_some_and(|p| !pid_alive(p)) {
+                remove_stale_stage(&e.path());
             }
         }
     }
-    let k = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let stage = parent.join(format!("{prefix}{}-{k}", std::process::id()));
-    if stage.exists() {
-        std::fs::remove_dir_all(&stage).map_err(|e| werr(&stage, e))?;
+    loop {
+        let stage = parent.join(format!("{prefix}{}", unique()));
+        match std::fs::create_dir(&stage) {
+            Ok(()) => {
+                // mark it as ours at once (an empty listing until its files are known)
+                std::fs::write(stage.join(MANIFEST), manifest_text(&BTreeMap::new()))
+                    .map_err(|e| werr(&stage, e))?;
+                return Ok(stage);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(werr(&stage, e)),
+        }
     }
-    std::fs::create_dir(&stage).map_err(|e| werr(&stage, e))?;
-    // mark it as ours at once, so a later run may clean it up if this one is interrupted
-    std::fs::write(stage.join(MANIFEST), format!("{MANIFEST_HEADER}\n"))
-        .map_err(|e| werr(&stage, e))?;
-    Ok(stage)
 }
 
-/// Every file under `dir`, as paths relative to it (sorted).
-fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
+/// Clear the staging folder `stage` of a run that no longer runs: remove the files its manifest proves
+/// brachia wrote, then the manifest and every folder left empty. Anything else stays.
+fn remove_stale_stage(stage: &Path) {
+    if let Ok(Some(m)) = manifest::read_manifest(stage) {
+        for rel in proven_files(stage, &m) {
+            let _ = std::fs::remove_file(stage.join(rel));
+        }
+        if manifest::plain_file(stage, Path::new(MANIFEST)) {
+            let _ = std::fs::remove_file(stage.join(MANIFEST));
+        }
+    }
+    let (_, dirs) = entries_under(stage);
+    // deepest first; remove_dir removes only an empty folder
+    for d in dirs.iter().rev() {
+        let _ = std::fs::remove_dir(stage.join(d));
+    }
+    let _ = std::fs::remove_dir(stage);
+}
+
+/// Every file (not a folder) and every folder under `dir`, as paths relative to it, without following
+/// symbolic links (a link is listed as a file); folders listed parents first.
+fn entries_under(dir: &Path) -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let (mut files, mut dirs) = (Vec::new(), Vec::new());
     let mut stack = vec![PathBuf::new()];
     while let Some(rel) = stack.pop() {
         let Ok(entries) = std::fs::read_dir(dir.join(&rel)) else {
@@ -162,44 +225,18 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
         for e in entries.flatten() {
             let r = rel.join(e.file_name());
             match e.file_type() {
-                Ok(t) if t.is_dir() => stack.push(r),
-                Ok(_) => out.push(r),
+                Ok(t) if t.is_dir() => {
+                    dirs.push(r.clone());
+                    stack.push(r);
+                }
+                Ok(_) => files.push(r),
                 Err(_) => {}
             }
         }
     }
-    out.sort();
-    out
-}
-
-/// The files a run folder's manifest lists, or `None` when `dir` has no manifest.
-pub fn read_manifest(dir: &Path) -> Option<BTreeSet<PathBuf>> {
-    // a regular file only: a FIFO named like the manifest would block the read forever
-    if !dir.join(MANIFEST).is_file() {
-        return None;
-    }
-    let text = std::fs::read_to_string(dir.join(MANIFEST)).ok()?;
-    Some(
-        text.lines()
-            .filter(|l| !l.starts_with('#') && !l.is_empty())
-            .map(PathBuf::from)
-            .collect(),
-    )
-}
-
-/// Rewrite the manifest of the run folder `dir` to list `files` (paths relative to `dir`), through a
-/// temporary file renamed into place.
-pub(crate) fn write_manifest(dir: &Path, files: &BTreeSet<PathBuf>) -> Result<(), ExpError> {
-    let mut text = String::from(MANIFEST_HEADER);
-    text.push('\n');
-    for f in files {
-        text.push_str(&f.to_string_lossy());
-        text.push('\n');
-    }
-    let tmp = dir.join(format!("{MANIFEST}.partial"));
-    std::fs::write(&tmp, text).map_err(|e| werr(&tmp, e))?;
-    let path = dir.join(MANIFEST);
-    std::fs::rename(&tmp, &path).map_err(|e| werr(&path, e))
+    files.sort();
+    dirs.sort_by_key(|d| d.components().count());
+    (files, dirs)
 }
 
 /// `dir` without a trailing `/` or `/.` (through which the OS would follow a symbolic link).
@@ -279,7 +316,42 @@ pub fn check_out_apart(
     })
 }
 
-/// Refuse an output folder before any work: a symbolic link (with or without `force`), a path that
+/// Refuse an `--out` written so that it names a folder only through `.` or `..` (`.`, `EMPTY/.`,
+/// `SUB/..`), the current folder or one of its ancestors (a run would write among the files it was
+/// started from), or the root.
+pub fn check_out_form(dir: &Path) -> Result<(), ExpError> {
+    let bad = |reason: String| ExpError::OutDir {
+        path: dir.to_path_buf(),
+        reason,
+    };
+    let text = dir.to_string_lossy();
+    let trimmed = text.trim_end_matches('/');
+    let last = trimmed.rsplit('/').next().unwrap_or("");
+    if text.is_empty() {
+        return Err(bad("is empty; --out needs a folder name".into()));
+    }
+    if trimmed.is_empty() || last == "." || last == ".." {
+        return Err(bad(
+            "ends in `.`, `..` or is the root; --out must name its folder plainly (e.g. runs/swing), \
+             not through `.` or `..`"
+                .into(),
+        ));
+    }
+    let (Some(out), Some(cwd)) = (resolved(dir), std::env::current_dir().ok()) else {
+        return Ok(());
+    };
+    let cwd = cwd.canonicalize().unwrap_or(cwd);
+    if cwd.starts_with(&out) {
+        return Err(bad(format!(
+            "is the current folder or one of its ancestors ({}); --out must be a folder of its own \
+             (e.g. runs/swing)",
+            out.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Refuse an output folder before any work: `--out` forms [`check_out_form`] refuses, a symbolic link (with or without `force`), a path that
 /// exists but is not a folder, a non-empty folder that is not a brachia run folder (unless `force`), or a
 /// place where nothing can be written.
 pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
@@ -287,6 +359,7 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
         path: dir.to_path_buf(),
         reason,
     };
+    check_out_form(dir)?;
     if let Some(target) = symlink_target(dir) {
         return Err(bad(format!(
             "is a symbolic link (to {}); --out must be a real folder, not a link: pass the folder it \
@@ -301,6 +374,9 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
                     .into(),
             ));
         }
+        // a manifest brachia cannot read (another schema, a path leaving the folder) is refused here,
+        // before any work
+        manifest::read_manifest(dir)?;
         let empty = std::fs::read_dir(dir)
             .map_err(|e| bad(format!("cannot be read: {e}")))?
             .next()
@@ -356,99 +432,188 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
     Ok(())
 }
 
-/// Write the manifest of the finished staging folder `stage` and move it into place as `dir` (see the
-/// module docs). Files of a previous run folder at `dir` that its manifest does not list are moved into
-/// the new folder; nothing but files brachia wrote is ever removed.
+/// Install the finished staging folder `stage` (created by [`stage_for`] in this run) as the run folder
+/// `dir` (see the module docs): under an exclusive lock on `dir`, every file of `stage` is renamed into
+/// `dir`, the previous run's provable files that were not written again are removed, and the manifest
+/// is rewritten. The staging folder is removed in every case.
 pub fn install(stage: &Path, dir: &Path) -> Result<(), ExpError> {
     let installed = install_stage(stage, dir);
-    if installed.is_err() && stage.is_dir() {
-        // not renamed into place: nothing of this run may be left behind
+    if stage.is_dir() {
+        // created by this run; whatever is left in it was not installed
         let _ = std::fs::remove_dir_all(stage);
     }
     installed
 }
 
+/// An exclusive lock on the folder `dir` (created if missing), held until dropped; waits for another
+/// run's lock. Refused when `dir` is a symbolic link or is replaced while the lock is taken.
+fn lock_dir(dir: &Path) -> Result<std::fs::File, ExpError> {
+    use std::os::unix::fs::MetadataExt;
+    let changed = |what: &str| ExpError::OutDir {
+        path: dir.to_path_buf(),
+        reason: format!("{what} while the run was writing; nothing was installed"),
+    };
+    loop {
+        if let Some(target) = symlink_target(dir) {
+            return Err(ExpError::OutDir {
+                path: dir.to_path_buf(),
+                reason: format!(
+                    "is a symbolic link (to {}); --out must be a real folder",
+                    target.display()
+                ),
+            });
+        }
+        match std::fs::create_dir(dir) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(werr(dir, e)),
+        }
+        let meta = std::fs::symlink_metadata(dir).map_err(|e| werr(dir, e))?;
+        if !meta.is_dir() {
+            return Err(changed("became something other than a folder"));
+        }
+        let f = std::fs::File::open(dir).map_err(|e| werr(dir, e))?;
+        f.lock().map_err(|e| werr(dir, e))?;
+        // the folder locked must still be the one at `dir` (not removed or replaced meanwhile)
+        let held = f.metadata().map_err(|e| werr(dir, e))?;
+        match std::fs::symlink_metadata(dir) {
+            Ok(now) if now.is_dir() && now.ino() == held.ino() && now.dev() == held.dev() => {
+                return Ok(f)
+            }
+            Ok(now) if now.is_dir() => continue,
+            Ok(_) => return Err(changed("became something other than a folder")),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(werr(dir, e)),
+        }
+    }
+}
+
+/// A free name beside `path` for a user's entry moved out of the way: `NAME.user`, `NAME.user.2`, ...
+fn aside_name(path: &Path) -> PathBuf {
+    let f = path
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .to_string();
+    let mut k = 1;
+    loop {
+        let name = if k == 1 {
+            format!("{f}.user")
+        } else {
+            format!("{f}.user.{k}")
+        };
+        let p = path.with_file_name(name);
+        if std::fs::symlink_metadata(&p).is_err() {
+            return p;
+        }
+        k += 1;
+    }
+}
+
+/// Move the user's entry at `path` (a file, link, folder or anything else) aside to a free name.
+pub(crate) fn move_aside(path: &Path) -> Result<(), ExpError> {
+    let to = aside_name(path);
+    std::fs::rename(path, &to).map_err(|e| werr(&to, e))
+}
+
+/// Make `dir/rel`'s parent folders real folders inside `dir`: a missing one is created, a file or link
+/// in the way (the user's) is moved aside.
+fn make_parents(dir: &Path, rel: &Path) -> Result<(), ExpError> {
+    let mut cur = dir.to_path_buf();
+    let parts: Vec<_> = rel.components().collect();
+    for c in &parts[..parts.len().saturating_sub(1)] {
+        cur.push(c.as_os_str());
+        match std::fs::symlink_metadata(&cur) {
+            Ok(m) if m.is_dir() => continue,
+            Ok(_) => move_aside(&cur)?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(werr(&cur, e)),
+        }
+        std::fs::create_dir(&cur).map_err(|e| werr(&cur, e))?;
+    }
+    Ok(())
+}
+
 fn install_stage(stage: &Path, dir: &Path) -> Result<(), ExpError> {
-    if let Some(target) = symlink_target(dir) {
-        return Err(ExpError::OutDir {
-            path: dir.to_path_buf(),
-            reason: format!(
-                "is a symbolic link (to {}); --out must be a real folder",
-                target.display()
-            ),
-        });
+    install_part(stage, dir, &|_| true).map(|_| ())
+}
+
+/// Install every file of the folder `stage` (a staging folder this run created) into the run folder
+/// `dir`, under the lock on `dir`: a user's entry in the way is moved aside as `NAME.user`, a file the
+/// previous run provably wrote is replaced; of the previous run's provable files that are not written
+/// again, those `replaced` selects are removed and the others stay listed; the manifest is rewritten.
+/// Returns the installed files (paths under `dir`).
+pub(crate) fn install_part(
+    stage: &Path,
+    dir: &Path,
+    replaced: &dyn Fn(&Path) -> bool,
+) -> Result<Vec<PathBuf>, ExpError> {
+    let (staged, _) = entries_under(stage);
+    let mut stamps = BTreeMap::new();
+    for rel in staged.iter().filter(|r| r.as_path() != Path::new(MANIFEST)) {
+        let from = stage.join(rel);
+        let data = std::fs::read(&from).map_err(|e| werr(&from, e))?;
+        stamps.insert(rel.clone(), Stamp::of(&data));
     }
-    let mut manifest = String::from(MANIFEST_HEADER);
-    manifest.push('\n');
-    for f in files_under(stage) {
-        if f != Path::new(MANIFEST) {
-            manifest.push_str(&f.to_string_lossy());
-            manifest.push('\n');
+    let dir = &normalized(dir);
+    if std::fs::symlink_metadata(dir).is_err() {
+        // a new folder: the staging folder, with its manifest, becomes it in one rename
+        let mpath = stage.join(MANIFEST);
+        std::fs::write(&mpath, manifest_text(&stamps)).map_err(|e| werr(&mpath, e))?;
+        match std::fs::rename(stage, dir) {
+            Ok(()) => return Ok(stamps.keys().map(|r| dir.join(r)).collect()),
+            // another run created it meanwhile: install into it under its lock
+            Err(_) if std::fs::symlink_metadata(dir).is_ok() => {}
+            Err(e) => return Err(werr(dir, e)),
         }
     }
-    let mpath = stage.join(MANIFEST);
-    std::fs::write(&mpath, manifest).map_err(|e| werr(&mpath, e))?;
-    if !(dir.exists() || dir.is_symlink()) {
-        return std::fs::rename(stage, dir).map_err(|e| werr(dir, e));
+    let _lock = lock_dir(dir)?;
+    // read under the lock: what the previous run (perhaps one that just finished) provably wrote
+    let previous = manifest::read_manifest(dir)?;
+    if previous.is_none() {
+        // mark the folder as a run folder before anything moves in
+        write_manifest(dir, &BTreeMap::new())?;
     }
-    if !dir.is_dir() {
-        return Err(ExpError::OutDir {
-            path: dir.to_path_buf(),
-            reason: "exists and is not a folder".into(),
-        });
-    }
-    let empty = std::fs::read_dir(dir)
-        .map_err(|e| werr(dir, e))?
-        .next()
-        .is_none();
-    if empty {
-        std::fs::remove_dir(dir).map_err(|e| werr(dir, e))?;
-        return std::fs::rename(stage, dir).map_err(|e| werr(dir, e));
-    }
-    let ours = read_manifest(dir).unwrap_or_default();
-    let old = parent_of(dir).join(format!(".{}.old-{}", name_of(dir), std::process::id()));
-    if old.exists() {
-        std::fs::remove_dir_all(&old).map_err(|e| werr(&old, e))?;
-    }
-    std::fs::rename(dir, &old).map_err(|e| werr(dir, e))?;
-    if let Err(e) = std::fs::rename(stage, dir) {
-        let _ = std::fs::rename(&old, dir);
-        return Err(werr(dir, e));
-    }
-    // the user's files come along into the new folder
-    let mut kept_all = true;
-    for rel in files_under(&old) {
-        if rel == Path::new(MANIFEST) || ours.contains(&rel) {
-            continue;
+    let previous = previous.unwrap_or_default();
+    let ours = proven_files(dir, &previous);
+    let mut installed = Vec::with_capacity(stamps.len());
+    for rel in stamps.keys() {
+        make_parents(dir, rel)?;
+        let to = dir.join(rel);
+        match std::fs::symlink_metadata(&to) {
+            Ok(m) if m.is_file() && ours.contains(rel) => {}
+            Ok(_) => move_aside(&to)?,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(werr(&to, e)),
         }
-        let mut to = dir.join(&rel);
-        if to.exists() || to.is_symlink() {
-            let f = to
-                .file_name()
-                .unwrap_or_default()
-                .to_string_lossy()
-                .to_string();
-            to = to.with_file_name(format!("{f}.user"));
-        }
-        let moved = to
-            .parent()
-            .map_or(Ok(()), std::fs::create_dir_all)
-            .and_then(|()| std::fs::rename(old.join(&rel), &to));
-        if moved.is_err() {
-            kept_all = false;
+        std::fs::rename(stage.join(rel), &to).map_err(|e| werr(&to, e))?;
+        installed.push(to);
+    }
+    let mut listing = stamps;
+    let gone: Vec<&PathBuf> = ours.iter().filter(|r| !listing.contains_key(*r)).collect();
+    for rel in gone {
+        if replaced(rel) {
+            let p = dir.join(rel);
+            std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
+        } else if let Some(Some(s)) = previous.files.get(rel) {
+            listing.insert(rel.clone(), *s);
         }
     }
-    if kept_all {
-        std::fs::remove_dir_all(&old).map_err(|e| werr(&old, e))?;
-        Ok(())
-    } else {
-        Err(ExpError::OutDir {
-            path: dir.to_path_buf(),
-            reason: format!(
-                "the new results are in place, but some of your files could not be moved back from {}: \
-                 they are still there",
-                old.display()
-            ),
-        })
+    write_manifest(dir, &listing)?;
+    Ok(installed)
+}
+
+/// Rewrite the manifest of the run folder `dir` to list `files` (paths relative to `dir` with their
+/// stamps), through a fresh temporary file renamed into place. A manifest that is not a regular file
+/// (the user's) is moved aside first.
+pub(crate) fn write_manifest(dir: &Path, files: &BTreeMap<PathBuf, Stamp>) -> Result<(), ExpError> {
+    let mut f = RunFolder::default();
+    f.add(MANIFEST, manifest_text(files));
+    let path = dir.join(MANIFEST);
+    if let Ok(m) = std::fs::symlink_metadata(&path) {
+        if !m.is_file() {
+            move_aside(&path)?;
+        }
     }
+    f.write_into(dir)
 }

@@ -431,7 +431,9 @@ pub fn read_plan_folder(
         ));
     }
     let whose = format!("the scenario's robot ({})", ls.scenario.params.display());
-    let traj = crate::read::read_plan_trajectory(&dir.join("trajectory.csv"), n, &whose)?;
+    const PLAN: &str = "a plan folder written by `brachia plan` (trajectory.csv, report.json)";
+    let tfile = crate::read::need(dir, "trajectory.csv", PLAN)?;
+    let traj = crate::read::read_plan_trajectory(&tfile, n, &whose)?;
     let task = &ls.scenario.task;
     let qd0 = if task.qd0.is_empty() {
         vec![0.0; n]
@@ -457,7 +459,7 @@ pub fn read_plan_folder(
             ));
         }
     }
-    let report = dir.join("report.json");
+    let report = crate::read::need(dir, "report.json", PLAN)?;
     let rep: PlanReport = crate::read::read_json(&report)?;
     if !rep.converged {
         return Err(Error::invalid(

@@ -42,6 +42,9 @@ fn plan_and_track(name: &str, links: usize) {
         mpc.summary.ee_final_error_m
     );
     let csv = String::from_utf8_lossy(mpc.folder.get("closed_loop.csv").unwrap());
+    let csv = csv
+        .strip_prefix("# brachia closed_loop schema 1\n")
+        .expect("the schema line");
     let header = csv.lines().next().unwrap_or_default();
     assert!(
         header.starts_with("t,q1,") && header.contains(&format!("tau{links}")),

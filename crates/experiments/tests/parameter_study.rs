@@ -181,6 +181,9 @@ fn small_grid_runs_and_fills_the_run_folder() {
         assert!(names.contains(&want), "{want} missing from {names:?}");
     }
     let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    let cells = cells
+        .strip_prefix("# brachia cells schema 1\n")
+        .expect("the schema line");
     assert!(cells.starts_with("r2,offset_s,swing_time_s,status,converged,energy_j,"));
     assert_eq!(cells.lines().count(), 7);
     let report: serde_json::Value = serde_json::from_slice(f.get("report.json").unwrap()).unwrap();
@@ -191,6 +194,9 @@ fn small_grid_runs_and_fills_the_run_folder() {
     let p = RobotParams::from_toml_str(toml_text, "stick").unwrap();
     assert_eq!(&p, study.sticks[0].robot.params());
     let traj = std::str::from_utf8(f.get("stick_r2_0.70.csv").unwrap()).unwrap();
+    let traj = traj
+        .strip_prefix("# brachia stick schema 1\n")
+        .expect("the schema line");
     assert!(traj.starts_with("t,q1,q2,q3,q4,qd1"));
 }
 
@@ -230,6 +236,9 @@ fn a_centre_that_fails_cold_is_continued_from_the_neighbouring_row() {
     assert_eq!(study.sticks[0].energy_j, upper.energy_j);
     let f = parameter_study_folder(&study);
     let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    let cells = cells
+        .strip_prefix("# brachia cells schema 1\n")
+        .expect("the schema line");
     assert_eq!(cells.matches(",warm-from-row,").count(), 1);
 }
 
@@ -258,6 +267,9 @@ fn failed_cells_are_kept_with_their_status_and_no_energy() {
     assert!(study.sticks[0].energy_j.is_none());
     let f = parameter_study_folder(&study);
     let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    let cells = cells
+        .strip_prefix("# brachia cells schema 1\n")
+        .expect("the schema line");
     assert_eq!(cells.matches(",max_iterations,false,,,,").count(), 3);
 }
 
@@ -672,12 +684,18 @@ fn small_grid_on(file: &str, n: usize) {
     );
     let f = parameter_study_folder(&study);
     let ff = std::str::from_utf8(f.get("freefall.csv").unwrap()).unwrap();
+    let ff = ff
+        .strip_prefix("# brachia freefall schema 1\n")
+        .expect("the schema line");
     assert!(
         ff.starts_with("r2,l1_m,") && ff.contains(&format!(",l{n}_m,freefall_time_s")),
         "{ff}"
     );
     assert_eq!(ff.lines().nth(1).unwrap().split(',').count(), n + 8);
     let traj = std::str::from_utf8(f.get("stick_r2_0.50.csv").unwrap()).unwrap();
+    let traj = traj
+        .strip_prefix("# brachia stick schema 1\n")
+        .expect("the schema line");
     assert!(traj.starts_with("t,q1,") && traj.contains(&format!("tau{n},ee_x")));
     let report: serde_json::Value = serde_json::from_slice(f.get("report.json").unwrap()).unwrap();
     assert_eq!(
@@ -762,13 +780,17 @@ fn cells_the_planner_refuses_are_failed_cells_not_a_failed_study() {
     assert!(study.sticks.is_empty());
     let f = parameter_study_folder(&study);
     let cells = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    let cells = cells
+        .strip_prefix("# brachia cells schema 1\n")
+        .expect("the schema line");
     assert_eq!(cells.lines().count(), 5);
 }
 
-/// A study folder reads back to the same cells, the torque scale of the last column included; a folder
-/// written before that column existed (12 columns) still reads, with no scale.
+/// A study folder reads back to the same cells, the torque scale of the last column included; a
+/// `cells.csv` of an older brachia (no schema line, 12 columns) or of another schema version is refused
+/// naming the file, not guessed at; so is a `report.json` without its schema version.
 #[test]
-fn cells_read_back_with_and_without_the_torque_scale_column() {
+fn cells_read_back_and_other_schema_versions_are_refused() {
     let mut study = run_parameter_study(&quick(vec![0.5], vec![0.0]), &no_progress).unwrap();
     study.cells[0].torque_scale_reached = Some(1.703125);
     let dir = tempfile::tempdir().unwrap();
@@ -783,14 +805,37 @@ fn cells_read_back_with_and_without_the_torque_scale_column() {
     let text = std::fs::read_to_string(&path).unwrap();
     let old: String = text
         .lines()
+        .skip(1)
         .map(|l| format!("{}\n", &l[..l.rfind(',').unwrap()]))
         .collect();
     assert!(old.starts_with("r2,") && old.lines().next().unwrap().ends_with(",replay_ee_error_m"));
     std::fs::write(&path, old).unwrap();
-    let back = brachia_experiments::read_parameter_study(&out).unwrap();
-    assert_eq!(back.cells[0].torque_scale_reached, None);
-    assert_eq!(
-        back.cells[0].energy_j,
-        study.cells[0].energy_j.map(|e| (e * 1e9).round() / 1e9)
+    let err = brachia_experiments::read_parameter_study(&out)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("cells.csv") && err.contains("older brachia"),
+        "{err}"
+    );
+    std::fs::write(&path, text.replacen("schema 1", "schema 2", 1)).unwrap();
+    let err = brachia_experiments::read_parameter_study(&out)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("cells.csv") && err.contains("2") && err.contains("schema 1"),
+        "{err}"
+    );
+    std::fs::write(&path, &text).unwrap();
+    let rpath = out.join("report.json");
+    let mut report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rpath).unwrap()).unwrap();
+    report.as_object_mut().unwrap().remove("schema_version");
+    std::fs::write(&rpath, report.to_string()).unwrap();
+    let err = brachia_experiments::read_parameter_study(&out)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("report.json") && err.contains("older brachia"),
+        "{err}"
     );
 }

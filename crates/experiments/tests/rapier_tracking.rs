@@ -95,8 +95,14 @@ fn ball_on_the_path_is_hit_near_0_6_s_and_the_mpc_still_reaches_the_bar() {
     );
     // the run folder carries the contact log and the ball track
     let csv = String::from_utf8(mpc.folder.get("contacts.csv").unwrap().to_vec()).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia contacts schema 1\n")
+        .expect("the schema line");
     assert!(csv.starts_with("t,link,body,impulse\n") && csv.lines().count() > 1);
     let obs = String::from_utf8(mpc.folder.get("obstacles.csv").unwrap().to_vec()).unwrap();
+    let obs = obs
+        .strip_prefix("# brachia obstacles schema 1\n")
+        .expect("the schema line");
     assert!(obs.starts_with("t,obstacle_0_x,obstacle_0_y\n"));
     assert_eq!(obs.lines().count(), mpc.log.len() + 1);
 }

@@ -198,6 +198,9 @@ fn the_study_records_the_scale_of_its_failing_cell() {
     assert!(k > 1.0 && k <= 4.0, "{c:?}");
     let f = brachia_experiments::parameter_study_folder(&study);
     let csv = std::str::from_utf8(f.get("cells.csv").unwrap()).unwrap();
+    let csv = csv
+        .strip_prefix("# brachia cells schema 1\n")
+        .expect("the schema line");
     let last = csv.lines().nth(1).unwrap().rsplit(',').next().unwrap();
     assert!(
         (last.parse::<f64>().unwrap() - k).abs() < 1e-9,

@@ -537,6 +537,8 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     if !dir.is_dir() {
         return Err(not_a_reproduction(dir, "(the folder itself)"));
     }
+    // a manifest that lists a path leaving the folder, or of another schema, is refused before any work
+    crate::manifest::read_manifest(dir)?;
     let single = dir.join("report.json").is_file() && !dir.join("summary.json").is_file();
     if single && dir.join(crate::MANIFEST).is_file() {
         return redraw_run(dir, cancel);
@@ -583,7 +585,7 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     // staged: draw into a hidden folder inside dir, then rename each file into place
     let stage = redraw_stage(dir)?;
     let _cleanup = RemoveOnDrop(stage.clone());
-    let (failures, drawn) = draw_figures_into(&res, run_failures, &stage, cancel)?;
+    let (failures, _drawn) = draw_figures_into(&res, run_failures, &stage, cancel)?;
     cancel.check()?;
     let md = report::markdown(
         &res,
@@ -596,7 +598,7 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     top.add("REPORT.md", md);
     top.write_into(&stage)?;
     cancel.check()?;
-    let files = put_in_place(dir, &stage, &drawn, true)?;
+    let files = put_in_place(dir, &stage)?;
     Ok(Redraw { files, failures })
 }
 
@@ -604,11 +606,12 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
 /// that [`redraw`] draws again, must be there: a run folder removed (or a file of it) would silently drop
 /// its section from the report, so it is refused, naming the first file missing.
 fn check_complete(dir: &Path) -> Result<(), ExpError> {
-    let listed = crate::run_folder::read_manifest(dir).unwrap_or_default();
+    let listed = crate::manifest::read_manifest(dir)?.unwrap_or_default();
     let redrawn = |p: &Path| p.starts_with("figures") || p == Path::new("REPORT.md");
     match listed
-        .iter()
-        .find(|p| !redrawn(p) && !dir.join(p).is_file())
+        .files
+        .keys()
+        .find(|p| !redrawn(p) && !crate::manifest::plain_file(dir, p))
     {
         None => Ok(()),
         Some(p) => Err(ExpError::Input(brachia::Error::invalid(
@@ -624,71 +627,29 @@ fn check_complete(dir: &Path) -> Result<(), ExpError> {
     }
 }
 
-/// Move the figures `drawn` (in `stage/figures/`, each PNG with its SVG) into `dir/figures/` and, with
-/// `report_md`, `stage/REPORT.md` to `dir/REPORT.md`; remove the figures the manifest of `dir` lists that
-/// were not drawn again, and list the new ones.
-fn put_in_place(
-    dir: &Path,
-    stage: &Path,
-    drawn: &[PathBuf],
-    report_md: bool,
-) -> Result<Vec<PathBuf>, ExpError> {
-    let werr = |path: &Path, source| ExpError::Write {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut listed = crate::run_folder::read_manifest(dir).unwrap_or_default();
-    let figures = dir.join("figures");
-    std::fs::create_dir_all(&figures).map_err(|e| werr(&figures, e))?;
-    let mut files = Vec::new();
-    let mut now = std::collections::BTreeSet::new();
-    for f in drawn {
-        let name = Path::new("figures").join(f.file_name().unwrap_or_default());
-        let to = dir.join(&name);
-        std::fs::rename(f, &to).map_err(|e| werr(&to, e))?;
-        // the SVG drawn beside a PNG
-        let svg = f.with_extension("svg");
-        if svg.is_file() {
-            let sname = name.with_extension("svg");
-            let sto = dir.join(&sname);
-            std::fs::rename(&svg, &sto).map_err(|e| werr(&sto, e))?;
-            now.insert(sname);
-        }
-        now.insert(name);
-        files.push(to);
-    }
-    // the previous drawing's figures that were not drawn again (listed in the manifest: ours)
-    for old in listed
-        .iter()
-        .filter(|p| p.starts_with("figures") && !now.contains(*p))
-    {
-        let p = dir.join(old);
-        if p.is_file() {
-            std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
-        }
-    }
-    listed.retain(|p| !p.starts_with("figures"));
-    listed.extend(now);
-    if report_md {
-        listed.insert(PathBuf::from("REPORT.md"));
-        let to = dir.join("REPORT.md");
-        std::fs::rename(stage.join("REPORT.md"), &to).map_err(|e| werr(&to, e))?;
-        files.push(to);
-    }
-    crate::run_folder::write_manifest(dir, &listed)?;
-    Ok(files)
+/// Install what [`redraw`] drew into `stage` (figures, REPORT.md) into `dir` under its lock
+/// ([`crate::run_folder::install_part`]): the previous drawing's figures that were not drawn again are
+/// removed when brachia can prove it wrote them; the user's files are moved aside, never replaced.
+fn put_in_place(dir: &Path, stage: &Path) -> Result<Vec<PathBuf>, ExpError> {
+    crate::run_folder::install_part(stage, dir, &|p| p.starts_with("figures"))
 }
 
-/// A fresh hidden staging folder inside `dir` for [`redraw`].
+/// A fresh hidden staging folder inside `dir` for [`redraw`] (a name no entry has yet).
 fn redraw_stage(dir: &Path) -> Result<PathBuf, ExpError> {
-    let stage = dir.join(format!(".report.partial-{}", std::process::id()));
-    if stage.exists() {
-        std::fs::remove_dir_all(&stage).map_err(|source| ExpError::Write {
-            path: stage.clone(),
-            source,
-        })?;
+    let mut k = 0;
+    loop {
+        let stage = dir.join(format!(".report.partial-{}-{k}", std::process::id()));
+        match std::fs::create_dir(&stage) {
+            Ok(()) => return Ok(stage),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => k += 1,
+            Err(source) => {
+                return Err(ExpError::Write {
+                    path: stage,
+                    source,
+                })
+            }
+        }
     }
-    Ok(stage)
 }
 
 /// [`redraw`] of a single `brachia plan` or `brachia track` run folder: its figures into `dir/figures/`
@@ -710,7 +671,7 @@ fn redraw_run(dir: &Path, cancel: &CancelToken) -> Result<Redraw, ExpError> {
     };
     figs.written.retain(|p| p.is_file());
     cancel.check()?;
-    let files = put_in_place(dir, &stage, &figs.written, false)?;
+    let files = put_in_place(dir, &stage)?;
     Ok(Redraw { files, failures })
 }
 

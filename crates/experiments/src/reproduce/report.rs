@@ -9,7 +9,7 @@ use crate::run_folder::resolved;
 use crate::ExpError;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The paper's reported values (Ji et al., Section V), for the comparison table.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -1016,6 +1016,10 @@ pub(crate) fn check_page(page: &Path, out: &Path) -> Result<(), ExpError> {
             dir.display()
         )));
     }
+    if dir.is_dir() {
+        // a listing of the previous publication brachia cannot read is refused before any work
+        crate::manifest::read_listing(&dir, PAGE_MANIFEST)?;
+    }
     let parent = match page.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => std::path::PathBuf::from("."),
@@ -1057,59 +1061,43 @@ pub(crate) fn publish(
         source,
     };
     std::fs::create_dir_all(&dir).map_err(|e| werr(&dir, e))?;
-    // the previous publication's figures go first (only those it listed)
-    let mut previous = std::collections::BTreeSet::new();
-    // a regular file only: a FIFO of that name would block the read forever
-    let page_manifest = dir.join(PAGE_MANIFEST);
-    let listed = page_manifest
-        .is_file()
-        .then(|| std::fs::read_to_string(&page_manifest).ok())
-        .flatten();
-    if let Some(text) = listed {
-        for name in text
-            .lines()
-            .filter(|l| !l.starts_with('#') && !l.is_empty())
-        {
-            let p = dir.join(name);
-            let plain = Path::new(name).components().count() == 1;
-            if plain && p.is_file() {
-                std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
-            }
-            previous.insert(name.to_string());
+    // the previous publication's figures go first: only those its listing proves brachia wrote
+    let previous = crate::manifest::read_listing(&dir, PAGE_MANIFEST)?.unwrap_or_default();
+    for rel in crate::manifest::proven_files(&dir, &previous) {
+        if rel.components().count() == 1 {
+            let p = dir.join(&rel);
+            std::fs::remove_file(&p).map_err(|e| werr(&p, e))?;
         }
     }
-    // only the figures this reproduction wrote (its manifest), never the user's files in figures/
-    let ours = crate::run_folder::read_manifest(out).unwrap_or_default();
+    // only the figures this reproduction provably wrote, never the user's files in figures/
+    let ours = crate::manifest::read_manifest(out)?
+        .map(|m| crate::manifest::proven_files(out, &m))
+        .unwrap_or_default();
     let mut folder = crate::RunFolder::default();
-    let figs = out.join("figures");
-    if let Ok(entries) = std::fs::read_dir(&figs) {
-        for e in entries.flatten() {
-            let p = e.path();
-            // the PNGs and two animations: the page's key figures, without every GIF's megabyte
-            let keep = p.extension().is_some_and(|x| x == "png")
-                || PAGE_ANIMATIONS
-                    .iter()
-                    .any(|g| p.ends_with(format!("{g}.gif")));
-            let name = e.file_name().to_string_lossy().to_string();
-            let written = ours.contains(&Path::new("figures").join(&name));
-            if keep && written {
-                let data = std::fs::read(&p).map_err(|e| werr(&p, e))?;
-                // a user's file of the same name beside the page is kept as NAME.user
-                let target = dir.join(&name);
-                if target.exists() && !previous.contains(&name) {
-                    let aside = dir.join(format!("{name}.user"));
-                    std::fs::rename(&target, &aside).map_err(|e| werr(&aside, e))?;
-                }
-                folder.add(&name, data);
-            }
+    let mut stamps = std::collections::BTreeMap::new();
+    for rel in &ours {
+        let Ok(name) = rel.strip_prefix("figures") else {
+            continue;
+        };
+        let name = name.to_string_lossy().to_string();
+        // the PNGs and two animations: the page's key figures, without every GIF's megabyte
+        let keep =
+            name.ends_with(".png") || PAGE_ANIMATIONS.iter().any(|g| name == format!("{g}.gif"));
+        if !keep || name.contains('/') {
+            continue;
         }
+        let p = out.join(rel);
+        let data = std::fs::read(&p).map_err(|e| werr(&p, e))?;
+        // a user's entry of the same name beside the page is moved aside as NAME.user
+        let target = dir.join(&name);
+        if std::fs::symlink_metadata(&target).is_ok() {
+            crate::run_folder::move_aside(&target)?;
+        }
+        stamps.insert(PathBuf::from(&name), crate::manifest::Stamp::of(&data));
+        folder.add(&name, data);
     }
-    let mut listed = String::from("# figures written by brachia reproduce --results-page\n");
-    for n in folder.names() {
-        listed.push_str(n);
-        listed.push('\n');
-    }
-    folder.add(PAGE_MANIFEST, listed);
+    let listing = crate::manifest::manifest_text(&stamps);
+    folder.add(PAGE_MANIFEST, listing);
     folder.write_into(&dir)?;
     let mut md = markdown(res, failures, warnings, rel, Target::Page);
     md = md.replacen(

@@ -1,0 +1,164 @@
+//! Schema versions of the files brachia writes (docs/formats.md describes each format).
+//!
+//! Every JSON file of a run folder (report.json, summary.json, scorecard.json, joint_swings.json) is an
+//! object with a field `schema_version`; every CSV file starts with a comment line
+//! `# brachia KIND schema N` (KIND the file's name without `.csv`, `stick` for `stick_r2_*.csv`) before
+//! its header. [`stamp`] adds them as a run folder is queued ([`crate::RunFolder::add`]); the readers
+//! ([`json_version`], [`csv_body`]) refuse a file without one (written by an older brachia: re-run it) or
+//! with a version this brachia does not know, naming the file, the version found and the one supported.
+
+use brachia::Error;
+
+/// The schema version of every JSON and CSV format this brachia writes and reads.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The JSON field holding the schema version.
+pub const SCHEMA_FIELD: &str = "schema_version";
+
+const CSV_PREFIX: &str = "# brachia ";
+
+/// The kind of a CSV file named `name` (its last path part): the name without `.csv`, `stick` for the
+/// parameter study's `stick_r2_*.csv`.
+pub fn csv_kind(name: &str) -> Option<&str> {
+    let base = name.rsplit('/').next().unwrap_or(name);
+    let stem = base.strip_suffix(".csv")?;
+    Some(if stem.starts_with("stick_r2_") {
+        "stick"
+    } else {
+        stem
+    })
+}
+
+/// The first line of a CSV file of kind `kind`.
+pub fn csv_line(kind: &str) -> String {
+    format!("{CSV_PREFIX}{kind} schema {SCHEMA_VERSION}")
+}
+
+/// `data` of the file `name` with its schema version: a JSON object gets `schema_version` (other JSON
+/// and non-JSON files pass unchanged), a CSV file its first comment line. A file that already carries
+/// one is unchanged.
+pub fn stamp(name: &str, data: Vec<u8>) -> Vec<u8> {
+    if name.ends_with(".json") {
+        let Ok(serde_json::Value::Object(mut m)) = serde_json::from_slice(&data) else {
+            return data;
+        };
+        if m.contains_key(SCHEMA_FIELD) {
+            return data;
+        }
+        m.insert(SCHEMA_FIELD.into(), SCHEMA_VERSION.into());
+        let text = serde_json::to_string_pretty(&serde_json::Value::Object(m));
+        return text.map(|t| (t + "\n").into_bytes()).unwrap_or(data);
+    }
+    if let Some(kind) = csv_kind(name) {
+        if data.starts_with(CSV_PREFIX.as_bytes()) {
+            return data;
+        }
+        let mut out = (csv_line(kind) + "\n").into_bytes();
+        out.extend_from_slice(&data);
+        return out;
+    }
+    data
+}
+
+fn older(file: &str, field: &str) -> Error {
+    Error::invalid(
+        file,
+        field,
+        "missing",
+        format!(
+            "the file has no schema version: it was written by an older brachia (before versioned \
+             outputs); run the command that wrote it again (this brachia reads schema {SCHEMA_VERSION})"
+        ),
+    )
+}
+
+fn unknown(file: &str, field: &str, found: impl ToString) -> Error {
+    Error::invalid(
+        file,
+        field,
+        found,
+        format!(
+            "unknown schema version: this brachia reads schema {SCHEMA_VERSION}; the file was \
+             written by another version of brachia (run the command that wrote it again)"
+        ),
+    )
+}
+
+/// Check the `schema_version` of the JSON value read from `file`.
+pub fn json_version(value: &serde_json::Value, file: &str) -> Result<(), Error> {
+    let Some(m) = value.as_object() else {
+        return Err(Error::invalid(
+            file,
+            "(the file)",
+            "not a JSON object",
+            format!("a brachia JSON file is an object with a field {SCHEMA_FIELD}"),
+        ));
+    };
+    match m.get(SCHEMA_FIELD) {
+        None => Err(older(file, SCHEMA_FIELD)),
+        Some(v) if v.as_u64() == Some(u64::from(SCHEMA_VERSION)) => Ok(()),
+        Some(v) => Err(unknown(file, SCHEMA_FIELD, v)),
+    }
+}
+
+/// The CSV text after its schema line, checked to be `# brachia KIND schema 1` for the `kind` of file
+/// `file`.
+pub fn csv_body<'a>(text: &'a str, file: &str, kind: &str) -> Result<&'a str, Error> {
+    let (first, rest) = text.split_once('\n').unwrap_or((text, ""));
+    let first = first.trim_end_matches('\r');
+    let Some(tail) = first.strip_prefix(CSV_PREFIX) else {
+        return Err(older(file, "line 1 (schema line)"));
+    };
+    let want = format!("{kind} schema ");
+    let Some(v) = tail.strip_prefix(&want) else {
+        return Err(Error::invalid(
+            file,
+            "line 1 (schema line)",
+            first.chars().take(80).collect::<String>(),
+            format!("expected `{}`", csv_line(kind)),
+        ));
+    };
+    match v.trim().parse::<u32>() {
+        Ok(SCHEMA_VERSION) => Ok(rest),
+        _ => Err(unknown(file, "line 1 (schema line)", v.trim())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stamped_files_read_back_and_other_versions_are_refused() {
+        let csv = stamp("plan/trajectory.csv", b"t,q1\n0,1\n".to_vec());
+        let text = String::from_utf8(csv.clone()).unwrap();
+        assert_eq!(csv_body(&text, "f", "trajectory").unwrap(), "t,q1\n0,1\n");
+        // idempotent: a copied file is not stamped twice
+        assert_eq!(stamp("trajectory.csv", csv.clone()), csv);
+        assert_eq!(csv_kind("stick_r2_0p5.csv"), Some("stick"));
+        let e = csv_body("t,q1\n", "f.csv", "trajectory")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("older brachia") && e.contains("f.csv"), "{e}");
+        let e = csv_body("# brachia trajectory schema 7\nt\n", "f.csv", "trajectory")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains('7') && e.contains("schema 1"), "{e}");
+        assert!(csv_body("# brachia cells schema 1\nt\n", "f.csv", "trajectory").is_err());
+
+        let js = stamp("report.json", b"{\"a\": 1}".to_vec());
+        let v: serde_json::Value = serde_json::from_slice(&js).unwrap();
+        assert!(json_version(&v, "r.json").is_ok());
+        let e = json_version(&serde_json::json!({"a": 1}), "r.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("older brachia") && e.contains("r.json"), "{e}");
+        let e = json_version(&serde_json::json!({"schema_version": 2}), "r.json")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains('2') && e.contains("schema 1"), "{e}");
+        assert!(json_version(&serde_json::json!([1]), "r.json").is_err());
+        // other files pass unchanged
+        assert_eq!(stamp("params.toml", b"x = 1\n".to_vec()), b"x = 1\n");
+    }
+}
