@@ -175,6 +175,17 @@ fn check_plan_cells(text: &str, tpath: &str, want: &[String]) -> Result<(), Erro
 /// Times start at 0 and increase by steps in [[`MIN_PLAN_STEP_S`], [`limits::MAX_OUTPUT_DT_S`]] (to
 /// the file's 1 us), over at most [`limits::MAX_SWING_TIME_S`].
 fn check_plan_times(traj: &Trajectory, tpath: &str) -> Result<(), Error> {
+    if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
+        return Err(Error::invalid(
+            tpath,
+            format!("line {}, t", k + 2),
+            traj.t[k],
+            format!(
+                "times must increase strictly (previous row: {})",
+                traj.t[k - 1]
+            ),
+        ));
+    }
     if traj.t[0].abs() > 1e-9 {
         return Err(Error::invalid(
             tpath,
@@ -183,20 +194,18 @@ fn check_plan_times(traj: &Trajectory, tpath: &str) -> Result<(), Error> {
             "a plan starts at t = 0",
         ));
     }
+    let tmax = limits::MAX_SWING_TIME_S;
+    if traj.duration() > tmax {
+        return Err(Error::invalid(
+            tpath,
+            "t",
+            traj.duration(),
+            format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
+        ));
+    }
     let max_step = limits::MAX_OUTPUT_DT_S + 1e-6;
     for k in 1..traj.len() {
         let step = traj.t[k] - traj.t[k - 1];
-        if step <= 0.0 {
-            return Err(Error::invalid(
-                tpath,
-                format!("line {}, t", k + 2),
-                traj.t[k],
-                format!(
-                    "times must increase strictly (previous row: {})",
-                    traj.t[k - 1]
-                ),
-            ));
-        }
         if !(MIN_PLAN_STEP_S..=max_step).contains(&step) {
             return Err(Error::invalid(
                 tpath,
@@ -210,15 +219,6 @@ fn check_plan_times(traj: &Trajectory, tpath: &str) -> Result<(), Error> {
                 ),
             ));
         }
-    }
-    let tmax = limits::MAX_SWING_TIME_S;
-    if traj.duration() > tmax {
-        return Err(Error::invalid(
-            tpath,
-            "t",
-            traj.duration(),
-            format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
-        ));
     }
     Ok(())
 }

@@ -319,20 +319,14 @@ impl Scenario {
         };
         // a free swing time can end at its range's top: the grid and the run are sized by it
         let swing_time = sc.planner.longest_swing_time(swing_time);
+        // an "auto" swing time of almost nothing: the geometry is the cause, not knot_dt
         let auto = matches!(sc.planner.swing_time, SwingTime::Auto(_));
+        if auto && sc.planner.free_swing_time.is_none() && swing_time < MIN_AUTO_SWING_TIME_S {
+            return Err(auto_too_short(&robot, &sc.task, swing_time, &src));
+        }
         sc.planner
             .grid(robot.n(), swing_time, &src)
-            .map_err(|e| match e {
-                // an "auto" swing time too short for any grid: the geometry is the cause, not knot_dt
-                Error::InvalidValue { .. }
-                    if auto
-                        && sc.planner.free_swing_time.is_none()
-                        && swing_time < limits::MIN_INTERVALS as f64 * sc.planner.knot_dt =>
-                {
-                    auto_too_short(&robot, &sc.task, swing_time, &src)
-                }
-                other => rename(other, "planner"),
-            })?;
+            .map_err(|e| rename(e, "planner"))?;
         let ls = LoadedScenario {
             scenario: sc,
             robot,
@@ -345,9 +339,14 @@ impl Scenario {
     }
 }
 
-/// The refusal of a `swing_time = "auto"` whose twice-the-free-fall time is too short (or too long)
-/// for the grid: it names the swing time and the geometry that makes it so (a target at about the
-/// hand's own x, straight above or below it), never `knot_dt`.
+/// Shortest swing time `swing_time = "auto"` may resolve to, s: twice the locked chain's free fall
+/// to the midpoint is below it only when the target is at (or straight above or below) the hand's
+/// start, which no grid step can mend.
+pub const MIN_AUTO_SWING_TIME_S: f64 = 0.1;
+
+/// The refusal of a `swing_time = "auto"` whose twice-the-free-fall time is below
+/// [`MIN_AUTO_SWING_TIME_S`]: it names the swing time and the geometry that makes it so (a target at
+/// the hand's start, or straight above or below it), never `knot_dt`.
 fn auto_too_short(robot: &Robot, task: &SwingTask, t: f64, src: &str) -> Error {
     let ee = robot.ee_position(&task.q0);
     let at_start = (ee[0] - task.target[0]).hypot(ee[1] - task.target[1]);

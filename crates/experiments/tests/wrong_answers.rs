@@ -200,7 +200,7 @@ fn success_is_the_hand_at_the_bar_at_the_end_of_the_swing() {
     let q_end = [-0.3, 0.6, 0.0, 0.0];
     let ee = robot.ee_position(&q_end);
     let far = [-2.35, 0.0, -1.55, 0.0];
-    let x: Vec<f64> = [&far[..], &q_end, &far]
+    let x: Vec<f64> = [&far[..], &q_end[..], &far[..]]
         .iter()
         .flat_map(|q| [*q, &[0.0; 4][..]].concat())
         .collect();
