@@ -66,8 +66,8 @@ pub const PLAN_EE_TOLERANCE_M: f64 = 1e-6;
 
 /// Read a plan's 1 ms `trajectory.csv` for `robot` (`whose` names the robot in the message): the
 /// header names its joints and the hand (`t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,...`), every value is
-/// finite, times start at 0 and increase strictly by steps in
-/// [[`MIN_PLAN_STEP_S`], [`limits::MAX_OUTPUT_DT_S`]], at least two and at most
+/// finite, times start at 0 and increase strictly by steps between [`MIN_PLAN_STEP_S`] and
+/// [`limits::MAX_OUTPUT_DT_S`], at least two and at most
 /// [`limits::MAX_OUTPUT_SAMPLES`] rows, the swing lasts at most [`limits::MAX_SWING_TIME_S`], and every
 /// row's `ee_x, ee_y` is the forward kinematics of its `q` on `robot` (within
 /// [`PLAN_EE_TOLERANCE_M`]). A leading byte-order mark is skipped. Each refusal names the file, the
@@ -172,8 +172,8 @@ fn check_plan_cells(text: &str, tpath: &str, want: &[String]) -> Result<(), Erro
     Ok(())
 }
 
-/// Times start at 0 and increase by steps in [[`MIN_PLAN_STEP_S`], [`limits::MAX_OUTPUT_DT_S`]] (to
-/// the file's 1 us), over at most [`limits::MAX_SWING_TIME_S`].
+/// Times increase strictly from 0, over at most [`limits::MAX_SWING_TIME_S`], by steps between
+/// [`MIN_PLAN_STEP_S`] and [`limits::MAX_OUTPUT_DT_S`] (to the file's 1 us).
 fn check_plan_times(traj: &Trajectory, tpath: &str) -> Result<(), Error> {
     if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
         return Err(Error::invalid(
