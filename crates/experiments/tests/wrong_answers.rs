@@ -51,6 +51,20 @@ fn every_sweep_adds_to_the_scenarios_disturbances() {
         swing_time_s: 2.0,
     };
     let b = base();
+    // an empty list of factors is 1 for every link
+    let ones = |mut d: Disturbances| {
+        for v in [
+            &mut d.mass_scale,
+            &mut d.com_scale,
+            &mut d.inertia_scale,
+            &mut d.length_scale,
+        ] {
+            if v.is_empty() {
+                *v = vec![1.0; 4];
+            }
+        }
+        d
+    };
     for s in sweeps() {
         let mut d = b.clone();
         (s.apply)(&mut d, 0.0, &ctx);
@@ -58,7 +72,7 @@ fn every_sweep_adds_to_the_scenarios_disturbances() {
             // removing nothing keeps the scenario's limit
             assert_eq!(d.torque_limit_nm, Some(2.0), "{}", s.name);
         } else {
-            assert_eq!(d, b, "{} at level 0", s.name);
+            assert_eq!(ones(d), ones(b.clone()), "{} at level 0", s.name);
         }
     }
     let at = |name: &str, l: f64| {
