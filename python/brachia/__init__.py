@@ -18,6 +18,7 @@ See docs/python.md.
 """
 
 from ._brachia import (
+    SUCCESS_RADIUS_M,
     BrachiaError,
     JointPhase,
     JointSwingPlan,
@@ -38,6 +39,7 @@ from ._brachia import (
 )
 
 __all__ = [
+    "SUCCESS_RADIUS_M",
     "BrachiaError",
     "JointPhase",
     "JointSwingPlan",

@@ -20,6 +20,10 @@ Array = npt.NDArray[np.float64]
 StrPath = Union[str, PathLike[str]]
 Controller = Literal["mpc", "pd", "open-loop"]
 
+SUCCESS_RADIUS_M: float
+"""The success rule, m: a swing reaches the bar when the plant's hand ends the swing within this distance
+of the target bar (``TrackResult.report["reaches_bar"]``, ``report["bar_error_m"]``)."""
+
 class BrachiaError(ValueError):
     """Bad input: the message is the Rust library's (file, field, value, rule)."""
 

@@ -54,6 +54,9 @@ pyo3::create_exception!(
 fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("BrachiaError", py.get_type::<BrachiaError>())?;
+    // the one success rule (brachia_experiments::success): a scenario's TrackResult.report has its
+    // verdict `reaches_bar` and the distance `bar_error_m`
+    m.add("SUCCESS_RADIUS_M", brachia_experiments::SUCCESS_RADIUS_M)?;
     m.add_class::<model::Robot>()?;
     m.add_class::<model::Trajectory>()?;
     m.add_class::<planning::Plan>()?;

@@ -135,6 +135,12 @@ def test_track_equals_scenario_track(tracking_plan, scenario, robot):
     np.testing.assert_array_equal(ours.tau, cli.tau)
     assert cli.report["controller"] == "mpc" and cli.report["plant"] == "model"
     assert cli.report["ee_final_error_m"] == pytest.approx(ours.summary["ee_final_error_m"])
+    # the one success rule (as `brachia track` and the benchmark): the hand at the bar at the swing's end
+    assert brachia.SUCCESS_RADIUS_M == 0.02
+    hand = ours.ee[np.searchsorted(ours.t, tracking_plan.t[-1] + 5e-7) - 1]
+    bar = float(np.hypot(hand[0] - 0.8, hand[1] - 0.0))
+    assert cli.report["bar_error_m"] == pytest.approx(bar, abs=1e-9)
+    assert cli.report["reaches_bar"] == (bar <= brachia.SUCCESS_RADIUS_M)
 
 
 def test_stepwise_loop_equals_track(tracking_plan, robot):

@@ -105,15 +105,16 @@ fn mpc_absorbs_ten_percent_heavier_links() {
             .arg(&out)
             .output()
             .unwrap();
-        assert!(
-            o.status.success(),
-            "{ctrl}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        let e = report(&out)["ee_final_error_m"].as_f64().unwrap();
-        // a miss is said (exit 0: the run is trustworthy), a catch is not called a miss
+        let e = report(&out)["bar_error_m"].as_f64().unwrap();
+        // a miss is a failure (exit 1, said, the run folder kept); a catch is exit 0
         let said = String::from_utf8_lossy(&o.stderr).contains("this swing misses the bar");
         assert_eq!(said, e > 0.02, "{ctrl}: error {e} m");
+        assert_eq!(
+            o.status.code(),
+            Some(if e > 0.02 { 1 } else { 0 }),
+            "{ctrl}: error {e} m: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         assert_eq!(
             report(&out)["reaches_bar"],
             e <= 0.02,

@@ -252,6 +252,35 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
                 _ => sparse(&d.join("summary.json")),
             }
         }
+        // a reproduction folder whose summary.json has a wrong type or a null (`repsummary:KIND`), or
+        // whose ladder report is `[]` (`repladder`)
+        other if other.starts_with("repsummary:") || other == "repladder" => {
+            let d = env.t.join("rep");
+            let good = "\"mode\": \"quick\", \"wall_time_s\": 6.0, \"cores\": 2";
+            let lists = "\"failures\": [], \"warnings\": []";
+            let sum = match other {
+                "repsummary:wallnull" => {
+                    format!("{{\"mode\": \"quick\", \"wall_time_s\": null, \"cores\": 2, {lists}}}")
+                }
+                "repsummary:coresstring" => format!(
+                    "{{\"mode\": \"quick\", \"wall_time_s\": 6.0, \"cores\": \"2\", {lists}}}"
+                ),
+                "repsummary:failuresnumber" => {
+                    format!("{{{good}, \"failures\": 3, \"warnings\": []}}")
+                }
+                "repsummary:modeother" => {
+                    format!("{{\"mode\": \"fast\", \"wall_time_s\": 6.0, \"cores\": 2, {lists}}}")
+                }
+                _ => format!("{{{good}, {lists}}}"),
+            };
+            let mut manifest = String::from("# brachia run folder\nsummary.json\n");
+            if other == "repladder" {
+                manifest.push_str("ladder/report.json\n");
+                file(d.join("ladder/report.json"), b"[]\n");
+            }
+            file(d.join(".brachia-run"), manifest.as_bytes());
+            file(d.join("summary.json"), sum.as_bytes());
+        }
         // OUT is the folder of a previous brachia run, with one file of the user's own
         "prevrun" => {
             file(
@@ -305,6 +334,39 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
                     cells[2] = "nan".into();
                     lines[3] = cells.join(",");
                     file(target, (lines.join("\n") + "\n").as_bytes());
+                }
+                // times 0, 1e-300, 2e-300, ...: strictly increasing, yet no swing
+                "tinystep" => {
+                    let lines: Vec<String> = orig
+                        .lines()
+                        .enumerate()
+                        .map(|(k, l)| match (k, l.split_once(',')) {
+                            (0, _) | (_, None) => l.to_string(),
+                            (_, Some((_, rest))) => format!("{:e},{rest}", (k - 1) as f64 * 1e-300),
+                        })
+                        .collect();
+                    file(target, (lines.join("\n") + "\n").as_bytes());
+                }
+                // the hand's columns of a sample: NaN (`eenan`) or 10 cm off the kinematics (`eeoff`)
+                "eenan" | "eeoff" => {
+                    let mut lines: Vec<String> = orig.lines().map(String::from).collect();
+                    let mut cells: Vec<String> = lines[5].split(',').map(String::from).collect();
+                    let x = cells.len() - 2;
+                    cells[x] = if how == "eenan" {
+                        "nan".into()
+                    } else {
+                        format!("{}", cells[x].parse::<f64>().unwrap() + 0.1)
+                    };
+                    lines[5] = cells.join(",");
+                    file(target, (lines.join("\n") + "\n").as_bytes());
+                }
+                // the last ten samples dropped: shorter than the report's swing time
+                "short" => {
+                    let lines: Vec<&str> = orig.lines().collect();
+                    file(
+                        target,
+                        (lines[..lines.len() - 10].join("\n") + "\n").as_bytes(),
+                    );
                 }
                 "nanmass" => {
                     let i = orig.find("mass = ").expect("mass in params.toml") + "mass = ".len();

@@ -247,6 +247,8 @@ impl Trajectory {
 
     /// Parse CSV text written by [`Trajectory::to_csv`] (extra columns are ignored).
     pub fn from_csv(text: &str, n: usize, source_name: &str) -> Result<Self> {
+        // a leading byte-order mark (a spreadsheet's UTF-8 export) is not part of the header
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines();
         let header = lines.next().unwrap_or("");
         let cols: Vec<&str> = header.split(',').collect();

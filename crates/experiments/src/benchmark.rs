@@ -2,11 +2,13 @@
 //! of [`controllers`] under every disturbance of [`sweeps`] at RealAIGym-style levels, plus a Monte
 //! Carlo mix on the rapier plant; scored and written into a run folder.
 //!
-//! - **Sweeps**: each disturbance alone at `levels` evenly spaced levels from 0 (nominal) to its
-//!   maximum (21 levels in the full run, 3 with `quick`), on the scenario's plant.
+//! - **Sweeps**: each disturbance at `levels` evenly spaced levels from 0 (the scenario as written) to
+//!   its maximum (21 levels in the full run, 3 with `quick`), on the scenario's plant, added to the
+//!   scenario's own `[disturbances]` (and its `[tracking]` sensor noise; see [`sweeps`]).
 //! - **Monte Carlo**: each link's mass x U(0.85, 1.15), sensor noise sigma_q = 0.002 rad, and a free
 //!   0.05-0.5 kg ball (radius 0.05 m, no gravity, restitution 0.3) on the planned EE path, on the
-//!   rapier plant (200 runs in the full run, 6 with `quick`).
+//!   rapier plant (200 runs in the full run, 6 with `quick`), each draw combined with the scenario's
+//!   disturbances ([`with_scenario`]).
 //! - **Success** ([`SUCCESS_RADIUS_M`]): the plant's EE (its own, possibly mismatched, geometry) ends
 //!   within 2 cm of the bar at the end of the planned swing.
 //! - **Seeds**: run i of a sweep or of the Monte Carlo draws from ChaCha8 seeded by a fixed function of
@@ -39,8 +41,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// The success rule: final EE within this distance of the bar, m.
-pub const SUCCESS_RADIUS_M: f64 = 0.02;
+/// The success rule: the hand within this distance of the bar at the end of the swing, m (the one
+/// definition, [`crate::success`]).
+pub use crate::success::SUCCESS_RADIUS_M;
 
 /// Most sweep levels per disturbance.
 pub const MAX_LEVELS: usize = 101;
@@ -222,96 +225,106 @@ pub struct Sweep {
     pub apply: ApplyLevel,
 }
 
-fn all_links(v: f64, ctx: &SweepContext) -> Vec<f64> {
-    vec![v; ctx.robot.n()]
+/// The scenario's per-link factors `base` (empty: 1 each) times `f`: a sweep's factor multiplies
+/// the scenario's own mismatch.
+fn times(base: &[f64], f: f64, ctx: &SweepContext) -> Vec<f64> {
+    (0..ctx.robot.n())
+        .map(|i| base.get(i).copied().unwrap_or(1.0) * f)
+        .collect()
 }
 
-/// Every disturbance the benchmark sweeps, with its range (docs/robustness.md lists them).
+/// Every disturbance the benchmark sweeps, with its range (docs/robustness.md lists them). Each level
+/// adds to the scenario's own `[disturbances]` (the `Disturbances` handed to `apply` is the
+/// scenario's): a mismatch factor multiplies the scenario's factor, a friction, noise, delay, lag or
+/// start offset adds to the scenario's value, the torque limit removes its fraction from the
+/// scenario's limit (else the robot's), a push joins the scenario's pushes. Level 0 is the scenario
+/// as written.
 pub fn sweeps() -> Vec<Sweep> {
     vec![
         Sweep {
             name: "mass",
             level: "relative increase of every link mass",
             max: 0.5,
-            apply: |d, l, c| d.mass_scale = all_links(1.0 + l, c),
+            apply: |d, l, c| d.mass_scale = times(&d.mass_scale, 1.0 + l, c),
         },
         Sweep {
             name: "com",
             level: "relative increase of every COM distance",
             max: 0.4,
-            apply: |d, l, c| d.com_scale = all_links(1.0 + l, c),
+            apply: |d, l, c| d.com_scale = times(&d.com_scale, 1.0 + l, c),
         },
         Sweep {
             name: "inertia",
             level: "relative increase of every link inertia",
             max: 1.0,
-            apply: |d, l, c| d.inertia_scale = all_links(1.0 + l, c),
+            apply: |d, l, c| d.inertia_scale = times(&d.inertia_scale, 1.0 + l, c),
         },
         Sweep {
             name: "length",
             level: "relative increase of every link length",
             max: 0.2,
-            apply: |d, l, c| d.length_scale = all_links(1.0 + l, c),
+            apply: |d, l, c| d.length_scale = times(&d.length_scale, 1.0 + l, c),
         },
         Sweep {
             name: "coulomb",
             level: "Coulomb friction, N m",
             max: 0.5,
-            apply: |d, l, _| d.coulomb_nm = l,
+            apply: |d, l, _| d.coulomb_nm += l,
         },
         Sweep {
             name: "viscous",
             level: "viscous damping, N m s/rad",
             max: 0.2,
-            apply: |d, l, _| d.viscous_nm_s = l,
+            apply: |d, l, _| d.viscous_nm_s += l,
         },
         Sweep {
             name: "noise_q",
             level: "sensor noise on q, rad (std)",
             max: 0.02,
-            apply: |d, l, _| d.noise_q_std = l,
+            apply: |d, l, _| d.noise_q_std += l,
         },
         Sweep {
             name: "noise_qd",
             level: "sensor noise on qd, rad/s (std)",
             max: 0.5,
-            apply: |d, l, _| d.noise_qd_std = l,
+            apply: |d, l, _| d.noise_qd_std += l,
         },
         Sweep {
             name: "measurement_delay",
             level: "measurement delay, s",
             max: 0.02,
-            apply: |d, l, _| d.measurement_delay_s = l,
+            apply: |d, l, _| d.measurement_delay_s += l,
         },
         Sweep {
             name: "actuation_delay",
             level: "actuation delay, s",
             max: 0.02,
-            apply: |d, l, _| d.actuation_delay_s = l,
+            apply: |d, l, _| d.actuation_delay_s += l,
         },
         Sweep {
             name: "torque_noise",
             level: "torque noise, N m (std)",
             max: 2.0,
-            apply: |d, l, _| d.torque_noise_std = l,
+            apply: |d, l, _| d.torque_noise_std += l,
         },
         Sweep {
             name: "motor_lag",
             level: "motor time constant, s",
             max: 0.05,
-            apply: |d, l, _| d.motor_time_constant_s = l,
+            apply: |d, l, _| d.motor_time_constant_s += l,
         },
         Sweep {
             name: "torque_limit",
             level: "fraction of the torque limit removed",
             max: 0.8,
             apply: |d, l, c| {
-                let lim = c
+                let robot = c
                     .robot
                     .tau_max
                     .iter()
                     .chain(c.robot.tau_min.iter())
                     .fold(f64::INFINITY, |m, v| m.min(v.abs()));
+                let lim = d.torque_limit_nm.map_or(robot, |s| s.min(robot));
                 d.torque_limit_nm = Some((1.0 - l) * lim);
             },
         },
@@ -321,8 +334,9 @@ pub fn sweeps() -> Vec<Sweep> {
             max: 0.1,
             apply: |d, l, c| {
                 let n = c.robot.n();
-                let mut o = vec![0.0; 2 * n];
-                o[..n].fill(l);
+                let mut o = d.start_offset.clone();
+                o.resize(2 * n, 0.0);
+                o[..n].iter_mut().for_each(|v| *v += l);
                 d.start_offset = o;
             },
         },
@@ -332,16 +346,14 @@ pub fn sweeps() -> Vec<Sweep> {
             max: 0.5,
             apply: |d, l, c| {
                 let n = c.robot.n();
-                d.pushes = if l > 0.0 {
-                    vec![Push {
+                if l > 0.0 {
+                    d.pushes.push(Push {
                         t_s: 0.5 * c.swing_time_s,
                         link: n,
                         point_m: 0.5 * c.robot.lengths()[n - 1],
                         impulse_n_s: [0.0, -l],
-                    }]
-                } else {
-                    Vec::new()
-                };
+                    });
+                }
             },
         },
     ]
@@ -600,6 +612,25 @@ fn monte_carlo_draw(
     (d, balls, ball_t)
 }
 
+/// A Monte Carlo draw combined with the scenario's `[disturbances]` `base`: the per-link mass factors
+/// multiply the scenario's, the draw's sensor noise adds to the scenario's, everything else of the
+/// scenario (friction, delays, lag, torque noise and limit, start offset, pushes, other factors) is
+/// kept; the noise seed is the draw's.
+pub fn with_scenario(base: &Disturbances, draw: &Disturbances) -> Disturbances {
+    let mut d = base.clone();
+    let n = draw.mass_scale.len().max(base.mass_scale.len());
+    d.mass_scale = (0..n)
+        .map(|i| {
+            base.mass_scale.get(i).copied().unwrap_or(1.0)
+                * draw.mass_scale.get(i).copied().unwrap_or(1.0)
+        })
+        .collect();
+    d.noise_q_std += draw.noise_q_std;
+    d.noise_qd_std += draw.noise_qd_std;
+    d.seed = draw.seed;
+    d
+}
+
 /// Run one job: plant, wrappers, controller, closed loop, scores.
 fn run_job(
     ls: &LoadedScenario,
@@ -648,9 +679,8 @@ fn run_job(
     let replans = built.replans();
     let n = ls.robot.n();
     let last = log.len() - 1;
-    let ee = job.probot.ee_position(&log.x(last)[..n]);
-    let target = sc.task.target;
-    let err = (ee[0] - target[0]).hypot(ee[1] - target[1]);
+    let caught = crate::success::capture(&job.probot, &log, reference.duration(), sc.task.target);
+    let err = caught.bar_error_m;
     let s = log.summary();
     let nu = n - 1;
     let mut sq = 0.0;
@@ -671,7 +701,7 @@ fn run_job(
         level: job.level,
         seed: job.seed,
         // a diverged closed loop is a failure wherever its last finite row happens to end
-        success: s.diverged_at_s.is_none() && err.is_finite() && err <= SUCCESS_RADIUS_M,
+        success: caught.reaches_bar,
         final_error_m: err,
         energy_j: s.energy_j,
         peak_torque_nm: s.tau_min.abs().max(s.tau_max.abs()),
@@ -820,6 +850,11 @@ pub fn run_benchmark_on(
         d.validate(n, sc.tracking.control_dt, &src)?;
         Robot::from_params(d.plant_params(&base_params), &src)
     };
+    // the scenario's disturbances, with its [tracking] sensor noise (the two are exclusive): the base
+    // every sweep level and every Monte Carlo draw adds to
+    let mut base = sc.disturbances.clone();
+    base.noise_q_std += sc.tracking.noise_q_std;
+    base.noise_qd_std += sc.tracking.noise_qd_std;
     // every job, checked, before any simulation
     let mut jobs = Vec::new();
     let mut sweep_levels = Vec::new();
@@ -827,7 +862,7 @@ pub fn run_benchmark_on(
         let lv = levels(s.max, settings.levels);
         for (li, &l) in lv.iter().enumerate() {
             let seed = mix(settings.seed ^ mix(((si as u64) << 32) | li as u64));
-            let mut d = sc.disturbances.clone();
+            let mut d = base.clone();
             d.seed = seed;
             (s.apply)(&mut d, l, &ctx);
             let probot = make_robot(&d)?;
@@ -849,7 +884,8 @@ pub fn run_benchmark_on(
     }
     for i in 0..settings.monte_carlo_runs {
         let seed = mix(settings.seed ^ mix(u64::MAX - i as u64));
-        let (d, balls, ball_t_s) = monte_carlo_draw(&ls.robot, &reference, seed);
+        let (draw, balls, ball_t_s) = monte_carlo_draw(&ls.robot, &reference, seed);
+        let d = with_scenario(&base, &draw);
         let probot = make_robot(&d)?;
         for ci in 0..entries.len() {
             jobs.push(Job {

@@ -392,6 +392,23 @@ pub fn check_bars(robot: &Robot, bars: &[Bar], src: &str) -> Result<(), Error> {
                 ),
             ));
         }
+        // a ladder goes on: a bar at (or about at) an earlier bar other than the one held would have
+        // the swinging hand come back to where the chain already hangs from
+        for j in 0..i.saturating_sub(1) {
+            let d = (bars[i].x - bars[j].x).hypot(bars[i].y - bars[j].y);
+            if d < lo {
+                return Err(Error::invalid(
+                    src,
+                    format!("ladder.bars[{i}]"),
+                    format!("({}, {})", bars[i].x, bars[i].y),
+                    format!(
+                        "is {d:.3} m from bar {j}: a ladder may not return to an earlier bar (every \
+                         bar at least {MIN_SPACING_OF_SPAN} x span = {lo:.3} m from every bar before \
+                         it; the arm span is {span:.3} m)"
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }
@@ -503,6 +520,15 @@ impl LadderScenario {
                  (or lookahead = 1)",
             ));
         }
+        if l.lookahead > 1 {
+            // the joint plan of the lookahead plans at fixed swing times (docs/ladders.md)
+            sc.planner
+                .refuse_free_swing_time(
+                    &src,
+                    "a ladder with lookahead > 1 (a joint multi-swing plan)",
+                )
+                .map_err(|e| rename(e, "planner"))?;
+        }
         if sc.plant.kind == PlantKind::Model && !sc.plant.obstacles.is_empty() {
             return Err(Error::invalid(
                 &src,
@@ -513,6 +539,7 @@ impl LadderScenario {
             ));
         }
         check_disturbances(&sc.disturbances.model, n, sc.tracking.control_dt, &src)?;
+        crate::scenario::check_mismatch(robot.params(), &sc.disturbances.model, &src)?;
         if let Some(b) = &sc.disturbances.ball {
             b.validate(l.bars.len() - 1, &src)?;
         }
@@ -529,7 +556,9 @@ impl LadderScenario {
         } else {
             l.q0.clone()
         };
-        let first = swing_scenario(&sc, &q0, &l.qd0, [0.0, 0.0], 1);
+        // the first swing as the traverse runs it: the grip on bar 0 where the ladder puts it (world
+        // frame), the target and the obstacles moved into its grip frame
+        let first = swing_scenario(&sc, &q0, &l.qd0, l.bars[0].p(), 1);
         let qd0 =
             brachia::planning::validate_task(&robot, &first.task, &sc.planner, &src, "ladder.")
                 .map_err(|e| match e {

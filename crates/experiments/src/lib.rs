@@ -12,6 +12,7 @@ pub mod benchmark;
 pub mod ladder;
 pub mod manifest;
 pub mod parameter_study;
+pub mod plan_match;
 pub mod plan_run;
 pub mod progress;
 pub mod read;
@@ -19,6 +20,7 @@ pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
 pub mod schema;
+pub mod success;
 pub mod track_run;
 pub mod traverse;
 
@@ -39,6 +41,7 @@ pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_apart, check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
+pub use success::{capture, Capture, SUCCESS_RADIUS_M};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };

@@ -247,11 +247,30 @@ pub fn plan_report(ls: &LoadedScenario, p: &Plan) -> Value {
     PlanReport::new(ls, p).to_json()
 }
 
+/// An infeasible task found while planning, as a refusal naming the scenario file and the field at
+/// fault: the target (no pose within the bounds reaches it) or an `"auto"` swing time (the locked
+/// chain never falls to the midpoint).
+pub fn name_infeasible(e: brachia::Error, ls: &LoadedScenario) -> brachia::Error {
+    match e {
+        brachia::Error::InfeasibleTask(m) => {
+            let src = ls.path.display().to_string();
+            let t = ls.scenario.task.target;
+            if m.contains("locked joints") {
+                brachia::Error::invalid(src, "planner.swing_time", "\"auto\"", m)
+            } else {
+                brachia::Error::invalid(src, "task.target", format!("[{}, {}]", t[0], t[1]), m)
+            }
+        }
+        other => other,
+    }
+}
+
 /// Plan the scenario and prepare its run folder. Errors only on bad input; a solve that does not
 /// converge still gives a [`PlanRun`] (check `plan.converged()`).
 pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
     let sc = &ls.scenario;
-    let p = plan(&ls.robot, &sc.task, &sc.planner, &sc.solver)?;
+    let p =
+        plan(&ls.robot, &sc.task, &sc.planner, &sc.solver).map_err(|e| name_infeasible(e, ls))?;
     let mut folder = RunFolder::default();
     let midpoint: Vec<f64> = (0..p.points.len())
         .map(|k| {

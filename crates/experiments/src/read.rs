@@ -165,22 +165,43 @@ fn past_schema_line(e: Error) -> Error {
 /// ([`crate::schema::csv_body`]) and the text after it returned.
 pub fn read_csv_text(path: &Path, what: &str) -> Result<String, Error> {
     let text = limits::read_text_capped(path, limits::MAX_CSV_BYTES, what)?;
+    let text = strip_bom(&text);
     let name = path
         .file_name()
         .map(|f| f.to_string_lossy().to_string())
         .unwrap_or_default();
     let kind = crate::schema::csv_kind(&name).unwrap_or(what);
-    let body = crate::schema::csv_body(&text, &path.display().to_string(), kind)?;
+    let body = crate::schema::csv_body(text, &path.display().to_string(), kind)?;
     Ok(body.to_string())
 }
 
-/// Read a plan's 1 ms `trajectory.csv` for an `n`-link robot (`whose` names the robot in the message):
-/// the header names its joints (`t,q1..qn,qd1..qdn,tau2..taun,...`), every value is finite, times start
-/// at 0 and increase strictly, at least two rows, and the swing lasts at most
-/// [`limits::MAX_SWING_TIME_S`].
-pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajectory, Error> {
+/// The text of a CSV file without a leading UTF-8 byte-order mark (a spreadsheet's export): the
+/// mark is not part of the first column's name.
+pub(crate) fn strip_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
+/// Shortest step between two rows of a plan's `trajectory.csv`, s: the file keeps times to 1 us, so
+/// a shorter step is no step a plan writes (times 0, 1e-300, ... describe no swing).
+pub const MIN_PLAN_STEP_S: f64 = 1e-7;
+
+/// Largest distance between a row's `ee_x, ee_y` and the forward kinematics of its `q`, m: the file
+/// keeps 9 decimals, so a written plan agrees to about 1e-9 m.
+pub const PLAN_EE_TOLERANCE_M: f64 = 1e-6;
+
+/// Read a plan's 1 ms `trajectory.csv` for `robot` (`whose` names the robot in the message): the
+/// header names its joints and the hand (`t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,...`), every value is
+/// finite, times start at 0 and increase strictly by steps between [`MIN_PLAN_STEP_S`] and
+/// [`limits::MAX_OUTPUT_DT_S`], at least two and at most
+/// [`limits::MAX_OUTPUT_SAMPLES`] rows, the swing lasts at most [`limits::MAX_SWING_TIME_S`], and every
+/// row's `ee_x, ee_y` is the forward kinematics of its `q` on `robot` (within
+/// [`PLAN_EE_TOLERANCE_M`]). A leading byte-order mark is skipped. Each refusal names the file, the
+/// row (line) and the column.
+pub fn read_plan_trajectory(file: &Path, robot: &Robot, whose: &str) -> Result<Trajectory, Error> {
+    let n = robot.n();
     let tpath = file.display().to_string();
     let text = read_csv_text(file, "trajectory")?;
+    let text = text.as_str();
     let header = text.lines().next().unwrap_or("");
     let cols: Vec<&str> = header.split(',').map(str::trim).collect();
     let links = cols
@@ -194,18 +215,25 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     want.extend((1..=n).map(|i| format!("q{i}")));
     want.extend((1..=n).map(|i| format!("qd{i}")));
     want.extend((2..=n).map(|i| format!("tau{i}")));
+    want.extend(["ee_x".to_string(), "ee_y".to_string()]);
     if links != n || cols.len() < want.len() || cols[..want.len()] != want[..] {
+        let rule = if links == n {
+            format!("expected {},...", want.join(","))
+        } else {
+            format!(
+                "the plan is for a {links}-link robot, {whose} has {n} links: expected {},...",
+                want.join(",")
+            )
+        };
         return Err(Error::invalid(
             &tpath,
             "header",
             header.chars().take(120).collect::<String>(),
-            format!(
-                "the plan is for a {links}-link robot, {whose} has {n} links: expected {},...",
-                want.join(",")
-            ),
+            rule,
         ));
     }
-    let traj = Trajectory::from_csv(&text, n, &tpath).map_err(past_schema_line)?;
+    check_plan_cells(text, &tpath, &want).map_err(past_schema_line)?;
+    let traj = Trajectory::from_csv(text, n, &tpath).map_err(past_schema_line)?;
     if traj.len() < 2 {
         return Err(Error::invalid(
             &tpath,
@@ -214,35 +242,68 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
             "a plan needs at least two samples",
         ));
     }
-    let per_row = [
-        ("q", &traj.q, n),
-        ("qd", &traj.qd, n),
-        ("tau", &traj.tau, n - 1),
-    ];
-    for (name, v, w) in per_row {
-        if let Some((i, x)) = v.iter().enumerate().find(|(_, x)| !x.is_finite()) {
-            let (row, col) = (i / w.max(1), i % w.max(1));
-            let j = if name == "tau" { col + 2 } else { col + 1 };
-            return Err(Error::invalid(
-                &tpath,
-                format!("line {}, {name}{j}", row + 3),
-                x,
-                "every value of a plan must be finite",
-            ));
-        }
-    }
-    if let Some((k, x)) = traj.t.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+    let most = limits::MAX_OUTPUT_SAMPLES + 1;
+    if traj.len() > most {
         return Err(Error::invalid(
             &tpath,
-            format!("line {}, t", k + 3),
-            x,
-            "every value of a plan must be finite",
+            "rows",
+            traj.len(),
+            format!("a plan has at most {most} samples (brachia::limits::MAX_OUTPUT_SAMPLES)"),
         ));
     }
+    check_plan_times(&traj, &tpath).map_err(past_schema_line)?;
+    check_plan_ee(text, &traj, robot, &tpath, whose).map_err(past_schema_line)?;
+    Ok(traj)
+}
+
+/// Every cell of the columns `want` (and the hand's) of every row is a finite number: a refusal names
+/// the line and the column.
+fn check_plan_cells(text: &str, tpath: &str, want: &[String]) -> Result<(), Error> {
+    for (i, line) in text.lines().enumerate().skip(1) {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() < want.len() {
+            return Err(Error::invalid(
+                tpath,
+                format!("line {}", i + 1),
+                line.chars().take(120).collect::<String>(),
+                format!("too few columns: expected {}", want.len()),
+            ));
+        }
+        for (v, col) in cells.iter().zip(want) {
+            match v.parse::<f64>() {
+                Ok(x) if x.is_finite() => {}
+                Ok(_) => {
+                    return Err(Error::invalid(
+                        tpath,
+                        format!("line {}, {col}", i + 1),
+                        v,
+                        "every value of a plan must be finite",
+                    ))
+                }
+                Err(e) => {
+                    return Err(Error::invalid(
+                        tpath,
+                        format!("line {}, {col}", i + 1),
+                        v,
+                        e.to_string(),
+                    ))
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Times increase strictly from 0, over at most [`limits::MAX_SWING_TIME_S`], by steps between
+/// [`MIN_PLAN_STEP_S`] and [`limits::MAX_OUTPUT_DT_S`] (to the file's 1 us).
+fn check_plan_times(traj: &Trajectory, tpath: &str) -> Result<(), Error> {
     if let Some(k) = (1..traj.len()).find(|&k| traj.t[k] <= traj.t[k - 1]) {
         return Err(Error::invalid(
-            &tpath,
-            format!("line {}, t", k + 3),
+            tpath,
+            format!("line {}, t", k + 2),
             traj.t[k],
             format!(
                 "times must increase strictly (previous row: {})",
@@ -252,8 +313,8 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     }
     if traj.t[0].abs() > 1e-9 {
         return Err(Error::invalid(
-            &tpath,
-            "line 3, t",
+            tpath,
+            "line 2, t",
             traj.t[0],
             "a plan starts at t = 0",
         ));
@@ -261,13 +322,73 @@ pub fn read_plan_trajectory(file: &Path, n: usize, whose: &str) -> Result<Trajec
     let tmax = limits::MAX_SWING_TIME_S;
     if traj.duration() > tmax {
         return Err(Error::invalid(
-            &tpath,
+            tpath,
             "t",
             traj.duration(),
             format!("a plan may last at most {tmax} s (brachia::limits::MAX_SWING_TIME_S)"),
         ));
     }
-    Ok(traj)
+    let max_step = limits::MAX_OUTPUT_DT_S + 1e-6;
+    for k in 1..traj.len() {
+        let step = traj.t[k] - traj.t[k - 1];
+        if !(MIN_PLAN_STEP_S..=max_step).contains(&step) {
+            return Err(Error::invalid(
+                tpath,
+                format!("line {}, t", k + 2),
+                traj.t[k],
+                format!(
+                    "a step of {step:e} s after the previous row ({}): a plan's samples are between \
+                     {MIN_PLAN_STEP_S:e} s and {} s apart (output_dt, brachia::limits::MAX_OUTPUT_DT_S)",
+                    traj.t[k - 1],
+                    limits::MAX_OUTPUT_DT_S
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Every row's `ee_x, ee_y` is the forward kinematics of its `q` on `robot`, within
+/// [`PLAN_EE_TOLERANCE_M`] (a plan for another robot, or a file edited by hand, is refused).
+fn check_plan_ee(
+    text: &str,
+    traj: &Trajectory,
+    robot: &Robot,
+    tpath: &str,
+    whose: &str,
+) -> Result<(), Error> {
+    let n = robot.n();
+    let at = 1 + 2 * n + (n - 1);
+    let rows = text
+        .lines()
+        .enumerate()
+        .skip(1)
+        .filter(|(_, l)| !l.trim().is_empty());
+    for (k, (i, line)) in rows.enumerate() {
+        let mut cells = line.split(',').skip(at).map(str::trim);
+        let (Some(x), Some(y)) = (cells.next(), cells.next()) else {
+            continue; // checked by check_plan_cells
+        };
+        let (Ok(x), Ok(y)) = (x.parse::<f64>(), y.parse::<f64>()) else {
+            continue;
+        };
+        let fk = robot.ee_position(traj.q(k));
+        let off = (fk[0] - x).hypot(fk[1] - y);
+        if off > PLAN_EE_TOLERANCE_M || !off.is_finite() {
+            return Err(Error::invalid(
+                tpath,
+                format!("line {}, ee_x/ee_y", i + 1),
+                format!("[{x}, {y}]"),
+                format!(
+                    "the hand must be the forward kinematics of the row's q on {whose}: [{:.9}, {:.9}] \
+                     ({off:.3e} m apart, at most {PLAN_EE_TOLERANCE_M:e} m); a plan for another robot \
+                     or an edited file is not tracked",
+                    fk[0], fk[1]
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The robot file `params` a plan folder's `scenario.toml` (`sfile`) names must be a file of the
@@ -328,7 +449,7 @@ impl PlanFolder {
         check_params_inside(dir, &sfile, &scenario.scenario.params)?;
         let report: PlanReport = read_json(&rfile)?;
         let whose = format!("the robot of {}", sfile.display());
-        let trajectory = read_plan_trajectory(&tfile, scenario.robot.n(), &whose)?;
+        let trajectory = read_plan_trajectory(&tfile, &scenario.robot, &whose)?;
         Ok(PlanFolder {
             dir: dir.to_path_buf(),
             scenario,
@@ -400,7 +521,7 @@ fn csv_rows<'a>(
     file: &str,
     header: &str,
 ) -> Result<Vec<(usize, Vec<&'a str>)>, Error> {
-    let mut lines = text.lines();
+    let mut lines = strip_bom(text).lines();
     let got = lines.next().unwrap_or("").trim();
     if got != header {
         return Err(Error::invalid(
@@ -648,7 +769,7 @@ pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
         let params = RobotParams::from_toml_str(&ptext, &pfile.display().to_string())?;
         let robot = Robot::from_params(params, &pfile.display().to_string())?;
         let whose = format!("the robot of {}", pfile.display());
-        let trajectory = read_plan_trajectory(&tfile, robot.n(), &whose)?;
+        let trajectory = read_plan_trajectory(&tfile, &robot, &whose)?;
         sticks.push(StickDiagram {
             r2: s.r2,
             robot,

@@ -319,6 +319,11 @@ impl Scenario {
         };
         // a free swing time can end at its range's top: the grid and the run are sized by it
         let swing_time = sc.planner.longest_swing_time(swing_time);
+        // an "auto" swing time of almost nothing: the geometry is the cause, not knot_dt
+        let auto = matches!(sc.planner.swing_time, SwingTime::Auto(_));
+        if auto && sc.planner.free_swing_time.is_none() && swing_time < MIN_AUTO_SWING_TIME_S {
+            return Err(auto_too_short(&robot, &sc.task, swing_time, &src));
+        }
         sc.planner
             .grid(robot.n(), swing_time, &src)
             .map_err(|e| rename(e, "planner"))?;
@@ -332,6 +337,75 @@ impl Scenario {
         }
         Ok(ls)
     }
+}
+
+/// Shortest swing time `swing_time = "auto"` may resolve to, s: twice the locked chain's free fall
+/// to the midpoint is below it only when the target is at (or straight above or below) the hand's
+/// start, which no grid step can mend.
+pub const MIN_AUTO_SWING_TIME_S: f64 = 0.1;
+
+/// The refusal of a `swing_time = "auto"` whose twice-the-free-fall time is below
+/// [`MIN_AUTO_SWING_TIME_S`]: it names the swing time and the geometry that makes it so (a target at
+/// the hand's start, or straight above or below it), never `knot_dt`.
+fn auto_too_short(robot: &Robot, task: &SwingTask, t: f64, src: &str) -> Error {
+    let ee = robot.ee_position(&task.q0);
+    let at_start = (ee[0] - task.target[0]).hypot(ee[1] - task.target[1]);
+    let why = if at_start < 1e-2 * robot.reach() {
+        "the hand starts at the target: there is nothing to swing to".to_string()
+    } else {
+        format!(
+            "the target [{}, {}] is about straight above or below the hand's start [{:.4}, {:.4}], \
+             so the locked chain's fall to the midpoint takes almost no time",
+            task.target[0], task.target[1], ee[0], ee[1]
+        )
+    };
+    Error::invalid(
+        src,
+        "planner.swing_time",
+        "\"auto\"",
+        format!(
+            "resolves to {t:.4} s (twice the locked chain's free fall to the midpoint between the \
+             hand and the target), too short to plan: {why}; give swing_time in seconds or move \
+             task.target"
+        ),
+    )
+}
+
+/// The model mismatch of `[disturbances]` on the robot `base`: every link's centre of mass, scaled by
+/// `com_scale`, must stay on the link scaled by `length_scale`; a refusal names the factor that
+/// moves it off (`disturbances.com_scale[i]`, or `disturbances.length_scale[i]` when the link is
+/// shortened under it), not the robot's `com`.
+pub(crate) fn check_mismatch(
+    base: &brachia::model::RobotParams,
+    d: &Disturbances,
+    src: &str,
+) -> Result<(), Error> {
+    let f = |v: &Vec<f64>, i: usize| v.get(i).copied().unwrap_or(1.0);
+    for (i, l) in base.links.iter().enumerate() {
+        let (cs, ls) = (f(&d.com_scale, i), f(&d.length_scale, i));
+        let (com, len) = (l.com * cs, l.length * ls);
+        if com > len {
+            let (field, v) = if cs > 1.0 || d.length_scale.is_empty() {
+                ("com_scale", cs)
+            } else {
+                ("length_scale", ls)
+            };
+            return Err(Error::invalid(
+                src,
+                format!("disturbances.{field}[{i}]"),
+                v,
+                format!(
+                    "link {}'s centre of mass would lie {com} m from its proximal joint (com {} m x \
+                     com_scale {cs}), beyond its length {len} m (length {} m x length_scale {ls}): \
+                     a centre of mass stays on its link",
+                    i + 1,
+                    l.com,
+                    l.length
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 impl LoadedScenario {
@@ -359,6 +433,21 @@ impl LoadedScenario {
         let t = &sc.tracking;
         if let Some(r) = &t.replan {
             r.validate(&src).map_err(|e| rename(e, "tracking.replan"))?;
+            // the re-plans run on their own mesh (knot_dt_s) over the same swing: its grid is
+            // checked here, under its own name, not at the first re-plan as `planner.knot_dt`
+            let mesh = PlannerSettings {
+                knot_dt: r.knot_dt_s,
+                ..sc.planner.clone()
+            };
+            mesh.grid(n, swing_time, &src).map_err(|e| match e {
+                Error::InvalidValue { value, reason, .. } => Error::InvalidValue {
+                    source_name: src.clone(),
+                    field: "tracking.replan.knot_dt_s".into(),
+                    value,
+                    reason: reason.replace("knot_dt must", "knot_dt_s must"),
+                },
+                other => other,
+            })?;
             if t.controller != ControllerKind::Mpc {
                 return Err(Error::invalid(
                     &src,
@@ -476,8 +565,43 @@ impl LoadedScenario {
                  [tracking] noise_q_std / noise_qd_std, not both",
             ));
         }
-        let params = d.plant_params(&self.robot.params().clone().with_mass_scale(pl.mass_scale));
-        Robot::from_params(params, &src).map_err(|e| rename(e, "disturbances"))?;
+        let base = self.robot.params().clone().with_mass_scale(pl.mass_scale);
+        check_mismatch(&base, d, &src)?;
+        let params = d.plant_params(&base);
+        Robot::from_params(params.clone(), &src).map_err(|e| rename(e, "disturbances"))?;
+        // a push the run never applies (after the swing, or off its link) is refused, not listed in
+        // the report as if it had happened
+        let shortest = sc.planner.free_swing_time.map_or(swing_time, |r| r[0]);
+        for (i, p) in d.pushes.iter().enumerate() {
+            if p.t_s >= shortest {
+                return Err(Error::invalid(
+                    &src,
+                    format!("disturbances.pushes[{i}].t_s"),
+                    p.t_s,
+                    format!(
+                        "a push happens during the swing: t_s must be below the swing time \
+                         ({shortest:.4} s{})",
+                        if sc.planner.free_swing_time.is_some() {
+                            ", the shortest of planner.free_swing_time"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
+            let len = params.links[p.link - 1].length;
+            if p.point_m > len {
+                return Err(Error::invalid(
+                    &src,
+                    format!("disturbances.pushes[{i}].point_m"),
+                    p.point_m,
+                    format!(
+                        "a point along link {}: at most its length on the plant, {len} m",
+                        p.link
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }

@@ -66,13 +66,15 @@ pub struct TrackReport {
     /// The re-plans, in time order.
     #[serde(default)]
     pub replans: Vec<ReplanEvent>,
-    /// Whether the swing ends at the bar: the EE's final distance to the reference's final point
-    /// within the robustness benchmark's success radius ([`crate::benchmark::SUCCESS_RADIUS_M`],
-    /// 2 cm) and the closed loop not diverged. A run that misses is still a trustworthy run (exit 0);
-    /// this is its verdict. `brachia track` always writes it; `None` when a report read back lacks it
-    /// (one written by an earlier version).
+    /// Whether the swing catches the bar ([`crate::success::capture`]): the plant's hand within
+    /// [`crate::success::SUCCESS_RADIUS_M`] (2 cm) of the target bar at the end of the swing and the
+    /// closed loop not diverged. `brachia track` exits 1 when it is false.
     #[serde(default)]
     pub reaches_bar: Option<bool>,
+    /// The plant's hand's distance to the target bar at the end of the swing, m (the measure behind
+    /// `reaches_bar`; `ee_final_error_m` is the distance to the reference at the last row).
+    #[serde(default)]
+    pub bar_error_m: Option<f64>,
     /// The closed loop's metrics.
     #[serde(flatten)]
     pub summary: RunSummary,
@@ -258,7 +260,7 @@ pub fn track_plan(
     let mut model = None;
     let plant_ref: &mut dyn Plant = match plant {
         PlantKind::Model => {
-            let mut p = ModelPlant::new(probot, &x0);
+            let mut p = ModelPlant::new(probot.clone(), &x0);
             p.substeps = sc.plant.substeps;
             model.insert(p)
         }
@@ -357,6 +359,7 @@ pub fn track_plan(
         world.track = p.obstacle_track().map(<[f64]>::to_vec).collect();
     }
     let summary = log.summary();
+    let caught = crate::success::capture(&probot, &log, reference.duration(), sc.task.target);
     let (planned_energy, _) = reference.work();
     let mut folder = RunFolder::default();
     folder.add("closed_loop.csv", log.to_csv());
@@ -381,10 +384,8 @@ pub fn track_plan(
         replanning: replanning.is_some(),
         replan_count: replans.len(),
         replans,
-        reaches_bar: Some(
-            summary.diverged_at_s.is_none()
-                && summary.ee_final_error_m <= crate::benchmark::SUCCESS_RADIUS_M,
-        ),
+        reaches_bar: Some(caught.reaches_bar),
+        bar_error_m: Some(caught.bar_error_m),
         summary,
     };
     folder.add_json("report.json", &report.to_json());
@@ -411,12 +412,14 @@ pub fn track_plan(
 /// decimals.
 const START_TOLERANCE: f64 = 1e-6;
 
-/// Read a plan folder written by `brachia plan` (its `trajectory.csv` and `report.json`) and check it
-/// against the scenario `ls` before anything is tracked: the header names the scenario robot's joints
-/// (`t,q1..qn,qd1..qdn,tau2..taun,...`), every value is finite, times start at 0 and increase strictly,
-/// the swing lasts at most [`brachia::limits::MAX_SWING_TIME_S`] (see
-/// [`crate::read::read_plan_trajectory`]), the first sample is the scenario's start state (`task.q0`,
-/// `task.qd0`) and `report.json` is a [`PlanReport`]. Files are read with a size cap.
+/// Read a plan folder written by `brachia plan` (`trajectory.csv`, `report.json`, `scenario.toml` and
+/// its robot) and check it against the scenario `ls` before anything is tracked: the trajectory's
+/// content ([`crate::read::read_plan_trajectory`]: header, finite values, times, spacing, the hand
+/// columns the forward kinematics of `q` on the scenario's robot), its first sample the scenario's
+/// start state (`task.q0`, `task.qd0`), `report.json` a converged [`PlanReport`] whose replay is
+/// trusted and whose `swing_time_s` is the trajectory's duration, the last sample's hand on the
+/// scenario's target, and every field the plan's `scenario.toml` shares with `ls` (robot, start,
+/// target, obstacles, bounds; [`crate::plan_match::check_same_task`]). Files are read with a size cap.
 pub fn read_plan_folder(
     dir: &std::path::Path,
     ls: &LoadedScenario,
@@ -433,7 +436,7 @@ pub fn read_plan_folder(
     let whose = format!("the scenario's robot ({})", ls.scenario.params.display());
     const PLAN: &str = "a plan folder written by `brachia plan` (trajectory.csv, report.json)";
     let tfile = crate::read::need(dir, "trajectory.csv", PLAN)?;
-    let traj = crate::read::read_plan_trajectory(&tfile, n, &whose)?;
+    let traj = crate::read::read_plan_trajectory(&tfile, &ls.robot, &whose)?;
     let task = &ls.scenario.task;
     let qd0 = if task.qd0.is_empty() {
         vec![0.0; n]
@@ -482,5 +485,20 @@ pub fn read_plan_folder(
             ),
         ));
     }
+    crate::plan_match::check_duration(&traj, rep.swing_time_s, &report)?;
+    crate::plan_match::check_ends_at_target(&traj, ls, &tfile)?;
+    let sfile = dir.join("scenario.toml");
+    if !sfile.is_file() {
+        return Err(Error::invalid(
+            dir.display().to_string(),
+            "scenario.toml",
+            "missing",
+            "a plan folder written by `brachia plan` holds scenario.toml (and its robot, \
+             params.toml): without it the plan's robot, target, obstacles and limits cannot be \
+             checked against the scenario, so it is not tracked",
+        ));
+    }
+    let plan_ls = crate::scenario::Scenario::load_for(&sfile, crate::scenario::Uses::Plan)?;
+    crate::plan_match::check_same_task(&plan_ls, ls)?;
     Ok((traj, rep))
 }

@@ -415,7 +415,8 @@ fn rapier_world(
 fn plant_chains(ll: &LoadedLadder) -> Result<[Robot; 2], Error> {
     let sc = &ll.scenario;
     let n = ll.robot.n();
-    let mut first = crate::ladder::swing_scenario(sc, &ll.x0[..n], &ll.x0[n..], [0.0, 0.0], 1);
+    let grip = sc.ladder.bars[0].p();
+    let mut first = crate::ladder::swing_scenario(sc, &ll.x0[..n], &ll.x0[n..], grip, 1);
     first.disturbances = sc.disturbances.model.clone();
     let pr = plant_robot(&LoadedScenario {
         scenario: first,

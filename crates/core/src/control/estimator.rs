@@ -101,10 +101,16 @@ impl EstimatorSettings {
         }
         let total = self.measurement_delay_s + self.actuation_delay_s;
         if total > MAX_DELAY_S {
+            // name the delay that takes the larger share of the sum
+            let (name, v) = if self.measurement_delay_s > self.actuation_delay_s {
+                ("measurement_delay_s", self.measurement_delay_s)
+            } else {
+                ("actuation_delay_s", self.actuation_delay_s)
+            };
             return Err(Error::invalid(
                 src,
-                "actuation_delay_s",
-                self.actuation_delay_s,
+                name,
+                v,
                 format!(
                     "measurement_delay_s + actuation_delay_s = {total} s; at most {MAX_DELAY_S} s \
                      (brachia::control::estimator::MAX_DELAY_S)"

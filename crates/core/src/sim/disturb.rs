@@ -420,7 +420,9 @@ pub struct Push {
     pub link: usize,
     /// Where along the link, m from its proximal joint (0..=length).
     pub point_m: f64,
-    /// The impulse, N s, grip frame (x right, y up).
+    /// The impulse, N s, grip frame (x right, y up): exactly two values (a third is an error, not
+    /// dropped).
+    #[serde(deserialize_with = "crate::serde_exact::pair")]
     pub impulse_n_s: [f64; 2],
 }
 

@@ -16,6 +16,7 @@
 //! is reported as such (its run folder is still written) and the others go on; [`Reproduction::failures`]
 //! lists them. Units: SI (s, m, rad, N m, J).
 
+mod check;
 mod figures;
 mod report;
 mod study;
@@ -180,10 +181,15 @@ impl Results {
             });
         }
         if has("ladder") {
-            res.ladder = Some(read_json(&dir.join("ladder/report.json"))?);
+            let path = dir.join("ladder/report.json");
+            let l: Value = read_json(&path)?;
+            check::ladder_report(&path, &l)?;
+            res.ladder = Some(l);
             let path = dir.join("ladder/joint_swings.json");
             if path.is_file() {
-                res.ladder_joint = Some(read_json(&path)?);
+                let j: Value = read_json(&path)?;
+                check::joint_swings(&path, &j)?;
+                res.ladder_joint = Some(j);
             }
         }
         if has("parameter-study") {
@@ -551,33 +557,14 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     check_complete(dir)?;
     let spath = dir.join("summary.json");
     let sum: Value = crate::read::read_json(&spath)?;
-    let field = |k: &str| {
-        sum.get(k).ok_or_else(|| {
-            ExpError::Input(brachia::Error::invalid(
-                spath.display().to_string(),
-                k,
-                "missing",
-                "summary.json of `brachia reproduce` has mode, wall_time_s, cores, failures, warnings",
-            ))
-        })
-    };
-    let texts = |v: &Value| -> Vec<String> {
-        v.as_array()
-            .map(|a| {
-                a.iter()
-                    .filter_map(|x| x.as_str().map(String::from))
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let quick = field("mode")?.as_str() == Some("quick");
-    let wall_s = field("wall_time_s")?.as_f64().unwrap_or(0.0);
-    let cores = field("cores")?.as_u64().unwrap_or(1) as usize;
-    let run_failures: Vec<String> = texts(field("failures")?)
+    let head = check::summary_head(&spath, &sum)?;
+    let (quick, wall_s, cores) = (head.quick, head.wall_s, head.cores);
+    let run_failures: Vec<String> = head
+        .failures
         .into_iter()
         .filter(|f| !f.starts_with("figure "))
         .collect();
-    let warnings = texts(field("warnings")?);
+    let warnings = head.warnings;
     let mut res = Results::read(dir)?;
     res.quick = quick;
     res.wall_s = wall_s;
