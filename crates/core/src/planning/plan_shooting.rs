@@ -3,6 +3,7 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
 
+use super::clearance_check::check_clearance;
 use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
@@ -423,6 +424,7 @@ pub(super) fn finish_plan(
     let replay_ee_error_m =
         replay_held_torques(robot, z, layout.h, settings.shooting.substeps, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
+    let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
     Ok(Plan {
         status,
         backend,
@@ -447,6 +449,7 @@ pub(super) fn finish_plan(
         violations,
         replay_ee_error_m,
         min_obstacle_clearance_m,
+        clearance_violation,
         guess: None,
         blockage: None,
         torque_continuation: None,
