@@ -352,6 +352,7 @@ pub(super) fn setup_shooting(
         target: task.target,
         bounds: settings.bounds.clone(),
         parallel_min_stages: settings.shooting.parallel_min_stages,
+        substep_clearance: settings.shooting.substep_clearance,
     };
     let mut ocp = SwingOcp::new(Arc::clone(robot), spec, cf.map(DistanceClearanceFn::new))?;
     {
