@@ -190,6 +190,12 @@ fn swing_time_starts(
 }
 
 /// One multiple-shooting plan from one start (see [`plan_shooting`]).
+///
+/// The problem has clearance rows at the knots. When its solve converged but the resampled
+/// trajectory breaks the clearance between them ([`Plan::clearance_violation`]) and
+/// `settings.shooting.substep_clearance` is on, the task is solved again, warm from that plan, with
+/// the rows also at the RK4 sub-step states of every interval (a solve of its own,
+/// [`SolveRole::SubstepClearance`]); that plan is returned, with both solves in its report.
 fn plan_shooting_once(
     robot: &Arc<Robot>,
     task: &SwingTask,
@@ -197,12 +203,44 @@ fn plan_shooting_once(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    let started = std::time::Instant::now();
+    let mut p = solve_shooting(robot, task, settings, nlp, guess, false)?;
+    let refine = settings.shooting.substep_clearance
+        && settings.shooting.substeps > 1
+        && p.status.is_converged()
+        && p.clearance_violation.is_some();
+    let Some(left) = nlp.remaining(started).filter(|_| refine) else {
+        return Ok(p);
+    };
+    let warm = NlpSettings {
+        mu_init: Some(left.mu_init.unwrap_or(super::planner::WARM_START_MU_INIT)),
+        ..left
+    };
+    let mut q = solve_shooting(robot, task, settings, &warm, Some(&p.points), true)?;
+    let mut log = SolveLog::default();
+    log.record(&mut p, SolveRole::Task);
+    log.record(&mut q, SolveRole::SubstepClearance);
+    log.finish(&mut q);
+    q.freefall_time_s = p.freefall_time_s;
+    Ok(q)
+}
+
+/// One multiple-shooting solve from one start, with the clearance rows at the knots, and also at
+/// the interior RK4 sub-step states when `substep_rows`.
+fn solve_shooting(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+    substep_rows: bool,
+) -> Result<Plan> {
     let ShootingSetup {
         mut ocp,
         mut layout,
         mut t_final,
         freefall,
-    } = setup_shooting(robot, task, settings, guess)?;
+    } = setup_shooting_rows(robot, task, settings, guess, substep_rows)?;
     // (a range of one value, or narrower than MIN_FREE_SWING_TIME_RANGE_S, is that fixed T, which
     // the setup has already clamped to)
     if let Some([lo, hi]) = settings.free_range() {
@@ -304,6 +342,18 @@ pub(super) fn setup_shooting(
     settings: &PlannerSettings,
     guess: Option<&Trajectory>,
 ) -> Result<ShootingSetup> {
+    setup_shooting_rows(robot, task, settings, guess, false)
+}
+
+/// [`setup_shooting`], with the clearance rows also at the interior RK4 sub-step states when
+/// `substep_rows`.
+fn setup_shooting_rows(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    guess: Option<&Trajectory>,
+    substep_rows: bool,
+) -> Result<ShootingSetup> {
     if settings.transcription != Transcription::MultipleShooting {
         let ocp = NlpSettings {
             backend: Backend::Ocp,
@@ -352,7 +402,7 @@ pub(super) fn setup_shooting(
         target: task.target,
         bounds: settings.bounds.clone(),
         parallel_min_stages: settings.shooting.parallel_min_stages,
-        substep_clearance: settings.shooting.substep_clearance,
+        substep_clearance: substep_rows,
     };
     let mut ocp = SwingOcp::new(Arc::clone(robot), spec, cf.map(DistanceClearanceFn::new))?;
     {

@@ -39,9 +39,11 @@ pub struct ShootingSettings {
     /// (and rayon has more than one thread); 0 = always, a huge value = never. Default 16
     /// (docs/planner.md, "Memory and threads").
     pub parallel_min_stages: usize,
-    /// Impose the clearance rows also at the RK4 sub-step states inside each interval (the states
-    /// after each of its first `substeps - 1` steps), not only at the knots: with the default 30 ms
-    /// knots and 3 steps, every 10 ms (docs/planner.md, "Clearance between the knots"). Default true.
+    /// When a solve converged but its resampled trajectory breaks the clearance between the knots,
+    /// solve again, warm from it, with the clearance rows also at the RK4 sub-step states inside each
+    /// interval (the states after each of its first `substeps - 1` steps): with the default 30 ms
+    /// knots and 3 steps, every 10 ms (docs/planner.md, "Clearance between the checked points").
+    /// Default true.
     pub substep_clearance: bool,
 }
 
