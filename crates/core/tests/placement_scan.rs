@@ -37,13 +37,13 @@ struct Placement {
     obstacles: Vec<Circle>,
 }
 
-/// The placement of `seed`: one obstacle (seeds with `seed % 5 != 0`) or two (the others), each at
+/// The placement of `seed`: two obstacles for every fifth seed, one for the others, each at
 /// the midpoint or the tip of a random link of `free` (the unobstructed swing's 1 ms trajectory) at
 /// a random time in 0.7-1.7 s, radius 0.05-0.15 m; `None` when an obstacle overlaps the start pose
 /// (the task is then refused, not planned).
 fn placement(robot: &Robot, free: &Plan, seed: u64) -> Option<Placement> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let count = if seed % 5 == 0 { 2 } else { 1 };
+    let count = if seed.is_multiple_of(5) { 2 } else { 1 };
     let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
     let (mut obstacles, mut what) = (vec![], vec![]);
     for _ in 0..count {
