@@ -84,12 +84,13 @@ impl JointSwingPlan {
 
 #[pymethods]
 impl JointSwingPlan {
-    /// ``"converged"``, ``"joint_failed"`` or ``"reference_failed"``.
+    /// ``"converged"``, ``"joint_failed"``, ``"clearance_violated"`` or ``"reference_failed"``.
     #[getter]
     fn status(&self) -> &'static str {
         match self.inner.status {
             JointStatus::Converged => "converged",
             JointStatus::JointFailed { .. } => "joint_failed",
+            JointStatus::ClearanceViolated { .. } => "clearance_violated",
             JointStatus::ReferenceFailed { .. } => "reference_failed",
         }
     }
@@ -100,7 +101,7 @@ impl JointSwingPlan {
         self.inner.status.to_string()
     }
 
-    /// True when the joint solve converged.
+    /// True when the joint solve converged and every swing keeps the required clearance.
     #[getter]
     fn converged(&self) -> bool {
         self.inner.converged()

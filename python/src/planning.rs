@@ -63,7 +63,8 @@ impl Plan {
         brachia_experiments::parameter_study::status_name(&self.plan.status)
     }
 
-    /// True when the solver converged (``solved`` or ``solved_to_acceptable_level``).
+    /// True when the solver converged (``solved`` or ``solved_to_acceptable_level``) and the
+    /// resampled trajectory keeps the required clearance (see ``failure_message``).
     #[getter]
     fn converged(&self) -> bool {
         self.plan.converged()

@@ -139,7 +139,9 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
                     p.replay_ee_error_m
                 )
             } else {
-                format!("the planner did not converge (status {:?})", p.status)
+                p.failure_message().unwrap_or_else(|| {
+                    format!("the planner did not converge (status {:?})", p.status)
+                })
             };
             Err(CliError::Failed(format!(
                 "{why}; nothing was tracked; the plan's report is in {}",

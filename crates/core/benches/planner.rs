@@ -81,6 +81,7 @@ fn per_stage<D: PointDynamics>(robot: &Robot, p: &Plan, parallel: bool) -> (f64,
         target: task().target,
         bounds: Default::default(),
         parallel_min_stages: if parallel { 0 } else { usize::MAX },
+        substep_clearance: true,
     };
     let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot.clone(), spec, None).unwrap();
     let dims = ocp.dims().clone();

@@ -112,6 +112,7 @@ fn pounce_problem(
         target: SwingTask::paper().target,
         bounds: s.bounds.clone(),
         parallel_min_stages: s.shooting.parallel_min_stages,
+        substep_clearance: s.shooting.substep_clearance,
     };
     let mut ocp = SwingOcp::new(robot.clone(), spec, None).unwrap();
     let g = ocp.guess_mut();

@@ -385,7 +385,9 @@ fn starts_that_all_fail_return_the_first_with_every_attempt() {
 #[test]
 fn a_free_swing_time_plans_around_an_obstacle() {
     // Section V-C's obstacle (radius 0.1 m at (0.55, -0.2), target (0.5, 0)) with T free in
-    // [1.8, 2.6] s: converged, every link clear of it, the replay at the bar.
+    // [1.8, 2.6] s: converged, every link clear of it by the margin on the 1 ms trajectory (3 RK4
+    // steps per interval: one step per 30 ms knot leaves the trajectory within the margin between
+    // the knots, which is no converged plan), the replay at the bar.
     let robot = Robot::paper();
     let task = SwingTask {
         q0: vec![-2.35, 0.0, -1.55, 0.0],
@@ -399,14 +401,20 @@ fn a_free_swing_time_plans_around_an_obstacle() {
     let p = plan(
         &robot,
         &task,
-        &settings(Some([1.8, 2.6])),
+        &PlannerSettings {
+            shooting: ShootingSettings {
+                substeps: 3,
+                ..Default::default()
+            },
+            ..settings(Some([1.8, 2.6]))
+        },
         &nlp(Backend::Ocp),
     )
     .unwrap();
-    assert!(p.converged(), "{:?}", p.status);
+    assert!(p.converged(), "{:?}", p.failure_message());
     assert!((1.8..=2.6).contains(&p.swing_time_s));
     assert!(
-        p.min_obstacle_clearance_m.unwrap() > 0.0,
+        p.min_obstacle_clearance_m.unwrap() > 0.009,
         "{:?}",
         p.min_obstacle_clearance_m
     );

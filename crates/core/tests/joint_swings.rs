@@ -69,6 +69,7 @@ fn phase(robot: &Robot, i: usize, intervals: usize, last: bool) -> SwingOcp {
             ..Bounds::default()
         },
         parallel_min_stages: 2, // exercise the parallel path too
+        substep_clearance: true,
     };
     SwingOcp::new(r, spec, Some(clearance)).unwrap()
 }

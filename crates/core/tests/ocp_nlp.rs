@@ -28,6 +28,7 @@ fn spec(intervals: usize, t: f64) -> SwingOcpSpec {
         target: TARGET,
         bounds: Bounds::default(),
         parallel_min_stages: usize::MAX,
+        substep_clearance: true,
     }
 }
 

@@ -157,6 +157,7 @@ fn count_cold_solve_allocations_with_clearances(free: bool) -> usize {
         target: task.target,
         bounds: Default::default(),
         parallel_min_stages: usize::MAX,
+        substep_clearance: true,
     };
     let obstacles = [
         Circle {

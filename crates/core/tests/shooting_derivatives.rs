@@ -75,6 +75,7 @@ fn problem_split<D: PointDynamics>(
         target: [0.3, -0.1],
         bounds: Bounds::default(),
         parallel_min_stages,
+        substep_clearance: true,
     };
     SwingOcp::with_dynamics(robot.clone(), spec, Some(clearance)).unwrap()
 }

@@ -6,8 +6,8 @@ use crate::run_folder::RunFolder;
 use crate::scenario::LoadedScenario;
 use brachia::planning::profile::Clamped;
 use brachia::planning::{
-    plan, Backend, Blockage, CallbackTimings, GuessReport, Plan, SolveAttempt, SolveRole,
-    SolveStatus, SwingTime, TimeSplit, TorqueContinuation, Transcription, Violations,
+    plan, Backend, Blockage, CallbackTimings, ClearanceViolation, GuessReport, Plan, SolveAttempt,
+    SolveRole, SolveStatus, SwingTime, TimeSplit, TorqueContinuation, Transcription, Violations,
 };
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
@@ -162,6 +162,11 @@ pub struct PlanReport {
     pub trajectory_clamped: Clamped,
     /// Smallest link-to-obstacle clearance of the 1 ms plan, m (`None` without obstacles).
     pub min_obstacle_clearance_m: Option<f64>,
+    /// The closest approach of the resampled trajectory that breaks the required clearance (the
+    /// obstacle or link pair, the time, the shortfall); such a plan is not converged, whatever its
+    /// `status` (`brachia::planning::ClearanceViolation`).
+    #[serde(default)]
+    pub clearance_violation: Option<ClearanceViolation>,
     /// When the plan failed on a task with obstacles: which obstacle blocks which link, and every
     /// obstacle's closest approach to every link with its time (`brachia::planning::Blockage`).
     #[serde(default)]
@@ -220,6 +225,7 @@ impl PlanReport {
             trajectory_end_s: p.trajectory.t.last().copied(),
             trajectory_clamped: p.resample_clamped,
             min_obstacle_clearance_m: p.min_obstacle_clearance_m,
+            clearance_violation: p.clearance_violation,
             blockage: p.blockage.clone(),
             torque_continuation: p.torque_continuation.clone(),
             guess: p.guess.clone(),

@@ -464,6 +464,28 @@ pub fn read_plan_folder(
     }
     let report = crate::read::need(dir, "report.json", PLAN)?;
     let rep: PlanReport = crate::read::read_json(&report)?;
+    // the clearance on the folder's own trajectory (a folder written before the check, or edited,
+    // says nothing of it)
+    let violation = match rep.clearance_violation {
+        Some(v) => Some(v),
+        None => brachia::planning::check_clearance(
+            &ls.robot,
+            &ls.scenario.task,
+            &ls.scenario.planner,
+            &traj,
+        )?,
+    };
+    if let Some(v) = violation {
+        return Err(Error::invalid(
+            report.display().to_string(),
+            "clearance_violation",
+            format!("{:.4} m short at t = {:.3} s", v.shortfall_m(), v.time_s),
+            format!(
+                "the plan's trajectory breaks the required clearance ({v}), so it is not tracked; \
+                 re-plan it (`brachia plan` exits 1 for such a plan)"
+            ),
+        ));
+    }
     if !rep.converged {
         return Err(Error::invalid(
             report.display().to_string(),

@@ -4,6 +4,7 @@
 //! Conventions follow the crate docs (SI units; `x = [q, qd]`, `q[0]` absolute, the rest relative;
 //! `u = tau` of joints 2..n; gravity along -y).
 
+pub mod clearance_check;
 pub mod collocation;
 pub mod cspace;
 pub mod detour;
@@ -23,6 +24,9 @@ pub mod torque_continuation;
 mod worker;
 pub mod workload;
 
+pub use clearance_check::{
+    check_clearance, ClearanceSubject, ClearanceViolation, CLEARANCE_TOLERANCE_M,
+};
 pub use collocation::{CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks};
 pub use guess::{Blockage, GuessReport, GuessStrategy, LinkClearance, ObstacleGuess};
 pub use multi_swing::{

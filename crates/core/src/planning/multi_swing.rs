@@ -398,6 +398,14 @@ pub enum JointStatus {
         /// The solver's status.
         status: SolveStatus,
     },
+    /// The joint solve converged, but the resampled trajectory of swing `swing` breaks the
+    /// required clearance between its checked points ([`crate::planning::clearance_check`]).
+    ClearanceViolated {
+        /// The swing (0-based).
+        swing: usize,
+        /// Where and by how much.
+        violation: super::clearance_check::ClearanceViolation,
+    },
     /// The swing-by-swing plan of `swing` failed (so there is no warm start); no joint solve ran.
     ReferenceFailed {
         /// The swing (0-based).
@@ -413,6 +421,12 @@ impl std::fmt::Display for JointStatus {
             JointStatus::Converged => write!(f, "converged"),
             JointStatus::JointFailed { status } => {
                 write!(f, "the joint solve did not converge ({status:?})")
+            }
+            JointStatus::ClearanceViolated { swing, violation } => {
+                write!(
+                    f,
+                    "the joint solve converged, but swing {swing} breaks the clearance: {violation}"
+                )
             }
             JointStatus::ReferenceFailed { swing, message } => {
                 write!(
@@ -465,7 +479,7 @@ pub struct JointSwingPlan {
 }
 
 impl JointSwingPlan {
-    /// True when the joint solve converged.
+    /// True when the joint solve converged and every swing keeps the required clearance.
     pub fn converged(&self) -> bool {
         self.status == JointStatus::Converged
     }
@@ -733,11 +747,15 @@ pub fn plan_joint_swings(
             reference_objective: reference_costs[i],
         });
     }
+    let violated = phases
+        .iter()
+        .enumerate()
+        .find_map(|(i, ph)| ph.plan.clearance_violation.map(|v| (i, v)));
     Ok(JointSwingPlan {
-        status: if status.is_converged() {
-            JointStatus::Converged
-        } else {
-            JointStatus::JointFailed { status }
+        status: match (status.is_converged(), violated) {
+            (true, None) => JointStatus::Converged,
+            (true, Some((swing, violation))) => JointStatus::ClearanceViolated { swing, violation },
+            (false, _) => JointStatus::JointFailed { status },
         },
         reference,
         solve: Some(attempt),

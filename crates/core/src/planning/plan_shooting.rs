@@ -3,6 +3,7 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
 
+use super::clearance_check::check_clearance;
 use super::collocation::{CallbackTimings, Layout};
 use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use super::ocp_nlp::OcpNlp;
@@ -191,6 +192,12 @@ fn swing_time_starts(
 }
 
 /// One multiple-shooting plan from one start (see [`plan_shooting`]).
+///
+/// The problem has clearance rows at the knots. When its solve converged but the resampled
+/// trajectory breaks the clearance between them ([`Plan::clearance_violation`]) and
+/// `settings.shooting.substep_clearance` is on, the task is solved again, warm from that plan, with
+/// the rows also at the RK4 sub-step states of every interval (a solve of its own,
+/// [`SolveRole::SubstepClearance`]); that plan is returned, with both solves in its report.
 fn plan_shooting_once(
     robot: &Arc<Robot>,
     task: &SwingTask,
@@ -198,12 +205,44 @@ fn plan_shooting_once(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    let started = std::time::Instant::now();
+    let mut p = solve_shooting(robot, task, settings, nlp, guess, false)?;
+    let refine = settings.shooting.substep_clearance
+        && settings.shooting.substeps > 1
+        && p.status.is_converged()
+        && p.clearance_violation.is_some();
+    let Some(left) = nlp.remaining(started).filter(|_| refine) else {
+        return Ok(p);
+    };
+    let warm = NlpSettings {
+        mu_init: Some(left.mu_init.unwrap_or(super::planner::WARM_START_MU_INIT)),
+        ..left
+    };
+    let mut q = solve_shooting(robot, task, settings, &warm, Some(&p.points), true)?;
+    let mut log = SolveLog::default();
+    log.record(&mut p, SolveRole::Task);
+    log.record(&mut q, SolveRole::SubstepClearance);
+    log.finish(&mut q);
+    q.freefall_time_s = p.freefall_time_s;
+    Ok(q)
+}
+
+/// One multiple-shooting solve from one start, with the clearance rows at the knots, and also at
+/// the interior RK4 sub-step states when `substep_rows`.
+fn solve_shooting(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+    substep_rows: bool,
+) -> Result<Plan> {
     let ShootingSetup {
         mut ocp,
         mut layout,
         mut t_final,
         freefall,
-    } = setup_shooting(robot, task, settings, guess)?;
+    } = setup_shooting_rows(robot, task, settings, guess, substep_rows)?;
     // (a range of one value, or narrower than MIN_FREE_SWING_TIME_RANGE_S, is that fixed T, which
     // the setup has already clamped to)
     if let Some([lo, hi]) = settings.free_range() {
@@ -305,6 +344,18 @@ pub(super) fn setup_shooting(
     settings: &PlannerSettings,
     guess: Option<&Trajectory>,
 ) -> Result<ShootingSetup> {
+    setup_shooting_rows(robot, task, settings, guess, false)
+}
+
+/// [`setup_shooting`], with the clearance rows also at the interior RK4 sub-step states when
+/// `substep_rows`.
+fn setup_shooting_rows(
+    robot: &Arc<Robot>,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    guess: Option<&Trajectory>,
+    substep_rows: bool,
+) -> Result<ShootingSetup> {
     if settings.transcription != Transcription::MultipleShooting {
         let ocp = NlpSettings {
             backend: Backend::Ocp,
@@ -353,6 +404,7 @@ pub(super) fn setup_shooting(
         target: task.target,
         bounds: settings.bounds.clone(),
         parallel_min_stages: settings.shooting.parallel_min_stages,
+        substep_clearance: substep_rows,
     };
     let mut ocp = SwingOcp::new(Arc::clone(robot), spec, cf.map(DistanceClearanceFn::new))?;
     {
@@ -425,6 +477,7 @@ pub(super) fn finish_plan(
     let replay_ee_error_m =
         replay_held_torques(robot, z, layout.h, settings.shooting.substeps, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
+    let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
     Ok(Plan {
         status,
         backend,
@@ -449,6 +502,7 @@ pub(super) fn finish_plan(
         violations,
         replay_ee_error_m,
         min_obstacle_clearance_m,
+        clearance_violation,
         guess: None,
         blockage: None,
         torque_continuation: None,

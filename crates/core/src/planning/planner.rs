@@ -2,6 +2,7 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs (q1 absolute from +x, the rest relative).
 
+use super::clearance_check::check_clearance;
 use super::collocation::{CollocationNlp, EeTerminalFn, Layout};
 use super::nlp::{
     solve, Backend, MuStrategy, NlpSettings, NlpSolution, PassStats, SolveStatus, SparseNlp,
@@ -205,6 +206,11 @@ pub struct Plan {
     /// Smallest surface distance to an obstacle (or between non-adjacent links) over the resampled
     /// trajectory, m; `None` without obstacles.
     pub min_obstacle_clearance_m: Option<f64>,
+    /// The closest approach of `trajectory` that breaks the required clearance (obstacles avoided,
+    /// non-adjacent links with self-collision on) by more than
+    /// [`crate::planning::CLEARANCE_TOLERANCE_M`]; a plan with one is not converged, whatever its
+    /// `status` (see [`crate::planning::clearance_check`]). `None`: the trajectory keeps it.
+    pub clearance_violation: Option<super::clearance_check::ClearanceViolation>,
     /// With obstacles avoided and no warm-start guess: how the initial guess was found and what every
     /// solve cost (see [`crate::planning::guess`]); `None` otherwise.
     pub guess: Option<crate::planning::guess::GuessReport>,
@@ -219,9 +225,10 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// True when the solver converged.
+    /// True when the solver converged and the resampled trajectory keeps the required clearance
+    /// (no [`Plan::clearance_violation`]).
     pub fn converged(&self) -> bool {
-        self.status.is_converged()
+        self.status.is_converged() && self.clearance_violation.is_none()
     }
 
     /// A one-line account of a plan that did not converge: the status and, when known, what blocks
@@ -229,6 +236,13 @@ impl Plan {
     pub fn failure_message(&self) -> Option<String> {
         if self.converged() {
             return None;
+        }
+        if let (true, Some(v)) = (self.status.is_converged(), &self.clearance_violation) {
+            return Some(format!(
+                "the solver converged ({:?}), but the plan breaks the clearance between its \
+                 checked points: {v}",
+                self.status
+            ));
         }
         let mut msg = match &self.blockage {
             Some(b) => format!("the planner did not converge ({:?}): {b}", self.status),
@@ -867,6 +881,7 @@ pub(super) fn plan_single(
     let replay_ee_error_m =
         replay_ee_error(robot, &points, &layout, settings.transcription, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
+    let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
     Ok(Plan {
         status: sol.status,
         backend: sol.backend,
@@ -890,6 +905,7 @@ pub(super) fn plan_single(
         violations,
         replay_ee_error_m,
         min_obstacle_clearance_m,
+        clearance_violation,
         guess: None,
         blockage: None,
         torque_continuation: None,

@@ -39,6 +39,12 @@ pub struct ShootingSettings {
     /// (and rayon has more than one thread); 0 = always, a huge value = never. Default 16
     /// (docs/planner.md, "Memory and threads").
     pub parallel_min_stages: usize,
+    /// When a solve converged but its resampled trajectory breaks the clearance between the knots,
+    /// solve again, warm from it, with the clearance rows also at the RK4 sub-step states inside each
+    /// interval (the states after each of its first `substeps - 1` steps): with the default 30 ms
+    /// knots and 3 steps, every 10 ms (docs/planner.md, "Clearance between the checked points").
+    /// Default true.
+    pub substep_clearance: bool,
 }
 
 impl Default for ShootingSettings {
@@ -46,6 +52,7 @@ impl Default for ShootingSettings {
         ShootingSettings {
             substeps: DEFAULT_SHOOTING_SUBSTEPS,
             parallel_min_stages: 16,
+            substep_clearance: true,
         }
     }
 }

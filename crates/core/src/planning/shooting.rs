@@ -11,7 +11,15 @@
 //!   weights `w_k = h / 2` at the two ends and `h` inside (no torque term at k = K).
 //! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`]
 //!   (obstacles and non-adjacent links), when there are any; their value, Jacobian and weighted
-//!   Hessian in closed form ([`crate::model::ClearanceDerivatives`], AD the test oracle).
+//!   Hessian in closed form ([`crate::model::ClearanceDerivatives`], AD the test oracle). With
+//!   [`SwingOcpSpec::substep_clearance`], stage k < K also carries the same rows at the states after
+//!   each of its first `substeps - 1` RK4 steps, `c(q_{k,s}) >= 0` (rows after the knot's, sub-step
+//!   by sub-step): the constraint holds every `h / substeps` s, not only at the knots. Their
+//!   Jacobian is the rows' times the sub-step state's sensitivity `S_{k,s} = d x_{k,s} / d z_k` (the
+//!   forward pass has it); their Hessian `S^T [Hess mu . c] S` plus the second-order term, which the
+//!   reverse sweep of the dynamics Hessian carries by adding `J^T mu` to the state adjoint where it
+//!   passes the sub-step state. Stage 0's sub-step rows are relaxed to `c >= min(0, c(q_start))`,
+//!   so a start pose within the margin stays feasible.
 //! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
 //!   [`Bounds`]; torques from the robot's limits.
 //! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
@@ -171,6 +179,9 @@ pub struct SwingOcpSpec {
     /// Evaluate half the stages on the problem's helper thread when there are at least this many
     /// (module docs); `usize::MAX` never.
     pub parallel_min_stages: usize,
+    /// Impose the clearance rows also at the interior RK4 sub-step states of every interval
+    /// (module docs).
+    pub substep_clearance: bool,
 }
 
 /// Wall time spent in the problem's evaluations, s (accumulated over a solve).
@@ -207,6 +218,8 @@ struct Ctx {
     r1: Vec<f64>,
     clearance: Option<DistanceClearanceFn>,
     n_clear: usize,
+    /// Clearance rows also at the interior RK4 sub-step states of every interval.
+    sub_clear: bool,
     /// A free swing time `[T_min, T_max]` (s): then every state carries T as its last component
     /// (`x_k = [q, qd, T]`, constant along the stages) and stage k's interval is `T_k / K`
     /// ([`SwingOcp::with_free_swing_time`]); `None`: T fixed, the interval is `h`.
@@ -230,6 +243,26 @@ impl Ctx {
             Some(_) => x[self.nx] / self.horizon as f64,
             None => self.h,
         }
+    }
+
+    /// Sub-step states of an interval that carry clearance rows (`substeps - 1`, or 0).
+    fn sub_states(&self) -> usize {
+        if self.sub_clear && self.n_clear > 0 {
+            self.substeps - 1
+        } else {
+            0
+        }
+    }
+
+    /// Clearance rows of stage k: the knot's (k >= 1), then each interior sub-step state's (k < K).
+    fn stage_rows(&self, k: usize) -> usize {
+        let knot = usize::from(k >= 1);
+        let sub = if k < self.horizon {
+            self.sub_states()
+        } else {
+            0
+        };
+        self.n_clear * (knot + sub)
     }
 
     /// Size of a stage's state in the problem's layout (`2n`, or `2n + 1` with a free swing time).
@@ -283,6 +316,15 @@ struct StageWork<D> {
     /// Clearance Jacobian (`nc x n`) and weighted Hessian (`n x n`).
     cjac: Vec<f64>,
     chess: Vec<f64>,
+    /// The state after each RK4 sub-step of the last forward pass, `substeps x nx`.
+    xsub: Vec<f64>,
+    /// The clearance rows' records at the interior sub-step states, one each.
+    crec_sub: Vec<ClearanceRecord>,
+    /// Scratch of the sub-step rows: values (`nc`), `J^T mu` (`n`), products (`n x nz`, `n`).
+    cval: Vec<f64>,
+    cadj: Vec<f64>,
+    ctmp: Vec<f64>,
+    cvec: Vec<f64>,
     /// The interval of the recorded forward pass, s.
     rec_h: f64,
     /// Free swing time only: each evaluation's acceleration `ne x n`, the derivatives w.r.t. the
@@ -304,6 +346,10 @@ impl<D: PointDynamics> StageWork<D> {
         let ne = 4 * ctx.substeps;
         let nc = ctx.n_clear;
         let clear = ctx.clearance.as_ref().map(DistanceClearanceFn::derivatives);
+        let crec_sub = match &clear {
+            Some(c) => (0..ctx.sub_states()).map(|_| c.record()).collect(),
+            None => Vec::new(),
+        };
         StageWork {
             dynamics: (0..ne).map(|_| D::new(robot)).collect(),
             crec: clear.as_ref().map(ClearanceDerivatives::record),
@@ -326,6 +372,12 @@ impl<D: PointDynamics> StageWork<D> {
             tmp: vec![0.0; nz * nz],
             cjac: vec![0.0; nc * n],
             chess: vec![0.0; n * n],
+            xsub: vec![0.0; ctx.substeps * nx],
+            crec_sub,
+            cval: vec![0.0; nc],
+            cadj: vec![0.0; n],
+            ctmp: vec![0.0; n * nz],
+            cvec: vec![0.0; n],
             rec_h: 0.0,
             qdds: vec![0.0; ne * n],
             ty: vec![0.0; ne * nx],
@@ -498,6 +550,7 @@ impl<D: PointDynamics> StageWork<D> {
             for a in 0..nx {
                 xs[a] += c6 * (k1[a] + 2.0 * k2[a] + 2.0 * k3[a] + k4[a]);
             }
+            self.xsub[s * nx..(s + 1) * nx].copy_from_slice(xs);
             if jac {
                 let m = nx * nz;
                 let (z1, rest) = kza.split_at(m);
@@ -578,23 +631,147 @@ impl<D: PointDynamics> StageWork<D> {
                 }
             }
         }
+        let nc = ctx.n_clear;
+        let nzk = ev.grad.len();
+        if first && ctx.stage_rows(k) > 0 {
+            ev.jac_c.fill(0.0);
+        }
         if let (Some(cd), true) = (&self.clear, k >= 1) {
-            let nc = ctx.n_clear;
-            let nzk = ev.grad.len();
             if first {
                 let rec = self
                     .crec
                     .as_mut()
                     .expect("a record with the clearance rows");
-                cd.jacobian_recorded(&x[..n], &mut ev.c, &mut self.cjac, rec);
-                ev.jac_c.fill(0.0);
+                cd.jacobian_recorded(&x[..n], &mut ev.c[..nc], &mut self.cjac, rec);
                 for r in 0..nc {
                     ev.jac_c[r * nzk..r * nzk + n].copy_from_slice(&self.cjac[r * n..(r + 1) * n]);
                 }
             } else {
-                cd.value(&x[..n], &mut ev.c);
+                cd.value(&x[..n], &mut ev.c[..nc]);
             }
         }
+        if k < ctx.horizon {
+            self.substep_rows(ctx, k, first, ev);
+        }
+    }
+
+    /// The clearance rows at the interior sub-step states of stage k's last forward pass (made
+    /// with first derivatives when `first`) into `ev.c` and `ev.jac_c` after the knot's rows:
+    /// `c(q_s)` and `J(q_s) S_s` (`S_s` the q rows of the sub-step state's sensitivity; with a free
+    /// swing time, its T column `J(q_s) ty_s / K`).
+    fn substep_rows(&mut self, ctx: &Ctx, k: usize, first: bool, ev: &mut StageEval) {
+        let Some(cd) = &self.clear else { return };
+        let (n, nx, nz, nc) = (ctx.n, ctx.nx, ctx.nz, ctx.n_clear);
+        let free = ctx.free.is_some();
+        let nzk = ev.grad.len();
+        let knot = if k >= 1 { nc } else { 0 };
+        for s in 0..ctx.sub_states() {
+            let q = &self.xsub[s * nx..s * nx + n];
+            let off = knot + s * nc;
+            if !first {
+                cd.value(q, &mut ev.c[off..off + nc]);
+                continue;
+            }
+            cd.jacobian_recorded(
+                q,
+                &mut ev.c[off..off + nc],
+                &mut self.cjac,
+                &mut self.crec_sub[s],
+            );
+            // the state after sub-step s starts sub-step s + 1: evaluation 4 (s + 1)
+            let i = 4 * (s + 1);
+            let sens = &self.sens[i * nz * nz..i * nz * nz + n * nz];
+            for r in 0..nc {
+                let row = &mut ev.jac_c[(off + r) * nzk..(off + r + 1) * nzk];
+                let jr = &self.cjac[r * n..(r + 1) * n];
+                for (a, &ja) in jr.iter().enumerate() {
+                    if ja == 0.0 {
+                        continue;
+                    }
+                    for (c, &sv) in sens[a * nz..(a + 1) * nz].iter().enumerate() {
+                        row[col(c, nx, free)] += ja * sv;
+                    }
+                }
+                if free {
+                    let ty = &self.ty[i * nx..i * nx + n];
+                    let dt: f64 = jr.iter().zip(ty).map(|(a, b)| a * b).sum();
+                    row[nx] = dt / ctx.horizon as f64;
+                }
+            }
+        }
+    }
+
+    /// The sub-step rows' part of the Hessian in the reverse sweep of [`Self::hessian_internal`],
+    /// at the state after sub-step `s` (interior), with their multipliers `mu_s`: adds `J^T mu_s`
+    /// to the state adjoint `abar` (the second-order term through the flow), the upper triangle of
+    /// `S^T [Hess mu_s . c] S` to `hess` (`nz x nz`) and, with a free swing time, its h column
+    /// `S^T H ty` to `colh`; returns `ty^T H ty` (0 with a fixed swing time).
+    fn substep_hessian(&mut self, ctx: &Ctx, s: usize, mu_s: &[f64], hess: &mut [f64]) -> f64 {
+        let Some(cd) = &self.clear else { return 0.0 };
+        let (n, nx, nz, nc) = (ctx.n, ctx.nx, ctx.nz, ctx.n_clear);
+        if mu_s.iter().all(|&m| m == 0.0) {
+            return 0.0;
+        }
+        // the recorded forward pass's state after sub-step s: the input of evaluation 4 (s + 1)
+        // (`xsub` may hold a later value-only pass)
+        let i = 4 * (s + 1);
+        let q = &self.y[i * nz..i * nz + n];
+        cd.jacobian_recorded(q, &mut self.cval, &mut self.cjac, &mut self.crec_sub[s]);
+        for a in 0..n {
+            let mut v = 0.0;
+            for r in 0..nc {
+                v += mu_s[r] * self.cjac[r * n + a];
+            }
+            self.cadj[a] = v;
+        }
+        for a in 0..n {
+            self.abar[a] += self.cadj[a];
+        }
+        cd.hessian_weighted_recorded(q, mu_s, &mut self.chess, &self.crec_sub[s]);
+        let sens = &self.sens[i * nz * nz..i * nz * nz + n * nz];
+        // T = H S (n x nz), then S^T T on the upper triangle
+        let t = &mut self.ctmp[..n * nz];
+        t.fill(0.0);
+        for r in 0..n {
+            for c in 0..n {
+                let hv = self.chess[r * n + c];
+                if hv == 0.0 {
+                    continue;
+                }
+                for e in 0..nz {
+                    t[r * nz + e] += hv * sens[c * nz + e];
+                }
+            }
+        }
+        for r in 0..n {
+            let srow = &sens[r * nz..(r + 1) * nz];
+            let trow = &t[r * nz..(r + 1) * nz];
+            for a in 0..nz {
+                let sa = srow[a];
+                if sa == 0.0 {
+                    continue;
+                }
+                for b in a..nz {
+                    hess[a * nz + b] += sa * trow[b];
+                }
+            }
+        }
+        if ctx.free.is_none() {
+            return 0.0;
+        }
+        let ty = &self.ty[i * nx..i * nx + n];
+        let hty = &mut self.cvec[..n];
+        for r in 0..n {
+            hty[r] = (0..n).map(|c| self.chess[r * n + c] * ty[c]).sum();
+        }
+        for c in 0..nz {
+            let mut v = 0.0;
+            for r in 0..n {
+                v += sens[r * nz + c] * hty[r];
+            }
+            self.colh[c] += v;
+        }
+        ty.iter().zip(hty.iter()).map(|(a, b)| a * b).sum()
     }
 
     /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k, problem
@@ -704,7 +881,13 @@ impl<D: PointDynamics> StageWork<D> {
             }
             let hs = h / ctx.substeps as f64;
             self.abar.copy_from_slice(lam);
+            let knot = if k >= 1 { ctx.n_clear } else { 0 };
             for s in (0..ctx.substeps).rev() {
+                if s < ctx.sub_states() {
+                    // the clearance rows at the state after sub-step s (its adjoint is `abar` now)
+                    let off = knot + s * ctx.n_clear;
+                    hh += self.substep_hessian(ctx, s, &mu[off..off + ctx.n_clear], hess);
+                }
                 // Reverse sweep through the four evaluations of sub-step s (j = 3, 2, 1, 0):
                 // w_j = b_j hs abar + a_{j+1} hs g_{j+1}, g_j = F_x(y_j)^T w_j.
                 let b = [hs / 6.0, hs / 3.0, hs / 3.0, hs / 6.0];
@@ -762,7 +945,7 @@ impl<D: PointDynamics> StageWork<D> {
                 .crec
                 .as_ref()
                 .expect("a record with the clearance rows");
-            cd.hessian_weighted_recorded(&x[..n], mu, &mut self.chess, rec);
+            cd.hessian_weighted_recorded(&x[..n], &mu[..ctx.n_clear], &mut self.chess, rec);
             for a in 0..n {
                 for b in 0..n {
                     hess[a * nzk + b] += self.chess[a * n + b];
@@ -1085,6 +1268,9 @@ pub struct SwingOcp<D: PointDynamics = AnalyticDynamics> {
     term_val: Vec<f64>,
     term_jac: Vec<f64>,
     term_hess: Vec<f64>,
+    /// The clearance rows at the start pose (the lower bound of stage 0's sub-step rows is
+    /// `min(0, start_c)`).
+    start_c: Vec<f64>,
     /// Wall time spent in evaluations since construction (or the last reset by the caller).
     pub timings: ShootingTimings,
 }
@@ -1164,13 +1350,14 @@ impl<D: PointDynamics> SwingOcp<D> {
             r1: spec.r1_diag.clone(),
             clearance,
             n_clear,
+            sub_clear: spec.substep_clearance,
             free: None,
         };
         let stages: Vec<StageDims> = (0..=k_last)
             .map(|k| StageDims {
                 nx,
                 nu: if k < k_last { nu } else { 0 },
-                nc: if k >= 1 { n_clear } else { 0 },
+                nc: ctx.stage_rows(k),
             })
             .collect();
         let dims = OcpDims {
@@ -1223,9 +1410,11 @@ impl<D: PointDynamics> SwingOcp<D> {
             term_jac: vec![0.0; 4 * nx],
             term_hess: vec![0.0; nx * nx],
             dims,
+            start_c: vec![0.0; n_clear],
             timings: ShootingTimings::default(),
         };
         ocp.size_tail();
+        ocp.update_start_clearance();
         Ok(ocp)
     }
 
@@ -1321,7 +1510,16 @@ impl<D: PointDynamics> SwingOcp<D> {
         }
         self.x_start.copy_from_slice(x);
         self.guess.x[0][..x.len()].copy_from_slice(x);
+        self.update_start_clearance();
         Ok(())
+    }
+
+    /// Recompute the clearance rows at the start pose (no allocation).
+    fn update_start_clearance(&mut self) {
+        let n = self.ctx.n;
+        if let Some(cd) = self.work.first().and_then(|w| w.clear.as_ref()) {
+            cd.value(&self.x_start[..n], &mut self.start_c);
+        }
     }
 
     /// Set the swing time T in place, keeping K: the interval becomes h = T / K (the recorded
@@ -1790,6 +1988,12 @@ impl<D: PointDynamics> OcpProblem for SwingOcp<D> {
         }
         b.c_lo.fill(0.0);
         b.c_hi.fill(f64::INFINITY);
+        if k == 0 {
+            // the sub-step rows of the first interval: no worse than the start pose, which is given
+            for (i, lo) in b.c_lo.iter_mut().enumerate() {
+                *lo = self.start_c[i % self.ctx.n_clear.max(1)].min(0.0);
+            }
+        }
     }
 
     fn initial_guess(&self, z: &mut Primal) {

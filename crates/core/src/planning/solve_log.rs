@@ -46,6 +46,9 @@ pub enum SolveRole {
         /// The start's swing time, s.
         t0_s: f64,
     },
+    /// The task again, warm from the solve before it, with the clearance rows also at the RK4
+    /// sub-step states (that solve's resampled trajectory broke the clearance between the knots).
+    SubstepClearance,
 }
 
 /// Totals over some attempts: how many, their iterations and their time (s).
@@ -134,6 +137,7 @@ impl std::fmt::Display for SolveRole {
             SolveRole::ObstacleScale { scale } => write!(f, "radii x{scale:.3}"),
             SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
             SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
+            SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
         }
     }
 }

@@ -1,0 +1,222 @@
+//! Obstacles placed on the path of the unobstructed tracking swing (paper V-B) at the default mesh
+//! (multiple shooting, 30 ms knots, 3 RK4 steps, `ocp`): one obstacle of radius 0.05-0.15 m at the
+//! midpoint or the tip of a link at a time in 0.7-1.7 s, or two such obstacles, drawn from fixed
+//! seeds. Every placement is planned with the default planner; no plan may be reported converged
+//! whose 1 ms trajectory comes closer to an obstacle than the margin minus the tolerance.
+//!
+//! The test runs a fast subset; the whole scan (the seeds 1..=40 of the table in docs/planner.md
+//! and the seeds 1001..=1020 drawn afterwards) runs with
+//! `cargo test --release -p brachia --test placement_scan -- --ignored --nocapture`, printing one
+//! row per placement and the totals. Units: m, s.
+
+use brachia::model::{Circle, ClearanceFn, Robot};
+use brachia::planning::{
+    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask,
+    CLEARANCE_TOLERANCE_M,
+};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// The wall-time limit of one placement's planning call, s.
+const TIME_LIMIT_S: f64 = 30.0;
+
+fn nlp() -> NlpSettings {
+    NlpSettings {
+        backend: Backend::Ocp,
+        max_wall_time_s: Some(TIME_LIMIT_S),
+        ..Default::default()
+    }
+}
+
+/// One placement: the obstacles and how they were drawn.
+#[derive(Debug, Clone)]
+struct Placement {
+    seed: u64,
+    what: String,
+    obstacles: Vec<Circle>,
+}
+
+/// The placement of `seed`: two obstacles for every fifth seed, one for the others, each at
+/// the midpoint or the tip of a random link of `free` (the unobstructed swing's 1 ms trajectory) at
+/// a random time in 0.7-1.7 s, radius 0.05-0.15 m; `None` when an obstacle overlaps the start pose
+/// (the task is then refused, not planned).
+fn placement(robot: &Robot, free: &Plan, seed: u64) -> Option<Placement> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let count = if seed.is_multiple_of(5) { 2 } else { 1 };
+    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
+    let (mut obstacles, mut what) = (vec![], vec![]);
+    for _ in 0..count {
+        let t: f64 = rng.gen_range(0.7..1.7);
+        let link = rng.gen_range(0..robot.n());
+        let tip = rng.gen_bool(0.5);
+        let radius: f64 = rng.gen_range(0.05..0.15);
+        let (j, _) = free.trajectory.locate(t.min(free.swing_time_s));
+        robot.link_segments(free.trajectory.q(j), &mut segs);
+        let (a, b) = segs[link];
+        let center = if tip {
+            b
+        } else {
+            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
+        };
+        obstacles.push(Circle { center, radius });
+        what.push(format!(
+            "r {radius:.3} at the {} of link {} at {t:.2} s",
+            if tip { "tip" } else { "midpoint" },
+            link + 1
+        ));
+    }
+    let cf = ClearanceFn::new(robot.clone(), obstacles.as_slice(), 0.0)
+        .unwrap()
+        .with_self_collision(false);
+    (cf.min_clearance(&SwingTask::paper().q0) >= 0.0).then(|| Placement {
+        seed,
+        what: what.join(" + "),
+        obstacles,
+    })
+}
+
+/// What planning one placement gave.
+#[derive(Debug)]
+struct Outcome {
+    converged: bool,
+    /// Smallest surface distance to an obstacle over the 1 ms trajectory, m (measured here).
+    min_clearance_m: f64,
+    time_s: f64,
+    strategy: Option<GuessStrategy>,
+    message: Option<String>,
+}
+
+fn run(robot: &Robot, s: &PlannerSettings, pl: &Placement) -> Outcome {
+    let task = SwingTask {
+        obstacles: pl.obstacles.clone(),
+        ..SwingTask::paper()
+    };
+    let t0 = Instant::now();
+    let p = plan(robot, &task, s, &nlp()).unwrap();
+    let time_s = t0.elapsed().as_secs_f64();
+    let cf = ClearanceFn::new(robot.clone(), pl.obstacles.as_slice(), 0.0)
+        .unwrap()
+        .with_self_collision(false);
+    let min_clearance_m = (0..p.trajectory.len())
+        .map(|k| cf.min_clearance(p.trajectory.q(k)))
+        .fold(f64::INFINITY, f64::min);
+    Outcome {
+        converged: p.converged(),
+        min_clearance_m,
+        time_s,
+        strategy: p.guess.as_ref().map(|g| g.strategy),
+        message: p.failure_message(),
+    }
+}
+
+fn setup() -> (Robot, PlannerSettings, Plan) {
+    let robot = Robot::paper();
+    let s = PlannerSettings::default();
+    let free = plan(&robot, &SwingTask::paper(), &s, &nlp()).unwrap();
+    assert!(free.converged(), "{:?}", free.failure_message());
+    (robot, s, free)
+}
+
+/// A converged plan keeps the clearance on its 1 ms trajectory; a failed one says why.
+fn check(s: &PlannerSettings, pl: &Placement, o: &Outcome) {
+    if o.converged {
+        assert!(
+            o.min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M,
+            "seed {} ({}): converged at clearance {:.4} m",
+            pl.seed,
+            pl.what,
+            o.min_clearance_m
+        );
+    } else {
+        assert!(o.message.is_some(), "seed {}: no message", pl.seed);
+    }
+}
+
+#[test]
+fn placements_are_drawn_on_the_swing_from_their_seeds() {
+    let (robot, _, free) = setup();
+    let a = placement(&robot, &free, 7).unwrap();
+    let b = placement(&robot, &free, 7).unwrap();
+    assert_eq!(a.obstacles, b.obstacles);
+    let two = (1..=20)
+        .filter_map(|seed| placement(&robot, &free, seed))
+        .filter(|p| p.obstacles.len() == 2)
+        .count();
+    assert!(two >= 2, "{two} pairs");
+    for seed in 1..=20 {
+        let Some(p) = placement(&robot, &free, seed) else {
+            continue;
+        };
+        for o in &p.obstacles {
+            assert!((0.05..0.15).contains(&o.radius), "{p:?}");
+            // on the unobstructed swing: it passes through the obstacle's centre
+            let one = [*o];
+            let cf = ClearanceFn::new(robot.clone(), &one[..], 0.0)
+                .unwrap()
+                .with_self_collision(false);
+            let d = (0..free.trajectory.len())
+                .map(|k| cf.min_clearance(free.trajectory.q(k)))
+                .fold(f64::INFINITY, f64::min);
+            assert!(d < -0.04, "{p:?}: {d}");
+        }
+    }
+}
+
+#[test]
+fn a_fast_subset_of_the_scan_never_reports_a_plan_through_an_obstacle() {
+    let (robot, s, free) = setup();
+    for seed in [3, 5] {
+        let pl = placement(&robot, &free, seed).expect("a placement");
+        let o = run(&robot, &s, &pl);
+        check(&s, &pl, &o);
+    }
+}
+
+/// The whole scan; prints the table of docs/planner.md ("Obstacles anywhere on the path").
+#[test]
+#[ignore = "minutes: the whole placement scan"]
+fn the_whole_placement_scan() {
+    let (robot, s, free) = setup();
+    for (name, seeds) in [("fixed", 1..=40u64), ("held-out", 1001..=1020u64)] {
+        let (mut clear, mut false_success, mut failed) = (0, 0, 0);
+        let mut times = vec![];
+        eprintln!(
+            "| {name} seed | placement | outcome | min clearance (m) | time (s) | strategy |"
+        );
+        for seed in seeds {
+            let Some(pl) = placement(&robot, &free, seed) else {
+                eprintln!("| {seed} | overlaps the start pose: refused | | | | |");
+                continue;
+            };
+            let o = run(&robot, &s, &pl);
+            let ok_clear = o.min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M;
+            match (o.converged, ok_clear) {
+                (true, true) => clear += 1,
+                (true, false) => false_success += 1,
+                (false, _) => failed += 1,
+            }
+            times.push(o.time_s);
+            eprintln!(
+                "| {seed} | {} | {} | {:.4} | {:.2} | {:?} |",
+                pl.what,
+                if o.converged { "converged" } else { "failed" },
+                o.min_clearance_m,
+                o.time_s,
+                o.strategy
+            );
+            if let Some(m) = &o.message {
+                eprintln!("|   | {m} | | | | |");
+            }
+        }
+        times.sort_by(f64::total_cmp);
+        let median = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
+        eprintln!(
+            "{name}: {} placements, {clear} converged and clear, {false_success} false successes, \
+             {failed} failed; median time {median:.2} s, max {:.2} s",
+            times.len(),
+            times.last().copied().unwrap_or(f64::NAN)
+        );
+        assert_eq!(false_success, 0);
+    }
+}
