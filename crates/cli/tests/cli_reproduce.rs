@@ -219,7 +219,11 @@ fn report_refuses_a_folder_that_is_not_a_run_and_writes_nothing() {
         .collect();
     assert_eq!(names, ["notes.txt"]);
     // a manifest alone is not enough: the reproduction's summary.json is named
-    std::fs::write(dir.path().join(brachia_experiments::MANIFEST), "# x\n").unwrap();
+    std::fs::write(
+        dir.path().join(brachia_experiments::MANIFEST),
+        "# brachia run-folder manifest, schema 1\n",
+    )
+    .unwrap();
     let o = brachia().arg("report").arg(dir.path()).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);

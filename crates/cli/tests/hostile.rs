@@ -257,21 +257,24 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
         other if other.starts_with("repsummary:") || other == "repladder" => {
             let d = env.t.join("rep");
             let good = "\"mode\": \"quick\", \"wall_time_s\": 6.0, \"cores\": 2";
+            let v = "\"schema_version\": 1";
             let lists = "\"failures\": [], \"warnings\": []";
             let sum = match other {
                 "repsummary:wallnull" => {
-                    format!("{{\"mode\": \"quick\", \"wall_time_s\": null, \"cores\": 2, {lists}}}")
+                    format!("{{{v}, \"mode\": \"quick\", \"wall_time_s\": null, \"cores\": 2, {lists}}}")
                 }
                 "repsummary:coresstring" => format!(
-                    "{{\"mode\": \"quick\", \"wall_time_s\": 6.0, \"cores\": \"2\", {lists}}}"
+                    "{{{v}, \"mode\": \"quick\", \"wall_time_s\": 6.0, \"cores\": \"2\", {lists}}}"
                 ),
                 "repsummary:failuresnumber" => {
-                    format!("{{{good}, \"failures\": 3, \"warnings\": []}}")
+                    format!("{{{v}, {good}, \"failures\": 3, \"warnings\": []}}")
                 }
                 "repsummary:modeother" => {
-                    format!("{{\"mode\": \"fast\", \"wall_time_s\": 6.0, \"cores\": 2, {lists}}}")
+                    format!(
+                        "{{{v}, \"mode\": \"fast\", \"wall_time_s\": 6.0, \"cores\": 2, {lists}}}"
+                    )
                 }
-                _ => format!("{{{good}, {lists}}}"),
+                _ => format!("{{{v}, {good}, {lists}}}"),
             };
             let mut manifest = String::from("# brachia run folder\nsummary.json\n");
             if other == "repladder" {
@@ -341,8 +344,8 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
                         .lines()
                         .enumerate()
                         .map(|(k, l)| match (k, l.split_once(',')) {
-                            (0, _) | (_, None) => l.to_string(),
-                            (_, Some((_, rest))) => format!("{:e},{rest}", (k - 1) as f64 * 1e-300),
+                            (0 | 1, _) | (_, None) => l.to_string(),
+                            (_, Some((_, rest))) => format!("{:e},{rest}", (k - 2) as f64 * 1e-300),
                         })
                         .collect();
                     file(target, (lines.join("\n") + "\n").as_bytes());

@@ -215,7 +215,7 @@ fn a_token_set_from_another_thread_stops_a_long_plan_promptly() {
     // a 20 s swing takes far longer to plan than the test waits
     let settings = PlannerSettings {
         swing_time: SwingTime::Seconds(20.0),
-        knot_dt: 0.03,
+        knot_dt: 0.01,
         transcription: Transcription::MultipleShooting,
         ..PlannerSettings::default()
     };
@@ -226,7 +226,7 @@ fn a_token_set_from_another_thread_stops_a_long_plan_promptly() {
     };
     let setter = token.clone();
     let timer = std::thread::spawn(move || {
-        std::thread::sleep(Duration::from_millis(500));
+        std::thread::sleep(Duration::from_millis(100));
         setter.cancel();
         Instant::now()
     });

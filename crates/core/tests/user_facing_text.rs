@@ -87,7 +87,7 @@ fn process_word(line: &str) -> Option<&'static str> {
     if date(&l) {
         return Some("a date of work");
     }
-    if TARGET_BAR.iter().any(|p| l.contains(p)) {
+    if TARGET_BAR.iter().any(|p| contains_phrase(&l, p)) {
         return Some("\"bar\" as a target");
     }
     None
@@ -174,6 +174,7 @@ fn the_scan_tells_the_bar_gripped_from_a_target() {
     assert!(process_word("Tracking under noise (issue 13): the filter").is_some());
     assert!(process_word("since Session 18 the planner").is_some());
     assert!(process_word("the replay stays within the 1 mm bar").is_some());
+    assert!(process_word("the slacks' part of the barrier function").is_none());
     assert!(process_word("measured 2026-12-03 on the idle host").is_some());
     assert!(process_word("(branch `mpcfast`)").is_some());
     assert!(process_word("the issues of the solver").is_none());
@@ -202,4 +203,17 @@ fn every_cell_of_the_readme_tables_is_short() {
         "table cells over 300 characters:\n{}",
         long.join("\n")
     );
+}
+
+/// `phrase` occurs in `line` as whole words at its end (a phrase ending in "bar" does not match
+/// "barrier").
+fn contains_phrase(line: &str, phrase: &str) -> bool {
+    line.match_indices(phrase).any(|(i, _)| {
+        let end_is_word = phrase.ends_with(|c: char| c.is_alphanumeric());
+        !end_is_word
+            || !line[i + phrase.len()..]
+                .chars()
+                .next()
+                .is_some_and(char::is_alphanumeric)
+    })
 }

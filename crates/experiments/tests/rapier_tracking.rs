@@ -40,11 +40,11 @@ fn mpc_tracks_the_paper_swing_on_rapier_within_a_centimetre() {
         "final EE error {} m",
         s.ee_final_error_m
     );
-    // no obstacles: nothing to touch, the contact log holds its header only
+    // no obstacles: nothing to touch, the contact log holds its schema line and header only
     assert!(run.world.obstacles.is_empty() && run.world.contacts.is_empty());
     assert_eq!(
         run.folder.get("contacts.csv"),
-        Some(&b"t,link,body,impulse\n"[..])
+        Some(&b"# brachia contacts schema 1\nt,link,body,impulse\n"[..])
     );
 }
 
