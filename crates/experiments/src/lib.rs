@@ -19,6 +19,7 @@ pub mod run_folder;
 pub mod scenario;
 pub mod track_run;
 pub mod traverse;
+pub mod view;
 
 pub use benchmark::{
     run_benchmark, run_benchmark_on, Benchmark, BenchmarkOutcome, BenchmarkSettings,
