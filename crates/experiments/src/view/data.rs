@@ -209,6 +209,12 @@ pub fn track_view(f: TrackParts<'_>) -> Value {
         .iter()
         .map(|e| json!({ "t": r(e.t_trigger_s), "switch": e.t_switch_s.map(r), "adopted": e.adopted }))
         .collect();
+    // the controller's step times are in the run's memory, not in closed_loop.csv
+    let control_us = (log.control_us.len() == rows).then(|| {
+        idx.iter()
+            .map(|&k| r(log.control_us[k]))
+            .collect::<Vec<_>>()
+    });
     let s = &f.report.summary;
     json!({
         "schema": VIEW_SCHEMA,
@@ -231,7 +237,7 @@ pub fn track_view(f: TrackParts<'_>) -> Value {
         "ee_error": ee_err,
         "energy": idx.iter().map(|&k| r(e[k])).collect::<Vec<_>>(),
         "work": idx.iter().map(|&k| r(w[k])).collect::<Vec<_>>(),
-        "control_us": idx.iter().map(|&k| r(log.control_us.get(k).copied().unwrap_or(0.0))).collect::<Vec<_>>(),
+        "control_us": control_us,
         "contacts": contacts,
         "replans": replans,
         "diverged_at": log.diverged_at_s.map(r),
