@@ -43,8 +43,9 @@ pub fn render(data: &Value) -> String {
         .get("title")
         .and_then(Value::as_str)
         .unwrap_or("brachia run");
-    // `</` may not appear inside a script element: JSON allows `<\/` for it
-    let json = data.to_string().replace("</", "<\\/");
+    // no `</script` or `<!--` may appear inside a script element: `<` only occurs inside JSON strings,
+    // where `\u003c` stands for it
+    let json = data.to_string().replace('<', "\\u003c");
     TEMPLATE
         .replace("{{TITLE}}", &html_escape(title))
         .replace("/*{{STYLE}}*/", STYLE)
@@ -158,4 +159,23 @@ pub fn write_view(dir: &Path) -> Result<PathBuf, ExpError> {
         }
     }
     Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_keeps_markup_in_the_data_out_of_the_page() {
+        let data = serde_json::json!({ "title": "a </script><!-- {{DATA}} & b", "t": [0.0, 1.0] });
+        let page = render(&data);
+        let start = page.find("id=\"brachia-data\">").unwrap() + "id=\"brachia-data\">".len();
+        let end = start + page[start..].find("</script>").unwrap();
+        let back: Value = serde_json::from_str(&page[start..end]).unwrap();
+        assert_eq!(back, data);
+        assert!(page.contains(
+            "<title>a &lt;/script&gt;&lt;!-- &#123;&#123;DATA}} &amp; b - brachia</title>"
+        ));
+        assert_eq!(page.matches("<script").count(), 2);
+    }
 }
