@@ -13,6 +13,7 @@ mod reproduce;
 mod simulate;
 mod track;
 mod traverse;
+mod view;
 
 use brachia_experiments::{CancelToken, ExpError};
 use clap::{Parser, Subcommand};
@@ -43,6 +44,8 @@ enum Command {
     /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
     /// planning, no simulation).
     Report(report::Args),
+    /// Write the interactive page view.html of a plan or track run folder (one self-contained file).
+    View(view::Args),
 }
 
 /// An error of a command: bad input (exit 2), a failure after the inputs were accepted (exit 1) or an
@@ -132,6 +135,7 @@ fn main() -> ExitCode {
         Command::Reproduce(a) => reproduce::run(a, &cancel),
         Command::Report(a) => report::run(a, &cancel),
         Command::Benchmark(a) => benchmark::run(a, &cancel),
+        Command::View(a) => view::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

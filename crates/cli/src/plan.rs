@@ -1,6 +1,7 @@
 //! `brachia plan`: plan the scenario's swing and write its run folder.
 
 use crate::{check_cancel, exp_error, CliError};
+use brachia_experiments::view::{plan_run_page, VIEW_FILE};
 use brachia_experiments::{
     check_out_dir, replay_trusted, run_plan, CancelToken, Scenario, Uses, REPLAY_TRUST_M,
 };
@@ -12,12 +13,15 @@ pub struct Args {
     /// Scenario file (TOML), e.g. scenarios/tracking.toml.
     #[arg(long)]
     scenario: PathBuf,
-    /// Output folder: knots.csv, trajectory.csv, scenario.toml, report.json.
+    /// Output folder: knots.csv, trajectory.csv, scenario.toml, params.toml, report.json, view.html.
     #[arg(long)]
     out: PathBuf,
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
     #[arg(long)]
     force: bool,
+    /// Do not write the interactive page view.html into the run folder.
+    #[arg(long)]
+    no_view: bool,
 }
 
 /// Run the command.
@@ -28,7 +32,11 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     ls.scenario.solver.cancel = Some(cancel.clone());
     let run = run_plan(&ls);
     check_cancel(cancel, &a.out)?;
-    let run = run?;
+    let mut run = run?;
+    if !a.no_view {
+        let page = plan_run_page(&ls, &run);
+        run.folder.add(VIEW_FILE, page);
+    }
     run.folder.write(&a.out).map_err(exp_error(&a.out))?;
     let p = &run.plan;
     eprintln!(

@@ -2,6 +2,7 @@
 
 use crate::{check_cancel, exp_error, CliError};
 use brachia::sim::DIVERGENCE_BOUND;
+use brachia_experiments::view::{track_run_page, VIEW_FILE};
 use brachia_experiments::{
     check_out_apart, check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind,
     PlantKind, RunFolder, Scenario, TrackOutcome, REPLAY_TRUST_M, SUCCESS_RADIUS_M,
@@ -14,8 +15,8 @@ pub struct Args {
     /// Scenario file (TOML), e.g. scenarios/tracking.toml.
     #[arg(long)]
     scenario: PathBuf,
-    /// Output folder: closed_loop.csv, report.json and the plan under plan/ (rapier plant: also
-    /// contacts.csv and obstacles.csv).
+    /// Output folder: closed_loop.csv, report.json, view.html and the plan under plan/ (rapier plant:
+    /// also contacts.csv and obstacles.csv).
     #[arg(long)]
     out: PathBuf,
     /// Controller (default: the scenario's, else mpc).
@@ -30,6 +31,9 @@ pub struct Args {
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
     #[arg(long)]
     force: bool,
+    /// Do not write the interactive page view.html into the run folder.
+    #[arg(long)]
+    no_view: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -76,7 +80,11 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     check_cancel(cancel, &a.out)?;
     let outcome = outcome?;
     match outcome {
-        TrackOutcome::Tracked(run) => {
+        TrackOutcome::Tracked(mut run) => {
+            if !a.no_view {
+                let page = track_run_page(&ls, &run);
+                run.folder.add(VIEW_FILE, page);
+            }
             run.folder.write(&a.out).map_err(exp_error(&a.out))?;
             let s = &run.summary;
             if let Some(t) = s.diverged_at_s {

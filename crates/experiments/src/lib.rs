@@ -23,6 +23,7 @@ pub mod schema;
 pub mod success;
 pub mod track_run;
 pub mod traverse;
+pub mod view;
 
 pub use benchmark::{
     run_benchmark, run_benchmark_on, Benchmark, BenchmarkOutcome, BenchmarkSettings,

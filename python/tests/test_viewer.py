@@ -1,0 +1,234 @@
+"""The run page view.html in a real browser: Debian's Chromium, headless, driven by Selenium.
+
+`brachia plan` and `brachia track` write view.html into their run folders; these tests open the pages
+from disk and check what a user sees: no console error and no network request, the robot moving
+between t = 0 and t = T/2 while the bars stay put, the hand on the target bar at t = T, play advancing
+the time readout and the slider moving the robot. They need BRACHIA_BIN (the built brachia binary),
+the selenium package and Chromium with its driver (/usr/bin/chromium, /usr/bin/chromedriver); without
+them they are skipped.
+"""
+
+import io
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+CHROMEDRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+BIN = os.environ.get("BRACHIA_BIN")
+
+webdriver = pytest.importorskip("selenium.webdriver")
+if not (os.path.exists(CHROMIUM) and os.path.exists(CHROMEDRIVER)):
+    pytest.skip("chromium and chromium-driver are not installed", allow_module_level=True)
+if not BIN:
+    pytest.skip("BRACHIA_BIN (the built brachia binary) not set", allow_module_level=True)
+
+Image = pytest.importorskip("PIL.Image")
+
+WIDTH, HEIGHT = 1280, 900
+HAND = (0xD6, 0x24, 0x9F)
+
+
+def brachia(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([BIN, *args], capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory) -> dict:
+    """A plan folder and a track folder of the paper's tracking swing (V-B)."""
+    base = tmp_path_factory.mktemp("viewer")
+    scenario = str(ROOT / "scenarios" / "tracking.toml")
+    plan = brachia("plan", "--scenario", scenario, "--out", str(base / "plan"))
+    assert plan.returncode == 0, plan.stderr
+    track = brachia("track", "--scenario", scenario, "--out", str(base / "track"))
+    assert track.returncode == 0, track.stderr
+    return {"plan": base / "plan", "track": base / "track"}
+
+
+@pytest.fixture(scope="module")
+def driver():
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    profile = tempfile.mkdtemp(prefix="brachia-chromium-")
+    opts = Options()
+    opts.binary_location = CHROMIUM
+    for flag in [
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--disable-dev-shm-usage",
+        "--force-device-scale-factor=1",
+        "--hide-scrollbars",
+        f"--window-size={WIDTH},{HEIGHT}",
+        f"--user-data-dir={profile}",
+    ]:
+        opts.add_argument(flag)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL", "performance": "ALL"})
+    d = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
+    d.set_window_size(WIDTH, HEIGHT)
+    yield d
+    d.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def open_page(driver, page: Path, t: float | None = None) -> None:
+    url = page.resolve().as_uri() + ("" if t is None else f"#t={t}")
+    driver.get("about:blank")
+    driver.get(url)
+    for _ in range(100):
+        if driver.execute_script("return document.documentElement.dataset.ready === '1'"):
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"{url} did not finish drawing")
+
+
+def screenshot(driver) -> Image.Image:
+    return Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB")
+
+
+def stage_rect(driver) -> tuple[int, int, int, int]:
+    r = driver.execute_script(
+        "const r = document.getElementById('stage').getBoundingClientRect();"
+        "return [r.left, r.top, r.right, r.bottom];"
+    )
+    return tuple(int(round(v)) for v in r)
+
+
+def hand_centroid(img: Image.Image, rect) -> tuple[float, float] | None:
+    """Centre of the hand marker's pixels (its colour, HAND) inside the stage."""
+    xs, ys = [], []
+    px = img.load()
+    for y in range(rect[1], min(rect[3], img.height)):
+        for x in range(rect[0], min(rect[2], img.width)):
+            p = px[x, y]
+            if sum(abs(p[k] - HAND[k]) for k in range(3)) < 30:
+                xs.append(x)
+                ys.append(y)
+    if len(xs) < 10:
+        return None
+    return sum(xs) / len(xs), sum(ys) / len(ys)
+
+
+def region_diff(a: Image.Image, b: Image.Image, box) -> int:
+    """Pixels that differ between a and b inside box (left, top, right, bottom)."""
+    ca, cb = a.crop(box).tobytes(), b.crop(box).tobytes()
+    ca, cb = zip(*[iter(ca)] * 3), zip(*[iter(cb)] * 3)
+    return sum(1 for p, q in zip(ca, cb) if p != q)
+
+
+@pytest.mark.parametrize("kind", ["plan", "track"])
+def test_page_loads_without_errors_or_network(driver, runs, kind):
+    page = runs[kind] / "view.html"
+    assert page.is_file()
+    size = page.stat().st_size
+    assert size < 3_000_000, f"{page} is {size} bytes"
+    driver.get_log("browser")
+    driver.get_log("performance")
+    open_page(driver, page)
+    errors = [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "WARNING")]
+    assert errors == [], errors
+    urls = []
+    for entry in driver.get_log("performance"):
+        msg = json.loads(entry["message"])["message"]
+        if msg["method"] == "Network.requestWillBeSent":
+            urls.append(msg["params"]["request"]["url"])
+    page_url = page.resolve().as_uri()
+    others = [u for u in urls if not u.startswith(page_url) and u != "about:blank"]
+    assert others == [], others
+    assert driver.find_element("id", "time-readout").text.startswith("t = 0.000 s")
+
+
+@pytest.mark.parametrize("kind", ["plan", "track"])
+def test_robot_moves_bars_stay_and_hand_reaches_the_target(driver, runs, kind, tmp_path):
+    page = runs[kind] / "view.html"
+    open_page(driver, page)
+    T = driver.execute_script("return brachiaView.T")
+    assert T > 0.5
+    shots = {}
+    for label, t in [("start", 0.0), ("middle", T / 2), ("end", T)]:
+        open_page(driver, page, t)
+        assert abs(driver.execute_script("return brachiaView.time()") - t) < 1e-3
+        shots[label] = screenshot(driver)
+    rect = stage_rect(driver)
+    # the robot moved: the stage differs between t = 0 and t = T/2, around the hand at T/2 ...
+    hx, hy = driver.execute_script("const h = brachiaView.hand(arguments[0]); return brachiaView.toPage(h[0], h[1]);", T / 2)
+    box = (int(hx) - 12, int(hy) - 12, int(hx) + 12, int(hy) + 12)
+    assert region_diff(shots["start"], shots["middle"], box) > 50
+    # ... and the hand marker is where the page's transform says the hand is
+    mid = hand_centroid(shots["middle"], rect)
+    assert mid is not None and abs(mid[0] - hx) < 2.5 and abs(mid[1] - hy) < 2.5, (mid, hx, hy)
+    # the target bar is drawn the same at both times (the hand is far from it)
+    tx, ty = driver.execute_script("const b = brachiaView.target; return brachiaView.toPage(b[0], b[1]);")
+    bar = (int(tx) - 12, int(ty) - 12, int(tx) + 12, int(ty) + 12)
+    assert region_diff(shots["start"], shots["middle"], bar) == 0
+    assert region_diff(shots["start"], shots["end"], bar) > 20
+    # the hand at T lies within a few pixels of the target bar
+    end = hand_centroid(shots["end"], rect)
+    assert end is not None and abs(end[0] - tx) < 4 and abs(end[1] - ty) < 4, (end, tx, ty)
+    start = hand_centroid(shots["start"], rect)
+    assert start is not None and (start[0] - tx) ** 2 + (start[1] - ty) ** 2 > 100**2
+    out = os.environ.get("BRACHIA_VIEW_SHOTS")
+    if out:
+        for label, img in shots.items():
+            img.save(Path(out) / f"{kind}-{label}.png")
+
+
+def test_play_advances_the_time_readout(driver, runs):
+    open_page(driver, runs["track"] / "view.html", 0)
+    before = driver.find_element("id", "time-readout").text
+    driver.find_element("id", "play").click()
+    time.sleep(0.6)
+    assert driver.execute_script("return brachiaView.playing()")
+    after = driver.find_element("id", "time-readout").text
+    t = float(after.split()[2])
+    assert after != before and t > 0.1, (before, after)
+    driver.find_element("id", "play").click()
+    assert not driver.execute_script("return brachiaView.playing()")
+
+
+def test_dragging_the_slider_moves_the_robot(driver, runs):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    open_page(driver, runs["track"] / "view.html", 0)
+    rect = stage_rect(driver)
+    before = hand_centroid(screenshot(driver), rect)
+    slider = driver.find_element("id", "slider")
+    width = slider.size["width"]
+    ActionChains(driver).move_to_element_with_offset(slider, -width // 2 + 2, 0).click_and_hold().move_by_offset(
+        width // 2, 0
+    ).release().perform()
+    t = driver.execute_script("return brachiaView.time()")
+    T = driver.execute_script("return brachiaView.T")
+    assert 0.2 * T < t < 0.8 * T, t
+    assert driver.find_element("id", "time-readout").text.startswith(f"t = {t:.3f} s")
+    after = hand_centroid(screenshot(driver), rect)
+    assert before is not None and after is not None
+    assert (before[0] - after[0]) ** 2 + (before[1] - after[1]) ** 2 > 20**2, (before, after)
+
+
+def test_bad_folder_is_refused_naming_the_file(runs, tmp_path):
+    bad = tmp_path / "plan"
+    shutil.copytree(runs["plan"], bad)
+    (bad / "view.html").unlink()
+    csv = bad / "trajectory.csv"
+    lines = csv.read_text().splitlines()
+    lines[5] = lines[5].replace(lines[5].split(",")[1], "nan", 1)
+    csv.write_text("\n".join(lines) + "\n")
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in bad.iterdir())
+    r = brachia("view", str(bad))
+    assert r.returncode == 2, r.stderr
+    assert "trajectory.csv" in r.stderr
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in bad.iterdir()) == before
