@@ -366,23 +366,28 @@ impl KktSystem {
                 (mu, mu)
             }
         };
+        // the condensed weight Sigma and right-hand side rbar of slack jj's finite bounds
+        let slack_terms = |jj: usize| {
+            let (tl, tu) = s_targets(ctarget, jj);
+            let (mut sig, mut rbar) = (0.0, 0.0);
+            if data.clo[jj].is_finite() {
+                let sl = it.s[jj] - data.clo[jj];
+                sig += it.vl[jj] / sl;
+                rbar -= tl / sl;
+            }
+            if data.chi[jj].is_finite() {
+                let su = data.chi[jj] - it.s[jj];
+                sig += it.vu[jj] / su;
+                rbar += tu / su;
+            }
+            (sig, rbar)
+        };
         for k in 0..=kk {
             let (o, nz, oc) = (lay.oz[k], lay.nz(k), lay.oc[k]);
             let e = &it.ev[k];
             for j in 0..lay.nc[k] {
                 let jj = oc + j;
-                let (tl, tu) = s_targets(ctarget, jj);
-                let (mut sig, mut rbar) = (0.0, 0.0);
-                if data.clo[jj].is_finite() {
-                    let sl = it.s[jj] - data.clo[jj];
-                    sig += it.vl[jj] / sl;
-                    rbar -= tl / sl;
-                }
-                if data.chi[jj].is_finite() {
-                    let su = data.chi[jj] - it.s[jj];
-                    sig += it.vu[jj] / su;
-                    rbar += tu / su;
-                }
+                let (sig, rbar) = slack_terms(jj);
                 let rhs = (rbar + sig * self.chat[nl + jj]) / (1.0 + sig * self.dreg[nl + jj]);
                 let row = &e.jac_c[j * nz..(j + 1) * nz];
                 for a in 0..nz {
@@ -430,17 +435,7 @@ impl KktSystem {
                     lin += row[a] * step.dz[o + a];
                 }
                 let (tl, tu) = s_targets(ctarget, jj);
-                let (mut sig, mut rbar) = (0.0, 0.0);
-                if data.clo[jj].is_finite() {
-                    let sl = it.s[jj] - data.clo[jj];
-                    sig += it.vl[jj] / sl;
-                    rbar -= tl / sl;
-                }
-                if data.chi[jj].is_finite() {
-                    let su = data.chi[jj] - it.s[jj];
-                    sig += it.vu[jj] / su;
-                    rbar += tu / su;
-                }
+                let (sig, rbar) = slack_terms(jj);
                 let yn = (sig * lin + rbar) / (1.0 + sig * self.dreg[nl + jj]);
                 let ds = lin - self.dreg[nl + jj] * yn;
                 step.ds[jj] = ds;
