@@ -128,7 +128,7 @@ fn non_convergence_writes_the_report_and_exits_1() {
 }
 
 /// The tracking swing with every torque limit at 0.4 N m fails; the message and the report say how far
-/// the continuation on the limits got (brachia::planning::torque_continuation).
+/// the continuation on the limits got (brachia::planning::strategy::torque_continuation).
 #[test]
 fn a_swing_short_of_torque_says_how_much_it_needs() {
     let dir = tempfile::tempdir().unwrap();

@@ -30,7 +30,6 @@
 //!   derivatives, the MPC's linearisation, capsule clearances.
 //! - [`math`]: the `Scalar` trait model code is written over (f64 and dual numbers).
 //! - [`ad`]: forward-mode automatic differentiation of `LocalFn`s (exact Jacobians and Hessians).
-//! - [`fdcheck`]: the single finite-difference helper every derivative test uses.
 //! - [`geometry`]: exact point-segment and segment-segment distances.
 //! - [`integrate`]: integrators over the same `f(x, u)` (RK4 with sub-steps).
 //! - [`trajectory`]: time series of states and torques, interpolation, Hermite resampling, CSV.
@@ -153,6 +152,8 @@ macro_rules! with_link_count {
 pub mod ad;
 pub mod control;
 pub mod error;
+#[cfg(any(test, feature = "testing"))]
+#[doc(hidden)]
 pub mod fdcheck;
 pub mod geometry;
 pub mod integrate;

@@ -9,7 +9,7 @@ use brachia::fdcheck::{assert_jacobian, assert_ocp_derivatives};
 mod common;
 
 use brachia::model::{reroot_jacobian, reroot_state, Circle, ClearanceFn, LinkParams, Robot};
-use brachia::planning::planner::DistanceClearanceFn;
+use brachia::planning::DistanceClearanceFn;
 use brachia::planning::{Bounds, MultiSwingOcp, SwingOcp, SwingOcpSpec};
 use brachia_ocp::{EvalLevel, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval};
 use common::{chain_robot, random_multipliers};

@@ -5,9 +5,9 @@
 //! and the diagnosis of what blocks a swing. Units: m, s.
 
 use brachia::model::{ClearanceFn, Robot};
-use brachia::planning::cspace::{cspace_path, cspace_seed, MAX_CELLS, MAX_DISCOVERED};
-use brachia::planning::detour::{detour_seeds, SeedKind, EXTRA_CLEARANCE};
-use brachia::planning::guess::{diagnose, path_placements, Placement};
+use brachia::planning::strategy::cspace::{cspace_path, cspace_seed, MAX_CELLS, MAX_DISCOVERED};
+use brachia::planning::strategy::detour::{detour_seeds, SeedKind, EXTRA_CLEARANCE};
+use brachia::planning::strategy::obstacles::{diagnose, path_placements, Placement};
 use brachia::planning::{
     plan, solve_log, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SolveRole,
     SwingTask, Transcription,
@@ -323,7 +323,7 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
         ..tracking()
     };
     assert_eq!(
-        brachia::planning::guess::obstacle_on_bar(&robot, &task, s.obstacle_margin),
+        brachia::planning::strategy::obstacles::obstacle_on_bar(&robot, &task, s.obstacle_margin),
         Some(0)
     );
     let p = plan(&robot, &task, &s, &nlp).unwrap();
@@ -353,7 +353,7 @@ fn an_obstacle_on_the_bar_is_diagnosed_as_infeasible_after_one_solve() {
         ..tracking()
     };
     assert_eq!(
-        brachia::planning::guess::obstacle_on_bar(&robot, &ok, s.obstacle_margin),
+        brachia::planning::strategy::obstacles::obstacle_on_bar(&robot, &ok, s.obstacle_margin),
         None
     );
 }

@@ -6,7 +6,7 @@ use brachia::fdcheck::{assert_hessian, assert_jacobian};
 use brachia::model::{ik_from_seed, mirrored_pose};
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::nlp::SparseNlp;
-use brachia::planning::planner::DistanceClearanceFn;
+use brachia::planning::DistanceClearanceFn;
 use brachia::planning::{
     freefall_time, solve, Bounds, NlpSettings, OcpNlp, SolveStatus, SwingOcp, SwingOcpSpec,
 };

@@ -12,8 +12,8 @@
 
 use brachia::control::{Mpc, MpcSettings, ReplanSettings, Replanning};
 use brachia::model::{Circle, ClearanceFn, Robot};
-use brachia::planning::planner::DistanceClearanceFn;
 use brachia::planning::workload::replan_settings;
+use brachia::planning::DistanceClearanceFn;
 use brachia::planning::{
     plan, NlpSettings, PlannerSettings, SwingOcp, SwingOcpSpec, SwingPlanner, SwingTask,
 };

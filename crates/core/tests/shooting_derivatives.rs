@@ -11,7 +11,7 @@ mod common;
 use brachia::ad::{Diff, LocalFn};
 use brachia::math::Scalar;
 use brachia::model::{Circle, ClearanceFn, LinkParams, Robot, Scratch};
-use brachia::planning::planner::DistanceClearanceFn;
+use brachia::planning::DistanceClearanceFn;
 use brachia::planning::{
     AdDynamics, AnalyticDynamics, Bounds, PointDynamics, SwingOcp, SwingOcpSpec,
 };

@@ -33,7 +33,7 @@
 //!   time are then the sum of both solves). `solver.max_iter` caps each attempt.
 //! - A cell that fails keeps its [`SolveStatus`], iterations and time and has no energy; nothing is
 //!   dropped. A cold solve that fails is continued on the torque limits by the planner
-//!   (`[planner] torque_continuation`, [`brachia::planning::torque_continuation`]; about 1-2 s per such
+//!   (`[planner] torque_continuation`, [`brachia::planning::strategy::torque_continuation`]; about 1-2 s per such
 //!   cell): the cell converges if that reaches the real limits, else it records the scale reached
 //!   ([`StudyCell::torque_scale_reached`]).
 //!
@@ -533,7 +533,7 @@ pub struct StudyCell {
     /// When the cell's cold plan failed within the torque limits: the smallest factor on the limits
     /// at which the planner's continuation on them converged (`Some(1.0)`: it planned the cell within
     /// the limits; above 1: the cell likely needs that much more torque). `None` when the continuation
-    /// did not run or no widened plan converged (`brachia::planning::torque_continuation`).
+    /// did not run or no widened plan converged (`brachia::planning::strategy::torque_continuation`).
     #[serde(default)]
     pub torque_scale_reached: Option<f64>,
 }

@@ -1,4 +1,4 @@
-//! The planner's continuation on the torque limits (brachia::planning::torque_continuation), on the
+//! The planner's continuation on the torque limits (brachia::planning::strategy::torque_continuation), on the
 //! parameter study's r2 = 0.1 robot at T - 0.5 s (T = 2 T_freefall - 0.5 s), the swing the study fails
 //! within the paper's 5 N m (docs/parameter-study.md). Units: N m, s.
 use brachia::model::Robot;

@@ -169,6 +169,7 @@ pub mod problem;
 mod riccati;
 mod settings;
 mod solver;
+#[cfg(any(test, feature = "testing"))]
 #[doc(hidden)]
 pub mod testing;
 

@@ -415,7 +415,7 @@ mod tests {
     use crate::fdcheck::{assert_hessian, assert_jacobian, compare};
     use crate::model::collision::tests::odd_robot;
     use crate::model::{Circle, LinkSet, Robot};
-    use crate::planning::planner::DistanceClearanceFn;
+    use crate::planning::DistanceClearanceFn;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use std::collections::HashSet;

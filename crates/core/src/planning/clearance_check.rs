@@ -9,10 +9,10 @@
 //! solver's status: its [`ClearanceViolation`] names the obstacle or the link pair, the link, the
 //! time and the shortfall. Units: m, s.
 
-use super::settings::PlannerSettings;
-use super::task::SwingTask;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
+use crate::planning::settings::PlannerSettings;
+use crate::planning::task::SwingTask;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::fmt;

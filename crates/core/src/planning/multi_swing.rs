@@ -34,16 +34,18 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J; world frame x right, y up.
 
-use super::nlp::{Backend, NlpSettings, SolveStatus};
-use super::plan_shooting::{
-    finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
-};
-use super::planner::{plan, swing_time, Plan, SolveAttempt, WARM_START_MU_INIT};
-use super::settings::{PlannerSettings, Transcription};
-use super::shooting::SwingOcp;
-use super::task::{validate_task, SwingTask};
+use super::plan::{Plan, SolveAttempt};
+use super::planner::plan;
+use super::solve::common::{swing_time, WARM_START_MU_INIT};
 use crate::error::{Error, Result};
 use crate::model::{reroot_jacobian, reroot_state, Circle, Robot};
+use crate::planning::nlp::{Backend, NlpSettings, SolveStatus};
+use crate::planning::settings::{PlannerSettings, Transcription};
+use crate::planning::solve::shooting::{
+    finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
+};
+use crate::planning::task::{validate_task, SwingTask};
+use crate::planning::transcription::shooting::SwingOcp;
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, OcpSolver, Primal, StageBounds,
     StageDims, StageEval, TerminalEval, MAX_EQUALITY_ROWS,
@@ -404,7 +406,7 @@ pub enum JointStatus {
         /// The swing (0-based).
         swing: usize,
         /// Where and by how much.
-        violation: super::clearance_check::ClearanceViolation,
+        violation: crate::planning::clearance_check::ClearanceViolation,
     },
     /// The swing-by-swing plan of `swing` failed (so there is no warm start); no joint solve ran.
     ReferenceFailed {

@@ -19,10 +19,10 @@
 //!
 //! Units: s, rad, rad/s, N m, m.
 
-use super::collocation::Layout;
-use super::settings::{Bounds, Transcription};
 use crate::integrate::{self, StepPoint};
 use crate::model::{Robot, Scratch};
+use crate::planning::settings::{Bounds, Transcription};
+use crate::planning::transcription::collocation::Layout;
 use crate::trajectory::{hermite_basis, sample_times, Trajectory};
 use serde::{Deserialize, Serialize};
 

@@ -7,6 +7,18 @@ use crate::error::{Error, Result};
 use crate::limits;
 use serde::{Deserialize, Serialize};
 
+/// How the planner finds its initial guess when the task has obstacles (`[planner] obstacle_guess`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObstacleGuess {
+    /// The smooth step to the target pose only, as without obstacles (one solve).
+    Direct,
+    /// The smooth step; when that solve fails, the detour seeds, then continuation on the obstacle
+    /// radii, both from an obstacle-free plan (see the module docs). Default.
+    #[default]
+    Continuation,
+}
+
 /// How the dynamics are imposed between knots (paper eq. 6 and better rules).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -254,12 +266,12 @@ pub struct PlannerSettings {
     /// Multiple-shooting settings (used by `transcription = "multiple-shooting"` only).
     pub shooting: ShootingSettings,
     /// Initial guess with obstacles, `"continuation"` or `"direct"` (see
-    /// [`crate::planning::guess`]). Default `continuation`.
-    pub obstacle_guess: crate::planning::guess::ObstacleGuess,
+    /// [`crate::planning::strategy::obstacles`]). Default `continuation`.
+    pub obstacle_guess: ObstacleGuess,
     /// When a cold plan without obstacles does not converge: plan it again with the torque limits
     /// widened and tighten them back by continuation, returning the plan within the limits when one is
     /// found, else the failure with how much torque the swing likely needs (default true; see
-    /// [`crate::planning::torque_continuation`]).
+    /// [`crate::planning::strategy::torque_continuation`]).
     pub torque_continuation: bool,
 }
 
@@ -279,7 +291,7 @@ impl Default for PlannerSettings {
             self_collision: true,
             output_dt: 0.001,
             shooting: ShootingSettings::default(),
-            obstacle_guess: crate::planning::guess::ObstacleGuess::default(),
+            obstacle_guess: ObstacleGuess::default(),
             torque_continuation: true,
         }
     }
@@ -535,7 +547,7 @@ impl PlannerSettings {
 
     /// Check that the solver backend `nlp.backend` can solve this transcription: `ocp` solves multiple
     /// shooting only (collocation needs pounce or ripopt). `src` names the origin in the error.
-    pub fn check_backend(&self, nlp: &crate::planning::NlpSettings, src: &str) -> Result<()> {
+    pub fn check_backend(&self, nlp: &crate::planning::nlp::NlpSettings, src: &str) -> Result<()> {
         if nlp.backend == crate::planning::Backend::Ocp
             && self.transcription != Transcription::MultipleShooting
         {

@@ -7,49 +7,9 @@
 //!
 //! Units: times in seconds; scales are factors (1 = as the task or robot gives it).
 
-use super::collocation::CallbackTimings;
-use super::nlp::TimeSplit;
-use super::planner::{Plan, SolveAttempt};
-use serde::{Deserialize, Serialize};
-
-/// What a solve of a planning call was for.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum SolveRole {
-    /// The task as given, from the caller's guess or the planner's own.
-    #[default]
-    Task,
-    /// The task without its obstacles: the swing the detour seeds deform.
-    ObstacleFree,
-    /// The task from detour seed `index` (0-based, in the order of `GuessReport::seeds`).
-    DetourSeed {
-        /// Which seed.
-        index: usize,
-    },
-    /// The task from the configuration-space seed.
-    CspaceSeed,
-    /// The task again, from the point where the solve before it stopped at its iteration cap.
-    Resumed,
-    /// The task with every obstacle radius scaled by `scale` (continuation on the radii).
-    ObstacleScale {
-        /// Factor on the radii.
-        scale: f64,
-    },
-    /// The task with every actuator limit scaled by `scale` (continuation on the torque limits; 1 =
-    /// the real limits, solved from a plan with wider ones).
-    TorqueScale {
-        /// Factor on the limits.
-        scale: f64,
-    },
-    /// The task with the swing time fixed at `t0_s` (one start of a free swing time's search).
-    FreeTimeStart {
-        /// The start's swing time, s.
-        t0_s: f64,
-    },
-    /// The task again, warm from the solve before it, with the clearance rows also at the RK4
-    /// sub-step states (that solve's resampled trajectory broke the clearance between the knots).
-    SubstepClearance,
-}
+use super::plan::{Plan, SolveAttempt, SolveRole};
+use crate::planning::nlp::TimeSplit;
+use crate::planning::transcription::collocation::CallbackTimings;
 
 /// Totals over some attempts: how many, their iterations and their time (s).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -123,22 +83,6 @@ impl SolveLog {
         }
         p.callback_timings = self.callbacks;
         p.solves = all;
-    }
-}
-
-impl std::fmt::Display for SolveRole {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            SolveRole::Task => write!(f, "the task"),
-            SolveRole::ObstacleFree => write!(f, "without obstacles"),
-            SolveRole::DetourSeed { index } => write!(f, "detour seed {index}"),
-            SolveRole::CspaceSeed => write!(f, "c-space seed"),
-            SolveRole::Resumed => write!(f, "resumed"),
-            SolveRole::ObstacleScale { scale } => write!(f, "radii x{scale:.3}"),
-            SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
-            SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
-            SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
-        }
     }
 }
 

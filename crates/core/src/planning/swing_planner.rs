@@ -19,18 +19,19 @@
 //! Times: a [`Plan`] or [`ReplanOutcome`] of a re-plan runs on its own clock, 0 at `t_now`; absolute
 //! knot times come from [`SwingPlanner::knot_time`]. Units: s, m, rad, rad/s, N m.
 
-use super::collocation::Layout;
-use super::nlp::{Backend, NlpSettings, SolveStatus};
-use super::plan_shooting::{
-    finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
-};
-use super::planner::{Plan, WARM_START_MU_INIT};
-use super::settings::Bounds;
-use super::settings::PlannerSettings;
-use super::shooting::SwingOcp;
-use super::task::SwingTask;
+use super::plan::Plan;
+use super::solve::WARM_START_MU_INIT;
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use crate::planning::nlp::{Backend, NlpSettings, SolveStatus};
+use crate::planning::settings::Bounds;
+use crate::planning::settings::PlannerSettings;
+use crate::planning::solve::shooting::{
+    finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
+};
+use crate::planning::task::SwingTask;
+use crate::planning::transcription::collocation::Layout;
+use crate::planning::transcription::shooting::SwingOcp;
 use crate::trajectory::Trajectory;
 use brachia_ocp::{
     OcpProblem, OcpSettings, OcpSolver, OcpStats, Primal, StageBounds, WarmDuals, WarmState,
@@ -226,7 +227,7 @@ impl SwingPlanner {
     ) -> Result<Self> {
         let robot: Arc<Robot> = robot.into();
         let settings = PlannerSettings {
-            transcription: super::settings::Transcription::MultipleShooting,
+            transcription: crate::planning::settings::Transcription::MultipleShooting,
             ..settings.clone()
         };
         settings.validate(robot.n, "planner")?;
@@ -256,7 +257,7 @@ impl SwingPlanner {
         let cold = ocp_settings(nlp);
         // the stored bound duals (the equality multipliers re-estimated at the moved start), a
         // small barrier parameter and bound push, the adaptive barrier update: the fewest
-        // iterations of the variants measured in benches/replan.rs and examples/replan_profile.rs
+        // iterations of the variants measured in benches/replan.rs and crates/tools/src/bin/replan_profile.rs
         // (docs/planner.md, "Re-planning"; docs/ocp.md section 13)
         let warm = OcpSettings {
             warm_start: true,
@@ -1097,7 +1098,7 @@ mod tests {
             let rel = (objective[1] - objective[0]).abs() / objective[0].abs();
             assert!(rel < 1e-6, "objectives {objective:?}");
         }
-        // measured 48 against 41 with examples/replan_profile.rs (docs/ocp.md, section 13)
+        // measured 48 against 41 with crates/tools/src/bin/replan_profile.rs (docs/ocp.md, section 13)
         assert!(
             worst[1] < worst[0],
             "slowest draw: kept {} moved {}",

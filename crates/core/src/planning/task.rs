@@ -3,9 +3,9 @@
 //! Conventions: `q0` in rad (`q0[0]` absolute from +x, the rest relative), `qd0` in rad/s, the target
 //! bar and obstacle centres in m in the grip frame (origin at the grip, gravity along -y).
 
-use super::settings::PlannerSettings;
 use crate::error::{Error, Result};
 use crate::model::{Circle, ClearanceFn, Robot};
+use crate::planning::settings::PlannerSettings;
 use serde::{Deserialize, Serialize};
 
 /// What to plan: where the robot starts, which bar it must reach, what is in the way.

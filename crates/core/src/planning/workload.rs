@@ -6,12 +6,12 @@
 //! bounds).
 //!
 //! One place for the workload, so that the criterion bench (`benches/replan.rs`), the instruction-count
-//! example (`examples/replan_profile.rs`) and the tests re-plan the same draws and their figures compare.
+//! example (`crates/tools/src/bin/replan_profile.rs`) and the tests re-plan the same draws and their figures compare.
 //!
 //! Units: s, rad, rad/s; `x = [q, qd]`, `q[0]` absolute from +x, the rest relative.
 
-use super::nlp::{Backend, NlpSettings};
-use super::settings::{Bounds, PlannerSettings, ShootingSettings, Transcription};
+use crate::planning::nlp::{Backend, NlpSettings};
+use crate::planning::settings::{Bounds, PlannerSettings, ShootingSettings, Transcription};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -95,6 +95,7 @@ impl OcpSolver {
     /// Benchmark hook (not part of the API): recomputes the Newton step at the stored iterate of the
     /// last solve with barrier `mu` (condensing, Riccati factorisation with inertia correction,
     /// Schur complement, solves, step recovery). Returns false if there is no iterate or it failed.
+    #[cfg(feature = "testing")]
     #[doc(hidden)]
     pub fn bench_newton_step(&mut self, mu: f64) -> bool {
         if !self.it.has_iterate {

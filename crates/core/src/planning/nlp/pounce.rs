@@ -27,10 +27,9 @@ use pounce_rs::{
     IpoptCq, IpoptData, IterStats, NlpInfo, Solution, SparsityRequest, StartingPoint, TNLP,
 };
 
-use super::{
-    panic_text, BackendOutcome, Evaluator, IterFingerprint, MuStrategy, NlpSettings, Prepared,
-    SolveStatus, SparseNlp, Stop,
-};
+use super::prepare::{panic_text, BackendOutcome, Evaluator, IterFingerprint, Prepared};
+use super::problem::{MuStrategy, NlpSettings, SolveStatus, SparseNlp};
+use super::stop::Stop;
 
 /// Stack of the solver thread (pounce's recursion depth is modest; this is generous).
 const SOLVER_STACK_BYTES: usize = 64 << 20;

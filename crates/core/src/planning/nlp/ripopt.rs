@@ -28,9 +28,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use ripopt::{NlpProblem, SolveStatus as RipStatus, SolverOptions};
 
-use super::{
-    panic_text, BackendOutcome, Evaluator, MuStrategy, NlpSettings, Prepared, SolveStatus, Stop,
-};
+use super::prepare::{panic_text, BackendOutcome, Evaluator, Prepared};
+use super::problem::{MuStrategy, NlpSettings, SolveStatus};
+use super::stop::Stop;
 
 thread_local! {
     /// The stop rule of the ripopt solve running on this thread (ripopt calls its intermediate

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::{NlpSettings, SolveStatus};
+use super::problem::{NlpSettings, SolveStatus};
 use crate::CancelToken;
 
 /// The stop rule of one solve; cheap to clone (clones share what they observed), `Send`.

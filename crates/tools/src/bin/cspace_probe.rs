@@ -3,13 +3,13 @@
 //! swing, multiple shooting on `ocp`, 10 ms knots), the C-space seed of each, and plans from that seed
 //! alone with the torque limits given in turn (each plan warm-started from the last converged one: a
 //! continuation on the actuator limits).
-//! `cargo run --release -p brachia --example cspace_probe -- --only 4,7 [--tau 10,5] [--max-iter 500]
+//! `cargo run --release -p brachia-tools --bin cspace_probe -- --only 4,7 [--tau 10,5] [--max-iter 500]
 //! [--swing-time 3.0]` (placements 1-based; `--tau` in N m, default the robot's 5; `--swing-time` in s,
 //! default "auto", the seed then timed on the obstacle-free swing of that duration). Units: m, s, N m.
 
 use brachia::model::Robot;
-use brachia::planning::cspace::cspace_seed;
-use brachia::planning::guess::{diagnose, path_placements};
+use brachia::planning::strategy::cspace::cspace_seed;
+use brachia::planning::strategy::obstacles::{diagnose, path_placements};
 use brachia::planning::{
     plan, plan_with_guess, Backend, NlpSettings, PlannerSettings, ShootingSettings, SwingTask,
     SwingTime, Transcription,

@@ -25,11 +25,11 @@
 //! neighbouring knots (the velocity of the guess's own piecewise-linear path); its torques are the
 //! unobstructed plan's. The dynamics defects that leaves are the solver's to close. Units: m, s, rad.
 
-use super::planner::DistanceClearanceFn;
-use super::settings::PlannerSettings;
 use crate::ad::{Diff, LocalFn};
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, Robot};
+use crate::planning::settings::PlannerSettings;
+use crate::planning::transcription::clearance_fn::DistanceClearanceFn;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;

@@ -18,15 +18,17 @@
 //! Units: N m, s. Limit scales are dimensionless factors on `tau_min` and `tau_max` (which bracket 0, so
 //! a scale above 1 widens them).
 
-use super::nlp::{NlpSettings, SolveStatus};
-use super::planner::{plan_single, Plan};
-use super::settings::PlannerSettings;
-use super::solve_log::{SolveLog, SolveRole};
-use super::task::SwingTask;
 use crate::error::Result;
 use crate::model::Robot;
-use serde::{Deserialize, Serialize};
-use std::fmt;
+use crate::planning::nlp::{NlpSettings, SolveStatus};
+use crate::planning::plan::Plan;
+use crate::planning::plan::SolveRole;
+pub use crate::planning::report::MAX_STEPS;
+use crate::planning::report::{ContinuationStop, TorqueContinuation};
+use crate::planning::settings::PlannerSettings;
+use crate::planning::solve::plan_single;
+use crate::planning::solve_log::SolveLog;
+use crate::planning::task::SwingTask;
 use std::time::Instant;
 
 /// Limit scales of the relaxed cold solves, tried in order until one converges.
@@ -37,131 +39,14 @@ pub const RELAX_SCALES: [f64; 3] = [2.0, 4.0, 8.0];
 /// Relative width of the final bracket: the bisection stops when the failed scale is within this
 /// fraction of the converged one.
 pub const SCALE_TOL: f64 = 0.05;
-/// Most warm plans of the tightening (the real limits first, then the bisection, then the real limits
-/// once more): enough to close a bracket from 8x to [`SCALE_TOL`] by geometric midpoints (6 steps).
-pub const MAX_STEPS: usize = 10;
 /// Iteration limit of each solver attempt of an intermediate tightening plan (the planner's retry
 /// with the adaptive barrier can double it; the plan at the real limits keeps the settings'
 /// `max_iter`).
 pub const STEP_MAX_ITER: usize = 80;
 
-/// Why the continuation on the actuator limits stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ContinuationStop {
-    /// A plan converged within the real limits (it is the plan returned).
-    WithinLimits,
-    /// The converged and the failed scale are within [`SCALE_TOL`] of each other.
-    Bracketed,
-    /// [`MAX_STEPS`] plans were made before the bracket closed.
-    StepsSpent,
-    /// The call's `max_wall_time_s` ran out (a solve ended for lack of time, or none could start).
-    TimeSpent,
-    /// No relaxed cold plan converged.
-    NothingConverged,
-}
-
-/// What the continuation on the actuator limits found (`Plan::torque_continuation`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TorqueContinuation {
-    /// The scale of the last relaxed cold solve (the first that converged, or the last tried).
-    pub relaxed_scale: f64,
-    /// Whether a relaxed cold solve converged. When none did, widening the limits did not help (the
-    /// swing fails for another reason, or needs more than the widest scale).
-    pub relaxed_converged: bool,
-    /// Smallest limit scale at which a plan of the continuation converged; `Some(1.0)`: the plan returned
-    /// is within the real limits. `None` when no relaxed solve converged.
-    pub reached_scale: Option<f64>,
-    /// The largest scale below `reached_scale` whose plan failed (the last failure of the bisection,
-    /// warm-started from the converged plan of that moment, not necessarily `reached_scale`'s): the
-    /// bracket's lower end. `None` when the real limits converged or no warm plan failed.
-    pub failed_scale: Option<f64>,
-    /// Why the continuation stopped.
-    pub stopped: ContinuationStop,
-    /// Largest |tau| of the plan at `reached_scale` per actuated joint, over its collocation points, N m
-    /// (empty when none converged).
-    pub peak_torque_nm: Vec<f64>,
-    /// The real limit of each actuated joint, `max(|tau_min|, |tau_max|)`, N m.
-    pub limit_nm: Vec<f64>,
-    /// Solver attempts of the continuation (not counting the failed cold plan before it).
-    pub solves: usize,
-    /// Solver iterations of the continuation.
-    pub iterations: usize,
-    /// Solve time of the continuation, s.
-    pub solve_time_s: f64,
-}
-
-impl TorqueContinuation {
-    /// True when the continuation planned the swing within the real limits.
-    pub fn within_limits(&self) -> bool {
-        self.stopped == ContinuationStop::WithinLimits
-    }
-
-    /// The actuated joint (0-based among the actuated ones) whose peak torque exceeds its limit the
-    /// most, relative to the limit, with that peak and limit; `None` when nothing converged.
-    pub fn worst_joint(&self) -> Option<(usize, f64, f64)> {
-        self.peak_torque_nm
-            .iter()
-            .zip(&self.limit_nm)
-            .enumerate()
-            .map(|(j, (&p, &l))| (j, p, l))
-            .fold(None, |b: Option<(usize, f64, f64)>, c| match b {
-                Some(b) if b.1 / b.2 >= c.1 / c.2 => Some(b),
-                _ => Some(c),
-            })
-    }
-}
-
-impl fmt::Display for TorqueContinuation {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.reached_scale {
-            Some(1.0) => write!(
-                f,
-                "planned by continuation on the torque limits (from {:.2}x the limits)",
-                self.relaxed_scale
-            ),
-            Some(s) => {
-                write!(
-                    f,
-                    "likely torque-limited: it converges with the torque limits scaled by {s:.3}"
-                )?;
-                if let Some((j, p, l)) = self.worst_joint() {
-                    // joints are numbered from 1 with the passive grip joint first
-                    write!(f, " (peak |tau| {p:.2} N m at joint {}, limit {l} N m)", j + 2)?;
-                }
-                if let Some(lo) = self.failed_scale {
-                    write!(f, ", not at {lo:.3}")?;
-                }
-                match self.stopped {
-                    ContinuationStop::StepsSpent => write!(
-                        f,
-                        " (the bracket was not closed within {MAX_STEPS} plans)"
-                    )?,
-                    ContinuationStop::TimeSpent => {
-                        write!(f, " (the continuation ran out of max_wall_time_s)")?
-                    }
-                    _ => {}
-                }
-                write!(f, " (a local estimate, not a proof)")
-            }
-            None if self.stopped == ContinuationStop::TimeSpent => write!(
-                f,
-                "the continuation on the torque limits ran out of max_wall_time_s before a widened \
-                 plan (up to {:.0}x) converged",
-                self.relaxed_scale
-            ),
-            None => write!(
-                f,
-                "widening the torque limits up to {:.0}x did not help: no plan converged with them either",
-                self.relaxed_scale
-            ),
-        }
-    }
-}
-
 /// `robot` with every actuated joint's torque limits scaled by `k` (> 0; the limits bracket 0, so
 /// `k > 1` widens them).
-pub(super) fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
+pub(crate) fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
     let mut prm = robot.params().clone();
     for v in prm
         .actuators
@@ -204,7 +89,7 @@ fn peak_torques(p: &Plan, m: usize) -> Vec<f64> {
 /// all, each solve gets what is left and none starts once it is spent. Returns the plan within the
 /// limits when the continuation found one, else `failed`; either carries the report, and its
 /// `iterations`, `attempts` and `solve_time_s` count every solve.
-pub(super) fn plan_by_torque_continuation(
+pub(crate) fn plan_by_torque_continuation(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,

@@ -4,9 +4,9 @@
 //! link clear of the obstacle and of the non-adjacent links, margin 0) from the start pose's cell to a
 //! cell whose EE is within `--tol` m (default 0.06) of the bar. A grid search, so a necessary-condition
 //! indicator, not a proof. Time and torque limits are ignored.
-//! `cargo run --release -p brachia --example obstacle_cspace [-- --only 4,7]`. Units: m, rad.
+//! `cargo run --release -p brachia-tools --bin obstacle_cspace [-- --only 4,7]`. Units: m, rad.
 use brachia::model::{Circle, ClearanceFn, Robot};
-use brachia::planning::guess::path_placements;
+use brachia::planning::strategy::obstacles::path_placements;
 use brachia::planning::{plan, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription};
 use std::collections::VecDeque;
 

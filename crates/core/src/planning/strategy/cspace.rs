@@ -28,9 +28,9 @@
 //!
 //! Nothing here prints or runs on a task without obstacles. Units: rad, m, s, N m.
 
-use super::settings::PlannerSettings;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, Robot, Scratch};
+use crate::planning::settings::PlannerSettings;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
@@ -89,7 +89,7 @@ pub struct CspaceReport {
     /// (`None`: not tried).
     pub converged: Option<bool>,
     /// Whether the plan from the seed with the torque limits widened by
-    /// [`super::guess::TORQUE_RELAX`] converged (`None`: not tried, the seed's own solve converged).
+    /// [`crate::planning::strategy::obstacles::TORQUE_RELAX`] converged (`None`: not tried, the seed's own solve converged).
     #[serde(default)]
     pub relaxed_converged: Option<bool>,
 }

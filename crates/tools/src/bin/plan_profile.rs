@@ -2,7 +2,7 @@
 //! paper's tracking swing (`scenarios/tracking.toml`'s task) cold N times by multiple shooting on the
 //! `ocp` backend, knots every KNOT_MS ms, one RK4 step per interval, and prints iterations, objective
 //! and replay miss. Differences of runs (N = 1 minus N = 0) drop the process start-up.
-//! `valgrind --tool=callgrind target/release/examples/plan_profile 30 1` (with `RAYON_NUM_THREADS=1`).
+//! `valgrind --tool=callgrind target/release/plan_profile 30 1` (with `RAYON_NUM_THREADS=1`).
 //! `BRACHIA_PLAN_CC=k` plans through a [`SwingPlanner`] instead (the same cold solve) whose cold
 //! settings allow k centrality correctors per iteration (`OcpSettings::centrality_correctors`).
 //!

@@ -1,12 +1,12 @@
 //! Iteration counts behind the tables of docs/ocp.md: cold solves of the random QP suite and of
 //! the pendulum swing-ups, and warm re-solves after a shift of the pendulum's x_0.
-//! `cargo run -p brachia-ocp --release --example iterations`
+//! `cargo run -p brachia-tools --release --bin ocp_iterations`
 
 use brachia_ocp::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../../../ocp/tests/common/mod.rs"]
 mod common;
 
 fn cold_table(name: &str, s: &OcpSettings) {

@@ -18,7 +18,7 @@
 //! Jacobian). An [`brachia_ocp::EvalError`] turns the requested values into NaN, which the NLP seam
 //! reports to the backend as an evaluation failure.
 
-use super::nlp::SparseNlp;
+use super::problem::SparseNlp;
 use brachia_ocp::{
     EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageEval, TerminalEval,
 };

@@ -3,7 +3,7 @@
 //! Hermite-Simpson on pounce at the scenario's own knots.
 //!
 //! ```text
-//! cargo run --release -p brachia-experiments --example backend_table -- [--knot-dt S] [--substeps N] FILE..
+//! cargo run --release -p brachia-tools --bin backend_table -- [--knot-dt S] [--substeps N] FILE..
 //! ```
 //! `--knot-dt` / `--substeps` set the shooting mesh (default: the planner's defaults). Prints one markdown
 //! row per scenario. Units: s, m; objective is the planner's cost (paper eq. 5).

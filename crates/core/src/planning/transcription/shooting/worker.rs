@@ -14,7 +14,7 @@
 //! [`SpinWorker::wait`] and the next [`SpinWorker::post`]. A panic inside a job is caught on the worker and handed to the owner
 //! by [`SpinWorker::wait`]; the thread is stopped and joined when the worker is dropped.
 
-use super::nlp::panic_text;
+use crate::planning::nlp::panic_text;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};

@@ -3,12 +3,12 @@
 //! planned by multiple shooting on `ocp` (continuation guess, the default) and, as the baseline, by
 //! Hermite-Simpson on pounce from the smooth-step guess alone (`obstacle_guess = "direct"`; with
 //! `--hs-default` the default guess strategies, detour seeds and continuation). Prints a Markdown table.
-//! `cargo run --release -p brachia --example obstacle_scan [-- --no-pounce | --pounce-only] [--hs-default]
+//! `cargo run --release -p brachia-tools --bin obstacle_scan [-- --no-pounce | --pounce-only] [--hs-default]
 //! [--only 1,4,7]` (placement numbers, 1-based).
 //! Units: m, s.
 
 use brachia::model::Robot;
-use brachia::planning::guess::path_placements;
+use brachia::planning::strategy::obstacles::path_placements;
 use brachia::planning::{
     plan, Backend, NlpSettings, ObstacleGuess, Plan, PlannerSettings, SwingTask, Transcription,
 };

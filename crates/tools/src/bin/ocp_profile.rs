@@ -1,5 +1,5 @@
 //! A fixed workload for instruction counts (`valgrind --tool=callgrind`, `perf stat`), which do
-//! not depend on machine load: `cargo run -p brachia-ocp --release --example profile -- step 100`
+//! not depend on machine load: `cargo run -p brachia-tools --release --bin ocp_profile -- step 100`
 //! (100 Newton steps at the solution of the robot-sized random QP of the bench) or `-- solve 3`
 //! (3 cold solves).
 
@@ -7,7 +7,7 @@ use brachia_ocp::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../../../ocp/tests/common/mod.rs"]
 mod common;
 
 fn main() {

@@ -23,17 +23,21 @@
 //! The guesses of steps 2 to 4 are trajectories (a plan's knots or collocation points), so the
 //! strategies work for every transcription and backend. Units: m, s.
 
-use super::nlp::{NlpSettings, SolveStatus};
-use super::planner::{plan_single, target_pose, Plan};
-use super::settings::PlannerSettings;
-use super::solve_log::{SolveLog, SolveRole};
-use super::task::SwingTask;
-use super::torque_continuation::with_torque_scale;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
+use crate::planning::nlp::{NlpSettings, SolveStatus};
+use crate::planning::plan::Plan;
+use crate::planning::plan::SolveRole;
+use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
+use crate::planning::settings::ObstacleGuess;
+use crate::planning::settings::PlannerSettings;
+use crate::planning::solve::common::target_pose;
+use crate::planning::solve::plan_single;
+use crate::planning::solve_log::SolveLog;
+use crate::planning::strategy::torque_continuation::with_torque_scale;
+use crate::planning::task::SwingTask;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
-use std::fmt;
 use std::sync::Arc;
 
 /// Smallest step of the radius scale before the continuation gives up.
@@ -47,154 +51,6 @@ pub const TORQUE_RELAX: f64 = 2.0;
 /// continuation gave up (the step at full radius keeps the settings' `max_iter`): a step that does not
 /// converge within it is retried with a smaller step.
 pub const STEP_MAX_ITER: usize = 60;
-
-/// How the planner finds its initial guess when the task has obstacles (`[planner] obstacle_guess`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum ObstacleGuess {
-    /// The smooth step to the target pose only, as without obstacles (one solve).
-    Direct,
-    /// The smooth step; when that solve fails, the detour seeds, then continuation on the obstacle
-    /// radii, both from an obstacle-free plan (see the module docs). Default.
-    #[default]
-    Continuation,
-}
-
-/// Which strategy produced a plan.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GuessStrategy {
-    /// The smooth step to the target pose (it cleared the obstacles, or continuation was off).
-    SmoothStep,
-    /// A detour guess: the obstacle-free plan deformed around the obstacles
-    /// ([`super::detour`]).
-    Detour,
-    /// The configuration-space seed: a collision-free joint path found by a grid search
-    /// ([`super::cspace`]).
-    Cspace,
-    /// Continuation on the obstacle radii.
-    Continuation,
-}
-
-/// How the plan's initial guess was found and what it cost. The plan's own `iterations` and
-/// `solve_time_s` are these totals (every solve counted, failed ones too).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GuessReport {
-    /// The strategy of the returned plan (the last one tried when none converged).
-    pub strategy: GuessStrategy,
-    /// Whether the default smooth-step guess already cleared every obstacle (margin included).
-    pub smooth_step_clear: bool,
-    /// Solves done, failed ones included.
-    pub solves: usize,
-    /// Solver iterations summed over all solves.
-    pub iterations: usize,
-    /// Solve time summed over all solves, s.
-    pub solve_time_s: f64,
-    /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
-    pub scales: Vec<f64>,
-    /// The detour seeds, in the order tried, and which were tried (empty when the smooth step
-    /// converged).
-    #[serde(default)]
-    pub seeds: Vec<super::detour::SeedReport>,
-    /// The configuration-space search and whether the plan from its seed converged (`None`: no
-    /// detour seed failed, so it was not run).
-    #[serde(default)]
-    pub cspace: Option<super::cspace::CspaceReport>,
-    /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
-    /// first solve, none converged, and the limit was spent.
-    #[serde(default)]
-    pub out_of_time: bool,
-}
-
-/// The closest approach of one link to one obstacle over a plan's attempt.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct LinkClearance {
-    /// 0-based obstacle index (position in the task's list).
-    pub obstacle: usize,
-    /// 0-based link index.
-    pub link: usize,
-    /// Smallest surface distance between the link's capsule and the obstacle over the attempt's
-    /// points, m (margin not subtracted; negative: they overlap).
-    pub min_clearance_m: f64,
-    /// Time of that point, s.
-    pub time_s: f64,
-    /// The clearance is below the planner's margin (the constraint is violated there).
-    pub violated: bool,
-}
-
-impl fmt::Display for LinkClearance {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "obstacle {} vs link {}: closest {:.4} m at t = {:.3} s{}",
-            self.obstacle,
-            self.link + 1,
-            self.min_clearance_m,
-            self.time_s,
-            if self.violated { " (violated)" } else { "" }
-        )
-    }
-}
-
-/// What blocks a swing that no strategy planned: the clearance row with the largest violation over
-/// the attempt returned, every obstacle's closest approach to every link along it, and whether the
-/// start pose, the obstacle-free swing's final pose or the target bar is within the margin of the
-/// obstacle.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Blockage {
-    /// 0-based link index.
-    pub link: usize,
-    /// 0-based obstacle index (position in the task's list).
-    pub obstacle: usize,
-    /// Time of the worst knot of the best attempt, s.
-    pub time_s: f64,
-    /// Required clearance (margin included) minus the surface distance there, m (> 0: violated).
-    pub violation_m: f64,
-    /// The obstacle is within `margin` of the start pose.
-    pub start_overlaps: bool,
-    /// The obstacle is within `margin` of the final pose of the obstacle-free swing (the pose that
-    /// reaches the bar), when that swing was planned.
-    pub final_pose_overlaps: Option<bool>,
-    /// The obstacle's surface is within the link radius plus the margin of the target bar.
-    pub bar_overlaps: bool,
-    /// The task is infeasible for certain: some obstacle's surface is within the last link's radius
-    /// plus the margin of the target bar, so no pose that grasps the bar clears it (the planner then
-    /// tries no other guess after the first solve).
-    #[serde(default)]
-    pub infeasible: bool,
-    /// Every obstacle's closest approach to every link along the attempt, obstacle-major then link.
-    #[serde(default)]
-    pub clearances: Vec<LinkClearance>,
-}
-
-impl fmt::Display for Blockage {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "obstacle {} blocks link {}: clearance violated by {:.4} m at t = {:.3} s over the best attempt",
-            self.obstacle,
-            self.link + 1,
-            self.violation_m,
-            self.time_s
-        )?;
-        if self.start_overlaps {
-            write!(f, "; the start pose is within the margin of it")?;
-        }
-        if self.final_pose_overlaps == Some(true) {
-            write!(f, "; the obstacle-free swing's final pose overlaps it")?;
-        }
-        if self.bar_overlaps {
-            write!(f, "; it touches the target bar")?;
-        }
-        if self.infeasible {
-            write!(
-                f,
-                " (infeasible: an obstacle is within the last link's radius plus the margin of the bar)"
-            )?;
-        }
-        Ok(())
-    }
-}
 
 /// Index of the first obstacle whose surface is within the last link's radius plus the margin of
 /// the target bar: the last link ends at the bar, so no grasping pose clears it (the task is
@@ -326,7 +182,7 @@ pub fn diagnose(
 /// a [`GuessReport`], and, when it did not converge, a [`Blockage`]. `nlp.max_wall_time_s` bounds
 /// the whole call: each solve gets what is left, and none starts once it is spent (the smooth
 /// step's attempt is then returned).
-pub(super) fn plan_around_obstacles(
+pub(crate) fn plan_around_obstacles(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -398,7 +254,12 @@ fn strategies(
     if within(usize::MAX).is_none() {
         return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
-    let seeds = super::detour::detour_seeds(robot, &task.obstacles, settings, &free.points)?;
+    let seeds = crate::planning::strategy::detour::detour_seeds(
+        robot,
+        &task.obstacles,
+        settings,
+        &free.points,
+    )?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     for (i, (_, g)) in seeds.iter().enumerate() {
         let role = SolveRole::DetourSeed { index: i };
@@ -417,8 +278,12 @@ fn strategies(
     if within(usize::MAX).is_none() {
         return Ok(finish(robot, task, settings, best, rep, log, ff));
     }
-    let (mut crep, seed) =
-        super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
+    let (mut crep, seed) = crate::planning::strategy::cspace::cspace_seed(
+        robot,
+        &task.obstacles,
+        settings,
+        &free.points,
+    )?;
     if let Some(g) = seed {
         let role = SolveRole::CspaceSeed;
         let Some(p) = solve_seed(robot, task, settings, &within, &g, role, &mut log)? else {

@@ -5,16 +5,16 @@
 //! [`measured`], the only function to count:
 //!
 //! ```text
-//! cargo build --release -p brachia --example mpc_profile
+//! cargo build --release -p brachia-tools --bin mpc_profile
 //! valgrind --tool=callgrind --toggle-collect='*mpc_profile*measured*' \
-//!     target/release/examples/mpc_profile [default|norate|euler|ltv] [calls]
+//!     target/release/mpc_profile [default|norate|euler|ltv] [calls]
 //! callgrind_annotate --inclusive=yes callgrind.out.<pid>
 //! ```
 //!
 //! Instructions per step = the total of `measured` / calls. Prints a checksum of the torques.
 //! Conventions: `x = [q (n), qd (n)]` (rad, rad/s), torques of joints 2..n (N m), time in s.
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../../../core/tests/common/mod.rs"]
 mod common;
 
 use brachia::control::{Discretization, Linearization, Mpc, MpcSettings};

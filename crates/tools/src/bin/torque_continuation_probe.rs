@@ -14,8 +14,8 @@
 //! Each solve prints its status, iterations, energy (eq. 18, J) and largest |tau| (N m).
 //!
 //! ```text
-//! cargo run --release -p brachia-experiments --example torque_continuation_probe -- torque 0.1 -0.5
-//! cargo run --release -p brachia-experiments --example torque_continuation_probe -- time 0.1 0.005 5
+//! cargo run --release -p brachia-tools --bin torque_continuation_probe -- torque 0.1 -0.5
+//! cargo run --release -p brachia-tools --bin torque_continuation_probe -- time 0.1 0.005 5
 //! ```
 //! Units: s, N m, J. The study's default settings (multiple shooting, 30 ms knots, `ocp`).
 use brachia::model::{Robot, RobotParams};

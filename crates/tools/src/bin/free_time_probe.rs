@@ -1,5 +1,5 @@
 //! Free swing time on the tracking swing: where the plan ends from several starts (docs/planner.md,
-//! "Free swing time"). `cargo run --release -p brachia --example free_time_probe [t_min t_max]`.
+//! "Free swing time"). `cargo run --release -p brachia-tools --bin free_time_probe [t_min t_max]`.
 
 use brachia::planning::{
     plan, plan_with_guess, Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask,

@@ -6,7 +6,7 @@
 //! after restoring the undisturbed plan) and prints the iterations (mean, p99, max, the slowest
 //! draws). `replan_profile N cold` re-plans them cold. Differences of runs (N minus 0) drop the
 //! cold plan and the process start-up:
-//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/examples/replan_profile 100`.
+//! `RAYON_NUM_THREADS=1 valgrind --tool=callgrind target/release/replan_profile 100`.
 //! Warm-start variants without a rebuild: `BRACHIA_REPLAN_MU` (mu_init), `BRACHIA_REPLAN_PUSH`
 //! (warm_bound_push), `BRACHIA_REPLAN_DUALS` (stored, reset, centered; default stored bounds), `BRACHIA_REPLAN_ADAPTIVE=1`
 //! (the adaptive barrier update), `BRACHIA_REPLAN_TOL` (tol), `BRACHIA_REPLAN_PRIMAL=shifted` (the

@@ -3,23 +3,25 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs.
 
-use super::clearance_check::check_clearance;
-use super::collocation::{CallbackTimings, Layout};
-use super::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
-use super::ocp_nlp::OcpNlp;
-use super::planner::{
+use super::common::{
     check_guess, clearance_rows, guess_from_trajectory, min_obstacle_clearance, smooth_step_guess,
-    solve_with_retry, swing_time, target_pose, variable_bounds, DistanceClearanceFn, Plan,
-    SolveAttempt, Violations,
+    solve_with_retry, swing_time, target_pose, variable_bounds,
 };
-use super::profile::Clamped;
-use super::settings::{PlannerSettings, SwingTime, Transcription};
-use super::shooting::{SwingOcp, SwingOcpSpec};
-use super::solve_log::{SolveLog, SolveRole};
-use super::task::{check_task, SwingTask};
 use crate::error::{Error, Result};
 use crate::integrate;
 use crate::model::{Robot, Scratch};
+use crate::planning::clearance_check::check_clearance;
+use crate::planning::nlp::OcpNlp;
+use crate::planning::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
+use crate::planning::plan::SolveRole;
+use crate::planning::plan::{Plan, SolveAttempt, Violations};
+use crate::planning::profile::Clamped;
+use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::solve_log::SolveLog;
+use crate::planning::task::{check_task, SwingTask};
+use crate::planning::transcription::clearance_fn::DistanceClearanceFn;
+use crate::planning::transcription::collocation::{CallbackTimings, Layout};
+use crate::planning::transcription::shooting::{SwingOcp, SwingOcpSpec};
 use crate::sim::{ModelPlant, Plant};
 use crate::trajectory::{hermite_basis, Trajectory};
 use brachia_ocp::{
@@ -35,7 +37,7 @@ pub const REPLAY_MAX_STEP_S: f64 = 2.5e-3;
 pub const REPLAY_REFINEMENT: usize = 4;
 
 /// The solver outcome of the OCP solver as the planner's status.
-pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
+pub(crate) fn status_of(s: &OcpStatus) -> SolveStatus {
     match s {
         OcpStatus::Solved => SolveStatus::Solved,
         OcpStatus::SolvedToAcceptableLevel => SolveStatus::SolvedToAcceptableLevel,
@@ -53,7 +55,7 @@ pub(super) fn status_of(s: &OcpStatus) -> SolveStatus {
 }
 
 /// The planner's name of the OCP solver's barrier update.
-pub(super) fn mu_strategy_of(m: brachia_ocp::MuStrategy) -> MuStrategy {
+pub(crate) fn mu_strategy_of(m: brachia_ocp::MuStrategy) -> MuStrategy {
     match m {
         brachia_ocp::MuStrategy::Adaptive => MuStrategy::Adaptive,
         _ => MuStrategy::Monotone,
@@ -63,7 +65,7 @@ pub(super) fn mu_strategy_of(m: brachia_ocp::MuStrategy) -> MuStrategy {
 /// The OCP solver's one pass as a planner attempt: callbacks are its evaluations and Hessians, the
 /// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping;
 /// `settings` are the ones the pass ran with (its barrier update is the attempt's label).
-pub(super) fn ocp_attempt(
+pub(crate) fn ocp_attempt(
     stats: &OcpStats,
     status: SolveStatus,
     settings: &OcpSettings,
@@ -97,7 +99,7 @@ pub(super) fn ocp_attempt(
 }
 
 /// The OCP solver's settings from the NLP seam's (the same names and meanings).
-pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
+pub(crate) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     let d = OcpSettings::default();
     OcpSettings {
         mu_strategy: match nlp.mu_strategy {
@@ -119,7 +121,7 @@ pub(super) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
 /// Plan the swing by multiple shooting (called by [`super::plan_with_guess`], which has validated the
 /// settings and the guess and set the warm-start `mu_init`). Refuses `backend = "ocp"` with a
 /// collocation transcription.
-pub(super) fn plan_shooting(
+pub(crate) fn plan_shooting(
     robot: &Arc<Robot>,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -215,7 +217,7 @@ fn plan_shooting_once(
         return Ok(p);
     };
     let warm = NlpSettings {
-        mu_init: Some(left.mu_init.unwrap_or(super::planner::WARM_START_MU_INIT)),
+        mu_init: Some(left.mu_init.unwrap_or(super::common::WARM_START_MU_INIT)),
         ..left
     };
     let mut q = solve_shooting(robot, task, settings, &warm, Some(&p.points), true)?;
@@ -316,7 +318,7 @@ fn solve_shooting(
 }
 
 /// The multiple-shooting problem of a task, built with its initial guess, and its grid.
-pub(super) struct ShootingSetup {
+pub(crate) struct ShootingSetup {
     /// The problem (guess set).
     pub ocp: SwingOcp,
     /// The knot grid.
@@ -328,7 +330,7 @@ pub(super) struct ShootingSetup {
 }
 
 /// How a solve ended, for [`finish_plan`].
-pub(super) struct SolveSummary {
+pub(crate) struct SolveSummary {
     pub status: SolveStatus,
     pub objective: f64,
     pub backend: Backend,
@@ -338,7 +340,7 @@ pub(super) struct SolveSummary {
 
 /// Build the multiple-shooting problem of `task` with its initial guess (from `guess`, or the
 /// smoothstep towards the inverse-kinematics target pose). Refuses a collocation transcription.
-pub(super) fn setup_shooting(
+pub(crate) fn setup_shooting(
     robot: &Arc<Robot>,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -426,7 +428,7 @@ fn setup_shooting_rows(
 
 /// The [`Plan`] of a multiple-shooting solution `z` of `ocp` (knots, held-torque trajectory,
 /// violations, independent replay).
-pub(super) fn finish_plan(
+pub(crate) fn finish_plan(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
@@ -564,7 +566,7 @@ fn violations(ocp: &mut SwingOcp, z: &Primal) -> Violations {
 /// 1e-9 rad and 1e-7 rad/s at 2.5 ms on the tracking swing, tested); samples at `j dt` and a last one
 /// exactly at `t_final`. The torque of a sample is the mean of the held torques over its period
 /// `[t_j, t_j+1)` ([`hold_means`]; the last sample's, the one held at `t_final`).
-pub(super) fn held_torque_trajectory(
+pub(crate) fn held_torque_trajectory(
     robot: &Robot,
     z: &Primal,
     h: f64,
@@ -682,7 +684,7 @@ fn hold_means(out: &mut Trajectory, z: &Primal, h: f64) {
 /// are not the plan's own (an independent integration of the same torques; its own error is at most
 /// 1/256 of the plan's discretisation error, tested against 0.1 ms steps). The final EE distance from
 /// `target`, m.
-pub(super) fn replay_held_torques(
+pub(crate) fn replay_held_torques(
     robot: &Robot,
     z: &Primal,
     h: f64,
@@ -694,7 +696,7 @@ pub(super) fn replay_held_torques(
 }
 
 /// [`replay_held_torques`] in `m` RK4 steps per interval.
-pub(super) fn replay_held_torques_in(
+pub(crate) fn replay_held_torques_in(
     robot: &Robot,
     z: &Primal,
     h: f64,

@@ -12,11 +12,11 @@
 //! constraints (obstacle and self-collision clearances, eqs. 11-13) on q at every point but the first.
 //! Sparsity patterns are built once; values are scattered through precomputed slots (no hashing per call).
 
-use super::nlp::SparseNlp;
-use super::settings::Transcription;
 use crate::ad::{Diff, LocalFn};
 use crate::math::Scalar;
 use crate::model::Robot;
+use crate::planning::nlp::SparseNlp;
+use crate::planning::settings::Transcription;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Instant;

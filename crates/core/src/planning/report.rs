@@ -1,0 +1,264 @@
+//! What the strategies report on a plan: how an initial guess around obstacles was found
+//! ([`GuessReport`]), what blocks a swing no strategy planned ([`Blockage`]), and what the
+//! continuation on the torque limits found ([`TorqueContinuation`]).
+//!
+//! Units: m, s, N m.
+
+use super::strategy::cspace::CspaceReport;
+use super::strategy::detour::SeedReport;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// Which strategy produced a plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GuessStrategy {
+    /// The smooth step to the target pose (it cleared the obstacles, or continuation was off).
+    SmoothStep,
+    /// A detour guess: the obstacle-free plan deformed around the obstacles
+    /// ([`crate::planning::strategy::detour`]).
+    Detour,
+    /// The configuration-space seed: a collision-free joint path found by a grid search
+    /// ([`crate::planning::strategy::cspace`]).
+    Cspace,
+    /// Continuation on the obstacle radii.
+    Continuation,
+}
+
+/// How the plan's initial guess was found and what it cost. The plan's own `iterations` and
+/// `solve_time_s` are these totals (every solve counted, failed ones too).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GuessReport {
+    /// The strategy of the returned plan (the last one tried when none converged).
+    pub strategy: GuessStrategy,
+    /// Whether the default smooth-step guess already cleared every obstacle (margin included).
+    pub smooth_step_clear: bool,
+    /// Solves done, failed ones included.
+    pub solves: usize,
+    /// Solver iterations summed over all solves.
+    pub iterations: usize,
+    /// Solve time summed over all solves, s.
+    pub solve_time_s: f64,
+    /// Radius scales whose solve converged, in order (continuation only; 0 = no obstacles).
+    pub scales: Vec<f64>,
+    /// The detour seeds, in the order tried, and which were tried (empty when the smooth step
+    /// converged).
+    #[serde(default)]
+    pub seeds: Vec<SeedReport>,
+    /// The configuration-space search and whether the plan from its seed converged (`None`: no
+    /// detour seed failed, so it was not run).
+    #[serde(default)]
+    pub cspace: Option<CspaceReport>,
+    /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
+    /// first solve, none converged, and the limit was spent.
+    #[serde(default)]
+    pub out_of_time: bool,
+}
+
+/// The closest approach of one link to one obstacle over a plan's attempt.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LinkClearance {
+    /// 0-based obstacle index (position in the task's list).
+    pub obstacle: usize,
+    /// 0-based link index.
+    pub link: usize,
+    /// Smallest surface distance between the link's capsule and the obstacle over the attempt's
+    /// points, m (margin not subtracted; negative: they overlap).
+    pub min_clearance_m: f64,
+    /// Time of that point, s.
+    pub time_s: f64,
+    /// The clearance is below the planner's margin (the constraint is violated there).
+    pub violated: bool,
+}
+
+impl fmt::Display for LinkClearance {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "obstacle {} vs link {}: closest {:.4} m at t = {:.3} s{}",
+            self.obstacle,
+            self.link + 1,
+            self.min_clearance_m,
+            self.time_s,
+            if self.violated { " (violated)" } else { "" }
+        )
+    }
+}
+
+/// What blocks a swing that no strategy planned: the clearance row with the largest violation over
+/// the attempt returned, every obstacle's closest approach to every link along it, and whether the
+/// start pose, the obstacle-free swing's final pose or the target bar is within the margin of the
+/// obstacle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Blockage {
+    /// 0-based link index.
+    pub link: usize,
+    /// 0-based obstacle index (position in the task's list).
+    pub obstacle: usize,
+    /// Time of the worst knot of the best attempt, s.
+    pub time_s: f64,
+    /// Required clearance (margin included) minus the surface distance there, m (> 0: violated).
+    pub violation_m: f64,
+    /// The obstacle is within `margin` of the start pose.
+    pub start_overlaps: bool,
+    /// The obstacle is within `margin` of the final pose of the obstacle-free swing (the pose that
+    /// reaches the bar), when that swing was planned.
+    pub final_pose_overlaps: Option<bool>,
+    /// The obstacle's surface is within the link radius plus the margin of the target bar.
+    pub bar_overlaps: bool,
+    /// The task is infeasible for certain: some obstacle's surface is within the last link's radius
+    /// plus the margin of the target bar, so no pose that grasps the bar clears it (the planner then
+    /// tries no other guess after the first solve).
+    #[serde(default)]
+    pub infeasible: bool,
+    /// Every obstacle's closest approach to every link along the attempt, obstacle-major then link.
+    #[serde(default)]
+    pub clearances: Vec<LinkClearance>,
+}
+
+impl fmt::Display for Blockage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "obstacle {} blocks link {}: clearance violated by {:.4} m at t = {:.3} s over the best attempt",
+            self.obstacle,
+            self.link + 1,
+            self.violation_m,
+            self.time_s
+        )?;
+        if self.start_overlaps {
+            write!(f, "; the start pose is within the margin of it")?;
+        }
+        if self.final_pose_overlaps == Some(true) {
+            write!(f, "; the obstacle-free swing's final pose overlaps it")?;
+        }
+        if self.bar_overlaps {
+            write!(f, "; it touches the target bar")?;
+        }
+        if self.infeasible {
+            write!(
+                f,
+                " (infeasible: an obstacle is within the last link's radius plus the margin of the bar)"
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Most warm plans of the tightening (the real limits first, then the bisection, then the real limits
+/// once more): enough to close a bracket from 8x to [`SCALE_TOL`](crate::planning::strategy::torque_continuation::SCALE_TOL) by geometric midpoints (6 steps).
+pub const MAX_STEPS: usize = 10;
+
+/// Why the continuation on the actuator limits stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContinuationStop {
+    /// A plan converged within the real limits (it is the plan returned).
+    WithinLimits,
+    /// The converged and the failed scale are within [`SCALE_TOL`] of each other.
+    Bracketed,
+    /// [`MAX_STEPS`] plans were made before the bracket closed.
+    StepsSpent,
+    /// The call's `max_wall_time_s` ran out (a solve ended for lack of time, or none could start).
+    TimeSpent,
+    /// No relaxed cold plan converged.
+    NothingConverged,
+}
+
+/// What the continuation on the actuator limits found (`Plan::torque_continuation`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TorqueContinuation {
+    /// The scale of the last relaxed cold solve (the first that converged, or the last tried).
+    pub relaxed_scale: f64,
+    /// Whether a relaxed cold solve converged. When none did, widening the limits did not help (the
+    /// swing fails for another reason, or needs more than the widest scale).
+    pub relaxed_converged: bool,
+    /// Smallest limit scale at which a plan of the continuation converged; `Some(1.0)`: the plan returned
+    /// is within the real limits. `None` when no relaxed solve converged.
+    pub reached_scale: Option<f64>,
+    /// The largest scale below `reached_scale` whose plan failed (the last failure of the bisection,
+    /// warm-started from the converged plan of that moment, not necessarily `reached_scale`'s): the
+    /// bracket's lower end. `None` when the real limits converged or no warm plan failed.
+    pub failed_scale: Option<f64>,
+    /// Why the continuation stopped.
+    pub stopped: ContinuationStop,
+    /// Largest |tau| of the plan at `reached_scale` per actuated joint, over its collocation points, N m
+    /// (empty when none converged).
+    pub peak_torque_nm: Vec<f64>,
+    /// The real limit of each actuated joint, `max(|tau_min|, |tau_max|)`, N m.
+    pub limit_nm: Vec<f64>,
+    /// Solver attempts of the continuation (not counting the failed cold plan before it).
+    pub solves: usize,
+    /// Solver iterations of the continuation.
+    pub iterations: usize,
+    /// Solve time of the continuation, s.
+    pub solve_time_s: f64,
+}
+
+impl TorqueContinuation {
+    /// True when the continuation planned the swing within the real limits.
+    pub fn within_limits(&self) -> bool {
+        self.stopped == ContinuationStop::WithinLimits
+    }
+
+    /// The actuated joint (0-based among the actuated ones) whose peak torque exceeds its limit the
+    /// most, relative to the limit, with that peak and limit; `None` when nothing converged.
+    pub fn worst_joint(&self) -> Option<(usize, f64, f64)> {
+        self.peak_torque_nm
+            .iter()
+            .zip(&self.limit_nm)
+            .enumerate()
+            .map(|(j, (&p, &l))| (j, p, l))
+            .fold(None, |b: Option<(usize, f64, f64)>, c| match b {
+                Some(b) if b.1 / b.2 >= c.1 / c.2 => Some(b),
+                _ => Some(c),
+            })
+    }
+}
+
+impl fmt::Display for TorqueContinuation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.reached_scale {
+            Some(1.0) => write!(
+                f,
+                "planned by continuation on the torque limits (from {:.2}x the limits)",
+                self.relaxed_scale
+            ),
+            Some(s) => {
+                write!(
+                    f,
+                    "likely torque-limited: it converges with the torque limits scaled by {s:.3}"
+                )?;
+                if let Some((j, p, l)) = self.worst_joint() {
+                    // joints are numbered from 1 with the passive grip joint first
+                    write!(f, " (peak |tau| {p:.2} N m at joint {}, limit {l} N m)", j + 2)?;
+                }
+                if let Some(lo) = self.failed_scale {
+                    write!(f, ", not at {lo:.3}")?;
+                }
+                match self.stopped {
+                    ContinuationStop::StepsSpent => write!(
+                        f,
+                        " (the bracket was not closed within {MAX_STEPS} plans)"
+                    )?,
+                    ContinuationStop::TimeSpent => {
+                        write!(f, " (the continuation ran out of max_wall_time_s)")?
+                    }
+                    _ => {}
+                }
+                write!(f, " (a local estimate, not a proof)")
+            }
+            None if self.stopped == ContinuationStop::TimeSpent => write!(
+                f,
+                "the continuation on the torque limits ran out of max_wall_time_s before a widened \
+                 plan (up to {:.0}x) converged",
+                self.relaxed_scale
+            ),
+            None => write!(
+                f,
+                "widening the torque limits up to {:.0}x did not help: no plan converged with them either",
+                self.relaxed_scale
+            ),
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! The strategies that recover a solve that failed from the default guess, each a chain of solves
+//! ([`crate::planning::solve`]) from other guesses or on other limits:
+//! - the obstacle chain ([`obstacles`]): detour seeds ([`detour`]), the configuration-space seed
+//!   ([`cspace`]), continuation on the obstacle radii, and the diagnosis of what blocks a swing;
+//! - the continuation on the torque limits ([`torque_continuation`]).
+
+pub mod cspace;
+pub mod detour;
+pub mod obstacles;
+pub mod torque_continuation;
