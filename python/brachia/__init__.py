@@ -29,6 +29,8 @@ from ._brachia import (
     ReplanOutcome,
     Robot,
     Scenario,
+    SwingBatchCore,
+    SwingCore,
     SwingPlanner,
     TrackResult,
     Trajectory,
@@ -37,6 +39,11 @@ from ._brachia import (
     rust_mpc_step_times,
     track,
 )
+
+from ._registration import register_envs as _register_envs
+
+# brachia/Swing-v0 for gymnasium.make, when Gymnasium is installed (docs/rl.md)
+_register_envs()
 
 __all__ = [
     "SUCCESS_RADIUS_M",
@@ -50,6 +57,8 @@ __all__ = [
     "ReplanOutcome",
     "Robot",
     "Scenario",
+    "SwingBatchCore",
+    "SwingCore",
     "SwingPlanner",
     "TrackResult",
     "Trajectory",

@@ -9,6 +9,7 @@
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
 pub mod benchmark;
+pub mod gym;
 pub mod ladder;
 pub mod manifest;
 pub mod parameter_study;
