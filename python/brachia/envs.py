@@ -108,8 +108,8 @@ class SwingEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode. ``seed`` reseeds the env's generator; ``options={"disturbances": {...}}``
         sets this episode's disturbances (the ``[disturbances]`` schema with ranges)."""
-        super().reset(seed=seed)
         rust_seed = _check_seed(seed)
+        super().reset(seed=rust_seed)
         if rust_seed is None and self._needs_seed:
             rust_seed = int(self.np_random.integers(_SEED_SPAN))
         self._needs_seed = False
