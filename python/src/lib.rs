@@ -28,6 +28,7 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+mod bench;
 mod control;
 mod convert;
 mod dicts;
@@ -77,6 +78,7 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::benchmark, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;
     Ok(())

@@ -12,6 +12,10 @@ use brachia::sim::{ControlInfo, Controller};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 use std::cell::RefCell;
+use std::sync::{Arc, Mutex};
+
+/// Where a policy run on a worker thread (the benchmark's) leaves its first exception.
+pub(crate) type ErrorSink = Arc<Mutex<Option<PyErr>>>;
 
 thread_local! {
     /// The exception a policy raised during the closed loop running on this thread.
@@ -21,6 +25,8 @@ thread_local! {
 /// A Python callable driving the plant.
 pub(crate) struct PyPolicy {
     f: Py<PyAny>,
+    /// The exception's destination (None: this thread's, for `track`).
+    sink: Option<ErrorSink>,
 }
 
 impl PyPolicy {
@@ -30,10 +36,24 @@ impl PyPolicy {
             POLICY_ERROR.with(|e| e.borrow_mut().take());
             Some(PyPolicy {
                 f: obj.clone().unbind(),
+                sink: None,
             })
         } else {
             None
         }
+    }
+
+    /// A policy for one run of a worker thread: `f` (whose `reset()`, when it has one, is called
+    /// first), its exception left in `sink`.
+    pub(crate) fn for_run(py: Python<'_>, f: &Py<PyAny>, sink: ErrorSink) -> PyResult<Self> {
+        let f = f.clone_ref(py);
+        if f.bind(py).hasattr("reset")? {
+            f.bind(py).call_method0("reset")?;
+        }
+        Ok(PyPolicy {
+            f,
+            sink: Some(sink),
+        })
     }
 
     /// One call: `tau` from `policy(t, x)`.
@@ -50,9 +70,16 @@ impl Controller for PyPolicy {
         let failed = Python::attach(|py| match self.call(py, t, x, tau) {
             Ok(()) => false,
             Err(e) => {
-                POLICY_ERROR.with(|slot| {
-                    slot.borrow_mut().get_or_insert(e);
-                });
+                match &self.sink {
+                    Some(sink) => {
+                        if let Ok(mut slot) = sink.lock() {
+                            slot.get_or_insert(e);
+                        }
+                    }
+                    None => POLICY_ERROR.with(|slot| {
+                        slot.borrow_mut().get_or_insert(e);
+                    }),
+                }
                 true
             }
         });

@@ -27,7 +27,8 @@ pub mod traverse;
 pub mod view;
 
 pub use benchmark::{
-    run_benchmark, run_benchmark_on, Benchmark, BenchmarkOutcome, BenchmarkSettings,
+    run_benchmark, run_benchmark_on, run_benchmark_with, Benchmark, BenchmarkOutcome,
+    BenchmarkSettings, ExtraController,
 };
 pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{
