@@ -10,7 +10,7 @@
 //!   integrates at `plant_dt` (default 1 ms) underneath.
 //! - **Observation** (2n + 3 values, float32): the measured state (after the sensor disturbances),
 //!   the target bar relative to the hand (the hand from the measured angles and the nominal
-//!   robot), and the time left (s); each clipped to [`SwingEnv::observation_bounds`].
+//!   robot), and the time left (s); each clipped to [`SwingEnvSpec::observation_bounds`].
 //! - **Termination**: capture (the plant's true hand within [`crate::SUCCESS_RADIUS_M`] of the bar
 //!   and slower than `capture_speed_m_s`), or the true state leaving the limits (`max_angle_rad`,
 //!   `max_rate_rad_s`, or a diverged plant). **Truncation**: at `time_limit_s`.
