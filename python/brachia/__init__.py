@@ -29,14 +29,22 @@ from ._brachia import (
     ReplanOutcome,
     Robot,
     Scenario,
+    SwingBatchCore,
+    SwingCore,
     SwingPlanner,
     TrackResult,
     Trajectory,
+    benchmark,
     plan,
     plan_joint_swings,
     rust_mpc_step_times,
     track,
 )
+
+from ._registration import register_envs as _register_envs
+
+# brachia/Swing-v0 for gymnasium.make, when Gymnasium is installed (docs/rl.md)
+_register_envs()
 
 __all__ = [
     "SUCCESS_RADIUS_M",
@@ -50,9 +58,12 @@ __all__ = [
     "ReplanOutcome",
     "Robot",
     "Scenario",
+    "SwingBatchCore",
+    "SwingCore",
     "SwingPlanner",
     "TrackResult",
     "Trajectory",
+    "benchmark",
     "plan",
     "plan_joint_swings",
     "rust_mpc_step_times",

@@ -10,7 +10,7 @@ thread (``Mpc``, ``SwingPlanner`` and the plants run one call at a time).
 """
 
 from os import PathLike
-from typing import Any, Literal, Optional, Sequence, Union
+from typing import Any, Callable, Literal, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -395,7 +395,7 @@ class TrackResult:
 def track(
     robot: Robot,
     reference: Union[Plan, Trajectory],
-    controller: Union[Mpc, Controller, None] = None,
+    controller: Union[Mpc, Controller, Callable[[float, Array], ArrayLike], None] = None,
     plant: Union[ModelPlant, RapierPlant, None] = None,
     duration: Optional[float] = None,
     control_dt: float = 0.001,
@@ -438,3 +438,52 @@ def rust_mpc_step_times(
     settings: Optional[dict[str, Any]] = None,
 ) -> Array:
     """Wall time (s) of each of ``steps`` Mpc control calls made in Rust."""
+
+def benchmark(
+    scenario: Union[StrPath, Scenario],
+    controllers: Optional[dict[str, Callable[[float, Array], ArrayLike]]] = None,
+    builtin: Optional[list[str]] = None,
+    levels: int = 3,
+    monte_carlo_runs: int = 6,
+    sweeps: Optional[list[str]] = None,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """The robustness benchmark with Python policies beside the built-in controllers (docs/rl.md)."""
+
+class SwingCore:
+    """The Rust side of ``brachia.envs.SwingEnv`` (use that class)."""
+
+    def __init__(
+        self,
+        scenario: Union[StrPath, Scenario, None] = None,
+        plant: Optional[Literal["model", "rapier"]] = None,
+        settings: Optional[dict[str, Any]] = None,
+        disturbances: Optional[dict[str, Any]] = None,
+        seed: int = 0,
+        **kwargs: Any,
+    ) -> None: ...
+    def spec(self) -> dict[str, Any]: ...
+    def robot(self) -> Robot: ...
+    def reset(self, seed: Optional[int] = None, disturbances: Optional[dict[str, Any]] = None) -> Array: ...
+    def step(self, action: ArrayLike) -> tuple[Array, float, bool, bool, dict[str, Any]]: ...
+    def render(self, width: int = 480, height: int = 360) -> Array: ...
+    def episode(self) -> dict[str, Any]: ...
+
+class SwingBatchCore:
+    """The Rust side of ``brachia.vector.SwingVectorEnv`` (use that class)."""
+
+    def __init__(
+        self,
+        num_envs: int,
+        scenario: Union[StrPath, Scenario, None] = None,
+        plant: Optional[Literal["model", "rapier"]] = None,
+        settings: Optional[dict[str, Any]] = None,
+        disturbances: Optional[dict[str, Any]] = None,
+        seed: int = 0,
+        autoreset: Literal["next-step", "same-step"] = "next-step",
+        **kwargs: Any,
+    ) -> None: ...
+    def spec(self) -> dict[str, Any]: ...
+    def reset(self, seed: Optional[int] = None, disturbances: Optional[dict[str, Any]] = None) -> Array: ...
+    def step(self, actions: ArrayLike) -> tuple[Array, Array, Array, Array, dict[str, Array], Array, Array]: ...
+    def episodes(self) -> list[dict[str, Any]]: ...

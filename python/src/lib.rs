@@ -28,14 +28,17 @@
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
+mod bench;
 mod control;
 mod convert;
 mod dicts;
+mod gym;
 mod interrupt;
 mod ladder;
 mod model;
 mod planning;
 mod plants;
+mod policy;
 mod replan;
 mod scenario;
 mod shared;
@@ -70,9 +73,12 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<plants::RapierPlant>()?;
     m.add_class::<sim::TrackResult>()?;
     m.add_class::<scenario::Scenario>()?;
+    m.add_class::<gym::SwingCore>()?;
+    m.add_class::<gym::SwingBatchCore>()?;
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
+    m.add_function(wrap_pyfunction!(bench::benchmark, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;
     Ok(())

@@ -31,7 +31,7 @@ fn folder_report(f: &RunFolder) -> serde_json::Value {
 /// name the file, the field as written (``planner.knot_dt``), the value and the rule.
 #[pyclass(module = "brachia", frozen)]
 pub struct Scenario {
-    ls: LoadedScenario,
+    pub(crate) ls: LoadedScenario,
     robot: Arc<brachia::Robot>,
 }
 

@@ -206,7 +206,8 @@ fn controller_for<'a>(
     robot: &Arc<brachia::Robot>,
     reference: &Arc<brachia::trajectory::Trajectory>,
 ) -> PyResult<Ctrl<'a>> {
-    let names = "expected an Mpc or one of \"mpc\", \"pd\", \"open-loop\"";
+    let names =
+        "expected an Mpc, a callable policy(t, x) -> tau, or one of \"mpc\", \"pd\", \"open-loop\"";
     let name = match controller.filter(|c| !c.is_none()) {
         None => "mpc".to_string(),
         Some(c) => {
@@ -215,6 +216,9 @@ fn controller_for<'a>(
                 let g = m.lock(py)?;
                 reference.check_reference(g.inner.robot()).map_err(rs)?;
                 return Ok(Ctrl::Given(g));
+            }
+            if let Some(p) = crate::policy::PyPolicy::of(c) {
+                return Ok(Ctrl::Owned(Box::new(p)));
             }
             c.extract::<String>()
                 .map_err(|_| bad(format!("controller: {names}")))?
@@ -283,8 +287,9 @@ fn run_settings(
 /// Run ``controller`` against ``plant`` in closed loop from the plant's current state, logging
 /// against ``reference`` (a ``Plan`` or a ``Trajectory``).
 ///
-/// ``controller``: an ``Mpc`` (used as it is; its state carries over), or ``"mpc"`` (default: an
-/// ``Mpc`` with default settings), ``"pd"``, ``"open-loop"``. ``plant``: a ``ModelPlant`` or a
+/// ``controller``: an ``Mpc`` (used as it is; its state carries over), ``"mpc"`` (default: an
+/// ``Mpc`` with default settings), ``"pd"``, ``"open-loop"``, or any callable ``policy(t, x) ->
+/// tau`` (s, ``[q, qd]`` float64, N m for joints 2..n; its exception is raised after the loop). ``plant``: a ``ModelPlant`` or a
 /// ``RapierPlant`` (stepped in place), or ``None`` for a model plant at the reference's first state.
 /// ``duration`` defaults to the reference's (at least one control period); ``control_dt`` is the
 /// control period (s, at most 0.1; the torque is held over it); ``noise_q_std`` / ``noise_qd_std``
@@ -365,6 +370,7 @@ pub(crate) fn track(
             run_released(py, &mut p, ctrl.get(), &reference, &r, &settings, noise)?
         }
     };
+    crate::policy::raise_pending()?;
     let summary = log.summary();
     let report = serde_json::to_value(summary).unwrap_or_default();
     Ok(TrackResult::new(log, Some(summary), report, None, None))

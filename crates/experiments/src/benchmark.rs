@@ -41,6 +41,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+mod extra;
+use extra::Entry;
+pub use extra::{BuildExtra, ExtraController};
+
 /// The success rule: the hand within this distance of the bar at the end of the swing, m (the one
 /// definition, [`crate::success`]).
 pub use crate::success::SUCCESS_RADIUS_M;
@@ -635,7 +639,7 @@ pub fn with_scenario(base: &Disturbances, draw: &Disturbances) -> Disturbances {
 fn run_job(
     ls: &LoadedScenario,
     reference: &Arc<Trajectory>,
-    entry: &ControllerEntry,
+    entry: &Entry<'_>,
     job: &Job,
 ) -> Result<BenchRow, Error> {
     let sc = &ls.scenario;
@@ -648,7 +652,7 @@ fn run_job(
         control_dt: dt,
         cancel: sc.solver.cancel.clone(),
     };
-    let mut built = (entry.build)(ls, reference)?;
+    let mut built = entry.build(ls, reference)?;
     let ctrl = built.controller();
     let (log, contacts) = match job.plant {
         PlantKind::Model => {
@@ -696,7 +700,7 @@ fn run_job(
         0.0
     };
     Ok(BenchRow {
-        controller: entry.name.to_string(),
+        controller: entry.name().to_string(),
         disturbance: job.disturbance.clone(),
         level: job.level,
         seed: job.seed,
@@ -820,19 +824,35 @@ pub fn run_benchmark_on(
     settings: &BenchmarkSettings,
     progress: ProgressFn<'_>,
 ) -> Result<Benchmark, Error> {
+    run_benchmark_with(ls, reference, settings, &[], progress)
+}
+
+/// [`run_benchmark_on`] with the caller's controllers `extra` scored beside the built-in ones
+/// (those `settings.only_controllers` keeps; with `extra` given, an empty list keeps none of them).
+/// Each name must be new. The extra controllers' runs take part in the same draws.
+pub fn run_benchmark_with(
+    ls: &LoadedScenario,
+    reference: Arc<Trajectory>,
+    settings: &BenchmarkSettings,
+    extra: &[ExtraController],
+    progress: ProgressFn<'_>,
+) -> Result<Benchmark, Error> {
     settings.validate()?;
+    extra::check_names(extra)?;
     let sc = &ls.scenario;
     let n = ls.robot.n();
     let ctx = SweepContext {
         robot: ls.robot.clone(),
         swing_time_s: reference.duration(),
     };
-    let entries: Vec<ControllerEntry> = controllers()
+    let entries: Vec<Entry<'_>> = controllers()
         .into_iter()
         .filter(|c| {
-            settings.only_controllers.is_empty()
+            (settings.only_controllers.is_empty() && extra.is_empty())
                 || settings.only_controllers.iter().any(|o| o == c.name)
         })
+        .map(Entry::Builtin)
+        .chain(extra.iter().map(Entry::Extra))
         .collect();
     let chosen: Vec<Sweep> = sweeps()
         .into_iter()
@@ -931,7 +951,7 @@ pub fn run_benchmark_on(
     let wall_time_s = wall.elapsed().as_secs_f64();
     let mut scores = Vec::new();
     for e in &entries {
-        let mine: Vec<&BenchRow> = rows.iter().filter(|r| r.controller == e.name).collect();
+        let mine: Vec<&BenchRow> = rows.iter().filter(|r| r.controller == e.name()).collect();
         let mut per = Vec::new();
         let mut frac = Vec::new();
         for (name, _, _) in &sweep_levels {
@@ -953,7 +973,7 @@ pub fn run_benchmark_on(
             per.push(("monte_carlo".into(), score(&mc)));
         }
         scores.push(ControllerScore {
-            controller: e.name.to_string(),
+            controller: e.name().to_string(),
             per_disturbance: per,
             overall: score(&mine),
             robustness_score: if frac.is_empty() {

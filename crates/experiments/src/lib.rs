@@ -9,6 +9,7 @@
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
 pub mod benchmark;
+pub mod gym;
 pub mod ladder;
 pub mod manifest;
 pub mod parameter_study;
@@ -26,7 +27,8 @@ pub mod traverse;
 pub mod view;
 
 pub use benchmark::{
-    run_benchmark, run_benchmark_on, Benchmark, BenchmarkOutcome, BenchmarkSettings,
+    run_benchmark, run_benchmark_on, run_benchmark_with, Benchmark, BenchmarkOutcome,
+    BenchmarkSettings, ExtraController,
 };
 pub use ladder::{Bar, Ladder, LadderScenario, LoadedLadder};
 pub use parameter_study::{

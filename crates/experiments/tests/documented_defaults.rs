@@ -365,6 +365,18 @@ fn every_settings_field_documents_the_default_it_has() {
         &[],
     ));
     problems.extend(check(
+        &format!("{exp}/gym/mod.rs"),
+        "SwingEnvSettings",
+        &brachia_experiments::gym::SwingEnvSettings::default(),
+        &[],
+    ));
+    problems.extend(check(
+        &format!("{exp}/gym/reward.rs"),
+        "RewardWeights",
+        &brachia_experiments::gym::RewardWeights::default(),
+        &[],
+    ));
+    problems.extend(check(
         "crates/rapier-plant/src/settings.rs",
         "RapierSettings",
         &brachia_rapier::RapierSettings::default(),

@@ -30,6 +30,7 @@
 mod anim;
 mod axes;
 mod error;
+mod frame;
 mod heatmap;
 mod output;
 mod poses;
@@ -39,6 +40,7 @@ mod style;
 
 pub use anim::{animate_gif, animate_poses_gif, frame_times, AnimOptions, MAX_FRAMES};
 pub use error::PlotError;
+pub use frame::{pose_frame_rgb, FrameScene};
 pub use heatmap::{heatmap, Heatmap};
 pub use poses::{pose_diagram, PoseFigure, MAX_POSES};
 pub use series::{line_plot, time_series, LinePlot, LineStyle, Panel, Series, TimeSeriesFigure};

@@ -20,6 +20,52 @@ pub const MAX_MISMATCH_FACTOR: f64 = 10.0;
 /// Largest start offset on an angle, rad (on a rate: 10 times this, rad/s).
 pub const MAX_START_OFFSET_RAD: f64 = 1.0;
 
+/// The one body of [`Disturbances::wrap`] and [`Disturbances::wrap_send`]: the wrapper stack, from
+/// the plant outward (the boxed type is the caller's).
+macro_rules! wrap_stack {
+    ($d:expr, $plant:expr, $control_dt:expr) => {{
+        let d: &Disturbances = $d;
+        let control_dt: f64 = $control_dt;
+        let mut p = $plant;
+        if !d.pushes.is_empty() {
+            p = Box::new(Pushes::new(p, &d.pushes)?);
+        }
+        if d.coulomb_nm > 0.0 || d.viscous_nm_s > 0.0 {
+            p = Box::new(JointFriction::new(p, d.coulomb_nm, d.viscous_nm_s)?);
+        }
+        if let Some(l) = d.torque_limit_nm {
+            p = Box::new(TorqueLimit::new(p, l)?);
+        }
+        if d.torque_noise_std > 0.0 {
+            p = Box::new(TorqueNoise::new(
+                p,
+                d.torque_noise_std,
+                d.seed.wrapping_add(1),
+            )?);
+        }
+        if d.motor_time_constant_s > 0.0 {
+            p = Box::new(MotorLag::new(p, d.motor_time_constant_s)?);
+        }
+        let k = delay_steps("disturbances", d.actuation_delay_s, control_dt)?;
+        if k > 0 {
+            p = Box::new(ActuationDelay::new(p, k)?);
+        }
+        let noise = NoiseSettings {
+            q_std: d.noise_q_std,
+            qd_std: d.noise_qd_std,
+            seed: d.seed,
+        };
+        if !noise.is_zero() {
+            p = Box::new(Noisy::new(p, noise)?);
+        }
+        let k = delay_steps("disturbances", d.measurement_delay_s, control_dt)?;
+        if k > 0 {
+            p = Box::new(MeasurementDelay::new(p, k)?);
+        }
+        Ok(p)
+    }};
+}
+
 /// What differs between the planner's world and the plant's. Every field defaults to "nothing".
 ///
 /// The plant wrappers are stacked, from the controller to the plant: measurement delay, sensor noise
@@ -211,42 +257,16 @@ impl Disturbances {
         plant: Box<dyn Plant + 'a>,
         control_dt: f64,
     ) -> Result<Box<dyn Plant + 'a>> {
-        let mut p = plant;
-        if !self.pushes.is_empty() {
-            p = Box::new(Pushes::new(p, &self.pushes)?);
-        }
-        if self.coulomb_nm > 0.0 || self.viscous_nm_s > 0.0 {
-            p = Box::new(JointFriction::new(p, self.coulomb_nm, self.viscous_nm_s)?);
-        }
-        if let Some(l) = self.torque_limit_nm {
-            p = Box::new(TorqueLimit::new(p, l)?);
-        }
-        if self.torque_noise_std > 0.0 {
-            p = Box::new(TorqueNoise::new(
-                p,
-                self.torque_noise_std,
-                self.seed.wrapping_add(1),
-            )?);
-        }
-        if self.motor_time_constant_s > 0.0 {
-            p = Box::new(MotorLag::new(p, self.motor_time_constant_s)?);
-        }
-        let d = delay_steps("disturbances", self.actuation_delay_s, control_dt)?;
-        if d > 0 {
-            p = Box::new(ActuationDelay::new(p, d)?);
-        }
-        let noise = NoiseSettings {
-            q_std: self.noise_q_std,
-            qd_std: self.noise_qd_std,
-            seed: self.seed,
-        };
-        if !noise.is_zero() {
-            p = Box::new(Noisy::new(p, noise)?);
-        }
-        let d = delay_steps("disturbances", self.measurement_delay_s, control_dt)?;
-        if d > 0 {
-            p = Box::new(MeasurementDelay::new(p, d)?);
-        }
-        Ok(p)
+        wrap_stack!(self, plant, control_dt)
+    }
+
+    /// [`Disturbances::wrap`] for a plant that can move between threads (a batch of plants stepped
+    /// in parallel): the same wrappers in the same order.
+    pub fn wrap_send<'a>(
+        &self,
+        plant: Box<dyn Plant + Send + 'a>,
+        control_dt: f64,
+    ) -> Result<Box<dyn Plant + Send + 'a>> {
+        wrap_stack!(self, plant, control_dt)
     }
 }
