@@ -432,7 +432,7 @@ fn absolute(
 ) -> Option<Vec<String>> {
     let first = path.first()?;
     let mut base: Vec<String>;
-    let mut rest = &path[..];
+    let mut rest = path;
     match first.as_str() {
         "crate" => {
             base = Vec::new();

@@ -3,8 +3,8 @@
 //! within the paper's 5 N m (docs/parameter-study.md). Units: N m, s.
 use brachia::model::Robot;
 use brachia::planning::{
-    freefall_time, plan_with_guess, solve_log, torque_continuation, ContinuationStop, Plan,
-    PlannerSettings, SolveRole, SwingTask, SwingTime,
+    freefall_time, plan_with_guess, solve_log, strategy::torque_continuation, ContinuationStop,
+    Plan, PlannerSettings, SolveRole, SwingTask, SwingTime,
 };
 use brachia_experiments::parameter_study::{scaled_params, start_pose, ParameterStudySettings};
 

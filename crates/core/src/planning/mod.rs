@@ -1,7 +1,7 @@
 //! Offline swing planning (paper Section III), in layers; each uses only the ones above it in this
 //! list:
 //! - plain types: the task ([`task`]), the settings ([`settings`]), the plan and its solves
-//!   ([`plan`]), the strategies' reports ([`report`]); the solver seam's problem trait, settings and
+//!   ([`outcome`]), the strategies' reports ([`report`]); the solver seam's problem trait, settings and
 //!   status ([`nlp`]);
 //! - checks and rules on a trajectory: the torque between points, the resampling and the replay
 //!   ([`profile`]), the clearance check between knots ([`clearance_check`]), the record of several
@@ -21,7 +21,7 @@
 pub mod clearance_check;
 pub mod multi_swing;
 pub mod nlp;
-pub mod plan;
+pub mod outcome;
 pub mod planner;
 pub mod profile;
 pub mod report;
@@ -45,7 +45,7 @@ pub use multi_swing::{
 };
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use nlp::{AdapterTimings, OcpNlp, PassStats, TimeSplit};
-pub use plan::{Plan, SolveAttempt, SolveRole, Violations};
+pub use outcome::{Plan, SolveAttempt, SolveRole, Violations};
 pub use planner::{plan, plan_with_guess};
 pub use report::{
     Blockage, ContinuationStop, GuessReport, GuessStrategy, LinkClearance, TorqueContinuation,

@@ -34,7 +34,7 @@
 //!
 //! Units: s, m, rad, rad/s, N m, J; world frame x right, y up.
 
-use super::plan::{Plan, SolveAttempt};
+use super::outcome::{Plan, SolveAttempt};
 use super::planner::plan;
 use super::solve::common::{swing_time, WARM_START_MU_INIT};
 use crate::error::{Error, Result};

@@ -4,7 +4,7 @@
 //! Units: s, m, rad, rad/s, N m, J. Angles as in the crate docs (q1 absolute from +x, the rest relative).
 
 use super::nlp::{NlpSettings, SolveStatus};
-use super::plan::Plan;
+use super::outcome::Plan;
 use super::settings::PlannerSettings;
 use super::solve::plan_single;
 use super::task::{check_task, SwingTask};
@@ -32,7 +32,7 @@ pub fn plan(
 /// agrees with them. With a guess the inverse-kinematics target pose is not computed. Errors on a
 /// guess with the wrong number of links, fewer than two samples, non-finite values or times that do
 /// not increase. Unless `nlp.mu_init` is set, a warm-started solve starts its barrier parameter at
-/// [`WARM_START_MU_INIT`].
+/// [`WARM_START_MU_INIT`](crate::planning::WARM_START_MU_INIT).
 ///
 /// Without a guess, on a task whose obstacles are avoided, the initial guess comes from
 /// [`crate::planning::strategy::obstacles`] (`settings.obstacle_guess`): detour seeds, then continuation on the

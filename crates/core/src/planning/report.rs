@@ -155,7 +155,7 @@ pub const MAX_STEPS: usize = 10;
 pub enum ContinuationStop {
     /// A plan converged within the real limits (it is the plan returned).
     WithinLimits,
-    /// The converged and the failed scale are within [`SCALE_TOL`] of each other.
+    /// The converged and the failed scale are within [`SCALE_TOL`](crate::planning::strategy::torque_continuation::SCALE_TOL) of each other.
     Bracketed,
     /// [`MAX_STEPS`] plans were made before the bracket closed.
     StepsSpent,

@@ -7,7 +7,7 @@
 //!
 //! Units: times in seconds; scales are factors (1 = as the task or robot gives it).
 
-use super::plan::{Plan, SolveAttempt, SolveRole};
+use super::outcome::{Plan, SolveAttempt, SolveRole};
 use crate::planning::nlp::TimeSplit;
 use crate::planning::transcription::collocation::CallbackTimings;
 

@@ -19,7 +19,7 @@
 //! Times: a [`Plan`] or [`ReplanOutcome`] of a re-plan runs on its own clock, 0 at `t_now`; absolute
 //! knot times come from [`SwingPlanner::knot_time`]. Units: s, m, rad, rad/s, N m.
 
-use super::plan::Plan;
+use super::outcome::Plan;
 use super::solve::WARM_START_MU_INIT;
 use crate::error::{Error, Result};
 use crate::model::Robot;

@@ -11,7 +11,7 @@ pub(crate) const BACKEND_INF: f64 = 2e19;
 /// A sparse nonlinear program with exact first and second derivatives.
 ///
 /// Evaluation methods take `&mut self` so that implementations may cache shared work between
-/// calls at the same `x` (they are always called from the thread that called [`solve`]).
+/// calls at the same `x` (they are always called from the thread that called [`solve`](super::solve())).
 /// Structure methods are called once per solve, before any evaluation.
 pub trait SparseNlp {
     /// Number of variables n.
@@ -54,13 +54,13 @@ pub trait SparseNlp {
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
     /// pounce-rs 0.14: a pure-Rust port of IPOPT (same options, same iteration path). The backend of
-    /// the collocation rules and of general sparse NLPs ([`solve`]); a cross-check of `ocp`.
+    /// the collocation rules and of general sparse NLPs ([`solve`](super::solve())); a cross-check of `ocp`.
     Pounce,
     /// ripopt 0.8: an independent pure-Rust IPOPT-style solver, used as a cross-check.
     Ripopt,
     /// brachia-ocp: the stage-structured interior-point solver with a Riccati KKT step. It solves
     /// optimal-control problems, not general sparse NLPs: the planner uses it with
-    /// `transcription = "multiple-shooting"` only, and [`solve`] refuses it with
+    /// `transcription = "multiple-shooting"` only, and [`solve`](super::solve()) refuses it with
     /// [`SolveStatus::InvalidSettings`] (give a general NLP `backend: Backend::Pounce`). Default.
     #[default]
     Ocp,
@@ -303,7 +303,7 @@ impl SolveStatus {
     }
 }
 
-/// Result of [`solve`]: the final (or last) iterate and diagnostics.
+/// Result of [`solve`](super::solve()): the final (or last) iterate and diagnostics.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NlpSolution {
     /// How the solve ended.
@@ -374,7 +374,7 @@ impl TimeSplit {
     }
 }
 
-/// One pass of a backend inside one call of [`solve`].
+/// One pass of a backend inside one call of [`solve`](super::solve()).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PassStats {
     /// What the pass was: `"pounce"` / `"ripopt"` for the backend's first run, `"pounce re-solve"`

@@ -6,7 +6,7 @@
 use crate::error::{Error, Result};
 use crate::model::{ik_from_seed, mirrored_pose, wrap_angle, Circle, ClearanceFn, Robot};
 use crate::planning::nlp::{solve, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
-use crate::planning::plan::SolveAttempt;
+use crate::planning::outcome::SolveAttempt;
 use crate::planning::settings::{PlannerSettings, SwingTime};
 use crate::planning::task::SwingTask;
 use crate::planning::transcription::collocation::Layout;

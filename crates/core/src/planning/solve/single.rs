@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::model::{DynamicsFn, Robot};
 use crate::planning::clearance_check::check_clearance;
 use crate::planning::nlp::{NlpSettings, SparseNlp, TimeSplit};
-use crate::planning::plan::{Plan, Violations};
+use crate::planning::outcome::{Plan, Violations};
 use crate::planning::profile::{replay_ee_error, resample};
 use crate::planning::settings::{PlannerSettings, Transcription};
 use crate::planning::task::{check_task, SwingTask};

@@ -1,9 +1,9 @@
 //! Plans that do not fail on obstacles: collision-free initial guesses (detour seeds, continuation on
 //! the obstacle radii), and a diagnosis of what blocks the swing when no strategy converges.
 //!
-//! The default guess (a smooth step to an inverse-kinematics target pose, [`super::planner`]) ignores the
+//! The default guess (a smooth step to an inverse-kinematics target pose, [`crate::planning::planner`]) ignores the
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
-//! infeasible set and its restoration phase often fails. [`super::plan_with_guess`] then
+//! infeasible set and its restoration phase often fails. [`crate::planning::plan_with_guess`] then
 //! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
 //! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
 //!    obstacles by barrier tracking, in a fixed measured order), each solved at full radius from its guess,
@@ -26,8 +26,8 @@
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::{NlpSettings, SolveStatus};
-use crate::planning::plan::Plan;
-use crate::planning::plan::SolveRole;
+use crate::planning::outcome::Plan;
+use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::PlannerSettings;
@@ -177,7 +177,7 @@ pub fn diagnose(
 }
 
 /// Plan with a collision-free initial guess (see the module docs); called by
-/// [`super::plan_with_guess`] without a guess when obstacles are avoided. The returned plan lists
+/// [`crate::planning::plan_with_guess`] without a guess when obstacles are avoided. The returned plan lists
 /// every solve in `solves` (and counts them in `iterations`, `attempts` and `solve_time_s`), carries
 /// a [`GuessReport`], and, when it did not converge, a [`Blockage`]. `nlp.max_wall_time_s` bounds
 /// the whole call: each solve gets what is left, and none starts once it is spent (the smooth

@@ -21,8 +21,8 @@
 use crate::error::Result;
 use crate::model::Robot;
 use crate::planning::nlp::{NlpSettings, SolveStatus};
-use crate::planning::plan::Plan;
-use crate::planning::plan::SolveRole;
+use crate::planning::outcome::Plan;
+use crate::planning::outcome::SolveRole;
 pub use crate::planning::report::MAX_STEPS;
 use crate::planning::report::{ContinuationStop, TorqueContinuation};
 use crate::planning::settings::PlannerSettings;

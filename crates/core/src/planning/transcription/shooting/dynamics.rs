@@ -73,6 +73,7 @@ impl PointDynamics for AnalyticDynamics {
             robot: Arc::clone(robot),
         }
     }
+    #[inline]
     fn value(&mut self, y: &[f64], qdd: &mut [f64]) {
         let n = self.robot.n;
         self.robot
@@ -81,16 +82,19 @@ impl PointDynamics for AnalyticDynamics {
         let (sn, cs) = self.ws.trig();
         self.d.provide_trig(&y[..n], sn, cs);
     }
+    #[inline]
     fn jacobian(&mut self, y: &[f64], qdd: &mut [f64], jac: &mut [f64]) {
         self.d.jacobian(&self.robot, y, qdd, jac);
         self.jac_y.copy_from_slice(y);
         self.jac_valid = true;
     }
+    #[inline]
     fn hessian_weighted(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         self.d.hessian_weighted(&self.robot, y, w, hess);
         self.jac_y.copy_from_slice(y);
         self.jac_valid = true;
     }
+    #[inline]
     fn hessian_weighted_reuse(&mut self, y: &[f64], w: &[f64], hess: &mut [f64]) {
         if self.jac_valid && self.jac_y == y {
             self.d.hessian_weighted_after_jacobian(&self.robot, w, hess);

@@ -9,7 +9,7 @@
 //!   `xdot = f(x, u) = [qd, qdd(q, qd, u)]` (the same arithmetic as [`crate::integrate::Rk4`]).
 //! - **Cost** (paper eq. 5 as a quadrature): `l_k = w_k ||qd_k||^2_Q1 + h ||u_k||^2_R1` with trapezoid
 //!   weights `w_k = h / 2` at the two ends and `h` inside (no torque term at k = K).
-//! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`]
+//! - **Stage inequalities** `c_k(q_k) >= 0`, k >= 1: the clearance rows of a [`DistanceClearanceFn`](crate::planning::DistanceClearanceFn)
 //!   (obstacles and non-adjacent links), when there are any; their value, Jacobian and weighted
 //!   Hessian in closed form ([`crate::model::ClearanceDerivatives`], AD the test oracle). With
 //!   [`SwingOcpSpec::substep_clearance`], stage k < K also carries the same rows at the states after
@@ -21,7 +21,7 @@
 //!   passes the sub-step state. Stage 0's sub-step rows are relaxed to `c >= min(0, c(q_start))`,
 //!   so a start pose within the margin stays feasible.
 //! - **Bounds**: `x_0` fixed to the start state; q1, the relative joints and qd from
-//!   [`Bounds`]; torques from the robot's limits.
+//!   [`Bounds`](crate::planning::Bounds); torques from the robot's limits.
 //! - **Terminal equalities** (eqs. 8-9): `r(x_K) = [ee_x - target_x, ee_y - target_y, ee_vx, ee_vy]`.
 //! - **Free swing time** (optional, [`SwingOcp::with_free_swing_time`]): `x_k = [q_k, qd_k, T_k]`,
 //!   `T_{k+1} = T_k`, T bounded by `[t_min, t_max]` at every stage and not fixed at stage 0; stage k
@@ -42,16 +42,16 @@
 //!
 //! Everything is allocated in [`SwingOcp::new`]; no evaluation allocates. When the horizon has at
 //! least `parallel_min_stages` stages and rayon has more than one thread, the problem owns a helper
-//! thread ([`worker`]) that evaluates the second half of the stages while the
+//! thread (`worker.rs`) that evaluates the second half of the stages while the
 //! calling thread evaluates the first; called from inside a rayon worker (a parameter study's cells),
 //! every stage is evaluated on the calling thread.
 //!
 //! ## Files
 //! - [`dynamics`]: the per-point derivatives of the forward dynamics ([`PointDynamics`] and its two
 //!   implementations).
-//! - [`stage`]: one stage's RK4 steps with their sensitivities and the reverse sweep of the Hessian.
-//! - [`kernels`]: the dense products of the stage.
-//! - [`parallel`]: the job that evaluates the tail of the stages on the helper thread ([`worker`]).
+//! - `stage.rs`: one stage's RK4 steps with their sensitivities and the reverse sweep of the Hessian.
+//! - `kernels.rs`: the dense products of the stage.
+//! - `parallel.rs`: the job that evaluates the tail of the stages on the helper thread (`worker.rs`).
 //! - [`ocp`]: [`SwingOcp`], the problem itself.
 
 pub mod dynamics;

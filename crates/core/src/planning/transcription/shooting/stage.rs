@@ -390,6 +390,7 @@ impl<D: PointDynamics> StageWork<D> {
 
     /// Cost, dynamics and clearance of stage k into `ev` (problem layout: with a free swing time
     /// `x` is `[q, qd, T]` and the stage variables `[q, qd, T, u]`).
+    #[inline]
     pub(super) fn evaluate(
         &mut self,
         ctx: &Ctx,
@@ -602,6 +603,7 @@ impl<D: PointDynamics> StageWork<D> {
     /// Hessian of `sigma l_k + lam^T Phi + mu^T c` w.r.t. z_k into `hess` (nz_k x nz_k, problem
     /// layout).
     #[allow(clippy::too_many_arguments)]
+    #[inline]
     pub(super) fn hessian(
         &mut self,
         ctx: &Ctx,

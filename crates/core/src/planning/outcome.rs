@@ -1,5 +1,5 @@
-//! A plan and what it reports: the solves it made, the violations at its solution, the strategy
-//! reports. Plain types, filled in by the solves and strategies above.
+//! What a planning call returns: the plan, the solves it made and the violations at its solution.
+//! Plain types, filled in by the solves and strategies.
 //!
 //! Units: s, m, rad, rad/s, N m, J.
 
