@@ -23,10 +23,12 @@ pub struct Args {
 /// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
 /// complete (its folder is still written), 3 on a write failure.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
-    let ll = LadderScenario::load(&a.scenario)?;
+    let mut ll = LadderScenario::load(&a.scenario)?;
+    // the figures' animation stops on Ctrl-C too
+    ll.scenario.solver.cancel = Some(cancel.clone());
     check_out_dir(&a.out, a.force)?;
     let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
-    let folder = tr.folder(&ll)?;
+    let folder = tr.folder(&ll).map_err(exp_error(&a.out))?;
     check_cancel(cancel, &a.out)?;
     folder.write(&a.out).map_err(exp_error(&a.out))?;
     for s in &tr.swings {
