@@ -228,6 +228,8 @@ impl Scenario {
             }
             None => None,
         };
+        // a setting that would have no effect on this controller and plant is refused, as the CLI does
+        brachia_experiments::check_settings_apply(ls, c, p).map_err(rs)?;
         let (ls, cancel) = with_cancel(ls);
         let out = interruptible(py, &cancel, || run_track(&ls, c, p, given))?.map_err(rs)?;
         match out {
