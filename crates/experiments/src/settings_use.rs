@@ -32,11 +32,54 @@ pub fn check_settings_apply(
     plant: PlantKind,
 ) -> Result<(), Error> {
     let src = ls.path.display().to_string();
-    let (t, p) = (&ls.scenario.tracking, &ls.scenario.plant);
+    check_sections(
+        &src,
+        &ls.scenario.tracking,
+        &ls.scenario.plant,
+        controller,
+        plant,
+    )
+}
+
+/// [`check_settings_apply`] for a traverse (`brachia traverse`), which runs the ladder scenario's own
+/// controller and plant on every swing: also a `[disturbances.ball]` on the model plant (which
+/// simulates no contacts) is refused.
+pub fn check_ladder_settings_apply(ll: &crate::ladder::LoadedLadder) -> Result<(), Error> {
+    let src = ll.path.display().to_string();
+    let sc = &ll.scenario;
+    check_sections(
+        &src,
+        &sc.tracking,
+        &sc.plant,
+        sc.tracking.controller,
+        sc.plant.kind,
+    )?;
+    if sc.plant.kind == PlantKind::Model {
+        if let Some(b) = &sc.disturbances.ball {
+            return Err(Error::invalid(
+                src,
+                "disturbances.ball",
+                format!("a ball on swing {}", b.swing),
+                "the model plant simulates no contacts, so the ball would be ignored: run the \
+                 traverse on the rapier plant (plant.kind = \"rapier\") or remove \
+                 [disturbances.ball]",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The rules of [`check_settings_apply`] on the sections `t` and `p` of the scenario file `src`.
+fn check_sections(
+    src: &str,
+    t: &TrackingSettings,
+    p: &crate::scenario::PlantSettings,
+    controller: ControllerKind,
+    plant: PlantKind,
+) -> Result<(), Error> {
     let name = controller_name(controller);
-    let refuse = |field: &str, value: String, why: String| {
-        Err(Error::invalid(src.clone(), field, value, why))
-    };
+    let refuse =
+        |field: &str, value: String, why: String| Err(Error::invalid(src, field, value, why));
     if t.replan.is_some() && controller != ControllerKind::Mpc {
         return refuse(
             "tracking.replan",
