@@ -139,5 +139,7 @@ for _ in $(seq "$ROUNDS"); do
   measure "benchmark --quick" 3 "$WORK/o7" "$BIN" benchmark --scenario scenarios/tracking.toml --quick --no-progress --out "$WORK/o7"
   measure "reproduce --quick" 3 "$WORK/o8" "$BIN" reproduce --quick --no-progress --out "$WORK/o8"
   measure "report of an 8 s plan folder (in its animation)" 0.4 - "$BIN" report "$WORK/plan8"
-  measure "view of an 8 s plan folder" 0.1 - "$BIN" view "$WORK/plan8"
+  # view does no long work: it is timed, not interrupted
+  t0=$(now); "$BIN" view "$WORK/plan8" 2>/dev/null; t1=$(now)
+  printf '| view of an 8 s plan folder | 0 | finishes in %.2f s | - |\n' "$(echo "$t1 - $t0" | bc -l)"
 done

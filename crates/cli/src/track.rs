@@ -78,7 +78,12 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
         check_out_apart(&a.out, dir, "--plan", true)?;
     }
-    let outcome = run_track(&ls, controller, plant, reference);
+    let outcome = {
+        let ls = ls.clone();
+        crate::stoppable::in_memory(cancel, &a.out, move || {
+            run_track(&ls, controller, plant, reference)
+        })?
+    };
     check_cancel(cancel, &a.out)?;
     let outcome = outcome?;
     match outcome {
