@@ -105,3 +105,14 @@ def test_keyboard_interrupt_stops_the_mpc_timing_loop(robot, tracking_plan):
     work = lambda: brachia.rust_mpc_step_times(robot, tracking_plan, 1_000_000)  # noqa: E731
     interrupted, took = interrupted_call(work, 0.3)
     check_prompt("rust_mpc_step_times, 1e6 calls", interrupted, took, 0.3)
+
+
+def test_keyboard_interrupt_stops_a_scenarios_plan(tmp_path, root):
+    text = (root / "scenarios" / "tracking.toml").read_text()
+    text = text.replace('params = "../params/paper.toml"', f'params = "{root / "params" / "paper.toml"}"')
+    text = text.replace('swing_time = "auto"', "swing_time = 20.0").replace("knot_dt = 0.03", "knot_dt = 0.01")
+    path = tmp_path / "long.toml"
+    path.write_text(text)
+    sc = brachia.Scenario.from_toml(path)
+    interrupted, took = interrupted_call(sc.plan)
+    check_prompt("Scenario.plan of a 20 s swing", interrupted, took)
