@@ -168,14 +168,19 @@ pub(crate) fn rust_mpc_step_times<'py>(
     let mut times = vec![0.0; steps];
     let mut x = vec![0.0; 2 * n];
     let mut tau = vec![0.0; n - 1];
-    py.detach(|| {
+    // Ctrl-C stops the calls between two of them and raises KeyboardInterrupt
+    let cancel = brachia::CancelToken::new();
+    crate::interrupt::interruptible(py, &cancel, || {
         for (k, out) in times.iter_mut().enumerate() {
+            if cancel.is_cancelled() {
+                break;
+            }
             let t = k as f64 * dt;
             reference.state_at(t, &mut x);
             let start = Instant::now();
             m.control(t, &x, &mut tau);
             *out = start.elapsed().as_secs_f64();
         }
-    });
+    })?;
     arr1(py, &times)
 }

@@ -4,7 +4,9 @@
 //! thread waits without the GIL in short slices and, between them, asks Python for pending signals
 //! (`Python::check_signals`). A pending `KeyboardInterrupt` (or any exception a signal handler raises)
 //! sets the token; the worker's solves stop at their next iteration, its loops at their next check,
-//! and the call raises that exception once the worker has returned.
+//! and the call raises that exception once the worker has returned. Work that owns everything it
+//! uses and changes nothing the caller can see (a plan, a scenario's run) is not waited for:
+//! [`interruptible_owned`] raises at once and leaves the worker to end at its next check.
 
 use brachia::CancelToken;
 use pyo3::prelude::*;
@@ -47,4 +49,36 @@ pub(crate) fn interruptible<T: Send>(
             (None, Err(p)) => std::panic::resume_unwind(p),
         }
     })
+}
+
+/// [`interruptible`] for work that owns its data and changes nothing the caller sees: on a signal the
+/// token is set and the signal's exception is raised at once, without waiting for the worker, which
+/// stops at its next check and whose result is dropped.
+pub(crate) fn interruptible_owned<T: Send + 'static>(
+    py: Python<'_>,
+    cancel: &CancelToken,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    let handle = std::thread::Builder::new()
+        .name("brachia-work".into())
+        .spawn(work)
+        .map_err(|e| crate::convert::bad(format!("could not start the work: {e}")))?;
+    while !handle.is_finished() {
+        py.detach(|| {
+            let step = Duration::from_millis(1);
+            let mut waited = Duration::ZERO;
+            while waited < POLL && !handle.is_finished() {
+                std::thread::sleep(step);
+                waited += step;
+            }
+        });
+        if let Err(e) = py.check_signals() {
+            cancel.cancel();
+            return Err(e);
+        }
+    }
+    match py.detach(|| handle.join()) {
+        Ok(v) => Ok(v),
+        Err(p) => std::panic::resume_unwind(p),
+    }
 }

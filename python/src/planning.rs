@@ -8,7 +8,7 @@
 
 use crate::convert::{arr1, arr2, bad, check_slice, exp, rs, Range};
 use crate::dicts::{from_value, merged, to_py};
-use crate::interrupt::interruptible;
+use crate::interrupt::interruptible_owned;
 use crate::model::{Robot, Trajectory};
 use brachia::planning::{NlpSettings, PlannerSettings, SwingTask};
 use brachia_experiments::scenario::LoadedScenario;
@@ -258,10 +258,13 @@ pub(crate) fn plan(
     // Ctrl-C stops the solve at its next iteration and raises KeyboardInterrupt
     let cancel = brachia::CancelToken::new();
     nlp.cancel = Some(cancel.clone());
-    let p = interruptible(py, &cancel, || {
-        brachia::planning::plan(&r, &task, &planner, &nlp)
-    })?
-    .map_err(rs)?;
+    let p = {
+        let (r, task, planner, nlp) = (r.clone(), task.clone(), planner.clone(), nlp.clone());
+        interruptible_owned(py, &cancel, move || {
+            brachia::planning::plan(&r, &task, &planner, &nlp)
+        })?
+        .map_err(rs)?
+    };
     nlp.cancel = None;
     Ok(plan_with_report(r, task, planner, nlp, p))
 }

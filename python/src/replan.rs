@@ -7,12 +7,14 @@
 //! the start of the swing); a `Plan` of a re-plan runs on its own clock, 0 at `t_now`.
 
 use crate::convert::{arr1, arr2, bad, read_vector, rs, Arg, Range, Real};
+use crate::interrupt::interruptible;
 use crate::model::Robot;
 use crate::planning::{plan_settings_from, plan_with_report, task_from, Plan};
 use crate::shared::{Guard, Shared};
 use brachia::planning::{
     validate_task, Backend, NlpSettings, PlannerSettings, SwingTask, Transcription,
 };
+use brachia::CancelToken;
 use brachia_experiments::parameter_study::status_name;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -172,18 +174,36 @@ impl PlannerState {
     ) -> PyResult<ReplanOutcome> {
         let what = "the state [q, qd], rad and rad/s";
         read_vector(x_now, Arg::new("x_now", what, Range::State), &mut self.x_in)?;
-        let (inner, x) = (&mut self.inner, &self.x_in);
-        let out = py
-            .detach(|| {
+        let x = self.x_in.clone();
+        let out = self
+            .interruptible(py, |inner| {
                 if warm {
-                    inner.replan(t_now, x)
+                    inner.replan(t_now, &x)
                 } else {
-                    inner.replan_cold(t_now, x)
+                    inner.replan_cold(t_now, &x)
                 }
-            })
+            })?
             .map_err(rs)?;
         self.x_start.copy_from_slice(&self.x_in);
         Ok(ReplanOutcome { inner: out })
+    }
+
+    /// Run `work` on the planner with a fresh cancel token in its cold and warm solver settings,
+    /// the calling thread waiting for Python signals (`crate::interrupt`): Ctrl-C stops the solve at
+    /// its next iteration and raises `KeyboardInterrupt`. The token is removed afterwards.
+    fn interruptible<T: Send>(
+        &mut self,
+        py: Python<'_>,
+        work: impl FnOnce(&mut brachia::planning::SwingPlanner) -> T + Send,
+    ) -> PyResult<T> {
+        let cancel = CancelToken::new();
+        self.inner.cold_settings_mut().cancel = Some(cancel.clone());
+        self.inner.warm_settings_mut().cancel = Some(cancel.clone());
+        let inner = &mut self.inner;
+        let out = interruptible(py, &cancel, || work(inner));
+        self.inner.cold_settings_mut().cancel = None;
+        self.inner.warm_settings_mut().cancel = None;
+        out
     }
 
     /// The current solution as a `Plan`.
@@ -243,8 +263,8 @@ impl SwingPlanner {
     fn plan(&self, py: Python<'_>) -> PyResult<Plan> {
         let mut s = self.lock(py)?;
         let s = &mut *s;
-        let inner = &mut s.inner;
-        py.detach(|| inner.plan_outcome()).map_err(rs)?;
+        s.interruptible(py, |inner| inner.plan_outcome())?
+            .map_err(rs)?;
         task_start(s.inner.task(), &mut s.x_start);
         s.current_plan(py)
     }
@@ -370,8 +390,9 @@ impl SwingPlanner {
     fn restore(&self, py: Python<'_>, checkpoint: &Checkpoint) -> PyResult<ReplanOutcome> {
         let mut s = self.lock(py)?;
         let s = &mut *s;
-        let inner = &mut s.inner;
-        let out = py.detach(|| inner.restore(&checkpoint.inner)).map_err(rs)?;
+        let out = s
+            .interruptible(py, |inner| inner.restore(&checkpoint.inner))?
+            .map_err(rs)?;
         // the restored solution starts where the checkpoint's does (not necessarily at the last
         // x_now handed in: that re-plan may not have converged)
         s.x_start.copy_from_slice(&s.inner.knots().x[0]);

@@ -4,7 +4,7 @@
 
 use crate::convert::{bad, rs};
 use crate::dicts::to_py;
-use crate::interrupt::interruptible;
+use crate::interrupt::interruptible_owned;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;
@@ -183,7 +183,10 @@ impl Scenario {
     /// A solve that does not converge is a ``Plan`` with its status.
     fn plan(&self, py: Python<'_>) -> PyResult<Plan> {
         let (ls, cancel) = with_cancel(&self.ls);
-        let run = interruptible(py, &cancel, || run_plan(&ls))?.map_err(rs)?;
+        let run = {
+            let ls = ls.clone();
+            interruptible_owned(py, &cancel, move || run_plan(&ls))?.map_err(rs)?
+        };
         let report = folder_report(&run.folder);
         Ok(Plan::new(
             self.robot.clone(),
@@ -228,8 +231,13 @@ impl Scenario {
             }
             None => None,
         };
+        // a setting that would have no effect on this controller and plant is refused, as the CLI does
+        brachia_experiments::check_settings_apply(ls, c, p).map_err(rs)?;
         let (ls, cancel) = with_cancel(ls);
-        let out = interruptible(py, &cancel, || run_track(&ls, c, p, given))?.map_err(rs)?;
+        let out = {
+            let ls = ls.clone();
+            interruptible_owned(py, &cancel, move || run_track(&ls, c, p, given))?.map_err(rs)?
+        };
         match out {
             TrackOutcome::Tracked(run) => {
                 let report = folder_report(&run.folder);

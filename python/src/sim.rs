@@ -8,6 +8,7 @@
 use crate::control::{reference_of, Mpc, MpcState};
 use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, Count, Real};
 use crate::dicts::to_py;
+use crate::interrupt::interruptible;
 use crate::model::Robot;
 use crate::planning::Plan;
 use crate::plants::{ModelPlant, RapierPlant};
@@ -234,7 +235,7 @@ fn controller_for<'a>(
     Ok(Ctrl::Owned(c))
 }
 
-/// Run `ctrl` against `plant` with the GIL released.
+/// Run `ctrl` against `plant` with the GIL released, stopped by Ctrl-C (`KeyboardInterrupt`).
 fn run_released(
     py: Python<'_>,
     plant: &mut (dyn Plant + Send),
@@ -244,14 +245,20 @@ fn run_released(
     settings: &RunSettings,
     noise: NoiseSettings,
 ) -> PyResult<ClosedLoopLog> {
-    py.detach(|| {
+    // Ctrl-C stops the loop at its next check (every 64 control steps) and raises KeyboardInterrupt
+    let cancel = brachia::CancelToken::new();
+    let settings = RunSettings {
+        cancel: Some(cancel.clone()),
+        ..settings.clone()
+    };
+    interruptible(py, &cancel, || {
         if noise.q_std == 0.0 && noise.qd_std == 0.0 {
-            run_closed_loop(plant, ctrl, reference, robot, settings)
+            run_closed_loop(plant, ctrl, reference, robot, &settings)
         } else {
             let mut noisy = Noisy::new(plant, noise)?;
-            run_closed_loop(&mut noisy, ctrl, reference, robot, settings)
+            run_closed_loop(&mut noisy, ctrl, reference, robot, &settings)
         }
-    })
+    })?
     .map_err(rs)
 }
 

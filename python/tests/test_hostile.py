@@ -567,3 +567,32 @@ def test_real_scalars_of_any_numeric_type_convert(robot):
     assert a.time == b.time
     np.testing.assert_array_equal(a.state(), b.state())
     assert brachia.ModelPlant(robot, substeps=np.int32(3)).substeps == 3
+
+
+# ---- settings that would have no effect on the run: refused before any work, as the CLI does ----
+
+def scenario_with(tmp_path, root, extra):
+    """The tracking scenario with `extra` appended, as a Scenario."""
+    text = (root / "scenarios" / "tracking.toml").read_text()
+    text = text.replace('params = "../params/paper.toml"', f'params = "{root / "params" / "paper.toml"}"')
+    path = tmp_path / "s.toml"
+    path.write_text(text + "\n" + extra + "\n")
+    return brachia.Scenario.from_toml(path), str(path)
+
+
+@pytest.mark.parametrize(
+    "extra, controller, plant, field",
+    [
+        ("[tracking]\nreplan = { threshold_m = 0.01 }", "pd", None, "tracking.replan"),
+        ("[tracking]\nreplan = { threshold_m = 0.01 }", "open-loop", None, "tracking.replan"),
+        ("[tracking]\nkalman = true", "open-loop", None, "tracking.kalman"),
+        ("[tracking.estimator]\nmeas_q_std = 0.01", None, None, "tracking.estimator"),
+        ("[tracking.mpc]\nhorizon = 30", "pd", None, "tracking.mpc"),
+        ("[plant]\nlink_friction = 0.9", None, "model", "plant.link_friction"),
+    ],
+)
+def test_scenario_track_refuses_a_setting_it_would_ignore(tmp_path, root, extra, controller, plant, field):
+    sc, path = scenario_with(tmp_path, root, extra)
+    with pytest.raises(brachia.BrachiaError, match=re.escape(field)) as e:
+        sc.track(controller=controller, plant=plant)
+    assert path in str(e.value)

@@ -11,6 +11,7 @@ mod plan;
 mod report;
 mod reproduce;
 mod simulate;
+mod stoppable;
 mod track;
 mod traverse;
 mod view;

@@ -30,7 +30,10 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     check_out_dir(&a.out, a.force)?;
     // every solve checks the token between its iterations, every strategy before its solves
     ls.scenario.solver.cancel = Some(cancel.clone());
-    let run = run_plan(&ls);
+    let run = {
+        let ls = ls.clone();
+        crate::stoppable::in_memory(cancel, &a.out, move || run_plan(&ls))?
+    };
     check_cancel(cancel, &a.out)?;
     let mut run = run?;
     if !a.no_view {

@@ -4,8 +4,8 @@ use crate::{check_cancel, exp_error, CliError};
 use brachia::sim::DIVERGENCE_BOUND;
 use brachia_experiments::view::{track_run_page, VIEW_FILE};
 use brachia_experiments::{
-    check_out_apart, check_out_dir, read_plan_folder, run_track, CancelToken, ControllerKind,
-    PlantKind, RunFolder, Scenario, TrackOutcome, REPLAY_TRUST_M, SUCCESS_RADIUS_M,
+    check_out_apart, check_out_dir, check_settings_apply, read_plan_folder, run_track, CancelToken,
+    ControllerKind, PlantKind, RunFolder, Scenario, TrackOutcome, REPLAY_TRUST_M, SUCCESS_RADIUS_M,
 };
 use std::path::PathBuf;
 
@@ -67,6 +67,8 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         Some(PlantArg::Rapier) => PlantKind::Rapier,
         None => ls.scenario.plant.kind,
     };
+    // a setting that would have no effect on this controller and plant is refused, not ignored
+    check_settings_apply(&ls, controller, plant)?;
     let reference = match &a.plan {
         Some(dir) => Some(read_plan_folder(dir, &ls)?),
         None => None,
@@ -76,7 +78,12 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
         check_out_apart(&a.out, dir, "--plan", true)?;
     }
-    let outcome = run_track(&ls, controller, plant, reference);
+    let outcome = {
+        let ls = ls.clone();
+        crate::stoppable::in_memory(cancel, &a.out, move || {
+            run_track(&ls, controller, plant, reference)
+        })?
+    };
     check_cancel(cancel, &a.out)?;
     let outcome = outcome?;
     match outcome {

@@ -2,7 +2,10 @@
 //! scenario's plant (`[plant] kind`: the model, or rapier with the grip rebuilt at every bar), into a staged run folder (see `brachia_experiments::traverse`).
 
 use crate::{check_cancel, exp_error, CliError};
-use brachia_experiments::{check_out_dir, run_traverse_cancellable, CancelToken, LadderScenario};
+use brachia_experiments::{
+    check_ladder_settings_apply, check_out_dir, run_traverse_cancellable, CancelToken,
+    LadderScenario,
+};
 use std::path::PathBuf;
 
 /// Arguments of `brachia traverse`.
@@ -23,10 +26,14 @@ pub struct Args {
 /// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
 /// complete (its folder is still written), 3 on a write failure.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
-    let ll = LadderScenario::load(&a.scenario)?;
+    let mut ll = LadderScenario::load(&a.scenario)?;
+    // a setting that would have no effect on the ladder's controller and plant is refused, not ignored
+    check_ladder_settings_apply(&ll)?;
+    // the figures' animation stops on Ctrl-C too
+    ll.scenario.solver.cancel = Some(cancel.clone());
     check_out_dir(&a.out, a.force)?;
     let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
-    let folder = tr.folder(&ll)?;
+    let folder = tr.folder(&ll).map_err(exp_error(&a.out))?;
     check_cancel(cancel, &a.out)?;
     folder.write(&a.out).map_err(exp_error(&a.out))?;
     for s in &tr.swings {

@@ -173,10 +173,11 @@ fn ctrl_c_stops_a_benchmark_between_and_inside_its_runs() {
 }
 
 #[test]
-fn ctrl_c_stops_a_report_between_its_figures() {
+fn ctrl_c_stops_a_report_inside_its_animation() {
     let dir = tempfile::tempdir().unwrap();
     // a plan folder of an 8 s swing (stopped after a few iterations: its report is written all the
-    // same), whose figures take longer to draw than the test waits
+    // same), whose figures (a stick diagram, then an animation of 201 frames) take longer to draw than
+    // the test waits
     let sc = long_swing(dir.path(), 8.0, 0.03, "", "backend = \"ocp\"\nmax_iter = 3");
     let plan = dir.path().join("plan");
     let o = brachia()
@@ -203,4 +204,123 @@ fn ctrl_c_stops_a_report_between_its_figures() {
         std::fs::read(plan.join("report.json")).unwrap(),
         report_before
     );
+}
+
+/// A plan folder of the tracking swing, for the track tests.
+fn tracking_plan(dir: &Path) -> PathBuf {
+    let plan = dir.join("tracking-plan");
+    let o = brachia()
+        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    plan
+}
+
+/// The tracking swing followed by a minute of hold: a closed loop of about 62 000 control steps.
+fn held_swing(dir: &Path) -> PathBuf {
+    let sc = dir.join("hold.toml");
+    let text = std::fs::read_to_string(root().join("scenarios/tracking.toml"))
+        .unwrap()
+        .replace(
+            "\"../params/paper.toml\"",
+            &format!("{:?}", root().join("params/paper.toml")),
+        );
+    std::fs::write(&sc, format!("{text}\n[tracking]\nhold_s = 60.0\n")).unwrap();
+    sc
+}
+
+fn ctrl_c_stops_a_long_track(plant: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = tracking_plan(dir.path());
+    let sc = held_swing(dir.path());
+    let out = previous_results(dir.path(), "track");
+    let before = listing(&out);
+    let mut cmd = brachia();
+    cmd.args(["track", "--plant", plant, "--scenario"])
+        .arg(&sc)
+        .arg("--plan")
+        .arg(&plan)
+        .arg("--out")
+        .arg(&out);
+    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1500));
+    check(
+        &format!("track, MPC on the {plant} plant, 60 s hold"),
+        code,
+        took,
+        &stderr,
+    );
+    assert_untouched(&out, &before);
+}
+
+#[test]
+fn ctrl_c_stops_a_track_on_the_model_plant_in_its_closed_loop() {
+    ctrl_c_stops_a_long_track("model");
+}
+
+#[test]
+fn ctrl_c_stops_a_track_on_the_rapier_plant_in_its_closed_loop() {
+    ctrl_c_stops_a_long_track("rapier");
+}
+
+#[test]
+fn ctrl_c_stops_a_long_simulation() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = previous_results(dir.path(), "sim");
+    let before = listing(&out);
+    let mut cmd = brachia();
+    // 600 s at 1 ms rows with 30 RK4 steps each: 18 million steps (the limit is 20 million)
+    cmd.args([
+        "simulate",
+        "--params",
+        "params/paper.toml",
+        "--q0=-2.35,0,-1.55,0",
+        "--duration",
+        "600",
+        "--substeps",
+        "30",
+        "--out",
+    ])
+    .arg(&out);
+    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1000));
+    check("simulate 600 s", code, took, &stderr);
+    assert_untouched(&out, &before);
+}
+
+#[test]
+fn ctrl_c_stops_a_traverse() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = previous_results(dir.path(), "traverse");
+    let before = listing(&out);
+    let mut cmd = brachia();
+    // the irregular ladder on the rapier plant: many swings, each planned and tracked
+    cmd.args([
+        "traverse",
+        "--scenario",
+        "scenarios/ladder-irregular-rapier.toml",
+        "--out",
+    ])
+    .arg(&out);
+    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(2000));
+    check("traverse", code, took, &stderr);
+    assert_untouched(&out, &before);
+}
+
+#[test]
+fn ctrl_c_stops_a_reproduction() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = previous_results(dir.path(), "reproduce");
+    let before = listing(&out);
+    let mut cmd = brachia();
+    cmd.args(["reproduce", "--quick", "--no-progress", "--out"])
+        .arg(&out);
+    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(2000));
+    check("reproduce --quick", code, took, &stderr);
+    assert_untouched(&out, &before);
 }

@@ -1181,9 +1181,11 @@ impl Benchmark {
     /// it was).
     pub fn write_cancellable(&self, dir: &Path, cancel: &CancelToken) -> Result<(), ExpError> {
         let stage = stage_for(dir)?;
-        let r = self
-            .folder()
-            .write_into(&stage)
+        let folder = self.folder();
+        // the staging folder's manifest lists the files before they are written: a benchmark killed
+        // half-way leaves a staging folder whose files the next run can prove are brachia's
+        let r = crate::run_folder::list_in_stage(&folder, &stage)
+            .and_then(|()| folder.write_into(&stage))
             .and_then(|()| cancel.check().map_err(ExpError::from))
             .and_then(|()| self.draw_plots(&stage))
             .and_then(|()| cancel.check().map_err(ExpError::from));

@@ -21,6 +21,7 @@ pub mod reproduce;
 pub mod run_folder;
 pub mod scenario;
 pub mod schema;
+pub mod settings_use;
 pub mod success;
 pub mod track_run;
 pub mod traverse;
@@ -44,6 +45,7 @@ pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
 pub use read::{read_parameter_study, PlanFolder, TrackFolder};
 pub use run_folder::{check_out_apart, check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
+pub use settings_use::{check_ladder_settings_apply, check_settings_apply};
 pub use success::{capture, Capture, SUCCESS_RADIUS_M};
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,

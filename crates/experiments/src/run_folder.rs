@@ -80,16 +80,7 @@ impl RunFolder {
     /// module docs; the user's files, sub-folders and the folder's permissions are kept).
     pub fn write(&self, dir: &Path) -> Result<(), ExpError> {
         let stage = stage_for(dir)?;
-        // the staging folder's manifest lists every file before it is written: a run killed half-way
-        // leaves a staging folder whose files the next run can prove are brachia's
-        let stamps: BTreeMap<PathBuf, Stamp> = self
-            .files
-            .iter()
-            .filter_map(|(n, d)| manifest::inside_rel(n).map(|p| (p, Stamp::of(d))))
-            .collect();
-        let written = std::fs::write(stage.join(MANIFEST), manifest_text(&stamps))
-            .map_err(|e| werr(&stage, e))
-            .and_then(|()| self.write_into(&stage));
+        let written = list_in_stage(self, &stage).and_then(|()| self.write_into(&stage));
         match written {
             // install removes the staging folder itself
             Ok(()) => install(&stage, dir),
@@ -138,6 +129,18 @@ impl RunFolder {
         }
         Ok(())
     }
+}
+
+/// Write the manifest of the staging folder `stage` listing every file of `folder` (size and CRC-32)
+/// before they are written: a run killed half-way leaves a staging folder whose files the next run
+/// can prove are brachia's.
+pub(crate) fn list_in_stage(folder: &RunFolder, stage: &Path) -> Result<(), ExpError> {
+    let stamps: BTreeMap<PathBuf, Stamp> = folder
+        .files
+        .iter()
+        .filter_map(|(n, d)| manifest::inside_rel(n).map(|p| (p, Stamp::of(d))))
+        .collect();
+    std::fs::write(stage.join(MANIFEST), manifest_text(&stamps)).map_err(|e| werr(stage, e))
 }
 
 /// The folder `dir` lives in (`.` for a bare name).
@@ -194,15 +197,22 @@ pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
     }
 }
 
-/// Clear the staging folder `stage` of a run that no longer runs: remove the files its manifest proves
-/// brachia wrote, then the manifest and every folder left empty. Anything else stays.
+/// Clear the staging folder `stage` of a run that no longer runs: in it and in every folder under it
+/// that holds a manifest (the run folders a reproduction had written into its stage, a nested staging
+/// folder), remove the files that manifest proves brachia wrote, then the manifest; then every folder
+/// left empty. Anything else stays.
 fn remove_stale_stage(stage: &Path) {
-    if let Ok(Some(m)) = manifest::read_manifest(stage) {
-        for rel in proven_files(stage, &m) {
-            let _ = std::fs::remove_file(stage.join(rel));
-        }
-        if manifest::plain_file(stage, Path::new(MANIFEST)) {
-            let _ = std::fs::remove_file(stage.join(MANIFEST));
+    let (_, dirs) = entries_under(stage);
+    // deepest first, so a folder's manifest is read before its parent's clearing could touch it
+    for rel in std::iter::once(PathBuf::new()).chain(dirs).rev() {
+        let dir = stage.join(&rel);
+        if let Ok(Some(m)) = manifest::read_manifest(&dir) {
+            for f in proven_files(&dir, &m) {
+                let _ = std::fs::remove_file(dir.join(f));
+            }
+            if manifest::plain_file(&dir, Path::new(MANIFEST)) {
+                let _ = std::fs::remove_file(dir.join(MANIFEST));
+            }
         }
     }
     let (_, dirs) = entries_under(stage);

@@ -1039,7 +1039,9 @@ impl Traverse {
     /// The run folder: `traverse.csv`, `report.json`, `scenario.toml` (the resolved inputs) and the
     /// figures `traverse_stick.png/.svg` (every 0.25 s, world frame), `traverse.gif` (the whole
     /// traverse in the world at 20 frames per second) and `energy_per_swing.png/.svg`.
-    /// Figures are rendered into a private temporary folder and queued like every other file.
+    /// Figures are rendered into a private temporary folder and queued like every other file. The
+    /// animation checks `ll.scenario.solver.cancel` before every frame: once it is set this returns
+    /// [`crate::ExpError::Cancelled`].
     pub fn folder(&self, ll: &LoadedLadder) -> Result<RunFolder, crate::ExpError> {
         let mut folder = RunFolder::default();
         folder.add("traverse.csv", self.to_csv());
@@ -1095,9 +1097,12 @@ impl Traverse {
             }
         }
         let _ = std::fs::remove_dir_all(&tmp);
-        drawn.map_err(|e| crate::ExpError::Write {
-            path: e.path().to_path_buf(),
-            source: std::io::Error::other(e.to_string()),
+        drawn.map_err(|e| match e {
+            brachia_plot::PlotError::Cancelled { .. } => crate::ExpError::Cancelled,
+            e => crate::ExpError::Write {
+                path: e.path().to_path_buf(),
+                source: std::io::Error::other(e.to_string()),
+            },
         })?;
         result.map(|()| folder)
     }
@@ -1167,6 +1172,7 @@ impl Traverse {
                 bars: fig.bars.clone(),
                 target: fig.target,
                 obstacles: fig.obstacles.clone(),
+                cancel: ll.scenario.solver.cancel.clone(),
                 ..AnimOptions::default()
             },
         )?;

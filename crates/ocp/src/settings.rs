@@ -53,9 +53,10 @@ pub struct OcpSettings {
     /// factorisation, and is kept only if the step to the boundary grows enough (docs/ocp.md,
     /// sections 6 and 13). Not in the restoration phase. Default 0.
     pub centrality_correctors: usize,
-    /// A cancel flag checked once per iteration (restoration iterations included), beside
-    /// `max_wall_time_s`: once it is set the solve ends with [`OcpStatus::Cancelled`] at the next
-    /// iteration, returning the iterate it reached. Not part of a settings file (skipped by serde).
+    /// A cancel flag checked at the top of every iteration (restoration iterations included), beside
+    /// `max_wall_time_s`, and again between its phases (after the Hessians, after the Newton step,
+    /// after the line search): once it is set the solve ends with [`OcpStatus::Cancelled`] at the
+    /// next of these, returning the last accepted iterate. Not part of a settings file (skipped by serde).
     /// Default `None`.
     #[serde(skip)]
     pub cancel: Option<crate::CancelToken>,

@@ -69,7 +69,7 @@ fn a_token_set_before_the_solve_stops_it_before_the_first_step() {
 }
 
 #[test]
-fn a_token_set_during_the_solve_stops_it_at_the_next_iteration() {
+fn a_token_set_during_an_iteration_stops_it_before_its_step() {
     let mut solver = OcpSolver::new(&pendulum().dims).unwrap();
     // the uncancelled solve takes many more iterations than where the token is set
     let full = solver.solve(&mut pendulum(), &OcpSettings::default());
@@ -89,8 +89,9 @@ fn a_token_set_during_the_solve_stops_it_at_the_next_iteration() {
     };
     let stats = solver.solve(&mut p, &st);
     assert_eq!(stats.status, OcpStatus::Cancelled);
-    // the iteration that asked for the `at`-th Hessians finishes; the next one stops
-    assert_eq!(stats.iterations, at, "{stats:?}");
+    // the iteration that asked for the `at`-th Hessians stops right after them, before its step:
+    // `at - 1` iterations were completed
+    assert_eq!(stats.iterations, at - 1, "{stats:?}");
     assert!(stats.objective.is_finite());
 }
 

@@ -12,7 +12,7 @@ use crate::spatial::{
     pose_at, BallSample, Obstacle, Scene,
 };
 use brachia::trajectory::Trajectory;
-use brachia::Robot;
+use brachia::{CancelToken, Robot};
 use plotters::style::RGBColor;
 use std::path::Path;
 
@@ -39,6 +39,9 @@ pub struct AnimOptions {
     pub trail: bool,
     /// Extra time the last frame stays on screen before the loop restarts, s (>= 0). Default 1.
     pub end_pause_s: f64,
+    /// Checked before every frame: once it is set the animation stops with
+    /// [`PlotError::Cancelled`] and nothing is written. Default `None` (never stopped).
+    pub cancel: Option<CancelToken>,
 }
 
 impl Default for AnimOptions {
@@ -53,6 +56,7 @@ impl Default for AnimOptions {
             balls: Vec::new(),
             trail: true,
             end_pause_s: 1.0,
+            cancel: None,
         }
     }
 }
@@ -70,7 +74,8 @@ pub fn frame_times(t0: f64, t1: f64, fps: f64) -> Vec<f64> {
 /// Write an animated GIF of `traj` to `path` (must end in `.gif`), looping forever.
 ///
 /// Errors: [`PlotError::InvalidData`] for a bad trajectory (as [`crate::stick_diagram`]), fps or size
-/// out of range, more than [`MAX_FRAMES`] frames; I/O errors name the file.
+/// out of range, more than [`MAX_FRAMES`] frames; [`PlotError::Cancelled`] once `opts.cancel` is set
+/// (checked before every frame); I/O errors name the file.
 pub fn animate_gif(
     path: impl AsRef<Path>,
     robot: &Robot,
@@ -144,6 +149,11 @@ fn encode_frames(
         let pause = (opts.end_pause_s * 100.0).round().min(60000.0) as u16;
         let mut indices = vec![0u8; w as usize * h as usize];
         for (fi, fr) in frames.enumerate() {
+            if opts.cancel.as_ref().is_some_and(CancelToken::is_cancelled) {
+                return Err(PlotError::Cancelled {
+                    path: path.to_path_buf(),
+                });
+            }
             let mut scene = Scene::new(&opts.title, &opts.bars, opts.target, &opts.obstacles);
             scene.bounds = bounds;
             scene.trail = fr.trail;

@@ -40,6 +40,13 @@ pub enum PlotError {
         /// The backend's message.
         message: String,
     },
+    /// The caller's cancel token was set while an animation was being drawn (checked before every
+    /// frame); nothing was written.
+    #[error("{path}: cancelled before it was written")]
+    Cancelled {
+        /// The file that was being drawn.
+        path: PathBuf,
+    },
     /// Encoding the image (PNG or GIF) failed.
     #[error("{path}: encoding failed: {message}")]
     Encode {
@@ -58,6 +65,7 @@ impl PlotError {
             | PlotError::InvalidPath { path, .. }
             | PlotError::Io { path, .. }
             | PlotError::Render { path, .. }
+            | PlotError::Cancelled { path }
             | PlotError::Encode { path, .. } => path,
         }
     }

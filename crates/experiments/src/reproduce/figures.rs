@@ -56,6 +56,11 @@ impl FigureDir {
     pub(crate) fn gif(&mut self, name: &str) -> PathBuf {
         self.path(name, "gif")
     }
+
+    /// The cancel token, for the animations to check before every frame.
+    fn cancel(&self) -> Option<CancelToken> {
+        Some(self.cancel.clone())
+    }
 }
 
 /// The static obstacles a planner knew, for drawing.
@@ -112,6 +117,7 @@ fn anim_options(
     target: [f64; 2],
     obstacles: Vec<Obstacle>,
     balls: Vec<Vec<BallSample>>,
+    cancel: Option<CancelToken>,
 ) -> AnimOptions {
     AnimOptions {
         title: title.into(),
@@ -119,6 +125,7 @@ fn anim_options(
         target: Some(target),
         obstacles,
         balls,
+        cancel,
         ..AnimOptions::default()
     }
 }
@@ -373,12 +380,8 @@ pub(crate) fn tracked_gif(
     target: [f64; 2],
 ) -> Result<(), PlotError> {
     let (fixed, balls) = world_drawing(&run.world);
-    animate_gif(
-        figs.gif(name),
-        robot,
-        &run.log.trajectory(),
-        &anim_options(title, target, fixed, balls),
-    )
+    let opts = anim_options(title, target, fixed, balls, figs.cancel());
+    animate_gif(figs.gif(name), robot, &run.log.trajectory(), &opts)
 }
 
 /// An animation of a plan.
@@ -391,10 +394,12 @@ pub(crate) fn planned_gif(
     target: [f64; 2],
     obstacles: &[brachia::model::Circle],
 ) -> Result<(), PlotError> {
-    animate_gif(
-        figs.gif(name),
-        robot,
-        traj,
-        &anim_options(title, target, task_obstacles(obstacles), Vec::new()),
-    )
+    let opts = anim_options(
+        title,
+        target,
+        task_obstacles(obstacles),
+        Vec::new(),
+        figs.cancel(),
+    );
+    animate_gif(figs.gif(name), robot, traj, &opts)
 }

@@ -281,6 +281,8 @@ pub fn reproduce_cancellable(
     if opts.quick {
         ll_ladder.scenario.ladder.bars.truncate(QUICK_BARS);
     }
+    // its figures' animation stops on the token too
+    ll_ladder.scenario.solver.cancel = Some(cancel.clone());
     let study_settings = study::settings(&ls_track, opts.quick);
     study_settings.validate()?;
     // the output places are checked before any work

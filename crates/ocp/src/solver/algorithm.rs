@@ -48,6 +48,11 @@ impl OcpSolver {
             if let Err(e) = self.it.hessians(p, &self.data.lay, sigma, stats) {
                 break OcpStatus::EvaluationError(e);
             }
+            // the flag is also checked between the phases of an iteration (the iterate is unchanged
+            // until a step is accepted), so a long iteration stops at its next phase
+            if cancelled(st) {
+                break OcpStatus::Cancelled;
+            }
             let step = if probing {
                 self.probing_direction(&mut barrier, stats)
             } else {
@@ -55,6 +60,9 @@ impl OcpSolver {
             };
             if let Err(e) = step {
                 break OcpStatus::NumericalError(e);
+            }
+            if cancelled(st) {
+                break OcpStatus::Cancelled;
             }
             let mu = barrier.mu;
             let tau = TAU_MIN.max(1.0 - mu);
@@ -75,6 +83,10 @@ impl OcpSolver {
                 Err(e) => break OcpStatus::NumericalError(e),
             };
             let ls_eval = stats.time.evaluation_s - eval_before;
+            if cancelled(st) {
+                stats.time.line_search_s += tl.elapsed().as_secs_f64() - ls_eval;
+                break OcpStatus::Cancelled;
+            }
             let Some(acc) = accepted else {
                 stats.time.line_search_s += tl.elapsed().as_secs_f64() - ls_eval;
                 if in_resto {
@@ -155,7 +167,7 @@ impl OcpSolver {
                 return Some(OcpStatus::MaxWallTime);
             }
         }
-        if st.cancel.as_ref().is_some_and(|c| c.is_cancelled()) {
+        if cancelled(st) {
             return Some(OcpStatus::Cancelled);
         }
         if !self.resto.count_iteration(st.max_restoration_iter) {
@@ -207,4 +219,9 @@ impl OcpSolver {
         self.filter.set_limits(tr.max(theta0), tr);
         self.kkt.delta_w_last = 0.0;
     }
+}
+
+/// True once the cancel flag of `st` ([`OcpSettings::cancel`]) is set.
+fn cancelled(st: &OcpSettings) -> bool {
+    st.cancel.as_ref().is_some_and(|c| c.is_cancelled())
 }

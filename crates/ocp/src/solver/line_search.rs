@@ -217,7 +217,9 @@ impl OcpSolver {
             }
             first = false;
             alpha *= 0.5;
-            if alpha < alpha_min {
+            // a cancelled solve stops between trials (the caller sees the flag and stops; the
+            // iterate is unchanged)
+            if alpha < alpha_min || st.cancel.as_ref().is_some_and(|c| c.is_cancelled()) {
                 return Ok((ls, None));
             }
         }
