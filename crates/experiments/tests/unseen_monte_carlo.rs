@@ -157,9 +157,19 @@ fn replanning_with(
     r: &Arc<Trajectory>,
     compare: bool,
 ) -> Replanning<Box<dyn Controller>> {
+    replanning_at(ls, r, compare, replan_settings(ls).threshold_m)
+}
+
+fn replanning_at(
+    ls: &LoadedScenario,
+    r: &Arc<Trajectory>,
+    compare: bool,
+    threshold_m: f64,
+) -> Replanning<Box<dyn Controller>> {
     let sc = &ls.scenario;
     let mut s = replan_settings(ls);
     s.compare_before_adopting = compare;
+    s.threshold_m = threshold_m;
     Replanning::build(
         mpc(ls, r),
         ls.robot.clone(),
@@ -184,6 +194,11 @@ fn variants() -> Vec<(&'static str, Build, bool)> {
         (
             "mpc+replan",
             |ls, r| Built::Replan(Box::new(replanning_with(ls, r, true))),
+            false,
+        ),
+        (
+            "mpc+replan/2cm",
+            |ls, r| Built::Replan(Box::new(replanning_at(ls, r, true, 0.02))),
             false,
         ),
         (

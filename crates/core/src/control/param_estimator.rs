@@ -295,7 +295,7 @@ impl ParamEstimator {
             self.innov[j] = e / s.sqrt();
         }
         let lim = self.settings.outlier_sigma;
-        if self.innov.iter().any(|z| !(z.abs() <= lim)) {
+        if self.innov.iter().any(|z| z.is_nan() || z.abs() > lim) {
             self.rejected += 1;
             return false;
         }

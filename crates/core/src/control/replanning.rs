@@ -659,7 +659,7 @@ impl<C: Controller> Replanning<C> {
                 (c, d)
             };
             compared = (Some(c), Some(d));
-            if !(d + self.settings.adopt_margin_m < c) {
+            if d.is_nan() || c.is_nan() || d + self.settings.adopt_margin_m >= c {
                 traj = None;
                 lqr = None;
             }
