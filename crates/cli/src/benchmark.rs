@@ -27,14 +27,20 @@ pub struct Args {
     /// Levels per disturbance (overrides --quick's and the full run's).
     #[arg(long)]
     levels: Option<usize>,
-    /// Monte Carlo runs (overrides --quick's and the full run's).
+    /// Monte Carlo runs of the original family (overrides --quick's and the full run's).
     #[arg(long)]
     monte_carlo: Option<usize>,
+    /// Runs of each other Monte Carlo family (overrides --quick's 1 and the full run's 50).
+    #[arg(long)]
+    family_runs: Option<usize>,
+    /// Base seed of every draw (default 0); another seed draws a fresh set.
+    #[arg(long)]
+    seed: Option<u64>,
     /// Only this sweep (repeatable), e.g. --sweep actuation_delay.
     #[arg(long)]
     sweep: Vec<String>,
     /// Only this controller (repeatable): mpc, pd, open-loop, tvlqr, mpc+kalman, mpc+replan,
-    /// mpc+kalman+replan.
+    /// mpc+kalman+replan, mpc+estimate+replan.
     #[arg(long)]
     controller: Vec<String>,
     /// Only one part of the benchmark: the sweeps, or the Monte Carlo (e.g. --only monte-carlo).
@@ -68,6 +74,8 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     s.jobs = a.jobs;
     s.levels = a.levels.unwrap_or(s.levels);
     s.monte_carlo_runs = a.monte_carlo.unwrap_or(s.monte_carlo_runs);
+    s.family_runs = a.family_runs.unwrap_or(s.family_runs);
+    s.seed = a.seed.unwrap_or(s.seed);
     s.only_sweeps = a.sweep;
     s.only_controllers = a.controller;
     s.cancel = Some(cancel.clone());
@@ -84,7 +92,11 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
             if let Some(n) = a.monte_carlo {
                 return Err(conflict("--monte-carlo", n.to_string(), "sweeps").into());
             }
+            if let Some(n) = a.family_runs {
+                return Err(conflict("--family-runs", n.to_string(), "sweeps").into());
+            }
             s.monte_carlo_runs = 0;
+            s.family_runs = 0;
         }
         Some(Part::MonteCarlo) => {
             if let Some(n) = a.levels {

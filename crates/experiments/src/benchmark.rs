@@ -5,10 +5,12 @@
 //! - **Sweeps**: each disturbance at `levels` evenly spaced levels from 0 (the scenario as written) to
 //!   its maximum (21 levels in the full run, 3 with `quick`), on the scenario's plant, added to the
 //!   scenario's own `[disturbances]` (and its `[tracking]` sensor noise; see [`sweeps`]).
-//! - **Monte Carlo**: each link's mass x U(0.85, 1.15), sensor noise sigma_q = 0.002 rad, and a free
-//!   0.05-0.5 kg ball (radius 0.05 m, no gravity, restitution 0.3) on the planned EE path, on the
-//!   rapier plant (200 runs in the full run, 6 with `quick`), each draw combined with the scenario's
-//!   disturbances ([`with_scenario`]).
+//! - **Monte Carlo families** ([`crate::families`]): the original mix `monte_carlo` (each link's
+//!   mass x U(0.85, 1.15), sigma_q = 0.002 rad, a free 0.05-0.5 kg ball on the planned EE path; 200
+//!   runs in the full run, 6 with `quick`) and families of one kind of trouble each (coherent and
+//!   per-link mass, geometry, a ball anywhere, delays and noise, a push, all mixed; 50 runs each, 1
+//!   with `quick`), on the rapier plant, each draw combined with the scenario's disturbances
+//!   ([`with_scenario`]).
 //! - **Success** ([`SUCCESS_RADIUS_M`]): the plant's EE (its own, possibly mismatched, geometry) ends
 //!   within 2 cm of the bar at the end of the planned swing.
 //! - **Seeds**: run i of a sweep or of the Monte Carlo draws from ChaCha8 seeded by a fixed function of
@@ -25,14 +27,12 @@ use crate::run_folder::{install, stage_for, RunFolder};
 use crate::scenario::{LoadedScenario, PlantKind};
 use crate::ExpError;
 use brachia::control::{
-    Estimated, Mpc, OpenLoop, Pd, ReplanEvent, ReplanSettings, Replanning, Tvlqr,
+    Adaptive, Estimated, Mpc, OpenLoop, Pd, ReplanEvent, ReplanSettings, Replanning, Tvlqr,
 };
 use brachia::sim::{run_closed_loop, Controller, Disturbances, ModelPlant, Push, RunSettings};
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
-use brachia_rapier::{Ball, Circle, Obstacle, RapierPlant};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use brachia_rapier::{Circle, Obstacle, RapierPlant};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -69,6 +69,8 @@ pub enum BenchController {
     Plain(Box<dyn Controller>),
     /// A tracking controller wrapped by [`Replanning`].
     Replanning(Box<Replanning<Box<dyn Controller>>>),
+    /// Re-planning fed the online mass estimate ([`Adaptive`]).
+    Adaptive(Box<Adaptive<Replanning<Box<dyn Controller>>>>),
 }
 
 impl BenchController {
@@ -77,6 +79,7 @@ impl BenchController {
         match self {
             BenchController::Plain(c) => c.as_mut(),
             BenchController::Replanning(r) => r.as_mut(),
+            BenchController::Adaptive(r) => r.as_mut(),
         }
     }
 
@@ -85,6 +88,7 @@ impl BenchController {
         match self {
             BenchController::Plain(_) => &[],
             BenchController::Replanning(r) => r.events(),
+            BenchController::Adaptive(r) => r.inner().events(),
         }
     }
 }
@@ -200,6 +204,20 @@ pub fn controllers() -> Vec<ControllerEntry> {
         ControllerEntry {
             name: "mpc+kalman+replan",
             build: |ls, r| with_replanning(ls, r, mpc_kalman(ls, r)?),
+        },
+        ControllerEntry {
+            name: "mpc+estimate+replan",
+            build: |ls, r| {
+                let BenchController::Replanning(rp) = with_replanning(ls, r, mpc(ls, r)?)? else {
+                    unreachable!("with_replanning builds a re-planner")
+                };
+                let est = ls.scenario.tracking.estimate_params.unwrap_or_default();
+                Ok(BenchController::Adaptive(Box::new(Adaptive::new(
+                    *rp,
+                    ls.robot.clone(),
+                    est,
+                )?)))
+            },
         },
     ]
 }
@@ -368,8 +386,11 @@ pub fn sweeps() -> Vec<Sweep> {
 pub struct BenchmarkSettings {
     /// Levels per disturbance (>= 2; 21 full, 3 quick).
     pub levels: usize,
-    /// Monte Carlo runs (0 skips it; 200 full, 6 quick).
+    /// Monte Carlo runs of the original family `monte_carlo` (0 skips it; 200 full, 6 quick).
     pub monte_carlo_runs: usize,
+    /// Runs of each other Monte Carlo family ([`crate::families::families`]; 0 skips them; 50
+    /// full, 1 quick).
+    pub family_runs: usize,
     /// Run the sweeps (false: only the Monte Carlo). Default true.
     pub run_sweeps: bool,
     /// Worker threads (None: rayon's default, all cores).
@@ -392,6 +413,7 @@ impl BenchmarkSettings {
         BenchmarkSettings {
             levels: 21,
             monte_carlo_runs: 200,
+            family_runs: 50,
             run_sweeps: true,
             jobs: None,
             only_sweeps: Vec::new(),
@@ -406,6 +428,7 @@ impl BenchmarkSettings {
         BenchmarkSettings {
             levels: 3,
             monte_carlo_runs: 6,
+            family_runs: 1,
             ..Self::full()
         }
     }
@@ -421,13 +444,18 @@ impl BenchmarkSettings {
                 format!("must be 2..={MAX_LEVELS}"),
             ));
         }
-        if self.monte_carlo_runs > MAX_MONTE_CARLO_RUNS {
-            return Err(Error::invalid(
-                src,
-                "monte_carlo_runs",
-                self.monte_carlo_runs,
-                format!("must be at most {MAX_MONTE_CARLO_RUNS}"),
-            ));
+        for (field, v) in [
+            ("monte_carlo_runs", self.monte_carlo_runs),
+            ("family_runs", self.family_runs),
+        ] {
+            if v > MAX_MONTE_CARLO_RUNS {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    v,
+                    format!("must be at most {MAX_MONTE_CARLO_RUNS}"),
+                ));
+            }
         }
         if let Some(j) = self.jobs {
             if !(1..=1024).contains(&j) {
@@ -579,41 +607,6 @@ fn mix(x: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)
-}
-
-/// The Monte Carlo draws of run `i`: per-link mass factors, and a ball on the planned EE path at a
-/// time in [0.2 T, 0.8 T] that does not touch the robot's start pose (up to 50 draws).
-fn monte_carlo_draw(
-    robot: &Robot,
-    reference: &Trajectory,
-    seed: u64,
-) -> (Disturbances, Vec<Obstacle>, Option<f64>) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let n = robot.n();
-    let mass_scale: Vec<f64> = (0..n).map(|_| rng.gen_range(0.85..1.15)).collect();
-    let mass = rng.gen_range(0.05..0.5);
-    let radius = 0.05;
-    let t_end = reference.duration();
-    let mut ball = None;
-    for _ in 0..50 {
-        let t = rng.gen_range(0.2..0.8) * t_end;
-        let (b, t_ball) = Ball::on_path(reference, robot, t, mass, radius, 0.3);
-        if b.clearance(robot, reference.q(0)) > 0.01 {
-            ball = Some((b, t_ball));
-            break;
-        }
-    }
-    let ball_t = ball.as_ref().map(|(_, t)| *t);
-    let balls = ball
-        .map(|(b, _)| vec![Obstacle::Ball(b)])
-        .unwrap_or_default();
-    let d = Disturbances {
-        mass_scale,
-        noise_q_std: 0.002,
-        seed,
-        ..Disturbances::default()
-    };
-    (d, balls, ball_t)
 }
 
 /// A Monte Carlo draw combined with the scenario's `[disturbances]` `base`: the per-link mass factors
@@ -878,6 +871,7 @@ pub fn run_benchmark_with(
     // every job, checked, before any simulation
     let mut jobs = Vec::new();
     let mut sweep_levels = Vec::new();
+    let fams = crate::families::families();
     for (si, s) in chosen.iter().enumerate().filter(|_| settings.run_sweeps) {
         let lv = levels(s.max, settings.levels);
         for (li, &l) in lv.iter().enumerate() {
@@ -902,23 +896,30 @@ pub fn run_benchmark_with(
         }
         sweep_levels.push((s.name.to_string(), s.level.to_string(), lv));
     }
-    for i in 0..settings.monte_carlo_runs {
-        let seed = mix(settings.seed ^ mix(u64::MAX - i as u64));
-        let (draw, balls, ball_t_s) = monte_carlo_draw(&ls.robot, &reference, seed);
-        let d = with_scenario(&base, &draw);
-        let probot = make_robot(&d)?;
-        for ci in 0..entries.len() {
-            jobs.push(Job {
-                controller: ci,
-                disturbance: "monte_carlo".into(),
-                level: i as f64,
-                seed,
-                dist: d.clone(),
-                plant: PlantKind::Rapier,
-                balls: balls.clone(),
-                ball_t_s,
-                probot: probot.clone(),
-            });
+    for (fi, fam) in fams.iter().enumerate() {
+        let runs = match fi {
+            0 => settings.monte_carlo_runs,
+            _ => settings.family_runs,
+        };
+        for i in 0..runs {
+            // the original family keeps its seeds; the others draw from their own streams
+            let seed = mix(settings.seed ^ mix(u64::MAX - i as u64 - ((fi as u64) << 40)));
+            let draw = (fam.draw)(&ls.robot, &reference, seed);
+            let d = with_scenario(&base, &draw.dist);
+            let probot = make_robot(&d)?;
+            for ci in 0..entries.len() {
+                jobs.push(Job {
+                    controller: ci,
+                    disturbance: fam.name.into(),
+                    level: i as f64,
+                    seed,
+                    dist: d.clone(),
+                    plant: PlantKind::Rapier,
+                    balls: draw.balls.clone(),
+                    ball_t_s: draw.ball_t_s,
+                    probot: probot.clone(),
+                });
+            }
         }
     }
     let total = jobs.len() as u64;
@@ -964,13 +965,15 @@ pub fn run_benchmark_with(
             frac.push(s.success_pct / 100.0);
             per.push((name.clone(), s));
         }
-        let mc: Vec<&BenchRow> = mine
-            .iter()
-            .copied()
-            .filter(|r| r.disturbance == "monte_carlo")
-            .collect();
-        if !mc.is_empty() {
-            per.push(("monte_carlo".into(), score(&mc)));
+        for fam in &fams {
+            let mc: Vec<&BenchRow> = mine
+                .iter()
+                .copied()
+                .filter(|r| r.disturbance == fam.name)
+                .collect();
+            if !mc.is_empty() {
+                per.push((fam.name.into(), score(&mc)));
+            }
         }
         scores.push(ControllerScore {
             controller: e.name().to_string(),
@@ -1099,8 +1102,8 @@ impl Benchmark {
                 )
             })
             .collect();
-        if self.monte_carlo_runs > 0 {
-            names.push(("monte_carlo".into(), "mixed, rapier plant".into()));
+        for f in crate::families::families() {
+            names.push((f.name.into(), format!("{}, rapier plant", f.what)));
         }
         for (n, what) in &names {
             let _ = write!(s, "| {n} | {what} |");

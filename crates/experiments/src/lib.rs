@@ -9,6 +9,7 @@
 //! joints 2..n. CSV headers: `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y[,extra]`.
 
 pub mod benchmark;
+pub mod families;
 pub mod gym;
 pub mod ladder;
 pub mod manifest;
@@ -24,6 +25,7 @@ pub mod schema;
 pub mod settings_use;
 pub mod success;
 pub mod track_run;
+pub mod tracker;
 pub mod traverse;
 pub mod view;
 

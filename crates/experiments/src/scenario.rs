@@ -20,6 +20,7 @@
 //! controller = "mpc"                    # mpc | pd | open-loop | tvlqr
 //! kalman = true                         # feed it through the Kalman filter ([tracking.estimator])
 //! replan = { threshold_m = 0.01, latency_s = 0.02 }  # MPC + online re-planning (docs/replanning.md)
+//! estimate_params = {}                  # online mass/inertia estimate (docs/estimation.md)
 //! [plant]                               # see PlantSettings
 //! kind = "rapier"                       # model (RK4) | rapier (physics engine with contacts)
 //! substeps = 1
@@ -32,7 +33,10 @@
 //! pushes = [{ t_s = 0.5, link = 4, point_m = 0.3, impulse_n_s = [0.0, 0.2] }]
 //! ```
 
-use brachia::control::{EstimatorSettings, MpcSettings, PdSettings, ReplanSettings, TvlqrSettings};
+use brachia::control::{
+    EstimatorSettings, MpcSettings, ParamEstimatorSettings, PdSettings, ReplanSettings,
+    TvlqrSettings,
+};
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
 use brachia::sim::Disturbances;
@@ -126,6 +130,10 @@ pub struct TrackingSettings {
     /// Online re-planning around the MPC (see `brachia::control::ReplanSettings`,
     /// docs/replanning.md); absent: none. Only with `controller = "mpc"`. Default none.
     pub replan: Option<ReplanSettings>,
+    /// Online estimation of the robot's masses and inertias, fed to the MPC and the re-planner
+    /// (see `brachia::control::ParamEstimatorSettings`, docs/estimation.md); absent: none. Only
+    /// with `controller = "mpc"` and without `kalman`. Default none.
+    pub estimate_params: Option<ParamEstimatorSettings>,
 }
 
 impl Default for TrackingSettings {
@@ -143,6 +151,7 @@ impl Default for TrackingSettings {
             noise_qd_std: 0.0,
             seed: 0,
             replan: None,
+            estimate_params: None,
         }
     }
 }
@@ -431,6 +440,19 @@ impl LoadedScenario {
             .validate()
             .map_err(|e| rename(e, "tracking.estimator"))?;
         let t = &sc.tracking;
+        if let Some(e) = &t.estimate_params {
+            e.validate(&src)
+                .map_err(|e| rename(e, "tracking.estimate_params"))?;
+            if t.controller != ControllerKind::Mpc || t.kalman {
+                return Err(Error::invalid(
+                    &src,
+                    "tracking.estimate_params",
+                    format!("controller {:?}, kalman {}", t.controller, t.kalman),
+                    "the mass estimate feeds the MPC only: set tracking.controller = \"mpc\" \
+                     without tracking.kalman, or remove tracking.estimate_params",
+                ));
+            }
+        }
         if let Some(r) = &t.replan {
             r.validate(&src).map_err(|e| rename(e, "tracking.replan"))?;
             // the re-plans run on their own mesh (knot_dt_s) over the same swing: its grid is

@@ -11,7 +11,8 @@
 use crate::plan_run::{replay_trusted, run_plan, PlanReport, PlanRun, REPLAY_TRUST_M};
 use crate::run_folder::RunFolder;
 use crate::scenario::{ControllerKind, LoadedScenario, PlantKind};
-use brachia::control::{Estimated, Mpc, OpenLoop, Pd, ReplanEvent, Replanning, Tvlqr};
+use crate::tracker::Tracker;
+use brachia::control::{EstimateReport, Estimated, Mpc, OpenLoop, Pd, ReplanEvent, Tvlqr};
 use brachia::sim::{
     run_closed_loop, ClosedLoopLog, Controller, Disturbances, ModelPlant, NoiseSettings, Noisy,
     Plant, RunSettings, RunSummary,
@@ -21,6 +22,7 @@ use brachia::{Error, Robot};
 use brachia_rapier::{Circle, ContactBody, ContactEvent, Obstacle, RapierPlant};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
+use std::sync::Arc;
 
 /// A track run's machine-readable report (its `report.json`). Units: s, m, N m, N s, J. The closed
 /// loop's [`RunSummary`] is flattened into the top level (`ee_final_error_m`, `energy_j`, ...); `plan` is
@@ -75,6 +77,11 @@ pub struct TrackReport {
     /// `reaches_bar`; `ee_final_error_m` is the distance to the reference at the last row).
     #[serde(default)]
     pub bar_error_m: Option<f64>,
+    /// The online estimate of the base inertial parameters (`[tracking] estimate_params`,
+    /// docs/estimation.md): names, nominal values, the final estimate and its standard deviations,
+    /// windows used and rejected, and the estimate after every window. Absent without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimate: Option<EstimateReport>,
     /// The closed loop's metrics.
     #[serde(flatten)]
     pub summary: RunSummary,
@@ -296,33 +303,15 @@ pub fn track_plan(
         }
     };
     let base = make_controller(controller, ls, &reference)?;
-    let (mut replanning, mut plain) = match (&sc.tracking.replan, controller) {
-        (Some(rs), ControllerKind::Mpc) => (
-            Some(Replanning::build(
-                base,
-                ls.robot.clone(),
-                &sc.task,
-                &sc.planner,
-                &sc.solver,
-                reference.clone(),
-                rs.clone(),
-            )?),
-            None,
-        ),
-        _ => (None, Some(base)),
+    // re-planning and the mass estimate wrap the MPC only (the scenario refuses them otherwise)
+    let is_mpc = controller == ControllerKind::Mpc;
+    let (replan, estimate) = match is_mpc {
+        true => (sc.tracking.replan.clone(), sc.tracking.estimate_params),
+        false => (None, None),
     };
-    let ctrl: &mut dyn Controller = match (&mut replanning, &mut plain) {
-        (Some(r), _) => r,
-        (None, Some(p)) => p.as_mut(),
-        (None, None) => {
-            return Err(Error::invalid(
-                "tracking",
-                "controller",
-                "none",
-                "no controller was built",
-            ))
-        }
-    };
+    let shared = Arc::new(reference.clone());
+    let mut tracker = Tracker::build(ls, &shared, base, replan, estimate)?;
+    let ctrl = tracker.controller();
     let settings = RunSettings {
         duration_s: reference.duration() + sc.tracking.hold_s,
         control_dt: sc.tracking.control_dt,
@@ -350,10 +339,8 @@ pub fn track_plan(
         )?
     };
     let (controller_name, plant_name) = (ctrl.name(), plant_ref.name());
-    let replans = replanning
-        .as_ref()
-        .map(|r| r.events().to_vec())
-        .unwrap_or_default();
+    let replans = tracker.replans().to_vec();
+    let estimate = tracker.estimate();
     if let Some(p) = &rapier {
         world.contacts = p.contacts().to_vec();
         world.track = p.obstacle_track().map(<[f64]>::to_vec).collect();
@@ -381,11 +368,12 @@ pub fn track_plan(
         contact_impulse_n_s: world.contacts.iter().map(|c| c.impulse).sum::<f64>(),
         disturbances: sc.disturbances.clone(),
         plan: plan_report.clone(),
-        replanning: replanning.is_some(),
+        replanning: tracker.replanning(),
         replan_count: replans.len(),
         replans,
         reaches_bar: Some(caught.reaches_bar),
         bar_error_m: Some(caught.bar_error_m),
+        estimate,
         summary,
     };
     folder.add_json("report.json", &report.to_json());

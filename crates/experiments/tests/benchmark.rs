@@ -107,6 +107,7 @@ fn the_benchmark_is_deterministic_for_any_number_of_jobs() {
     let settings = |jobs| BenchmarkSettings {
         levels: 2,
         monte_carlo_runs: 2,
+        family_runs: 0,
         run_sweeps: true,
         jobs: Some(jobs),
         only_sweeps: vec!["actuation_delay".into(), "push".into(), "noise_q".into()],

@@ -256,7 +256,8 @@ fn check<T: Serialize>(
 #[test]
 fn every_settings_field_documents_the_default_it_has() {
     use brachia::control::{
-        BoxQpSettings, EstimatorSettings, MpcSettings, PdSettings, ReplanSettings, TvlqrSettings,
+        BoxQpSettings, EstimatorSettings, MpcSettings, ParamEstimatorSettings, PdSettings,
+        ReplanSettings, TvlqrSettings,
     };
     use brachia::planning::{Bounds, NlpSettings, PlannerSettings, ShootingSettings};
     use brachia::sim::{Disturbances, NoiseSettings, RunSettings};
@@ -318,6 +319,12 @@ fn every_settings_field_documents_the_default_it_has() {
         &c("replanning"),
         "ReplanSettings",
         &ReplanSettings::default(),
+        &[],
+    ));
+    problems.extend(check(
+        &c("param_estimator"),
+        "ParamEstimatorSettings",
+        &ParamEstimatorSettings::default(),
         &[],
     ));
     problems.extend(check(

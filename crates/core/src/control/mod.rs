@@ -13,11 +13,18 @@ use crate::trajectory::Trajectory;
 use std::sync::Arc;
 
 pub use boxqp::{BoxQp, BoxQpInfo, BoxQpSettings, BoxQpStatus};
+pub mod adaptive;
+pub mod base_params;
 pub mod baselines;
 pub mod estimator;
 pub mod mpc;
+pub mod param_estimator;
+pub mod replan_gate;
 pub mod replanning;
 pub mod tvlqr;
+
+pub use adaptive::Adaptive;
+pub use param_estimator::{EstimateReport, EstimateSample, ParamEstimator, ParamEstimatorSettings};
 
 pub use baselines::{OpenLoop, Pd, PdSettings};
 pub use estimator::{Estimated, EstimatorSettings};
@@ -132,6 +139,24 @@ pub trait Controller {
             "this controller tracks no reference",
         ))
     }
+    /// Use `robot` (same link count and geometry, other masses and inertias: an online estimate)
+    /// as the model from the next call on. The default refuses: a controller without a model has
+    /// nothing to update.
+    fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
+        drop(robot);
+        Err(Error::invalid(
+            "controller",
+            "model",
+            self.name(),
+            "this controller has no model to update",
+        ))
+    }
+    /// A copy of this controller in its current state (reference, warm start, model), to predict
+    /// what it will do (the re-planner's adoption test); `None` (the default) when it cannot be
+    /// copied.
+    fn clone_box(&self) -> Option<Box<dyn Controller>> {
+        None
+    }
 }
 
 /// A mutable borrow of a controller is a controller (so a loop can drive one the caller keeps).
@@ -145,6 +170,12 @@ impl<C: Controller + ?Sized> Controller for &mut C {
     fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
         (**self).set_reference(reference)
     }
+    fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
+        (**self).set_model(robot)
+    }
+    fn clone_box(&self) -> Option<Box<dyn Controller>> {
+        (**self).clone_box()
+    }
 }
 
 /// A boxed controller is a controller (so a loop can hold one chosen at run time).
@@ -157,5 +188,11 @@ impl<C: Controller + ?Sized> Controller for Box<C> {
     }
     fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
         (**self).set_reference(reference)
+    }
+    fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
+        (**self).set_model(robot)
+    }
+    fn clone_box(&self) -> Option<Box<dyn Controller>> {
+        (**self).clone_box()
     }
 }

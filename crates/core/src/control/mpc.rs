@@ -1057,4 +1057,15 @@ impl Controller for Mpc {
     fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
         Mpc::set_reference(self, reference)
     }
+    /// Linearise on `robot` from the next step on (its linearisation buffers are rebuilt, which
+    /// allocates); the reference and the warm start are kept.
+    fn set_model(&mut self, robot: Arc<Robot>) -> Result<()> {
+        super::base_params::check_model(&self.robot, &robot)?;
+        self.lin = Linearizer::new(Arc::clone(&robot));
+        self.robot = robot;
+        Ok(())
+    }
+    fn clone_box(&self) -> Option<Box<dyn Controller>> {
+        Some(Box::new(self.clone()))
+    }
 }

@@ -2,32 +2,35 @@
 //!
 //! [`Replanning`] holds a persistent planner ([`SwingPlanner`], usually on a coarse mesh) and a
 //! tracking controller (usually the [`crate::control::Mpc`]). Every `check_period_s` it predicts the
-//! capture miss: a rollout of the model from the measured state to the swing's end time T (RK4 steps
-//! of `predict_dt_s`) under TVLQR feedback along the tracked reference, `tau^d` at the step's midpoint
-//! minus `K (x - x^d)`, clamped to the robot's limits ([`MissPrediction::Feedback`], the default: a
-//! drift that feedback corrects predicts no miss) or under its feed-forward torque only
-//! ([`MissPrediction::OpenLoop`]), and the distance of the
-//! rollout's final end-effector position from that of the same rollout started at the reference's own
-//! state at that time. The difference of two rollouts on the same steps cancels the rollout's own
-//! discretisation error (the steps do not align with the plan's torque steps: a 10 ms rollout of the
-//! paper's swing from its exact start misses the bar by 7 cm, 1 ms steps by 1.8 mm); the reference
-//! itself reaches the bar. When the predicted miss exceeds
+//! capture miss ([`super::replan_gate`]): a rollout of the current model (the planner's robot, or the
+//! estimate [`super::Adaptive`] passes in through [`Controller::set_model`]) from the measured state to
+//! the swing's end T (RK4 steps of `predict_dt_s`) under TVLQR feedback along the tracked reference,
+//! `tau^d` at the step's midpoint minus `K (x - x^d)`, clamped to the robot's limits
+//! ([`MissPrediction::Feedback`], the default: a drift that feedback corrects predicts no miss) or
+//! under its feed-forward torque only ([`MissPrediction::OpenLoop`]), corrected by the same rollout's
+//! error on the planner's robot from the reference's own state (the steps do not align with the
+//! plan's torque steps: a 10 ms rollout of the paper's swing from its exact start misses the bar by
+//! 7 cm, 1 ms steps by 1.8 mm), and measured to the bar. When the predicted miss exceeds
 //! `threshold_m` (and a re-plan is allowed: at most `max_replans`, `min_spacing_s` after the last
 //! trigger, `min_remaining_s` before T, none pending), it re-plans from the measured state at that
 //! time to the same bar over the remaining time, warm-started from the planner's current solution
-//! ([`crate::planning::SwingPlanner::replan`]). The tracking controller keeps tracking the old plan
-//! until the new one is "ready": `latency_s` after the trigger (configured, which makes runs
-//! reproducible; by default the measured wall time of the re-plan, which is not). The switch happens
-//! at the first control step at or after that time (the latency rounded up to control periods),
-//! through [`Controller::set_reference`]. A re-plan that does not converge (or misses the bar by more
-//! than 1 mm) is recorded and not adopted.
+//! ([`crate::planning::SwingPlanner::replan`]); when the current model is an estimate, on a planner
+//! built for it first (planned cold from the plan first tracked). A converged re-plan is adopted
+//! only when its own predicted capture, from the same state on the same model, beats continuing the
+//! current plan by more than `adopt_margin_m` (`compare_before_adopting`). The tracking controller
+//! keeps tracking the old plan until the new one is "ready": `latency_s` after the trigger
+//! (configured, which makes runs reproducible; by default the measured wall time of the re-plan,
+//! which is not). The switch happens at the first control step at or after that time (the latency
+//! rounded up to control periods), through [`Controller::set_reference`]. A re-plan that does not
+//! converge (or misses the bar by more than 1 mm, or is not predicted better) is recorded and not
+//! adopted.
 //!
 //! Units: s, m, rad, rad/s, N m; state `x = [q (n), qd (n)]`, torques of joints 2..n. The plan's
 //! times are absolute (the new plan's samples start at the trigger time).
 
+use super::replan_gate::{CapturePredictor, PlanUnderTest};
 use super::{ControlInfo, Controller, Tvlqr, TvlqrSettings};
 use crate::error::{Error, Result};
-use crate::integrate::Rk4;
 use crate::model::Robot;
 use crate::planning::{
     Backend, NlpSettings, PlannerSettings, SolveStatus, SwingPlanner, SwingTask, SwingTime,
@@ -92,6 +95,17 @@ pub struct ReplanSettings {
     pub knot_dt_s: f64,
     /// How the miss is predicted. Default [`MissPrediction::Feedback`].
     pub prediction: MissPrediction,
+    /// Adopt a converged re-plan only when its predicted capture error beats that of continuing the
+    /// current plan (both predicted from the same state on the current model,
+    /// docs/replanning.md "Adopting a re-plan"). Default true.
+    pub compare_before_adopting: bool,
+    /// How much smaller the re-plan's predicted capture error must be than continuing's, m. Default
+    /// 0.002.
+    pub adopt_margin_m: f64,
+    /// How often the copy of the tracking controller is called in the adoption test's rollouts, s
+    /// (the tracking controller is copied when it can be, [`Controller::clone_box`]; else the TVLQR
+    /// rollout of the miss prediction stands in). Default 0.001.
+    pub adopt_control_period_s: f64,
 }
 
 impl Default for ReplanSettings {
@@ -106,6 +120,9 @@ impl Default for ReplanSettings {
             latency_s: None,
             knot_dt_s: 0.03,
             prediction: MissPrediction::Feedback,
+            compare_before_adopting: true,
+            adopt_margin_m: 0.002,
+            adopt_control_period_s: 0.001,
         }
     }
 }
@@ -131,6 +148,17 @@ impl ReplanSettings {
             }
         };
         nonneg("min_spacing_s", self.min_spacing_s)?;
+        nonneg("adopt_margin_m", self.adopt_margin_m)?;
+        if !(self.adopt_control_period_s.is_finite()
+            && (1e-3..=0.1).contains(&self.adopt_control_period_s))
+        {
+            return Err(Error::invalid(
+                src,
+                "adopt_control_period_s",
+                self.adopt_control_period_s,
+                "must be in [0.001, 0.1] s",
+            ));
+        }
         nonneg("min_remaining_s", self.min_remaining_s)?;
         if !(self.knot_dt_s.is_finite() && self.knot_dt_s > 0.0 && self.knot_dt_s <= 0.1) {
             return Err(Error::invalid(
@@ -214,7 +242,8 @@ pub struct ReplanEvent {
     pub t_switch_s: Option<f64>,
     /// The re-planned swing's final end-effector distance from the bar, m.
     pub plan_ee_error_m: f64,
-    /// Whether the plan was adopted (converged and within 1 mm of the bar).
+    /// Whether the plan was adopted (converged, within 1 mm of the bar, and, when compared,
+    /// predicted to end closer to the bar than continuing by more than `adopt_margin_m`).
     pub adopted: bool,
     /// True when the re-plan aimed at an end box ([`Replanning::build_toward_end_box`]) failed and
     /// was solved again without it (the rest of the swing as [`Replanning::build`] would re-plan
@@ -222,6 +251,20 @@ pub struct ReplanEvent {
     /// Absent (false) in every other re-plan.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub end_box_dropped: bool,
+    /// Predicted capture error of continuing the current plan from the trigger state on the
+    /// current model, m; absent when no comparison was made (`compare_before_adopting` off, or the
+    /// re-plan failed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_continue_m: Option<f64>,
+    /// Predicted capture error of the re-planned swing from the same state on the same model, m;
+    /// absent as `predicted_continue_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_replan_m: Option<f64>,
+    /// True when the re-plan ran on a planner built for the controller's estimated model
+    /// ([`super::Adaptive`]; planned cold from the first plan, then re-planned); absent (false)
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub planned_on_estimate: bool,
 }
 
 /// A re-planned swing waiting for its ready time.
@@ -246,9 +289,20 @@ pub struct Replanning<C> {
     next_check: f64,
     last_trigger: Option<f64>,
     last_miss: f64,
-    rk4: Rk4,
-    xr: Vec<f64>,
-    ur: Vec<f64>,
+    /// The model the predictions roll out (the planner's robot until [`Controller::set_model`]).
+    model: Arc<Robot>,
+    target: [f64; 2],
+    predictor: CapturePredictor,
+    /// How to build a planner on another model (set by [`Replanning::build`]).
+    rebuild: Option<Rebuild>,
+}
+
+/// What a planner on an estimated model is built from.
+struct Rebuild {
+    settings: PlannerSettings,
+    nlp: NlpSettings,
+    /// The plan first tracked (the cold plan's guess).
+    guess: Arc<Trajectory>,
 }
 
 impl<C: Controller> Replanning<C> {
@@ -295,9 +349,10 @@ impl<C: Controller> Replanning<C> {
         Ok(Replanning {
             inner,
             lqr,
-            rk4: Rk4::new(&robot),
-            xr: vec![0.0; robot.nx()],
-            ur: vec![0.0; robot.nu()],
+            predictor: CapturePredictor::new(&robot),
+            model: Arc::clone(&robot),
+            target: planner.target(),
+            rebuild: None,
             robot,
             planner,
             reference,
@@ -383,7 +438,15 @@ impl<C: Controller> Replanning<C> {
                 "the cold plan on the re-planning mesh did not converge",
             ));
         }
-        Self::new(inner, p, reference, settings)
+        let mut r = Self::new(inner, p, Arc::clone(&reference), settings)?;
+        if end_box.is_none() {
+            r.rebuild = Some(Rebuild {
+                settings: ps,
+                nlp,
+                guess: reference,
+            });
+        }
+        Ok(r)
     }
 
     /// The re-plans so far.
@@ -421,40 +484,32 @@ impl<C: Controller> Replanning<C> {
         (self.inner, self.planner, self.events)
     }
 
-    /// The predicted capture miss from `x` at `t` (see the module docs), m. Does not allocate.
+    /// The predicted capture miss from `x` at `t`: the distance from the bar of the hand at T
+    /// predicted on the current model for the plan tracked ([`super::replan_gate`]), m. Does not
+    /// allocate.
     pub fn predict_miss(&mut self, t: f64, x: &[f64]) -> f64 {
-        let n = self.robot.n;
-        self.xr.copy_from_slice(x);
-        self.rollout(t);
-        let ee = self.robot.ee_position(&self.xr[..n]);
-        self.reference.state_at(t, &mut self.xr);
-        self.rollout(t);
-        let ee_ref = self.robot.ee_position(&self.xr[..n]);
-        let d = (ee[0] - ee_ref[0]).hypot(ee[1] - ee_ref[1]);
-        if d.is_finite() {
-            d
-        } else {
-            f64::INFINITY
-        }
+        let plan = PlanUnderTest {
+            reference: &self.reference,
+            lqr: self.lqr.as_mut(),
+        };
+        let dt = self.settings.predict_dt_s;
+        self.predictor
+            .capture(
+                &self.model,
+                &self.robot,
+                plan,
+                x,
+                t,
+                self.t_final,
+                dt,
+                self.target,
+            )
+            .1
     }
 
-    /// `xr` from `t` to T under the reference's feed-forward torque (RK4, `predict_dt_s` steps).
-    fn rollout(&mut self, t: f64) {
-        let mut s = t;
-        while s < self.t_final - 1e-12 {
-            let h = self.settings.predict_dt_s.min(self.t_final - s);
-            match self.lqr.as_mut() {
-                Some(l) => l.law(s, s + 0.5 * h, &self.xr, &mut self.ur),
-                None => {
-                    self.reference.tau_at(s + 0.5 * h, &mut self.ur);
-                    for (j, u) in self.ur.iter_mut().enumerate() {
-                        *u = u.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
-                    }
-                }
-            }
-            self.rk4.step(&self.robot, &mut self.xr, &self.ur, h);
-            s += h;
-        }
+    /// The model the predictions use.
+    pub fn model(&self) -> &Arc<Robot> {
+        &self.model
     }
 
     fn may_replan(&self, t: f64) -> bool {
@@ -466,9 +521,40 @@ impl<C: Controller> Replanning<C> {
             && self.t_final - t >= self.settings.min_remaining_s
     }
 
+    /// A planner on the current model when it is not the planner's robot (an online estimate):
+    /// planned cold from the plan first tracked, it replaces the planner when it converges.
+    /// Returns true when it did.
+    fn plan_on_model(&mut self) -> bool {
+        let Some(rb) = &self.rebuild else {
+            return false;
+        };
+        if Arc::ptr_eq(&self.model, &self.robot) {
+            return false;
+        }
+        let task = self.planner.task().clone();
+        let Ok(mut p) = SwingPlanner::with_guess(
+            Arc::clone(&self.model),
+            task,
+            &rb.settings,
+            &rb.nlp,
+            Some(&rb.guess),
+        ) else {
+            return false;
+        };
+        match p.plan_outcome() {
+            Ok(o) if o.converged() => {
+                self.planner = p;
+                self.robot = Arc::clone(&self.model);
+                true
+            }
+            _ => false,
+        }
+    }
+
     fn replan(&mut self, t: f64, x: &[f64], miss: f64) {
         self.last_trigger = Some(t);
         let start = Instant::now();
+        let on_model = self.plan_on_model();
         let mut out = self.planner.replan(t, x);
         // a re-plan aimed at an end box that failed: solved again (from the same warm start, the
         // last converged solution) without it, and without it for the rest of the swing
@@ -529,6 +615,55 @@ impl<C: Controller> Replanning<C> {
             }
             _ => None,
         };
+        let (mut lqr, mut compared) = (lqr, (None, None));
+        if let (Some(tr), true) = (&traj, self.settings.compare_before_adopting) {
+            let dt = self.settings.predict_dt_s;
+            let (model, robot) = (&self.model, &self.robot);
+            let ready = t + self
+                .settings
+                .latency_s
+                .unwrap_or(start.elapsed().as_secs_f64());
+            let copies = (self.inner.clone_box(), self.inner.clone_box());
+            let (c, d) = if let (Some(mut a), Some(mut b)) = copies {
+                let gp = self.settings.adopt_control_period_s;
+                let (tf, target) = (self.t_final, self.target);
+                let p = &mut self.predictor;
+                (
+                    p.closed_loop_capture(a.as_mut(), model, x, t, tf, gp, None, target),
+                    p.closed_loop_capture(
+                        b.as_mut(),
+                        model,
+                        x,
+                        t,
+                        tf,
+                        gp,
+                        Some((ready, tr)),
+                        target,
+                    ),
+                )
+            } else {
+                let cont = PlanUnderTest {
+                    reference: &self.reference,
+                    lqr: self.lqr.as_mut(),
+                };
+                let (_, c) =
+                    self.predictor
+                        .capture(model, robot, cont, x, t, self.t_final, dt, self.target);
+                let new = PlanUnderTest {
+                    reference: tr,
+                    lqr: lqr.as_mut(),
+                };
+                let (_, d) =
+                    self.predictor
+                        .capture(model, robot, new, x, t, self.t_final, dt, self.target);
+                (c, d)
+            };
+            compared = (Some(c), Some(d));
+            if d.is_nan() || c.is_nan() || d + self.settings.adopt_margin_m >= c {
+                traj = None;
+                lqr = None;
+            }
+        }
         let adopted = traj.is_some();
         if let Some(plan) = traj {
             self.pending = Some(Pending {
@@ -549,6 +684,9 @@ impl<C: Controller> Replanning<C> {
             plan_ee_error_m: plan_err,
             adopted,
             end_box_dropped,
+            predicted_continue_m: compared.0,
+            predicted_replan_m: compared.1,
+            planned_on_estimate: on_model,
         });
     }
 }
@@ -606,5 +744,14 @@ impl<C: Controller> Controller for Replanning<C> {
         self.reference = reference;
         self.pending = None;
         Ok(())
+    }
+
+    /// Predict on `robot` from the next check on and pass it on to the tracking controller (its
+    /// result is returned; the predictions use `robot` either way). The planner keeps its robot.
+    fn set_model(&mut self, robot: Arc<Robot>) -> Result<()> {
+        super::base_params::check_model(&self.robot, &robot)?;
+        let r = self.inner.set_model(Arc::clone(&robot));
+        self.model = robot;
+        r
     }
 }

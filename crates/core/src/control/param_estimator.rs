@@ -1,0 +1,351 @@
+//! Online estimation of the robot's base inertial parameters by recursive least squares
+//! (docs/estimation.md).
+//!
+//! [`ParamEstimator`] integrates Lagrange's equations against a triangular weight `w` over windows
+//! of `window_s` (`w` rises from 0 to 1 over the first half and falls back to 0): with the momentum
+//! regressor `Yp` and the Lagrangian-gradient regressor `Yl` of [`super::base_params`], and
+//! `int w dp/dt = -int w' p` (w vanishes at both ends), every window gives n linear equations in the
+//! 2n base parameters `theta = [ZZR_1..ZZR_n, MXR_1..MXR_n]`,
+//!
+//! ```text
+//! (-int w' Yp dt - int w Yl dt) theta = int w [0, tau_2..tau_n] dt
+//! ```
+//!
+//! (trapezoidal rule on the measured states; the torque held over each control period), without
+//! differentiating the measured rates: the momenta enter as averages over half-windows, which
+//! averages their sensor noise down. Row by row they update the estimate and its covariance (RLS
+//! with forgetting factor `forgetting`; measurement noise `noise_nm_s` per row). A window whose
+//! normalised innovation exceeds `outlier_sigma` in any row (an impact: a ball, a push, a contact
+//! the model does not have) is rejected whole. The prior is the nominal robot with a standard
+//! deviation of `prior_rel_std` of each nominal value.
+//!
+//! Units: s, rad, rad/s, N m, N m s; `theta` in kg m^2 (ZZR) and kg m (MXR).
+
+use super::base_params::{base_params, lagrangian_regressor, momentum_regressor, robot_from_base};
+use crate::error::{Error, Result};
+use crate::model::Robot;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Most history samples one estimator keeps (allocated once; later updates are not recorded).
+pub const MAX_HISTORY: usize = 1000;
+
+/// Settings of [`ParamEstimator`] (scenario section `[tracking] estimate_params = { ... }`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ParamEstimatorSettings {
+    /// Length of one integration window, s. Default 0.3.
+    pub window_s: f64,
+    /// RLS forgetting factor per window row, in (0, 1]. Default 1.
+    pub forgetting: f64,
+    /// Prior standard deviation of each base parameter, as a fraction of its nominal value.
+    /// Default 1.
+    pub prior_rel_std: f64,
+    /// Standard deviation of one window equation's residual (sensor noise on the momenta), N m s.
+    /// Default 0.02.
+    pub noise_nm_s: f64,
+    /// A window with a row whose innovation exceeds this many of its standard deviations is
+    /// rejected. Default 5.
+    pub outlier_sigma: f64,
+    /// The controller's model is rebuilt from the estimate at most this often, s. Default 0.05.
+    pub model_update_period_s: f64,
+}
+
+impl Default for ParamEstimatorSettings {
+    fn default() -> Self {
+        ParamEstimatorSettings {
+            window_s: 0.3,
+            forgetting: 1.0,
+            prior_rel_std: 1.0,
+            noise_nm_s: 0.02,
+            outlier_sigma: 5.0,
+            model_update_period_s: 0.05,
+        }
+    }
+}
+
+impl ParamEstimatorSettings {
+    /// Check the values; `src` names the source in errors.
+    pub fn validate(&self, src: &str) -> Result<()> {
+        let pos = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::invalid(src, field, v, "must be finite and > 0"))
+            }
+        };
+        pos("window_s", self.window_s)?;
+        pos("prior_rel_std", self.prior_rel_std)?;
+        pos("noise_nm_s", self.noise_nm_s)?;
+        pos("outlier_sigma", self.outlier_sigma)?;
+        pos("model_update_period_s", self.model_update_period_s)?;
+        if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
+            return Err(Error::invalid(
+                src,
+                "forgetting",
+                self.forgetting,
+                "must be in (0, 1]",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One point of the estimate's history.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EstimateSample {
+    /// End of the window, s.
+    pub t_s: f64,
+    /// The estimate `[ZZR_1..ZZR_n, MXR_1..MXR_n]` (kg m^2, kg m).
+    pub theta: Vec<f64>,
+    /// Its standard deviations (square roots of the covariance's diagonal), same units.
+    pub std: Vec<f64>,
+}
+
+/// The estimator's state for reports.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct EstimateReport {
+    /// The base parameters' names, `ZZR_1..ZZR_n, MXR_1..MXR_n`.
+    pub names: Vec<String>,
+    /// The nominal (planner's) robot's base parameters.
+    pub nominal: Vec<f64>,
+    /// The final estimate.
+    pub theta: Vec<f64>,
+    /// Its standard deviations.
+    pub std: Vec<f64>,
+    /// Windows used.
+    pub windows: usize,
+    /// Windows rejected as outliers.
+    pub rejected: usize,
+    /// The estimate after every used window (at most [`MAX_HISTORY`]).
+    pub history: Vec<EstimateSample>,
+}
+
+/// Recursive least squares on the base parameters; see the module docs.
+#[derive(Debug, Clone)]
+pub struct ParamEstimator {
+    nominal: Arc<Robot>,
+    settings: ParamEstimatorSettings,
+    theta: Vec<f64>,
+    theta_nom: Vec<f64>,
+    /// Covariance, 2n x 2n row-major.
+    p: Vec<f64>,
+    /// Window start time.
+    t0: Option<f64>,
+    /// The window's matrix and right-hand side so far.
+    acc: Vec<f64>,
+    tau_int: Vec<f64>,
+    /// The last sample: time, regressors.
+    t_prev: f64,
+    yl_prev: Vec<f64>,
+    yp_prev: Vec<f64>,
+    /// Scratch.
+    yp: Vec<f64>,
+    yl: Vec<f64>,
+    a: Vec<f64>,
+    pa: Vec<f64>,
+    innov: Vec<f64>,
+    windows: usize,
+    rejected: usize,
+    history: Vec<EstimateSample>,
+}
+
+impl ParamEstimator {
+    /// An estimator whose prior is `nominal`. Errors on invalid settings.
+    pub fn new(nominal: impl Into<Arc<Robot>>, settings: ParamEstimatorSettings) -> Result<Self> {
+        settings.validate("estimate_params")?;
+        let nominal: Arc<Robot> = nominal.into();
+        let n = nominal.n();
+        let np = 2 * n;
+        let mut theta = vec![0.0; np];
+        base_params(&nominal, &mut theta);
+        let mut p = vec![0.0; np * np];
+        for i in 0..np {
+            let s = settings.prior_rel_std * theta[i].abs().max(1e-6);
+            p[i * np + i] = s * s;
+        }
+        Ok(ParamEstimator {
+            nominal,
+            settings,
+            theta_nom: theta.clone(),
+            theta,
+            p,
+            t0: None,
+            acc: vec![0.0; n * np],
+            tau_int: vec![0.0; n],
+            t_prev: 0.0,
+            yl_prev: vec![0.0; n * np],
+            yp_prev: vec![0.0; n * np],
+            yp: vec![0.0; n * np],
+            yl: vec![0.0; n * np],
+            a: vec![0.0; np],
+            pa: vec![0.0; np],
+            innov: vec![0.0; n],
+            windows: 0,
+            rejected: 0,
+            history: Vec::with_capacity(MAX_HISTORY),
+        })
+    }
+
+    /// The current estimate `[ZZR_1..ZZR_n, MXR_1..MXR_n]`.
+    pub fn theta(&self) -> &[f64] {
+        &self.theta
+    }
+
+    /// The nominal robot's base parameters.
+    pub fn nominal_theta(&self) -> &[f64] {
+        &self.theta_nom
+    }
+
+    /// Standard deviation of estimate entry `i`.
+    pub fn std(&self, i: usize) -> f64 {
+        let np = self.theta.len();
+        self.p[i * np + i].max(0.0).sqrt()
+    }
+
+    /// Windows used so far.
+    pub fn windows(&self) -> usize {
+        self.windows
+    }
+
+    /// A robot with the current estimate ([`robot_from_base`]); errors when the estimate has none.
+    pub fn robot(&self) -> Result<Robot> {
+        robot_from_base(&self.nominal, &self.theta)
+    }
+
+    /// Start over from the prior.
+    pub fn reset(&mut self) {
+        let np = self.theta.len();
+        self.theta.copy_from_slice(&self.theta_nom);
+        self.p.fill(0.0);
+        for i in 0..np {
+            let s = self.settings.prior_rel_std * self.theta_nom[i].abs().max(1e-6);
+            self.p[i * np + i] = s * s;
+        }
+        self.t0 = None;
+        self.windows = 0;
+        self.rejected = 0;
+        self.history.clear();
+    }
+
+    /// Take the measured state `x` (2n) at `t`, with `tau` (n - 1) the torque held since the previous
+    /// call. Returns true when a window closed and updated the estimate. A state with NaNs breaks the
+    /// window (the next call starts a new one). Does not allocate (past [`MAX_HISTORY`] windows the
+    /// history stops growing).
+    pub fn observe(&mut self, t: f64, x: &[f64], tau: &[f64]) -> bool {
+        let n = self.nominal.n();
+        let (q, qd) = (&x[..n], &x[n..2 * n]);
+        if !x.iter().all(|v| v.is_finite()) || !tau.iter().all(|v| v.is_finite()) {
+            self.t0 = None;
+            return false;
+        }
+        lagrangian_regressor(&self.nominal, q, qd, &mut self.yl);
+        momentum_regressor(&self.nominal, q, qd, &mut self.yp);
+        let Some(t0) = self.t0 else {
+            self.start_window(t);
+            return false;
+        };
+        let (h, w_len) = (t - self.t_prev, self.settings.window_s);
+        // the weight and its slope at the interval's midpoint
+        let tm = (0.5 * (self.t_prev + t) - t0) / w_len;
+        let w = (1.0 - (2.0 * tm - 1.0).abs()).max(0.0);
+        let dw = if tm < 0.5 { 2.0 / w_len } else { -2.0 / w_len };
+        for i in 0..self.acc.len() {
+            self.acc[i] -= 0.5
+                * h
+                * (dw * (self.yp_prev[i] + self.yp[i]) + w * (self.yl_prev[i] + self.yl[i]));
+        }
+        for j in 1..n {
+            self.tau_int[j] += w * h * tau[j - 1];
+        }
+        self.t_prev = t;
+        self.yl_prev.copy_from_slice(&self.yl);
+        self.yp_prev.copy_from_slice(&self.yp);
+        if t - t0 < w_len - 1e-9 {
+            return false;
+        }
+        let updated = self.update(t);
+        self.start_window(t);
+        updated
+    }
+
+    /// Start a window at `t` (`yl`, `yp` hold the regressors of the state there).
+    fn start_window(&mut self, t: f64) {
+        self.yl_prev.copy_from_slice(&self.yl);
+        self.yp_prev.copy_from_slice(&self.yp);
+        self.acc.fill(0.0);
+        self.tau_int.fill(0.0);
+        self.t0 = Some(t);
+        self.t_prev = t;
+    }
+
+    /// One window's rows (`self.acc` holds the window's matrix, `self.tau_int` its right-hand side).
+    fn update(&mut self, t: f64) -> bool {
+        let n = self.nominal.n();
+        let np = 2 * n;
+        let r = self.settings.noise_nm_s * self.settings.noise_nm_s;
+        // outlier test against the estimate before the window
+        for j in 0..n {
+            let row = &self.acc[j * np..(j + 1) * np];
+            let e = self.tau_int[j] - dot(row, &self.theta);
+            let mut s = r;
+            for a in 0..np {
+                s += row[a] * dot(&self.p[a * np..(a + 1) * np], row);
+            }
+            self.innov[j] = e / s.sqrt();
+        }
+        let lim = self.settings.outlier_sigma;
+        if self.innov.iter().any(|z| z.is_nan() || z.abs() > lim) {
+            self.rejected += 1;
+            return false;
+        }
+        for j in 0..n {
+            self.a.copy_from_slice(&self.acc[j * np..(j + 1) * np]);
+            for i in 0..np {
+                self.pa[i] = dot(&self.p[i * np..(i + 1) * np], &self.a);
+            }
+            let s = r + dot(&self.a, &self.pa);
+            let e = self.tau_int[j] - dot(&self.a, &self.theta);
+            for i in 0..np {
+                self.theta[i] += self.pa[i] * e / s;
+            }
+            let lam = self.settings.forgetting;
+            for i in 0..np {
+                for k in 0..np {
+                    self.p[i * np + k] = (self.p[i * np + k] - self.pa[i] * self.pa[k] / s) / lam;
+                }
+            }
+        }
+        self.windows += 1;
+        if self.history.len() < MAX_HISTORY {
+            self.history.push(EstimateSample {
+                t_s: t,
+                theta: self.theta.clone(),
+                std: (0..np).map(|i| self.std(i)).collect(),
+            });
+        }
+        true
+    }
+
+    /// The estimate, its uncertainty and its history for a report.
+    pub fn report(&self) -> EstimateReport {
+        let n = self.nominal.n();
+        let np = 2 * n;
+        EstimateReport {
+            names: (1..=n)
+                .map(|j| format!("ZZR_{j}"))
+                .chain((1..=n).map(|j| format!("MXR_{j}")))
+                .collect(),
+            nominal: self.theta_nom.clone(),
+            theta: self.theta.clone(),
+            std: (0..np).map(|i| self.std(i)).collect(),
+            windows: self.windows,
+            rejected: self.rejected,
+            history: self.history.clone(),
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}

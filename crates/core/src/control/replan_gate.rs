@@ -1,0 +1,150 @@
+//! The capture prediction that decides when [`super::Replanning`] re-plans and whether it adopts a
+//! re-plan (docs/replanning.md).
+//!
+//! A plan's **predicted capture** from the measured state `x` at time `t` is where the closed loop
+//! of the tracking controller puts the hand at the swing's end T: a rollout of the **current
+//! model** (the planner's robot, or the online estimate of [`super::Adaptive`]) from `x` under
+//! TVLQR feedback along the plan (RK4 steps of `predict_dt_s`, the plan's torque at each step's
+//! midpoint, clamped to the limits), corrected by the rollout's own discretisation error: the same
+//! rollout of the **planner's robot** from the plan's own state at `t` ends off the plan's final
+//! hand position by the error of the steps, which is subtracted. The distance of the corrected
+//! hand from the bar is the predicted capture error.
+//!
+//! Units: s, m; state `x = [q (n), qd (n)]`.
+
+use super::{Controller, Tvlqr};
+use crate::integrate::Rk4;
+use crate::model::Robot;
+use crate::trajectory::Trajectory;
+use std::sync::Arc;
+
+/// Buffers and models of the capture prediction (allocated once).
+#[derive(Debug, Clone)]
+pub(crate) struct CapturePredictor {
+    rk4: Rk4,
+    xr: Vec<f64>,
+    xp: Vec<f64>,
+    ur: Vec<f64>,
+}
+
+/// What is predicted for one plan.
+pub(crate) struct PlanUnderTest<'a> {
+    /// The plan (absolute times).
+    pub reference: &'a Trajectory,
+    /// Its TVLQR feedback; `None`: feed-forward only.
+    pub lqr: Option<&'a mut Tvlqr>,
+}
+
+impl CapturePredictor {
+    pub(crate) fn new(robot: &Robot) -> Self {
+        CapturePredictor {
+            rk4: Rk4::new(robot),
+            xr: vec![0.0; robot.nx()],
+            xp: vec![0.0; robot.nx()],
+            ur: vec![0.0; robot.nu()],
+        }
+    }
+
+    /// The hand at `t_final` after the rollout of `model` from `x` at `t` along `plan`.
+    fn rollout_ee(
+        &mut self,
+        model: &Robot,
+        plan: &mut PlanUnderTest<'_>,
+        x: &[f64],
+        t: f64,
+        t_final: f64,
+        dt: f64,
+    ) -> [f64; 2] {
+        self.xr.copy_from_slice(x);
+        let mut s = t;
+        while s < t_final - 1e-12 {
+            let h = dt.min(t_final - s);
+            match plan.lqr.as_deref_mut() {
+                Some(l) => l.law(s, s + 0.5 * h, &self.xr, &mut self.ur),
+                None => {
+                    plan.reference.tau_at(s + 0.5 * h, &mut self.ur);
+                    for (j, u) in self.ur.iter_mut().enumerate() {
+                        *u = u.clamp(model.tau_min[j], model.tau_max[j]);
+                    }
+                }
+            }
+            self.rk4.step(model, &mut self.xr, &self.ur, h);
+            s += h;
+        }
+        let p = model.ee_position(&self.xr[..model.n()]);
+        [p[0], p[1]]
+    }
+
+    /// The predicted hand at `t_final` of the closed loop along `plan` from `x` at `t` on `model`
+    /// (see the module docs), and its distance to `target`, m (infinite when not finite).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn capture(
+        &mut self,
+        model: &Robot,
+        planner_robot: &Robot,
+        mut plan: PlanUnderTest<'_>,
+        x: &[f64],
+        t: f64,
+        t_final: f64,
+        dt: f64,
+        target: [f64; 2],
+    ) -> ([f64; 2], f64) {
+        let n = planner_robot.n();
+        let ee = self.rollout_ee(model, &mut plan, x, t, t_final, dt);
+        let mut xp = std::mem::take(&mut self.xp);
+        plan.reference.state_at(t, &mut xp);
+        let ee_steps = self.rollout_ee(planner_robot, &mut plan, &xp, t, t_final, dt);
+        self.xp = xp;
+        let last = plan.reference.len() - 1;
+        let end = planner_robot.ee_position(&plan.reference.q(last)[..n]);
+        let p = [
+            ee[0] - (ee_steps[0] - end[0]),
+            ee[1] - (ee_steps[1] - end[1]),
+        ];
+        let d = (p[0] - target[0]).hypot(p[1] - target[1]);
+        (p, if d.is_finite() { d } else { f64::INFINITY })
+    }
+
+    /// The distance from `target` of the hand at `t_final` when `ctrl` (a copy of the tracking
+    /// controller) drives `model` from `x` at `t`, called every `period` (its torque held, RK4
+    /// sub-steps of at most 2 ms); with `switch = Some((t_s, plan))` it is handed `plan` at the
+    /// first call at or after `t_s` (a re-plan's latency). Infinite when not finite.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn closed_loop_capture(
+        &mut self,
+        ctrl: &mut dyn Controller,
+        model: &Robot,
+        x: &[f64],
+        t: f64,
+        t_final: f64,
+        period: f64,
+        switch: Option<(f64, &Arc<Trajectory>)>,
+        target: [f64; 2],
+    ) -> f64 {
+        self.xr.copy_from_slice(x);
+        let mut s = t;
+        let mut pending = switch;
+        while s < t_final - 1e-12 {
+            if let Some((ts, plan)) = pending {
+                if s >= ts - 1e-9 {
+                    let _ = ctrl.set_reference(Arc::clone(plan));
+                    pending = None;
+                }
+            }
+            ctrl.control(s, &self.xr, &mut self.ur);
+            let h = period.min(t_final - s);
+            let m = (h / 2e-3).ceil().max(1.0) as usize;
+            for _ in 0..m {
+                self.rk4.step(model, &mut self.xr, &self.ur, h / m as f64);
+            }
+            s += h;
+        }
+        let p = model.ee_position(&self.xr[..model.n()]);
+        let d = (p[0] - target[0]).hypot(p[1] - target[1]);
+        if d.is_finite() {
+            d
+        } else {
+            f64::INFINITY
+        }
+    }
+}
