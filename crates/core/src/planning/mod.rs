@@ -19,6 +19,7 @@ pub mod settings;
 pub mod shooting;
 pub mod solve_log;
 pub mod swing_planner;
+pub mod swing_time;
 pub mod task;
 pub mod torque_continuation;
 mod worker;
@@ -48,5 +49,6 @@ pub use shooting::{
 };
 pub use solve_log::SolveRole;
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
+pub use swing_time::{reference_swing_time, SwingTimeSearch, TriedSwingTime};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
 pub use torque_continuation::{ContinuationStop, TorqueContinuation};

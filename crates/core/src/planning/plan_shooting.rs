@@ -506,6 +506,7 @@ pub(super) fn finish_plan(
         guess: None,
         blockage: None,
         torque_continuation: None,
+        swing_time_search: None,
     })
 }
 

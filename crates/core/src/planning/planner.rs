@@ -222,6 +222,10 @@ pub struct Plan {
     /// [`crate::planning::torque_continuation`]); the plan is its result when it reached the real
     /// limits. `None` otherwise.
     pub torque_continuation: Option<crate::planning::torque_continuation::TorqueContinuation>,
+    /// When the task's swing time did not plan (or `"auto"` had no free-fall time) on a cold plan
+    /// without obstacles: what the search in T tried (see [`crate::planning::swing_time`]); the plan
+    /// is its result when it converged. `None` otherwise.
+    pub swing_time_search: Option<crate::planning::swing_time::SwingTimeSearch>,
 }
 
 impl Plan {
@@ -250,6 +254,9 @@ impl Plan {
         };
         if let Some(t) = &self.torque_continuation {
             msg += &format!("; {t}");
+        }
+        if let Some(s) = &self.swing_time_search {
+            msg += &format!("; {s}");
         }
         if self.guess.as_ref().is_some_and(|g| g.out_of_time) {
             msg += "; the obstacle strategies stopped at max_wall_time_s before one converged";
@@ -750,17 +757,23 @@ fn plan_strategies(
         return super::guess::plan_around_obstacles(robot, task, settings, nlp);
     }
     let started = std::time::Instant::now();
-    let p = plan_single(robot, task, settings, nlp, guess)?;
+    let centred = match super::swing_time::before_plan(robot, task, settings, nlp, guess, started)?
+    {
+        super::swing_time::Before::Planned(p) => return Ok(p),
+        super::swing_time::Before::Plan(s) => s,
+    };
+    let settings = centred.as_ref().unwrap_or(settings);
+    let mut p = plan_single(robot, task, settings, nlp, guess)?;
     if guess.is_none()
         && !p.converged()
         && settings.torque_continuation
         && super::torque_continuation::worth_continuing(&p.status)
     {
-        return super::torque_continuation::plan_by_torque_continuation(
+        p = super::torque_continuation::plan_by_torque_continuation(
             robot, task, settings, nlp, p, started,
-        );
+        )?;
     }
-    Ok(p)
+    super::swing_time::after_plan(robot, task, settings, nlp, guess, p, started)
 }
 
 /// One plan from one initial guess (the guess given, or the smooth step): [`plan_with_guess`] without
@@ -909,6 +922,7 @@ pub(super) fn plan_single(
         guess: None,
         blockage: None,
         torque_continuation: None,
+        swing_time_search: None,
     })
 }
 

@@ -46,6 +46,18 @@ pub enum SolveRole {
         /// The start's swing time, s.
         t0_s: f64,
     },
+    /// The task at the swing time `t_s`, cold: an anchor of the search in T after the task's own
+    /// swing time did not plan ([`crate::planning::swing_time`]).
+    SwingTimeAnchor {
+        /// The swing time, s.
+        t_s: f64,
+    },
+    /// The task at the swing time `t_s`, warm from the last converged plan of the continuation in T
+    /// ([`crate::planning::swing_time`]).
+    SwingTimeStep {
+        /// The swing time, s.
+        t_s: f64,
+    },
     /// The task again, warm from the solve before it, with the clearance rows also at the RK4
     /// sub-step states (that solve's resampled trajectory broke the clearance between the knots).
     SubstepClearance,
@@ -138,6 +150,8 @@ impl std::fmt::Display for SolveRole {
             SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
             SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
             SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
+            SolveRole::SwingTimeAnchor { t_s } => write!(f, "cold at T = {t_s:.4} s"),
+            SolveRole::SwingTimeStep { t_s } => write!(f, "continued to T = {t_s:.4} s"),
         }
     }
 }
