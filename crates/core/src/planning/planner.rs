@@ -759,7 +759,7 @@ fn plan_strategies(
     let started = std::time::Instant::now();
     let centred = match super::swing_time::before_plan(robot, task, settings, nlp, guess, started)?
     {
-        super::swing_time::Before::Planned(p) => return Ok(p),
+        super::swing_time::Before::Planned(p) => return Ok(*p),
         super::swing_time::Before::Plan(s) => s,
     };
     let settings = centred.as_ref().unwrap_or(settings);

@@ -210,7 +210,7 @@ fn rule_gives_no_time(
 /// What the planner does before its first plan of a task without obstacles (see [`before_plan`]).
 pub(super) enum Before {
     /// The search without a rule time ran: its plan is the result.
-    Planned(Plan),
+    Planned(Box<Plan>),
     /// Plan with these settings (`None`: the caller's).
     Plan(Option<PlannerSettings>),
 }
@@ -233,9 +233,9 @@ pub(super) fn before_plan(
         return Ok(Before::Plan(None));
     };
     Ok(match settings.free_swing_time {
-        None => Before::Planned(plan_without_rule_time(
+        None => Before::Planned(Box::new(plan_without_rule_time(
             robot, task, settings, nlp, why, started,
-        )?),
+        )?)),
         Some([lo, hi]) => Before::Plan(Some(PlannerSettings {
             swing_time: SwingTime::Seconds(0.5 * (lo + hi)),
             ..settings.clone()
