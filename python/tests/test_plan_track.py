@@ -101,7 +101,9 @@ def test_a_swing_short_of_torque_says_how_much_it_needs(root):
     assert weak != text
     robot = brachia.Robot.from_toml_str(weak, "weak.toml")
     task = {"q0": [-2.35, 0.0, -1.55, 0.0], "target": [0.8, 0.0]}
-    p = brachia.plan(robot, task)
+    # the continuation on the limits alone: without the search in T, which would plan "auto" at
+    # another swing time
+    p = brachia.plan(robot, task, swing_time_search=False)
     assert not p.converged
     assert "likely torque-limited" in p.failure_message
     t = p.report["torque_continuation"]
@@ -109,7 +111,7 @@ def test_a_swing_short_of_torque_says_how_much_it_needs(root):
     assert 1.0 <= t["failed_scale"] < t["reached_scale"]
     assert max(t["peak_torque_nm"]) > 0.4
     # off: the cold plan's failure alone
-    q = brachia.plan(robot, task, torque_continuation=False)
+    q = brachia.plan(robot, task, torque_continuation=False, swing_time_search=False)
     assert not q.converged and q.report["torque_continuation"] is None
     assert q.iterations < p.iterations
 

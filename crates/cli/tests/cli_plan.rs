@@ -146,7 +146,10 @@ fn a_swing_short_of_torque_says_how_much_it_needs() {
         .replace(
             "params = \"../params/paper.toml\"",
             "params = \"weak.toml\"",
-        );
+        )
+        // the continuation on the limits alone: the search in T would plan "auto" at another T
+        .replace("[planner]", "[planner]\nswing_time_search = false");
+    assert!(text.contains("swing_time_search = false"));
     let (o, out) = plan_in(dir.path(), "weak_swing.toml", &text);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");

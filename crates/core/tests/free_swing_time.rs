@@ -351,8 +351,10 @@ fn starts_that_all_fail_return_the_first_with_every_attempt() {
     let robot = Robot::paper();
     let s = PlannerSettings {
         swing_time_starts: 3,
-        // the starts' accounting is tested, not the continuation on the torque limits after them
+        // the starts' accounting is tested, not the continuation on the torque limits or the
+        // search in T after them
         torque_continuation: false,
+        swing_time_search: false,
         ..settings(Some([1.5, 3.0]))
     };
     let few = NlpSettings {

@@ -137,6 +137,7 @@ fn a_retry_that_is_not_adopted_still_counts() {
         knot_dt: 0.05,
         // the retry's accounting is tested, not the continuation on the torque limits after it
         torque_continuation: false,
+        swing_time_search: false,
         ..Default::default()
     };
     let nlp = NlpSettings {

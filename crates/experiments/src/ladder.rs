@@ -446,7 +446,9 @@ fn wrap(a: f64) -> f64 {
 }
 
 /// The swing time of a swing from `q0` to `target` (grip frame) under `settings`: the given seconds,
-/// or 2 T_freefall towards the midpoint between the EE and the target.
+/// or 2 T_freefall towards the midpoint between the EE and the target; when the locked chain never
+/// reaches that midpoint (a straight hang), twice its half period of small oscillation, the longest
+/// swing time the planner's search in T starts from (see [`brachia::planning::strategy::swing_time`]).
 pub fn swing_time(
     robot: &Robot,
     q0: &[f64],
@@ -457,7 +459,13 @@ pub fn swing_time(
         SwingTime::Seconds(t) => Ok(t),
         SwingTime::Auto(_) => {
             let ee = robot.ee_position(q0);
-            Ok(2.0 * freefall_time(robot, q0, 0.5 * (ee[0] + target[0]))?)
+            match freefall_time(robot, q0, 0.5 * (ee[0] + target[0])) {
+                Ok(tf) => Ok(2.0 * tf),
+                Err(Error::InfeasibleTask(m)) => brachia::planning::reference_swing_time(robot, q0)
+                    .map(|r| 2.0 * r)
+                    .ok_or(Error::InfeasibleTask(m)),
+                Err(e) => Err(e),
+            }
         }
     }
 }

@@ -648,6 +648,9 @@ fn solve_cell(
 ) -> Result<(brachia::planning::Plan, CellStart, usize, f64), Error> {
     let planner = PlannerSettings {
         swing_time: SwingTime::Seconds(swing_time_s),
+        // the study continues its own rows in T (warm from the neighbouring cell): a cell is
+        // planned at its swing time only, without the planner's search in T
+        swing_time_search: false,
         ..settings.planner.clone()
     };
     let first = plan_with_guess(&setup.robot, &setup.task, &planner, &settings.solver, guess)?;

@@ -175,6 +175,11 @@ pub struct PlanReport {
     /// got and the peak torques there (`brachia::planning::TorqueContinuation`).
     #[serde(default)]
     pub torque_continuation: Option<TorqueContinuation>,
+    /// When the task's swing time did not plan (or `"auto"` had no free-fall time): every swing time
+    /// the search in T planned at, and the one it planned at or the nearest that plan
+    /// (`brachia::planning::SwingTimeSearch`).
+    #[serde(default)]
+    pub swing_time_search: Option<brachia::planning::SwingTimeSearch>,
     /// On a task with obstacles planned without a guess: which strategies ran (smooth step, detour
     /// and C-space seeds, radius continuation), what each found, and whether `max_wall_time_s` ended
     /// them (`out_of_time`) (`brachia::planning::GuessReport`).
@@ -228,6 +233,7 @@ impl PlanReport {
             clearance_violation: p.clearance_violation,
             blockage: p.blockage.clone(),
             torque_continuation: p.torque_continuation.clone(),
+            swing_time_search: p.swing_time_search.clone(),
             guess: p.guess.clone(),
         }
     }

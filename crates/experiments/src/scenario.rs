@@ -314,7 +314,16 @@ impl Scenario {
             SwingTime::Auto(_) => {
                 let start_ee = robot.ee_position(&sc.task.q0);
                 let x_mid = 0.5 * (start_ee[0] + sc.task.target[0]);
-                let tf = freefall_time(&robot, &sc.task.q0, x_mid).map_err(|e| match e {
+                let rule = match freefall_time(&robot, &sc.task.q0, x_mid) {
+                    // no rule time: the planner searches from the locked chain's half period, up
+                    // to twice it (brachia::planning::strategy::swing_time)
+                    Err(Error::InfeasibleTask(m)) => {
+                        brachia::planning::reference_swing_time(&robot, &sc.task.q0)
+                            .ok_or(Error::InfeasibleTask(m))
+                    }
+                    other => other,
+                };
+                let tf = rule.map_err(|e| match e {
                     Error::InfeasibleTask(m) => Error::invalid(
                         &src,
                         "planner.swing_time",

@@ -29,6 +29,8 @@ fn cell(
     let planner = PlannerSettings {
         swing_time: SwingTime::Seconds(2.0 * ff - 0.5),
         torque_continuation: continuation,
+        // the continuation on the limits alone (the search in T has tests of its own)
+        swing_time_search: false,
         ..s.planner.clone()
     };
     (robot, task, planner, s)

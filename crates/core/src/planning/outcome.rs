@@ -150,6 +150,10 @@ pub struct Plan {
     /// [`crate::planning::strategy::torque_continuation`]); the plan is its result when it reached the real
     /// limits. `None` otherwise.
     pub torque_continuation: Option<TorqueContinuation>,
+    /// When the task's swing time did not plan (or `"auto"` had no free-fall time) on a cold plan
+    /// without obstacles: what the search in T tried (see [`crate::planning::strategy::swing_time`]);
+    /// the plan is its result when it converged. `None` otherwise.
+    pub swing_time_search: Option<super::report::SwingTimeSearch>,
 }
 
 impl Plan {
@@ -178,6 +182,9 @@ impl Plan {
         };
         if let Some(t) = &self.torque_continuation {
             msg += &format!("; {t}");
+        }
+        if let Some(s) = &self.swing_time_search {
+            msg += &format!("; {s}");
         }
         if self.guess.as_ref().is_some_and(|g| g.out_of_time) {
             msg += "; the obstacle strategies stopped at max_wall_time_s before one converged";
@@ -220,6 +227,18 @@ pub enum SolveRole {
         /// The start's swing time, s.
         t0_s: f64,
     },
+    /// The task at the swing time `t_s`, cold: an anchor of the search in T after the task's own
+    /// swing time did not plan ([`crate::planning::strategy::swing_time`]).
+    SwingTimeAnchor {
+        /// The swing time, s.
+        t_s: f64,
+    },
+    /// The task at the swing time `t_s`, warm from the last converged plan of the continuation in T
+    /// ([`crate::planning::strategy::swing_time`]).
+    SwingTimeStep {
+        /// The swing time, s.
+        t_s: f64,
+    },
     /// The task again, warm from the solve before it, with the clearance rows also at the RK4
     /// sub-step states (that solve's resampled trajectory broke the clearance between the knots).
     SubstepClearance,
@@ -237,6 +256,8 @@ impl std::fmt::Display for SolveRole {
             SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
             SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
             SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
+            SolveRole::SwingTimeAnchor { t_s } => write!(f, "cold at T = {t_s:.4} s"),
+            SolveRole::SwingTimeStep { t_s } => write!(f, "continued to T = {t_s:.4} s"),
         }
     }
 }

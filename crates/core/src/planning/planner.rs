@@ -77,15 +77,22 @@ fn plan_strategies(
         return super::strategy::obstacles::plan_around_obstacles(robot, task, settings, nlp);
     }
     let started = std::time::Instant::now();
-    let p = plan_single(robot, task, settings, nlp, guess)?;
+    let centred =
+        match super::strategy::swing_time::before_plan(robot, task, settings, nlp, guess, started)?
+        {
+            super::strategy::swing_time::Before::Planned(p) => return Ok(*p),
+            super::strategy::swing_time::Before::Plan(s) => s,
+        };
+    let settings = centred.as_ref().unwrap_or(settings);
+    let mut p = plan_single(robot, task, settings, nlp, guess)?;
     if guess.is_none()
         && !p.converged()
         && settings.torque_continuation
         && super::strategy::torque_continuation::worth_continuing(&p.status)
     {
-        return super::strategy::torque_continuation::plan_by_torque_continuation(
+        p = super::strategy::torque_continuation::plan_by_torque_continuation(
             robot, task, settings, nlp, p, started,
-        );
+        )?;
     }
-    Ok(p)
+    super::strategy::swing_time::after_plan(robot, task, settings, nlp, guess, p, started)
 }

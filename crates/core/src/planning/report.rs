@@ -4,6 +4,7 @@
 //!
 //! Units: m, s, N m.
 
+use super::nlp::SolveStatus;
 use super::strategy::cspace::CspaceReport;
 use super::strategy::detour::SeedReport;
 use serde::{Deserialize, Serialize};
@@ -259,6 +260,111 @@ impl fmt::Display for TorqueContinuation {
                 "widening the torque limits up to {:.0}x did not help: no plan converged with them either",
                 self.relaxed_scale
             ),
+        }
+    }
+}
+
+/// One swing time the search planned at.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TriedSwingTime {
+    /// The swing time, s.
+    pub swing_time_s: f64,
+    /// Whether it was an anchor (cold) or a step of a continuation (warm).
+    pub warm: bool,
+    /// How the plan ended.
+    pub status: SolveStatus,
+    /// Whether it converged.
+    pub converged: bool,
+}
+
+/// What the search in T tried (see [`crate::planning::strategy::swing_time`]); `Plan::swing_time_search`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SwingTimeSearch {
+    /// The swing time asked for, s: the seconds given or the free-fall rule's `2 T_freefall`;
+    /// `None` when the rule gave no time.
+    pub requested_s: Option<f64>,
+    /// Why the free-fall rule gave no time, when it did not.
+    pub rule_failure: Option<String>,
+    /// The locked chain's half period of small oscillation, s, when the anchors were taken around
+    /// it (the rule gave no time).
+    pub reference_s: Option<f64>,
+    /// Every plan of the search, in the order it ran.
+    pub tried: Vec<TriedSwingTime>,
+    /// The swing time of the plan returned when it converged, s.
+    pub planned_s: Option<f64>,
+    /// The search stopped because `max_wall_time_s` was spent or the call was cancelled.
+    pub out_of_time: bool,
+}
+
+impl SwingTimeSearch {
+    /// The converged swing times nearest the one asked for, below and above it, s.
+    pub fn nearest_planned(&self) -> (Option<f64>, Option<f64>) {
+        let t = self.requested_s.unwrap_or(f64::NAN);
+        let ok = self.tried.iter().filter(|x| x.converged);
+        let below = ok
+            .clone()
+            .map(|x| x.swing_time_s)
+            .filter(|&s| s < t)
+            .fold(None, |m: Option<f64>, s| Some(m.map_or(s, |m| m.max(s))));
+        let above = ok
+            .map(|x| x.swing_time_s)
+            .filter(|&s| s > t)
+            .fold(None, |m: Option<f64>, s| Some(m.map_or(s, |m| m.min(s))));
+        (below, above)
+    }
+}
+
+impl fmt::Display for SwingTimeSearch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (&self.rule_failure, self.requested_s) {
+            (Some(why), _) => write!(f, "the free-fall rule gave no swing time ({why})")?,
+            (None, Some(t)) => write!(f, "T = {t:.3} s did not plan")?,
+            (None, None) => write!(f, "the free swing time did not plan")?,
+        }
+        if let Some(r) = self.reference_s {
+            write!(
+                f,
+                "; swing times around the locked chain's half period {r:.3} s were tried"
+            )?;
+        }
+        let cold: Vec<String> = self
+            .tried
+            .iter()
+            .filter(|x| !x.warm)
+            .map(|x| {
+                format!(
+                    "{:.3} s {}",
+                    x.swing_time_s,
+                    if x.converged { "planned" } else { "failed" }
+                )
+            })
+            .collect();
+        if !cold.is_empty() {
+            write!(f, "; cold plans at {}", cold.join(", "))?;
+        }
+        let warm = self.tried.iter().filter(|x| x.warm).count();
+        if warm > 0 {
+            write!(f, "; {warm} warm plans continued in T")?;
+        }
+        match self.planned_s {
+            Some(t) => write!(f, "; planned at T = {t:.3} s"),
+            None => {
+                let (lo, hi) = self.nearest_planned();
+                let name = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.3} s"));
+                if self.requested_s.is_some() {
+                    write!(
+                        f,
+                        "; nearest swing times that plan: {} below, {} above (a local search, \
+                         not a proof that none between plans)",
+                        name(lo),
+                        name(hi)
+                    )?;
+                }
+                if self.out_of_time {
+                    write!(f, "; stopped at max_wall_time_s")?;
+                }
+                Ok(())
+            }
         }
     }
 }

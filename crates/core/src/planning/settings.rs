@@ -273,6 +273,11 @@ pub struct PlannerSettings {
     /// found, else the failure with how much torque the swing likely needs (default true; see
     /// [`crate::planning::strategy::torque_continuation`]).
     pub torque_continuation: bool,
+    /// When a cold plan without obstacles does not converge at its swing time (or `"auto"` has no
+    /// free-fall time): search in T, planning at neighbouring swing times and continuing a swing that
+    /// plans towards the one asked for; with `"auto"` the first that plans is the plan (default true;
+    /// see [`crate::planning::strategy::swing_time`]).
+    pub swing_time_search: bool,
 }
 
 impl Default for PlannerSettings {
@@ -293,6 +298,7 @@ impl Default for PlannerSettings {
             shooting: ShootingSettings::default(),
             obstacle_guess: ObstacleGuess::default(),
             torque_continuation: true,
+            swing_time_search: true,
         }
     }
 }

@@ -508,6 +508,7 @@ pub(crate) fn finish_plan(
         guess: None,
         blockage: None,
         torque_continuation: None,
+        swing_time_search: None,
     })
 }
 

@@ -164,6 +164,7 @@ pub(crate) fn plan_single(
         guess: None,
         blockage: None,
         torque_continuation: None,
+        swing_time_search: None,
     })
 }
 
