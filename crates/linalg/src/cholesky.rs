@@ -1,0 +1,220 @@
+//! Cholesky factorisation `A = L L^T` of a small symmetric positive definite matrix and the
+//! triangular solves with its factor.
+
+use crate::Scalar;
+
+/// Relative pivot threshold of [`cholesky`]: a pivot at or below `PIVOT_REL` times the column's
+/// original diagonal entry means the matrix is singular to working precision.
+const PIVOT_REL: f64 = 1e-13;
+
+/// The matrix given to [`cholesky`] is not (numerically) positive definite: the pivot of `column`
+/// (`a_jj - sum_k l_jk^2`, its real part for a dual number) is not finite or not above
+/// `1e-13 |a_jj|`. The factor's columns before `column` are written; the rest of the matrix is
+/// undefined.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("matrix not positive definite: pivot {pivot:e} at column {column}")]
+pub struct NotPositiveDefinite {
+    /// The column whose pivot failed (0-based).
+    pub column: usize,
+    /// That pivot (real part).
+    pub pivot: f64,
+}
+
+/// In-place Cholesky `A = L L^T` of the symmetric n x n row-major `a`: the lower triangle is read
+/// and overwritten by `L`, the strict upper triangle is left alone. Column j is
+/// `l_jj = sqrt(a_jj - sum_{k<j} l_jk^2)` and `l_ij = (a_ij - sum_{k<j} l_ik l_jk) * (1 / l_jj)`,
+/// each sum subtracted term by term in the order of k. Inlined, so that a caller with a constant
+/// `n` gets a body with constant sizes.
+///
+/// # Errors
+/// [`NotPositiveDefinite`] when a pivot is not finite or not above `1e-13` times its column's
+/// original diagonal entry (an indefinite, singular or non-finite matrix).
+#[inline(always)]
+pub fn cholesky<T: Scalar>(a: &mut [T], n: usize) -> Result<(), NotPositiveDefinite> {
+    let a = &mut a[..n * n];
+    for j in 0..n {
+        let orig = a[j * n + j].re();
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        let pivot = d.re();
+        if !(pivot.is_finite() && pivot > PIVOT_REL * orig.abs() && pivot > 0.0) {
+            return Err(NotPositiveDefinite { column: j, pivot });
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        let inv = d.recip();
+        for i in j + 1..n {
+            let mut v = a[i * n + j];
+            for k in 0..j {
+                v -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = v * inv;
+        }
+    }
+    Ok(())
+}
+
+/// Calls `solve_w::<M, _>` with the number of right-hand sides `$m` as the constant `M` for 1..=12
+/// and 17 (the rows of a stage's blocks for robots of up to 6 links), else `$fallback`; the kernels
+/// do the arithmetic of the any-width loops.
+macro_rules! with_rhs_width {
+    ($m:expr, ($($arg:expr),*), $fallback:expr) => {
+        match $m {
+            1 => solve_w::<1, _>($($arg),*),
+            2 => solve_w::<2, _>($($arg),*),
+            3 => solve_w::<3, _>($($arg),*),
+            4 => solve_w::<4, _>($($arg),*),
+            5 => solve_w::<5, _>($($arg),*),
+            6 => solve_w::<6, _>($($arg),*),
+            7 => solve_w::<7, _>($($arg),*),
+            8 => solve_w::<8, _>($($arg),*),
+            9 => solve_w::<9, _>($($arg),*),
+            10 => solve_w::<10, _>($($arg),*),
+            11 => solve_w::<11, _>($($arg),*),
+            12 => solve_w::<12, _>($($arg),*),
+            17 => solve_w::<17, _>($($arg),*),
+            _ => $fallback,
+        }
+    };
+}
+
+/// Solves `L L^T X = B` in place for the n x m row-major `b` (m right-hand sides as its columns; a
+/// vector is m = 1), with `L` the lower triangle of `l` (n x n) from [`cholesky`]. Forward
+/// `L Y = B`, then backward `L^T X = Y`; each row is `(b_i - sum_k l_ik y_k) * (1 / l_ii)`, the sum
+/// subtracted term by term in the order of k.
+#[inline]
+pub fn cholesky_solve<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
+    if n == 0 || m == 0 {
+        return;
+    }
+    let l = &l[..n * n];
+    let b = &mut b[..n * m];
+    with_rhs_width!(m, (l, n, b), solve_any(l, n, b, m))
+}
+
+/// Factor `a` ([`cholesky`]) and solve `A x = b` for one right-hand side `b` (n) in place.
+///
+/// # Errors
+/// [`NotPositiveDefinite`] from the factorisation (then `b` is untouched).
+#[inline(always)]
+pub fn cholesky_solve_in_place<T: Scalar>(
+    a: &mut [T],
+    n: usize,
+    b: &mut [T],
+) -> Result<(), NotPositiveDefinite> {
+    cholesky(a, n)?;
+    cholesky_solve_vec(a, n, b);
+    Ok(())
+}
+
+/// [`cholesky_solve`] for one right-hand side `b` (n), the same arithmetic, inlined: a caller with a
+/// constant `n` (the robot model's forward dynamics) gets a body with constant sizes.
+#[inline(always)]
+pub fn cholesky_solve_vec<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+    if n == 0 {
+        return;
+    }
+    solve_w::<1, T>(&l[..n * n], n, &mut b[..n]);
+}
+
+/// [`cholesky_solve`] for `M` right-hand sides: a row of `B` in registers.
+#[inline(always)]
+fn solve_w<const M: usize, T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+    let (b, _) = b.as_chunks_mut::<M>();
+    let b = &mut b[..n];
+    // forward: L Y = B
+    for i in 0..n {
+        let (done, rest) = b.split_at_mut(i);
+        let mut x = rest[0];
+        for (&lik, bk) in l[i * n..i * n + i].iter().zip(done.iter()) {
+            for j in 0..M {
+                x[j] -= lik * bk[j];
+            }
+        }
+        let d = l[i * n + i].recip();
+        for v in x.iter_mut() {
+            *v *= d;
+        }
+        rest[0] = x;
+    }
+    // backward: L^T X = Y
+    for i in (0..n).rev() {
+        let (head, tail) = b.split_at_mut(i + 1);
+        let mut x = head[i];
+        for (k, bk) in tail.iter().enumerate() {
+            let lki = l[(i + 1 + k) * n + i];
+            for j in 0..M {
+                x[j] -= lki * bk[j];
+            }
+        }
+        let d = l[i * n + i].recip();
+        for v in x.iter_mut() {
+            *v *= d;
+        }
+        head[i] = x;
+    }
+}
+
+/// [`cholesky_solve`] for any m (the reference of the fixed-width kernels).
+fn solve_any<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
+    // forward: L Y = B
+    for i in 0..n {
+        let (done, rest) = b.split_at_mut(i * m);
+        let bi = &mut rest[..m];
+        let li = &l[i * n..i * n + i];
+        for (&lik, bk) in li.iter().zip(done.chunks_exact(m)) {
+            for (x, &y) in bi.iter_mut().zip(bk) {
+                *x -= lik * y;
+            }
+        }
+        let d = l[i * n + i].recip();
+        for x in bi.iter_mut() {
+            *x *= d;
+        }
+    }
+    // backward: L^T X = Y
+    for i in (0..n).rev() {
+        let (head, tail) = b.split_at_mut((i + 1) * m);
+        let bi = &mut head[i * m..];
+        for (k, bk) in tail.chunks_exact(m).enumerate() {
+            let lki = l[(i + 1 + k) * n + i];
+            for (x, &y) in bi.iter_mut().zip(bk) {
+                *x -= lki * y;
+            }
+        }
+        let d = l[i * n + i].recip();
+        for x in bi.iter_mut() {
+            *x *= d;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testing::values;
+
+    #[test]
+    fn fixed_width_solves_match_the_reference_bit_for_bit() {
+        for m in (1..=13).chain([16, 17, 18]) {
+            for n in [1, 2, 5, 9] {
+                let mm = values(n * n, (m * 31 + n) as u64);
+                let mut spd = vec![0.0; n * n];
+                for i in 0..n {
+                    for j in 0..n {
+                        spd[i * n + j] = (0..n).map(|k| mm[k * n + i] * mm[k * n + j]).sum();
+                    }
+                    spd[i * n + i] += 1.0;
+                }
+                cholesky(&mut spd, n).expect("SPD");
+                let b0 = values(n * m, (m * 31 + n + 7) as u64);
+                let (mut x, mut x_ref) = (b0.clone(), b0.clone());
+                cholesky_solve(&spd, n, &mut x, m);
+                solve_any(&spd, n, &mut x_ref, m);
+                assert_eq!(x, x_ref, "n {n} m {m}");
+            }
+        }
+    }
+}
