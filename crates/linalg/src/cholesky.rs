@@ -20,17 +20,46 @@ pub struct NotPositiveDefinite {
     pub pivot: f64,
 }
 
+/// How [`cholesky`] and [`cholesky_solve`] scale by a pivot `p`: `v / p` for every entry, or
+/// `v * (1 / p)` with one division per pivot. The two round differently in the last bit; each
+/// caller keeps the one its results were established with (the OCP solver's Riccati factors
+/// divide and its solves multiply by the reciprocal, the robot model's mass-matrix factor
+/// multiplies and its solves divide).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scaling {
+    /// `v / p`.
+    Divide,
+    /// `v * (1 / p)`.
+    Reciprocal,
+}
+
+impl Scaling {
+    /// `v` scaled by the pivot `p`, whose reciprocal is `inv` (computed once by the caller; unused
+    /// by [`Scaling::Divide`]).
+    #[inline(always)]
+    fn apply<T: Scalar>(self, v: T, p: T, inv: T) -> T {
+        match self {
+            Scaling::Divide => v / p,
+            Scaling::Reciprocal => v * inv,
+        }
+    }
+}
+
 /// In-place Cholesky `A = L L^T` of the symmetric n x n row-major `a`: the lower triangle is read
 /// and overwritten by `L`, the strict upper triangle is left alone. Column j is
-/// `l_jj = sqrt(a_jj - sum_{k<j} l_jk^2)` and `l_ij = (a_ij - sum_{k<j} l_ik l_jk) * (1 / l_jj)`,
-/// each sum subtracted term by term in the order of k. Inlined, so that a caller with a constant
-/// `n` gets a body with constant sizes.
+/// `l_jj = sqrt(a_jj - sum_{k<j} l_jk^2)` and `l_ij = (a_ij - sum_{k<j} l_ik l_jk)` scaled by
+/// `l_jj` as `scaling` says, each sum subtracted term by term in the order of k. Inlined, so that
+/// a caller with a constant `n` gets a body with constant sizes.
 ///
 /// # Errors
 /// [`NotPositiveDefinite`] when a pivot is not finite or not above `1e-13` times its column's
 /// original diagonal entry (an indefinite, singular or non-finite matrix).
 #[inline(always)]
-pub fn cholesky<T: Scalar>(a: &mut [T], n: usize) -> Result<(), NotPositiveDefinite> {
+pub fn cholesky<T: Scalar>(
+    a: &mut [T],
+    n: usize,
+    scaling: Scaling,
+) -> Result<(), NotPositiveDefinite> {
     let a = &mut a[..n * n];
     for j in 0..n {
         let orig = a[j * n + j].re();
@@ -44,13 +73,16 @@ pub fn cholesky<T: Scalar>(a: &mut [T], n: usize) -> Result<(), NotPositiveDefin
         }
         let d = d.sqrt();
         a[j * n + j] = d;
-        let inv = d.recip();
+        let inv = match scaling {
+            Scaling::Divide => d,
+            Scaling::Reciprocal => d.recip(),
+        };
         for i in j + 1..n {
             let mut v = a[i * n + j];
             for k in 0..j {
                 v -= a[i * n + k] * a[j * n + k];
             }
-            a[i * n + j] = v * inv;
+            a[i * n + j] = scaling.apply(v, d, inv);
         }
     }
     Ok(())
@@ -82,19 +114,20 @@ macro_rules! with_rhs_width {
 
 /// Solves `L L^T X = B` in place for the n x m row-major `b` (m right-hand sides as its columns; a
 /// vector is m = 1), with `L` the lower triangle of `l` (n x n) from [`cholesky`]. Forward
-/// `L Y = B`, then backward `L^T X = Y`; each row is `(b_i - sum_k l_ik y_k) * (1 / l_ii)`, the sum
-/// subtracted term by term in the order of k.
+/// `L Y = B`, then backward `L^T X = Y`; each row is `b_i - sum_k l_ik y_k` (the sum subtracted
+/// term by term in the order of k) scaled by `l_ii` as `scaling` says.
 #[inline]
-pub fn cholesky_solve<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
+pub fn cholesky_solve<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize, scaling: Scaling) {
     if n == 0 || m == 0 {
         return;
     }
     let l = &l[..n * n];
     let b = &mut b[..n * m];
-    with_rhs_width!(m, (l, n, b), solve_any(l, n, b, m))
+    with_rhs_width!(m, (l, n, b, scaling), solve_any(l, n, b, m, scaling))
 }
 
-/// Factor `a` ([`cholesky`]) and solve `A x = b` for one right-hand side `b` (n) in place.
+/// Factor `a` ([`cholesky`]) and solve `A x = b` for one right-hand side `b` (n) in place
+/// ([`cholesky_solve_vec`]), with `factor` and `solve` the scalings of each.
 ///
 /// # Errors
 /// [`NotPositiveDefinite`] from the factorisation (then `b` is untouched).
@@ -103,25 +136,37 @@ pub fn cholesky_solve_in_place<T: Scalar>(
     a: &mut [T],
     n: usize,
     b: &mut [T],
+    factor: Scaling,
+    solve: Scaling,
 ) -> Result<(), NotPositiveDefinite> {
-    cholesky(a, n)?;
-    cholesky_solve_vec(a, n, b);
+    cholesky(a, n, factor)?;
+    cholesky_solve_vec(a, n, b, solve);
     Ok(())
 }
 
 /// [`cholesky_solve`] for one right-hand side `b` (n), the same arithmetic, inlined: a caller with a
 /// constant `n` (the robot model's forward dynamics) gets a body with constant sizes.
 #[inline(always)]
-pub fn cholesky_solve_vec<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+pub fn cholesky_solve_vec<T: Scalar>(l: &[T], n: usize, b: &mut [T], scaling: Scaling) {
     if n == 0 {
         return;
     }
-    solve_w::<1, T>(&l[..n * n], n, &mut b[..n]);
+    solve_w::<1, T>(&l[..n * n], n, &mut b[..n], scaling);
+}
+
+/// The pivot `p` and the factor [`Scaling::apply`] takes with it (its reciprocal, computed once per
+/// row, for [`Scaling::Reciprocal`]).
+#[inline(always)]
+fn pivot<T: Scalar>(p: T, scaling: Scaling) -> (T, T) {
+    match scaling {
+        Scaling::Divide => (p, p),
+        Scaling::Reciprocal => (p, p.recip()),
+    }
 }
 
 /// [`cholesky_solve`] for `M` right-hand sides: a row of `B` in registers.
 #[inline(always)]
-fn solve_w<const M: usize, T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
+fn solve_w<const M: usize, T: Scalar>(l: &[T], n: usize, b: &mut [T], scaling: Scaling) {
     let (b, _) = b.as_chunks_mut::<M>();
     let b = &mut b[..n];
     // forward: L Y = B
@@ -133,9 +178,9 @@ fn solve_w<const M: usize, T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
                 x[j] -= lik * bk[j];
             }
         }
-        let d = l[i * n + i].recip();
+        let (p, inv) = pivot(l[i * n + i], scaling);
         for v in x.iter_mut() {
-            *v *= d;
+            *v = scaling.apply(*v, p, inv);
         }
         rest[0] = x;
     }
@@ -149,16 +194,16 @@ fn solve_w<const M: usize, T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
                 x[j] -= lki * bk[j];
             }
         }
-        let d = l[i * n + i].recip();
+        let (p, inv) = pivot(l[i * n + i], scaling);
         for v in x.iter_mut() {
-            *v *= d;
+            *v = scaling.apply(*v, p, inv);
         }
         head[i] = x;
     }
 }
 
 /// [`cholesky_solve`] for any m (the reference of the fixed-width kernels).
-fn solve_any<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
+fn solve_any<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize, scaling: Scaling) {
     // forward: L Y = B
     for i in 0..n {
         let (done, rest) = b.split_at_mut(i * m);
@@ -169,9 +214,9 @@ fn solve_any<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
                 *x -= lik * y;
             }
         }
-        let d = l[i * n + i].recip();
+        let (p, inv) = pivot(l[i * n + i], scaling);
         for x in bi.iter_mut() {
-            *x *= d;
+            *x = scaling.apply(*x, p, inv);
         }
     }
     // backward: L^T X = Y
@@ -184,9 +229,9 @@ fn solve_any<T: Scalar>(l: &[T], n: usize, b: &mut [T], m: usize) {
                 *x -= lki * y;
             }
         }
-        let d = l[i * n + i].recip();
+        let (p, inv) = pivot(l[i * n + i], scaling);
         for x in bi.iter_mut() {
-            *x *= d;
+            *x = scaling.apply(*x, p, inv);
         }
     }
 }
@@ -208,12 +253,19 @@ mod tests {
                     }
                     spd[i * n + i] += 1.0;
                 }
-                cholesky(&mut spd, n).expect("SPD");
+                cholesky(&mut spd, n, Scaling::Divide).expect("SPD");
                 let b0 = values(n * m, (m * 31 + n + 7) as u64);
-                let (mut x, mut x_ref) = (b0.clone(), b0.clone());
-                cholesky_solve(&spd, n, &mut x, m);
-                solve_any(&spd, n, &mut x_ref, m);
-                assert_eq!(x, x_ref, "n {n} m {m}");
+                for scaling in [Scaling::Divide, Scaling::Reciprocal] {
+                    let (mut x, mut x_ref) = (b0.clone(), b0.clone());
+                    cholesky_solve(&spd, n, &mut x, m, scaling);
+                    solve_any(&spd, n, &mut x_ref, m, scaling);
+                    assert_eq!(x, x_ref, "n {n} m {m} {scaling:?}");
+                    if m == 1 {
+                        let mut v = b0.clone();
+                        cholesky_solve_vec(&spd, n, &mut v, scaling);
+                        assert_eq!(v, x_ref, "n {n} {scaling:?}");
+                    }
+                }
             }
         }
     }

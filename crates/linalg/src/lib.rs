@@ -18,7 +18,8 @@
 //!   [`NotPositiveDefinite`] status naming the failing column; [`cholesky_solve`] for any number of
 //!   right-hand sides, [`cholesky_solve_vec`] for one; [`cholesky_solve_in_place`] for both at
 //!   once. Generic over [`Scalar`]: `f64` and the dual numbers of `num-dual` (exact derivatives of
-//!   a solve).
+//!   a solve). [`Scaling`] says how a pivot is applied: a division per entry or a multiplication
+//!   by its reciprocal.
 //! - Products: [`gemm_nn`], [`gemm_nn_acc`], [`gemm_tn_acc`], [`gemm_nt`], [`gemv_n_acc`],
 //!   [`gemv_t_acc`], [`dot_acc`], [`add_lincomb`], [`add_lincomb2`].
 //! - [`dot_lanes`], [`dot_lanes_x4`]: dot products in four accumulators (long rows).
@@ -58,6 +59,7 @@ mod products;
 
 pub use cholesky::{
     cholesky, cholesky_solve, cholesky_solve_in_place, cholesky_solve_vec, NotPositiveDefinite,
+    Scaling,
 };
 pub use eigen::{eigen_solve, sym_eigen};
 pub use lanes::{dot_lanes, dot_lanes_x4};

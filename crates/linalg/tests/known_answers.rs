@@ -5,7 +5,7 @@
 use brachia_linalg::{
     add_lincomb, add_lincomb2, cholesky, cholesky_solve, cholesky_solve_in_place, dot_acc,
     dot_lanes, dot_lanes_x4, eigen_solve, gemm_nn, gemm_nn_acc, gemm_nt, gemm_tn_acc, gemv_n_acc,
-    gemv_t_acc, sym_eigen, NotPositiveDefinite,
+    gemv_t_acc, sym_eigen, NotPositiveDefinite, Scaling,
 };
 use nalgebra::DMatrix;
 use num_dual::Dual64;
@@ -54,14 +54,14 @@ fn cholesky_of_a_known_matrix() {
     // A = L L^T with L = [[2, 0, 0], [1, 3, 0], [-1, 2, 1]]
     let mut a = [4.0, 2.0, -2.0, 2.0, 10.0, 5.0, -2.0, 5.0, 6.0];
     let upper = [a[1], a[2], a[5]];
-    cholesky(&mut a, 3).expect("SPD");
+    cholesky(&mut a, 3, Scaling::Divide).expect("SPD");
     let l = [a[0], a[3], a[4], a[6], a[7], a[8]];
     assert_eq!(l, [2.0, 1.0, 3.0, -1.0, 2.0, 1.0]);
     // the strict upper triangle is left alone
     assert_eq!([a[1], a[2], a[5]], upper);
     // A x = b for x = [1, -2, 3]
     let mut b = [4.0 - 4.0 - 6.0, 2.0 - 20.0 + 15.0, -2.0 - 10.0 + 18.0];
-    cholesky_solve(&a, 3, &mut b, 1);
+    cholesky_solve(&a, 3, &mut b, 1, Scaling::Divide);
     assert!(max_abs_diff(&b, &[1.0, -2.0, 3.0]) < 1e-14, "{b:?}");
 }
 
@@ -71,8 +71,9 @@ fn random_spd_matrices_factor_and_solve_as_nalgebra_does() {
     for n in 1..=20 {
         for cond in [1.0, 1e3, 1e8] {
             let a = random_spd(&mut rng, n, cond);
+            let scaling = [Scaling::Divide, Scaling::Reciprocal][n % 2];
             let mut l = row_major(&a);
-            cholesky(&mut l, n).expect("SPD");
+            cholesky(&mut l, n, scaling).expect("SPD");
             let reference = a.clone().cholesky().expect("nalgebra: SPD").l();
             for i in 0..n {
                 for j in 0..=i {
@@ -87,7 +88,7 @@ fn random_spd_matrices_factor_and_solve_as_nalgebra_does() {
                 let b = DMatrix::from_row_slice(n, m, &random(&mut rng, n * m));
                 let want = a.clone().cholesky().unwrap().solve(&b);
                 let mut x = row_major(&b);
-                cholesky_solve(&l, n, &mut x, m);
+                cholesky_solve(&l, n, &mut x, m, scaling);
                 let scale = row_major(&want).iter().fold(1.0f64, |s, v| s.max(v.abs()));
                 let err = max_abs_diff(&x, &row_major(&want));
                 assert!(
@@ -109,16 +110,16 @@ fn random_spd_matrices_factor_and_solve_as_nalgebra_does() {
 fn non_spd_matrices_are_refused_with_the_failing_column() {
     // indefinite: eigenvalues 3 and -1
     let mut a = [1.0, 2.0, 2.0, 1.0];
-    let err = cholesky(&mut a, 2).unwrap_err();
+    let err = cholesky(&mut a, 2, Scaling::Divide).unwrap_err();
     assert_eq!(err.column, 1);
     assert!(err.pivot < 0.0);
     // singular (rank 1)
     let mut s = [1.0, 1.0, 1.0, 1.0];
-    assert_eq!(cholesky(&mut s, 2).unwrap_err().column, 1);
+    assert_eq!(cholesky(&mut s, 2, Scaling::Divide).unwrap_err().column, 1);
     // negative first pivot
     let mut neg = [-1.0, 0.0, 0.0, 1.0];
     assert_eq!(
-        cholesky(&mut neg, 2),
+        cholesky(&mut neg, 2, Scaling::Divide),
         Err(NotPositiveDefinite {
             column: 0,
             pivot: -1.0
@@ -126,13 +127,19 @@ fn non_spd_matrices_are_refused_with_the_failing_column() {
     );
     // non-finite entries
     let mut nan = [1.0, 0.0, 0.0, f64::NAN];
-    assert_eq!(cholesky(&mut nan, 2).unwrap_err().column, 1);
+    assert_eq!(
+        cholesky(&mut nan, 2, Scaling::Divide).unwrap_err().column,
+        1
+    );
     let mut inf = [f64::INFINITY, 0.0, 0.0, 1.0];
-    assert_eq!(cholesky(&mut inf, 2).unwrap_err().column, 0);
+    assert_eq!(
+        cholesky(&mut inf, 2, Scaling::Divide).unwrap_err().column,
+        0
+    );
     // positive semidefinite with an exactly zero second pivot
     let mut psd = [4.0, 2.0, 2.0, 2.0, 1.0, 1.0, 2.0, 1.0, 5.0];
     assert_eq!(
-        cholesky(&mut psd, 3),
+        cholesky(&mut psd, 3, Scaling::Divide),
         Err(NotPositiveDefinite {
             column: 1,
             pivot: 0.0
@@ -140,19 +147,29 @@ fn non_spd_matrices_are_refused_with_the_failing_column() {
     );
     // a pivot below 1e-13 of its diagonal entry is singular to working precision
     let mut nearly = [1.0, 1.0, 1.0, 1.0 + 1e-15];
-    assert_eq!(cholesky(&mut nearly, 2).unwrap_err().column, 1);
+    assert_eq!(
+        cholesky(&mut nearly, 2, Scaling::Divide)
+            .unwrap_err()
+            .column,
+        1
+    );
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     // and the solve leaves b alone on failure
     let mut bad = [1.0, 2.0, 2.0, 1.0];
     let mut b = [1.0, 2.0];
-    assert!(cholesky_solve_in_place(&mut bad, 2, &mut b).is_err());
+    assert!(
+        cholesky_solve_in_place(&mut bad, 2, &mut b, Scaling::Divide, Scaling::Divide).is_err()
+    );
     assert_eq!(b, [1.0, 2.0]);
     // random indefinite matrices: nalgebra refuses them too
     for n in 2..=12 {
         let mut a = random_spd(&mut rng, n, 10.0);
         a[(n / 2, n / 2)] -= 20.0;
         assert!(a.clone().cholesky().is_none());
-        assert!(cholesky(&mut row_major(&a), n).is_err(), "n {n}");
+        assert!(
+            cholesky(&mut row_major(&a), n, Scaling::Divide).is_err(),
+            "n {n}"
+        );
     }
 }
 
@@ -168,7 +185,7 @@ fn a_dual_solve_carries_the_exact_derivative() {
         .map(|(&v, &d)| Dual64::new(v, d))
         .collect();
     let mut x: Vec<Dual64> = b.iter().map(|&v| Dual64::from(v)).collect();
-    cholesky_solve_in_place(&mut a, 3, &mut x).expect("SPD");
+    cholesky_solve_in_place(&mut a, 3, &mut x, Scaling::Reciprocal, Scaling::Divide).expect("SPD");
     let am = DMatrix::from_row_slice(3, 3, &a0);
     let xm = am
         .clone()

@@ -52,10 +52,10 @@ use super::settings::Bounds;
 use super::worker::{Job, SpinWorker};
 use crate::ad::{Diff, LocalFn};
 use crate::error::{Error, Result};
-use crate::model::kernels::add_lincomb;
 use crate::model::{
     ClearanceDerivatives, ClearanceRecord, DynamicsDerivatives, DynamicsFn, Robot, Scratch,
 };
+use brachia_linalg::add_lincomb;
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,
@@ -1020,13 +1020,9 @@ fn fx_transpose_times(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64])
 fn fx_transpose_times_body(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
     let nx = 2 * n;
     let (jq, w, g) = (&jq[..n * nz], &w[..nx], &mut g[..nx]);
-    for e in 0..nx {
-        let mut v = if e >= n { w[e - n] } else { 0.0 };
-        for r in 0..n {
-            v += jq[r * nz + e] * w[n + r];
-        }
-        g[e] = v;
-    }
+    g[..n].fill(0.0);
+    g[n..].copy_from_slice(&w[..n]);
+    add_lincomb(g, &w[n..], 1, jq, nz, n);
 }
 
 /// Add the upper triangle (`a <= b`) of `S^T H S` to `hess` (`nz x nz` row-major), for an evaluation's
