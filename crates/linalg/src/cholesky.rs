@@ -21,10 +21,10 @@ pub struct NotPositiveDefinite {
 }
 
 /// How [`cholesky`] and [`cholesky_solve`] scale by a pivot `p`: `v / p` for every entry, or
-/// `v * (1 / p)` with one division per pivot. The two round differently in the last bit; each
-/// caller keeps the one its results were established with (the OCP solver's Riccati factors
-/// divide and its solves multiply by the reciprocal, the robot model's mass-matrix factor
-/// multiplies and its solves divide).
+/// `v * (1 / p)` with one division per pivot. The two round differently in the last bit, and a
+/// plan's iterates depend on such bits: the OCP solver's Riccati factors divide and its solves
+/// multiply by the reciprocal; the robot model's mass-matrix factor multiplies and its solves
+/// divide; the detour seeds divide in both.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scaling {
     /// `v / p`.
@@ -60,6 +60,21 @@ pub fn cholesky<T: Scalar>(
     n: usize,
     scaling: Scaling,
 ) -> Result<(), NotPositiveDefinite> {
+    cholesky_with_pivot(a, n, scaling, PIVOT_REL)
+}
+
+/// [`cholesky`] with the relative pivot threshold `min_pivot_rel` (`>= 0`) in place of `1e-13`: a
+/// pivot must be finite and above `min_pivot_rel |a_jj|` (with 0, any positive pivot passes).
+///
+/// # Errors
+/// [`NotPositiveDefinite`] naming the first column whose pivot fails that rule.
+#[inline(always)]
+pub fn cholesky_with_pivot<T: Scalar>(
+    a: &mut [T],
+    n: usize,
+    scaling: Scaling,
+    min_pivot_rel: f64,
+) -> Result<(), NotPositiveDefinite> {
     let a = &mut a[..n * n];
     for j in 0..n {
         let orig = a[j * n + j].re();
@@ -68,7 +83,9 @@ pub fn cholesky<T: Scalar>(
             d -= a[j * n + k] * a[j * n + k];
         }
         let pivot = d.re();
-        if !(pivot.is_finite() && pivot > PIVOT_REL * orig.abs() && pivot > 0.0) {
+        // false for a NaN pivot or diagonal entry; `pivot > 0` follows from
+        // `min_pivot_rel |orig| >= 0`
+        if !(pivot > min_pivot_rel * orig.abs() && pivot < f64::INFINITY) {
             return Err(NotPositiveDefinite { column: j, pivot });
         }
         let d = d.sqrt();
@@ -144,14 +161,28 @@ pub fn cholesky_solve_in_place<T: Scalar>(
     Ok(())
 }
 
-/// [`cholesky_solve`] for one right-hand side `b` (n), the same arithmetic, inlined: a caller with a
-/// constant `n` (the robot model's forward dynamics) gets a body with constant sizes.
+/// [`cholesky_solve`] for one right-hand side `b` (n), the same arithmetic in plain loops, inlined:
+/// a caller with a constant `n` (the robot model's forward dynamics) gets a body with constant
+/// sizes.
 #[inline(always)]
 pub fn cholesky_solve_vec<T: Scalar>(l: &[T], n: usize, b: &mut [T], scaling: Scaling) {
-    if n == 0 {
-        return;
+    let (l, b) = (&l[..n * n], &mut b[..n]);
+    for i in 0..n {
+        let mut v = b[i];
+        for k in 0..i {
+            v -= l[i * n + k] * b[k];
+        }
+        let (p, inv) = pivot(l[i * n + i], scaling);
+        b[i] = scaling.apply(v, p, inv);
     }
-    solve_w::<1, T>(&l[..n * n], n, &mut b[..n], scaling);
+    for i in (0..n).rev() {
+        let mut v = b[i];
+        for k in i + 1..n {
+            v -= l[k * n + i] * b[k];
+        }
+        let (p, inv) = pivot(l[i * n + i], scaling);
+        b[i] = scaling.apply(v, p, inv);
+    }
 }
 
 /// The pivot `p` and the factor [`Scaling::apply`] takes with it (its reciprocal, computed once per

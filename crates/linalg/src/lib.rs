@@ -58,8 +58,8 @@ mod lincomb;
 mod products;
 
 pub use cholesky::{
-    cholesky, cholesky_solve, cholesky_solve_in_place, cholesky_solve_vec, NotPositiveDefinite,
-    Scaling,
+    cholesky, cholesky_solve, cholesky_solve_in_place, cholesky_solve_vec, cholesky_with_pivot,
+    NotPositiveDefinite, Scaling,
 };
 pub use eigen::{eigen_solve, sym_eigen};
 pub use lanes::{dot_lanes, dot_lanes_x4};

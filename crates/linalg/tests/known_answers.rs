@@ -3,9 +3,9 @@
 //! the four-lane dot products and the Jacobi eigendecomposition.
 
 use brachia_linalg::{
-    add_lincomb, add_lincomb2, cholesky, cholesky_solve, cholesky_solve_in_place, dot_acc,
-    dot_lanes, dot_lanes_x4, eigen_solve, gemm_nn, gemm_nn_acc, gemm_nt, gemm_tn_acc, gemv_n_acc,
-    gemv_t_acc, sym_eigen, NotPositiveDefinite, Scaling,
+    add_lincomb, add_lincomb2, cholesky, cholesky_solve, cholesky_solve_in_place,
+    cholesky_with_pivot, dot_acc, dot_lanes, dot_lanes_x4, eigen_solve, gemm_nn, gemm_nn_acc,
+    gemm_nt, gemm_tn_acc, gemv_n_acc, gemv_t_acc, sym_eigen, NotPositiveDefinite, Scaling,
 };
 use nalgebra::DMatrix;
 use num_dual::Dual64;
@@ -146,13 +146,15 @@ fn non_spd_matrices_are_refused_with_the_failing_column() {
         })
     );
     // a pivot below 1e-13 of its diagonal entry is singular to working precision
-    let mut nearly = [1.0, 1.0, 1.0, 1.0 + 1e-15];
-    assert_eq!(
-        cholesky(&mut nearly, 2, Scaling::Divide)
-            .unwrap_err()
-            .column,
-        1
-    );
+    let nearly = [1.0, 1.0, 1.0, 1.0 + 1e-15];
+    let err = cholesky(&mut nearly.clone(), 2, Scaling::Divide).unwrap_err();
+    assert_eq!(err.column, 1);
+    // ... unless the threshold is lowered: with 0 any positive pivot passes
+    let mut l = nearly;
+    cholesky_with_pivot(&mut l, 2, Scaling::Divide, 0.0).expect("positive pivot");
+    assert!(l[3] > 0.0 && l[3] < 1e-7, "{l:?}");
+    assert!(cholesky_with_pivot(&mut [1.0, 1.0, 1.0, 1.0], 2, Scaling::Divide, 0.0).is_err());
+    assert!(cholesky_with_pivot(&mut [f64::NAN], 1, Scaling::Divide, 0.0).is_err());
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     // and the solve leaves b alone on failure
     let mut bad = [1.0, 2.0, 2.0, 1.0];

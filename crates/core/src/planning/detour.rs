@@ -180,11 +180,10 @@ impl Tracker {
             }
             let mut step: Vec<f64> = grad.iter().map(|v| -v).collect();
             let divide = brachia_linalg::Scaling::Divide;
-            if brachia_linalg::cholesky_solve_in_place(&mut h, n, &mut step, divide, divide)
-                .is_err()
-            {
+            if brachia_linalg::cholesky_with_pivot(&mut h, n, divide, 0.0).is_err() {
                 return;
             }
+            brachia_linalg::cholesky_solve_vec(&h, n, &mut step, divide);
             let big = step.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             if big > MAX_STEP {
                 step.iter_mut().for_each(|v| *v *= MAX_STEP / big);
