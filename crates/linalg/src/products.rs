@@ -18,14 +18,24 @@ macro_rules! with_width {
     };
 }
 
-/// `c (m x n) = a (m x r) * b (r x n)`.
-#[inline]
+/// `c (m x n) = a (m x r) * b (r x n)`: every entry `0 + a_i0 b_0j + a_i1 b_1j + ...` summed in the
+/// order of k (the rows of `c` start from zero in registers, not from a cleared `c`). Inlined, so
+/// that a caller with constant sizes gets the kernel of its width without a dispatch.
+#[inline(always)]
 pub fn gemm_nn(a: &[f64], b: &[f64], c: &mut [f64], m: usize, r: usize, n: usize) {
     if n == 0 {
         return;
     }
-    c[..m * n].fill(0.0);
-    gemm_nn_acc(a, b, c, m, r, n);
+    let c = &mut c[..m * n];
+    if r == 0 {
+        c.fill(0.0);
+        return;
+    }
+    let (a, b) = (&a[..m * r], &b[..r * n]);
+    with_width!(n, gemm_nn_set_w(a, b, c, r), {
+        c.fill(0.0);
+        gemm_nn_any(a, b, c, r, n)
+    })
 }
 
 /// `c (m x n) += a (m x r) * b (r x n)`: every entry `c_ij + a_i0 b_0j + a_i1 b_1j + ...` summed in
@@ -54,13 +64,29 @@ fn gemm_nn_any(a: &[f64], b: &[f64], c: &mut [f64], r: usize, n: usize) {
 /// row of `b` loaded once for both).
 #[inline(always)]
 fn gemm_nn_w<const N: usize>(a: &[f64], b: &[f64], c: &mut [f64], r: usize) {
+    gemm_nn_body::<N, true>(a, b, c, r)
+}
+
+/// [`gemm_nn`] for `N` columns: [`gemm_nn_w`] with the rows of `c` starting from zero.
+#[inline(always)]
+fn gemm_nn_set_w<const N: usize>(a: &[f64], b: &[f64], c: &mut [f64], r: usize) {
+    gemm_nn_body::<N, false>(a, b, c, r)
+}
+
+/// The body of [`gemm_nn_w`] (`ACC`: add to `c`) and [`gemm_nn_set_w`] (overwrite `c`).
+#[inline(always)]
+fn gemm_nn_body<const N: usize, const ACC: bool>(a: &[f64], b: &[f64], c: &mut [f64], r: usize) {
     let (b, _) = b.as_chunks::<N>();
     let (c, _) = c.as_chunks_mut::<N>();
     let pairs = if N <= 8 { c.len() / 2 } else { 0 };
     let (c2, c1) = c.split_at_mut(2 * pairs);
     let (a2, a1) = a.split_at(2 * pairs * r);
     for (cp, ap) in c2.chunks_exact_mut(2).zip(a2.chunks_exact(2 * r)) {
-        let (mut x0, mut x1) = (cp[0], cp[1]);
+        let (mut x0, mut x1) = if ACC {
+            (cp[0], cp[1])
+        } else {
+            ([0.0; N], [0.0; N])
+        };
         let (a0, a1) = ap.split_at(r);
         for ((s0, s1), bk) in a0.iter().zip(a1).zip(b) {
             for j in 0..N {
@@ -71,7 +97,7 @@ fn gemm_nn_w<const N: usize>(a: &[f64], b: &[f64], c: &mut [f64], r: usize) {
         (cp[0], cp[1]) = (x0, x1);
     }
     for (ci, ai) in c1.iter_mut().zip(a1.chunks_exact(r)) {
-        let mut acc = *ci;
+        let mut acc = if ACC { *ci } else { [0.0; N] };
         for (aik, bk) in ai.iter().zip(b) {
             for j in 0..N {
                 acc[j] += aik * bk[j];
@@ -256,6 +282,10 @@ mod tests {
                 gemm_nn_acc(&a, &b, &mut c, m, r, n);
                 gemm_nn_any(&a, &b, &mut c_ref, r, n);
                 assert_eq!(c, c_ref, "gemm_nn_acc m {m} r {r} n {n}");
+                let (mut c, mut c_ref) = (c0.clone(), vec![0.0; m * n]);
+                gemm_nn(&a, &b, &mut c, m, r, n);
+                gemm_nn_any(&a, &b, &mut c_ref, r, n);
+                assert_eq!(c, c_ref, "gemm_nn m {m} r {r} n {n}");
                 let at = values(r * m, seed + 3);
                 let (mut c, mut c_ref) = (c0.clone(), c0.clone());
                 gemm_tn_acc(&at, &b, &mut c, r, m, n);
