@@ -279,7 +279,14 @@ fn pinned_deriv<'a>(
             rhs[i] -= h[(n + i) * nz + k] * x[n + k];
         }
     }
-    brachia::model::cholesky_solve_in_place(&mut m, n, &mut rhs);
+    brachia_linalg::cholesky_solve_in_place(
+        &mut m,
+        n,
+        &mut rhs,
+        brachia_linalg::Scaling::Reciprocal,
+        brachia_linalg::Scaling::Divide,
+    )
+    .expect("M is SPD");
     out[..n].copy_from_slice(&x[n..]);
     out[n..].copy_from_slice(&rhs);
 }

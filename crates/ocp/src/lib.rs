@@ -148,30 +148,11 @@
 //! ```
 #![warn(missing_docs)]
 
-/// Calls `$kernel::<N>(args)` with the run-time width `$w` as the constant `N` when `$w` is one of
-/// the listed literal widths, else evaluates `$fallback`: one dispatch for the constant-width
-/// kernels of this crate's dense blocks and of the robot model's derivatives (`brachia`), whose
-/// kernels do the same arithmetic as their any-width fallback. Not part of the solver's API.
-#[doc(hidden)]
-#[macro_export]
-macro_rules! dispatch_width {
-    ($w:expr, [$($n:literal),+ $(,)?], $kernel:ident $args:tt, $fallback:expr) => {
-        match $w {
-            $($n => $kernel::<$n> $args,)+
-            _ => $fallback,
-        }
-    };
-}
-
 mod cancel;
-mod dense;
 pub mod problem;
 mod riccati;
 mod settings;
 mod solver;
-#[cfg(any(test, feature = "testing"))]
-#[doc(hidden)]
-pub mod testing;
 
 pub use cancel::{CancelToken, Cancelled};
 pub use problem::{

@@ -9,11 +9,11 @@
 //! ```
 //! `H_k = [Q S^T; S R]` in the order `z = [x, u]`. See docs/ocp.md for the derivation.
 
-use crate::dense::{
-    chol, chol_solve, eigen_solve, gemm_nn, gemm_nn_acc, gemm_tn_acc, gemv_n_acc, gemv_t_acc,
-    sym_eigen,
-};
 use crate::settings::MAX_EQUALITY_ROWS;
+use brachia_linalg::{
+    cholesky, cholesky_solve, eigen_solve, gemm_nn, gemm_nn_acc, gemm_tn_acc, gemv_n_acc,
+    gemv_t_acc, sym_eigen, Scaling,
+};
 
 /// Offsets of every per-stage block in the flat workspace arrays.
 #[derive(Debug, Clone)]
@@ -273,7 +273,7 @@ impl Riccati {
                             + if i == j { 1.0 } else { 0.0 };
                     }
                 }
-                if !chol(lm, n) {
+                if cholesky(lm, n, Scaling::Divide).is_err() {
                     return Err(NotPositive);
                 }
                 // X = M^-1 S P in ptil, then P~ = P - (S P)^T X
@@ -283,7 +283,7 @@ impl Riccati {
                         pt[i * n + j] = d[i].sqrt() * p1[i * n + j];
                     }
                 }
-                chol_solve(lm, n, pt, n);
+                cholesky_solve(lm, n, pt, n, Scaling::Reciprocal);
                 let pa = &mut self.pa[..n * n];
                 pa.copy_from_slice(p1);
                 for l in 0..n {
@@ -322,13 +322,13 @@ impl Riccati {
                 }
             }
             if nu > 0 {
-                if !chol(rh, nu) {
+                if cholesky(rh, nu, Scaling::Divide).is_err() {
                     return Err(NotPositive);
                 }
                 self.lr[lay.or[k]..lay.or[k + 1]].copy_from_slice(rh);
                 let kg = &mut self.kgain[lay.ok[k]..lay.ok[k + 1]];
                 kg.copy_from_slice(sh);
-                chol_solve(rh, nu, kg, nx);
+                cholesky_solve(rh, nu, kg, nx, Scaling::Reciprocal);
                 for v in kg.iter_mut() {
                     *v = -*v;
                 }
@@ -376,7 +376,7 @@ impl Riccati {
                     w[i] = d[i].sqrt() * pv_hi[i];
                 }
                 let o = lay.op[k + 1];
-                chol_solve(&self.lm[o..o + nx1 * nx1], nx1, w, 1);
+                cholesky_solve(&self.lm[o..o + nx1 * nx1], nx1, w, 1, Scaling::Reciprocal);
                 for i in 0..nx1 {
                     w[i] *= d[i].sqrt();
                 }
@@ -408,7 +408,13 @@ impl Riccati {
             if nu > 0 {
                 let kf = &mut self.kff[lay.oz[k]..lay.oz[k] + nu];
                 kf.copy_from_slice(rh);
-                chol_solve(&self.lr[lay.or[k]..lay.or[k + 1]], nu, kf, 1);
+                cholesky_solve(
+                    &self.lr[lay.or[k]..lay.or[k + 1]],
+                    nu,
+                    kf,
+                    1,
+                    Scaling::Reciprocal,
+                );
                 for v in kf.iter_mut() {
                     *v = -*v;
                 }
@@ -630,7 +636,7 @@ impl Riccati {
                             *x = sd * y;
                         }
                     }
-                    chol_solve(&self.lm[o1..o1 + nx1 * nx1], nx1, w, m);
+                    cholesky_solve(&self.lm[o1..o1 + nx1 * nx1], nx1, w, m, Scaling::Reciprocal);
                     for (wi, di) in w.chunks_exact_mut(m).zip(d) {
                         let sd = -di.sqrt();
                         for x in wi.iter_mut() {
@@ -652,7 +658,13 @@ impl Riccati {
             if nu > 0 {
                 let kf = &mut self.mkff[o..o + nu * m];
                 kf.copy_from_slice(rh);
-                chol_solve(&self.lr[lay.or[k]..lay.or[k + 1]], nu, kf, m);
+                cholesky_solve(
+                    &self.lr[lay.or[k]..lay.or[k + 1]],
+                    nu,
+                    kf,
+                    m,
+                    Scaling::Reciprocal,
+                );
                 for v in kf.iter_mut() {
                     *v = -*v;
                 }

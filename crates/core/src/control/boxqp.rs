@@ -17,6 +17,7 @@
 //! (forward substitution, O(|F|^2)), fixing one deletes a row and restores triangularity with Givens
 //! rotations (O(|F|^2)). All memory is allocated in [`BoxQp::new`]; [`BoxQp::solve`] never allocates.
 
+use brachia_linalg::{dot_lanes, dot_lanes_x4};
 use serde::{Deserialize, Serialize};
 
 /// Options of the box-QP solver.
@@ -334,10 +335,10 @@ impl BoxQp {
         let hrow = &h[i * n..(i + 1) * n];
         for p in 0..nf {
             // H is symmetric: read row i (contiguous) instead of column i.
-            let v = hrow[self.free[p]] - dot(&self.l[p * m..p * m + p], &self.work[..p]);
+            let v = hrow[self.free[p]] - dot_lanes(&self.l[p * m..p * m + p], &self.work[..p]);
             self.work[p] = v / self.l[p * m + p];
         }
-        let d = hrow[i] - dot(&self.work[..nf], &self.work[..nf]);
+        let d = hrow[i] - dot_lanes(&self.work[..nf], &self.work[..nf]);
         // Relative pivot test: a pivot this small means H_FF is singular to working precision.
         if d.is_nan() || d <= 1e-14 * h[i * n + i].abs() || !d.is_finite() {
             return false;
@@ -353,8 +354,8 @@ impl BoxQp {
 
     /// Factor `H_FF` from scratch for the free variables in index order. Builds exactly the factor that
     /// [`Self::append`] would build one row at a time (same formulas, same rounding: every entry is
-    /// `(H_ij - dot(L_i, L_j)) / L_jj` with the four-accumulator [`dot`]), but column by column, with
-    /// the dot products of four rows against the column's row at once ([`dots_4x1`]: each loaded
+    /// `(H_ij - dot(L_i, L_j)) / L_jj` with the four-lane [`dot_lanes`]), but column by column, with
+    /// the dot products of four rows against the column's row at once ([`dot_lanes_x4`]: each loaded
     /// entry of that row serves four products). False if a pivot is not positive (then `nf` counts
     /// the variables factored before it, as after a failed `append`).
     fn factor_free(&mut self, h: &[f64], n: usize) -> bool {
@@ -383,7 +384,7 @@ impl BoxQp {
             let fj = self.free[j];
             let (top, rest) = self.l.split_at_mut((j + 1) * m);
             let lj = &mut top[j * m..(j + 1) * m];
-            let d = lj[j] - dot(&lj[..j], &lj[..j]);
+            let d = lj[j] - dot_lanes(&lj[..j], &lj[..j]);
             if d.is_nan() || d <= 1e-14 * h[fj * n + fj].abs() || !d.is_finite() {
                 return false;
             }
@@ -396,13 +397,13 @@ impl BoxQp {
                 let (r0, r) = quad.split_at_mut(m);
                 let (r1, r) = r.split_at_mut(m);
                 let (r2, r3) = r.split_at_mut(m);
-                let acc = dots_4x1([&r0[..j], &r1[..j], &r2[..j], &r3[..j]], lj);
+                let acc = dot_lanes_x4([&r0[..j], &r1[..j], &r2[..j], &r3[..j]], lj);
                 for (row, s) in [r0, r1, r2, r3].into_iter().zip(acc) {
                     row[j] = (row[j] - s) / piv;
                 }
             }
             for row in single.chunks_exact_mut(m) {
-                row[j] = (row[j] - dot(&row[..j], lj)) / piv;
+                row[j] = (row[j] - dot_lanes(&row[..j], lj)) / piv;
             }
             self.nf = j + 1;
         }
@@ -449,7 +450,7 @@ impl BoxQp {
         let m = self.n_max;
         let nf = self.nf;
         for p in 0..nf {
-            let v = self.rhs[p] - dot(&self.l[p * m..p * m + p], &self.sol[..p]);
+            let v = self.rhs[p] - dot_lanes(&self.l[p * m..p * m + p], &self.sol[..p]);
             self.sol[p] = v / self.l[p * m + p];
         }
         for p in (0..nf).rev() {
@@ -460,72 +461,6 @@ impl BoxQp {
             self.sol[p] = v / self.l[p * m + p];
         }
     }
-}
-
-/// Dot product with four independent accumulators (lets the compiler vectorise; no bounds checks).
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let len = a.len().min(b.len());
-    let (a, b) = (&a[..len], &b[..len]);
-    let mut acc = [0.0; 4];
-    let mut ca = a.chunks_exact(4);
-    let mut cb = b.chunks_exact(4);
-    for (x, y) in (&mut ca).zip(&mut cb) {
-        acc[0] += x[0] * y[0];
-        acc[1] += x[1] * y[1];
-        acc[2] += x[2] * y[2];
-        acc[3] += x[3] * y[3];
-    }
-    let mut s = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
-        s += x * y;
-    }
-    s
-}
-
-/// `[dot(a[0], b), .., dot(a[3], b)]` with the rounding of [`dot`] (four accumulators per product,
-/// summed `(0 + 1) + (2 + 3)`, then the remainder in order), each loaded entry of `b` serving four
-/// products. The rows `a[r]` must be at least as long as `b`.
-#[inline(always)]
-fn dots_4x1(a: [&[f64]; 4], b: &[f64]) -> [f64; 4] {
-    let len = b.len();
-    let (bq, br) = b.as_chunks::<4>();
-    let nq = bq.len();
-    let rows = a.map(|r| &r[..len]);
-    let [a0, a1, a2, a3] = rows.map(|r| &r.as_chunks::<4>().0[..nq]);
-    // Named two-lane accumulators (lanes 0, 1 and 2, 3 of each product's four), straight-line code
-    // the compiler keeps in vector registers.
-    let f = |s: [f64; 2], x0: f64, y0: f64, x1: f64, y1: f64| [s[0] + x0 * y0, s[1] + x1 * y1];
-    let z = [0.0f64; 2];
-    let (mut l0, mut h0, mut l1, mut h1, mut l2, mut h2, mut l3, mut h3) = (z, z, z, z, z, z, z, z);
-    for k in 0..nq {
-        let y = bq[k];
-        let x = a0[k];
-        l0 = f(l0, x[0], y[0], x[1], y[1]);
-        h0 = f(h0, x[2], y[2], x[3], y[3]);
-        let x = a1[k];
-        l1 = f(l1, x[0], y[0], x[1], y[1]);
-        h1 = f(h1, x[2], y[2], x[3], y[3]);
-        let x = a2[k];
-        l2 = f(l2, x[0], y[0], x[1], y[1]);
-        h2 = f(h2, x[2], y[2], x[3], y[3]);
-        let x = a3[k];
-        l3 = f(l3, x[0], y[0], x[1], y[1]);
-        h3 = f(h3, x[2], y[2], x[3], y[3]);
-    }
-    let sum = |l: [f64; 2], h: [f64; 2], r: &[f64]| {
-        let mut s = (l[0] + l[1]) + (h[0] + h[1]);
-        for (x, y) in r[4 * nq..].iter().zip(br) {
-            s += x * y;
-        }
-        s
-    };
-    [
-        sum(l0, h0, rows[0]),
-        sum(l1, h1, rows[1]),
-        sum(l2, h2, rows[2]),
-        sum(l3, h3, rows[3]),
-    ]
 }
 
 /// Largest violation of the KKT conditions of the box QP at `u` (for tests and diagnostics):

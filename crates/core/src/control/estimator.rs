@@ -22,10 +22,9 @@
 
 use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
-use crate::model::{
-    cholesky_factor_in_place, cholesky_solve_factored, LinearModel, Linearizer, Robot, MAX_LINKS,
-};
+use crate::model::{LinearModel, Linearizer, Robot, MAX_LINKS};
 use crate::trajectory::Trajectory;
+use brachia_linalg::{cholesky, cholesky_solve_vec, Scaling};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -387,13 +386,16 @@ impl<C: Controller> Estimated<C> {
         for i in 0..nx {
             self.s[i * nx + i] += rdiag(i);
         }
-        cholesky_factor_in_place(&mut self.s, nx);
+        if cholesky(&mut self.s, nx, Scaling::Reciprocal).is_err() {
+            // S is not positive definite only when P holds non-finite values: keep the prediction
+            return;
+        }
         for c in 0..nx {
             let mut col = [0.0; 2 * MAX_LINKS];
             for i in 0..nx {
                 col[i] = self.p[i * nx + c];
             }
-            cholesky_solve_factored(&self.s, nx, &mut col[..nx]);
+            cholesky_solve_vec(&self.s, nx, &mut col[..nx], Scaling::Divide);
             // K^T column c = row c of K.
             for i in 0..nx {
                 self.kt[c * nx + i] = col[i];

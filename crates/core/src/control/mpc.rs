@@ -27,6 +27,7 @@ use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::{LinearModel, Linearizer, Robot};
 use crate::trajectory::Trajectory;
+use brachia_linalg::{dot_acc, gemm_nn, gemm_nt};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -652,14 +653,32 @@ impl Mpc {
         with_link_count!(self.robot.n, |n| self.step_n(t, x0, n))
     }
 
-    /// [`Mpc::step`] for `n` links (`n` = the robot's; constant sizes when called with a constant).
+    /// [`Mpc::step`] for `n` links (`n` = the robot's; constant sizes when called with a constant):
+    /// the references and the warm start, the stage models, the condensed QP, its solution.
     #[inline(always)]
     fn step_n(&mut self, t: f64, x0: &[f64], n: usize) -> BoxQpInfo {
+        self.fill_references(t, n);
+        self.warm_start(t, n);
+        self.build_models(x0, n);
+        self.fill_affine_terms(t, n);
+        self.free_response(x0, n);
+        self.stage_weights(n);
+        self.gamma_blocks(n);
+        self.backward_recursion(n);
+        self.hessian(n);
+        let info = self
+            .qp
+            .solve(&self.h, &self.g, &self.lb, &self.ub, &mut self.u);
+        self.last_qp = Some(info);
+        info
+    }
+
+    /// The reference states `x^d_k` and EE positions `y^d_k` at `t + k dt` (k = 1..N) and the planned
+    /// torques at `t + k dt` (k = 0..N-1).
+    #[inline(always)]
+    fn fill_references(&mut self, t: f64, n: usize) {
         let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
         let dt = self.settings.dt_mpc;
-        let nall = hn * nu;
-
-        // References.
         for k in 0..hn {
             let tk = t + (k + 1) as f64 * dt;
             self.reference.state_at(tk, &mut self.xref[k * nx..][..nx]);
@@ -670,8 +689,14 @@ impl Mpc {
             self.tau_at(t + k as f64 * dt, &mut tmp[..nu]);
             self.tauref[k * nu..][..nu].copy_from_slice(&tmp[..nu]);
         }
+    }
 
-        // Warm start: previous solution shifted by the elapsed time (linear interpolation).
+    /// The QP's warm start: the previous solution shifted by the elapsed time (linear interpolation),
+    /// or the planned torques at the first call.
+    #[inline(always)]
+    fn warm_start(&mut self, t: f64, n: usize) {
+        let (nu, hn) = (n - 1, self.settings.horizon);
+        let dt = self.settings.dt_mpc;
         match self.t_prev {
             None => {
                 self.tau_last.copy_from_slice(&self.tauref[..nu]);
@@ -692,8 +717,13 @@ impl Mpc {
                 }
             }
         }
+    }
 
-        // Models.
+    /// The stage models: slot 0 linearised at the measured state and the last applied torque, slots
+    /// 1.. (`AlongReference`) at the reference.
+    #[inline(always)]
+    fn build_models(&mut self, x0: &[f64], n: usize) {
+        let (nx, nu) = (2 * n, n - 1);
         let tau_last = {
             let mut tmp = [0.0; crate::model::MAX_LINKS];
             tmp[..nu].copy_from_slice(&self.tau_last);
@@ -706,8 +736,12 @@ impl Mpc {
             tmp[..nu].copy_from_slice(&self.tauref[k * nu..][..nu]);
             self.build_model(k, true, x0, &tmp[..nu], n);
         }
+    }
 
-        // Per-stage affine terms.
+    /// The affine terms of the stages (`Fd_k`, k = 0..N-1) and of the outputs (`fy_k`, k = 1..N).
+    #[inline(always)]
+    fn fill_affine_terms(&mut self, t: f64, n: usize) {
+        let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
         self.reference.state_at(t, &mut self.xd0);
         for k in 0..hn {
             let m = k.min(self.n_models - 1);
@@ -753,8 +787,12 @@ impl Mpc {
                 };
             }
         }
+    }
 
-        // Free response xi_0 = x0, xi_{k+1} = A_k xi_k + F_k.
+    /// The free response `xi_0 = x0`, `xi_{k+1} = A_k xi_k + F_k`.
+    #[inline(always)]
+    fn free_response(&mut self, x0: &[f64], n: usize) {
+        let (nx, hn) = (2 * n, self.settings.horizon);
         self.xi[..nx].copy_from_slice(x0);
         for k in 0..hn {
             let m = k.min(self.n_models - 1);
@@ -771,8 +809,12 @@ impl Mpc {
                 xn[i] = v;
             }
         }
+    }
 
-        // Stage weights Qt_k and gradients e_k, k = 1..N (stored at index k - 1).
+    /// The stage weights `Qt_k` and gradients `e_k`, k = 1..N (stored at index k - 1).
+    #[inline(always)]
+    fn stage_weights(&mut self, n: usize) {
+        let (nx, hn) = (2 * n, self.settings.horizon);
         let q = &self.settings.q_diag;
         let w = &self.settings.w_diag;
         for k in 1..=hn {
@@ -815,9 +857,13 @@ impl Mpc {
                 e[i] += c[i] * ry[0] + c[nx + i] * ry[1];
             }
         }
+    }
 
-        // Gamma blocks, transposed: Gamma^T_d = Gamma^T_{d-1} A^T runs over rows of length nx (the
-        // products and their order of summation per entry are those of A Gamma_{d-1}).
+    /// The Gamma blocks, stored transposed: `Gamma^T_d = Gamma^T_{d-1} A^T` runs over rows of length
+    /// nx (the products and their order of summation per entry are those of `A Gamma_{d-1}`).
+    #[inline(always)]
+    fn gamma_blocks(&mut self, n: usize) {
+        let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
         match self.settings.linearization {
             Linearization::Measured => {
                 // Phi_0 = B, Phi_d = A Phi_{d-1}.
@@ -826,7 +872,7 @@ impl Mpc {
                 for d in 1..hn {
                     let (prev, cur) = self.gam.split_at_mut(d * nx * nu);
                     let prev = &prev[(d - 1) * nx * nu..];
-                    mat_mul_rect(prev, adt, &mut cur[..nx * nu], nu, nx, nx);
+                    gemm_nn(prev, adt, &mut cur[..nx * nu], nu, nx, nx);
                 }
             }
             Linearization::AlongReference => {
@@ -839,14 +885,18 @@ impl Mpc {
                         let (lo, hi) = self.gam.split_at_mut((j * hn + i) * blk);
                         let prev = &lo[((j - 1) * hn + i) * blk..((j - 1) * hn + i + 1) * blk];
                         let ajt = &self.adt[j * nx * nx..][..nx * nx];
-                        mat_mul_rect(prev, ajt, &mut hi[..blk], nu, nx, nx);
+                        gemm_nn(prev, ajt, &mut hi[..blk], nu, nx, nx);
                     }
                 }
             }
         }
+    }
 
-        // Backward recursion: P_N = Qt_N; PB_j = P_{j+1} B_j; P_j = Qt_j + A_j^T P_{j+1} A_j.
-        // lambda_N = e_N; g_j = B_j^T lambda_{j+1} - R u^r_j; lambda_j = e_j + A_j^T lambda_{j+1}.
+    /// The backward recursion: `P_N = Qt_N`; `PB_j = P_{j+1} B_j`; `P_j = Qt_j + A_j^T P_{j+1} A_j`;
+    /// `lambda_N = e_N`; `g_j = B_j^T lambda_{j+1} - R u^r_j`; `lambda_j = e_j + A_j^T lambda_{j+1}`.
+    #[inline(always)]
+    fn backward_recursion(&mut self, n: usize) {
+        let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
         self.p
             .copy_from_slice(&self.qt[(hn - 1) * nx * nx..][..nx * nx]);
         self.lam.copy_from_slice(&self.e[(hn - 1) * nx..][..nx]);
@@ -860,10 +910,10 @@ impl Mpc {
             // (P B)^T from the rows of P and of B^T (P_N = Qt_N is symmetric only to rounding, so
             // the rows of P, not its columns, keep the sums of P B).
             let pb = &mut self.pb[j * nx * nu..][..nx * nu];
-            mat_mul_transposed(&self.p, bdt, pb, nx, nx, nu);
+            gemm_nt(bdt, &self.p, pb, nu, nx, nx);
             let lam = &self.lam[..nx];
             for (a, bta) in bdt.chunks_exact(nx).enumerate() {
-                let mut v = dot_from(0.0, bta, lam);
+                let mut v = dot_acc(0.0, bta, lam);
                 if planned {
                     v -= r[a] * self.tauref[j * nu + a];
                 }
@@ -873,7 +923,7 @@ impl Mpc {
                 break;
             }
             // P <- Qt_j + A^T P A  (ptmp = P A, then P = Qt + A^T ptmp).
-            mat_mul_rect(&self.p, ad, &mut self.ptmp, nx, nx, nx);
+            gemm_nn(&self.p, ad, &mut self.ptmp, nx, nx, nx);
             let qt = &self.qt[(j - 1) * nx * nx..][..nx * nx];
             // P is symmetric: compute the upper triangle and mirror it. Row i is accumulated over k
             // into independent sums (the same order per entry as a dot product over k, so the same
@@ -900,11 +950,19 @@ impl Mpc {
                 .zip(e)
                 .zip(adt.chunks_exact(nx))
             {
-                *v = dot_from(ei, ati, lam);
+                *v = dot_acc(ei, ati, lam);
             }
             std::mem::swap(&mut self.lam, &mut self.lamtmp);
         }
+    }
 
+    /// The QP's Hessian from the Gamma blocks and `P B` (and the input-rate penalty's terms in the
+    /// Hessian and the gradient).
+    #[inline(always)]
+    fn hessian(&mut self, n: usize) {
+        let (nx, nu, hn) = (2 * n, n - 1, self.settings.horizon);
+        let nall = hn * nu;
+        let r = &self.settings.r_diag;
         // Hessian blocks: H_ij = Gamma_{j+1,i}^T (P_{j+1} B_j) for i <= j. Both factors are stored
         // transposed (rows of length nx: `gam` block rows a, `pb` rows b), so each entry is one dot
         // product over nx (for `Measured` the block c = j - i holds Gamma_c = A^c B). Column
@@ -927,7 +985,7 @@ impl Mpc {
                     let i = if lti { j - c } else { c };
                     let hc = &mut self.hcol[i * nu..(i + 1) * nu];
                     for (v, ga) in hc.iter_mut().zip(gb.chunks_exact(nx)) {
-                        *v = dot_from(0.0, ga, pr);
+                        *v = dot_acc(0.0, ga, pr);
                     }
                 }
                 let col = j * nu + b;
@@ -964,57 +1022,6 @@ impl Mpc {
                 self.g[a] -= rd[a] * self.tau_last[a];
             }
         }
-
-        let info = self
-            .qp
-            .solve(&self.h, &self.g, &self.lb, &self.ub, &mut self.u);
-        self.last_qp = Some(info);
-        info
-    }
-}
-
-/// `c = (a b)^T` from `bt = b^T`, with a: r x k, bt: s x k, c: s x r, row-major: each entry
-/// is the dot product of a row of `a` and a row of `bt`, summed in the order of k ([`dot_from`]).
-#[inline(always)]
-fn mat_mul_transposed(a: &[f64], bt: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
-    for (bj, cj) in bt[..s * k]
-        .chunks_exact(k)
-        .zip(c[..s * r].chunks_exact_mut(r))
-    {
-        for (ai, cji) in a[..r * k].chunks_exact(k).zip(cj.iter_mut()) {
-            *cji = dot_from(0.0, ai, bj);
-        }
-    }
-}
-
-/// `init + a . b` summed in order from `init` (the rounding of the plain loop
-/// `v = init; v += a[k] b[k]`), over the length of `a` (`b` at least as long): with a constant
-/// length, unrolled without bounds checks.
-#[inline(always)]
-fn dot_from(init: f64, a: &[f64], b: &[f64]) -> f64 {
-    let mut v = init;
-    for (x, y) in a.iter().zip(&b[..a.len()]) {
-        v += x * y;
-    }
-    v
-}
-
-/// `c = a b` with a: r x k, b: k x s, c: r x s, row-major (s <= 2 `MAX_LINKS`). Each row of `c` is
-/// accumulated in a local array over the rows of `b` (with constant sizes: in registers, unrolled).
-#[inline(always)]
-fn mat_mul_rect(a: &[f64], b: &[f64], c: &mut [f64], r: usize, k: usize, s: usize) {
-    for (ai, ci) in a[..r * k]
-        .chunks_exact(k)
-        .zip(c[..r * s].chunks_exact_mut(s))
-    {
-        let mut acc = [0.0; 2 * crate::model::MAX_LINKS];
-        let acc = &mut acc[..s];
-        for (&v, bl) in ai.iter().zip(b[..k * s].chunks_exact(s)) {
-            for (x, &y) in acc.iter_mut().zip(bl) {
-                *x += v * y;
-            }
-        }
-        ci.copy_from_slice(acc);
     }
 }
 

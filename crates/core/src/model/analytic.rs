@@ -35,9 +35,8 @@
 //! The value `qdd` is computed with the arithmetic of [`Robot::forward_dynamics_into`] in the same order,
 //! so it agrees with it bit for bit.
 
-use super::dynamics::{cholesky_factor_body, cholesky_solve_body};
-use super::kernels::{add_lincomb, add_lincomb2};
 use super::Robot;
+use brachia_linalg::{add_lincomb, add_lincomb2, cholesky, cholesky_solve_vec, Scaling};
 
 /// Reusable buffers (allocated in new; no allocation per call). Sized for robot.n.
 ///
@@ -260,8 +259,13 @@ impl DynamicsDerivatives {
         for i in 1..n {
             a[i] = tau[i - 1] - h[i];
         }
-        cholesky_factor_body(l, n);
-        cholesky_solve_body(l, n, a);
+        // M is positive definite for any valid robot; a failed factorisation (non-finite state)
+        // gives NaN accelerations
+        if cholesky(l, n, Scaling::Reciprocal).is_ok() {
+            cholesky_solve_vec(l, n, a, Scaling::Divide);
+        } else {
+            a.fill(f64::NAN);
+        }
         let mut acc = 0.0;
         for i in 0..n {
             acc += a[i];
@@ -326,7 +330,7 @@ impl DynamicsDerivatives {
         let (y, u) = (&mut self.y[..n], &mut self.u[..n]);
         let l = &self.l[..n * n];
         y.copy_from_slice(w);
-        cholesky_solve_body(l, n, y);
+        cholesky_solve_vec(l, n, y, Scaling::Divide);
         let mut acc = 0.0;
         for i in 0..n {
             acc += y[i];

@@ -7,6 +7,7 @@
 
 use super::Robot;
 use crate::math::{c, Scalar};
+use brachia_linalg::{cholesky, cholesky_solve_vec, Scaling};
 
 /// Reusable buffers for the dynamics of one robot and one scalar type (allocated once; no allocation
 /// per call).
@@ -19,7 +20,7 @@ pub struct Scratch<T> {
     mabs: Vec<T>,
     hab: Vec<T>,
     /// Mass matrix (relative angles), row-major n x n; after `forward_dynamics` its lower triangle holds
-    /// the Cholesky factor.
+    /// the Cholesky factor (`brachia_linalg::cholesky`).
     m: Vec<T>,
     h: Vec<T>,
 }
@@ -195,8 +196,13 @@ impl Robot {
         for i in 1..n {
             qdd[i] = tau[i - 1] - h[i];
         }
-        cholesky_factor_body(&mut ws.m, n);
-        cholesky_solve_body(&ws.m, n, qdd);
+        // M is positive definite for any valid robot; a failed factorisation (non-finite state)
+        // gives NaN accelerations
+        if cholesky(&mut ws.m, n, Scaling::Reciprocal).is_ok() {
+            cholesky_solve_vec(&ws.m, n, qdd, Scaling::Divide);
+        } else {
+            qdd.fill(c(f64::NAN));
+        }
     }
 
     /// Inverse dynamics: the generalised forces `M qdd + C qd + G` (n). For a motion the robot can make,
@@ -255,66 +261,5 @@ impl Robot {
         let mut m = vec![0.0; self.n * self.n];
         self.mass_matrix_into(&mut ws, q, &mut m);
         m
-    }
-}
-
-/// Solve `A x = b` for symmetric positive definite `A` (row-major n x n) by Cholesky; `A`'s lower
-/// triangle is overwritten by the factor and `b` by the solution.
-pub fn cholesky_solve_in_place<T: Scalar>(a: &mut [T], n: usize, b: &mut [T]) {
-    cholesky_factor_in_place(a, n);
-    cholesky_solve_factored(a, n, b);
-}
-
-/// Cholesky factorisation `A = L L^T` of a symmetric positive definite `A` (row-major n x n): the lower
-/// triangle of `a` is overwritten by `L`, the strict upper triangle is left untouched.
-pub fn cholesky_factor_in_place<T: Scalar>(a: &mut [T], n: usize) {
-    with_link_count!(n, |n| cholesky_factor_body(a, n))
-}
-
-/// The body of [`cholesky_factor_in_place`]; a constant `n` gives constant sizes (same arithmetic).
-#[inline(always)]
-pub(crate) fn cholesky_factor_body<T: Scalar>(a: &mut [T], n: usize) {
-    let a = &mut a[..n * n];
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        let inv = d.recip();
-        for i in j + 1..n {
-            let mut v = a[i * n + j];
-            for k in 0..j {
-                v -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = v * inv;
-        }
-    }
-}
-
-/// Solve `L L^T x = b` in place, with `L` the lower triangle of `l` (row-major n x n) as left by
-/// [`cholesky_factor_in_place`].
-pub fn cholesky_solve_factored<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
-    with_link_count!(n, |n| cholesky_solve_body(l, n, b))
-}
-
-/// The body of [`cholesky_solve_factored`]; a constant `n` gives constant sizes (same arithmetic).
-#[inline(always)]
-pub(crate) fn cholesky_solve_body<T: Scalar>(l: &[T], n: usize, b: &mut [T]) {
-    let (l, b) = (&l[..n * n], &mut b[..n]);
-    for i in 0..n {
-        let mut v = b[i];
-        for k in 0..i {
-            v -= l[i * n + k] * b[k];
-        }
-        b[i] = v / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut v = b[i];
-        for k in i + 1..n {
-            v -= l[k * n + i] * b[k];
-        }
-        b[i] = v / l[i * n + i];
     }
 }

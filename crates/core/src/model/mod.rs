@@ -5,7 +5,6 @@ mod clearance_derivatives;
 mod collision;
 mod derivatives;
 mod dynamics;
-pub(crate) mod kernels;
 mod kinematics;
 mod params;
 mod reroot;
@@ -14,9 +13,7 @@ pub use analytic::DynamicsDerivatives;
 pub use clearance_derivatives::{ClearanceDerivatives, ClearanceForm, ClearanceRecord};
 pub use collision::{Circle, ClearanceFn, ClearancePair, LinkSet};
 pub use derivatives::{DynamicsFn, LinearModel, Linearizer};
-pub use dynamics::{
-    cholesky_factor_in_place, cholesky_solve_factored, cholesky_solve_in_place, Scratch,
-};
+pub use dynamics::Scratch;
 pub use kinematics::{ik_from_seed, mirrored_pose, wrap_angle, P2};
 pub use params::{ActuatorParams, LinkParams, Robot, RobotParams, MAX_LINKS, PAPER_TOML};
 pub use reroot::{reroot_jacobian, reroot_state, reroot_tau, switch_grip, GripSwitch};

@@ -155,7 +155,19 @@ pub fn switch_grip(robot: &Robot, grip: P2<f64>, x: &[f64]) -> Result<GripSwitch
         for r in 0..2 {
             let mut a = m.clone();
             let mut b = jac[r * n..(r + 1) * n].to_vec();
-            super::cholesky_solve_in_place(&mut a, n, &mut b);
+            if brachia_linalg::cholesky_solve_in_place(
+                &mut a,
+                n,
+                &mut b,
+                brachia_linalg::Scaling::Reciprocal,
+                brachia_linalg::Scaling::Divide,
+            )
+            .is_err()
+            {
+                return Err(Error::InfeasibleTask(format!(
+                    "grip switch: the mass matrix at this pose is not positive definite ({q:?})"
+                )));
+            }
             minv_jt[r * n..(r + 1) * n].copy_from_slice(&b);
         }
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();

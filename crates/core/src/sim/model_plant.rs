@@ -87,7 +87,22 @@ impl Plant for ModelPlant {
         let mut dqd: Vec<f64> = (0..n)
             .map(|i| jac[i] * impulse[0] + jac[n + i] * impulse[1])
             .collect();
-        crate::model::cholesky_solve_in_place(&mut m, n, &mut dqd);
+        if brachia_linalg::cholesky_solve_in_place(
+            &mut m,
+            n,
+            &mut dqd,
+            brachia_linalg::Scaling::Reciprocal,
+            brachia_linalg::Scaling::Divide,
+        )
+        .is_err()
+        {
+            return Err(crate::Error::invalid(
+                "ModelPlant",
+                "push",
+                format!("{impulse:?}"),
+                "the mass matrix at the plant's state is not positive definite",
+            ));
+        }
         for i in 0..n {
             self.x[n + i] += dqd[i];
         }

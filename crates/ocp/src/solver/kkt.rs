@@ -8,9 +8,9 @@ use super::data::{Kind, ProblemData};
 use super::evaluation::finite;
 use super::iterate::{Iterate, Step};
 use super::restoration::{phase_grad, Restoration};
-use crate::dense::gemv_t_acc;
 use crate::riccati::{Layout, Riccati};
 use crate::settings::{OcpStats, MAX_EQUALITY_ROWS};
+use brachia_linalg::gemv_t_acc;
 use std::time::Instant;
 
 // Inertia correction (IPOPT's Algorithm IC): first delta_w, smallest and largest, decrease and

@@ -6,9 +6,9 @@ use super::data::Kind;
 use super::iterate::scatter_primal;
 use super::restoration::phase_grad;
 use super::workspace::OcpSolver;
-use crate::dense::gemv_t_acc;
 use crate::problem::StageEval;
 use crate::settings::OcpStats;
+use brachia_linalg::gemv_t_acc;
 
 /// Scaling threshold of the optimality error (IPOPT's `s_max`).
 const S_MAX: f64 = 100.0;

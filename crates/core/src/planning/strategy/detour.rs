@@ -104,44 +104,6 @@ pub struct SeedReport {
     pub converged: Option<bool>,
 }
 
-/// Dense Cholesky solve of `h x = b` in place (`h` n x n row-major, symmetric positive definite);
-/// false when a pivot is not positive.
-fn cholesky_solve(h: &mut [f64], b: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = h[j * n + j];
-        for k in 0..j {
-            d -= h[j * n + k] * h[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        h[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = h[i * n + j];
-            for k in 0..j {
-                s -= h[i * n + k] * h[j * n + k];
-            }
-            h[i * n + j] = s / d;
-        }
-    }
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= h[i * n + k] * b[k];
-        }
-        b[i] = s / h[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= h[k * n + i] * b[k];
-        }
-        b[i] = s / h[i * n + i];
-    }
-    true
-}
-
 /// The barrier tracker: the clearance rows, their derivatives and the joint bounds.
 struct Tracker {
     rows: DistanceClearanceFn,
@@ -217,9 +179,11 @@ impl Tracker {
                 return;
             }
             let mut step: Vec<f64> = grad.iter().map(|v| -v).collect();
-            if !cholesky_solve(&mut h, &mut step, n) {
+            let divide = brachia_linalg::Scaling::Divide;
+            if brachia_linalg::cholesky_with_pivot(&mut h, n, divide, 0.0).is_err() {
                 return;
             }
+            brachia_linalg::cholesky_solve_vec(&h, n, &mut step, divide);
             let big = step.iter().fold(0.0f64, |a, v| a.max(v.abs()));
             if big > MAX_STEP {
                 step.iter_mut().for_each(|v| *v *= MAX_STEP / big);
@@ -374,23 +338,4 @@ pub fn detour_seeds(
         }
     }
     Ok(kept)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::cholesky_solve;
-
-    #[test]
-    fn cholesky_solves_a_known_system_and_refuses_an_indefinite_one() {
-        // h = [[4, 2, 0], [2, 3, 1], [0, 1, 2]], x = [1, -2, 3] -> b = h x
-        let h = [4.0, 2.0, 0.0, 2.0, 3.0, 1.0, 0.0, 1.0, 2.0];
-        let mut b = [0.0, -1.0, 4.0];
-        let mut hh = h;
-        assert!(cholesky_solve(&mut hh, &mut b, 3));
-        for (got, want) in b.iter().zip([1.0, -2.0, 3.0]) {
-            assert!((got - want).abs() < 1e-12, "{b:?}");
-        }
-        let mut bad = [1.0, 2.0, 2.0, 1.0];
-        assert!(!cholesky_solve(&mut bad, &mut [1.0, 1.0], 2));
-    }
 }

@@ -1,5 +1,7 @@
 //! The dense products of a shooting stage's derivatives.
 
+use brachia_linalg::add_lincomb;
+
 /// `g = F_x^T w` for `F_x = [[0, I], [Jq_x]]` (`2n x 2n`; `Jq` row-major `n x nz`, its first `2n`
 /// columns `Jq_x`): `g_e = [e >= n] w_{e-n} + sum_r Jq[r][e] w_{n+r}`.
 pub(super) fn fx_transpose_times(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
@@ -15,13 +17,9 @@ pub(super) fn fx_transpose_times(n: usize, nz: usize, jq: &[f64], w: &[f64], g: 
 pub(super) fn fx_transpose_times_body(n: usize, nz: usize, jq: &[f64], w: &[f64], g: &mut [f64]) {
     let nx = 2 * n;
     let (jq, w, g) = (&jq[..n * nz], &w[..nx], &mut g[..nx]);
-    for e in 0..nx {
-        let mut v = if e >= n { w[e - n] } else { 0.0 };
-        for r in 0..n {
-            v += jq[r * nz + e] * w[n + r];
-        }
-        g[e] = v;
-    }
+    g[..n].fill(0.0);
+    g[n..].copy_from_slice(&w[..n]);
+    add_lincomb(g, &w[n..], 1, jq, nz, n);
 }
 
 /// Add the upper triangle (`a <= b`) of `S^T H S` to `hess` (`nz x nz` row-major), for an evaluation's

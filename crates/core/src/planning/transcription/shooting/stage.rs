@@ -4,9 +4,9 @@
 
 use super::dynamics::PointDynamics;
 use super::kernels::{add_sandwich_upper, fx_transpose_times};
-use crate::model::kernels::add_lincomb;
 use crate::model::{ClearanceDerivatives, ClearanceRecord, Robot};
 use crate::planning::transcription::clearance_fn::DistanceClearanceFn;
+use brachia_linalg::add_lincomb;
 use brachia_ocp::{EvalLevel, StageEval};
 use std::sync::Arc;
 

@@ -7,13 +7,13 @@
 //! width `W` for the row widths of robots of up to 6 links, the plain loops otherwise), and two
 //! output rows share the loads of the matrix's rows. Every kernel does the same arithmetic in the
 //! same order as its any-width reference (each entry `((out_j + c_0 r_0j) + c_1 r_1j) + ...`), so
-//! results are bit for bit those of the loops they replace, whatever the width's path.
+//! results are bit for bit those of the plain loops, whatever the width's path.
 
 /// Calls `$kernel::<W>(args)` with the run-time width `$w` as the constant `W` for the widths
 /// 1..=12, 14 and 17 (the blocks of stages `3n - 1` wide, n <= 6); any other width runs `$fallback`.
 macro_rules! with_row_width {
     ($w:expr, $kernel:ident $args:tt, $fallback:expr) => {
-        brachia_ocp::dispatch_width!(
+        $crate::dispatch_width!(
             $w,
             [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 14, 17],
             $kernel $args,
@@ -26,14 +26,7 @@ macro_rules! with_row_width {
 /// of i. `c` holds at least `(k - 1) cs + 1` values, `rows` at least `(k - 1) rs + out.len()`.
 /// Inlined, so that callers with constant sizes get the kernel of their width without a dispatch.
 #[inline(always)]
-pub(crate) fn add_lincomb(
-    out: &mut [f64],
-    c: &[f64],
-    cs: usize,
-    rows: &[f64],
-    rs: usize,
-    k: usize,
-) {
+pub fn add_lincomb(out: &mut [f64], c: &[f64], cs: usize, rows: &[f64], rs: usize, k: usize) {
     if k == 0 {
         return;
     }
@@ -48,7 +41,7 @@ pub(crate) fn add_lincomb(
 /// and `c1`, both with stride `cs`): each matrix row is loaded once for both. Inlined as
 /// [`add_lincomb`].
 #[inline(always)]
-pub(crate) fn add_lincomb2(
+pub fn add_lincomb2(
     out0: &mut [f64],
     out1: &mut [f64],
     c0: &[f64],
@@ -63,7 +56,7 @@ pub(crate) fn add_lincomb2(
         return;
     }
     // two rows of more than 12 entries do not fit the registers: one at a time
-    brachia_ocp::dispatch_width!(
+    crate::dispatch_width!(
         out0.len(),
         [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12],
         add_lincomb2_w(out0, out1, c0, c1, cs, rows, rs, k),
@@ -137,7 +130,7 @@ fn add_lincomb_any(out: &mut [f64], c: &[f64], cs: usize, rows: &[f64], rs: usiz
 #[cfg(test)]
 mod tests {
     use super::*;
-    use brachia_ocp::testing::values;
+    use crate::testing::values;
 
     #[test]
     fn fixed_width_kernels_match_the_reference_bit_for_bit() {
