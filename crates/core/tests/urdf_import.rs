@@ -263,6 +263,9 @@ fn the_traced_toml_reads_back_as_the_same_robot() {
     }
 }
 
+/// An edit of the hook robot's URDF text.
+type Edit = Box<dyn Fn(String) -> String>;
+
 /// Import `text` (the hook robot edited) and return the error message.
 fn refusal(edit: impl Fn(String) -> String, o: &UrdfOptions) -> String {
     let text = std::fs::read_to_string(data("hook2.urdf")).unwrap();
@@ -278,7 +281,7 @@ fn refusal(edit: impl Fn(String) -> String, o: &UrdfOptions) -> String {
 #[test]
 fn refusals_name_the_urdf_element() {
     let o = opts("hand", "hook");
-    let cases: Vec<(Box<dyn Fn(String) -> String>, UrdfOptions, &str)> = vec![
+    let cases: Vec<(Edit, UrdfOptions, &str)> = vec![
         (
             Box::new(|t| t.replace("<axis xyz=\"-1 0 0\"/>", "<axis xyz=\"0 1 0\"/>")),
             o.clone(),

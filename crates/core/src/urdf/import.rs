@@ -606,6 +606,8 @@ impl Projected {
                 format!("<inertia> of {bodies} about the axis, parallel-axis rule"),
             ));
             let offset = wrap(alpha - if k == 0 { 0.0 } else { alpha_prev });
+            // rounding of the frames' products: an offset of 1e-16 rad is none
+            let offset = if offset.abs() < 1e-12 { 0.0 } else { offset };
             trace.push((
                 format!("links[{k}].joint_offset"),
                 format!(

@@ -20,11 +20,9 @@ pub fn imported_toml(imp: &Imported, source: &str) -> String {
     let why = |field: &str| {
         imp.trace
             .iter()
-            .filter(|(f, _)| f == field)
-            .map(|(_, s)| s.as_str())
-            .next()
-            .unwrap_or("")
-            .to_string()
+            .find(|(f, _)| f == field)
+            .map(|(_, s)| s.clone())
+            .unwrap_or_default()
     };
     let mut head = format!(
         "# A brachia robot imported from {source} (brachia robot import).\n\
