@@ -37,6 +37,27 @@ class Robot:
     def from_toml_str(text: str, source_name: str = "<string>") -> Robot:
         """Parse and validate robot parameters from TOML text."""
     @staticmethod
+    def from_urdf(
+        path: StrPath,
+        grip: str,
+        tip: str,
+        passive: Sequence[str] = (),
+        ignore: Sequence[str] = (),
+        gravity: float = 9.81,
+    ) -> Robot:
+        """Import the serial chain of a URDF file from the grip joint to the tip (``LINK`` or
+        ``LINK:x,y,z``); docs/robots.md."""
+    def to_urdf(self) -> str:
+        """The robot as a URDF document (joints ``grip``, ``joint_2``.., tip link ``tip``)."""
+    def to_mjcf(self) -> str:
+        """The robot as a MuJoCo MJCF document (motors on joints 2..n)."""
+    def q_from_urdf(self, q: ArrayLike) -> Array:
+        """Brachia's q from the robot's own joint angles, shape (n,)."""
+    def q_to_urdf(self, q: ArrayLike) -> Array:
+        """The robot's own joint angles from brachia's q, shape (n,)."""
+    def qd_to_urdf(self, qd: ArrayLike) -> Array:
+        """The robot's own joint velocities from brachia's qd, shape (n,)."""
+    @staticmethod
     def paper() -> Robot:
         """The paper's 4-link robot (Table I)."""
     @property

@@ -78,6 +78,80 @@ impl Robot {
         Ok(Robot { inner: Arc::new(r) })
     }
 
+    /// Import the serial chain of a URDF file (docs/robots.md): ``grip`` names the grip joint,
+    /// ``tip`` the tip link (``"LINK"`` or ``"LINK:x,y,z"``, a point in its frame, m); ``passive``
+    /// the joints without an actuator when the file has no ``<transmission>``; ``ignore`` branches
+    /// off the chain to leave out; ``gravity`` the URDF world's, along -z (m/s^2).
+    ///
+    /// Raises ``BrachiaError`` naming the file, the URDF element, the value and the rule.
+    #[staticmethod]
+    #[pyo3(signature = (path, grip, tip, passive = Vec::new(), ignore = Vec::new(), gravity = 9.81))]
+    fn from_urdf(
+        path: PathBuf,
+        grip: String,
+        tip: &str,
+        passive: Vec<String>,
+        ignore: Vec<String>,
+        gravity: f64,
+    ) -> PyResult<Self> {
+        let tip: brachia::urdf::Tip = tip.parse().map_err(bad)?;
+        if !(gravity.is_finite() && (0.0..=brachia::limits::MAX_GRAVITY).contains(&gravity)) {
+            return Err(bad(format!(
+                "gravity = {gravity}: must be in [0, {}] m/s^2",
+                brachia::limits::MAX_GRAVITY
+            )));
+        }
+        let opts = brachia::urdf::UrdfOptions {
+            passive,
+            ignore,
+            gravity,
+            ..brachia::urdf::UrdfOptions::new(grip, tip)
+        };
+        let imp = brachia::urdf::import_urdf_file(&path, &opts).map_err(rs)?;
+        let r = brachia::Robot::from_params(imp.params, &path.display().to_string()).map_err(rs)?;
+        Ok(Robot { inner: Arc::new(r) })
+    }
+
+    /// The robot as a URDF document (grip joint ``grip``, tip link ``tip``, joints in the x-z
+    /// plane turning about -y; docs/robots.md, "Export").
+    fn to_urdf(&self) -> PyResult<String> {
+        brachia::urdf::to_urdf(&self.inner).map_err(rs)
+    }
+
+    /// The robot as a MuJoCo MJCF document (hinge joints about -y, motors on joints 2..n, RK4 at
+    /// 1 ms).
+    fn to_mjcf(&self) -> String {
+        brachia::urdf::to_mjcf(&self.inner)
+    }
+
+    /// Brachia's joint angles ``q`` from the robot's own (URDF) joint angles, shape ``(n,)``:
+    /// ``q_i = s_i phi_i + joint_offset_i``.
+    fn q_from_urdf<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let phi = self.q(q)?;
+        out1(py, &self.inner.q_from_joint_angles(&phi), "q_from_urdf")
+    }
+
+    /// The robot's own (URDF) joint angles from brachia's ``q``, shape ``(n,)``:
+    /// ``phi_i = s_i (q_i - joint_offset_i)``.
+    fn q_to_urdf<'py>(&self, py: Python<'py>, q: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        let q = self.q(q)?;
+        out1(py, &self.inner.q_to_joint_angles(&q), "q_to_urdf")
+    }
+
+    /// The robot's own (URDF) joint velocities from brachia's ``qd``, shape ``(n,)``.
+    fn qd_to_urdf<'py>(
+        &self,
+        py: Python<'py>,
+        qd: &Bound<'_, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let qd = self.qd(qd)?;
+        out1(py, &self.inner.qd_to_joint_rates(&qd), "qd_to_urdf")
+    }
+
     /// The paper's 4-link robot (Table I, ``params/paper.toml``).
     #[staticmethod]
     fn paper() -> Self {

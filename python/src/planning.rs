@@ -282,6 +282,7 @@ pub(crate) fn plan_with_report(
         scenario: Scenario {
             name: "python".into(),
             params: PathBuf::from("<python>"),
+            urdf: None,
             task,
             planner,
             solver: nlp,

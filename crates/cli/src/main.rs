@@ -10,6 +10,7 @@ mod io;
 mod plan;
 mod report;
 mod reproduce;
+mod robot;
 mod simulate;
 mod stoppable;
 mod track;
@@ -47,6 +48,8 @@ enum Command {
     Report(report::Args),
     /// Write the interactive page view.html of a plan or track run folder (one self-contained file).
     View(view::Args),
+    /// Import a robot from a URDF file, or export one as URDF or MuJoCo MJCF.
+    Robot(robot::Args),
 }
 
 /// An error of a command: bad input (exit 2), a failure after the inputs were accepted (exit 1) or an
@@ -137,6 +140,7 @@ fn main() -> ExitCode {
         Command::Report(a) => report::run(a, &cancel),
         Command::Benchmark(a) => benchmark::run(a, &cancel),
         Command::View(a) => view::run(a),
+        Command::Robot(a) => robot::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -17,6 +17,7 @@ fn paper_robot() -> Robot {
             com: com[i],
             inertia: inertia[i],
             radius: 0.02,
+            ..Default::default()
         })
         .collect();
     let params = RobotParams {
@@ -27,6 +28,7 @@ fn paper_robot() -> Robot {
             tau_min: vec![-5.0; 3],
             tau_max: vec![5.0; 3],
         },
+        end_effector: None,
     };
     Robot::from_params(params, "<bench>").expect("valid paper robot")
 }

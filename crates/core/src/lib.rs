@@ -164,6 +164,7 @@ pub mod planning;
 pub mod serde_exact;
 pub mod sim;
 pub mod trajectory;
+pub mod urdf;
 
 pub use brachia_ocp::{CancelToken, Cancelled};
 pub use error::{Error, Result};

@@ -63,6 +63,7 @@ fn random_robot(rng: &mut ChaCha8Rng, n: usize) -> Robot {
                 com: rng.gen_range(0.0..length),
                 inertia: rng.gen_range(0.005..0.5),
                 radius: 0.02,
+                ..Default::default()
             }
         })
         .collect();
@@ -74,6 +75,7 @@ fn random_robot(rng: &mut ChaCha8Rng, n: usize) -> Robot {
             tau_min: vec![-5.0; n - 1],
             tau_max: vec![5.0; n - 1],
         },
+        end_effector: None,
     };
     Robot::from_params(params, "<random>").expect("valid random robot")
 }

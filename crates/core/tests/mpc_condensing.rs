@@ -25,6 +25,7 @@ fn robot(n: usize) -> Robot {
             com: 0.18 * 4.0 / n as f64,
             inertia: if i == 0 || i + 1 == n { 0.98 } else { 0.10 },
             radius: 0.02,
+            ..Default::default()
         })
         .collect();
     chain_robot(&format!("chain{n}"), links, 5.0)

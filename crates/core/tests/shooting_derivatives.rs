@@ -32,6 +32,7 @@ fn robot(n: usize) -> Robot {
             com: 0.08 + 0.01 * i as f64,
             inertia: 0.01 + 0.004 * i as f64,
             radius: 0.02,
+            ..Default::default()
         })
         .collect();
     chain_robot(&format!("chain-{n}"), links, 5.0)

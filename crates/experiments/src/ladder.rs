@@ -166,8 +166,12 @@ pub struct LadderScenario {
     /// A name for reports (default: the file stem).
     #[serde(default)]
     pub name: String,
-    /// Robot parameters file, relative to the scenario file.
+    /// Robot parameters file, relative to the scenario file: a brachia TOML file or a URDF file
+    /// (`.urdf`, read with the `[urdf]` table).
     pub params: PathBuf,
+    /// How to read a URDF robot (docs/robots.md). Default none (a TOML robot).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub urdf: Option<brachia::urdf::UrdfOptions>,
     /// The bars, start state, obstacles and capture rule.
     pub ladder: Ladder,
     /// Planner settings (every swing).
@@ -487,7 +491,7 @@ impl LadderScenario {
         }
         let base = path.parent().unwrap_or(Path::new("."));
         sc.params = base.join(&sc.params);
-        let robot = Robot::from_toml_file(&sc.params)?;
+        let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
         let n = robot.n();
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.planner
@@ -627,6 +631,7 @@ pub fn swing_scenario(
     Scenario {
         name: format!("{} swing to bar {to}", sc.name),
         params: sc.params.clone(),
+        urdf: sc.urdf.clone(),
         task: SwingTask::on_ladder(q0, qd0, grip, b.p(), &sc.ladder.obstacles),
         planner: sc.planner.clone(),
         solver: sc.solver.clone(),

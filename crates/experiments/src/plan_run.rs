@@ -302,6 +302,8 @@ pub fn run_plan(ls: &LoadedScenario) -> Result<PlanRun, brachia::Error> {
     // the robot's parameters beside the resolved scenario, so the folder reads back anywhere
     let mut resolved = sc.clone();
     resolved.params = PARAMS_FILE.into();
+    // a URDF robot is written as its equivalent parameters file
+    resolved.urdf = None;
     folder.add(
         PARAMS_FILE,
         format!(

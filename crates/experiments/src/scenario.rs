@@ -52,8 +52,13 @@ pub struct Scenario {
     /// A name for reports (default: the file stem).
     #[serde(default)]
     pub name: String,
-    /// Robot parameters file, relative to the scenario file.
+    /// Robot parameters file, relative to the scenario file: a brachia TOML file or a URDF file
+    /// (`.urdf`, read with the `[urdf]` table).
     pub params: PathBuf,
+    /// How to read a URDF robot: its grip joint, tip, passive joints and ignored branches
+    /// (docs/robots.md). Default none (a TOML robot).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub urdf: Option<brachia::urdf::UrdfOptions>,
     /// What to plan.
     pub task: SwingTask,
     /// Planner settings.
@@ -301,7 +306,7 @@ impl Scenario {
         }
         let base = path.parent().unwrap_or(Path::new("."));
         sc.params = base.join(&sc.params);
-        let robot = Robot::from_toml_file(&sc.params)?;
+        let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.planner
             .validate(robot.n(), &src)

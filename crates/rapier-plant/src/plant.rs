@@ -155,7 +155,7 @@ fn build_chain(
         let body = RigidBodyBuilder::dynamic()
             .translation(Vector::new(grip[0], grip[1]))
             .additional_mass_properties(MassProperties::new(
-                Vector::new(robot.coms()[i], 0.0),
+                Vector::new(robot.coms()[i], robot.coms_across()[i]),
                 robot.masses()[i],
                 robot.inertias()[i],
             ))
@@ -267,7 +267,8 @@ fn build_chain(
         th += q0[i];
         w += qd0[i];
         let (s, c) = th.sin_cos();
-        let rc = [c * robot.coms()[i], s * robot.coms()[i]];
+        let (cx, cy) = (robot.coms()[i], robot.coms_across()[i]);
+        let rc = [c * cx - s * cy, s * cx + c * cy];
         let wc = cross(w, rc);
         if let Some(rb) = world.bodies.get_mut(links[i]) {
             rb.set_linvel(Vector::new(v[0] + wc[0], v[1] + wc[1]), true);
@@ -377,7 +378,8 @@ impl RapierPlant {
             let w = rb.angvel();
             let lv = rb.linvel();
             // linvel is the centre-of-mass velocity; the body frame is at the proximal joint
-            let com = [c * self.robot.coms()[i], s * self.robot.coms()[i]];
+            let (cx, cy) = (self.robot.coms()[i], self.robot.coms_across()[i]);
+            let com = [c * cx - s * cy, s * cx + c * cy];
             let at = |r: [f64; 2]| {
                 let wr = cross(w, [r[0] - com[0], r[1] - com[1]]);
                 [lv.x + wr[0], lv.y + wr[1]]
@@ -385,9 +387,10 @@ impl RapierPlant {
             p.push([t.x, t.y]);
             v.push(at([0.0, 0.0]));
             if i + 1 == n {
-                let l = self.robot.lengths()[i];
-                p.push([t.x + c * l, t.y + s * l]);
-                v.push(at([c * l, s * l]));
+                let [ex, ey] = self.robot.end_effector();
+                let r = [c * ex - s * ey, s * ex + c * ey];
+                p.push([t.x + r[0], t.y + r[1]]);
+                v.push(at(r));
             }
         }
         (p, v)
@@ -856,8 +859,11 @@ impl Plant for RapierPlant {
                 return f64::NAN;
             };
             // the body frame sits at the proximal joint; the centre of mass is `com` along the link
+            // and `com_across` across it
+            let (s, c) = rb.rotation().angle().sin_cos();
             let y_com = rb.translation().y - self.grip[1]
-                + rb.rotation().angle().sin() * self.robot.coms()[i];
+                + s * self.robot.coms()[i]
+                + c * self.robot.coms_across()[i];
             let v = rb.linvel();
             let w = rb.angvel();
             e += 0.5 * self.robot.masses()[i] * (v.x * v.x + v.y * v.y)

@@ -194,7 +194,16 @@ impl DynamicsDerivatives {
             "z must hold [q, qd, tau] (3n - 1 values)"
         );
         let (q, qd, tau) = (&z[..n], &z[n..2 * n], &z[2 * n..3 * n - 1]);
-        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        // centres of mass off the links' axes: d c + e s = rho cos(x - beta), so the pair terms are
+        // those of the ideal chain with rho for d and the angles x - beta for x
+        let off = robot.off_axis;
+        let d = if off {
+            &robot.rho[..n * n]
+        } else {
+            &robot.d[..n * n]
+        };
+        let (cb, sb) = (&robot.cb[..n * n], &robot.sb[..n * n]);
+        let (g, gs) = (&robot.gcoef[..n], &robot.gsin[..n]);
         let (sn, cs, om) = (&mut self.sn[..n], &mut self.cs[..n], &mut self.om[..n]);
         let (sd, cd, tmp) = (
             &mut self.sd[..n * n],
@@ -229,8 +238,12 @@ impl DynamicsDerivatives {
             cd[j * n + j] = 1.0;
             tmp[j * n + j] = d[j * n + j];
             for k in j + 1..n {
-                let c = cs[j] * cs[k] + sn[j] * sn[k];
-                let s = sn[j] * cs[k] - cs[j] * sn[k];
+                let mut c = cs[j] * cs[k] + sn[j] * sn[k];
+                let mut s = sn[j] * cs[k] - cs[j] * sn[k];
+                if off {
+                    let (cbv, sbv) = (cb[j * n + k], sb[j * n + k]);
+                    (c, s) = (c * cbv + s * sbv, s * cbv - c * sbv);
+                }
                 cd[j * n + k] = c;
                 cd[k * n + j] = c;
                 sd[j * n + k] = s;
@@ -250,6 +263,9 @@ impl DynamicsDerivatives {
                 }
             }
             v += cs[j] * g[j];
+            if off {
+                v -= sn[j] * gs[j];
+            }
             h[j] = v;
         }
         for j in (0..n - 1).rev() {
@@ -281,7 +297,13 @@ impl DynamicsDerivatives {
     #[inline(always)]
     fn fill_jacobian_n(&mut self, robot: &Robot, n: usize) {
         let nz = 3 * n - 1;
-        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        let off = robot.off_axis;
+        let d = if off {
+            &robot.rho[..n * n]
+        } else {
+            &robot.d[..n * n]
+        };
+        let (g, gs, cs) = (&robot.gcoef[..n], &robot.gsin[..n], &self.cs[..n]);
         let (sd, cd, sn) = (&self.sd[..n * n], &self.cd[..n * n], &self.sn[..n]);
         let (al, om) = (&self.al[..n], &self.om[..n]);
         let (rth, rom) = (&mut self.rth[..n * n], &mut self.rom[..n * n]);
@@ -298,6 +320,9 @@ impl DynamicsDerivatives {
                 rom[jm] = 2.0 * d[jm] * sd[jm] * om[m];
             }
             rth[j * n + j] = -diag - g[j] * sn[j];
+            if off {
+                rth[j * n + j] -= gs[j] * cs[j];
+            }
             rom[j * n + j] = 0.0;
         }
         sandwich_body(rth, n);
@@ -326,7 +351,13 @@ impl DynamicsDerivatives {
         let nz = 3 * n - 1;
         assert_eq!(w.len(), n, "one weight per output qdd_i");
         assert_eq!(hess.len(), nz * nz, "hess is (3n - 1) x (3n - 1)");
-        let (d, g) = (&robot.d[..n * n], &robot.gcoef[..n]);
+        let off = robot.off_axis;
+        let d = if off {
+            &robot.rho[..n * n]
+        } else {
+            &robot.d[..n * n]
+        };
+        let (g, gs) = (&robot.gcoef[..n], &robot.gsin[..n]);
         let (y, u) = (&mut self.y[..n], &mut self.u[..n]);
         let l = &self.l[..n * n];
         y.copy_from_slice(w);
@@ -376,6 +407,9 @@ impl DynamicsDerivatives {
                 qoo[j] -= 2.0 * djk * s * u[k];
             }
             qtt[j * n + j] -= u[j] * g[j] * cs[j];
+            if off {
+                qtt[j * n + j] += u[j] * gs[j] * self.sn[j];
+            }
         }
         // L[m][k] = d/dth_m (M_abs u)_k.
         let lta = &mut self.lta[..n * n];

@@ -444,6 +444,7 @@ pub(crate) mod tests {
                 com: com[i],
                 inertia: inertia[i],
                 radius: 0.02,
+                ..Default::default()
             })
             .collect();
         let params = RobotParams {
@@ -454,6 +455,7 @@ pub(crate) mod tests {
                 tau_min: vec![-5.0; 3],
                 tau_max: vec![5.0; 3],
             },
+            end_effector: None,
         };
         Robot::from_params(params, "<test>").unwrap()
     }
@@ -480,6 +482,7 @@ pub(crate) mod tests {
                 com: 0.1,
                 inertia: 0.01,
                 radius: 0.01 + 0.005 * i as f64,
+                ..Default::default()
             })
             .collect();
         let params = RobotParams {
@@ -490,6 +493,7 @@ pub(crate) mod tests {
                 tau_min: vec![-5.0; 4],
                 tau_max: vec![5.0; 4],
             },
+            end_effector: None,
         };
         Robot::from_params(params, "<test>").unwrap()
     }

@@ -68,12 +68,16 @@ impl Robot {
             sn[i] = sv;
             co[i] = cv;
         }
-        for j in 0..n {
-            mabs[j * n + j] = c(d[j * n + j]);
-            for k in j + 1..n {
-                let v = (co[j] * co[k] + sn[j] * sn[k]) * d[j * n + k];
-                mabs[j * n + k] = v;
-                mabs[k * n + j] = v;
+        if self.off_axis {
+            self.fill_mass_abs_off_axis(sn, co, mabs, n);
+        } else {
+            for j in 0..n {
+                mabs[j * n + j] = c(d[j * n + j]);
+                for k in j + 1..n {
+                    let v = (co[j] * co[k] + sn[j] * sn[k]) * d[j * n + k];
+                    mabs[j * n + k] = v;
+                    mabs[k * n + j] = v;
+                }
             }
         }
         // M = S^T Mabs S: suffix sums over columns, then over rows.
@@ -122,26 +126,84 @@ impl Robot {
             acc += qd[i];
             thd[i] = acc;
         }
-        for j in 0..n {
-            let mut v = T::zero();
-            if with_velocity {
-                for k in 0..n {
-                    if k != j {
-                        // sin(th_j - th_k)
-                        let sjk = sn[j] * co[k] - co[j] * sn[k];
-                        v += sjk * thd[k] * thd[k] * d[j * n + k];
+        if self.off_axis {
+            self.fill_bias_abs_off_axis(sn, co, thd, hab, with_velocity, with_gravity, n);
+        } else {
+            for j in 0..n {
+                let mut v = T::zero();
+                if with_velocity {
+                    for k in 0..n {
+                        if k != j {
+                            // sin(th_j - th_k)
+                            let sjk = sn[j] * co[k] - co[j] * sn[k];
+                            v += sjk * thd[k] * thd[k] * d[j * n + k];
+                        }
                     }
                 }
+                if with_gravity {
+                    v += co[j] * gcoef[j];
+                }
+                hab[j] = v;
             }
-            if with_gravity {
-                v += co[j] * gcoef[j];
-            }
-            hab[j] = v;
         }
         let mut acc = T::zero();
         for l in (0..n).rev() {
             acc += hab[l];
             h[l] = acc;
+        }
+    }
+
+    /// `M_abs` of a robot with centres of mass off the links' axes:
+    /// `M_abs[j][k] = rho_jk cos(th_j - th_k - beta_jk)` (the arithmetic of
+    /// [`super::DynamicsDerivatives`], in the same order).
+    #[inline(always)]
+    fn fill_mass_abs_off_axis<T: Scalar>(&self, sn: &[T], co: &[T], mabs: &mut [T], n: usize) {
+        let (rho, cb, sb) = (&self.rho[..n * n], &self.cb[..n * n], &self.sb[..n * n]);
+        for j in 0..n {
+            mabs[j * n + j] = c(rho[j * n + j]);
+            for k in j + 1..n {
+                let c0 = co[j] * co[k] + sn[j] * sn[k];
+                let s0 = sn[j] * co[k] - co[j] * sn[k];
+                let cr = c0 * cb[j * n + k] + s0 * sb[j * n + k];
+                let v = cr * rho[j * n + k];
+                mabs[j * n + k] = v;
+                mabs[k * n + j] = v;
+            }
+        }
+    }
+
+    /// The bias forces in absolute angles of a robot with centres of mass off the links' axes:
+    /// `sum_k rho_jk sin(th_j - th_k - beta_jk) thd_k^2 + gcoef_j cos th_j - gsin_j sin th_j`.
+    #[inline(always)]
+    fn fill_bias_abs_off_axis<T: Scalar>(
+        &self,
+        sn: &[T],
+        co: &[T],
+        thd: &[T],
+        hab: &mut [T],
+        with_velocity: bool,
+        with_gravity: bool,
+        n: usize,
+    ) {
+        let (rho, cb, sb) = (&self.rho[..n * n], &self.cb[..n * n], &self.sb[..n * n]);
+        let (gcoef, gsin) = (&self.gcoef[..n], &self.gsin[..n]);
+        for j in 0..n {
+            let mut v = T::zero();
+            if with_velocity {
+                for k in 0..n {
+                    if k != j {
+                        let c0 = co[j] * co[k] + sn[j] * sn[k];
+                        let s0 = sn[j] * co[k] - co[j] * sn[k];
+                        let sr = s0 * cb[j * n + k] - c0 * sb[j * n + k];
+                        v += sr * thd[k] * thd[k] * rho[j * n + k];
+                    }
+                }
+            }
+            if with_gravity {
+                v += co[j] * gcoef[j];
+                v -= sn[j] * gsin[j];
+            }
+            hab[j] = v;
         }
     }
 

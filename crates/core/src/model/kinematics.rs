@@ -3,7 +3,8 @@
 //! Angles: `q[0]` is the absolute angle of link 1 from the +x axis (counter-clockwise positive);
 //! `q[i]` (i >= 1) is the angle of link i+1 relative to link i. The absolute angle of link i is
 //! `th_i = q_0 + ... + q_i`. Joint 1 sits at the grip point, the origin of the body frame; joint i+1 is
-//! the distal end of link i; the end effector (EE) is the distal end of link n. Lengths in m.
+//! the distal end of link i; the end effector (EE) is the point [`Robot::end_effector`] of link n's
+//! frame (by default its distal end). Lengths in m.
 
 use super::Robot;
 use crate::math::{c, Scalar};
@@ -21,7 +22,8 @@ impl Robot {
         }
     }
 
-    /// Joint positions: `out[0]` is the grip (origin), `out[i]` the distal end of link i, `out[n]` the EE.
+    /// Joint positions: `out[0]` is the grip (origin), `out[i]` the distal end of link i (`out[n]` is
+    /// the EE for the ideal chain; see [`Self::ee_position`] in general).
     /// `out` must hold n + 1 points.
     pub fn joint_positions<T: Scalar>(&self, q: &[T], out: &mut [P2<T>]) {
         let mut th = T::zero();
@@ -35,14 +37,41 @@ impl Robot {
         }
     }
 
+    /// The point `[x, y]` of link i's frame that the chain continues from: the distal joint
+    /// `[length, 0]`, or the end effector for the last link.
+    #[inline(always)]
+    fn arm(&self, i: usize) -> [f64; 2] {
+        if i + 1 == self.n {
+            self.ee
+        } else {
+            [self.len[i], 0.0]
+        }
+    }
+
     /// End-effector position.
     pub fn ee_position<T: Scalar>(&self, q: &[T]) -> P2<T> {
+        if !self.ee_default {
+            return self.ee_position_general(q);
+        }
         let mut th = T::zero();
         let mut p = [T::zero(), T::zero()];
         for i in 0..self.n {
             th += q[i];
             let (s, co) = th.sin_cos();
             p = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+        }
+        p
+    }
+
+    /// [`Self::ee_position`] with the end effector anywhere in the last link's frame.
+    fn ee_position_general<T: Scalar>(&self, q: &[T]) -> P2<T> {
+        let mut th = T::zero();
+        let mut p = [T::zero(), T::zero()];
+        for i in 0..self.n {
+            th += q[i];
+            let (s, co) = th.sin_cos();
+            let [ax, ay] = self.arm(i);
+            p = [p[0] + co * ax - s * ay, p[1] + s * ax + co * ay];
         }
         p
     }
@@ -55,7 +84,14 @@ impl Robot {
             th += q[i];
             thd += qd[i];
             let (s, co) = th.sin_cos();
-            v = [v[0] - s * thd * self.len[i], v[1] + co * thd * self.len[i]];
+            if self.ee_default {
+                v = [v[0] - s * thd * self.len[i], v[1] + co * thd * self.len[i]];
+            } else {
+                let [ax, ay] = self.arm(i);
+                // d/dt R(th) a = thd R(th) [-ay, ax]
+                let (rx, ry) = (co * ax - s * ay, s * ax + co * ay);
+                v = [v[0] - ry * thd, v[1] + rx * thd];
+            }
         }
         v
     }
@@ -67,7 +103,12 @@ impl Robot {
         for i in 0..self.n {
             th += q[i];
             let (s, co) = th.sin_cos();
-            out[i] = [p[0] + co * self.com[i], p[1] + s * self.com[i]];
+            out[i] = if self.off_axis {
+                let (cx, cy) = (self.com[i], self.com_across[i]);
+                [p[0] + co * cx - s * cy, p[1] + s * cx + co * cy]
+            } else {
+                [p[0] + co * self.com[i], p[1] + s * self.com[i]]
+            };
             p = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
         }
     }
@@ -80,8 +121,14 @@ impl Robot {
         let (mut sx, mut sy) = (0.0, 0.0);
         for l in (0..n).rev() {
             let (s, co) = th[l].sin_cos();
-            sx -= self.len[l] * s;
-            sy += self.len[l] * co;
+            if self.ee_default {
+                sx -= self.len[l] * s;
+                sy += self.len[l] * co;
+            } else {
+                let [ax, ay] = self.arm(l);
+                sx -= s * ax + co * ay;
+                sy += co * ax - s * ay;
+            }
             jac[l] = sx;
             jac[n + l] = sy;
         }
@@ -95,8 +142,17 @@ impl Robot {
             th += q[i];
             thd += qd[i];
             let (s, co) = th.sin_cos();
-            let w2 = thd * thd * self.len[i];
-            a = [a[0] - co * w2, a[1] - s * w2];
+            if self.ee_default {
+                let w2 = thd * thd * self.len[i];
+                a = [a[0] - co * w2, a[1] - s * w2];
+            } else {
+                let [ax, ay] = self.arm(i);
+                let w2 = thd * thd;
+                a = [
+                    a[0] - (co * ax - s * ay) * w2,
+                    a[1] - (s * ax + co * ay) * w2,
+                ];
+            }
         }
         a
     }
@@ -120,8 +176,13 @@ impl Robot {
         let mut v = T::zero();
         for i in 0..self.n {
             th += q[i];
-            // gcoef[i] = g (m_i com_i + L_i * distal mass)
-            v += th.sin() * c::<T>(self.gcoef[i]);
+            // gcoef[i] = g (m_i com_i + L_i * distal mass), gsin[i] = g m_i com_across_i
+            if self.off_axis {
+                let (s, co) = th.sin_cos();
+                v += s * c::<T>(self.gcoef[i]) + co * c::<T>(self.gsin[i]);
+            } else {
+                v += th.sin() * c::<T>(self.gcoef[i]);
+            }
         }
         v
     }

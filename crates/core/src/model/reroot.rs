@@ -43,16 +43,26 @@ impl RobotParams {
     /// centre of mass measured from the other end, torque limits reversed in order and sign. The name is
     /// kept. Applied twice it returns the original values (up to the rounding of `length - com`).
     pub fn rerooted(&self) -> RobotParams {
-        let links = self
-            .links
-            .iter()
+        let n = self.links.len();
+        let links = (0..n)
             .rev()
-            .map(|l| LinkParams {
-                length: l.length,
-                mass: l.mass,
-                com: l.length - l.com,
-                inertia: l.inertia,
-                radius: l.radius,
+            .map(|i| {
+                let l = &self.links[i];
+                // the joint at the new proximal end is the old distal joint (none at the new grip)
+                let joint = self.links.get(i + 1).filter(|_| i + 1 < n);
+                LinkParams {
+                    length: l.length,
+                    mass: l.mass,
+                    com: l.length - l.com,
+                    inertia: l.inertia,
+                    radius: l.radius,
+                    com_across: -l.com_across,
+                    joint_offset: joint.map_or(0.0, |j| -j.joint_offset),
+                    joint_reversed: joint.is_some_and(|j| !j.joint_reversed),
+                    q_min: joint.and_then(|j| j.q_max.map(|v| -v)),
+                    q_max: joint.and_then(|j| j.q_min.map(|v| -v)),
+                    qd_max: joint.and_then(|j| j.qd_max),
+                }
             })
             .collect();
         let a = &self.actuators;
@@ -64,13 +74,24 @@ impl RobotParams {
                 tau_min: a.tau_max.iter().rev().map(|v| -v).collect(),
                 tau_max: a.tau_min.iter().rev().map(|v| -v).collect(),
             },
+            end_effector: None,
         }
     }
 }
 
 impl Robot {
     /// The same chain re-rooted at its EE (see [`RobotParams::rerooted`]).
+    /// Refused for a robot whose end effector is not the distal end of its last link (its grip
+    /// would not be at a joint of the re-rooted chain).
     pub fn rerooted(&self) -> Result<Robot> {
+        if !self.ee_default {
+            return Err(Error::invalid(
+                "robot",
+                "end_effector",
+                format!("{:?}", self.ee),
+                "a robot whose end effector is not the distal end of its last link cannot switch grips",
+            ));
+        }
         Robot::from_params(self.params.rerooted(), "re-rooted robot")
     }
 }

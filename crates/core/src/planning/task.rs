@@ -67,6 +67,45 @@ impl SwingTask {
 /// Most obstacles a task may have (each adds n clearance rows per collocation point).
 pub const MAX_OBSTACLES: usize = 64;
 
+/// Refuse planner bounds wider than the robot's own joint limits (`links[i].q_min`, `q_max`,
+/// `qd_max` of its parameters): the planner's bounds may only tighten them.
+fn check_bounds_within_robot(robot: &Robot, b: &super::Bounds, src: &str) -> Result<()> {
+    let wider = |field: &str, value: String, link: usize, limit: &str, v: f64| {
+        Err(Error::invalid(
+            src,
+            format!("planner.bounds.{field}"),
+            value,
+            format!(
+                "reaches past the robot's own limit of joint {} (links[{link}].{limit} = {v}): \
+                 the planner's bounds may only tighten the robot's limits",
+                link + 1
+            ),
+        ))
+    };
+    for (i, l) in robot.params().links.iter().enumerate() {
+        let (lo, hi) = if i == 0 {
+            (b.q1[0], b.q1[1])
+        } else {
+            (-b.q_rel_max, b.q_rel_max)
+        };
+        let (field, value) = if i == 0 {
+            ("q1", format!("{:?}", b.q1))
+        } else {
+            ("q_rel_max", b.q_rel_max.to_string())
+        };
+        if let Some(v) = l.q_min.filter(|&v| lo < v) {
+            return wider(field, value, i, "q_min", v);
+        }
+        if let Some(v) = l.q_max.filter(|&v| hi > v) {
+            return wider(field, value, i, "q_max", v);
+        }
+        if let Some(v) = l.qd_max.filter(|&v| b.qd_max > v) {
+            return wider("qd_max", b.qd_max.to_string(), i, "qd_max", v);
+        }
+    }
+    Ok(())
+}
+
 /// Check the task before any solving; returns qd0 (filled in when empty).
 pub(super) fn check_task(
     robot: &Robot,
@@ -130,6 +169,7 @@ pub fn validate_task(
         ));
     }
     let b = &settings.bounds;
+    check_bounds_within_robot(robot, b, src)?;
     if task.q0[0] < b.q1[0] || task.q0[0] > b.q1[1] {
         return Err(Error::invalid(
             src,

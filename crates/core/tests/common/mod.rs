@@ -24,6 +24,7 @@ pub fn paper_robot(tau_limit: f64) -> Robot {
             com: com[i],
             inertia: inertia[i],
             radius: 0.02,
+            ..Default::default()
         })
         .collect();
     chain_robot("paper", links, tau_limit)
@@ -40,6 +41,7 @@ pub fn chain_robot(name: &str, links: Vec<LinkParams>, tau_limit: f64) -> Robot 
             tau_min: vec![-tau_limit; n - 1],
             tau_max: vec![tau_limit; n - 1],
         },
+        end_effector: None,
     };
     Robot::from_params(params, "<test>").expect("valid test robot")
 }

@@ -39,6 +39,7 @@ pub fn robot_with_inertia(inertia: [f64; 4]) -> Robot {
             com: com[i],
             inertia: inertia[i],
             radius: 0.02,
+            ..Default::default()
         })
         .collect();
     let params = RobotParams {
@@ -49,6 +50,7 @@ pub fn robot_with_inertia(inertia: [f64; 4]) -> Robot {
             tau_min: vec![-5.0; 3],
             tau_max: vec![5.0; 3],
         },
+        end_effector: None,
     };
     Robot::from_params(params, "<test>").expect("paper robot is valid")
 }

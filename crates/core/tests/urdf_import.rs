@@ -1,0 +1,398 @@
+//! URDF import and export (`brachia::urdf`): the robots of `tests/data/urdf/` (a two-link hook robot
+//! turning about x, a three-link robot turning about y with a zero-length link, the paper's robot
+//! about a skew axis), the round trip export -> import (same M, C qd, G in the file's joint angles,
+//! same limits), the traced TOML, and every refusal naming its URDF element.
+
+use brachia::model::{Robot, RobotParams, Scratch};
+use brachia::urdf::{import_urdf_file, import_urdf_str, imported_toml, to_mjcf, to_urdf, Tip};
+use brachia::urdf::{Imported, UrdfOptions};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::PathBuf;
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/urdf")
+        .join(name)
+}
+
+fn opts(grip: &str, tip: &str) -> UrdfOptions {
+    UrdfOptions::new(grip, tip.parse::<Tip>().unwrap())
+}
+
+fn robot(imp: &Imported) -> Robot {
+    Robot::from_params(imp.params.clone(), "<imported>").unwrap()
+}
+
+/// M, C qd and G of `robot` in the robot's own joint angles `phi` (rates `phid`).
+fn dynamics_in_phi(robot: &Robot, phi: &[f64], phid: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = robot.n();
+    let q = robot.q_from_joint_angles(phi);
+    let s: Vec<f64> = robot
+        .params()
+        .links
+        .iter()
+        .map(|l| if l.joint_reversed { -1.0 } else { 1.0 })
+        .collect();
+    let qd: Vec<f64> = (0..n).map(|i| s[i] * phid[i]).collect();
+    let mut ws = Scratch::new(n);
+    let (mut m, mut c, mut g) = (vec![0.0; n * n], vec![0.0; n], vec![0.0; n]);
+    robot.mass_matrix_into(&mut ws, &q, &mut m);
+    robot.coriolis_into(&mut ws, &q, &qd, &mut c);
+    robot.gravity_into(&mut ws, &q, &mut g);
+    for i in 0..n {
+        for j in 0..n {
+            m[i * n + j] *= s[i] * s[j];
+        }
+        c[i] *= s[i];
+        g[i] *= s[i];
+    }
+    (m, c, g)
+}
+
+fn rel(a: &[f64], b: &[f64]) -> f64 {
+    let scale = b.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+    a.iter().zip(b).fold(0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+}
+
+/// Two robots with the same dynamics in their joint angles at random states.
+fn assert_same_dynamics(a: &Robot, b: &Robot, what: &str) {
+    assert_eq!(a.n(), b.n(), "{what}");
+    let n = a.n();
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    for _ in 0..25 {
+        let phi: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
+        let phid: Vec<f64> = (0..n).map(|_| rng.gen_range(-4.0..4.0)).collect();
+        let (ma, ca, ga) = dynamics_in_phi(a, &phi, &phid);
+        let (mb, cb, gb) = dynamics_in_phi(b, &phi, &phid);
+        assert!(rel(&ma, &mb) < 1e-12, "{what}: M {ma:?} vs {mb:?}");
+        assert!(rel(&ca, &cb) < 1e-11, "{what}: C qd {ca:?} vs {cb:?}");
+        assert!(rel(&ga, &gb) < 1e-12, "{what}: G {ga:?} vs {gb:?}");
+    }
+}
+
+#[test]
+fn the_paper_robot_about_a_skew_axis_is_the_paper_robot() {
+    let imp = import_urdf_file(&data("paper4_skew.urdf"), &opts("grip", "tip")).unwrap();
+    let r = robot(&imp);
+    let paper = Robot::paper();
+    assert_eq!(imp.joints, ["grip", "j2", "j3", "j4"]);
+    for k in 0..4 {
+        let (a, b) = (&r.params().links[k], &paper.params().links[k]);
+        assert!((a.length - b.length).abs() < 1e-12, "link {k}");
+        assert!((a.mass - b.mass).abs() < 1e-15);
+        assert!((a.com - b.com).abs() < 1e-12 && a.com_across.abs() < 1e-12);
+        assert!((a.inertia - b.inertia).abs() < 1e-12);
+        assert!(!a.joint_reversed);
+        if k > 0 {
+            assert!(a.joint_offset.abs() < 1e-12, "link {k}: {}", a.joint_offset);
+            let (lo, hi) = (a.q_min.unwrap(), a.q_max.unwrap());
+            assert!(
+                (lo + 2.9).abs() < 1e-12 && (hi - 2.9).abs() < 1e-12,
+                "{lo} {hi}"
+            );
+            assert_eq!(a.qd_max, Some(15.0));
+        }
+    }
+    assert_eq!(r.tau_max(), paper.tau_max());
+    // gravity: 9.81 times the length of the world's z projected into the plane
+    let (roll, pitch, yaw): (f64, f64, f64) = (0.3, 0.5, 0.7);
+    let (sr, cr, sp, cp, sy, cy) = (
+        roll.sin(),
+        roll.cos(),
+        pitch.sin(),
+        pitch.cos(),
+        yaw.sin(),
+        yaw.cos(),
+    );
+    // the second column of Rz Ry Rx, negated: the axis (0, -1, 0) in the world
+    let axis = [
+        -(cy * sp * sr - sy * cr),
+        -(sy * sp * sr + cy * cr),
+        -(cp * sr),
+    ];
+    let g = 9.81 * (1.0 - axis[2] * axis[2]).sqrt();
+    assert!((r.gravity() - g).abs() < 1e-12, "{} vs {g}", r.gravity());
+}
+
+#[test]
+fn the_hook_robot_merges_fixed_links_and_reads_its_transmission() {
+    let imp = import_urdf_file(&data("hook2.urdf"), &opts("hand", "hook:0,0.03,-0.05")).unwrap();
+    let r = robot(&imp);
+    assert_eq!(r.n(), 2);
+    let l = &r.params().links;
+    // arm + camera, forearm + hook
+    assert!((l[0].mass - 1.02).abs() < 1e-12 && (l[1].mass - 0.78).abs() < 1e-12);
+    assert!(!l[0].joint_reversed && l[1].joint_reversed);
+    assert!(l[0].com_across != 0.0 && l[1].com_across != 0.0);
+    // the axis is horizontal: all of gravity acts in the plane
+    assert!((r.gravity() - 9.81).abs() < 1e-12);
+    // the elbow's limits, mapped through its reversal and offset
+    let (lo, hi) = (l[1].q_min.unwrap(), l[1].q_max.unwrap());
+    assert!((lo - (-2.4 + l[1].joint_offset)).abs() < 1e-12, "{lo}");
+    assert!((hi - (2.6 + l[1].joint_offset)).abs() < 1e-12, "{hi}");
+    assert_eq!(r.tau_max(), &[6.0]);
+    assert_eq!(l[0].qd_max, Some(12.0));
+    // the grip is 1.2 m up; the tip hangs below it at zero angles, at the hook's point
+    let q0 = r.q_from_joint_angles(&[0.0, 0.0]);
+    let ee = r.ee_position(&q0);
+    assert!(ee[1] < -0.5 && ee[1] > -0.7, "{ee:?}");
+    // the joint angle maps of an imported robot are inverse to each other
+    let phi = r.q_to_joint_angles(&[0.3, -0.4]);
+    let back = r.q_from_joint_angles(&phi);
+    assert!((back[0] - 0.3).abs() < 1e-15 && (back[1] + 0.4).abs() < 1e-15);
+}
+
+#[test]
+fn the_three_link_robot_has_a_zero_length_link() {
+    let imp =
+        import_urdf_file(&data("three_link.urdf"), &opts("shoulder", "hand:0.22,0,0")).unwrap();
+    let r = robot(&imp);
+    assert_eq!(imp.joints, ["shoulder", "elbow", "wrist"]);
+    let l = &r.params().links;
+    // upper + spacer; the knuckle between elbow and wrist has no length in the plane
+    assert!((l[0].mass - 0.7).abs() < 1e-12);
+    assert_eq!(l[1].length, 0.0);
+    assert!(l[1].com != 0.0 || l[1].com_across != 0.0);
+    assert!(l[1].joint_reversed && !l[2].joint_reversed);
+    assert!((r.gravity() - 9.81).abs() < 1e-12);
+    assert_eq!(r.tau_max(), &[4.0, 3.0]);
+}
+
+#[test]
+fn export_then_import_gives_the_same_robot() {
+    let general = RobotParams::from_toml_str(
+        r#"
+        name = "general"
+        gravity = 9.81
+        end_effector = [0.21, -0.04]
+        [[links]]
+        length = 0.3
+        mass = 0.8
+        com = 0.12
+        com_across = 0.015
+        inertia = 0.02
+        joint_offset = 0.3
+        q_min = -3.0
+        q_max = 1.0
+        [[links]]
+        length = 0.0
+        mass = 0.4
+        com = 0.02
+        com_across = -0.03
+        inertia = 0.004
+        joint_reversed = true
+        q_min = -2.0
+        q_max = 2.5
+        qd_max = 8.0
+        [[links]]
+        length = 0.25
+        mass = 0.6
+        com = 0.1
+        inertia = 0.01
+        joint_offset = -1.2
+        [actuators]
+        tau_min = [-4.0, -3.0]
+        tau_max = [4.0, 3.0]
+        "#,
+        "general.toml",
+    )
+    .unwrap();
+    let robots = [
+        Robot::paper(),
+        Robot::from_toml_file(
+            &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../params/five-link.toml"),
+        )
+        .unwrap(),
+        Robot::from_params(general, "general.toml").unwrap(),
+    ];
+    for r in robots {
+        let text = to_urdf(&r).unwrap();
+        let imp = import_urdf_str(&text, "exported.urdf", &opts("grip", "tip")).unwrap();
+        let back = robot(&imp);
+        let what = r.params().name.clone();
+        assert_same_dynamics(&r, &back, &what);
+        assert!((back.gravity() - r.gravity()).abs() < 1e-12);
+        assert_eq!(back.tau_max(), r.tau_max(), "{what}");
+        for (a, b) in r.params().links.iter().zip(&back.params().links) {
+            // limits in the file's joint angles agree (brachia's angle may differ by the offset
+            // of a last link turned towards the end effector)
+            let span =
+                |l: &brachia::model::LinkParams| l.q_min.zip(l.q_max).map(|(lo, hi)| hi - lo);
+            assert_eq!(span(a).is_some(), span(b).is_some(), "{what}");
+            if let (Some(x), Some(y)) = (span(a), span(b)) {
+                assert!((x - y).abs() < 1e-12);
+            }
+            assert_eq!(a.qd_max, b.qd_max, "{what}");
+        }
+        let (ta, tb) = (
+            r.q_to_joint_angles(&vec![0.1; r.n()]),
+            back.q_to_joint_angles(&vec![0.1; r.n()]),
+        );
+        let _ = (ta, tb);
+        // the end effector is the same point
+        let phi = vec![0.2; r.n()];
+        let (ea, eb) = (
+            r.ee_position(&r.q_from_joint_angles(&phi)),
+            back.ee_position(&back.q_from_joint_angles(&phi)),
+        );
+        assert!(
+            (ea[0] - eb[0]).abs() < 1e-12 && (ea[1] - eb[1]).abs() < 1e-12,
+            "{what}"
+        );
+        // the MJCF names every actuated joint once and the grip never
+        let mj = to_mjcf(&r);
+        assert_eq!(mj.matches("<motor ").count(), r.n() - 1);
+        assert!(!mj.contains("joint=\"grip\""));
+    }
+}
+
+#[test]
+fn the_traced_toml_reads_back_as_the_same_robot() {
+    for (file, grip, tip) in [
+        ("hook2.urdf", "hand", "hook:0,0.03,-0.05"),
+        ("three_link.urdf", "shoulder", "hand:0.22,0,0"),
+        ("paper4_skew.urdf", "grip", "tip"),
+    ] {
+        let imp = import_urdf_file(&data(file), &opts(grip, tip)).unwrap();
+        let text = imported_toml(&imp, file);
+        let back = RobotParams::from_toml_str(&text, "robot.toml").unwrap();
+        assert_eq!(back, imp.params, "{file}:\n{text}");
+        assert!(text.contains("<mass> of link"), "{text}");
+        assert!(text.contains("<limit effort>"), "{text}");
+    }
+}
+
+/// An edit of the hook robot's URDF text.
+type Edit = Box<dyn Fn(String) -> String>;
+
+/// Import `text` (the hook robot edited) and return the error message.
+fn refusal(edit: impl Fn(String) -> String, o: &UrdfOptions) -> String {
+    let text = std::fs::read_to_string(data("hook2.urdf")).unwrap();
+    match import_urdf_str(&edit(text), "hook2.urdf", o) {
+        Ok(imp) => match Robot::from_params(imp.params, "hook2.urdf") {
+            Ok(_) => panic!("accepted"),
+            Err(e) => e.to_string(),
+        },
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn refusals_name_the_urdf_element() {
+    let o = opts("hand", "hook");
+    let cases: Vec<(Edit, UrdfOptions, &str)> = vec![
+        (
+            Box::new(|t| t.replace("<axis xyz=\"-1 0 0\"/>", "<axis xyz=\"0 1 0\"/>")),
+            o.clone(),
+            "joint \"elbow\" <axis>",
+        ),
+        (Box::new(|t| t), opts("wrist", "hook"), "urdf.grip"),
+        (Box::new(|t| t), opts("hand", "claw"), "urdf.tip"),
+        (
+            Box::new(|t| t.replace("<mass value=\"0.9\"/>", "<mass value=\"-0.9\"/>")),
+            o.clone(),
+            "link \"arm\" <mass>",
+        ),
+        (
+            Box::new(|t| {
+                t.replace("<mass value=\"0.7\"/>", "<mass value=\"0\"/>")
+                    .replace("<mass value=\"0.08\"/>", "<mass value=\"0\"/>")
+            }),
+            o.clone(),
+            "the body moved by joint \"elbow\"",
+        ),
+        (
+            Box::new(|t| {
+                t.replace(
+                    "ixx=\"0.009\" ixy=\"0\" ixz=\"0\" iyy=\"0.009\"",
+                    "ixx=\"-0.009\" ixy=\"0\" ixz=\"0\" iyy=\"0.009\"",
+                )
+            }),
+            o.clone(),
+            "link \"forearm\" <inertia>",
+        ),
+        (
+            Box::new(|t| {
+                t.replace(
+                    "name=\"elbow\" type=\"revolute\"",
+                    "name=\"elbow\" type=\"prismatic\"",
+                )
+            }),
+            o.clone(),
+            "joint \"elbow\"",
+        ),
+        (
+            Box::new(|t| {
+                t.replace(
+                    "name=\"camera_mount\" type=\"fixed\"",
+                    "name=\"camera_mount\" type=\"revolute\"",
+                )
+            }),
+            o.clone(),
+            "joint \"camera_mount\"",
+        ),
+        (
+            Box::new(|t| {
+                t.replace(
+                    "name=\"bar_next_mount\" type=\"fixed\"",
+                    "name=\"bar_next_mount\" type=\"continuous\"",
+                )
+            }),
+            o.clone(),
+            "joint \"bar_next_mount\"",
+        ),
+        (
+            Box::new(|t| t.replace("<joint name=\"elbow\">", "<joint name=\"hand\">")),
+            o.clone(),
+            "<transmission name=\"elbow_drive\">",
+        ),
+        (
+            Box::new(|t| t.replace("effort=\"6\"", "effort=\"0\"")),
+            o.clone(),
+            "joint \"elbow\" <limit effort>",
+        ),
+        (
+            Box::new(|t| {
+                t.replace("<transmission", "<!-- <transmission")
+                    .replace("</transmission>", "</transmission> -->")
+            }),
+            UrdfOptions {
+                passive: vec!["elbow".into()],
+                ..o.clone()
+            },
+            "joint \"elbow\"",
+        ),
+        (
+            Box::new(|t| t),
+            UrdfOptions {
+                passive: vec!["camera_mount".into()],
+                ..o.clone()
+            },
+            "urdf.passive",
+        ),
+    ];
+    for (i, (edit, o, element)) in cases.into_iter().enumerate() {
+        let msg = refusal(edit, &o);
+        assert!(
+            msg.contains("hook2.urdf") && msg.contains(element),
+            "case {i}: {msg} (expected {element})"
+        );
+    }
+    // a branch listed in urdf.ignore is left out
+    let ignore = UrdfOptions {
+        ignore: vec!["camera_mount".into()],
+        ..o.clone()
+    };
+    let text = std::fs::read_to_string(data("hook2.urdf"))
+        .unwrap()
+        .replace(
+            "name=\"camera_mount\" type=\"fixed\"",
+            "name=\"camera_mount\" type=\"revolute\"",
+        );
+    let imp = import_urdf_str(&text, "hook2.urdf", &ignore).unwrap();
+    assert!((imp.params.links[0].mass - 0.9).abs() < 1e-12);
+    // a tip written badly
+    assert!("hook:1,2".parse::<Tip>().is_err());
+    assert!(":1,2,3".parse::<Tip>().is_err());
+}
