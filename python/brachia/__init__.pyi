@@ -166,6 +166,10 @@ class Plan:
         """The report.json of ``brachia plan``."""
     def write(self, out: StrPath, force: bool = False) -> None:
         """Write the run folder (a scenario's plan only)."""
+    def _view_html(self) -> Optional[str]:
+        """The run page (docs/viewer.md), None without a trajectory."""
+    def _repr_html_(self) -> Optional[str]:
+        """The run page inline in Jupyter."""
 
 def plan(
     robot: Robot,
@@ -391,6 +395,10 @@ class TrackResult:
     @property
     def plan(self) -> Optional[Plan]: ...
     def write(self, out: StrPath, force: bool = False) -> None: ...
+    def _view_html(self) -> Optional[str]:
+        """The run page of a scenario's run (docs/viewer.md), else None."""
+    def _repr_html_(self) -> Optional[str]:
+        """The run page inline in Jupyter."""
 
 def track(
     robot: Robot,
@@ -438,3 +446,9 @@ def rust_mpc_step_times(
     settings: Optional[dict[str, Any]] = None,
 ) -> Array:
     """Wall time (s) of each of ``steps`` Mpc control calls made in Rust."""
+
+def view_folder(path: StrPath) -> str:
+    """Write DIR/view.html for a run folder (as ``brachia view``); returns its path."""
+
+def view(obj: Union[StrPath, Plan, TrackResult], path: Optional[StrPath] = None, open: bool = False) -> Any:
+    """Write the interactive page of a run folder, Plan or TrackResult; returns its path."""

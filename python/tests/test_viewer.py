@@ -106,7 +106,9 @@ def more(tmp_path_factory, runs) -> dict:
     assert not (base / "track-no-plan" / "plan").exists()
     r = brachia("view", str(base / "track-no-plan"))
     assert r.returncode == 0, r.stderr
-    return {k: base / k for k in ["traverse", "simulate", "bench", "track-no-plan"]}
+    r = brachia("track", "--scenario", str(ROOT / "scenarios" / "robustness.toml"), "--out", str(base / "ball"))
+    assert r.returncode in (0, 1), r.stderr
+    return {k: base / k for k in ["traverse", "simulate", "bench", "track-no-plan", "ball"]}
 
 
 @pytest.fixture(scope="module")
@@ -213,7 +215,7 @@ def test_page_loads_without_errors_or_network(driver, runs, kind):
     assert driver.find_element("id", "time-readout").text.startswith("t = 0.000 s")
 
 
-@pytest.mark.parametrize("kind", ["traverse", "simulate", "bench", "track-no-plan"])
+@pytest.mark.parametrize("kind", ["traverse", "simulate", "bench", "track-no-plan", "ball"])
 def test_other_pages_load_without_errors_or_network(driver, more, kind):
     check_loads_quietly(driver, more[kind] / "view.html")
 
@@ -255,6 +257,31 @@ def test_traverse_page_draws_the_whole_ladder_and_marks_the_switch(driver, more)
     out = os.environ.get("BRACHIA_VIEW_SHOTS")
     if out:
         shots["middle"].save(Path(out) / "traverse-middle.png")
+
+
+def test_track_page_with_a_ball_marks_the_hit_and_moves_the_ball(driver, more):
+    page = more["ball"] / "view.html"
+    report = json.loads((more["ball"] / "report.json").read_text())
+    hit = report["first_contact_s"]
+    assert hit is not None
+    open_page(driver, page)
+    marks = driver.execute_script("return brachiaView.marks()")
+    contacts = [m for m in marks if m["text"].startswith("contact")]
+    assert contacts and abs(contacts[0]["t"] - hit) < 1e-3, marks
+    # the ball, drawn where obstacles.csv puts it: it stands still before the hit and moves after it
+    ball = report["plant_obstacles"][-1]
+    assert ball["kind"] == "ball"
+    bx, by = driver.execute_script("return brachiaView.toPage(arguments[0], arguments[1])", *ball["center"])
+    box = (int(bx) - 6, int(by) - 6, int(bx) + 6, int(by) + 6)
+    open_page(driver, page, 0)
+    a = screenshot(driver)
+    open_page(driver, page, hit * 0.5)
+    b = screenshot(driver)
+    T = driver.execute_script("return brachiaView.T")
+    open_page(driver, page, T)
+    c = screenshot(driver)
+    assert region_diff(a, b, box) == 0
+    assert region_diff(a, c, box) > 20
 
 
 def test_simulate_page_moves_the_passive_chain(driver, more):
