@@ -536,7 +536,8 @@
   legend.push(["--bar", D.bars ? "bars (filled: grip and ladder)" : "grip bar"]);
   if (D.ghost) legend.splice(1, 0, ["--ghost", "plan (ghost)"]);
   legend.push(["--path", "hand path"]);
-  if (D.obstacles.length) legend.push(["--obstacle", "obstacles (dashed: as planned)"]);
+  if (D.obstacles.some((o) => o.kind !== "ball")) legend.push(["--obstacle", "obstacles (dashed: as planned)"]);
+  if (D.obstacles.some((o) => o.kind === "ball")) legend.push(["--ball", "free ball (as it moves)"]);
   if ((D.contacts || []).length || D.diverged_at != null) legend.push(["--mark", "contacts: marks in the plots"]);
   if ((D.replans || []).length) legend.push(["--replan", "re-plans: marks in the plots"]);
   if (D.switches && D.switches.length) legend.push(["--switch", "grip switches: marks in the plots"]);

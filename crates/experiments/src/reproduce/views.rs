@@ -5,6 +5,9 @@ use crate::ExpError;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// The pages written: name and what each shows.
+pub(crate) type Pages = Vec<(&'static str, &'static str)>;
+
 /// The folder holding the pages, beside REPORT.md.
 pub(crate) const VIEWS_DIR: &str = "views";
 
@@ -52,7 +55,7 @@ pub(crate) fn write_pages(
     src: &Path,
     dest: &Path,
     failures: &mut Vec<String>,
-) -> Result<(Vec<(&'static str, &'static str)>, Vec<PathBuf>), ExpError> {
+) -> Result<(Pages, Vec<PathBuf>), ExpError> {
     let dir = dest.join(VIEWS_DIR);
     std::fs::create_dir_all(&dir).map_err(|source| ExpError::Write {
         path: dir.clone(),
