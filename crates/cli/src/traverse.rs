@@ -33,7 +33,9 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
     let mut folder = tr.folder(&ll)?;
     folder.add(PARAMS_FILE, params_toml(&ll.robot, &ll.scenario.params));
-    if !a.no_view && !tr.logs.is_empty() {
+    // a page plays the rows of the traverse: one that stopped at its first row has none to play
+    let rows: usize = tr.logs.iter().map(|l| l.len()).sum();
+    if !a.no_view && rows >= 2 {
         folder.add(VIEW_FILE, traverse_run_page(&ll, &tr)?);
     }
     check_cancel(cancel, &a.out)?;

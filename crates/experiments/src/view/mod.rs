@@ -1,11 +1,14 @@
-//! `view.html`: one self-contained interactive page of a run (plan or track), drawn from its folder.
+//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, or a
+//! benchmark's scorecard, [`bench`]), drawn from its folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
 //! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
 //! offline, and makes no network request. It shows the robot to scale (link capsules, joints, hand,
 //! grip and target bars, obstacles), the planned swing as a ghost beside the tracked one, the hand's
 //! path, and plots of q, qd, tau (with the limits), energy and the EE error, all with one time cursor.
-//! A `#t=SECONDS` fragment opens the page at that time.
+//! A `#t=SECONDS` fragment opens the page at that time. A traverse ([`traverse`]) is drawn in the
+//! world frame with its grip switches marked; a simulation ([`simulate`]) shows the passive chain and
+//! its mechanical energy.
 
 pub mod bench;
 pub mod data;
