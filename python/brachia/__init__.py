@@ -5,7 +5,8 @@ model (``Robot``), the direct-collocation planner (``plan`` -> ``Plan``), the li
 (``Mpc``), the persistent planner that re-plans warm from measured states (``SwingPlanner``
 -> ``ReplanOutcome``), several swings of a ladder
 planned as one problem (``plan_joint_swings`` -> ``JointSwingPlan``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
-(``track`` -> ``TrackResult``) and scenario files (``Scenario``).
+(``track`` -> ``TrackResult``), scenario files (``Scenario``) and the interactive run page
+(``view``; a ``Plan`` or ``TrackResult`` shows it inline in Jupyter).
 
 Conventions (SI units throughout: m, kg, s, rad, N m, J): planar, grip point at the origin, x right,
 y up, gravity along -y. ``q[0]`` is the absolute angle of link 1 from +x (counter-clockwise), ``q[i]``
@@ -40,6 +41,7 @@ from ._brachia import (
     rust_mpc_step_times,
     track,
 )
+from .view import view
 
 from ._registration import register_envs as _register_envs
 
@@ -68,4 +70,5 @@ __all__ = [
     "plan_joint_swings",
     "rust_mpc_step_times",
     "track",
+    "view",
 ]

@@ -187,6 +187,10 @@ class Plan:
         """The report.json of ``brachia plan``."""
     def write(self, out: StrPath, force: bool = False) -> None:
         """Write the run folder (a scenario's plan only)."""
+    def _view_html(self) -> Optional[str]:
+        """The run page (docs/viewer.md), None without a trajectory."""
+    def _repr_html_(self) -> Optional[str]:
+        """The run page inline in Jupyter."""
 
 def plan(
     robot: Robot,
@@ -412,6 +416,10 @@ class TrackResult:
     @property
     def plan(self) -> Optional[Plan]: ...
     def write(self, out: StrPath, force: bool = False) -> None: ...
+    def _view_html(self) -> Optional[str]:
+        """The run page of a scenario's run (docs/viewer.md), else None."""
+    def _repr_html_(self) -> Optional[str]:
+        """The run page inline in Jupyter."""
 
 def track(
     robot: Robot,
@@ -508,3 +516,9 @@ class SwingBatchCore:
     def reset(self, seed: Optional[int] = None, disturbances: Optional[dict[str, Any]] = None) -> Array: ...
     def step(self, actions: ArrayLike) -> tuple[Array, Array, Array, Array, dict[str, Array], Array, Array]: ...
     def episodes(self) -> list[dict[str, Any]]: ...
+
+def view_folder(path: StrPath) -> str:
+    """Write DIR/view.html for a run folder (as ``brachia view``); returns its path."""
+
+def view(obj: Union[StrPath, Plan, TrackResult], path: Optional[StrPath] = None, open: bool = False) -> Any:
+    """Write the interactive page of a run folder, Plan or TrackResult; returns its path."""

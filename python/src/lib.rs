@@ -43,6 +43,7 @@ mod replan;
 mod scenario;
 mod shared;
 mod sim;
+mod view;
 
 pyo3::create_exception!(
     brachia,
@@ -81,5 +82,6 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bench::benchmark, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;
+    m.add_function(wrap_pyfunction!(view::view_folder, m)?)?;
     Ok(())
 }

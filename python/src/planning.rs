@@ -182,6 +182,17 @@ impl Plan {
         py.detach(|| folder.write(&out)).map_err(exp)
     }
 
+    /// The run page of this plan (docs/viewer.md) as HTML text; ``None`` when the plan has no
+    /// trajectory to draw.
+    fn _view_html(&self) -> Option<String> {
+        crate::view::plan_page(&self.report, &self.task, &self.robot, &self.trajectory)
+    }
+
+    /// The run page inline in Jupyter (a frame of the notebook's width).
+    fn _repr_html_(&self) -> Option<String> {
+        self._view_html().map(|h| crate::view::frame(&h))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "Plan(status={:?}, objective={:.6}, iterations={}, swing_time={:.6}, samples={})",

@@ -153,6 +153,21 @@ impl TrackResult {
         py.detach(|| folder.write(&out)).map_err(exp)
     }
 
+    /// The run page of a scenario's run (docs/viewer.md) as HTML text, drawn from the run folder it
+    /// would write; ``None`` for a run without one (``track()`` outside a scenario) or with nothing
+    /// tracked.
+    fn _view_html(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        match (&self.folder, self.summary.is_some()) {
+            (Some(folder), true) => py.detach(|| crate::view::folder_page(folder)).map(Some),
+            _ => Ok(None),
+        }
+    }
+
+    /// The run page inline in Jupyter (a frame of the notebook's width).
+    fn _repr_html_(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        Ok(self._view_html(py)?.map(|h| crate::view::frame(&h)))
+    }
+
     fn __repr__(&self) -> String {
         match &self.summary {
             Some(s) => format!(

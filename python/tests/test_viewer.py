@@ -1,15 +1,17 @@
 """The run page view.html in a real browser: Debian's Chromium, headless, driven by Selenium.
 
-`brachia plan` and `brachia track` write view.html into their run folders; these tests open the pages
+`brachia plan`, `track`, `traverse` and `simulate` write view.html into their run folders and `brachia
+view` writes it for a benchmark folder and a track folder without its plan; these tests open the pages
 from disk and check what a user sees: no console error and no network request, the robot moving
 between t = 0 and t = T/2 while the bars stay put, the hand on the target bar at t = T, play advancing
-the time readout and the slider moving the robot. They need BRACHIA_BIN (the built brachia binary),
+the time readout, the slider, a drag in a plot and the keys moving the time, the theme switching. They need BRACHIA_BIN (the built brachia binary),
 the selenium package and Chromium with its driver (/usr/bin/chromium, /usr/bin/chromedriver); without
 them they are skipped.
 """
 
 import io
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -50,6 +52,63 @@ def runs(tmp_path_factory) -> dict:
     track = brachia("track", "--scenario", scenario, "--out", str(base / "track"))
     assert track.returncode == 0, track.stderr
     return {"plan": base / "plan", "track": base / "track"}
+
+
+LADDER = """name = "ladder-three"
+params = "{params}"
+
+[ladder]
+bars = [{{ x = 0.0, y = 0.0 }}, {{ x = 1.0, y = 0.0 }}, {{ x = 2.0, y = 0.0 }}]
+capture_radius = 0.02
+capture_speed = 0.1
+
+[planner]
+swing_time = "auto"
+knot_dt = 0.03
+transcription = "multiple-shooting"
+
+[planner.bounds]
+qd_end_max = 1.0
+
+[solver]
+backend = "ocp"
+"""
+
+
+@pytest.fixture(scope="module")
+def more(tmp_path_factory, runs) -> dict:
+    """A traverse of three bars (two swings, one per hand), a passive simulation, a small benchmark
+    folder and a track folder whose plan was read from elsewhere (no plan/ inside)."""
+    base = tmp_path_factory.mktemp("viewer-more")
+    ladder = base / "ladder.toml"
+    ladder.write_text(LADDER.format(params=(ROOT / "params" / "paper.toml").as_posix()))
+    r = brachia("traverse", "--scenario", str(ladder), "--out", str(base / "traverse"))
+    assert r.returncode == 0, r.stderr
+    r = brachia(
+        "simulate", "--params", str(ROOT / "params" / "paper.toml"), "--q0", "-1.2,0.5,0.3,0.2",
+        "--duration", "1.5", "--out", str(base / "simulate"),
+    )
+    assert r.returncode == 0, r.stderr
+    scenario = str(ROOT / "scenarios" / "tracking.toml")
+    r = brachia(
+        "benchmark", "--scenario", scenario, "--out", str(base / "bench"), "--levels", "3",
+        "--monte-carlo", "0", "--controller", "pd", "--controller", "open-loop",
+        "--sweep", "mass", "--sweep", "actuation_delay", "--no-progress",
+    )
+    assert r.returncode in (0, 1), r.stderr
+    r = brachia("view", str(base / "bench"))
+    assert r.returncode == 0, r.stderr
+    r = brachia(
+        "track", "--scenario", scenario, "--plan", str(runs["plan"]), "--plant", "model",
+        "--out", str(base / "track-no-plan"),
+    )
+    assert r.returncode == 0, r.stderr
+    assert not (base / "track-no-plan" / "plan").exists()
+    r = brachia("view", str(base / "track-no-plan"))
+    assert r.returncode == 0, r.stderr
+    r = brachia("track", "--scenario", str(ROOT / "scenarios" / "robustness.toml"), "--out", str(base / "ball"))
+    assert r.returncode in (0, 1), r.stderr
+    return {k: base / k for k in ["traverse", "simulate", "bench", "track-no-plan", "ball"]}
 
 
 @pytest.fixture(scope="module")
@@ -129,9 +188,8 @@ def region_diff(a: Image.Image, b: Image.Image, box) -> int:
     return sum(1 for p, q in zip(ca, cb) if p != q)
 
 
-@pytest.mark.parametrize("kind", ["plan", "track"])
-def test_page_loads_without_errors_or_network(driver, runs, kind):
-    page = runs[kind] / "view.html"
+def check_loads_quietly(driver, page: Path) -> None:
+    """The page is under 3 MB, loads with no console error or warning and requests nothing."""
     assert page.is_file()
     size = page.stat().st_size
     assert size < 3_000_000, f"{page} is {size} bytes"
@@ -148,7 +206,123 @@ def test_page_loads_without_errors_or_network(driver, runs, kind):
     page_url = page.resolve().as_uri()
     others = [u for u in urls if not u.startswith(page_url) and u != "about:blank"]
     assert others == [], others
+
+
+@pytest.mark.parametrize("kind", ["plan", "track"])
+def test_page_loads_without_errors_or_network(driver, runs, kind):
+    page = runs[kind] / "view.html"
+    check_loads_quietly(driver, page)
     assert driver.find_element("id", "time-readout").text.startswith("t = 0.000 s")
+
+
+@pytest.mark.parametrize("kind", ["traverse", "simulate", "bench", "track-no-plan", "ball"])
+def test_other_pages_load_without_errors_or_network(driver, more, kind):
+    check_loads_quietly(driver, more[kind] / "view.html")
+
+
+def test_traverse_page_draws_the_whole_ladder_and_marks_the_switch(driver, more):
+    page = more["traverse"] / "view.html"
+    report = json.loads((more["traverse"] / "report.json").read_text())
+    open_page(driver, page)
+    assert driver.execute_script("return brachiaView.kind") == "traverse"
+    T = driver.execute_script("return brachiaView.T")
+    assert abs(T - report["totals"]["duration_s"]) < 1e-3
+    assert driver.execute_script("return brachiaView.target") == [2.0, 0.0]
+    shots = {}
+    for label, t in [("start", 0.0), ("middle", T / 2), ("end", T)]:
+        open_page(driver, page, t)
+        shots[label] = screenshot(driver)
+    rect = stage_rect(driver)
+    # the hand ends on the last bar and starts far from it (world frame, the whole ladder in view)
+    tx, ty = driver.execute_script("const b = brachiaView.target; return brachiaView.toPage(b[0], b[1]);")
+    end = hand_centroid(shots["end"], rect)
+    assert end is not None and abs(end[0] - tx) < 4 and abs(end[1] - ty) < 4, (end, tx, ty)
+    start = hand_centroid(shots["start"], rect)
+    assert start is not None and (start[0] - tx) ** 2 + (start[1] - ty) ** 2 > 150**2
+    # after the grip switch the chain hangs from bar 1: the hand is the other end of the chain
+    rows = (more["traverse"] / "traverse.csv").read_text().splitlines()
+    head = rows[1].split(",")
+    t_col, swing_col = head.index("t"), head.index("swing")
+    cells = [r.split(",") for r in rows[2:]]
+    k = next(i for i in range(1, len(cells)) if cells[i][swing_col] != cells[i - 1][swing_col])
+    t_switch = float(cells[k][t_col])
+    assert float(cells[k - 1][t_col]) == t_switch
+    # before the switch the hand is on bar 1; just after it the hand is the other end, on bar 0
+    before = driver.execute_script("return brachiaView.hand(arguments[0])", t_switch - 0.002)
+    after = driver.execute_script("return brachiaView.hand(arguments[0])", t_switch + 0.002)
+    assert math.dist(before, [1.0, 0.0]) < 0.03 and math.dist(after, [0.0, 0.0]) < 0.03, (before, after)
+    # the switch is a mark in the plots, named in the tooltip near its time
+    marks = driver.execute_script("return brachiaView.marks()")
+    assert any("grip switch" in m["text"] and abs(m["t"] - t_switch) < 2e-3 for m in marks), marks
+    out = os.environ.get("BRACHIA_VIEW_SHOTS")
+    if out:
+        shots["middle"].save(Path(out) / "traverse-middle.png")
+
+
+def test_track_page_with_a_ball_marks_the_hit_and_moves_the_ball(driver, more):
+    page = more["ball"] / "view.html"
+    report = json.loads((more["ball"] / "report.json").read_text())
+    hit = report["first_contact_s"]
+    assert hit is not None
+    open_page(driver, page)
+    marks = driver.execute_script("return brachiaView.marks()")
+    contacts = [m for m in marks if m["text"].startswith("contact")]
+    assert contacts and abs(contacts[0]["t"] - hit) < 1e-3, marks
+    # the ball, drawn where obstacles.csv puts it: it stands still before the hit and moves after it
+    ball = report["plant_obstacles"][-1]
+    assert ball["kind"] == "ball"
+    bx, by = driver.execute_script("return brachiaView.toPage(arguments[0], arguments[1])", *ball["center"])
+    box = (int(bx) - 6, int(by) - 6, int(bx) + 6, int(by) + 6)
+    open_page(driver, page, 0)
+    a = screenshot(driver)
+    open_page(driver, page, hit * 0.5)
+    b = screenshot(driver)
+    T = driver.execute_script("return brachiaView.T")
+    open_page(driver, page, T)
+    c = screenshot(driver)
+    assert region_diff(a, b, box) == 0
+    assert region_diff(a, c, box) > 20
+
+
+def test_simulate_page_moves_the_passive_chain(driver, more):
+    page = more["simulate"] / "view.html"
+    open_page(driver, page, 0)
+    rect = stage_rect(driver)
+    a = hand_centroid(screenshot(driver), rect)
+    open_page(driver, page, 0.4)
+    b = hand_centroid(screenshot(driver), rect)
+    assert a is not None and b is not None and (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 > 10**2, (a, b)
+    titles = driver.execute_script("return [...document.querySelectorAll('.plot h2')].map((h) => h.textContent)")
+    assert any("mechanical energy" in t for t in titles), titles
+    assert driver.execute_script("return brachiaView.target") is None
+
+
+def test_track_page_without_its_plan_says_so_and_reaches_the_bar(driver, more):
+    page = more["track-no-plan"] / "view.html"
+    open_page(driver, page)
+    notes = driver.find_element("id", "notes").text
+    assert "holds no plan" in notes, notes
+    T = driver.execute_script("return brachiaView.T")
+    open_page(driver, page, T)
+    rect = stage_rect(driver)
+    tx, ty = driver.execute_script("const b = brachiaView.target; return brachiaView.toPage(b[0], b[1]);")
+    end = hand_centroid(screenshot(driver), rect)
+    assert end is not None and abs(end[0] - tx) < 4 and abs(end[1] - ty) < 4, (end, tx, ty)
+
+
+def test_benchmark_page_shows_the_scorecard_and_a_curve_per_sweep(driver, more):
+    page = more["bench"] / "view.html"
+    open_page(driver, page)
+    card = json.loads((more["bench"] / "scorecard.json").read_text())
+    sweeps = [s["name"] for s in card["sweeps"]]
+    shown = driver.execute_script("return [...document.querySelectorAll('figure.curve')].map((f) => f.dataset.sweep)")
+    assert shown == sweeps
+    rows = driver.execute_script("return document.querySelectorAll('table')[0].tBodies[0].rows.length")
+    assert rows == len(card["controllers"])
+    # one point per controller and level, each naming its run on hover
+    points = driver.execute_script("return [...document.querySelectorAll('circle.pt title')].map((t) => t.textContent)")
+    assert len(points) == len(card["controllers"]) * sum(len(s["levels"]) for s in card["sweeps"])
+    assert all(("success" in p) != ("failure" in p) for p in points), points
 
 
 @pytest.mark.parametrize("kind", ["plan", "track"])
@@ -217,6 +391,56 @@ def test_dragging_the_slider_moves_the_robot(driver, runs):
     after = hand_centroid(screenshot(driver), rect)
     assert before is not None and after is not None
     assert (before[0] - after[0]) ** 2 + (before[1] - after[1]) ** 2 > 20**2, (before, after)
+
+
+def test_keys_step_frames_and_jump_to_the_ends(driver, runs):
+    from selenium.webdriver.common.keys import Keys
+
+    open_page(driver, runs["track"] / "view.html", 0)
+    body = driver.find_element("tag name", "body")
+    body.send_keys(Keys.ARROW_RIGHT)
+    t1 = driver.execute_script("return brachiaView.time()")
+    assert 0.005 < t1 < 0.015, t1
+    body.send_keys(Keys.END)
+    T = driver.execute_script("return brachiaView.T")
+    assert driver.execute_script("return brachiaView.time()") == T
+    body.send_keys(Keys.ARROW_LEFT)
+    assert T - 0.015 < driver.execute_script("return brachiaView.time()") < T
+    body.send_keys(Keys.HOME)
+    assert driver.execute_script("return brachiaView.time()") == 0
+    assert driver.current_url.endswith("#t=0.000")
+
+
+def test_dragging_in_a_plot_moves_the_time_and_shows_values(driver, runs):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    open_page(driver, runs["track"] / "view.html", 0)
+    canvases = driver.find_elements("css selector", ".plot canvas")
+    assert len(canvases) >= 5
+    last = canvases[-1]
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center'})", last)
+    width = last.size["width"]
+    ActionChains(driver).move_to_element_with_offset(last, -width // 4, 0).click_and_hold().move_by_offset(
+        width // 4, 0
+    ).perform()
+    tip = driver.find_element("id", "tip")
+    assert tip.is_displayed() and "t = " in tip.text
+    ActionChains(driver).release().perform()
+    t = driver.execute_script("return brachiaView.time()")
+    T = driver.execute_script("return brachiaView.T")
+    # the press and the drag both set the time; the release leaves it mid-plot
+    assert 0.3 * T < t < 0.7 * T, (t, T)
+
+
+def test_the_theme_button_switches_light_and_dark(driver, runs):
+    open_page(driver, runs["track"] / "view.html", 0)
+    bg = lambda: driver.execute_script("return getComputedStyle(document.body).backgroundColor")
+    before = bg()
+    driver.find_element("id", "theme").click()
+    after = bg()
+    assert before != after
+    driver.find_element("id", "theme").click()
+    assert bg() == before
 
 
 def test_bad_folder_is_refused_naming_the_file(runs, tmp_path):

@@ -46,7 +46,8 @@ enum Command {
     /// Redraw every figure and REPORT.md of a `reproduce` output folder from its run folders (no
     /// planning, no simulation).
     Report(report::Args),
-    /// Write the interactive page view.html of a plan or track run folder (one self-contained file).
+    /// Write the interactive page view.html of a run folder (plan, track, traverse, simulate,
+    /// benchmark; one self-contained file).
     View(view::Args),
     /// Import a robot from a URDF file, or export one as URDF or MuJoCo MJCF.
     Robot(robot::Args),

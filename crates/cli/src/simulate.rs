@@ -6,6 +6,9 @@ use brachia::limits;
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
+use brachia_experiments::view::{
+    params_toml, render, simulate, simulate_view, SimulateParts, PARAMS_FILE, VIEW_FILE,
+};
 use brachia_experiments::{check_out_dir, CancelToken, RunFolder};
 use serde_json::json;
 use std::path::PathBuf;
@@ -31,12 +34,15 @@ pub struct Args {
     /// RK4 steps per output period.
     #[arg(long, default_value_t = 1)]
     substeps: usize,
-    /// Output folder: trajectory.csv and report.json.
+    /// Output folder: trajectory.csv, report.json, params.toml and view.html.
     #[arg(long)]
     out: PathBuf,
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
     #[arg(long)]
     force: bool,
+    /// Do not write the interactive page view.html into the run folder.
+    #[arg(long)]
+    no_view: bool,
 }
 
 /// Run the command.
@@ -126,10 +132,18 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let e0 = energy[0];
     let drift = energy.iter().map(|e| (e - e0).abs()).fold(0.0, f64::max);
     let mut out = RunFolder::default();
-    out.add(
-        "trajectory.csv",
-        traj.to_csv(&robot, &[("energy", &energy)]),
-    );
+    let csv = traj.to_csv(&robot, &[("energy", &energy)]);
+    if !a.no_view {
+        let page = simulate_view(SimulateParts {
+            file: "trajectory.csv",
+            csv: &csv,
+            robot: &robot,
+            subtitle: &simulate::subtitle(a.duration, drift),
+        })?;
+        out.add(VIEW_FILE, render(&page));
+    }
+    out.add("trajectory.csv", csv);
+    out.add(PARAMS_FILE, params_toml(&robot, &a.params));
     out.add_json(
         "report.json",
         &json!({

@@ -2,6 +2,7 @@
 //! scenario's plant (`[plant] kind`: the model, or rapier with the grip rebuilt at every bar), into a staged run folder (see `brachia_experiments::traverse`).
 
 use crate::{check_cancel, exp_error, CliError};
+use brachia_experiments::view::{params_toml, traverse_run_page, PARAMS_FILE, VIEW_FILE};
 use brachia_experiments::{
     check_ladder_settings_apply, check_out_dir, run_traverse_cancellable, CancelToken,
     LadderScenario,
@@ -14,13 +15,17 @@ pub struct Args {
     /// Traverse scenario file (TOML with a [ladder] section), e.g. scenarios/ladder-even.toml.
     #[arg(long)]
     scenario: PathBuf,
-    /// Output folder: traverse.csv, report.json, scenario.toml, traverse_stick.png/.svg,
-    /// energy_per_swing.png/.svg, traverse.gif (rapier: also contacts.csv, obstacles.csv).
+    /// Output folder: traverse.csv, report.json, scenario.toml, params.toml, view.html,
+    /// traverse_stick.png/.svg, energy_per_swing.png/.svg, traverse.gif (rapier: also contacts.csv,
+    /// obstacles.csv).
     #[arg(long)]
     out: PathBuf,
     /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
     #[arg(long)]
     force: bool,
+    /// Do not write the interactive page view.html into the run folder.
+    #[arg(long)]
+    no_view: bool,
 }
 
 /// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
@@ -33,7 +38,13 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     ll.scenario.solver.cancel = Some(cancel.clone());
     check_out_dir(&a.out, a.force)?;
     let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
-    let folder = tr.folder(&ll).map_err(exp_error(&a.out))?;
+    let mut folder = tr.folder(&ll).map_err(exp_error(&a.out))?;
+    folder.add(PARAMS_FILE, params_toml(&ll.robot, &ll.scenario.params));
+    // a page plays the rows of the traverse: one that stopped at its first row has none to play
+    let rows: usize = tr.logs.iter().map(|l| l.len()).sum();
+    if !a.no_view && rows >= 2 {
+        folder.add(VIEW_FILE, traverse_run_page(&ll, &tr)?);
+    }
     check_cancel(cancel, &a.out)?;
     folder.write(&a.out).map_err(exp_error(&a.out))?;
     for s in &tr.swings {

@@ -8,7 +8,8 @@ use std::path::PathBuf;
 /// Arguments of `brachia view`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// A run folder written by `brachia plan` or `brachia track`; the page is written as DIR/view.html.
+    /// A run folder written by `brachia plan`, `track`, `traverse`, `simulate` or `benchmark`, or an
+    /// experiment folder of a reproduction; the page is written as DIR/view.html.
     dir: PathBuf,
 }
 

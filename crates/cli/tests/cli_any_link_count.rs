@@ -58,7 +58,7 @@ fn plan_and_track(scenario: &str, n: usize, dir: &Path) {
         );
         let log = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
         let log = log
-            .strip_prefix("# brachia closed_loop schema 1\n")
+            .strip_prefix("# brachia closed_loop schema 2\n")
             .expect("the schema line");
         let head = log.lines().next().unwrap();
         assert!(

@@ -357,7 +357,7 @@ fn f3_a_diverged_closed_loop_is_exit_1_and_its_folder_reads_back() {
         }
         let csv = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
         let csv = csv
-            .strip_prefix("# brachia closed_loop schema 1\n")
+            .strip_prefix("# brachia closed_loop schema 2\n")
             .expect("the schema line");
         assert!(!csv.to_lowercase().contains("nan") && !csv.contains("inf"));
         // `brachia report` reads it back

@@ -64,6 +64,10 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
         "ladder/traverse.gif",
         "ladder/energy_per_swing.png",
         "ladder/joint_swings.json",
+        "views/tracking.html",
+        "views/obstacle-avoid.html",
+        "views/robustness-mpc.html",
+        "views/ladder.html",
     ] {
         assert!(out.join(f).is_file(), "missing {f}");
     }
@@ -157,6 +161,8 @@ fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {
         std::fs::remove_file(figs.join(n)).unwrap();
     }
     std::fs::remove_file(out.join("REPORT.md")).unwrap();
+    let page = std::fs::read(out.join("views/ladder.html")).unwrap();
+    std::fs::remove_file(out.join("views/ladder.html")).unwrap();
     let summary_before = std::fs::read(out.join("summary.json")).unwrap();
     let t0 = std::time::Instant::now();
     let o = brachia().arg("report").arg(out).output().unwrap();
@@ -166,6 +172,7 @@ fn redraw_from_the_run_folders(out: &std::path::Path, md: &str) {
     for n in &drawn {
         assert!(figs.join(n).is_file(), "report did not redraw {n}");
     }
+    assert_eq!(std::fs::read(out.join("views/ladder.html")).unwrap(), page);
     assert_eq!(
         std::fs::read_to_string(figs.join("mine.png")).unwrap(),
         "my figure"

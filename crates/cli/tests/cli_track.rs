@@ -48,7 +48,7 @@ fn mpc_tracks_the_paper_swing_on_the_model_plant() {
     );
     let csv = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
     let csv = csv
-        .strip_prefix("# brachia closed_loop schema 1\n")
+        .strip_prefix("# brachia closed_loop schema 2\n")
         .expect("the schema line");
     assert!(
         csv.starts_with("t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y,ref_q1"),

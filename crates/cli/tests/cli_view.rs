@@ -186,3 +186,154 @@ fn bad_folders_are_refused_with_exit_2_naming_the_file() {
     );
     assert_eq!(snapshot(&out), before);
 }
+
+/// A three-bar ladder for the paper's robot (two swings, one per hand).
+fn ladder(dir: &Path) -> std::path::PathBuf {
+    let p = dir.join("ladder.toml");
+    let params = common::root().join("params/paper.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "params = {:?}\n[ladder]\nbars = [{{ x = 0.0, y = 0.0 }}, {{ x = 1.0, y = 0.0 }}, \
+             {{ x = 2.0, y = 0.0 }}]\n[planner]\nswing_time = \"auto\"\nknot_dt = 0.03\n\
+             transcription = \"multiple-shooting\"\n[planner.bounds]\nqd_end_max = 1.0\n\
+             [solver]\nbackend = \"ocp\"\n",
+            params.display().to_string()
+        ),
+    )
+    .unwrap();
+    p
+}
+
+#[test]
+fn traverse_and_simulate_write_their_pages_and_view_reads_their_folders_back() {
+    let dir = tempfile::tempdir().unwrap();
+    // a traverse: the whole ladder in the world frame, the chain re-rooted at the grip switch
+    let out = dir.path().join("traverse");
+    let o = brachia()
+        .args(["traverse", "--scenario"])
+        .arg(ladder(dir.path()))
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    assert_eq!(d["kind"], "traverse");
+    assert_eq!(d["bars"].as_array().unwrap().len(), 3);
+    let hold: Vec<u8> = serde_json::from_value(d["hold"].clone()).unwrap();
+    assert_eq!((hold[0], hold[hold.len() - 1]), (0, 1));
+    let switches = d["switches"].as_array().unwrap();
+    assert_eq!(switches.len(), 2);
+    assert!(switches[0]["text"]
+        .as_str()
+        .unwrap()
+        .contains("caught bar 1"));
+    // the last sample's free hand (the last point of the chain that holds) is on the last bar
+    let pts = d["pts"].as_array().unwrap();
+    let last: Vec<f64> = serde_json::from_value(pts[pts.len() - 1].clone()).unwrap();
+    let hand = &last[last.len() - 2..];
+    assert!((hand[0] - 2.0).hypot(hand[1]) < 0.02, "{hand:?}");
+    // every row for the tooltips, one per 10 ms for the drawing
+    let rows = std::fs::read_to_string(out.join("traverse.csv")).unwrap();
+    assert_eq!(
+        d["full"]["t"].as_array().unwrap().len(),
+        rows.lines().count() - 2
+    );
+    // brachia view draws the same page from the folder
+    std::fs::remove_file(out.join("view.html")).unwrap();
+    let o = brachia().arg("view").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    assert_eq!(again["t"], d["t"]);
+    assert_eq!(again["pts"], d["pts"]);
+    // a tampered traverse.csv is refused naming the file, the line and the column; nothing written
+    let mut lines: Vec<String> = rows.lines().map(String::from).collect();
+    let head: Vec<&str> = lines[1].split(',').collect();
+    let col = head.iter().position(|c| *c == "holding_hand").unwrap();
+    let mut cells: Vec<String> = lines[7].split(',').map(String::from).collect();
+    cells[col] = "2".into();
+    lines[7] = cells.join(",");
+    std::fs::write(out.join("traverse.csv"), lines.join("\n") + "\n").unwrap();
+    let before = snapshot(&out);
+    let o = brachia().arg("view").arg(&out).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(
+        err.contains("traverse.csv") && err.contains("line 8, holding_hand"),
+        "{err}"
+    );
+    assert_eq!(snapshot(&out), before);
+
+    // a passive simulation: its robot beside it, the mechanical energy plotted
+    let sim = dir.path().join("simulate");
+    let o = brachia()
+        .args([
+            "simulate",
+            "--params",
+            "params/paper.toml",
+            "--q0=-1.2,0.5,0.3,0.2",
+            "--duration",
+            "1.0",
+            "--out",
+        ])
+        .arg(&sim)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(sim.join("params.toml").is_file());
+    let d = page_data(&std::fs::read_to_string(sim.join("view.html")).unwrap());
+    assert_eq!(d["kind"], "simulate");
+    assert!(d["target"].is_null());
+    let e: Vec<f64> = serde_json::from_value(d["full"]["mechanical"].clone()).unwrap();
+    assert_eq!(e.len(), 1001);
+    assert!(e.iter().all(|x| (x - e[0]).abs() < 1e-4));
+    std::fs::remove_file(sim.join("params.toml")).unwrap();
+    let o = brachia().arg("view").arg(&sim).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("params.toml"));
+}
+
+#[test]
+fn a_track_folder_without_its_plan_is_drawn_from_its_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan");
+    let o = brachia()
+        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("track");
+    let o = brachia()
+        .args([
+            "track",
+            "--no-view",
+            "--plant",
+            "model",
+            "--scenario",
+            "scenarios/tracking.toml",
+            "--plan",
+        ])
+        .arg(&plan)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!out.join("plan").exists() && !out.join("view.html").exists());
+    let o = brachia().arg("view").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    assert_eq!(d["kind"], "track");
+    assert!(d["notes"][0].as_str().unwrap().contains("holds no plan"));
+    // the link lengths found from the log are the plan's robot's (0.355 m each)
+    let lengths: Vec<f64> = serde_json::from_value(d["robot"]["lengths"].clone()).unwrap();
+    assert!(
+        lengths.iter().all(|l| (l - 0.355).abs() < 1e-4),
+        "{lengths:?}"
+    );
+    // the controller's step time of every row, from closed_loop.csv
+    let us: Vec<f64> = serde_json::from_value(d["full"]["control_us"].clone()).unwrap();
+    assert!(us.len() > 2000 && us[..us.len() - 1].iter().all(|&x| x > 0.0));
+}

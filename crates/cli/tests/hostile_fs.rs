@@ -340,8 +340,8 @@ fn concurrent_first_runs_into_a_new_folder_all_succeed() {
     let out = t.path().join("out");
     assert!(out.join("trajectory.csv").is_file() && out.join("report.json").is_file());
     let names: Vec<_> = std::fs::read_dir(&out).unwrap().flatten().collect();
-    // trajectory.csv, report.json and the manifest: nothing moved aside
-    assert_eq!(names.len(), 3, "{names:?}");
+    // trajectory.csv, report.json, params.toml, view.html and the manifest: nothing moved aside
+    assert_eq!(names.len(), 5, "{names:?}");
     assert!(leftovers(t.path()).is_empty(), "{:?}", leftovers(t.path()));
 }
 

@@ -443,7 +443,7 @@ fn summary_and_csv_of_a_small_log() {
     assert_eq!(
         header,
         "t,q1,q2,q3,q4,qd1,qd2,qd3,qd4,tau2,tau3,tau4,ee_x,ee_y,ref_q1,ref_q2,ref_q3,ref_q4,\
-         ref_qd1,ref_qd2,ref_qd3,ref_qd4,ref_ee_x,ref_ee_y"
+         ref_qd1,ref_qd2,ref_qd3,ref_qd4,ref_ee_x,ref_ee_y,control_us"
     );
     assert_eq!(csv.lines().count(), 4);
     let row: Vec<f64> = csv
@@ -453,7 +453,19 @@ fn summary_and_csv_of_a_small_log() {
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
-    assert_eq!(row.len(), 24);
+    assert_eq!(row.len(), 25);
+    // the controller's step time of each row is the last column, and reads back
+    let back = ClosedLoopLog::from_csv(&csv, "closed_loop.csv").unwrap();
+    assert_eq!(back.control_us, log.control_us);
+    assert_eq!(back.x, log.x);
+    // a file without the column (schema 1) reads back without step times
+    let old: String = csv
+        .lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n")
+        .collect();
+    let back = ClosedLoopLog::from_csv(&old, "closed_loop.csv").unwrap();
+    assert!(back.control_us.is_empty());
+    assert_eq!(back.x, log.x);
     assert!((row[2] - 0.3).abs() < 1e-12 && (row[9] - 1.0).abs() < 1e-12);
     // the executed motion as a trajectory: the same rows
     let tr = log.trajectory();

@@ -558,7 +558,11 @@ fn number(file: &str, line: usize, col: &str, v: &str) -> Result<f64, Error> {
 }
 
 /// `contacts.csv` of an `n`-link robot in a world of `obstacles` obstacles.
-fn read_contacts(path: &Path, n: usize, obstacles: usize) -> Result<Vec<ContactEvent>, Error> {
+pub(crate) fn read_contacts(
+    path: &Path,
+    n: usize,
+    obstacles: usize,
+) -> Result<Vec<ContactEvent>, Error> {
     let file = path.display().to_string();
     let text = read_csv_text(path, "contacts")?;
     let mut out = Vec::new();
@@ -612,7 +616,10 @@ fn read_contacts(path: &Path, n: usize, obstacles: usize) -> Result<Vec<ContactE
 }
 
 /// `obstacles.csv`: one column pair per obstacle of the report.
-fn read_obstacle_track(path: &Path, obstacles: &[Obstacle]) -> Result<Vec<Vec<f64>>, Error> {
+pub(crate) fn read_obstacle_track(
+    path: &Path,
+    obstacles: &[Obstacle],
+) -> Result<Vec<Vec<f64>>, Error> {
     let file = path.display().to_string();
     let text = read_csv_text(path, "obstacles")?;
     let mut header = String::from("t");

@@ -29,9 +29,20 @@ pub fn csv_kind(name: &str) -> Option<&str> {
     })
 }
 
+/// The schema version this brachia writes for CSV files of kind `kind`: [`SCHEMA_VERSION`], except
+/// `closed_loop` at 2 (its last column `control_us`, the controller's step time; a schema 1 file,
+/// without it, still reads).
+pub fn csv_version(kind: &str) -> u32 {
+    if kind == "closed_loop" {
+        2
+    } else {
+        SCHEMA_VERSION
+    }
+}
+
 /// The first line of a CSV file of kind `kind`.
 pub fn csv_line(kind: &str) -> String {
-    format!("{CSV_PREFIX}{kind} schema {SCHEMA_VERSION}")
+    format!("{CSV_PREFIX}{kind} schema {}", csv_version(kind))
 }
 
 /// `data` of the file `name` with its schema version: a JSON object gets `schema_version` (other JSON
@@ -72,13 +83,18 @@ fn older(file: &str, field: &str) -> Error {
     )
 }
 
-fn unknown(file: &str, field: &str, found: impl ToString) -> Error {
+fn unknown(file: &str, field: &str, found: impl ToString, max: u32) -> Error {
+    let reads = if max == 1 {
+        "1".to_string()
+    } else {
+        format!("1 to {max}")
+    };
     Error::invalid(
         file,
         field,
         found,
         format!(
-            "unknown schema version: this brachia reads schema {SCHEMA_VERSION}; the file was \
+            "unknown schema version: this brachia reads schema {reads}; the file was \
              written by another version of brachia (run the command that wrote it again)"
         ),
     )
@@ -97,12 +113,12 @@ pub fn json_version(value: &serde_json::Value, file: &str) -> Result<(), Error> 
     match m.get(SCHEMA_FIELD) {
         None => Err(older(file, SCHEMA_FIELD)),
         Some(v) if v.as_u64() == Some(u64::from(SCHEMA_VERSION)) => Ok(()),
-        Some(v) => Err(unknown(file, SCHEMA_FIELD, v)),
+        Some(v) => Err(unknown(file, SCHEMA_FIELD, v, SCHEMA_VERSION)),
     }
 }
 
-/// The CSV text after its schema line, checked to be `# brachia KIND schema 1` for the `kind` of file
-/// `file`.
+/// The CSV text after its schema line, checked to be `# brachia KIND schema N` for the `kind` of file
+/// `file`, N from 1 to the version this brachia writes ([`csv_version`]).
 pub fn csv_body<'a>(text: &'a str, file: &str, kind: &str) -> Result<&'a str, Error> {
     let (first, rest) = text.split_once('\n').unwrap_or((text, ""));
     let first = first.trim_end_matches('\r');
@@ -119,8 +135,13 @@ pub fn csv_body<'a>(text: &'a str, file: &str, kind: &str) -> Result<&'a str, Er
         ));
     };
     match v.trim().parse::<u32>() {
-        Ok(SCHEMA_VERSION) => Ok(rest),
-        _ => Err(unknown(file, "line 1 (schema line)", v.trim())),
+        Ok(k) if (1..=csv_version(kind)).contains(&k) => Ok(rest),
+        _ => Err(unknown(
+            file,
+            "line 1 (schema line)",
+            v.trim(),
+            csv_version(kind),
+        )),
     }
 }
 
@@ -145,6 +166,20 @@ mod tests {
             .to_string();
         assert!(e.contains('7') && e.contains("schema 1"), "{e}");
         assert!(csv_body("# brachia cells schema 1\nt\n", "f.csv", "trajectory").is_err());
+        // closed_loop.csv is written at schema 2 and read at 1 and 2
+        let cl = stamp("closed_loop.csv", b"t\n".to_vec());
+        assert!(cl.starts_with(b"# brachia closed_loop schema 2\n"));
+        for v in ["1", "2"] {
+            let text = format!("# brachia closed_loop schema {v}\nt\n");
+            assert_eq!(csv_body(&text, "f.csv", "closed_loop").unwrap(), "t\n");
+        }
+        assert!(csv_body(
+            "# brachia closed_loop schema 3\nt\n",
+            "f.csv",
+            "closed_loop"
+        )
+        .is_err());
+        assert!(csv_body("# brachia trajectory schema 2\nt\n", "f.csv", "trajectory").is_err());
 
         let js = stamp("report.json", b"{\"a\": 1}".to_vec());
         let v: serde_json::Value = serde_json::from_slice(&js).unwrap();

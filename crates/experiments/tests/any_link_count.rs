@@ -43,7 +43,7 @@ fn plan_and_track(name: &str, links: usize) {
     );
     let csv = String::from_utf8_lossy(mpc.folder.get("closed_loop.csv").unwrap());
     let csv = csv
-        .strip_prefix("# brachia closed_loop schema 1\n")
+        .strip_prefix("# brachia closed_loop schema 2\n")
         .expect("the schema line");
     let header = csv.lines().next().unwrap_or_default();
     assert!(

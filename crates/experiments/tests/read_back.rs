@@ -139,7 +139,7 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     std::fs::write(&log, lines.join("\n")).unwrap();
     let err = TrackFolder::read(&tdir).unwrap_err().to_string();
     assert!(
-        err.contains("line 4, ref_ee_y") && err.contains("too few"),
+        err.contains("line 4, control_us") && err.contains("too few"),
         "{err}"
     );
     std::fs::write(&log, &text).unwrap();

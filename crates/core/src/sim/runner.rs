@@ -273,12 +273,14 @@ impl ClosedLoopLog {
         c.extend((1..=n).map(|i| format!("ref_q{i}")));
         c.extend((1..=n).map(|i| format!("ref_qd{i}")));
         c.extend(["ref_ee_x".to_string(), "ref_ee_y".to_string()]);
+        c.push("control_us".to_string());
         c
     }
 
     /// CSV text with header
-    /// `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,ref_q1..ref_qn,ref_qd1..ref_qdn,ref_ee_x,ref_ee_y`
-    /// (SI units: s, rad, rad/s, N m, m).
+    /// `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,ref_q1..ref_qn,ref_qd1..ref_qdn,ref_ee_x,ref_ee_y,control_us`
+    /// (SI units: s, rad, rad/s, N m, m; the controller's wall time of the step in microseconds, 0 in
+    /// the last row and where it was not measured).
     pub fn to_csv(&self) -> String {
         let n = self.n;
         let mut s = String::with_capacity(self.len() * 400);
@@ -293,16 +295,22 @@ impl ClosedLoopLog {
             for v in self.ref_x(k) {
                 let _ = write!(s, ",{v:.9}");
             }
-            let _ = writeln!(s, ",{:.9},{:.9}", self.ref_ee[k][0], self.ref_ee[k][1]);
+            let us = self.control_us.get(k).copied().unwrap_or(0.0);
+            let _ = writeln!(
+                s,
+                ",{:.9},{:.9},{us:.3}",
+                self.ref_ee[k][0], self.ref_ee[k][1]
+            );
         }
         s
     }
 
     /// Parse CSV text written by [`ClosedLoopLog::to_csv`]; `source_name` names it in errors. The header
-    /// must be `to_csv`'s for some number of links n >= 2, every row has every column, every value is
+    /// must be `to_csv`'s for some number of links n >= 2 (or the same without `control_us`, as
+    /// written before the step times were recorded), every row has every column, every value is
     /// finite and times increase strictly; errors name the line, the column and the value. The CSV does
-    /// not hold the plant and controller names, the controller's wall times or its iterations: they
-    /// are left empty (`plant`, `controller`, `control_us`, `iterations`). The caller caps the text's
+    /// not hold the plant and controller names or the controller's iterations: they are left empty
+    /// (`plant`, `controller`, `iterations`; `control_us` too for a file without that column). The caller caps the text's
     /// size (`brachia::limits::read_text_capped`); nothing is allocated beyond what the text holds.
     pub fn from_csv(text: &str, source_name: &str) -> Result<Self> {
         let mut lines = text.lines();
@@ -315,14 +323,19 @@ impl ClosedLoopLog {
                     .is_some_and(|r| r.parse::<usize>().is_ok())
             })
             .count();
-        let want = Self::csv_columns(n);
+        let mut want = Self::csv_columns(n);
+        if cols.len() + 1 == want.len() {
+            want.pop();
+        }
+        let timed = want.last().is_some_and(|c| c == "control_us");
         if n < 2 || cols != want {
             return Err(Error::invalid(
                 source_name,
                 "header",
                 header.chars().take(160).collect::<String>(),
                 "expected t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y,ref_q1..ref_qn,ref_qd1..ref_qdn,\
-                 ref_ee_x,ref_ee_y (the header of a closed_loop.csv, n >= 2 links)",
+                 ref_ee_x,ref_ee_y,control_us (the header of a closed_loop.csv, n >= 2 links; \
+                 control_us may be absent)",
             ));
         }
         let mut log = ClosedLoopLog {
@@ -384,6 +397,9 @@ impl ClosedLoopLog {
             log.ee.push([row[ee], row[ee + 1]]);
             log.ref_x.extend_from_slice(&row[r..r + 2 * n]);
             log.ref_ee.push([row[r + 2 * n], row[r + 2 * n + 1]]);
+            if timed {
+                log.control_us.push(row[r + 2 * n + 2]);
+            }
         }
         Ok(log)
     }

@@ -75,7 +75,37 @@
     });
   }
 
-  const handPath = D.q.map((q) => joints(q)[n]);
+  // The chain's points (grip first, hand last) of a sample row of D.pts (world frame, flattened).
+  const unflat = (row) => Array.from({ length: n + 1 }, (_, k) => [row[2 * k], row[2 * k + 1]]);
+
+  // The chain at time t: from the world-frame points of a traverse (D.pts, re-rooted at every grip
+  // switch), else from the joint angles hanging from the grip.
+  function chainAt(t) {
+    return D.pts ? unflat(lerpRow(D.pts, t)) : joints(lerpRow(D.q, t));
+  }
+  const chainOf = (i) => (D.pts ? unflat(D.pts[i]) : joints(D.q[i]));
+
+  // Capsule radii of the chain that holds at time t (a traverse holds by either end in turn).
+  function radiiAt(t) {
+    const r = D.robot.radii;
+    return D.hold && D.hold[locate(t)[0]] === 1 ? r.slice().reverse() : r;
+  }
+
+  // The bar the hand swings to at time t.
+  function targetAt(t) {
+    if (!D.swings || !D.bars) return D.target;
+    const s = D.swings.find((w) => t < w.t1) || D.swings[D.swings.length - 1];
+    return s ? D.bars[s.to] : D.target;
+  }
+
+  // The hand's path; a grip switch (the other end becomes the hand) breaks it (null).
+  // (the samples on either side of t always belong to one swing: a switch's two rows share a time)
+  const handPath = [];
+  const pathIndex = ts.map((_, i) => {
+    if (D.hold && i > 0 && D.hold[i] !== D.hold[i - 1]) handPath.push(null);
+    handPath.push(chainOf(i)[n]);
+    return handPath.length - 1;
+  });
   const ghostPath = D.ghost ? D.ghost.map((q) => joints(q)[n]) : null;
 
   // ---- the stage: world (m, y up) to canvas (CSS px, y down) --------------------------------------
@@ -87,10 +117,11 @@
       y0 = Math.min(y0, p[1] - r); y1 = Math.max(y1, p[1] + r);
     };
     const rmax = Math.max.apply(null, D.robot.radii.concat([0.02]));
-    D.q.forEach((q) => joints(q).forEach((p) => add(p, rmax)));
+    ts.forEach((_, i) => chainOf(i).forEach((p) => add(p, rmax)));
     (D.ghost || []).forEach((q) => joints(q).forEach((p) => add(p, rmax)));
-    add(D.grip, 0.05);
-    add(D.target, 0.05);
+    if (D.grip) add(D.grip, 0.05);
+    if (D.target) add(D.target, 0.05);
+    (D.bars || []).forEach((b) => add(b, 0.05));
     D.obstacles.forEach((o) => add([o.x, o.y], o.r));
     (D.obstacle_track || []).forEach((row) => {
       let k = 0;
@@ -147,12 +178,16 @@
     if (stroke) { g.strokeStyle = stroke; g.lineWidth = width || 1; g.stroke(); }
   }
 
+  // A polyline through pts; a null entry breaks it.
   function polyline(g, pts, stroke, width, dash) {
     if (pts.length < 2) return;
     g.beginPath();
-    pts.forEach((p, k) => {
+    let up = true;
+    pts.forEach((p) => {
+      if (p === null) { up = true; return; }
       const [x, y] = px(p);
-      if (k === 0) g.moveTo(x, y); else g.lineTo(x, y);
+      if (up) g.moveTo(x, y); else g.lineTo(x, y);
+      up = false;
     });
     g.strokeStyle = stroke;
     g.lineWidth = width;
@@ -162,8 +197,7 @@
   }
 
   // The chain as capsules (width = capsule diameter to scale, at least 3 px) with its joints.
-  function drawChain(g, q, linkColour, jointColour, alpha) {
-    const pts = joints(q);
+  function drawChain(g, pts, radii, linkColour, jointColour, alpha) {
     g.globalAlpha = alpha;
     g.lineCap = "round";
     for (let i = 0; i < n; i++) {
@@ -173,7 +207,7 @@
       g.moveTo(ax, ay);
       g.lineTo(bx, by);
       g.strokeStyle = linkColour;
-      g.lineWidth = Math.max(3, 2 * D.robot.radii[i] * view.scale);
+      g.lineWidth = Math.max(3, 2 * radii[i] * view.scale);
       g.stroke();
     }
     for (let i = 1; i < n; i++) circle(g, pts[i], 3.5, jointColour);
@@ -201,20 +235,26 @@
     });
     if (ghostPath) polyline(g, ghostPath, colour("--ghost-path"), 1.5, [6, 4]);
     const [i] = locate(time);
-    const trail = handPath.slice(0, i + 1);
-    trail.push(joints(lerpRow(D.q, time))[n]);
+    const chain = chainAt(time);
+    // the path up to now: the samples before the current one, then the hand now (no line across a
+    // grip switch)
+    const trail = handPath.slice(0, pathIndex[i] + 1);
+    trail.push(chain[n]);
     polyline(g, ghostPath ? trail : handPath, colour("--path"), 1.5, ghostPath ? [] : [2, 3]);
     if (!ghostPath) polyline(g, trail, colour("--path"), 2);
-    // the target bar (a ring); the grip bar is drawn over the chain that hangs from it
-    circle(g, D.target, 9, null, colour("--target"), 3);
-    circle(g, D.target, 3, colour("--target"));
+    // the ladder's bars (filled), the target bar (a ring); the grip bar is drawn over the chain
+    (D.bars || []).forEach((b) => circle(g, b, 5, colour("--bar")));
+    const target = targetAt(time);
+    if (target) {
+      circle(g, target, 9, null, colour("--target"), 3);
+      circle(g, target, 3, colour("--target"));
+    }
     if (D.ghost) {
-      const gq = lerpRow(D.ghost, time);
-      const gp = drawChain(g, gq, colour("--ghost"), colour("--ghost"), 0.45);
+      const gp = drawChain(g, joints(lerpRow(D.ghost, time)), D.robot.radii, colour("--ghost"), colour("--ghost"), 0.45);
       circle(g, gp[n], 4, null, colour("--ghost"), 2);
     }
-    const pts = drawChain(g, lerpRow(D.q, time), colour("--link"), colour("--joint"), 1);
-    circle(g, D.grip, 6, colour("--bar"), colour("--panel"), 1.5);
+    const pts = drawChain(g, chain, radiiAt(time), colour("--link"), colour("--joint"), 1);
+    circle(g, pts[0], 6, colour("--bar"), colour("--panel"), 1.5);
     circle(g, pts[n], 5, HAND);
   }
 
@@ -222,25 +262,41 @@
 
   const names = (p, k0, m) => Array.from({ length: m }, (_, k) => p + (k + k0));
   const column = (rows, k) => rows.map((r) => r[k]);
-  const specs = [
-    { title: "joint angles q", unit: "rad", names: names("q", 1, n), data: names("q", 1, n).map((_, k) => column(D.q, k)) },
-    { title: "joint velocities qd", unit: "rad/s", names: names("qd", 1, n), data: names("qd", 1, n).map((_, k) => column(D.qd, k)) },
-    {
-      title: "torques tau (dashed: limits)", unit: "N m", names: names("tau", 2, n - 1),
-      data: names("tau", 2, n - 1).map((_, k) => column(D.tau, k)),
-      limits: D.robot.tau_min.concat(D.robot.tau_max),
-    },
-  ];
-  if (D.ee_error) specs.push({ title: "EE distance to the plan's EE", unit: "m", names: ["EE error"], data: [D.ee_error] });
-  specs.push({ title: "energy (eq. 18) and positive work", unit: "J", names: ["energy", "positive work"], data: [D.energy, D.work] });
-  if (D.control_us) specs.push({ title: "controller step time", unit: "us", names: ["step"], data: [D.control_us] });
+  const chainNote = D.hold ? " (of the chain that holds)" : "";
+  // The plots of the series in S (the drawn samples, D, or every row, D.full).
+  function makeSpecs(S) {
+    const out = [
+      { title: "joint angles q" + chainNote, unit: "rad", names: names("q", 1, n), data: names("q", 1, n).map((_, k) => column(S.q, k)) },
+      { title: "joint velocities qd" + chainNote, unit: "rad/s", names: names("qd", 1, n), data: names("qd", 1, n).map((_, k) => column(S.qd, k)) },
+    ];
+    if (S.tau) {
+      const lim = D.robot.tau_min.concat(D.robot.tau_max);
+      out.push({
+        title: "torques tau" + chainNote + (lim.length ? " (dashed: limits)" : ""), unit: "N m", names: names("tau", 2, n - 1),
+        data: names("tau", 2, n - 1).map((_, k) => column(S.tau, k)),
+        limits: lim,
+      });
+    }
+    if (S.ee_error) out.push({ title: "EE distance to the plan's EE", unit: "m", names: ["EE error"], data: [S.ee_error] });
+    if (S.energy) out.push({ title: "energy (eq. 18) and positive work", unit: "J", names: ["energy", "positive work"], data: [S.energy, S.work] });
+    if (S.mechanical) out.push({ title: "mechanical energy (kinetic + potential)", unit: "J", names: ["energy"], data: [S.mechanical] });
+    if (S.control_us) out.push({ title: "controller step time", unit: "us", names: ["step"], data: [S.control_us] });
+    return out;
+  }
+  const specs = makeSpecs(D);
+  // the tooltips show every row of the run when the page holds them (D.full), else the drawn samples
+  const full = D.full ? { t: D.full.t, specs: makeSpecs(D.full) } : { t: ts, specs: specs };
 
   const marks = [];
+  (D.switches || []).forEach((w) => marks.push({ t: w.t, kind: "--switch", text: w.text }));
   (D.contacts || []).forEach((c) => marks.push({ t: c.t, kind: "--mark", text: "contact: link " + c.link + " with " + c.body + ", " + c.impulse + " N s" }));
-  (D.replans || []).forEach((e) => marks.push({ t: e.t, kind: "--replan", text: "re-plan triggered" + (e.adopted ? "" : " (not adopted)") }));
+  (D.replans || []).forEach((e) => {
+    marks.push({ t: e.t, kind: "--replan", text: "re-plan triggered" + (e.adopted ? "" : " (not adopted)") });
+    if (e.adopted && e.switch != null) marks.push({ t: e.switch, kind: "--replan", text: "switched to the re-planned swing" });
+  });
   if (D.diverged_at != null) marks.push({ t: D.diverged_at, kind: "--mark", text: "diverged" });
 
-  const plots = specs.map((s) => {
+  const plots = specs.map((s, index) => {
     const box = document.createElement("div");
     box.className = "plot";
     const h = document.createElement("h2");
@@ -257,7 +313,7 @@
     (s.limits || []).forEach((v) => { lo = Math.min(lo, v); hi = Math.max(hi, v); });
     if (!(hi > lo)) { lo -= 1; hi += 1; }
     const pad = 0.06 * (hi - lo);
-    return { spec: s, canvas: c, lo: lo - pad, hi: hi + pad, bg: document.createElement("canvas"), w: 0, h: 0 };
+    return { spec: s, index: index, canvas: c, lo: lo - pad, hi: hi + pad, bg: document.createElement("canvas"), w: 0, h: 0 };
   });
 
   const M = { l: 44, r: 8, t: 6, b: 16 };
@@ -329,12 +385,25 @@
     return t0 + Math.min(1, Math.max(0, f)) * (T - t0);
   }
 
+  // Index of the row of times `tt` nearest to t.
+  function nearestIn(tt, t) {
+    let lo = 0;
+    let hi = tt.length - 1;
+    while (hi - lo > 1) {
+      const mid = (lo + hi) >> 1;
+      if (tt[mid] <= t) lo = mid; else hi = mid;
+    }
+    return Math.abs(tt[hi] - t) < Math.abs(t - tt[lo]) ? hi : lo;
+  }
+
   function showTip(p, e) {
     const t = timeAt(p, e.clientX);
-    const i = nearest(t);
-    const lines = ["t = " + ts[i].toFixed(3) + " s"];
-    p.spec.names.forEach((name, k) => lines.push(name + " = " + fmt(p.spec.data[k][i]) + " " + p.spec.unit));
-    marks.filter((m) => Math.abs(m.t - ts[i]) < 0.01).slice(0, 3).forEach((m) => lines.push(m.text + " at " + m.t.toFixed(3) + " s"));
+    const i = nearestIn(full.t, t);
+    const fs = full.specs[p.index];
+    const lines = ["t = " + full.t[i].toFixed(3) + " s"];
+    fs.names.forEach((name, k) => lines.push(name + " = " + fmt(fs.data[k][i]) + " " + fs.unit));
+    const span = Math.max(0.01, 4 * (T - t0) / Math.max(1, p.w));
+    marks.filter((m) => Math.abs(m.t - full.t[i]) < span).slice(0, 3).forEach((m) => lines.push(m.text + " at " + m.t.toFixed(3) + " s"));
     const tip = $("tip");
     tip.textContent = lines.join("\n");
     tip.hidden = false;
@@ -456,12 +525,25 @@
   // ---- legend, text, first draw -------------------------------------------------------------------
 
   $("subtitle").textContent = D.subtitle || "";
-  const legend = [["--link", "robot (tracked)"], ["--target", "target bar"], ["--bar", "grip bar"]];
+  (D.notes || []).forEach((text) => {
+    const p = document.createElement("p");
+    p.className = "note";
+    p.textContent = text;
+    $("notes").appendChild(p);
+  });
+  const legend = [["--link", "robot (tracked)"]];
+  if (D.target) legend.push(["--target", "target bar"]);
+  legend.push(["--bar", D.bars ? "bars (filled: grip and ladder)" : "grip bar"]);
   if (D.ghost) legend.splice(1, 0, ["--ghost", "plan (ghost)"]);
   legend.push(["--path", "hand path"]);
-  if (D.obstacles.length) legend.push(["--obstacle", "obstacles (dashed: as planned)"]);
-  if (marks.length) legend.push(["--mark", "contacts, re-plans: marks in the plots"]);
+  if (D.obstacles.some((o) => o.kind !== "ball")) legend.push(["--obstacle", "obstacles (dashed: as planned)"]);
+  if (D.obstacles.some((o) => o.kind === "ball")) legend.push(["--ball", "free ball (as it moves)"]);
+  if ((D.contacts || []).length || D.diverged_at != null) legend.push(["--mark", "contacts: marks in the plots"]);
+  if ((D.replans || []).length) legend.push(["--replan", "re-plans: marks in the plots"]);
+  if (D.switches && D.switches.length) legend.push(["--switch", "grip switches: marks in the plots"]);
   if (D.kind === "plan") legend[0][1] = "robot (plan)";
+  if (D.kind === "simulate") legend[0][1] = "robot (simulated, no torque)";
+  if (D.kind === "traverse") legend[0][1] = "robot (tracked, world frame)";
   legend.forEach(([c, text]) => {
     const li = document.createElement("li");
     const sw = document.createElement("span");
@@ -476,11 +558,14 @@
   window.brachiaView = {
     T: T,
     t0: t0,
-    target: D.target.slice(),
+    target: D.target ? D.target.slice() : null,
+    kind: D.kind,
     time: () => time,
     playing: () => playing,
     setTime: (t) => { pause(); setTime(t); },
-    hand: (t) => joints(lerpRow(D.q, t === undefined ? time : t))[n],
+    // the marks of the plots (contacts, re-plans, grip switches): time, s, and what happened
+    marks: () => marks.map((m) => ({ t: m.t, text: m.text })),
+    hand: (t) => chainAt(t === undefined ? time : t)[n],
     // a world point (m) in page CSS pixels of the viewport
     toPage: (x, y) => {
       const r = stage.getBoundingClientRect();

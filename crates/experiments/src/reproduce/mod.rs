@@ -20,6 +20,7 @@ mod check;
 mod figures;
 mod report;
 mod study;
+mod views;
 
 use crate::plan_run::{run_plan, PlanRun};
 use crate::progress::{CancelToken, ProgressFn};
@@ -401,6 +402,11 @@ pub fn reproduce_cancellable(
     // a ladder traverse on the model plant
     let tr = crate::run_traverse_cancellable(&ll_ladder, cancel)?;
     let mut ladder_folder = tr.folder(&ll_ladder)?;
+    // its robot, so the traverse's page draws the links to scale
+    ladder_folder.add(
+        crate::view::PARAMS_FILE,
+        crate::view::params_toml(&ll_ladder.robot, &ll_ladder.scenario.params),
+    );
     // the joint multi-swing plan of its first swings against swing-by-swing planning, in the same
     // folder (written with it)
     let joint = JOINT_SWINGS.min(ll_ladder.scenario.ladder.bars.len() - 1);
@@ -444,9 +450,11 @@ pub fn reproduce_cancellable(
     res.cores = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    let (failures, figs) = draw_figures_into(&res, failures, out, cancel)?;
+    let (mut failures, figs) = draw_figures_into(&res, failures, out, cancel)?;
     cancel.check()?;
     files.extend(figs);
+    let (pages, page_files) = views::write_pages(out, out, &mut failures)?;
+    files.extend(page_files);
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);
     let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
@@ -456,7 +464,7 @@ pub fn reproduce_cancellable(
         &warnings,
         Path::new("figures"),
         report::Target::Report,
-    );
+    ) + &views::markdown(&pages);
     let mut top = crate::RunFolder::default();
     top.add("summary.json", summary_text);
     top.add("REPORT.md", md);
@@ -574,7 +582,9 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     // staged: draw into a hidden folder inside dir, then rename each file into place
     let stage = redraw_stage(dir)?;
     let _cleanup = RemoveOnDrop(stage.clone());
-    let (failures, _drawn) = draw_figures_into(&res, run_failures, &stage, cancel)?;
+    let (mut failures, _drawn) = draw_figures_into(&res, run_failures, &stage, cancel)?;
+    cancel.check()?;
+    let (pages, _pages) = views::write_pages(dir, &stage, &mut failures)?;
     cancel.check()?;
     let md = report::markdown(
         &res,
@@ -582,7 +592,7 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
         &warnings,
         Path::new("figures"),
         report::Target::Report,
-    );
+    ) + &views::markdown(&pages);
     let mut top = crate::RunFolder::default();
     top.add("REPORT.md", md);
     top.write_into(&stage)?;
@@ -596,7 +606,9 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
 /// its section from the report, so it is refused, naming the first file missing.
 fn check_complete(dir: &Path) -> Result<(), ExpError> {
     let listed = crate::manifest::read_manifest(dir)?.unwrap_or_default();
-    let redrawn = |p: &Path| p.starts_with("figures") || p == Path::new("REPORT.md");
+    let redrawn = |p: &Path| {
+        p.starts_with("figures") || p.starts_with(views::VIEWS_DIR) || p == Path::new("REPORT.md")
+    };
     match listed
         .files
         .keys()
@@ -620,7 +632,9 @@ fn check_complete(dir: &Path) -> Result<(), ExpError> {
 /// ([`crate::run_folder::install_part`]): the previous drawing's figures that were not drawn again are
 /// removed when brachia can prove it wrote them; the user's files are moved aside, never replaced.
 fn put_in_place(dir: &Path, stage: &Path) -> Result<Vec<PathBuf>, ExpError> {
-    crate::run_folder::install_part(stage, dir, &|p| p.starts_with("figures"))
+    crate::run_folder::install_part(stage, dir, &|p| {
+        p.starts_with("figures") || p.starts_with(views::VIEWS_DIR)
+    })
 }
 
 /// A fresh hidden staging folder inside `dir` for [`redraw`] (a name no entry has yet).

@@ -1,24 +1,34 @@
-//! `view.html`: one self-contained interactive page of a run (plan or track), drawn from its folder.
+//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, or a
+//! benchmark's scorecard, [`bench`]), drawn from its folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
 //! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
 //! offline, and makes no network request. It shows the robot to scale (link capsules, joints, hand,
 //! grip and target bars, obstacles), the planned swing as a ghost beside the tracked one, the hand's
 //! path, and plots of q, qd, tau (with the limits), energy and the EE error, all with one time cursor.
-//! A `#t=SECONDS` fragment opens the page at that time.
+//! A `#t=SECONDS` fragment opens the page at that time. A traverse ([`traverse`]) is drawn in the
+//! world frame with its grip switches marked; a simulation ([`simulate`]) shows the passive chain and
+//! its mechanical energy.
 
+pub mod bench;
 pub mod data;
+pub mod simulate;
+pub mod traverse;
 
+use crate::ladder::LoadedLadder;
 use crate::plan_run::PlanRun;
-use crate::read::{PlanFolder, TrackFolder};
+use crate::read::{inside, need, read_csv_text, read_json, PlanFolder, TrackFolder};
 use crate::scenario::LoadedScenario;
 use crate::track_run::TrackRun;
+use crate::traverse::Traverse;
 use crate::ExpError;
-use brachia::Error;
+use brachia::{Error, Robot};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 pub use data::{plan_view, track_view, PlanParts, TrackParts, DRAW_DT_S, VIEW_SCHEMA};
+pub use simulate::{simulate_view, SimulateParts};
+pub use traverse::{traverse_view, TraverseParts, TraverseReportView};
 
 /// The page's file name in a run folder.
 pub const VIEW_FILE: &str = "view.html";
@@ -63,24 +73,19 @@ pub fn plan_folder_view(p: &PlanFolder) -> Value {
     })
 }
 
-/// The page data of a track folder; it draws the robot of the plan under `plan/`, so a track folder
-/// without one (a run that tracked a plan read from elsewhere) is refused.
+/// The page data of a track folder: the robot of the plan under `plan/`, or, in a folder without
+/// one (a run that tracked a plan read from elsewhere), the chain as `closed_loop.csv` describes it
+/// (the page says what it could not draw).
 pub fn track_folder_view(f: &TrackFolder) -> Result<Value, Error> {
-    let Some(plan) = &f.plan else {
-        return Err(Error::invalid(
-            f.dir.display().to_string(),
-            "plan/",
-            "missing",
-            "the view draws the robot of the plan's scenario.toml and params.toml under plan/ \
-             (written by a track run that planned its swing)",
-        ));
-    };
     Ok(track_view(TrackParts {
         report: &f.report,
         log: &f.log,
         world: &f.world,
-        planned_obstacles: &plan.scenario.scenario.task.obstacles,
-        robot: &plan.scenario.robot,
+        planned_obstacles: f
+            .plan
+            .as_ref()
+            .map_or(&[], |p| p.scenario.scenario.task.obstacles.as_slice()),
+        robot: f.plan.as_ref().map(|p| &p.scenario.robot),
     }))
 }
 
@@ -103,34 +108,140 @@ pub fn track_run_page(ls: &LoadedScenario, run: &TrackRun) -> String {
         log: &run.log,
         world: &run.world,
         planned_obstacles: &ls.scenario.task.obstacles,
-        robot: &ls.robot,
+        robot: Some(&ls.robot),
     }))
 }
 
-/// Read the run folder `dir` (a track folder when it holds `closed_loop.csv`, else a plan folder) and
-/// make its page. Every file is checked as the readers check it ([`PlanFolder::read`],
-/// [`TrackFolder::read`]); a folder that is neither is refused naming what it lacks.
+/// The robot parameters file a traverse or simulate folder holds (as a plan folder does).
+pub const PARAMS_FILE: &str = crate::plan_run::PARAMS_FILE;
+
+/// The text of `params.toml` for `robot`, read from `source`.
+pub fn params_toml(robot: &Robot, source: &Path) -> String {
+    format!(
+        "# Robot parameters of this run (from {}). Units: m, kg, kg m^2, N m.\n{}",
+        source.display(),
+        toml::to_string(robot.params()).unwrap_or_default()
+    )
+}
+
+/// The robot of `dir/params.toml`, when the folder holds one.
+fn folder_robot(dir: &Path) -> Result<Option<Robot>, Error> {
+    match inside(dir, PARAMS_FILE)? {
+        Some(p) => Robot::from_toml_file(&p).map(Some),
+        None => Ok(None),
+    }
+}
+
+const TRAVERSE_FOLDER: &str =
+    "a traverse folder written by `brachia traverse` (traverse.csv, report.json)";
+
+/// The page data of a traverse folder: `traverse.csv`, `report.json`, `params.toml` when present
+/// (the links' radii and torque limits), and on the rapier plant `contacts.csv` and `obstacles.csv`.
+pub fn traverse_folder_view(dir: &Path) -> Result<Value, Error> {
+    let rfile = need(dir, "report.json", TRAVERSE_FOLDER)?;
+    let tfile = need(dir, "traverse.csv", TRAVERSE_FOLDER)?;
+    let report: TraverseReportView = read_json(&rfile)?;
+    let csv = read_csv_text(&tfile, "traverse")?;
+    let robot = folder_robot(dir)?;
+    let n = match &robot {
+        Some(r) => r.n(),
+        None => csv
+            .lines()
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .filter(|c| c.starts_with("qd"))
+            .count(),
+    };
+    let contacts = match inside(dir, "contacts.csv")? {
+        Some(p) => crate::read::read_contacts(&p, n, report.plant_obstacles.len())?,
+        None => Vec::new(),
+    };
+    let track = match inside(dir, "obstacles.csv")? {
+        Some(p) => crate::read::read_obstacle_track(&p, &report.plant_obstacles)?,
+        None => Vec::new(),
+    };
+    traverse_view(TraverseParts {
+        file: &tfile.display().to_string(),
+        csv: &csv,
+        report: &report,
+        robot: robot.as_ref(),
+        contacts: &contacts,
+        obstacle_track: &track,
+    })
+}
+
+/// The page of a traverse just run from the ladder scenario `ll` (what `brachia traverse` adds to
+/// its run folder).
+pub fn traverse_run_page(ll: &LoadedLadder, tr: &Traverse) -> Result<String, Error> {
+    let report: TraverseReportView = serde_json::from_value(tr.report(ll)).map_err(|e| {
+        Error::invalid(
+            "report.json",
+            "(the report)",
+            e.to_string(),
+            "a traverse report",
+        )
+    })?;
+    let csv = tr.to_csv();
+    Ok(render(&traverse_view(TraverseParts {
+        file: "traverse.csv",
+        csv: &csv,
+        report: &report,
+        robot: Some(&ll.robot),
+        contacts: &tr.world.contacts,
+        obstacle_track: &tr.world.track,
+    })?))
+}
+
+/// The kind of run folder `dir` is, from the files it holds.
+fn folder_kind(dir: &Path) -> Option<&'static str> {
+    let has = |f: &str| dir.join(f).exists();
+    if has("closed_loop.csv") {
+        Some("track")
+    } else if has("traverse.csv") {
+        Some("traverse")
+    } else if has("trajectory.csv") && !has("scenario.toml") && has("report.json") {
+        Some("simulate")
+    } else if has("trajectory.csv") {
+        Some("plan")
+    } else if has("scorecard.json") {
+        Some("benchmark")
+    } else {
+        None
+    }
+}
+
+/// Read the run folder `dir` and make its page: a track folder (`closed_loop.csv`), a traverse
+/// (`traverse.csv`), a simulation (`trajectory.csv` without `scenario.toml`), a plan
+/// (`trajectory.csv`) or a benchmark (`scorecard.json`). Every file is checked as the readers check
+/// it ([`PlanFolder::read`], [`TrackFolder::read`], ...); a folder that is none of them is refused
+/// naming what it lacks.
 pub fn view_html(dir: &Path) -> Result<String, Error> {
     if !dir.is_dir() {
         return Err(Error::invalid(
             dir.display().to_string(),
             "folder",
             "missing or not a folder",
-            "a run folder written by `brachia plan` or `brachia track`",
+            "a run folder written by `brachia plan`, `track`, `traverse`, `simulate` or `benchmark`",
         ));
     }
-    let data = if dir.join("closed_loop.csv").exists() {
-        track_folder_view(&TrackFolder::read(dir)?)?
-    } else if dir.join("trajectory.csv").exists() {
-        plan_folder_view(&PlanFolder::read(dir)?)
-    } else {
-        return Err(Error::invalid(
-            dir.display().to_string(),
-            "closed_loop.csv, trajectory.csv",
-            "missing",
-            "a run folder written by `brachia track` (closed_loop.csv, report.json, plan/) or \
-             `brachia plan` (trajectory.csv, scenario.toml, params.toml, report.json)",
-        ));
+    let data = match folder_kind(dir) {
+        Some("track") => track_folder_view(&TrackFolder::read(dir)?)?,
+        Some("traverse") => traverse_folder_view(dir)?,
+        Some("simulate") => simulate::simulate_folder_view(dir)?,
+        Some("plan") => plan_folder_view(&PlanFolder::read(dir)?),
+        Some(_) => return bench::benchmark_folder_html(dir),
+        None => {
+            return Err(Error::invalid(
+                dir.display().to_string(),
+                "closed_loop.csv, traverse.csv, trajectory.csv, scorecard.json",
+                "missing",
+                "a run folder written by `brachia track` (closed_loop.csv, report.json), \
+                 `brachia traverse` (traverse.csv, report.json), `brachia plan` or `brachia \
+                 simulate` (trajectory.csv, report.json) or `brachia benchmark` (scorecard.json, \
+                 runs.csv)",
+            ))
+        }
     };
     Ok(render(&data))
 }
