@@ -15,12 +15,20 @@
 //!
 //! A refusal is a `BrachiaError` naming the argument (and the index), the value and the rule.
 
-use crate::BrachiaError;
 use brachia::limits;
 use pyo3::buffer::PyBuffer;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt};
+
+pyo3::create_exception!(
+    brachia,
+    BrachiaError,
+    PyValueError,
+    "Bad input to brachia (a file, a field, a value or an array shape): the message is the Rust \
+     library's, naming the file, the field, the value and the rule."
+);
 
 /// `numpy.asarray` and `numpy.frombuffer`, looked up once.
 static ASARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();

@@ -25,7 +25,7 @@
 //! (`shared`): any thread may call them, calls on one object run one at a time, long work runs with the
 //! GIL released.
 
-use pyo3::exceptions::PyValueError;
+use convert::BrachiaError;
 use pyo3::prelude::*;
 
 mod bench;
@@ -44,14 +44,6 @@ mod scenario;
 mod shared;
 mod sim;
 mod view;
-
-pyo3::create_exception!(
-    brachia,
-    BrachiaError,
-    PyValueError,
-    "Bad input to brachia (a file, a field, a value or an array shape): the message is the Rust \
-     library's, naming the file, the field, the value and the rule."
-);
 
 /// The extension module `brachia._brachia` (use it through the package `brachia`).
 #[pymodule]

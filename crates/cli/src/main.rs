@@ -6,6 +6,7 @@
 //! by Ctrl-C (SIGINT): nothing was written, the previous results are as they were.
 
 mod benchmark;
+mod error;
 mod io;
 mod plan;
 mod report;
@@ -17,8 +18,9 @@ mod track;
 mod traverse;
 mod view;
 
-use brachia_experiments::{CancelToken, ExpError};
+use brachia_experiments::CancelToken;
 use clap::{Parser, Subcommand};
+pub use error::{check_cancel, exp_error, interrupted, CliError, EXIT_INTERRUPTED};
 use std::process::ExitCode;
 
 /// Plan and track energy-optimal swings of underactuated brachiation robots.
@@ -51,69 +53,6 @@ enum Command {
     View(view::Args),
     /// Import a robot from a URDF file, or export one as URDF or MuJoCo MJCF.
     Robot(robot::Args),
-}
-
-/// An error of a command: bad input (exit 2), a failure after the inputs were accepted (exit 1) or an
-/// I/O failure (exit 3).
-#[derive(Debug)]
-pub enum CliError {
-    /// Invalid or missing input: exit code 2, nothing written.
-    Input(String),
-    /// A computation did not succeed: exit code 1.
-    Failed(String),
-    /// A file could not be written after the work was done: exit code 3.
-    Io(String),
-    /// Stopped by Ctrl-C before the results were written: exit code 130, nothing written.
-    Interrupted(String),
-}
-
-/// Exit code of a run stopped by Ctrl-C (SIGINT): 128 + 2, as a shell reports a process it killed.
-pub const EXIT_INTERRUPTED: u8 = 130;
-
-/// `Err(CliError::Interrupted)` naming `out` once Ctrl-C was pressed: called before a result is
-/// written, so an interrupted command leaves `out` as it was.
-pub fn check_cancel(cancel: &CancelToken, out: &std::path::Path) -> Result<(), CliError> {
-    if cancel.is_cancelled() {
-        Err(interrupted(out))
-    } else {
-        Ok(())
-    }
-}
-
-/// The error of a command stopped by Ctrl-C before it wrote `out`.
-pub fn interrupted(out: &std::path::Path) -> CliError {
-    CliError::Interrupted(format!(
-        "interrupted (Ctrl-C): nothing was written; {} is as it was",
-        out.display()
-    ))
-}
-
-/// Map a library error of a command writing to `out`: a cancelled run and a write failure name `out`.
-pub fn exp_error(out: &std::path::Path) -> impl Fn(ExpError) -> CliError + '_ {
-    move |e| match e {
-        ExpError::Cancelled => interrupted(out),
-        ExpError::Write { .. } => CliError::Io(format!(
-            "could not write the results into {}: {e}",
-            out.display()
-        )),
-        other => other.into(),
-    }
-}
-
-impl From<brachia::Error> for CliError {
-    fn from(e: brachia::Error) -> Self {
-        CliError::Input(e.to_string())
-    }
-}
-
-impl From<brachia_experiments::ExpError> for CliError {
-    fn from(e: brachia_experiments::ExpError) -> Self {
-        match e {
-            ExpError::Cancelled => CliError::Interrupted(e.to_string()),
-            ExpError::Write { .. } => CliError::Io(format!("could not write the results: {e}")),
-            other => CliError::Input(other.to_string()),
-        }
-    }
 }
 
 fn main() -> ExitCode {

@@ -1,7 +1,7 @@
 //! Controllers the caller adds to the benchmark (e.g. Python policies), scored beside the built-in
 //! ones on the same draws ([`super::run_benchmark_with`]).
 
-use super::{controllers, BenchController, ControllerEntry};
+use super::controllers::{controllers, BenchController, ControllerEntry};
 use crate::scenario::LoadedScenario;
 use brachia::sim::Controller;
 use brachia::trajectory::Trajectory;

@@ -3,7 +3,7 @@
 //! from `scorecard.json` and `runs.csv`. Hovering a point names the controller, the level and the
 //! outcome; the page follows the light/dark theme like every run page.
 
-use super::html_escape;
+use super::data::html_escape;
 use crate::read::{need, read_csv_text, read_json};
 use brachia::Error;
 use serde::Deserialize;

@@ -359,6 +359,15 @@ pub fn track_view(f: TrackParts<'_>) -> Value {
     data
 }
 
+/// Text safe inside HTML element content.
+pub(crate) fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+        .replace('{', "&#123;")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

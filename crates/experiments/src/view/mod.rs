@@ -26,6 +26,7 @@ use brachia::{Error, Robot};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
+use data::html_escape;
 pub use data::{plan_view, track_view, PlanParts, TrackParts, DRAW_DT_S, VIEW_SCHEMA};
 pub use simulate::{simulate_view, SimulateParts};
 pub use traverse::{traverse_view, TraverseParts, TraverseReportView};
@@ -36,15 +37,6 @@ pub const VIEW_FILE: &str = "view.html";
 const TEMPLATE: &str = include_str!("../../assets/view/view.html");
 const STYLE: &str = include_str!("../../assets/view/view.css");
 const SCRIPT: &str = include_str!("../../assets/view/view.js");
-
-/// Text safe inside HTML element content.
-fn html_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-        .replace('{', "&#123;")
-}
 
 /// The page for the data `data` (as [`plan_view`] or [`track_view`] make it).
 pub fn render(data: &Value) -> String {

@@ -154,7 +154,7 @@ struct SimulateReport {
 pub fn simulate_folder_view(dir: &Path) -> Result<Value, Error> {
     let rfile = need(dir, "report.json", SIMULATE_FOLDER)?;
     let tfile = need(dir, "trajectory.csv", SIMULATE_FOLDER)?;
-    let pfile = need(dir, super::PARAMS_FILE, SIMULATE_FOLDER)?;
+    let pfile = need(dir, crate::plan_run::PARAMS_FILE, SIMULATE_FOLDER)?;
     let report: SimulateReport = read_json(&rfile)?;
     if report.command != "simulate" {
         return Err(Error::invalid(
