@@ -288,7 +288,7 @@ fn every_settings_field_documents_the_default_it_has() {
         &[],
     ));
     problems.extend(check(s, "Bounds", &Bounds::default(), &[]));
-    let nlp = &format!("{core}/planning/nlp/mod.rs");
+    let nlp = &format!("{core}/planning/nlp/problem.rs");
     problems.extend(check(nlp, "NlpSettings", &NlpSettings::default(), &[]));
     let c = |f: &str| format!("{core}/control/{f}.rs");
     problems.extend(check(
