@@ -3,7 +3,8 @@
 - M(q), C(q, qd) qd and G(q) of the robots in crates/core/tests/data/urdf/ (axes along x, y and a
   skew unit vector, antiparallel axes, centres of mass off the links, rotated joint frames, fixed links
   inside the chain, a zero-length link) against pinocchio on the same files, at random states, to 1e-9
-  relative to the largest entry.
+  relative to the largest entry; and the positions of the chain's joints and tip in brachia's plane
+  (normal to the grip's axis, y the world's +z projected) against pinocchio's frames, to the same bound.
 - The exported MJCF against MuJoCo the same way, and a passive 1 s swing of the paper's robot in MuJoCo
   (RK4 at 0.1 ms) against brachia's model plant (RK4 at 0.1 ms): the end states agree to 1e-6. Both
   integrate the same equations with the same scheme and a step at which RK4's error is far below
@@ -21,11 +22,11 @@ import brachia
 
 DATA = Path(__file__).resolve().parents[2] / "crates" / "core" / "tests" / "data" / "urdf"
 
-# (file, grip joint, tip)
+# (file, grip joint, tip, the chain's moving joints from the grip down)
 URDFS = [
-    ("hook2.urdf", "hand", "hook:0,0.03,-0.05"),
-    ("three_link.urdf", "shoulder", "hand:0.22,0,0"),
-    ("paper4_skew.urdf", "grip", "tip"),
+    ("hook2.urdf", "hand", "hook:0,0.03,-0.05", ["hand", "elbow"]),
+    ("three_link.urdf", "shoulder", "hand:0.22,0,0", ["shoulder", "elbow", "wrist"]),
+    ("paper4_skew.urdf", "grip", "tip", ["grip", "j2", "j3", "j4"]),
 ]
 
 GENERAL = """
@@ -56,7 +57,7 @@ inertia = 0.01
 joint_offset = -1.2
 [actuators]
 tau_min = [-4.0, -3.0]
-tau_max = [4.0, 2.0]
+tau_max = [3.5, 2.0]
 """
 
 
@@ -106,34 +107,55 @@ def pin_config(pin, model, names, phi, phid):
     return q, v
 
 
-@pytest.mark.parametrize("file,grip,tip", URDFS)
-def test_imported_dynamics_match_pinocchio(file, grip, tip):
+def tip_point(tip):
+    link, _, point = tip.partition(":")
+    return link, (np.array([float(v) for v in point.split(",")]) if point else np.zeros(3))
+
+
+@pytest.mark.parametrize("file,grip,tip,joints", URDFS)
+def test_imported_dynamics_match_pinocchio(file, grip, tip, joints):
     pin = pytest.importorskip("pinocchio")
     robot = brachia.Robot.from_urdf(DATA / file, grip=grip, tip=tip)
     model = pin.buildModelFromUrdf(str(DATA / file))
     data = model.createData()
     n = robot.n_links
-    assert model.nv == n
-    names = [model.names[i] for i in range(1, model.njoints)]
-    # brachia's joints in pinocchio's order: the chain is serial, both go from the grip down
-    order = [model.getJointId(nm) - 1 for nm in names]
-    assert order == list(range(n))
-    idx_v = [model.joints[model.getJointId(nm)].idx_v for nm in names]
-    perm = np.argsort(idx_v)
+    assert model.nv == n == len(joints)
+    # brachia's joint k is the URDF joint joints[k]; its velocity in pinocchio's vector
+    assert all(model.existJointName(nm) for nm in joints)
+    iv = [model.joints[model.getJointId(nm)].idx_v for nm in joints]
+    assert sorted(iv) == list(range(n))
+    gid = model.getJointId(grip)
+    link, point = tip_point(tip)
+    fid = model.getFrameId(link, pin.BODY)
     rng = np.random.default_rng(3)
     for _ in range(20):
         phi = rng.uniform(-3.0, 3.0, n)
         phid = rng.uniform(-4.0, 4.0, n)
-        q, v = pin_config(pin, model, names, phi, phid)
+        q, v = pin_config(pin, model, joints, phi, phid)
         m = pin.crba(model, data, q)
         m = np.triu(m) + np.triu(m, 1).T
         g = pin.computeGeneralizedGravity(model, data, q)
         c = pin.nonLinearEffects(model, data, q, v) - g
         mb, cb, gb = brachia_in_phi(robot, phi, phid)
-        p = perm
-        assert_close(mb, m[np.ix_(p, p)], f"{file} M")
-        assert_close(cb, c[p], f"{file} C qd")
-        assert_close(gb, g[p], f"{file} G")
+        assert_close(mb, m[np.ix_(iv, iv)], f"{file} M")
+        assert_close(cb, c[iv], f"{file} C qd")
+        assert_close(gb, g[iv], f"{file} G")
+        # kinematics: the joints and the tip in the plane normal to the grip's axis
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        # the grip's axis in the world: the angular part of its column of the Jacobian
+        jac = pin.computeJointJacobian(model, data, q, gid)
+        axis = data.oMi[gid].rotation @ jac[3:, model.joints[gid].idx_v]
+        zp = np.array([0.0, 0.0, 1.0]) - axis * axis[2]
+        ey = zp / np.linalg.norm(zp)
+        ex = np.cross(ey, axis)
+        o = data.oMi[gid].translation
+        pts = [data.oMi[model.getJointId(nm)].translation for nm in joints]
+        pts.append(data.oMf[fid].act(point))
+        plane = np.array([[(p - o) @ ex, (p - o) @ ey] for p in pts])
+        qb = robot.q_from_urdf(phi)
+        mine = np.vstack([robot.joint_positions(qb)[:n], robot.ee_position(qb)])
+        assert_close(mine, plane, f"{file} joint and tip positions")
 
 
 def mujoco_state(mujoco, model, data, phi, phid):
@@ -141,7 +163,10 @@ def mujoco_state(mujoco, model, data, phi, phid):
     data.qvel[:] = phid
     mujoco.mj_forward(model, data)
     m = np.zeros((model.nv, model.nv))
-    mujoco.mj_fullM(model, m, data.qM)
+    if hasattr(data, "qM"):  # MuJoCo 3: the sparse matrix is data.qM
+        mujoco.mj_fullM(model, m, data.qM)
+    else:  # MuJoCo 4: mj_fullM reads the data itself
+        mujoco.mj_fullM(model, data, m)
     return m, data.qfrc_bias.copy()
 
 
