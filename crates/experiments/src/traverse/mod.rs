@@ -563,72 +563,19 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             ball = Some(rec);
         }
         let contacts_before = rapier.as_ref().map_or(0, |r| r.contacts().len());
-        let mut model = None;
-        let mut plain: Option<Box<dyn Controller>> = None;
-        let plant: &mut dyn Plant = match rapier.as_mut() {
-            Some(r) => r,
-            None => {
-                let mut m = ModelPlant::new(pchains[k % 2].clone(), &x);
-                m.substeps = sc.plant.substeps;
-                model.insert(m)
-            }
-        };
-        let base = make_controller(sc.tracking.controller, &ls, reference)?;
-        let mut replanning = match (&sc.tracking.replan, sc.tracking.controller) {
-            (Some(rs), crate::scenario::ControllerKind::Mpc) => {
-                let (task, planner, solver) =
-                    (&ls.scenario.task, &ls.scenario.planner, &ls.scenario.solver);
-                let aim = (plan_source == PlanSource::Joint
-                    && sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest)
-                    .then(|| switch_pose_box(p));
-                // with an aim, re-plans go for the joint plan's switch pose, not the swing's own optimum
-                Some(Replanning::build_toward_end_box(
-                    base,
-                    robot.clone(),
-                    task,
-                    planner,
-                    solver,
-                    reference.clone(),
-                    rs.clone(),
-                    aim.as_deref(),
-                )?)
-            }
-            _ => {
-                plain = Some(base);
-                None
-            }
-        };
-        let ctrl: &mut dyn Controller = match (replanning.as_mut(), plain.as_mut()) {
-            (Some(r), _) => r,
-            (None, Some(c)) => c.as_mut(),
-            (None, None) => {
-                return Err(Error::InfeasibleTask("no controller was built".into()));
-            }
-        };
-        let settings = RunSettings {
-            duration_s: reference.duration() + sc.tracking.hold_s,
-            control_dt: sc.tracking.control_dt,
-            cancel: sc.solver.cancel.clone(),
-        };
-        let noise = NoiseSettings {
-            q_std: sc.tracking.noise_q_std,
-            qd_std: sc.tracking.noise_qd_std,
-            seed: sc.tracking.seed.wrapping_add(k as u64),
-        };
-        let clock = std::time::Instant::now();
-        let log = if noise.is_zero() {
-            run_closed_loop(&mut *plant, &mut *ctrl, reference, robot, &settings)?
-        } else {
-            let mut noisy = Noisy::new(&mut *plant, noise)?;
-            run_closed_loop(&mut noisy, &mut *ctrl, reference, robot, &settings)?
-        };
-        let track_time_s = clock.elapsed().as_secs_f64();
-        let replan_events = replanning
-            .as_ref()
-            .map_or_else(Vec::new, |r| r.events().to_vec());
+        let tracked = track_swing(
+            ll,
+            &ls,
+            &pchains[k % 2],
+            &x,
+            p,
+            plan_source,
+            rapier.as_mut(),
+            k,
+        )?;
+        let (log, track_time_s, replan_events) =
+            (tracked.log, tracked.track_time_s, tracked.replan_events);
         let replans = replan_events.len();
-        drop(replanning);
-        drop(plain);
         let diverged_at = log.diverged_at_s;
         if log.is_empty() {
             // diverged at its first step (a non-finite torque): nothing to record of this swing
@@ -679,21 +626,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             track_time_s,
         };
         if let Some(r) = &rapier {
-            // the swing's contacts, links renumbered to the parameters file's order
-            for c in &r.contacts()[contacts_before..] {
-                let flip = |j: usize| if k % 2 == 1 { n - 1 - j } else { j };
-                let body = match c.body {
-                    ContactBody::Link(j) => ContactBody::Link(flip(j)),
-                    other => other,
-                };
-                rec.contact_events += 1;
-                rec.contact_impulse_n_s += c.impulse;
-                world.contacts.push(ContactEvent {
-                    link: flip(c.link),
-                    body,
-                    ..*c
-                });
-            }
+            record_contacts(&r.contacts()[contacts_before..], k, n, &mut rec, &mut world);
         }
         logs.push(log);
         if let Some(t_s) = diverged_at {
@@ -761,6 +694,125 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         plant: if rapier.is_some() { "rapier" } else { "model" },
         ball,
     }))
+}
+
+/// One swing tracked on the plant: the log, the wall time of the closed loop, s, and the re-plans.
+struct TrackedSwing {
+    log: ClosedLoopLog,
+    track_time_s: f64,
+    replan_events: Vec<brachia::control::ReplanEvent>,
+}
+
+/// Track swing `k`'s plan `p` (`ls` the swing's scenario, `pchain` the plant's chain that holds, `x`
+/// the start state) with the ladder's controller, re-planning when `[tracking] replan` asks for it,
+/// on the rapier plant when there is one, else on a model plant of `pchain`.
+#[allow(clippy::too_many_arguments)]
+fn track_swing(
+    ll: &LoadedLadder,
+    ls: &LoadedScenario,
+    pchain: &Robot,
+    x: &[f64],
+    p: &brachia::planning::Plan,
+    plan_source: PlanSource,
+    rapier: Option<&mut brachia_rapier::RapierPlant>,
+    k: usize,
+) -> Result<TrackedSwing, Error> {
+    let sc = &ll.scenario;
+    let robot = &ls.robot;
+    let reference = &p.trajectory;
+    let mut model = None;
+    let mut plain: Option<Box<dyn Controller>> = None;
+    let plant: &mut dyn Plant = match rapier {
+        Some(r) => r,
+        None => {
+            let mut m = ModelPlant::new(pchain.clone(), x);
+            m.substeps = sc.plant.substeps;
+            model.insert(m)
+        }
+    };
+    let base = make_controller(sc.tracking.controller, ls, reference)?;
+    let mut replanning = match (&sc.tracking.replan, sc.tracking.controller) {
+        (Some(rs), crate::scenario::ControllerKind::Mpc) => {
+            let (task, planner, solver) =
+                (&ls.scenario.task, &ls.scenario.planner, &ls.scenario.solver);
+            let aim = (plan_source == PlanSource::Joint
+                && sc.ladder.lookahead_switch == crate::ladder::LookaheadSwitch::Rest)
+                .then(|| switch_pose_box(p));
+            // with an aim, re-plans go for the joint plan's switch pose, not the swing's own optimum
+            Some(Replanning::build_toward_end_box(
+                base,
+                robot.clone(),
+                task,
+                planner,
+                solver,
+                reference.clone(),
+                rs.clone(),
+                aim.as_deref(),
+            )?)
+        }
+        _ => {
+            plain = Some(base);
+            None
+        }
+    };
+    let ctrl: &mut dyn Controller = match (replanning.as_mut(), plain.as_mut()) {
+        (Some(r), _) => r,
+        (None, Some(c)) => c.as_mut(),
+        (None, None) => {
+            return Err(Error::InfeasibleTask("no controller was built".into()));
+        }
+    };
+    let settings = RunSettings {
+        duration_s: reference.duration() + sc.tracking.hold_s,
+        control_dt: sc.tracking.control_dt,
+        cancel: sc.solver.cancel.clone(),
+    };
+    let noise = NoiseSettings {
+        q_std: sc.tracking.noise_q_std,
+        qd_std: sc.tracking.noise_qd_std,
+        seed: sc.tracking.seed.wrapping_add(k as u64),
+    };
+    let clock = std::time::Instant::now();
+    let log = if noise.is_zero() {
+        run_closed_loop(&mut *plant, &mut *ctrl, reference, robot, &settings)?
+    } else {
+        let mut noisy = Noisy::new(&mut *plant, noise)?;
+        run_closed_loop(&mut noisy, &mut *ctrl, reference, robot, &settings)?
+    };
+    let track_time_s = clock.elapsed().as_secs_f64();
+    let replan_events = replanning
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.events().to_vec());
+    Ok(TrackedSwing {
+        log,
+        track_time_s,
+        replan_events,
+    })
+}
+
+/// Record a swing's rapier contacts `contacts` in `rec` and in `world`, links renumbered to the
+/// parameters file's order (swing `k` of an `n`-link chain: odd swings hang from hand B).
+fn record_contacts(
+    contacts: &[ContactEvent],
+    k: usize,
+    n: usize,
+    rec: &mut SwingRecord,
+    world: &mut PlantWorld,
+) {
+    for c in contacts {
+        let flip = |j: usize| if k % 2 == 1 { n - 1 - j } else { j };
+        let body = match c.body {
+            ContactBody::Link(j) => ContactBody::Link(flip(j)),
+            other => other,
+        };
+        rec.contact_events += 1;
+        rec.contact_impulse_n_s += c.impulse;
+        world.contacts.push(ContactEvent {
+            link: flip(c.link),
+            body,
+            ..*c
+        });
+    }
 }
 
 impl Traverse {
