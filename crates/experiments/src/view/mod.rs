@@ -1,5 +1,5 @@
 //! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, or a
-//! benchmark's scorecard, [`bench`]), drawn from its folder.
+//! benchmark's scorecard, [`mod@bench`]), drawn from its folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
 //! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
