@@ -474,6 +474,7 @@ def benchmark(
     builtin: Optional[list[str]] = None,
     levels: int = 3,
     monte_carlo_runs: int = 6,
+    family_runs: int = 1,
     sweeps: Optional[list[str]] = None,
     seed: int = 0,
 ) -> dict[str, Any]:

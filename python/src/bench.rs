@@ -22,14 +22,15 @@ use std::sync::{Arc, Mutex};
 /// ``controllers``: a dict ``name -> policy`` of callables ``policy(t, x) -> tau`` (N m) scored
 /// beside the built-in ones (an object with ``reset()`` has it called before each run);
 /// ``builtin``: the built-in controllers to run (``None``: all; ``[]``: none). ``levels`` per
-/// sweep (>= 2), ``monte_carlo_runs`` (0 skips it; those runs use the rapier plant), ``sweeps``
+/// sweep (>= 2), ``monte_carlo_runs`` (0 skips it; those runs use the rapier plant),
+/// ``family_runs`` (runs of each other Monte Carlo family, as ``--family-runs``; 0 skips them), ``sweeps``
 /// (names; ``None``: all), ``seed``. With Python policies the runs go one at a time (they need the
 /// GIL). Returns a dict: ``scorecard`` (the ``scorecard.json`` of ``brachia benchmark``),
 /// ``runs_csv`` and ``summary_md`` (text), or ``plan_status`` when the plan did not converge. An
 /// exception raised by a policy is raised here after the benchmark stops.
 #[pyfunction]
 #[pyo3(signature = (scenario, controllers = None, builtin = None, levels = 3, monte_carlo_runs = 6,
-    sweeps = None, seed = 0))]
+    family_runs = 1, sweeps = None, seed = 0))]
 pub(crate) fn benchmark<'py>(
     py: Python<'py>,
     scenario: &Bound<'py, PyAny>,
@@ -37,6 +38,7 @@ pub(crate) fn benchmark<'py>(
     builtin: Option<Vec<String>>,
     levels: usize,
     monte_carlo_runs: usize,
+    family_runs: usize,
     sweeps: Option<Vec<String>>,
     seed: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -87,6 +89,7 @@ pub(crate) fn benchmark<'py>(
     let mut settings = BenchmarkSettings {
         levels,
         monte_carlo_runs,
+        family_runs,
         only_sweeps: sweeps.unwrap_or_default(),
         only_controllers: builtin.unwrap_or(all),
         seed,

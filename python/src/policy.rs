@@ -18,25 +18,27 @@ use std::sync::{Arc, Mutex};
 pub(crate) type ErrorSink = Arc<Mutex<Option<PyErr>>>;
 
 thread_local! {
-    /// The exception a policy raised during the closed loop running on this thread.
-    static POLICY_ERROR: RefCell<Option<PyErr>> = const { RefCell::new(None) };
+    /// Where the policy of the `track` call made on this thread leaves its exception (the closed loop
+    /// may run on a worker thread, so the policy holds the sink, not this thread's state).
+    static TRACK_SINK: RefCell<Option<ErrorSink>> = const { RefCell::new(None) };
 }
 
 /// A Python callable driving the plant.
 pub(crate) struct PyPolicy {
     f: Py<PyAny>,
-    /// The exception's destination (None: this thread's, for `track`).
-    sink: Option<ErrorSink>,
+    /// The exception's destination.
+    sink: ErrorSink,
 }
 
 impl PyPolicy {
     /// `obj` as a policy when it is callable (and not a controller's name).
     pub(crate) fn of(obj: &Bound<'_, PyAny>) -> Option<Self> {
         if obj.is_callable() && !obj.is_instance_of::<PyString>() {
-            POLICY_ERROR.with(|e| e.borrow_mut().take());
+            let sink: ErrorSink = Arc::new(Mutex::new(None));
+            TRACK_SINK.with(|s| *s.borrow_mut() = Some(sink.clone()));
             Some(PyPolicy {
                 f: obj.clone().unbind(),
-                sink: None,
+                sink,
             })
         } else {
             None
@@ -50,10 +52,7 @@ impl PyPolicy {
         if f.bind(py).hasattr("reset")? {
             f.bind(py).call_method0("reset")?;
         }
-        Ok(PyPolicy {
-            f,
-            sink: Some(sink),
-        })
+        Ok(PyPolicy { f, sink })
     }
 
     /// One call: `tau` from `policy(t, x)`.
@@ -70,15 +69,8 @@ impl Controller for PyPolicy {
         let failed = Python::attach(|py| match self.call(py, t, x, tau) {
             Ok(()) => false,
             Err(e) => {
-                match &self.sink {
-                    Some(sink) => {
-                        if let Ok(mut slot) = sink.lock() {
-                            slot.get_or_insert(e);
-                        }
-                    }
-                    None => POLICY_ERROR.with(|slot| {
-                        slot.borrow_mut().get_or_insert(e);
-                    }),
+                if let Ok(mut slot) = self.sink.lock() {
+                    slot.get_or_insert(e);
                 }
                 true
             }
@@ -94,9 +86,13 @@ impl Controller for PyPolicy {
     }
 }
 
-/// Raise the exception a policy raised in the loop that just ran on this thread, if any.
+/// Raise the exception the policy of the `track` call made on this thread raised in its loop, if any
+/// (whichever thread ran the loop).
 pub(crate) fn raise_pending() -> PyResult<()> {
-    match POLICY_ERROR.with(|e| e.borrow_mut().take()) {
+    let pending = TRACK_SINK
+        .with(|s| s.borrow_mut().take())
+        .and_then(|sink| sink.lock().ok().and_then(|mut slot| slot.take()));
+    match pending {
         Some(e) => Err(e),
         None => Ok(()),
     }

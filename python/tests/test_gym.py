@@ -350,7 +350,7 @@ def test_benchmark_scores_python_policies_beside_the_builtin_mpc(scenario, track
     }
     out = brachia.benchmark(
         scenario, controllers=policies, builtin=["mpc"], levels=2, monte_carlo_runs=0,
-        sweeps=["mass"],
+        family_runs=0, sweeps=["mass"],
     )
     names = [c["controller"] for c in out["scorecard"]["controllers"]]
     assert names == ["mpc", "mpc-python", "random"]
