@@ -52,11 +52,11 @@ class Robot:
     def to_mjcf(self) -> str:
         """The robot as a MuJoCo MJCF document (motors on joints 2..n)."""
     def q_from_urdf(self, q: ArrayLike) -> Array:
-        """Brachia's q from the robot's own joint angles, shape (n,)."""
+        """Brachia's q from the robot's own joint angles, shape (n,) or (k, n) (a trajectory)."""
     def q_to_urdf(self, q: ArrayLike) -> Array:
-        """The robot's own joint angles from brachia's q, shape (n,)."""
+        """The robot's own joint angles from brachia's q, shape (n,) or (k, n) (a trajectory)."""
     def qd_to_urdf(self, qd: ArrayLike) -> Array:
-        """The robot's own joint velocities from brachia's qd, shape (n,)."""
+        """The robot's own joint velocities from brachia's qd, shape (n,) or (k, n)."""
     @staticmethod
     def paper() -> Robot:
         """The paper's 4-link robot (Table I)."""

@@ -349,6 +349,26 @@ pub(crate) fn matrix(
     Ok((v, shape[0], shape[1]))
 }
 
+/// A 1-D array of `cols` values or a 2-D array of rows of `cols` values (a whole trajectory):
+/// `(values row-major, Some(rows))` for a 2-D array, `(values, None)` for a 1-D one.
+pub(crate) fn vector_or_rows(
+    obj: &Bound<'_, PyAny>,
+    arg: Arg<'_>,
+    cols: usize,
+) -> PyResult<(Vec<f64>, Option<usize>)> {
+    let arr = ASARRAY
+        .import(obj.py(), "numpy", "asarray")?
+        .call1((obj,))
+        .map_err(|e| bad(format!("{}: not an array ({e})", arg.name)))?;
+    let ndim: usize = arr.getattr("ndim")?.extract()?;
+    if ndim == 2 {
+        let (v, rows, _) = matrix(obj, arg, None, Some(cols))?;
+        Ok((v, Some(rows)))
+    } else {
+        Ok((vector(obj, arg, cols)?, None))
+    }
+}
+
 /// A real-number scalar argument: a Python `int` or `float`, a numpy real scalar or a 0-d real
 /// array. Booleans, complex numbers (numpy would drop the imaginary part with a warning), text and
 /// arrays of more than one value are refused with `BrachiaError` (the traceback's note names the

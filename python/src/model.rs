@@ -6,7 +6,8 @@
 //! `(2, n)`.
 
 use crate::convert::{
-    any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, vector, Arg, Range, Real,
+    any_vector, arr1, arr2, bad, finite_result, matrix, num, rs, scalar, vector, vector_or_rows,
+    Arg, Range, Real,
 };
 use crate::dicts::to_py;
 use brachia::model::{Scratch, MAX_LINKS};
@@ -37,6 +38,25 @@ impl Robot {
     fn qd(&self, qd: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
         let arg = Arg::new("qd", "joint velocities, rad/s", Range::Rate);
         vector(qd, arg, self.inner.n())
+    }
+
+    /// `f` applied to `v` (n values) or to each row of `v` (k x n), as a numpy array of the same
+    /// shape (`what` names the call).
+    fn map_rows<'py>(
+        &self,
+        py: Python<'py>,
+        v: &Bound<'_, PyAny>,
+        arg: Arg<'_>,
+        what: &str,
+        f: impl Fn(&brachia::Robot, &[f64]) -> Vec<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.inner.n();
+        let (values, rows) = vector_or_rows(v, arg, n)?;
+        let out: Vec<f64> = values.chunks(n).flat_map(|r| f(&self.inner, r)).collect();
+        match rows {
+            Some(_) => out2(py, out, n, what),
+            None => out1(py, &out, what),
+        }
     }
 }
 
@@ -124,32 +144,33 @@ impl Robot {
         brachia::urdf::to_mjcf(&self.inner)
     }
 
-    /// Brachia's joint angles ``q`` from the robot's own (URDF) joint angles, shape ``(n,)``:
-    /// ``q_i = s_i phi_i + joint_offset_i``.
+    /// brachia's ``q`` from the robot's own (URDF) joint angles ``phi``:
+    /// ``q_i = s_i phi_i + joint_offset_i`` (``s_i = -1`` for a reversed joint). ``phi`` of shape
+    /// ``(n,)``, or ``(k, n)`` for a whole trajectory (one row per sample).
     fn q_from_urdf<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let phi = self.q(q)?;
-        out1(py, &self.inner.q_from_joint_angles(&phi), "q_from_urdf")
+        let arg = Arg::new("q", "joint angles, rad", Range::Angle);
+        self.map_rows(py, q, arg, "q_from_urdf", |r, v| r.q_from_joint_angles(v))
     }
 
-    /// The robot's own (URDF) joint angles from brachia's ``q``, shape ``(n,)``:
-    /// ``phi_i = s_i (q_i - joint_offset_i)``.
+    /// The robot's own (URDF) joint angles from brachia's ``q``:
+    /// ``phi_i = s_i (q_i - joint_offset_i)``; shape ``(n,)`` or ``(k, n)`` (a trajectory's ``q``).
     fn q_to_urdf<'py>(&self, py: Python<'py>, q: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let q = self.q(q)?;
-        out1(py, &self.inner.q_to_joint_angles(&q), "q_to_urdf")
+        let arg = Arg::new("q", "joint angles, rad", Range::Angle);
+        self.map_rows(py, q, arg, "q_to_urdf", |r, v| r.q_to_joint_angles(v))
     }
 
-    /// The robot's own (URDF) joint velocities from brachia's ``qd``, shape ``(n,)``.
+    /// The robot's own (URDF) joint velocities from brachia's ``qd``; shape ``(n,)`` or ``(k, n)``.
     fn qd_to_urdf<'py>(
         &self,
         py: Python<'py>,
         qd: &Bound<'_, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let qd = self.qd(qd)?;
-        out1(py, &self.inner.qd_to_joint_rates(&qd), "qd_to_urdf")
+        let arg = Arg::new("qd", "joint velocities, rad/s", Range::Rate);
+        self.map_rows(py, qd, arg, "qd_to_urdf", |r, v| r.qd_to_joint_rates(v))
     }
 
     /// The paper's 4-link robot (Table I, ``params/paper.toml``).

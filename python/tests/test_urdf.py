@@ -13,6 +13,7 @@
 Each library is optional: its tests are skipped when it cannot be imported.
 """
 
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -80,10 +81,41 @@ def test_joint_angle_maps_round_trip():
     r = brachia.Robot.from_urdf(DATA / "hook2.urdf", grip="hand", tip="hook")
     phi = np.array([0.3, -1.1])
     assert np.allclose(r.q_to_urdf(r.q_from_urdf(phi)), phi, atol=1e-15)
-    with pytest.raises(brachia.BrachiaError, match='joint "nope"|urdf.grip'):
-        brachia.Robot.from_urdf(DATA / "hook2.urdf", grip="nope", tip="hook")
-    with pytest.raises(brachia.BrachiaError, match="urdf.passive"):
-        brachia.Robot.from_urdf(DATA / "hook2.urdf", grip="hand", tip="hook", passive=["x"])
+    # a whole trajectory at once, row by row the same
+    rows = np.array([[0.3, -1.1], [-0.2, 0.7], [1.0, 0.0]])
+    whole = r.q_to_urdf(r.q_from_urdf(rows))
+    assert whole.shape == rows.shape
+    for k in range(len(rows)):
+        assert np.array_equal(r.q_from_urdf(rows)[k], r.q_from_urdf(rows[k]))
+    assert np.allclose(whole, rows, atol=1e-15)
+    assert r.qd_to_urdf(rows).shape == rows.shape
+    with pytest.raises(brachia.BrachiaError):
+        r.q_to_urdf(np.zeros((3, 5)))
+    with pytest.raises(brachia.BrachiaError):
+        r.q_to_urdf(np.zeros((2, 2, 2)))
+
+
+REFUSALS = tomllib.loads((DATA / "refusals.toml").read_text())["case"]
+
+
+@pytest.mark.parametrize("case", REFUSALS, ids=[c["what"] for c in REFUSALS])
+def test_refusals_name_the_urdf_element(case, tmp_path):
+    """The table the library and the command line refuse (refusals.toml), refused from Python."""
+    text = (DATA / "hook2.urdf").read_text()
+    for old, new in case.get("replace", []):
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "edited.urdf"
+    path.write_text(text)
+    with pytest.raises(brachia.BrachiaError) as e:
+        brachia.Robot.from_urdf(
+            path,
+            grip=case.get("grip", "hand"),
+            tip=case.get("tip", "hook"),
+            passive=case.get("passive", []),
+            ignore=case.get("ignore", []),
+        )
+    assert case["names"] in str(e.value) and "edited.urdf" in str(e.value)
 
 
 def test_export_round_trip_in_python():

@@ -102,54 +102,76 @@ fn export_then_import_round_trips() {
     }
 }
 
+#[path = "../../core/tests/data/urdf/refusals.rs"]
+mod refusals;
+
+/// The lines of a `[urdf]` table for `case`.
+fn urdf_table(case: &refusals::RefusalCase) -> String {
+    format!(
+        "[urdf]\ngrip = {:?}\ntip = {:?}\npassive = {:?}\nignore = {:?}\n",
+        case.grip, case.tip, case.passive, case.ignore
+    )
+}
+
 #[test]
 fn refusals_exit_2_naming_the_element() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../..")
-            .join(HOOK),
-    )
-    .unwrap();
-    for (i, (from, to, args, needle)) in [
-        (
-            "",
-            "",
-            vec!["--grip", "wrist", "--tip", "hook"],
-            "urdf.grip",
-        ),
-        (
-            "<axis xyz=\"-1 0 0\"/>",
-            "<axis xyz=\"0 0 1\"/>",
-            vec!["--grip", "hand", "--tip", "hook"],
-            "joint \"elbow\" <axis>",
-        ),
-        (
-            "<mass value=\"0.9\"/>",
-            "<mass value=\"-1\"/>",
-            vec!["--grip", "hand", "--tip", "hook"],
-            "link \"arm\" <mass>",
-        ),
-        (
-            "name=\"elbow\" type=\"revolute\"",
-            "name=\"elbow\" type=\"prismatic\"",
-            vec!["--grip", "hand", "--tip", "hook"],
-            "joint \"elbow\"",
-        ),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    for (i, case) in refusals::refusal_cases().into_iter().enumerate() {
+        let what = &case.what;
         let file = dir.path().join(format!("case{i}.urdf"));
-        std::fs::write(&file, text.replace(from, to)).unwrap();
-        let out = dir.path().join(format!("case{i}.toml"));
+        std::fs::write(&file, case.urdf_text()).unwrap();
         let f = file.to_string_lossy().to_string();
-        let mut a = vec!["robot", "import", f.as_str()];
-        a.extend(args);
+        let name = format!("case{i}.urdf");
+        // brachia robot import
+        let out = dir.path().join(format!("case{i}.toml"));
+        let mut a = vec![
+            "robot",
+            "import",
+            f.as_str(),
+            "--grip",
+            &case.grip,
+            "--tip",
+            &case.tip,
+        ];
+        let (passive, ignore) = (case.passive.join(","), case.ignore.join(","));
+        if !case.passive.is_empty() {
+            a.extend(["--passive", passive.as_str()]);
+        }
+        if !case.ignore.is_empty() {
+            a.extend(["--ignore", ignore.as_str()]);
+        }
         let o = run(&a, &out);
         let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "case {i}: {err}");
-        assert!(err.contains(needle), "case {i}: {err}");
-        assert!(!out.exists(), "case {i}: nothing written");
+        assert_eq!(o.status.code(), Some(2), "{what}: {err}");
+        assert!(
+            err.contains(&case.names) && err.contains(&name),
+            "{what}: {err}"
+        );
+        assert!(!out.exists(), "{what}: nothing written");
+        // a scenario naming the file
+        let scenario = dir.path().join(format!("case{i}-scenario.toml"));
+        std::fs::write(
+            &scenario,
+            format!(
+                "params = {f:?}\n{}[task]\nq0 = [-2.3, -0.6]\ntarget = [0.45, 0.0]\n",
+                urdf_table(&case)
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join(format!("case{i}-plan"));
+        let o = brachia()
+            .args(["plan", "--scenario"])
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{what} (scenario): {err}");
+        assert!(
+            err.contains(&case.names) && err.contains(&name),
+            "{what} (scenario): {err}"
+        );
+        assert!(!out.exists(), "{what} (scenario): nothing written");
     }
 }

@@ -300,6 +300,25 @@ impl<'a> Importer<'a> {
             .any(|n| *n == jt.name || *n == jt.child.link)
     }
 
+    /// Refuses a name in `urdf.ignore` that is neither a joint nor a link of the file: a misspelt
+    /// name would otherwise leave out nothing without a word.
+    fn check_ignore_names(&self) -> Result<()> {
+        let urdf = self.urdf;
+        for n in &self.opts.ignore {
+            let known =
+                urdf.joints.iter().any(|j| j.name == *n) || self.link.contains_key(n.as_str());
+            if !known {
+                let names: Vec<&str> = urdf.joints.iter().map(|j| j.name.as_str()).collect();
+                return Err(self.err(
+                    "urdf.ignore",
+                    n,
+                    format!("no joint or link of that name in the file (its joints: {names:?})"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The path from the grip joint to the tip link, and the bodies of the moving part.
     fn chain(&self) -> Result<Chain> {
         let urdf = self.urdf;
@@ -456,6 +475,7 @@ impl<'a> Importer<'a> {
 
     fn run(&self, trans: &TransmissionRoot) -> Result<Imported> {
         let urdf = self.urdf;
+        self.check_ignore_names()?;
         let ch = self.chain()?;
         let nb = ch.joints.len();
         let jt = |k: usize| &urdf.joints[ch.joints[k]];
