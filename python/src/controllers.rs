@@ -271,8 +271,27 @@ fn checked<T: serde::de::DeserializeOwned>(
     check: impl FnOnce(&T) -> brachia::Result<()>,
 ) -> PyResult<T> {
     let s: T = settings_from(settings, kwargs, name)?;
-    check(&s).map_err(rs)?;
+    check(&s).map_err(|e| rs(named(e, name)))?;
     Ok(s)
+}
+
+/// A settings check's error under the name the settings go by here (`tvlqr settings`), as the
+/// scenario's errors name its file.
+fn named(e: brachia::Error, name: &str) -> brachia::Error {
+    match e {
+        brachia::Error::InvalidValue {
+            field,
+            value,
+            reason,
+            ..
+        } => brachia::Error::InvalidValue {
+            source_name: name.to_string(),
+            field,
+            value,
+            reason,
+        },
+        other => other,
+    }
 }
 
 /// Time-varying LQR along the plan (a scenario's ``controller = "tvlqr"``).

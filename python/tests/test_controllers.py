@@ -180,3 +180,29 @@ def test_disturbances_in_track(robot, tracking_plan):
     with pytest.raises(brachia.BrachiaError, match="pushes"):
         brachia.track(robot, tracking_plan, disturbances={"pushes": [{"t_s": 0.1, "link": 9, "point_m": 0.1,
                                                                       "impulse_n_s": [0, 1]}]}, duration=0.01)
+
+
+def test_a_ball_on_the_rapier_plant_is_the_scenarios_run(tracking_plan):
+    # balls are the rapier plant's obstacles ([plant] obstacles): the plant made with them, the
+    # disturbances' wrappers around it
+    sc = scenario_of(
+        '[tracking]\ncontroller = "mpc"\n[plant]\nkind = "rapier"\nobstacles = [{ kind = "ball", '
+        "center = [0.02, -0.44], radius = 0.05, mass = 0.4, restitution = 0.3, gravity = false }]\n"
+        "[disturbances]\nmotor_time_constant_s = 0.004\n",
+        "ball.toml",
+    )
+    cli = sc.track(reference=tracking_plan)
+    pl, tr, robot = sc.plant, sc.tracking, sc.robot
+    x0 = np.concatenate([tracking_plan.q[0], tracking_plan.qd[0]])
+    settings = {k: pl[k] for k in ["substeps", "link_friction", "link_restitution"]}
+    plant = brachia.RapierPlant(robot, x0, settings, obstacles=pl["obstacles"])
+    py = brachia.track(
+        robot,
+        tracking_plan,
+        controller=brachia.Mpc(robot, tracking_plan, tr["mpc"]),
+        plant=plant,
+        disturbances=sc.disturbances,
+        duration=tracking_plan.t[-1],
+    )
+    assert_same_run(py, cli)
+    assert cli.report["contact_events"] > 0 and len(plant.contacts()) == cli.report["contact_events"]
