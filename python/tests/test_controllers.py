@@ -206,3 +206,17 @@ def test_a_ball_on_the_rapier_plant_is_the_scenarios_run(tracking_plan):
     )
     assert_same_run(py, cli)
     assert cli.report["contact_events"] > 0 and len(plant.contacts()) == cli.report["contact_events"]
+
+
+def test_keyboard_interrupt_stops_a_run_of_a_wrapped_controller(tracking_plan):
+    from test_interrupt import DELAY_S, interrupted_call
+
+    sc = scenario_of("", "interrupt.toml")
+    robot = sc.robot
+    ctrl = brachia.Replanning(brachia.Mpc(robot, tracking_plan), sc.task, sc.plan_settings, threshold_m=0.001)
+    # 300 s of closed loop (the swing held at its end) after the re-planner's cold plan
+    interrupted, took = interrupted_call(
+        lambda: brachia.track(robot, tracking_plan, controller=ctrl, duration=300.0)
+    )
+    assert interrupted, f"the run returned after {took:.3f} s, before the interrupt"
+    assert took < DELAY_S + 5.0
