@@ -20,10 +20,10 @@
 //! are checked finite before they are returned (a non-finite one raises).
 //!
 //! ## Threads
-//! Immutable classes (`Robot`, `Trajectory`, `Plan`, `Scenario`, results) are shared freely. The
-//! classes with state (`Mpc`, `SwingPlanner`, `ModelPlant`, `RapierPlant`) hold it behind a lock
-//! (`shared`): any thread may call them, calls on one object run one at a time, long work runs with the
-//! GIL released.
+//! Immutable classes (`Robot`, `Trajectory`, `Plan`, `Scenario`, results, the controller recipes of
+//! `controllers`) are shared freely. The classes with state (`Mpc`, `SwingPlanner`, `ModelPlant`,
+//! `RapierPlant`) hold it behind a lock (`shared`): any thread may call them, calls on one object run
+//! one at a time, long work runs with the GIL released.
 
 use convert::BrachiaError;
 use pyo3::prelude::*;

@@ -195,16 +195,11 @@ impl TraverseResult {
 pub(crate) fn run(py: Python<'_>, ll: &Arc<LoadedLadder>) -> PyResult<TraverseResult> {
     // a setting that would have no effect on the ladder's controller and plant is refused
     check_ladder_settings_apply(ll).map_err(rs)?;
+    // the traverse's solves and loops stop at their next check once the token is set
     let cancel = brachia::CancelToken::new();
-    let mut mine = (**ll).clone();
-    mine.scenario.solver.cancel = Some(cancel.clone());
-    let tr = {
-        let (mine, cancel) = (mine.clone(), cancel.clone());
-        interruptible_owned(py, &cancel.clone(), move || {
-            run_traverse_cancellable(&mine, &cancel)
-        })?
-        .map_err(exp)?
-    };
+    let (mine, token) = ((**ll).clone(), cancel.clone());
+    let tr = interruptible_owned(py, &cancel, move || run_traverse_cancellable(&mine, &token))?
+        .map_err(exp)?;
     let report = tr.report(ll);
     Ok(TraverseResult {
         ll: ll.clone(),

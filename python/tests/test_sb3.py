@@ -1,10 +1,10 @@
 """The stable-baselines3 adapter (brachia.sb3) and the policy adapter (brachia.policy), without torch.
 
 stable-baselines3 cannot be imported without torch, so the adapter is tested against a stand-in of
-its `stable_baselines3.common.vec_env.VecEnv`: an abstract base class with the documented VecEnv
-method set (reset, step_async, step_wait, close, get_attr, set_attr, env_method, env_is_wrapped,
-get_images, seed) and its constructor `VecEnv(num_envs, observation_space, action_space)`. A class
-that leaves one of them abstract cannot be made.
+its `stable_baselines3.common.vec_env.VecEnv`: an abstract base class with the documented abstract
+VecEnv methods (reset, step_async, step_wait, close, get_attr, set_attr, env_method, env_is_wrapped),
+its constructor `VecEnv(num_envs, observation_space, action_space)` and `step` (step_async, then
+step_wait). A class that leaves one of them abstract cannot be made; `seed` is checked as well.
 """
 
 import abc
