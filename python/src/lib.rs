@@ -80,7 +80,7 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
-    m.add_function(wrap_pyfunction!(traverse::traverse, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::traverse, m)?)?;
     m.add_function(wrap_pyfunction!(bench::benchmark, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;

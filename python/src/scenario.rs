@@ -442,3 +442,22 @@ fn with_cancel(ls: &LoadedScenario) -> (LoadedScenario, brachia::CancelToken) {
     ls.scenario.solver.cancel = Some(cancel.clone());
     (ls, cancel)
 }
+
+/// Run the traverse of ``scenario``: a traverse ``Scenario`` or the path of a traverse scenario
+/// file (a ``[ladder]`` section), as ``brachia traverse`` does. Returns a ``TraverseResult`` (also
+/// when a bar was missed: ``completed`` is False and ``status`` says where); raises
+/// ``BrachiaError`` on bad input and ``KeyboardInterrupt`` on Ctrl-C.
+#[pyfunction]
+pub(crate) fn traverse(
+    py: Python<'_>,
+    scenario: &Bound<'_, PyAny>,
+) -> PyResult<crate::traverse::TraverseResult> {
+    if let Ok(s) = scenario.cast::<Scenario>() {
+        return s.get().traverse_result(py);
+    }
+    let path: PathBuf = scenario.extract().map_err(|_| {
+        bad("traverse: scenario: expected a Scenario or the path of a traverse scenario file")
+    })?;
+    let s = Scenario::read(py, path)?;
+    s.traverse_result(py)
+}

@@ -1,7 +1,7 @@
-//! Traverses from Python: `brachia.traverse(scenario)` / `Scenario.traverse()` run a ladder
-//! traverse as `brachia traverse` does (`brachia_experiments::run_traverse_cancellable`) and return a
-//! `TraverseResult`: the per-swing outcomes, the whole traverse in the world frame, the grip
-//! switches, the report, the run folder and the run page.
+//! Traverses from Python: `brachia.traverse(scenario)` / `Scenario.traverse()` (in `crate::scenario`)
+//! run a ladder traverse as `brachia traverse` does (`brachia_experiments::run_traverse_cancellable`)
+//! and return a `TraverseResult`: the per-swing outcomes, the whole traverse in the world frame, the
+//! grip switches, the report, the run folder and the run page.
 //!
 //! Conventions: world frame (m), traverse time (s, from the start of the first swing); a row of the
 //! arrays is a control instant of one swing (each swing's rows follow the last one's, so the time at
@@ -9,10 +9,9 @@
 //! chain holding the bar in that row (its own link order: hand A holds on even swings, hand B on
 //! odd ones); `joints` in the parameters file's order (hand A first).
 
-use crate::convert::{arr1, arr2, bad, exp, rs};
+use crate::convert::{arr1, arr2, exp, rs};
 use crate::dicts::to_py;
 use crate::interrupt::interruptible_owned;
-use crate::scenario::Scenario;
 use brachia_experiments::ladder::LoadedLadder;
 use brachia_experiments::view::{params_toml, traverse_run_page, PARAMS_FILE, VIEW_FILE};
 use brachia_experiments::{check_ladder_settings_apply, run_traverse_cancellable, Traverse};
@@ -206,20 +205,4 @@ pub(crate) fn run(py: Python<'_>, ll: &Arc<LoadedLadder>) -> PyResult<TraverseRe
         tr,
         report,
     })
-}
-
-/// Run the traverse of ``scenario``: a traverse ``Scenario`` or the path of a traverse scenario
-/// file (a ``[ladder]`` section), as ``brachia traverse`` does. Returns a ``TraverseResult`` (also
-/// when a bar was missed: ``completed`` is False and ``status`` says where); raises
-/// ``BrachiaError`` on bad input and ``KeyboardInterrupt`` on Ctrl-C.
-#[pyfunction]
-pub(crate) fn traverse(py: Python<'_>, scenario: &Bound<'_, PyAny>) -> PyResult<TraverseResult> {
-    if let Ok(s) = scenario.cast::<Scenario>() {
-        return s.get().traverse_result(py);
-    }
-    let path: PathBuf = scenario.extract().map_err(|_| {
-        bad("traverse: scenario: expected a Scenario or the path of a traverse scenario file")
-    })?;
-    let s = Scenario::read(py, path)?;
-    s.traverse_result(py)
 }
