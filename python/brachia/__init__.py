@@ -2,10 +2,12 @@
 
 A thin layer over the Rust library (the extension module ``brachia._brachia``): the planar n-link
 model (``Robot``), the direct-collocation planner (``plan`` -> ``Plan``), the linear MPC tracker
-(``Mpc``), the persistent planner that re-plans warm from measured states (``SwingPlanner``
+(``Mpc``) and the other controllers of a scenario's ``[tracking]`` (``Tvlqr``, ``Pd``, ``OpenLoop``,
+``Kalman``, ``Replanning``, ``Adaptive``), the persistent planner that re-plans warm from measured states (``SwingPlanner``
 -> ``ReplanOutcome``), several swings of a ladder
 planned as one problem (``plan_joint_swings`` -> ``JointSwingPlan``), the model and rapier plants (``ModelPlant``, ``RapierPlant``), the closed loop
-(``track`` -> ``TrackResult``), scenario files (``Scenario``) and the interactive run page
+(``track`` -> ``TrackResult``, with a scenario's ``[disturbances]``), scenario files and text
+(``Scenario``), ladder traverses (``traverse`` -> ``TraverseResult``) and the interactive run page
 (``view``; a ``Plan`` or ``TrackResult`` shows it inline in Jupyter).
 
 Conventions (SI units throughout: m, kg, s, rad, N m, J): planar, grip point at the origin, x right,
@@ -20,13 +22,18 @@ See docs/python.md.
 
 from ._brachia import (
     SUCCESS_RADIUS_M,
+    Adaptive,
     BrachiaError,
     JointPhase,
     JointSwingPlan,
+    Kalman,
     ModelPlant,
     Mpc,
+    OpenLoop,
+    Pd,
     Plan,
     RapierPlant,
+    Replanning,
     ReplanOutcome,
     Robot,
     Scenario,
@@ -35,11 +42,14 @@ from ._brachia import (
     SwingPlanner,
     TrackResult,
     Trajectory,
+    TraverseResult,
+    Tvlqr,
     benchmark,
     plan,
     plan_joint_swings,
     rust_mpc_step_times,
     track,
+    traverse,
 )
 from .view import view
 
@@ -50,13 +60,18 @@ _register_envs()
 
 __all__ = [
     "SUCCESS_RADIUS_M",
+    "Adaptive",
     "BrachiaError",
     "JointPhase",
     "JointSwingPlan",
+    "Kalman",
     "ModelPlant",
     "Mpc",
+    "OpenLoop",
+    "Pd",
     "Plan",
     "RapierPlant",
+    "Replanning",
     "ReplanOutcome",
     "Robot",
     "Scenario",
@@ -65,10 +80,13 @@ __all__ = [
     "SwingPlanner",
     "TrackResult",
     "Trajectory",
+    "TraverseResult",
+    "Tvlqr",
     "benchmark",
     "plan",
     "plan_joint_swings",
     "rust_mpc_step_times",
     "track",
+    "traverse",
     "view",
 ]

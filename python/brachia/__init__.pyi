@@ -18,7 +18,7 @@ import numpy.typing as npt
 ArrayLike = Union[npt.ArrayLike, Sequence[float]]
 Array = npt.NDArray[np.float64]
 StrPath = Union[str, PathLike[str]]
-Controller = Literal["mpc", "pd", "open-loop"]
+Controller = Literal["mpc", "tvlqr", "pd", "open-loop"]
 
 SUCCESS_RADIUS_M: float
 """The success rule, m: a swing reaches the bar when the plant's hand ends the swing within this distance
@@ -347,6 +347,77 @@ class Mpc:
     @property
     def reference(self) -> Trajectory: ...
 
+class Tvlqr:
+    """Time-varying LQR along the plan (``[tracking.tvlqr]`` settings); built afresh by each ``track``."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        reference: Union[Plan, Trajectory],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    @property
+    def settings(self) -> dict[str, Any]: ...
+
+class Pd:
+    """PD on the actuated joints plus the planned torque (``[tracking.pd]`` settings)."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        reference: Union[Plan, Trajectory],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    @property
+    def settings(self) -> dict[str, Any]: ...
+
+class OpenLoop:
+    """The planned torques replayed without feedback."""
+
+    def __init__(self, robot: Robot, reference: Union[Plan, Trajectory]) -> None: ...
+
+class Kalman:
+    """A Mpc, Tvlqr or Pd fed through the Kalman filter along its plan (``[tracking.estimator]`` settings)."""
+
+    def __init__(
+        self,
+        controller: Union[Mpc, Tvlqr, Pd],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    @property
+    def settings(self) -> dict[str, Any]: ...
+
+class Replanning:
+    """Online re-planning around the MPC (``[tracking.replan]`` settings; docs/replanning.md)."""
+
+    def __init__(
+        self,
+        controller: Union[Mpc, Kalman],
+        task: dict[str, Any],
+        plan_settings: Optional[dict[str, Any]] = None,
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    @property
+    def settings(self) -> dict[str, Any]: ...
+
+class Adaptive:
+    """The MPC (or Replanning(Mpc)) fed the online mass estimate (``[tracking.estimate_params]`` settings)."""
+
+    def __init__(
+        self,
+        controller: Union[Mpc, Replanning],
+        settings: Optional[dict[str, Any]] = None,
+        **kwargs: Any,
+    ) -> None: ...
+    @property
+    def settings(self) -> dict[str, Any]: ...
+
+ControllerObject = Union[Mpc, Tvlqr, Pd, OpenLoop, Kalman, Replanning, Adaptive]
+
 class ModelPlant:
     """RK4 integration of the robot's model. A step that diverges raises ``BrachiaError`` and the
     plant refuses every use but ``reset`` from then on. Usable from several threads, one call at a
@@ -424,23 +495,31 @@ class TrackResult:
 def track(
     robot: Robot,
     reference: Union[Plan, Trajectory],
-    controller: Union[Mpc, Controller, Callable[[float, Array], ArrayLike], None] = None,
+    controller: Union[ControllerObject, Controller, Callable[[float, Array], ArrayLike], None] = None,
     plant: Union[ModelPlant, RapierPlant, None] = None,
     duration: Optional[float] = None,
     control_dt: float = 0.001,
     noise_q_std: float = 0.0,
     noise_qd_std: float = 0.0,
     seed: int = 0,
+    disturbances: Optional[dict[str, Any]] = None,
 ) -> TrackResult:
-    """Run a controller against a plant in closed loop."""
+    """Run a controller against a plant in closed loop (``disturbances``: a scenario's [disturbances])."""
 
 class Scenario:
     """A scenario file, loaded and validated."""
 
     @staticmethod
     def from_toml(path: StrPath) -> Scenario: ...
+    @staticmethod
+    def from_toml_str(
+        text: str, base_dir: Optional[StrPath] = None, source_name: Optional[str] = None
+    ) -> Scenario:
+        """A scenario from TOML text (params relative to base_dir; errors name source_name)."""
     @property
     def name(self) -> str: ...
+    @property
+    def is_traverse(self) -> bool: ...
     @property
     def path(self) -> str: ...
     @property
@@ -451,6 +530,12 @@ class Scenario:
     def plan_settings(self) -> dict[str, Any]: ...
     @property
     def mpc_settings(self) -> dict[str, Any]: ...
+    @property
+    def tracking(self) -> dict[str, Any]: ...
+    @property
+    def disturbances(self) -> dict[str, Any]: ...
+    @property
+    def plant(self) -> dict[str, Any]: ...
     def plan(self) -> Plan: ...
     def track(
         self,
@@ -458,6 +543,40 @@ class Scenario:
         plant: Optional[Literal["model", "rapier"]] = None,
         reference: Optional[Plan] = None,
     ) -> TrackResult: ...
+    def traverse(self) -> TraverseResult:
+        """Run the traverse of a traverse scenario (a [ladder] section), as ``brachia traverse``."""
+
+class TraverseResult:
+    """A traverse: swings, world-frame arrays, grip switches, report, run folder and page."""
+
+    @property
+    def completed(self) -> bool: ...
+    @property
+    def status(self) -> str: ...
+    @property
+    def swings(self) -> list[dict[str, Any]]: ...
+    @property
+    def grip_switches(self) -> list[dict[str, Any]]: ...
+    @property
+    def t(self) -> Array: ...
+    @property
+    def swing(self) -> Array: ...
+    @property
+    def x(self) -> Array: ...
+    @property
+    def tau(self) -> Array: ...
+    @property
+    def ee(self) -> Array: ...
+    @property
+    def joints(self) -> Array:
+        """World joints, shape (rows, n + 1, 2), hand A first."""
+    @property
+    def report(self) -> dict[str, Any]: ...
+    def write(self, out: StrPath, force: bool = False) -> None: ...
+    def _repr_html_(self) -> Optional[str]: ...
+
+def traverse(scenario: Union[StrPath, Scenario]) -> TraverseResult:
+    """Run a traverse scenario (a Scenario or a file) as ``brachia traverse`` does."""
 
 def rust_mpc_step_times(
     robot: Robot,
@@ -521,5 +640,5 @@ class SwingBatchCore:
 def view_folder(path: StrPath) -> str:
     """Write DIR/view.html for a run folder (as ``brachia view``); returns its path."""
 
-def view(obj: Union[StrPath, Plan, TrackResult], path: Optional[StrPath] = None, open: bool = False) -> Any:
+def view(obj: Union[StrPath, Plan, TrackResult, TraverseResult], path: Optional[StrPath] = None, open: bool = False) -> Any:
     """Write the interactive page of a run folder, Plan or TrackResult; returns its path."""

@@ -20,16 +20,17 @@
 //! are checked finite before they are returned (a non-finite one raises).
 //!
 //! ## Threads
-//! Immutable classes (`Robot`, `Trajectory`, `Plan`, `Scenario`, results) are shared freely. The
-//! classes with state (`Mpc`, `SwingPlanner`, `ModelPlant`, `RapierPlant`) hold it behind a lock
-//! (`shared`): any thread may call them, calls on one object run one at a time, long work runs with the
-//! GIL released.
+//! Immutable classes (`Robot`, `Trajectory`, `Plan`, `Scenario`, results, the controller recipes of
+//! `controllers`) are shared freely. The classes with state (`Mpc`, `SwingPlanner`, `ModelPlant`,
+//! `RapierPlant`) hold it behind a lock (`shared`): any thread may call them, calls on one object run
+//! one at a time, long work runs with the GIL released.
 
 use convert::BrachiaError;
 use pyo3::prelude::*;
 
 mod bench;
 mod control;
+mod controllers;
 mod convert;
 mod dicts;
 mod gym;
@@ -43,6 +44,7 @@ mod replan;
 mod scenario;
 mod shared;
 mod sim;
+mod traverse;
 mod view;
 
 /// The extension module `brachia._brachia` (use it through the package `brachia`).
@@ -62,15 +64,23 @@ fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ladder::JointSwingPlan>()?;
     m.add_class::<ladder::JointPhase>()?;
     m.add_class::<control::Mpc>()?;
+    m.add_class::<controllers::Tvlqr>()?;
+    m.add_class::<controllers::Pd>()?;
+    m.add_class::<controllers::OpenLoop>()?;
+    m.add_class::<controllers::Kalman>()?;
+    m.add_class::<controllers::ReplanningCtrl>()?;
+    m.add_class::<controllers::AdaptiveCtrl>()?;
     m.add_class::<plants::ModelPlant>()?;
     m.add_class::<plants::RapierPlant>()?;
     m.add_class::<sim::TrackResult>()?;
     m.add_class::<scenario::Scenario>()?;
+    m.add_class::<traverse::TraverseResult>()?;
     m.add_class::<gym::SwingCore>()?;
     m.add_class::<gym::SwingBatchCore>()?;
     m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(ladder::plan_joint_swings, m)?)?;
     m.add_function(wrap_pyfunction!(sim::track, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::traverse, m)?)?;
     m.add_function(wrap_pyfunction!(bench::benchmark, m)?)?;
     m.add_function(wrap_pyfunction!(control::rust_mpc_step_times, m)?)?;
     m.add_function(wrap_pyfunction!(dicts::jsonable, m)?)?;

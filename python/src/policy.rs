@@ -5,22 +5,24 @@
 //! the result is read as the torques of joints 2..n (n - 1 values, N m; clamped by the plant). An
 //! exception in the policy (or a result of the wrong shape) stops the loop at that step: its torques
 //! are not finite, so the loop records a divergence there, and `track` raises the exception once the
-//! loop has returned.
+//! loop has returned: the policy leaves it in its error sink, which `track` holds beside it (the loop
+//! may run on a worker thread).
 
 use crate::convert::{arr1, read_vector, Arg, Range};
 use brachia::sim::{ControlInfo, Controller};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
-use std::cell::RefCell;
 use std::sync::{Arc, Mutex};
 
-/// Where a policy run on a worker thread (the benchmark's) leaves its first exception.
+/// Where a policy leaves its first exception, for the thread that started its run to raise.
 pub(crate) type ErrorSink = Arc<Mutex<Option<PyErr>>>;
 
-thread_local! {
-    /// Where the policy of the `track` call made on this thread leaves its exception (the closed loop
-    /// may run on a worker thread, so the policy holds the sink, not this thread's state).
-    static TRACK_SINK: RefCell<Option<ErrorSink>> = const { RefCell::new(None) };
+/// Raise the exception left in `sink`, if any.
+pub(crate) fn raise_from(sink: &ErrorSink) -> PyResult<()> {
+    match sink.lock().ok().and_then(|mut slot| slot.take()) {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
 }
 
 /// A Python callable driving the plant.
@@ -31,15 +33,16 @@ pub(crate) struct PyPolicy {
 }
 
 impl PyPolicy {
-    /// `obj` as a policy when it is callable (and not a controller's name).
-    pub(crate) fn of(obj: &Bound<'_, PyAny>) -> Option<Self> {
+    /// `obj` as a policy when it is callable (and not a controller's name), with the sink its
+    /// exception goes to.
+    pub(crate) fn of(obj: &Bound<'_, PyAny>) -> Option<(Self, ErrorSink)> {
         if obj.is_callable() && !obj.is_instance_of::<PyString>() {
             let sink: ErrorSink = Arc::new(Mutex::new(None));
-            TRACK_SINK.with(|s| *s.borrow_mut() = Some(sink.clone()));
-            Some(PyPolicy {
+            let policy = PyPolicy {
                 f: obj.clone().unbind(),
-                sink,
-            })
+                sink: sink.clone(),
+            };
+            Some((policy, sink))
         } else {
             None
         }
@@ -83,17 +86,5 @@ impl Controller for PyPolicy {
 
     fn name(&self) -> &'static str {
         "python"
-    }
-}
-
-/// Raise the exception the policy of the `track` call made on this thread raised in its loop, if any
-/// (whichever thread ran the loop).
-pub(crate) fn raise_pending() -> PyResult<()> {
-    let pending = TRACK_SINK
-        .with(|s| s.borrow_mut().take())
-        .and_then(|sink| sink.lock().ok().and_then(|mut slot| slot.take()));
-    match pending {
-        Some(e) => Err(e),
-        None => Ok(()),
     }
 }

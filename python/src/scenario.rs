@@ -9,12 +9,14 @@ use crate::model::Robot;
 use crate::planning::Plan;
 use crate::sim::TrackResult;
 use brachia::model::RobotParams;
+use brachia_experiments::ladder::{swing_scenario, LoadedLadder};
 use brachia_experiments::scenario::LoadedScenario;
 use brachia_experiments::{
-    run_plan, run_track, ControllerKind, PlanReport, PlantKind, RunFolder, TrackOutcome, Uses,
+    run_plan, run_track, ControllerKind, LadderScenario, PlanReport, PlantKind, RunFolder,
+    TrackOutcome, Uses,
 };
 use pyo3::prelude::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// The report.json of a run folder (`null` if absent or unreadable, which a folder built by the
@@ -27,12 +29,58 @@ fn folder_report(f: &RunFolder) -> serde_json::Value {
 
 /// A scenario file, loaded and validated (nothing solved yet).
 ///
-/// ``Scenario.from_toml(path)`` reads and checks every section, as ``brachia track`` does; errors
-/// name the file, the field as written (``planner.knot_dt``), the value and the rule.
+/// ``Scenario.from_toml(path)`` reads and checks every section, as ``brachia track`` does (a
+/// traverse scenario, one with a ``[ladder]`` section, as ``brachia traverse`` does); errors name
+/// the file, the field as written (``planner.knot_dt``), the value and the rule.
 #[pyclass(module = "brachia", frozen)]
 pub struct Scenario {
+    /// The swing scenario (of a traverse scenario: its first swing).
     pub(crate) ls: LoadedScenario,
     robot: Arc<brachia::Robot>,
+    /// The traverse scenario, when it is one.
+    pub(crate) ladder: Option<Arc<LoadedLadder>>,
+}
+
+/// Whether the TOML text is a traverse scenario (it has a `[ladder]` table); text that does not
+/// parse is left to the scenario reader, whose error names the line.
+fn is_ladder(text: &str) -> bool {
+    text.parse::<toml::Table>()
+        .map(|t| t.contains_key("ladder"))
+        .unwrap_or(false)
+}
+
+/// A scenario from TOML text: `source` names it in errors, `base` resolves its `params` path.
+fn load_scenario(text: &str, source: &Path, base: &Path) -> PyResult<Scenario> {
+    if is_ladder(text) {
+        let ll = LadderScenario::load_str(text, source, base).map_err(rs)?;
+        let n = ll.robot.n();
+        let first = swing_scenario(
+            &ll.scenario,
+            &ll.x0[..n],
+            &ll.x0[n..],
+            ll.scenario.ladder.bars[0].p(),
+            1,
+        );
+        let ls = LoadedScenario {
+            scenario: first,
+            robot: ll.robot.clone(),
+            path: ll.path.clone(),
+        };
+        let robot = Arc::new(ll.robot.clone());
+        return Ok(Scenario {
+            ls,
+            robot,
+            ladder: Some(Arc::new(ll)),
+        });
+    }
+    let ls =
+        brachia_experiments::Scenario::load_str_for(text, source, base, Uses::Track).map_err(rs)?;
+    let robot = Arc::new(ls.robot.clone());
+    Ok(Scenario {
+        ls,
+        robot,
+        ladder: None,
+    })
 }
 
 fn controller_kind(name: &str) -> PyResult<ControllerKind> {
@@ -58,6 +106,30 @@ fn plant_kind(name: &str) -> PyResult<PlantKind> {
 }
 
 impl Scenario {
+    /// Read a scenario file (a swing or a traverse scenario).
+    pub(crate) fn read(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let text =
+            brachia::limits::read_text_capped(&path, brachia::limits::MAX_TOML_BYTES, "TOML file")
+                .map_err(rs)?;
+        let base = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+        py.detach(|| load_scenario(&text, &path, &base))
+    }
+
+    /// Run its traverse (a traverse scenario only).
+    pub(crate) fn traverse_result(
+        &self,
+        py: Python<'_>,
+    ) -> PyResult<crate::traverse::TraverseResult> {
+        match &self.ladder {
+            Some(ll) => crate::traverse::run(py, ll),
+            None => Err(bad(format!(
+                "traverse: {} is a swing scenario; a traverse scenario has a [ladder] section \
+                 (scenarios/ladder-even.toml)",
+                self.ls.path.display()
+            ))),
+        }
+    }
+
     /// Refuse a plan made for another robot or another task than this scenario's: every field they
     /// share (the robot's parameters, the start state, the target, the obstacles) must agree.
     fn check_reference(&self, plan: &Plan) -> PyResult<()> {
@@ -127,16 +199,41 @@ impl Scenario {
     /// Read a scenario file (TOML; its ``params`` path is relative to the file) and validate every
     /// section.
     #[staticmethod]
-    fn from_toml(path: PathBuf) -> PyResult<Self> {
-        let ls = brachia_experiments::Scenario::load_for(&path, Uses::Track).map_err(rs)?;
-        let robot = Arc::new(ls.robot.clone());
-        Ok(Scenario { ls, robot })
+    fn from_toml(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Self::read(py, path)
+    }
+
+    /// Read a scenario from TOML text, as ``from_toml`` reads a file: its ``params`` path is
+    /// relative to ``base_dir`` (default: the working directory), and errors name
+    /// ``source_name`` (default ``"<string>"``; its stem is the default scenario name).
+    #[staticmethod]
+    #[pyo3(signature = (text, base_dir = None, source_name = None))]
+    fn from_toml_str(
+        py: Python<'_>,
+        text: &str,
+        base_dir: Option<PathBuf>,
+        source_name: Option<String>,
+    ) -> PyResult<Self> {
+        let max = brachia::limits::MAX_TOML_BYTES;
+        let source = PathBuf::from(source_name.unwrap_or_else(|| "<string>".into()));
+        if text.len() as u64 > max {
+            return Err(bad(format!(
+                "{}: {} bytes of TOML text: at most {max}",
+                source.display(),
+                text.len()
+            )));
+        }
+        let base = base_dir.unwrap_or_else(|| PathBuf::from("."));
+        py.detach(|| load_scenario(text, &source, &base))
     }
 
     /// The scenario's name (default: the file stem).
     #[getter]
     fn name(&self) -> String {
-        self.ls.scenario.name.clone()
+        match &self.ladder {
+            Some(ll) => ll.scenario.name.clone(),
+            None => self.ls.scenario.name.clone(),
+        }
     }
 
     /// The file it was read from.
@@ -283,12 +380,57 @@ impl Scenario {
         }
     }
 
+    /// Whether it is a traverse scenario (a ``[ladder]`` section: ``traverse()``; ``plan``,
+    /// ``track`` and the other swing views are of its first swing).
+    #[getter]
+    fn is_traverse(&self) -> bool {
+        self.ladder.is_some()
+    }
+
+    /// The ``[tracking]`` section with its defaults filled in (``controller``, ``mpc``, ``pd``,
+    /// ``tvlqr``, ``kalman``, ``estimator``, ``control_dt``, ``replan``, ``estimate_params``, ...):
+    /// the settings of the controller objects.
+    #[getter]
+    fn tracking<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.ls.scenario.tracking)
+    }
+
+    /// The ``[disturbances]`` section with its defaults filled in (what ``track`` takes as
+    /// ``disturbances``; of a traverse scenario, its own section).
+    #[getter]
+    fn disturbances<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match &self.ladder {
+            Some(ll) => to_py(py, &ll.scenario.disturbances),
+            None => to_py(py, &self.ls.scenario.disturbances),
+        }
+    }
+
+    /// The ``[plant]`` section with its defaults filled in.
+    #[getter]
+    fn plant<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.ls.scenario.plant)
+    }
+
+    /// Run the traverse of a traverse scenario as ``brachia traverse`` does (every swing planned
+    /// from the state the last one left, tracked, the grip switched at every bar); Ctrl-C stops it
+    /// (``KeyboardInterrupt``). Returns a ``TraverseResult``.
+    fn traverse(&self, py: Python<'_>) -> PyResult<crate::traverse::TraverseResult> {
+        self.traverse_result(py)
+    }
+
     fn __repr__(&self) -> String {
         format!(
-            "Scenario(name={:?}, path={:?}, n_links={})",
-            self.ls.scenario.name,
+            "Scenario(name={:?}, path={:?}, n_links={}{})",
+            self.ladder
+                .as_ref()
+                .map_or(&self.ls.scenario.name, |l| &l.scenario.name),
             self.ls.path.display().to_string(),
-            self.robot.n()
+            self.robot.n(),
+            if self.ladder.is_some() {
+                ", traverse"
+            } else {
+                ""
+            }
         )
     }
 }
@@ -299,4 +441,23 @@ fn with_cancel(ls: &LoadedScenario) -> (LoadedScenario, brachia::CancelToken) {
     let mut ls = ls.clone();
     ls.scenario.solver.cancel = Some(cancel.clone());
     (ls, cancel)
+}
+
+/// Run the traverse of ``scenario``: a traverse ``Scenario`` or the path of a traverse scenario
+/// file (a ``[ladder]`` section), as ``brachia traverse`` does. Returns a ``TraverseResult`` (also
+/// when a bar was missed: ``completed`` is False and ``status`` says where); raises
+/// ``BrachiaError`` on bad input and ``KeyboardInterrupt`` on Ctrl-C.
+#[pyfunction]
+pub(crate) fn traverse(
+    py: Python<'_>,
+    scenario: &Bound<'_, PyAny>,
+) -> PyResult<crate::traverse::TraverseResult> {
+    if let Ok(s) = scenario.cast::<Scenario>() {
+        return s.get().traverse_result(py);
+    }
+    let path: PathBuf = scenario.extract().map_err(|_| {
+        bad("traverse: scenario: expected a Scenario or the path of a traverse scenario file")
+    })?;
+    let s = Scenario::read(py, path)?;
+    s.traverse_result(py)
 }

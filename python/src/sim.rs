@@ -6,17 +6,19 @@
 //! released, holding the locks of the plant and of an `Mpc` it was given (`crate::shared`).
 
 use crate::control::{reference_of, Mpc, MpcState};
+use crate::controllers::{spec_of, Plain, Spec};
 use crate::convert::{arr1, arr2, bad, exp, num, rs, scalar, Count, Real};
-use crate::dicts::to_py;
+use crate::dicts::{settings_from, to_py};
 use crate::interrupt::interruptible;
 use crate::model::Robot;
 use crate::planning::Plan;
-use crate::plants::{ModelPlant, RapierPlant};
+use crate::plants::{ModelPlant, PlantCell, RapierPlant};
+use crate::policy::{raise_from, ErrorSink, PyPolicy};
 use crate::shared::Guard;
-use brachia::control::{OpenLoop, Pd, PdSettings};
+use brachia::control::{EstimateReport, MpcSettings, PdSettings, ReplanEvent, TvlqrSettings};
 use brachia::sim::{
-    run_closed_loop, ClosedLoopLog, Controller, NoiseSettings, Noisy, Plant, RunSettings,
-    RunSummary,
+    run_closed_loop, ClosedLoopLog, Controller, Disturbances, NoiseSettings, Noisy, Plant,
+    RunSettings, RunSummary,
 };
 use brachia_experiments::RunFolder;
 use pyo3::prelude::*;
@@ -200,30 +202,24 @@ impl TrackResult {
     }
 }
 
-/// The controller of a `track` call: a given `Mpc` (locked for the run) or one made for it.
+/// The controller of a `track` call: a given `Mpc` (locked for the run, its state carried over), a
+/// Python policy with the sink of its exception, or a recipe built afresh on the loop's thread.
 enum Ctrl<'a> {
     Given(Guard<'a, MpcState>),
-    Owned(Box<dyn Controller + Send>),
+    Policy(PyPolicy, ErrorSink),
+    Recipe(Option<Plain>),
 }
 
-impl Ctrl<'_> {
-    fn get(&mut self) -> &mut (dyn Controller + Send) {
-        match self {
-            Ctrl::Given(m) => &mut m.inner,
-            Ctrl::Owned(c) => c.as_mut(),
-        }
-    }
-}
-
-/// The controller `controller` names (or the `Mpc` it is), for `reference`.
+/// The controller `controller` names or is, for `reference`.
 fn controller_for<'a>(
     py: Python<'_>,
     controller: Option<&'a Bound<'_, PyAny>>,
     robot: &Arc<brachia::Robot>,
     reference: &Arc<brachia::trajectory::Trajectory>,
 ) -> PyResult<Ctrl<'a>> {
-    let names =
-        "expected an Mpc, a callable policy(t, x) -> tau, or one of \"mpc\", \"pd\", \"open-loop\"";
+    let names = "expected a controller object (Mpc, Tvlqr, Pd, OpenLoop, Kalman, Replanning, \
+                 Adaptive), a callable policy(t, x) -> tau, or one of \"mpc\", \"tvlqr\", \"pd\", \
+                 \"open-loop\"";
     let name = match controller.filter(|c| !c.is_none()) {
         None => "mpc".to_string(),
         Some(c) => {
@@ -233,48 +229,124 @@ fn controller_for<'a>(
                 reference.check_reference(g.inner.robot()).map_err(rs)?;
                 return Ok(Ctrl::Given(g));
             }
-            if let Some(p) = crate::policy::PyPolicy::of(c) {
-                return Ok(Ctrl::Owned(Box::new(p)));
+            if let Some(spec) = spec_of(c) {
+                return recipe(py, &spec, robot, reference);
+            }
+            if let Some((p, sink)) = PyPolicy::of(c) {
+                return Ok(Ctrl::Policy(p, sink));
             }
             c.extract::<String>()
                 .map_err(|_| bad(format!("controller: {names}")))?
         }
     };
     let (r, t) = (robot.clone(), reference.clone());
-    let c: Box<dyn Controller + Send> = match name.as_str() {
-        "mpc" => Box::new(brachia::control::Mpc::new(r, t, Default::default()).map_err(rs)?),
-        "pd" => Box::new(Pd::new(r, t, PdSettings::default()).map_err(rs)?),
-        "open-loop" => Box::new(OpenLoop::new(r, t).map_err(rs)?),
+    let plain = match name.as_str() {
+        "mpc" => Plain::Mpc(Box::new(
+            brachia::control::Mpc::new(r, t, MpcSettings::default()).map_err(rs)?,
+        )),
+        "tvlqr" => Plain::Tvlqr(r, t, TvlqrSettings::default()),
+        "pd" => Plain::Pd(r, t, PdSettings::default()),
+        "open-loop" => Plain::OpenLoop(r, t),
         other => return Err(bad(format!("controller = {other:?}: {names}"))),
     };
-    Ok(Ctrl::Owned(c))
+    Ok(Ctrl::Recipe(Some(plain)))
 }
 
-/// Run `ctrl` against `plant` with the GIL released, stopped by Ctrl-C (`KeyboardInterrupt`).
-fn run_released(
+/// A controller object's recipe, checked against the run's robot and reference: the reference it
+/// was made with must be the run's (a wrapper's cold plan and filter follow it).
+fn recipe<'a>(
     py: Python<'_>,
-    plant: &mut (dyn Plant + Send),
-    ctrl: &mut (dyn Controller + Send),
-    reference: &brachia::trajectory::Trajectory,
-    robot: &brachia::Robot,
-    settings: &RunSettings,
+    spec: &Spec,
+    robot: &Arc<brachia::Robot>,
+    reference: &Arc<brachia::trajectory::Trajectory>,
+) -> PyResult<Ctrl<'a>> {
+    let mine = spec.reference(py)?;
+    if !Arc::ptr_eq(&mine, reference) && *mine != **reference {
+        return Err(bad(
+            "controller: it was made for another reference than the one given to track(); make \
+             it with this reference",
+        ));
+    }
+    reference.check_reference(robot).map_err(rs)?;
+    Ok(Ctrl::Recipe(Some(spec.resolve(py)?)))
+}
+
+/// What a run left besides its log: the re-plans and the estimate of a wrapped controller.
+#[derive(Default)]
+struct Extras {
+    replans: Option<Vec<ReplanEvent>>,
+    estimate: Option<EstimateReport>,
+}
+
+/// Everything a `track` call runs besides the plant and the controller.
+struct Job<'a> {
+    reference: &'a brachia::trajectory::Trajectory,
+    robot: &'a brachia::Robot,
+    settings: RunSettings,
     noise: NoiseSettings,
-) -> PyResult<ClosedLoopLog> {
-    // Ctrl-C stops the loop at its next check (every 64 control steps) and raises KeyboardInterrupt
-    let cancel = brachia::CancelToken::new();
-    let settings = RunSettings {
-        cancel: Some(cancel.clone()),
-        ..settings.clone()
-    };
-    interruptible(py, &cancel, || {
-        if noise.q_std == 0.0 && noise.qd_std == 0.0 {
-            run_closed_loop(plant, ctrl, reference, robot, &settings)
-        } else {
-            let mut noisy = Noisy::new(plant, noise)?;
-            run_closed_loop(&mut noisy, ctrl, reference, robot, &settings)
+    disturbances: Disturbances,
+}
+
+impl Job<'_> {
+    /// Run `ctrl` against `plant` (wrapped in the disturbances, then the sensor noise) with the GIL
+    /// released, stopped by Ctrl-C (`KeyboardInterrupt`); a recipe is built on the worker thread.
+    fn run(
+        &self,
+        py: Python<'_>,
+        plant: &mut (dyn Plant + Send),
+        ctrl: &mut Ctrl<'_>,
+    ) -> PyResult<(ClosedLoopLog, Extras)> {
+        // Ctrl-C stops the loop at its next check (every 64 control steps), and a wrapper's solves
+        let cancel = brachia::CancelToken::new();
+        let settings = RunSettings {
+            cancel: Some(cancel.clone()),
+            ..self.settings.clone()
+        };
+        let (given, plain): (Option<&mut (dyn Controller + Send)>, Option<Plain>) = match ctrl {
+            Ctrl::Given(m) => (Some(&mut m.inner), None),
+            Ctrl::Policy(p, _) => (Some(p), None),
+            Ctrl::Recipe(r) => (None, r.take()),
+        };
+        let out = interruptible(py, &cancel, || {
+            let mut built = match plain {
+                Some(p) => Some(p.build(settings.control_dt, &cancel)?),
+                None => None,
+            };
+            let c: &mut (dyn Controller + Send) = match (given, built.as_mut()) {
+                (Some(c), _) => c,
+                (None, Some(b)) => b.controller(),
+                (None, None) => unreachable!("a controller is given or built"),
+            };
+            let mut wrapped = self
+                .disturbances
+                .wrap_send(Box::new(plant), settings.control_dt)?;
+            if !self.noise.is_zero() {
+                wrapped = Box::new(Noisy::new(wrapped, self.noise)?);
+            }
+            let log = run_closed_loop(wrapped.as_mut(), c, self.reference, self.robot, &settings)?;
+            let extras = built.map_or_else(Extras::default, |b| Extras {
+                replans: b.replans(),
+                estimate: b.estimate(),
+            });
+            Ok::<_, brachia::Error>((log, extras))
+        })?;
+        if let Ctrl::Policy(_, sink) = ctrl {
+            raise_from(sink)?;
         }
-    })?
-    .map_err(rs)
+        out.map_err(rs)
+    }
+
+    /// [`Job::run`] on a plant object's plant, recording a divergence on it.
+    fn run_on<P: Plant + Send>(
+        &self,
+        py: Python<'_>,
+        cell: &mut PlantCell<P>,
+        ctrl: &mut Ctrl<'_>,
+    ) -> PyResult<(ClosedLoopLog, Extras)> {
+        let out = self.run(py, &mut cell.plant, ctrl);
+        cell.note_divergence();
+        out
+    }
 }
 
 /// The run settings of a `track` call, checked as the CLI checks a scenario's `[tracking]`.
@@ -306,21 +378,90 @@ fn run_settings(
     Ok(settings)
 }
 
+/// The `disturbances` dict of a `track` call (the scenario's `[disturbances]` schema), checked as
+/// the scenario's are; the model mismatch and the start offset need the plant `track` makes.
+fn disturbances_of(
+    d: Option<&Bound<'_, PyAny>>,
+    n: usize,
+    control_dt: f64,
+    noise: &NoiseSettings,
+    plant_given: bool,
+) -> PyResult<Disturbances> {
+    let d: Disturbances = settings_from(d, None, "disturbances")?;
+    d.validate(n, control_dt, "disturbances").map_err(rs)?;
+    if !noise.is_zero() && (d.noise_q_std > 0.0 || d.noise_qd_std > 0.0) {
+        return Err(bad(
+            "disturbances.noise_q_std: sensor noise is given twice: use the disturbances' \
+             noise_q_std / noise_qd_std or track()'s noise_q_std / noise_qd_std, not both",
+        ));
+    }
+    if plant_given {
+        let mismatch = [
+            ("mass_scale", &d.mass_scale),
+            ("com_scale", &d.com_scale),
+            ("inertia_scale", &d.inertia_scale),
+            ("length_scale", &d.length_scale),
+            ("start_offset", &d.start_offset),
+        ];
+        if let Some((field, _)) = mismatch.iter().find(|(_, v)| !v.is_empty()) {
+            return Err(bad(format!(
+                "disturbances.{field}: a plant given to track() has its robot and state already: \
+                 make it with the mismatched robot and start state, or pass plant=None and \
+                 track() makes the model plant from the disturbances"
+            )));
+        }
+    }
+    Ok(d)
+}
+
+/// The report of a `track` call: the summary, the controller's name and, for a wrapped
+/// controller, its re-plans and estimate.
+fn track_report(summary: &RunSummary, extras: Extras, d: &Disturbances) -> serde_json::Value {
+    let mut v = serde_json::to_value(summary).unwrap_or_default();
+    if let Some(m) = v.as_object_mut() {
+        m.insert("replanning".into(), extras.replans.is_some().into());
+        if let Some(r) = extras.replans {
+            m.insert("replan_count".into(), r.len().into());
+            m.insert(
+                "replans".into(),
+                serde_json::to_value(r).unwrap_or_default(),
+            );
+        }
+        if let Some(e) = extras.estimate {
+            m.insert(
+                "estimate".into(),
+                serde_json::to_value(e).unwrap_or_default(),
+            );
+        }
+        m.insert(
+            "disturbances".into(),
+            serde_json::to_value(d).unwrap_or_default(),
+        );
+    }
+    v
+}
+
 /// Run ``controller`` against ``plant`` in closed loop from the plant's current state, logging
 /// against ``reference`` (a ``Plan`` or a ``Trajectory``).
 ///
-/// ``controller``: an ``Mpc`` (used as it is; its state carries over), ``"mpc"`` (default: an
-/// ``Mpc`` with default settings), ``"pd"``, ``"open-loop"``, or any callable ``policy(t, x) ->
-/// tau`` (s, ``[q, qd]`` float64, N m for joints 2..n; its exception is raised after the loop). ``plant``: a ``ModelPlant`` or a
-/// ``RapierPlant`` (stepped in place), or ``None`` for a model plant at the reference's first state.
+/// ``controller``: an ``Mpc`` (used as it is; its state carries over), a controller object
+/// (``Tvlqr``, ``Pd``, ``OpenLoop``, ``Kalman``, ``Replanning``, ``Adaptive``: built afresh for the
+/// run, made for this reference), ``"mpc"`` (default), ``"tvlqr"``, ``"pd"``, ``"open-loop"`` (default
+/// settings), or any callable ``policy(t, x) -> tau`` (s, ``[q, qd]`` float64, N m for joints 2..n;
+/// its exception is raised after the loop). ``plant``: a ``ModelPlant`` or a ``RapierPlant``
+/// (stepped in place), or ``None`` for a model plant at the reference's first state.
 /// ``duration`` defaults to the reference's (at least one control period); ``control_dt`` is the
 /// control period (s, at most 0.1; the torque is held over it); ``noise_q_std`` / ``noise_qd_std``
-/// add Gaussian sensor noise (rad, rad/s) seeded by ``seed``. Returns a ``TrackResult`` (a run that
-/// diverged stops there: ``diverged_at_s``); raises ``BrachiaError`` on bad input. The loop runs with
-/// the GIL released; the plant and a given ``Mpc`` are locked for it.
+/// add Gaussian sensor noise (rad, rad/s) seeded by ``seed``. ``disturbances``: a dict of a
+/// scenario's ``[disturbances]`` section (mismatch, noise, delays, motor lag, friction, torque
+/// noise and limit, pushes, start offset); with ``plant=None`` the model plant is made with the
+/// mismatched robot and the offset start, a given plant refuses those two. Returns a
+/// ``TrackResult`` (a run that diverged stops there: ``diverged_at_s``); raises ``BrachiaError`` on
+/// bad input. The loop runs with the GIL released; the plant and a given ``Mpc`` are locked for it.
 #[pyfunction]
 #[pyo3(signature = (robot, reference, controller = None, plant = None, duration = None,
-    control_dt = Real(0.001), noise_q_std = Real(0.0), noise_qd_std = Real(0.0), seed = Count(0)))]
+    control_dt = Real(0.001), noise_q_std = Real(0.0), noise_qd_std = Real(0.0), seed = Count(0),
+    disturbances = None))]
 pub(crate) fn track(
     py: Python<'_>,
     robot: &Robot,
@@ -332,6 +473,7 @@ pub(crate) fn track(
     noise_q_std: Real,
     noise_qd_std: Real,
     seed: Count,
+    disturbances: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<TrackResult> {
     let r = robot.inner.clone();
     let reference = reference_of(reference)?;
@@ -343,57 +485,54 @@ pub(crate) fn track(
         seed: seed.0,
     };
     noise.validate().map_err(rs)?;
+    let plant = plant.filter(|p| !p.is_none());
+    let d = disturbances_of(
+        disturbances,
+        r.n(),
+        settings.control_dt,
+        &noise,
+        plant.is_some(),
+    )?;
+    let job = Job {
+        reference: &reference,
+        robot: &r,
+        settings,
+        noise,
+        disturbances: d,
+    };
     // the plant's lock first, then the controller's (the one order of two locks: crate::shared)
-    let log = match plant.filter(|p| !p.is_none()) {
-        Some(p) if p.is_instance_of::<ModelPlant>() => {
-            let p: &ModelPlant = p.cast::<ModelPlant>()?.get();
-            let mut cell = p.lock(py)?;
-            cell.usable("track")?;
-            let mut ctrl = controller_for(py, controller, &r, &reference)?;
-            let log = run_released(
-                py,
-                &mut cell.plant,
-                ctrl.get(),
-                &reference,
-                &r,
-                &settings,
-                noise,
-            );
-            cell.note_divergence();
-            log?
-        }
-        Some(p) if p.is_instance_of::<RapierPlant>() => {
-            let p: &RapierPlant = p.cast::<RapierPlant>()?.get();
-            let mut cell = p.lock(py)?;
-            cell.usable("track")?;
-            let mut ctrl = controller_for(py, controller, &r, &reference)?;
-            let log = run_released(
-                py,
-                &mut cell.plant,
-                ctrl.get(),
-                &reference,
-                &r,
-                &settings,
-                noise,
-            );
-            cell.note_divergence();
-            log?
-        }
+    let (log, extras) = match plant {
         Some(p) => {
-            return Err(bad(format!(
-                "plant: expected a ModelPlant or a RapierPlant, got {}",
-                p.get_type().name()?
-            )))
+            if let Ok(p) = p.cast::<ModelPlant>() {
+                let mut cell = p.get().lock(py)?;
+                cell.usable("track")?;
+                let mut ctrl = controller_for(py, controller, &r, &reference)?;
+                job.run_on(py, &mut cell, &mut ctrl)?
+            } else if let Ok(p) = p.cast::<RapierPlant>() {
+                let mut cell = p.get().lock(py)?;
+                cell.usable("track")?;
+                let mut ctrl = controller_for(py, controller, &r, &reference)?;
+                job.run_on(py, &mut cell, &mut ctrl)?
+            } else {
+                return Err(bad(format!(
+                    "plant: expected a ModelPlant or a RapierPlant, got {}",
+                    p.get_type().name()?
+                )));
+            }
         }
         None => {
-            let x0 = [reference.q(0), reference.qd(0)].concat();
-            let mut p = brachia::sim::ModelPlant::new(r.clone(), &x0);
+            let x0 = job
+                .disturbances
+                .start_state(&[reference.q(0), reference.qd(0)].concat());
+            let params = job.disturbances.plant_params(r.params());
+            let probot =
+                brachia::Robot::from_params(params, "plant (track() disturbances)").map_err(rs)?;
+            let mut p = brachia::sim::ModelPlant::new(probot, &x0);
             let mut ctrl = controller_for(py, controller, &r, &reference)?;
-            run_released(py, &mut p, ctrl.get(), &reference, &r, &settings, noise)?
+            job.run(py, &mut p, &mut ctrl)?
         }
     };
-    crate::policy::raise_pending()?;
     let summary = log.summary();
-    let report = serde_json::to_value(summary).unwrap_or_default();
+    let report = track_report(&summary, extras, &job.disturbances);
     Ok(TrackResult::new(log, Some(summary), report, None, None))
 }

@@ -481,16 +481,23 @@ impl LadderScenario {
     /// file, the field as written (`ladder.bars[3]`, `ladder.q0[1]`), the value and the rule.
     pub fn load(path: &Path) -> Result<LoadedLadder, Error> {
         let text = read_text(path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::load_str(&text, path, base)
+    }
+
+    /// [`LadderScenario::load`] of TOML text: `source` names it in errors (and gives the default
+    /// name, its stem), `base_dir` is the folder its relative `params` path is resolved against.
+    pub fn load_str(text: &str, source: &Path, base_dir: &Path) -> Result<LoadedLadder, Error> {
+        let path = source;
         let src = path.display().to_string();
-        let mut sc: LadderScenario = parse_toml(&text, &src)?;
+        let mut sc: LadderScenario = parse_toml(text, &src)?;
         if sc.name.is_empty() {
             sc.name = path
                 .file_stem()
                 .map(|s| s.to_string_lossy().to_string())
                 .unwrap_or_default();
         }
-        let base = path.parent().unwrap_or(Path::new("."));
-        sc.params = base.join(&sc.params);
+        sc.params = base_dir.join(&sc.params);
         let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
         let n = robot.n();
         let rename = |e: Error, section: &str| in_section(e, &src, section);

@@ -296,16 +296,28 @@ impl Scenario {
     /// and the rule.
     pub fn load_for(path: &Path, uses: Uses) -> Result<LoadedScenario, Error> {
         let text = read_text(path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::load_str_for(&text, path, base, uses)
+    }
+
+    /// [`Scenario::load_for`] of TOML text: `source` names it in errors (and gives the default
+    /// name, its stem), `base_dir` is the folder its relative `params` path is resolved against.
+    pub fn load_str_for(
+        text: &str,
+        source: &Path,
+        base_dir: &Path,
+        uses: Uses,
+    ) -> Result<LoadedScenario, Error> {
+        let path = source;
         let src = path.display().to_string();
-        let mut sc = Self::from_toml_str(&text, &src)?;
+        let mut sc = Self::from_toml_str(text, &src)?;
         if sc.name.is_empty() {
             sc.name = path
                 .file_stem()
                 .map(|s| s.to_string_lossy().to_string())
                 .unwrap_or_default();
         }
-        let base = path.parent().unwrap_or(Path::new("."));
-        sc.params = base.join(&sc.params);
+        sc.params = base_dir.join(&sc.params);
         let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
         let rename = |e: Error, section: &str| in_section(e, &src, section);
         sc.planner
