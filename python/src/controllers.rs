@@ -275,6 +275,18 @@ fn checked<T: serde::de::DeserializeOwned>(
     Ok(s)
 }
 
+/// The recipe of a feedback controller along `reference` with its checked settings `s`.
+fn feedback<S: Clone>(
+    robot: &Robot,
+    reference: &Bound<'_, PyAny>,
+    s: S,
+    make: impl FnOnce(Arc<brachia::Robot>, Arc<Trajectory>, S) -> Spec,
+) -> PyResult<(Arc<Spec>, S)> {
+    let reference = reference_of(reference)?;
+    reference.check_reference(&robot.inner).map_err(rs)?;
+    Ok((Arc::new(make(robot.inner.clone(), reference, s.clone())), s))
+}
+
 /// A settings check's error under the name the settings go by here (`tvlqr settings`), as the
 /// scenario's errors name its file.
 fn named(e: brachia::Error, name: &str) -> brachia::Error {
@@ -316,16 +328,15 @@ impl Tvlqr {
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let n = robot.inner.n();
-        let s: TvlqrSettings = checked(settings, kwargs, "tvlqr settings", |s: &TvlqrSettings| {
-            s.validate(n)
-        })?;
-        let reference = reference_of(reference)?;
-        reference.check_reference(&robot.inner).map_err(rs)?;
-        let spec = Spec::Tvlqr(robot.inner.clone(), reference, s.clone());
-        Ok(Tvlqr {
-            spec: Arc::new(spec),
-            settings: s,
-        })
+        let (spec, settings) = feedback(
+            robot,
+            reference,
+            checked(settings, kwargs, "tvlqr settings", |s: &TvlqrSettings| {
+                s.validate(n)
+            })?,
+            Spec::Tvlqr,
+        )?;
+        Ok(Tvlqr { spec, settings })
     }
 
     /// The settings (defaults filled in) as a dict.
@@ -360,16 +371,15 @@ impl Pd {
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let n = robot.inner.n();
-        let s: PdSettings = checked(settings, kwargs, "pd settings", |s: &PdSettings| {
-            s.validate(n)
-        })?;
-        let reference = reference_of(reference)?;
-        reference.check_reference(&robot.inner).map_err(rs)?;
-        let spec = Spec::Pd(robot.inner.clone(), reference, s.clone());
-        Ok(Pd {
-            spec: Arc::new(spec),
-            settings: s,
-        })
+        let (spec, settings) = feedback(
+            robot,
+            reference,
+            checked(settings, kwargs, "pd settings", |s: &PdSettings| {
+                s.validate(n)
+            })?,
+            Spec::Pd,
+        )?;
+        Ok(Pd { spec, settings })
     }
 
     /// The settings (defaults filled in) as a dict.
