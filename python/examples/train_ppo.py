@@ -58,21 +58,31 @@ CURVE_COLUMNS = [
 ]
 
 
-def evaluate(act: Callable[[np.ndarray], np.ndarray], episodes: int, seed: int) -> dict:
-    """One episode on each of ``episodes`` copies (copy i seeded ``seed + i``), actions from
-    ``act(obs batch) -> action batch``: the mean return, capture rate, final and closest distance of
-    the hand to the bar (m) and positive work (J)."""
-    env = SwingVectorEnv(episodes, scenario=SCENARIO, autoreset_mode="next-step")
+def evaluate(
+    act: Callable[[np.ndarray], np.ndarray],
+    episodes: int,
+    seed: int,
+    disturbances: dict | None = None,
+) -> dict:
+    """One episode on each of ``episodes`` copies (copy i seeded ``seed + i``; ``disturbances`` in
+    the scenario's schema, drawn per episode), actions from ``act(obs batch) -> action batch``: the
+    mean return, capture rate, final and closest distance of the hand to the bar (m), positive work
+    and signed work by eq. 18 (J) and the mean time of the captures (s)."""
+    env = SwingVectorEnv(
+        episodes, scenario=SCENARIO, disturbances=disturbances, autoreset_mode="next-step"
+    )
     obs, _ = env.reset(seed=seed)
     n = episodes
-    ret, work = np.zeros(n), np.zeros(n)
+    ret, work, energy, steps = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     final, closest = np.full(n, np.nan), np.full(n, np.inf)
     captured = np.zeros(n, dtype=bool)
     live = np.ones(n, dtype=bool)
     while live.any():
         obs, reward, terminated, truncated, info = env.step(act(obs))
         ret[live] += reward[live]
+        steps[live] += 1
         work[live] += info["positive_work_j"][live]
+        energy[live] += info["energy_j"][live]
         closest[live] = np.minimum(closest[live], info["distance_m"][live])
         ended = live & (terminated | truncated)
         final[ended] = info["distance_m"][ended]
@@ -85,6 +95,8 @@ def evaluate(act: Callable[[np.ndarray], np.ndarray], episodes: int, seed: int) 
         "final_distance_m": float(final.mean()),
         "min_distance_m": float(closest.mean()),
         "positive_work_j": float(work.mean()),
+        "energy_j": float(energy.mean()),
+        "capture_time_s": float(steps[captured].mean() * env.control_dt) if captured.any() else None,
     }
 
 
@@ -162,8 +174,8 @@ def main() -> None:
                 "train_capture_rate": mean(self.captures),
                 "train_length": mean(self.lengths),
             }
-            r.update({f"eval_{k}": v for k, v in ev.items()})
-            r.update({f"random_{k}": v for k, v in random_eval.items() if k != "positive_work_j"})
+            for prefix, e in (("eval", ev), ("random", random_eval)):
+                r.update({f"{prefix}_{k}": v for k, v in e.items() if f"{prefix}_{k}" in CURVE_COLUMNS})
             writer.writerow(r)
             curve_file.flush()
             print(

@@ -1,32 +1,48 @@
 """The stable-baselines3 adapter (brachia.sb3) against stable-baselines3 itself: its env checker, the
 VecEnv contract (the adapter steps as stable-baselines3's DummyVecEnv over single envs), a few PPO
-steps and the trained model as a controller. Skipped when stable-baselines3 is not installed."""
+steps and the trained model as a controller. Skipped when stable-baselines3 is not installed.
+
+stable-baselines3 (and torch) are imported inside the tests, never when pytest collects this file:
+test_gym.py checks that importing brachia and using the adapter's core imports neither."""
+
+import importlib.util
 
 import numpy as np
 import pytest
 
-sb3 = pytest.importorskip("stable_baselines3")
 gymnasium = pytest.importorskip("gymnasium")
 
 import brachia  # noqa: E402
 from brachia.policy import EnvPolicy  # noqa: E402
 from brachia.sb3 import swing_vec_env  # noqa: E402
-from stable_baselines3.common.env_checker import check_env  # noqa: E402
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize  # noqa: E402
+
+pytestmark = pytest.mark.skipif(
+    importlib.util.find_spec("stable_baselines3") is None,
+    reason="stable-baselines3 is not installed (pip install stable-baselines3)",
+)
+
+
+@pytest.fixture
+def sb3():
+    import stable_baselines3
+    import stable_baselines3.common.env_checker
+    import stable_baselines3.common.vec_env
+
+    return stable_baselines3
 
 # short episodes that end both ways: truncation after 10 steps, termination when a rate passes 2 rad/s
 SHORT = {"time_limit_s": 0.1, "max_rate_rad_s": 2.0}
 
 
-def test_sb3_env_checker_accepts_the_single_env():
+def test_sb3_env_checker_accepts_the_single_env(sb3):
     env = gymnasium.make("brachia/Swing-v0").unwrapped
-    check_env(env, warn=True, skip_render_check=True)
+    sb3.common.env_checker.check_env(env, warn=True, skip_render_check=True)
 
 
-def test_adapter_is_a_vec_env_with_the_env_spaces():
+def test_adapter_is_a_vec_env_with_the_env_spaces(sb3):
     venv = swing_vec_env(num_envs=3, seed=0, **SHORT)
     single = gymnasium.make("brachia/Swing-v0", **SHORT)
-    assert isinstance(venv, VecEnv)
+    assert isinstance(venv, sb3.common.vec_env.VecEnv)
     assert venv.num_envs == 3
     assert venv.observation_space == single.observation_space
     assert venv.action_space == single.action_space
@@ -34,19 +50,19 @@ def test_adapter_is_a_vec_env_with_the_env_spaces():
     assert obs.shape == (3,) + single.observation_space.shape and obs.dtype == np.float32
     assert all(venv.observation_space.contains(o) for o in obs)
     assert venv.get_attr("control_dt") == [0.01] * 3
-    assert venv.env_is_wrapped(VecMonitor) == [False] * 3
+    assert venv.env_is_wrapped(sb3.common.vec_env.VecMonitor) == [False] * 3
     assert venv.seed(5) == [5, 6, 7]
     with pytest.raises(AttributeError):
         venv.set_attr("control_dt", 0.02)
     venv.close()
 
 
-def test_adapter_steps_as_dummy_vec_env_over_single_envs():
+def test_adapter_steps_as_dummy_vec_env_over_single_envs(sb3):
     """Copy i of the adapter seeded s is the single env seeded s + i: the adapter's observations,
     rewards, dones and end-of-episode infos equal stable-baselines3's own DummyVecEnv's."""
     n, seed = 4, 11
     venv = swing_vec_env(num_envs=n, seed=seed, **SHORT)
-    ref = DummyVecEnv([lambda: gymnasium.make("brachia/Swing-v0", **SHORT)] * n)
+    ref = sb3.common.vec_env.DummyVecEnv([lambda: gymnasium.make("brachia/Swing-v0", **SHORT)] * n)
     ref.seed(seed)
     np.testing.assert_array_equal(venv.reset(), ref.reset())
     rng = np.random.default_rng(0)
@@ -69,7 +85,7 @@ def test_adapter_steps_as_dummy_vec_env_over_single_envs():
     assert ends["terminated"] > 0 and ends["truncated"] > 0, ends
 
 
-def test_adapter_episode_info_sums_the_rewards():
+def test_adapter_episode_info_sums_the_rewards(sb3):
     venv = swing_vec_env(num_envs=2, seed=3, **SHORT)
     venv.reset()
     rng = np.random.default_rng(1)
@@ -89,11 +105,12 @@ def test_adapter_episode_info_sums_the_rewards():
     assert seen > 0
 
 
-def test_a_few_ppo_steps_train_and_the_model_is_a_controller(robot, tracking_plan):
+def test_a_few_ppo_steps_train_and_the_model_is_a_controller(sb3, robot, tracking_plan):
     import torch
 
     torch.set_num_threads(1)
-    venv = VecNormalize(VecMonitor(swing_vec_env(num_envs=4, seed=0)))
+    vec_env = sb3.common.vec_env
+    venv = vec_env.VecNormalize(vec_env.VecMonitor(swing_vec_env(num_envs=4, seed=0)))
     model = sb3.PPO("MlpPolicy", venv, n_steps=16, batch_size=32, n_epochs=2, seed=0, device="cpu")
     before = [p.detach().clone() for p in model.policy.parameters()]
     model.learn(total_timesteps=128)
