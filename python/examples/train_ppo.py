@@ -159,6 +159,7 @@ def main() -> None:
             self.lengths: list[int] = []
             self.captures: list[bool] = []
             self.next = 0
+            self.last = -1
             self.t0 = time.perf_counter()
 
         def row(self) -> None:
@@ -189,6 +190,7 @@ def main() -> None:
             self.lengths.clear()
             self.captures.clear()
             self.next += args.log_every
+            self.last = self.num_timesteps
 
         def _on_step(self) -> bool:
             for info in self.locals["infos"]:
@@ -201,7 +203,8 @@ def main() -> None:
             return True
 
         def _on_training_end(self) -> None:
-            self.row()
+            if self.num_timesteps > self.last:
+                self.row()
             model.save(args.out / "model.zip")
             venv.save(str(args.out / "vecnormalize.pkl"))
 
