@@ -60,7 +60,11 @@ class EnvPolicy:
         x = np.asarray(x, dtype=float)
         steps = round(self.time_limit_s / self.control_dt)
         done = min(round(t / self.control_dt), steps)
-        hand = np.asarray(self.robot.ee_position(x[: self._n]))
+        # the hand depends on the angles modulo 2 pi: wrapped, a state that spun past the model's
+        # angle limit still has a hand (the observation's angles are clipped below, as the env's)
+        q = np.where(np.isfinite(x[: self._n]), x[: self._n], 0.0)
+        q = np.where(np.abs(q) > np.pi, np.remainder(q + np.pi, 2 * np.pi) - np.pi, q)
+        hand = np.asarray(self.robot.ee_position(q))
         obs = np.concatenate([x, self.target - hand, [(steps - done) * self.control_dt]])
         obs = np.where(np.isfinite(obs), obs, 0.0)
         return np.clip(obs, self._low, self._high).astype(np.float32)
