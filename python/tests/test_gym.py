@@ -2,6 +2,7 @@
 termination and truncation, seeding, randomised disturbances, the vector env against single envs,
 rendering, the SB3 adapter's core and policies as controllers. Needs gymnasium (not torch)."""
 
+import subprocess
 import sys
 
 import numpy as np
@@ -260,7 +261,15 @@ def test_sb3_core_reports_terminal_observations():
         assert d["TimeLimit.truncated"] and d["terminal_observation"].shape == (11,)
         assert d["episode"]["l"] == 3
     assert obs[0, 10] == pytest.approx(0.03)  # the new episode's time left
-    assert "stable_baselines3" not in sys.modules and "torch" not in sys.modules
+
+
+def test_importing_the_adapter_imports_neither_sb3_nor_torch():
+    # a fresh interpreter: other tests in this session may have imported stable_baselines3
+    code = (
+        "import sys, brachia, brachia.sb3;"
+        "assert 'stable_baselines3' not in sys.modules and 'torch' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def test_a_callable_is_a_controller(tracking_plan, robot):
