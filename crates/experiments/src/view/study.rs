@@ -1,7 +1,8 @@
 //! The page of a parameter-study folder (a reproduction's `parameter-study/`): the grid of r2 x
 //! swing time as two heat maps (the energy of eq. 18 and the positive work of the actuated joints),
-//! the energy against swing time per r2, and the per-r2 summary, drawn as inline SVG from the folder's files ([`crate::read::read_parameter_study`]).
-//! Hovering (or focusing) a cell or a point shows its values with their units.
+//! the energy against swing time per r2, and the per-r2 summary, drawn as inline SVG from the
+//! folder's files ([`crate::read_parameter_study`]). Hovering (or focusing) a cell or a point shows
+//! its values with their units.
 
 use super::data::html_escape;
 use crate::parameter_study::{status_name, ParameterStudy};
@@ -51,7 +52,7 @@ fn cell_tip(c: &StudyCell) -> String {
         "; {} iterations, {:.2} s, {} start",
         c.iterations,
         c.solve_time_s,
-        serde_json::to_value(&c.start)
+        serde_json::to_value(c.start)
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default()
