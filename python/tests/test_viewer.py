@@ -93,7 +93,7 @@ def more(tmp_path_factory, runs) -> dict:
     r = brachia(
         "benchmark", "--scenario", scenario, "--out", str(base / "bench"), "--levels", "3",
         "--monte-carlo", "0", "--controller", "pd", "--controller", "open-loop",
-        "--sweep", "mass", "--sweep", "actuation_delay", "--no-progress",
+        "--sweep", "mass", "--sweep", "actuation_delay", "--family-runs", "1", "--no-progress",
     )
     assert r.returncode in (0, 1), r.stderr
     r = brachia("view", str(base / "bench"))
@@ -108,7 +108,46 @@ def more(tmp_path_factory, runs) -> dict:
     assert r.returncode == 0, r.stderr
     r = brachia("track", "--scenario", str(ROOT / "scenarios" / "robustness.toml"), "--out", str(base / "ball"))
     assert r.returncode in (0, 1), r.stderr
-    return {k: base / k for k in ["traverse", "simulate", "bench", "track-no-plan", "ball"]}
+    write_study(base / "study")
+    r = brachia("view", str(base / "study"))
+    assert r.returncode == 0, r.stderr
+    return {k: base / k for k in ["traverse", "simulate", "bench", "track-no-plan", "ball", "study"]}
+
+
+def write_study(dir: Path) -> None:
+    """A parameter-study folder as a reproduction writes it (report.json, cells.csv, freefall.csv):
+    3 r2 x 3 offsets of the paper's robot, the cell (r2 0.8, offset +0.5 s) not converged."""
+    import tomllib
+
+    dir.mkdir()
+    base = tomllib.loads((ROOT / "params" / "paper.toml").read_text())
+    r2s, offsets = [0.2, 0.5, 0.8], [-0.5, 0.0, 0.5]
+    cells = ["# brachia cells schema 1",
+             "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,iterations,"
+             "solve_time_s,start,replay_ee_error_m,torque_scale_reached"]
+    rows = []
+    for i, r2 in enumerate(r2s):
+        for j, off in enumerate(offsets):
+            ok = not (i == 2 and j == 2)
+            e = f"{1.0 + i + 0.5 * j:.9f}" if ok else ""
+            w = f"{2.0 + i + 0.5 * j:.9f}" if ok else ""
+            cells.append(f"{r2},{off},{2.2 + off:.6f},{'solved' if ok else 'max_iterations'},"
+                         f"{'true' if ok else 'false'},{e},{w},{e},{20 + j},0.5000,cold,1e-4,")
+        rows.append({
+            "r2": r2, "lengths_m": [0.71 * r2, 0.71 * (1 - r2), 0.71 * (1 - r2), 0.71 * r2],
+            "start_q": [], "freefall_time_s": 1.1, "swing_time_s": 2.2, "energy_at_t_j": 1.5 + i,
+            "argmin_swing_time_s": 1.7, "argmin_offset_s": -0.5, "min_energy_j": 1.0 + i,
+            "argmin_at_edge": True, "failed_cells": 1 if i == 2 else 0,
+        })
+    (dir / "cells.csv").write_text("\n".join(cells) + "\n")
+    (dir / "freefall.csv").write_text("# brachia freefall schema 1\nr2\n")
+    report = {
+        "schema_version": 1,
+        "settings": {"base_params": {"inline": base}, "r2": r2s, "offsets_s": offsets, "stick_r2": []},
+        "start_q": [-2.35, 0.0, -1.55, 0.0], "rows": rows, "cells": 9, "failed_cells": 1,
+        "stick_r2": [], "wall_time_s": 3.0,
+    }
+    (dir / "report.json").write_text(json.dumps(report))
 
 
 @pytest.fixture(scope="module")
@@ -215,7 +254,7 @@ def test_page_loads_without_errors_or_network(driver, runs, kind):
     assert driver.find_element("id", "time-readout").text.startswith("t = 0.000 s")
 
 
-@pytest.mark.parametrize("kind", ["traverse", "simulate", "bench", "track-no-plan", "ball"])
+@pytest.mark.parametrize("kind", ["traverse", "simulate", "bench", "track-no-plan", "ball", "study"])
 def test_other_pages_load_without_errors_or_network(driver, more, kind):
     check_loads_quietly(driver, more[kind] / "view.html")
 
@@ -323,6 +362,70 @@ def test_benchmark_page_shows_the_scorecard_and_a_curve_per_sweep(driver, more):
     points = driver.execute_script("return [...document.querySelectorAll('circle.pt title')].map((t) => t.textContent)")
     assert len(points) == len(card["controllers"]) * sum(len(s["levels"]) for s in card["sweeps"])
     assert all(("success" in p) != ("failure" in p) for p in points), points
+
+
+def test_benchmark_page_shows_success_per_family_with_its_runs(driver, more):
+    page = more["bench"] / "view.html"
+    open_page(driver, page)
+    card = json.loads((more["bench"] / "scorecard.json").read_text())
+    sweeps = {s["name"] for s in card["sweeps"]}
+    families = sorted({k for c in card["controllers"] for k in c["per_disturbance"] if k not in sweeps})
+    assert len(families) >= 7, families
+    shown = driver.execute_script("return [...document.querySelectorAll('#families tbody tr')].map((r) => r.dataset.family)")
+    assert sorted(shown) == families
+    # a bar per controller and family, its height the success rate, its title the rate and the runs
+    bars = driver.execute_script(
+        "return [...document.querySelectorAll('#family-chart rect.bar')].map((b) => ["
+        "b.dataset.controller, b.dataset.family, b.getBoundingClientRect().height, "
+        "b.querySelector('title').textContent])"
+    )
+    assert len(bars) == len(card["controllers"]) * len(families)
+    per_pct = []
+    for controller, family, height, title in bars:
+        score = next(c for c in card["controllers"] if c["controller"] == controller)["per_disturbance"][family]
+        assert f"{score['success_pct']:.1f} % of {score['runs']} run" in title, title
+        if score["success_pct"] > 0:
+            per_pct.append(height / score["success_pct"])
+        else:
+            assert height < 4, (title, height)
+    # every bar of a success rate above 0 is drawn to the same scale
+    assert all(abs(r - per_pct[0]) < 0.03 * per_pct[0] for r in per_pct[1:]), per_pct
+    # the figure beside the other benchmark figures
+    assert (more["bench"] / "success_by_family.png").is_file()
+    assert (more["bench"] / "success_by_family.svg").is_file()
+
+
+def test_study_page_shows_the_grid_and_hovering_a_cell_shows_its_value(driver, more):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    page = more["study"] / "view.html"
+    open_page(driver, page)
+    cells = driver.find_elements("css selector", "#energy-map g.cell")
+    assert len(cells) == 9
+    tip = driver.find_element("id", "tip")
+    assert not tip.is_displayed()
+    cell = next(c for c in cells if c.get_attribute("data-r2") == "0.5" and c.get_attribute("data-offset") == "0")
+    ActionChains(driver).move_to_element(cell).perform()
+    assert tip.is_displayed()
+    assert tip.text.startswith("r2 = 0.5, offset +0 s (swing time 2.200 s): energy 2.5 J, positive work 3.5 J"), tip.text
+    # the failed cell says so; a point of the energy curves shows its cell
+    failed = next(c for c in cells if c.get_attribute("data-r2") == "0.8" and c.get_attribute("data-offset") == "0.5")
+    ActionChains(driver).move_to_element(failed).perform()
+    assert "did not converge (max_iterations)" in tip.text, tip.text
+    points = driver.find_elements("css selector", "#energy-curves circle.pt")
+    assert len(points) == 8
+    ActionChains(driver).move_to_element(points[0]).perform()
+    assert "energy" in tip.text and " J" in tip.text, tip.text
+    # keyboard: focusing a cell shows its value too
+    driver.execute_script("arguments[0].focus()", cells[0])
+    assert tip.is_displayed() and tip.text.startswith("r2 = 0.2"), tip.text
+    # cells of different values differ in colour, the failed cell is hatched
+    fills = {c.get_attribute("data-value"): c.find_element("css selector", "rect").get_attribute("fill") for c in cells}
+    assert fills["1"] != fills["3.5"] and fills[""].startswith("url(")
+    out = os.environ.get("BRACHIA_VIEW_SHOTS")
+    if out:
+        ActionChains(driver).move_to_element(cell).perform()
+        screenshot(driver).save(Path(out) / "study.png")
 
 
 @pytest.mark.parametrize("kind", ["plan", "track"])

@@ -9,7 +9,8 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct Args {
     /// A run folder written by `brachia plan`, `track`, `traverse`, `simulate` or `benchmark`, or an
-    /// experiment folder of a reproduction; the page is written as DIR/view.html.
+    /// experiment folder of a reproduction (its parameter-study/ too); the page is written as
+    /// DIR/view.html.
     dir: PathBuf,
 }
 

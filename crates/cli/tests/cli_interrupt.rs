@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::{brachia, root};
+use common::{brachia, interrupt, root, run_expect, tracking_plan};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
 /// A bound no prompt interruption comes near, for a loaded machine.
 const GENEROUS: Duration = Duration::from_secs(5);
@@ -53,34 +53,6 @@ fn assert_untouched(out: &Path, before: &[String]) {
     );
 }
 
-/// Start `cmd`, send SIGINT after `after`, and return its exit code, the time from the signal to the
-/// exit, and its stderr.
-fn interrupt(mut cmd: Command, after: Duration) -> (Option<i32>, Duration, String) {
-    let mut child = cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(after);
-    assert!(
-        child.try_wait().unwrap().is_none(),
-        "the command ended before it was interrupted: the test needs longer work"
-    );
-    let sent = Instant::now();
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let out = child.wait_with_output().unwrap();
-    let took = sent.elapsed();
-    (
-        out.status.code(),
-        took,
-        String::from_utf8_lossy(&out.stderr).to_string(),
-    )
-}
-
 /// A scenario of the paper's robot swinging for `swing_time` s at knots `knot_dt` apart, with more
 /// `[planner]` lines and the `[solver]` section `solver`, written into `dir`.
 fn long_swing(dir: &Path, swing_time: f64, knot_dt: f64, planner: &str, solver: &str) -> PathBuf {
@@ -108,6 +80,15 @@ fn check(what: &str, code: Option<i32>, took: Duration, stderr: &str) {
     assert!(took < GENEROUS, "{what}: {took:?} from SIGINT to exit");
 }
 
+/// Interrupt `cmd`, which writes into `out` (a folder of previous results), `after` its start; check
+/// the exit ([`check`]) and that `out` and its parent are as they were.
+fn interrupt_and_check(what: &str, out: &Path, cmd: Command, after: Duration) {
+    let before = listing(out);
+    let (code, took, stderr) = interrupt(cmd, after);
+    check(what, code, took, &stderr);
+    assert_untouched(out, &before);
+}
+
 #[test]
 fn ctrl_c_stops_a_long_plan_inside_its_solve() {
     let dir = tempfile::tempdir().unwrap();
@@ -120,20 +101,17 @@ fn ctrl_c_stops_a_long_plan_inside_its_solve() {
         "backend = \"ocp\"",
     );
     let out = previous_results(dir.path(), "plan");
-    let before = listing(&out);
     let mut cmd = brachia();
     cmd.args(["plan", "--scenario"])
         .arg(&sc)
         .arg("--out")
         .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1500));
-    check(
+    interrupt_and_check(
         "plan, free swing time, 16 starts (ocp)",
-        code,
-        took,
-        &stderr,
+        &out,
+        cmd,
+        Duration::from_millis(1500),
     );
-    assert_untouched(&out, &before);
 }
 
 #[test]
@@ -141,22 +119,23 @@ fn ctrl_c_stops_a_plan_on_pounce_inside_its_solve() {
     let dir = tempfile::tempdir().unwrap();
     let sc = long_swing(dir.path(), 20.0, 0.03, "", "backend = \"pounce\"");
     let out = previous_results(dir.path(), "plan");
-    let before = listing(&out);
     let mut cmd = brachia();
     cmd.args(["plan", "--scenario"])
         .arg(&sc)
         .arg("--out")
         .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1500));
-    check("plan, 20 s swing (pounce)", code, took, &stderr);
-    assert_untouched(&out, &before);
+    interrupt_and_check(
+        "plan, 20 s swing (pounce)",
+        &out,
+        cmd,
+        Duration::from_millis(1500),
+    );
 }
 
 #[test]
 fn ctrl_c_stops_a_benchmark_between_and_inside_its_runs() {
     let dir = tempfile::tempdir().unwrap();
     let out = previous_results(dir.path(), "bench");
-    let before = listing(&out);
     let mut cmd = brachia();
     cmd.args([
         "benchmark",
@@ -167,9 +146,7 @@ fn ctrl_c_stops_a_benchmark_between_and_inside_its_runs() {
         "--out",
     ])
     .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(3000));
-    check("benchmark --quick", code, took, &stderr);
-    assert_untouched(&out, &before);
+    interrupt_and_check("benchmark --quick", &out, cmd, Duration::from_millis(3000));
 }
 
 #[test]
@@ -180,18 +157,13 @@ fn ctrl_c_stops_a_report_inside_its_animation() {
     // the test waits
     let sc = long_swing(dir.path(), 8.0, 0.03, "", "backend = \"ocp\"\nmax_iter = 3");
     let plan = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario"])
-        .arg(&sc)
-        .arg("--out")
-        .arg(&plan)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(1),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    run_expect(
+        brachia()
+            .args(["plan", "--scenario"])
+            .arg(&sc)
+            .arg("--out")
+            .arg(&plan),
+        1,
     );
     let before = listing(&plan);
     let report_before = std::fs::read(plan.join("report.json")).unwrap();
@@ -204,23 +176,6 @@ fn ctrl_c_stops_a_report_inside_its_animation() {
         std::fs::read(plan.join("report.json")).unwrap(),
         report_before
     );
-}
-
-/// A plan folder of the tracking swing, for the track tests.
-fn tracking_plan(dir: &Path) -> PathBuf {
-    let plan = dir.join("tracking-plan");
-    let o = brachia()
-        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
-        .arg(&plan)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    plan
 }
 
 /// The tracking swing followed by a minute of hold: a closed loop of about 62 000 control steps.
@@ -238,10 +193,9 @@ fn held_swing(dir: &Path) -> PathBuf {
 
 fn ctrl_c_stops_a_long_track(plant: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let plan = tracking_plan(dir.path());
+    let plan = tracking_plan(dir.path(), "tracking-plan", &[]);
     let sc = held_swing(dir.path());
     let out = previous_results(dir.path(), "track");
-    let before = listing(&out);
     let mut cmd = brachia();
     cmd.args(["track", "--plant", plant, "--scenario"])
         .arg(&sc)
@@ -249,14 +203,12 @@ fn ctrl_c_stops_a_long_track(plant: &str) {
         .arg(&plan)
         .arg("--out")
         .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1500));
-    check(
+    interrupt_and_check(
         &format!("track, MPC on the {plant} plant, 60 s hold"),
-        code,
-        took,
-        &stderr,
+        &out,
+        cmd,
+        Duration::from_millis(1500),
     );
-    assert_untouched(&out, &before);
 }
 
 #[test]
@@ -273,7 +225,6 @@ fn ctrl_c_stops_a_track_on_the_rapier_plant_in_its_closed_loop() {
 fn ctrl_c_stops_a_long_simulation() {
     let dir = tempfile::tempdir().unwrap();
     let out = previous_results(dir.path(), "sim");
-    let before = listing(&out);
     let mut cmd = brachia();
     // 600 s at 1 ms rows with 30 RK4 steps each: 18 million steps (the limit is 20 million)
     cmd.args([
@@ -288,16 +239,13 @@ fn ctrl_c_stops_a_long_simulation() {
         "--out",
     ])
     .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1000));
-    check("simulate 600 s", code, took, &stderr);
-    assert_untouched(&out, &before);
+    interrupt_and_check("simulate 600 s", &out, cmd, Duration::from_millis(1000));
 }
 
 #[test]
 fn ctrl_c_stops_a_traverse() {
     let dir = tempfile::tempdir().unwrap();
     let out = previous_results(dir.path(), "traverse");
-    let before = listing(&out);
     let mut cmd = brachia();
     // the ladder around an obstacle: its later swings take thousands of solver iterations (several
     // seconds on an idle machine), so the interrupt falls inside the work
@@ -308,20 +256,15 @@ fn ctrl_c_stops_a_traverse() {
         "--out",
     ])
     .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(1000));
-    check("traverse", code, took, &stderr);
-    assert_untouched(&out, &before);
+    interrupt_and_check("traverse", &out, cmd, Duration::from_millis(1000));
 }
 
 #[test]
 fn ctrl_c_stops_a_reproduction() {
     let dir = tempfile::tempdir().unwrap();
     let out = previous_results(dir.path(), "reproduce");
-    let before = listing(&out);
     let mut cmd = brachia();
     cmd.args(["reproduce", "--quick", "--no-progress", "--out"])
         .arg(&out);
-    let (code, took, stderr) = interrupt(cmd, Duration::from_millis(2000));
-    check("reproduce --quick", code, took, &stderr);
-    assert_untouched(&out, &before);
+    interrupt_and_check("reproduce --quick", &out, cmd, Duration::from_millis(2000));
 }

@@ -64,6 +64,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
         "ladder/traverse.gif",
         "ladder/energy_per_swing.png",
         "ladder/joint_swings.json",
+        "views/parameter-study.html",
         "views/tracking.html",
         "views/obstacle-avoid.html",
         "views/robustness-mpc.html",
@@ -73,6 +74,7 @@ fn quick_reproduction_writes_report_figures_and_run_folders() {
     }
     let md = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
     assert!(md.contains("| quantity | paper | brachia | note |"));
+    assert!(md.contains("(views/parameter-study.html)"));
     for row in [
         "plan time",
         "MPC time",

@@ -2,41 +2,13 @@
 
 mod common;
 
-use common::brachia;
+use common::{brachia, folder_page_data, page_data, run_ok, snapshot, tracking_plan, view};
 use std::path::Path;
-
-/// Every file under `dir` with its contents, sorted.
-fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap().flatten() {
-        if e.file_type().unwrap().is_file() {
-            out.push((
-                e.file_name().to_string_lossy().to_string(),
-                std::fs::read(e.path()).unwrap(),
-            ));
-        }
-    }
-    out.sort();
-    out
-}
-
-/// The JSON embedded in a page.
-fn page_data(page: &str) -> serde_json::Value {
-    let start = page.find("id=\"brachia-data\">").unwrap() + "id=\"brachia-data\">".len();
-    let end = start + page[start..].find("</script>").unwrap();
-    serde_json::from_str(&page[start..end]).unwrap()
-}
 
 #[test]
 fn plan_writes_view_and_view_rewrites_it_touching_nothing_else() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = tracking_plan(dir.path(), "plan", &[]);
     let page = std::fs::read_to_string(out.join("view.html")).unwrap();
     assert!(!page.contains("http://") && !page.contains("https://"));
     let d = page_data(&page);
@@ -69,8 +41,7 @@ fn plan_writes_view_and_view_rewrites_it_touching_nothing_else() {
     // brachia view rewrites the page; every other file stays as it was
     std::fs::remove_file(out.join("view.html")).unwrap();
     let before = snapshot(&out);
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_ok(brachia().arg("view").arg(&out));
     let mut after = snapshot(&out);
     // the manifest lists the new page with its own stamp; every other file is byte for byte the same
     let listed = |files: &[(String, Vec<u8>)]| -> Vec<String> {
@@ -87,7 +58,7 @@ fn plan_writes_view_and_view_rewrites_it_touching_nothing_else() {
     after.retain(|(n, _)| n != "view.html" && n != ".brachia-run");
     assert_eq!(before, after);
     // the same swing as the page the run wrote (read back from the CSV's printed digits)
-    let again = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    let again = folder_page_data(&out);
     assert_eq!(again["kind"], "plan");
     let ta = again["t"].as_array().unwrap();
     assert_eq!(ta.len(), t.len());
@@ -111,19 +82,7 @@ fn plan_writes_view_and_view_rewrites_it_touching_nothing_else() {
 #[test]
 fn no_view_leaves_the_page_out() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args([
-            "plan",
-            "--no-view",
-            "--scenario",
-            "scenarios/tracking.toml",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = tracking_plan(dir.path(), "plan", &["--no-view"]);
     assert!(!out.join("view.html").exists());
     assert!(out.join("trajectory.csv").is_file());
 }
@@ -132,43 +91,26 @@ fn no_view_leaves_the_page_out() {
 fn bad_folders_are_refused_with_exit_2_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     // not a folder
-    let o = brachia()
-        .arg("view")
-        .arg(dir.path().join("nowhere"))
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("nowhere"));
+    let (code, err) = view(&dir.path().join("nowhere"));
+    assert_eq!(code, Some(2));
+    assert!(err.contains("nowhere"));
     // a folder that is no run folder
     let empty = dir.path().join("empty");
     std::fs::create_dir(&empty).unwrap();
-    let o = brachia().arg("view").arg(&empty).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    let (code, err) = view(&empty);
+    assert_eq!(code, Some(2));
     assert!(
         err.contains("closed_loop.csv") && err.contains("trajectory.csv"),
         "{err}"
     );
     assert!(std::fs::read_dir(&empty).unwrap().next().is_none());
     // a plan folder missing its report, and one with a tampered value
-    let out = dir.path().join("plan");
-    let o = brachia()
-        .args([
-            "plan",
-            "--no-view",
-            "--scenario",
-            "scenarios/tracking.toml",
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success());
+    let out = tracking_plan(dir.path(), "plan", &["--no-view"]);
     let report = std::fs::read(out.join("report.json")).unwrap();
     std::fs::remove_file(out.join("report.json")).unwrap();
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("report.json"));
+    let (code, err) = view(&out);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("report.json"), "{err}");
     std::fs::write(out.join("report.json"), report).unwrap();
     let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
     let mut lines: Vec<String> = csv.lines().map(String::from).collect();
@@ -177,9 +119,8 @@ fn bad_folders_are_refused_with_exit_2_naming_the_file() {
     lines[4] = cells.join(",");
     std::fs::write(out.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
     let before = snapshot(&out);
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    let (code, err) = view(&out);
+    assert_eq!(code, Some(2));
     assert!(
         err.contains("trajectory.csv") && err.contains("line 5"),
         "{err}"
@@ -210,15 +151,14 @@ fn traverse_and_simulate_write_their_pages_and_view_reads_their_folders_back() {
     let dir = tempfile::tempdir().unwrap();
     // a traverse: the whole ladder in the world frame, the chain re-rooted at the grip switch
     let out = dir.path().join("traverse");
-    let o = brachia()
-        .args(["traverse", "--scenario"])
-        .arg(ladder(dir.path()))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let d = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    run_ok(
+        brachia()
+            .args(["traverse", "--scenario"])
+            .arg(ladder(dir.path()))
+            .arg("--out")
+            .arg(&out),
+    );
+    let d = folder_page_data(&out);
     assert_eq!(d["kind"], "traverse");
     assert_eq!(d["bars"].as_array().unwrap().len(), 3);
     let hold: Vec<u8> = serde_json::from_value(d["hold"].clone()).unwrap();
@@ -242,9 +182,8 @@ fn traverse_and_simulate_write_their_pages_and_view_reads_their_folders_back() {
     );
     // brachia view draws the same page from the folder
     std::fs::remove_file(out.join("view.html")).unwrap();
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let again = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    run_ok(brachia().arg("view").arg(&out));
+    let again = folder_page_data(&out);
     assert_eq!(again["t"], d["t"]);
     assert_eq!(again["pts"], d["pts"]);
     // a tampered traverse.csv is refused naming the file, the line and the column; nothing written
@@ -256,9 +195,8 @@ fn traverse_and_simulate_write_their_pages_and_view_reads_their_folders_back() {
     lines[7] = cells.join(",");
     std::fs::write(out.join("traverse.csv"), lines.join("\n") + "\n").unwrap();
     let before = snapshot(&out);
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    let (code, err) = view(&out);
+    assert_eq!(code, Some(2));
     assert!(
         err.contains("traverse.csv") && err.contains("line 8, holding_hand"),
         "{err}"
@@ -267,64 +205,55 @@ fn traverse_and_simulate_write_their_pages_and_view_reads_their_folders_back() {
 
     // a passive simulation: its robot beside it, the mechanical energy plotted
     let sim = dir.path().join("simulate");
-    let o = brachia()
-        .args([
-            "simulate",
-            "--params",
-            "params/paper.toml",
-            "--q0=-1.2,0.5,0.3,0.2",
-            "--duration",
-            "1.0",
-            "--out",
-        ])
-        .arg(&sim)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_ok(
+        brachia()
+            .args([
+                "simulate",
+                "--params",
+                "params/paper.toml",
+                "--q0=-1.2,0.5,0.3,0.2",
+                "--duration",
+                "1.0",
+                "--out",
+            ])
+            .arg(&sim),
+    );
     assert!(sim.join("params.toml").is_file());
-    let d = page_data(&std::fs::read_to_string(sim.join("view.html")).unwrap());
+    let d = folder_page_data(&sim);
     assert_eq!(d["kind"], "simulate");
     assert!(d["target"].is_null());
     let e: Vec<f64> = serde_json::from_value(d["full"]["mechanical"].clone()).unwrap();
     assert_eq!(e.len(), 1001);
     assert!(e.iter().all(|x| (x - e[0]).abs() < 1e-4));
     std::fs::remove_file(sim.join("params.toml")).unwrap();
-    let o = brachia().arg("view").arg(&sim).output().unwrap();
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("params.toml"));
+    let (code, err) = view(&sim);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("params.toml"), "{err}");
 }
 
 #[test]
 fn a_track_folder_without_its_plan_is_drawn_from_its_log() {
     let dir = tempfile::tempdir().unwrap();
-    let plan = dir.path().join("plan");
-    let o = brachia()
-        .args(["plan", "--scenario", "scenarios/tracking.toml", "--out"])
-        .arg(&plan)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plan = tracking_plan(dir.path(), "plan", &[]);
     let out = dir.path().join("track");
-    let o = brachia()
-        .args([
-            "track",
-            "--no-view",
-            "--plant",
-            "model",
-            "--scenario",
-            "scenarios/tracking.toml",
-            "--plan",
-        ])
-        .arg(&plan)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_ok(
+        brachia()
+            .args([
+                "track",
+                "--no-view",
+                "--plant",
+                "model",
+                "--scenario",
+                "scenarios/tracking.toml",
+                "--plan",
+            ])
+            .arg(&plan)
+            .arg("--out")
+            .arg(&out),
+    );
     assert!(!out.join("plan").exists() && !out.join("view.html").exists());
-    let o = brachia().arg("view").arg(&out).output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let d = page_data(&std::fs::read_to_string(out.join("view.html")).unwrap());
+    run_ok(brachia().arg("view").arg(&out));
+    let d = folder_page_data(&out);
     assert_eq!(d["kind"], "track");
     assert!(d["notes"][0].as_str().unwrap().contains("holds no plan"));
     // the link lengths found from the log are the plan's robot's (0.355 m each)

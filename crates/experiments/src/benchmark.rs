@@ -18,7 +18,8 @@
 //!
 //! Files: `runs.csv` (one row per run: scores, the Monte Carlo ball, the plant's contacts, the re-plans
 //! with their trigger times and predicted misses; [`Benchmark::runs_csv`]), `scorecard.json`,
-//! `summary.md`, `success_<disturbance>.png/.svg`.
+//! `summary.md`, `success_<disturbance>.png/.svg`, `success_by_family.png/.svg` (success per Monte
+//! Carlo family and controller, with the run count).
 //! Units: s, m, rad, rad/s, N m, N s, J, kg. See docs/robustness.md.
 
 use crate::plan_run::run_plan;
@@ -40,12 +41,14 @@ use std::time::Instant;
 
 mod controllers;
 mod extra;
+mod family_figure;
 mod sweeps;
 pub use controllers::{
     controllers, replan_settings, BenchController, ControllerEntry, REPLAN_LATENCY_S,
 };
 use extra::Entry;
 pub use extra::{BuildExtra, ExtraController};
+pub use family_figure::FAMILY_FIGURE;
 pub use sweeps::{sweeps, ApplyLevel, Sweep, SweepContext};
 
 /// The success rule: the hand within this distance of the bar at the end of the swing, m (the one
@@ -794,7 +797,11 @@ impl Benchmark {
             }
             s.push('\n');
         }
-        s.push_str("\nPlots: `success_<disturbance>.png` (success against level, one curve per controller).\n");
+        s.push_str("\nPlots: `success_<disturbance>.png` (success against level, one curve per controller)");
+        if !self.families_run().is_empty() {
+            s.push_str(", `success_by_family.png` (success per Monte Carlo family and controller)");
+        }
+        s.push_str(".\n");
         s
     }
 
@@ -808,7 +815,7 @@ impl Benchmark {
     }
 
     /// Draw `success_<disturbance>.png/.svg` into `dir`: success (0 or 100 %) against level, one
-    /// curve per controller.
+    /// curve per controller; and `success_by_family.png/.svg` ([`FAMILY_FIGURE`]).
     pub fn draw_plots(&self, dir: &Path) -> Result<(), ExpError> {
         for (name, what, lv) in &self.sweeps {
             let series = self
@@ -848,7 +855,7 @@ impl Benchmark {
                 source: std::io::Error::other(e.to_string()),
             })?;
         }
-        Ok(())
+        self.draw_family_figure(dir)
     }
 
     /// Write the run folder `dir` (staged next to it and renamed into place).

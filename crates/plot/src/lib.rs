@@ -15,6 +15,7 @@
 //! | [`pose_diagram`] | poses given in world coordinates (a traverse whose grip changes), light to dark |
 //! | [`stick_diagram`] | the robot every `every_s` seconds, light (start) to dark (end), equal axis scale |
 //! | [`heatmap`] | a value over a 2-D grid, colour bar, values printed, failed cells hatched |
+//! | [`bar_chart`] | grouped bars, one per series in every category, values printed, a note per category |
 //! | [`animate_gif`] | the moving stick figure with bars, target, obstacles, balls and a time stamp |
 //! | [`animate_poses_gif`] | the same from world poses (a traverse whose grip changes) |
 //!
@@ -29,6 +30,7 @@
 
 mod anim;
 mod axes;
+mod bars;
 mod error;
 mod frame;
 mod heatmap;
@@ -39,6 +41,7 @@ mod spatial;
 mod style;
 
 pub use anim::{animate_gif, animate_poses_gif, frame_times, AnimOptions, MAX_FRAMES};
+pub use bars::{bar_chart, BarChart, BarSeries};
 pub use error::PlotError;
 pub use frame::{pose_frame_rgb, FrameScene};
 pub use heatmap::{heatmap, Heatmap};

@@ -1,8 +1,13 @@
-//! Helpers shared by the CLI tests: the repository root, the binary, a run folder's report.
+//! Helpers shared by the CLI tests: the repository root, the binary, a run folder's report, and
+//! running commands and reading their folders ([`run`]).
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+mod run;
+#[allow(unused_imports)]
+pub use run::*;
 
 /// The repository root (scenarios/ and params/ live there).
 pub fn root() -> PathBuf {

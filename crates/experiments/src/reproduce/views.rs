@@ -12,7 +12,12 @@ pub(crate) type Pages = Vec<(&'static str, &'static str)>;
 pub(crate) const VIEWS_DIR: &str = "views";
 
 /// The experiment folders that have a page, with the page's name and what it shows.
-const EXPERIMENTS: [(&str, &str, &str); 9] = [
+const EXPERIMENTS: [(&str, &str, &str); 10] = [
+    (
+        "parameter-study",
+        "parameter-study",
+        "V-A: the parameter study's grid (energy over r2 and swing time)",
+    ),
     (
         "tracking",
         "tracking",

@@ -1,7 +1,8 @@
 //! The page of a benchmark folder (`brachia benchmark`): its scorecard as a table and one success
 //! curve per disturbance sweep (success against level, one line per controller), drawn as inline SVG
-//! from `scorecard.json` and `runs.csv`. Hovering a point names the controller, the level and the
-//! outcome; the page follows the light/dark theme like every run page.
+//! from `scorecard.json` and `runs.csv`, and the Monte Carlo families' success rates with their run
+//! counts (a table and a bar chart). Hovering a point or a bar names the controller, the level or the
+//! family and the outcome; the page follows the light/dark theme like every run page.
 
 use super::data::html_escape;
 use crate::read::{need, read_csv_text, read_json};
@@ -10,6 +11,8 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
+
+mod families;
 
 const TEMPLATE: &str = include_str!("../../assets/view/bench.html");
 const STYLE: &str = include_str!("../../assets/view/view.css");
@@ -187,7 +190,7 @@ fn curve(sweep: &SweepDef, cards: &[ControllerCard], runs: &[Run]) -> String {
         let _ = write!(
             s,
             "<polyline class=\"s{}\" fill=\"none\" points=\"{}\"/>",
-            ci % 6,
+            ci % 8,
             path.join(" ")
         );
         for (x, run) in &pts {
@@ -197,7 +200,7 @@ fn curve(sweep: &SweepDef, cards: &[ControllerCard], runs: &[Run]) -> String {
                     s,
                     "<circle class=\"s{} pt\" cx=\"{:.1}\" cy=\"{:.1}\" r=\"3.5\"><title>{}: {} = {} ({}): \
                      {}, final error {:.2e} m</title></circle>",
-                    ci % 6,
+                    ci % 8,
                     sx(*x),
                     sy(y) + dy,
                     html_escape(&c.controller),
@@ -279,7 +282,7 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
         let _ = write!(
             legend,
             "<li><span class=\"sw\" style=\"background: var(--s{})\"></span>{}</li>",
-            ci % 6,
+            ci % 8,
             html_escape(&c.controller)
         );
     }
@@ -300,6 +303,7 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
         .replace("{{SUBTITLE}}", &html_escape(&subtitle))
         .replace("{{SCORECARD}}", &table)
         .replace("{{PER_DISTURBANCE}}", &per)
+        .replace("{{FAMILIES}}", &families::section(card, &legend))
         .replace("{{LEGEND}}", &legend)
         .replace("{{CURVES}}", &curves)
 }

@@ -1,5 +1,6 @@
-//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, or a
-//! benchmark's scorecard, [`mod@bench`]), drawn from its folder.
+//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, a
+//! benchmark's scorecard, [`mod@bench`], or a parameter study's grid, [`study`]), drawn from its
+//! folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
 //! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
@@ -13,6 +14,7 @@
 pub mod bench;
 pub mod data;
 pub mod simulate;
+pub mod study;
 pub mod traverse;
 
 use crate::ladder::LoadedLadder;
@@ -198,6 +200,8 @@ fn folder_kind(dir: &Path) -> Option<&'static str> {
         Some("plan")
     } else if has("scorecard.json") {
         Some("benchmark")
+    } else if has("cells.csv") && has("freefall.csv") {
+        Some("study")
     } else {
         None
     }
@@ -205,7 +209,8 @@ fn folder_kind(dir: &Path) -> Option<&'static str> {
 
 /// Read the run folder `dir` and make its page: a track folder (`closed_loop.csv`), a traverse
 /// (`traverse.csv`), a simulation (`trajectory.csv` without `scenario.toml`), a plan
-/// (`trajectory.csv`) or a benchmark (`scorecard.json`). Every file is checked as the readers check
+/// (`trajectory.csv`), a benchmark (`scorecard.json`) or a parameter study (`cells.csv`,
+/// `freefall.csv`). Every file is checked as the readers check
 /// it ([`PlanFolder::read`], [`TrackFolder::read`], ...); a folder that is none of them is refused
 /// naming what it lacks.
 pub fn view_html(dir: &Path) -> Result<String, Error> {
@@ -222,16 +227,17 @@ pub fn view_html(dir: &Path) -> Result<String, Error> {
         Some("traverse") => traverse_folder_view(dir)?,
         Some("simulate") => simulate::simulate_folder_view(dir)?,
         Some("plan") => plan_folder_view(&PlanFolder::read(dir)?),
+        Some("study") => return study::study_folder_html(dir),
         Some(_) => return bench::benchmark_folder_html(dir),
         None => {
             return Err(Error::invalid(
                 dir.display().to_string(),
-                "closed_loop.csv, traverse.csv, trajectory.csv, scorecard.json",
+                "closed_loop.csv, traverse.csv, trajectory.csv, scorecard.json, cells.csv",
                 "missing",
                 "a run folder written by `brachia track` (closed_loop.csv, report.json), \
                  `brachia traverse` (traverse.csv, report.json), `brachia plan` or `brachia \
-                 simulate` (trajectory.csv, report.json) or `brachia benchmark` (scorecard.json, \
-                 runs.csv)",
+                 simulate` (trajectory.csv, report.json), `brachia benchmark` (scorecard.json, \
+                 runs.csv) or a reproduction's parameter-study/ (cells.csv, freefall.csv, report.json)",
             ))
         }
     };
