@@ -7,41 +7,17 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
+#[path = "step_timing/mod.rs"]
+mod step_timing;
+
 use brachia::control::{
     Discretization, Estimated, EstimatorSettings, Linearization, Mpc, MpcSettings, Tvlqr,
     TvlqrSettings,
 };
-use brachia::sim::{Controller, ModelPlant, Plant};
 use common::*;
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use std::time::Instant;
+use criterion::{criterion_group, criterion_main, Criterion};
+use step_timing::{states, time_controllers, Restart};
 
-fn states(robot: &brachia::Robot, tr: &brachia::trajectory::Trajectory) -> Vec<(f64, Vec<f64>)> {
-    let mut x0 = start_state();
-    x0[1] += 0.1;
-    x0[2] -= 0.1;
-    let mut plant = ModelPlant::new(robot.clone(), &x0);
-    let mut mpc = Mpc::new(robot.clone(), tr.clone(), MpcSettings::default()).unwrap();
-    let (mut x, mut tau) = (vec![0.0; 8], vec![0.0; 3]);
-    let mut out = Vec::new();
-    for _ in 0..1500 {
-        plant.state(&mut x);
-        out.push((plant.time(), x.clone()));
-        mpc.control(plant.time(), &x, &mut tau);
-        plant.step(&tau, 1e-3);
-    }
-    out
-}
-
-/// A controller that can start cold again (for repeated passes over the same states).
-trait Restart: Controller {
-    fn restart(&mut self);
-}
-impl Restart for Mpc {
-    fn restart(&mut self) {
-        self.reset();
-    }
-}
 impl Restart for Estimated<Mpc> {
     fn restart(&mut self) {
         self.reset();
@@ -98,38 +74,7 @@ fn bench(c: &mut Criterion) {
     controllers.push(("mpc_step with kalman filter", Box::new(kf.unwrap())));
     let lqr = Tvlqr::new(robot.clone(), tr.clone(), TvlqrSettings::default()).unwrap();
     controllers.push(("tvlqr step", Box::new(lqr)));
-    for (name, mut mpc) in controllers {
-        let mut tau = vec![0.0; 3];
-        // Manual percentiles over 3 passes of the run.
-        let mut us = Vec::with_capacity(3 * xs.len());
-        for _ in 0..3 {
-            mpc.restart();
-            for (t, x) in &xs {
-                let s = Instant::now();
-                mpc.control(*t, x, &mut tau);
-                us.push(s.elapsed().as_secs_f64() * 1e6);
-            }
-        }
-        us.sort_by(f64::total_cmp);
-        let p = |q: f64| us[((q * (us.len() - 1) as f64).round()) as usize];
-        eprintln!(
-            "{name}: single calls median {:.1} us, p99 {:.1} us, max {:.1} us",
-            p(0.5),
-            p(0.99),
-            us[us.len() - 1]
-        );
-        let mut k = 0;
-        mpc.restart();
-        c.bench_function(name, |b| {
-            b.iter(|| {
-                k = (k + 1) % xs.len();
-                if k == 0 {
-                    mpc.restart();
-                }
-                black_box(mpc.control(xs[k].0, &xs[k].1, &mut tau))
-            })
-        });
-    }
+    time_controllers(c, controllers, &xs, robot.nu());
 }
 
 criterion_group!(benches, bench);

@@ -176,6 +176,32 @@ fn replanning_recovers_a_late_hit_the_plain_mpc_does_not() {
     }
 }
 
+/// With `confirm_checks = 3` the late hit's re-plan waits for three checks in a row over the
+/// threshold: its first trigger comes two check periods after the first trigger of one check, and
+/// the swing is still caught.
+#[test]
+fn a_confirmed_trigger_waits_for_checks_in_a_row() {
+    let robot = Arc::new(Robot::paper());
+    let (t_hit, dqd) = (1.3, [0.0, 0.6, -0.6, 0.6]);
+    let first = |confirm_checks: usize| {
+        let (p, reference) = planner(&robot);
+        let s = ReplanSettings {
+            confirm_checks,
+            ..settings()
+        };
+        let mpc = tracker(&robot, &reference);
+        let mut rp = Replanning::new(mpc, p, Arc::clone(&reference), s).unwrap();
+        let err = run(&robot, &reference, &mut rp, t_hit, &dqd);
+        (err, rp.events()[0].t_trigger_s)
+    };
+    let (e1, t1) = first(1);
+    let (e3, t3) = first(3);
+    eprintln!("one check: trigger {t1} s, {e1} m; three checks: trigger {t3} s, {e3} m");
+    let period = settings().check_period_s;
+    assert!(t3 >= t1 + 2.0 * period - 1e-9, "{t1} {t3}");
+    assert!(e3 < 0.02, "{e3}");
+}
+
 #[test]
 fn no_replan_on_the_undisturbed_swing() {
     let robot = Arc::new(Robot::paper());
@@ -245,6 +271,10 @@ fn replanning_refuses_bad_settings_and_an_unplanned_planner() {
         },
         ReplanSettings {
             latency_s: Some(-1.0),
+            ..Default::default()
+        },
+        ReplanSettings {
+            confirm_checks: 0,
             ..Default::default()
         },
     ] {

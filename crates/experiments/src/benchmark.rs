@@ -49,7 +49,7 @@ pub use controllers::{
 use extra::Entry;
 pub use extra::{BuildExtra, ExtraController};
 pub use family_figure::FAMILY_FIGURE;
-pub use sweeps::{sweeps, ApplyLevel, Sweep, SweepContext};
+pub use sweeps::{sweeps, ApplyLevel, Rule, Sweep, SweepContext};
 
 /// The success rule: the hand within this distance of the bar at the end of the swing, m (the one
 /// definition, [`crate::success`]).
@@ -558,7 +558,7 @@ pub fn run_benchmark_with(
             let seed = mix(settings.seed ^ mix(((si as u64) << 32) | li as u64));
             let mut d = base.clone();
             d.seed = seed;
-            (s.apply)(&mut d, l, &ctx);
+            s.apply(&mut d, l, &ctx);
             let probot = make_robot(&d)?;
             for ci in 0..entries.len() {
                 jobs.push(Job {

@@ -19,9 +19,10 @@
 //! `cargo test --release -p brachia-experiments --test unseen_monte_carlo -- --ignored --nocapture`
 //! (`BRACHIA_MC_RUNS` runs per set, default 100; `BRACHIA_MC_OUT` the CSV's folder, default the
 //! system's temporary folder; `BRACHIA_MC_SETS` `fixed`, `held-out` or both, the default;
-//! `BRACHIA_MC_VARIANTS` a comma-separated list of controllers besides `mpc`, default all).
+//! `BRACHIA_MC_VARIANTS` a comma-separated list of controllers besides `mpc`, default all;
+//! `BRACHIA_MC_DRAWS` a comma-separated list of draw indices to run alone, default every draw).
 
-use brachia::control::{Adaptive, ReplanEvent, Replanning};
+use brachia::control::{Adaptive, ReplanEvent, ReplanSettings, Replanning};
 use brachia::sim::Controller;
 use brachia::sim::{run_closed_loop, Disturbances, RunSettings};
 use brachia::trajectory::Trajectory;
@@ -157,19 +158,18 @@ fn replanning_with(
     r: &Arc<Trajectory>,
     compare: bool,
 ) -> Replanning<Box<dyn Controller>> {
-    replanning_at(ls, r, compare, replan_settings(ls).threshold_m)
+    replanning_cfg(ls, r, |s| s.compare_before_adopting = compare)
 }
 
-fn replanning_at(
+/// Re-planning on the scenario's settings (20 ms latency) changed by `f`.
+fn replanning_cfg(
     ls: &LoadedScenario,
     r: &Arc<Trajectory>,
-    compare: bool,
-    threshold_m: f64,
+    f: impl Fn(&mut ReplanSettings),
 ) -> Replanning<Box<dyn Controller>> {
     let sc = &ls.scenario;
     let mut s = replan_settings(ls);
-    s.compare_before_adopting = compare;
-    s.threshold_m = threshold_m;
+    f(&mut s);
     Replanning::build(
         mpc(ls, r),
         ls.robot.clone(),
@@ -198,7 +198,17 @@ fn variants() -> Vec<(&'static str, Build, bool)> {
         ),
         (
             "mpc+replan/2cm",
-            |ls, r| Built::Replan(Box::new(replanning_at(ls, r, true, 0.02))),
+            |ls, r| Built::Replan(Box::new(replanning_cfg(ls, r, |s| s.threshold_m = 0.02))),
+            false,
+        ),
+        (
+            "mpc+replan/2cm+confirm",
+            |ls, r| {
+                Built::Replan(Box::new(replanning_cfg(ls, r, |s| {
+                    s.threshold_m = 0.02;
+                    s.confirm_checks = 2;
+                })))
+            },
             false,
         ),
         (
@@ -342,8 +352,17 @@ fn unseen_monte_carlo_per_draw() {
         let draws: Vec<Draw> = (0..runs)
             .map(|i| draw(&ls.robot, &reference, base + i as u64, held_out))
             .collect();
-        let jobs: Vec<(usize, usize)> = (0..runs)
-            .flat_map(|i| (0..variants.len()).map(move |v| (i, v)))
+        let picked: Vec<usize> = match std::env::var("BRACHIA_MC_DRAWS") {
+            Ok(v) if !v.trim().is_empty() => v
+                .split(',')
+                .filter_map(|i| i.trim().parse().ok())
+                .filter(|&i| i < runs)
+                .collect(),
+            _ => (0..runs).collect(),
+        };
+        let jobs: Vec<(usize, usize)> = picked
+            .iter()
+            .flat_map(|&i| (0..variants.len()).map(move |v| (i, v)))
             .collect();
         let rows: Vec<Row> = jobs
             .par_iter()
@@ -397,20 +416,40 @@ fn unseen_monte_carlo_per_draw() {
                 .unwrap_or(f64::INFINITY)
         };
         for (name, _, _) in &variants {
-            let ok = (0..runs).filter(|&i| err(i, name) <= 0.02).count();
-            let worse = (0..runs)
+            let total = picked.len();
+            let ok = picked
+                .iter()
+                .copied()
+                .filter(|&i| err(i, name) <= 0.02)
+                .count();
+            let worse = picked
+                .iter()
+                .copied()
                 .filter(|&i| err(i, name) > err(i, "mpc") + 0.002)
                 .count();
-            let better = (0..runs)
+            let better = picked
+                .iter()
+                .copied()
                 .filter(|&i| err(i, name) < err(i, "mpc") - 0.002)
                 .count();
-            let rescued = (0..runs)
+            let rescued = picked
+                .iter()
+                .copied()
                 .filter(|&i| err(i, "mpc") > 0.02 && err(i, name) <= 0.02)
                 .count();
-            let misses = (0..runs).filter(|&i| err(i, "mpc") > 0.02).count();
+            let rejected: usize = rows
+                .iter()
+                .filter(|r| r.variant == *name)
+                .map(|r| r.replans - r.adopted)
+                .sum();
+            let misses = picked
+                .iter()
+                .copied()
+                .filter(|&i| err(i, "mpc") > 0.02)
+                .count();
             eprintln!(
-                "{set} {name:>24}: {ok}/{runs} within 2 cm; vs mpc: {worse} worse, {better} better \
-                 by > 2 mm; rescued {rescued} of {misses} mpc misses"
+                "{set} {name:>24}: {ok}/{total} within 2 cm; vs mpc: {worse} worse, {better} better \
+                 by > 2 mm; rescued {rescued} of {misses} mpc misses; {rejected} re-plans rejected"
             );
         }
     }

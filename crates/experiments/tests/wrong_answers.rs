@@ -67,7 +67,7 @@ fn every_sweep_adds_to_the_scenarios_disturbances() {
     };
     for s in sweeps() {
         let mut d = b.clone();
-        (s.apply)(&mut d, 0.0, &ctx);
+        s.apply(&mut d, 0.0, &ctx);
         if s.name == "torque_limit" {
             // removing nothing keeps the scenario's limit
             assert_eq!(d.torque_limit_nm, Some(2.0), "{}", s.name);
@@ -78,7 +78,7 @@ fn every_sweep_adds_to_the_scenarios_disturbances() {
     let at = |name: &str, l: f64| {
         let s = sweeps().into_iter().find(|s| s.name == name).unwrap();
         let mut d = b.clone();
-        (s.apply)(&mut d, l, &ctx);
+        s.apply(&mut d, l, &ctx);
         d
     };
     assert_eq!(at("mass", 0.5).mass_scale, vec![4.5, 1.5, 1.5, 3.0]);

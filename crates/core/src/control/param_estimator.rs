@@ -17,7 +17,9 @@
 //! with forgetting factor `forgetting`; measurement noise `noise_nm_s` per row). A window whose
 //! normalised innovation exceeds `outlier_sigma` in any row (an impact: a ball, a push, a contact
 //! the model does not have) is rejected whole. The prior is the nominal robot with a standard
-//! deviation of `prior_rel_std` of each nominal value.
+//! deviation of `prior_rel_std` of each nominal value. With `windows_in_flight` > 1 that many
+//! windows overlap, started `window_s / windows_in_flight` apart (each row's residual variance is
+//! counted that many times: overlapping windows share their sensor noise).
 //!
 //! Units: s, rad, rad/s, N m, N m s; `theta` in kg m^2 (ZZR) and kg m (MXR).
 
@@ -26,6 +28,9 @@ use crate::error::{Error, Result};
 use crate::model::Robot;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
+
+/// Most windows one estimator integrates at once (`windows_in_flight`).
+pub const MAX_WINDOWS_IN_FLIGHT: usize = 32;
 
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
@@ -49,6 +54,10 @@ pub struct ParamEstimatorSettings {
     pub outlier_sigma: f64,
     /// The controller's model is rebuilt from the estimate at most this often, s. Default 0.05.
     pub model_update_period_s: f64,
+    /// Windows integrated at once, started `window_s / windows_in_flight` apart (1: back to back),
+    /// in 1..=[`MAX_WINDOWS_IN_FLIGHT`]; each row's residual variance is counted this many times
+    /// (overlapping windows share their sensor noise). Default 1.
+    pub windows_in_flight: usize,
 }
 
 impl Default for ParamEstimatorSettings {
@@ -60,6 +69,7 @@ impl Default for ParamEstimatorSettings {
             noise_nm_s: 0.02,
             outlier_sigma: 5.0,
             model_update_period_s: 0.05,
+            windows_in_flight: 1,
         }
     }
 }
@@ -79,6 +89,14 @@ impl ParamEstimatorSettings {
         pos("noise_nm_s", self.noise_nm_s)?;
         pos("outlier_sigma", self.outlier_sigma)?;
         pos("model_update_period_s", self.model_update_period_s)?;
+        if !(1..=MAX_WINDOWS_IN_FLIGHT).contains(&self.windows_in_flight) {
+            return Err(Error::invalid(
+                src,
+                "windows_in_flight",
+                self.windows_in_flight,
+                format!("must be in 1..={MAX_WINDOWS_IN_FLIGHT}"),
+            ));
+        }
         if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
             return Err(Error::invalid(
                 src,
@@ -121,6 +139,14 @@ pub struct EstimateReport {
     pub history: Vec<EstimateSample>,
 }
 
+/// One integration window: its start and its matrix and right-hand side so far.
+#[derive(Debug, Clone)]
+struct Window {
+    t0: Option<f64>,
+    acc: Vec<f64>,
+    tau_int: Vec<f64>,
+}
+
 /// Recursive least squares on the base parameters; see the module docs.
 #[derive(Debug, Clone)]
 pub struct ParamEstimator {
@@ -130,11 +156,10 @@ pub struct ParamEstimator {
     theta_nom: Vec<f64>,
     /// Covariance, 2n x 2n row-major.
     p: Vec<f64>,
-    /// Window start time.
-    t0: Option<f64>,
-    /// The window's matrix and right-hand side so far.
-    acc: Vec<f64>,
-    tau_int: Vec<f64>,
+    /// The windows in flight.
+    wins: Vec<Window>,
+    /// Time of the first sample of the current run of samples (`None`: none yet, or broken).
+    t_start: Option<f64>,
     /// The last sample: time, regressors.
     t_prev: f64,
     yl_prev: Vec<f64>,
@@ -170,9 +195,15 @@ impl ParamEstimator {
             theta_nom: theta.clone(),
             theta,
             p,
-            t0: None,
-            acc: vec![0.0; n * np],
-            tau_int: vec![0.0; n],
+            wins: vec![
+                Window {
+                    t0: None,
+                    acc: vec![0.0; n * np],
+                    tau_int: vec![0.0; n],
+                };
+                settings.windows_in_flight
+            ],
+            t_start: None,
             t_prev: 0.0,
             yl_prev: vec![0.0; n * np],
             yp_prev: vec![0.0; n * np],
@@ -222,7 +253,7 @@ impl ParamEstimator {
             let s = self.settings.prior_rel_std * self.theta_nom[i].abs().max(1e-6);
             self.p[i * np + i] = s * s;
         }
-        self.t0 = None;
+        self.break_windows();
         self.windows = 0;
         self.rejected = 0;
         self.history.clear();
@@ -236,58 +267,76 @@ impl ParamEstimator {
         let n = self.nominal.n();
         let (q, qd) = (&x[..n], &x[n..2 * n]);
         if !x.iter().all(|v| v.is_finite()) || !tau.iter().all(|v| v.is_finite()) {
-            self.t0 = None;
+            self.break_windows();
             return false;
         }
         lagrangian_regressor(&self.nominal, q, qd, &mut self.yl);
         momentum_regressor(&self.nominal, q, qd, &mut self.yp);
-        let Some(t0) = self.t0 else {
-            self.start_window(t);
+        let Some(t_start) = self.t_start else {
+            self.t_start = Some(t);
+            self.wins[0].start(t);
+            self.keep_sample(t);
             return false;
         };
         let (h, w_len) = (t - self.t_prev, self.settings.window_s);
-        // the weight and its slope at the interval's midpoint
-        let tm = (0.5 * (self.t_prev + t) - t0) / w_len;
-        let w = (1.0 - (2.0 * tm - 1.0).abs()).max(0.0);
-        let dw = if tm < 0.5 { 2.0 / w_len } else { -2.0 / w_len };
-        for i in 0..self.acc.len() {
-            self.acc[i] -= 0.5
-                * h
-                * (dw * (self.yp_prev[i] + self.yp[i]) + w * (self.yl_prev[i] + self.yl[i]));
+        let mut updated = false;
+        for k in 0..self.wins.len() {
+            let Some(t0) = self.wins[k].t0 else {
+                continue;
+            };
+            // the weight and its slope at the interval's midpoint
+            let tm = (0.5 * (self.t_prev + t) - t0) / w_len;
+            let w = (1.0 - (2.0 * tm - 1.0).abs()).max(0.0);
+            let dw = if tm < 0.5 { 2.0 / w_len } else { -2.0 / w_len };
+            let win = &mut self.wins[k];
+            for i in 0..win.acc.len() {
+                win.acc[i] -= 0.5
+                    * h
+                    * (dw * (self.yp_prev[i] + self.yp[i]) + w * (self.yl_prev[i] + self.yl[i]));
+            }
+            for j in 1..n {
+                win.tau_int[j] += w * h * tau[j - 1];
+            }
+            if t - t0 >= w_len - 1e-9 {
+                updated |= self.update(t, k);
+                self.wins[k].start(t);
+            }
         }
-        for j in 1..n {
-            self.tau_int[j] += w * h * tau[j - 1];
+        // windows not started yet start at their offsets
+        let stagger = w_len / self.wins.len() as f64;
+        for (k, win) in self.wins.iter_mut().enumerate() {
+            if win.t0.is_none() && t - t_start >= k as f64 * stagger - 1e-9 {
+                win.start(t);
+            }
         }
-        self.t_prev = t;
-        self.yl_prev.copy_from_slice(&self.yl);
-        self.yp_prev.copy_from_slice(&self.yp);
-        if t - t0 < w_len - 1e-9 {
-            return false;
-        }
-        let updated = self.update(t);
-        self.start_window(t);
+        self.keep_sample(t);
         updated
     }
 
-    /// Start a window at `t` (`yl`, `yp` hold the regressors of the state there).
-    fn start_window(&mut self, t: f64) {
+    /// Keep the sample at `t` (`yl`, `yp` hold its regressors) as the last one.
+    fn keep_sample(&mut self, t: f64) {
         self.yl_prev.copy_from_slice(&self.yl);
         self.yp_prev.copy_from_slice(&self.yp);
-        self.acc.fill(0.0);
-        self.tau_int.fill(0.0);
-        self.t0 = Some(t);
         self.t_prev = t;
     }
 
-    /// One window's rows (`self.acc` holds the window's matrix, `self.tau_int` its right-hand side).
-    fn update(&mut self, t: f64) -> bool {
+    /// Drop every window in flight (the next sample starts them again).
+    fn break_windows(&mut self) {
+        self.t_start = None;
+        for w in &mut self.wins {
+            w.t0 = None;
+        }
+    }
+
+    /// The rows of window `k` (its matrix and right-hand side) ending at `t`.
+    fn update(&mut self, t: f64, k: usize) -> bool {
         let n = self.nominal.n();
         let np = 2 * n;
-        let r = self.settings.noise_nm_s * self.settings.noise_nm_s;
+        let r = self.settings.noise_nm_s * self.settings.noise_nm_s * self.wins.len() as f64;
         // outlier test against the estimate before the window
         for j in 0..n {
-            let row = &self.acc[j * np..(j + 1) * np];
-            let e = self.tau_int[j] - dot(row, &self.theta);
+            let row = &self.wins[k].acc[j * np..(j + 1) * np];
+            let e = self.wins[k].tau_int[j] - dot(row, &self.theta);
             let mut s = r;
             for a in 0..np {
                 s += row[a] * dot(&self.p[a * np..(a + 1) * np], row);
@@ -300,12 +349,13 @@ impl ParamEstimator {
             return false;
         }
         for j in 0..n {
-            self.a.copy_from_slice(&self.acc[j * np..(j + 1) * np]);
+            self.a
+                .copy_from_slice(&self.wins[k].acc[j * np..(j + 1) * np]);
             for i in 0..np {
                 self.pa[i] = dot(&self.p[i * np..(i + 1) * np], &self.a);
             }
             let s = r + dot(&self.a, &self.pa);
-            let e = self.tau_int[j] - dot(&self.a, &self.theta);
+            let e = self.wins[k].tau_int[j] - dot(&self.a, &self.theta);
             for i in 0..np {
                 self.theta[i] += self.pa[i] * e / s;
             }
@@ -343,6 +393,15 @@ impl ParamEstimator {
             rejected: self.rejected,
             history: self.history.clone(),
         }
+    }
+}
+
+impl Window {
+    /// Start the window at `t`, empty.
+    fn start(&mut self, t: f64) {
+        self.acc.fill(0.0);
+        self.tau_int.fill(0.0);
+        self.t0 = Some(t);
     }
 }
 

@@ -106,6 +106,9 @@ pub struct ReplanSettings {
     /// (the tracking controller is copied when it can be, [`Controller::clone_box`]; else the TVLQR
     /// rollout of the miss prediction stands in). Default 0.001.
     pub adopt_control_period_s: f64,
+    /// Re-plan only when the predicted miss exceeds `threshold_m` on this many checks in a row
+    /// (at least 1). Default 1.
+    pub confirm_checks: usize,
 }
 
 impl Default for ReplanSettings {
@@ -123,6 +126,7 @@ impl Default for ReplanSettings {
             compare_before_adopting: true,
             adopt_margin_m: 0.002,
             adopt_control_period_s: 0.001,
+            confirm_checks: 1,
         }
     }
 }
@@ -160,6 +164,14 @@ impl ReplanSettings {
             ));
         }
         nonneg("min_remaining_s", self.min_remaining_s)?;
+        if self.confirm_checks == 0 {
+            return Err(Error::invalid(
+                src,
+                "confirm_checks",
+                self.confirm_checks,
+                "must be at least 1",
+            ));
+        }
         if !(self.knot_dt_s.is_finite() && self.knot_dt_s > 0.0 && self.knot_dt_s <= 0.1) {
             return Err(Error::invalid(
                 src,
@@ -289,6 +301,8 @@ pub struct Replanning<C> {
     next_check: f64,
     last_trigger: Option<f64>,
     last_miss: f64,
+    /// Checks in a row whose predicted miss exceeded the threshold.
+    over: usize,
     /// The model the predictions roll out (the planner's robot until [`Controller::set_model`]).
     model: Arc<Robot>,
     target: [f64; 2],
@@ -362,6 +376,7 @@ impl<C: Controller> Replanning<C> {
             next_check: f64::NEG_INFINITY,
             last_trigger: None,
             last_miss: 0.0,
+            over: 0,
             settings,
         })
     }
@@ -551,6 +566,43 @@ impl<C: Controller> Replanning<C> {
         }
     }
 
+    /// The predicted capture errors on `model` of continuing the current plan and of switching to
+    /// `tr` at `ready`, from `x` at `t` (copies of the tracking controller when it can be copied,
+    /// else the TVLQR rollouts of the miss prediction).
+    fn predict_pair(
+        &mut self,
+        model: &Robot,
+        t: f64,
+        x: &[f64],
+        tr: &Arc<Trajectory>,
+        lqr: Option<&mut Tvlqr>,
+        ready: f64,
+    ) -> (f64, f64) {
+        let (tf, target) = (self.t_final, self.target);
+        if let (Some(mut a), Some(mut b)) = (self.inner.clone_box(), self.inner.clone_box()) {
+            let gp = self.settings.adopt_control_period_s;
+            let p = &mut self.predictor;
+            let c = p.closed_loop_capture(a.as_mut(), model, x, t, tf, gp, None, target);
+            let d =
+                p.closed_loop_capture(b.as_mut(), model, x, t, tf, gp, Some((ready, tr)), target);
+            return (c, d);
+        }
+        let dt = self.settings.predict_dt_s;
+        let robot = &self.robot;
+        let cont = PlanUnderTest {
+            reference: &self.reference,
+            lqr: self.lqr.as_mut(),
+        };
+        let (_, c) = self
+            .predictor
+            .capture(model, robot, cont, x, t, tf, dt, target);
+        let new = PlanUnderTest { reference: tr, lqr };
+        let (_, d) = self
+            .predictor
+            .capture(model, robot, new, x, t, tf, dt, target);
+        (c, d)
+    }
+
     fn replan(&mut self, t: f64, x: &[f64], miss: f64) {
         self.last_trigger = Some(t);
         let start = Instant::now();
@@ -617,47 +669,12 @@ impl<C: Controller> Replanning<C> {
         };
         let (mut lqr, mut compared) = (lqr, (None, None));
         if let (Some(tr), true) = (&traj, self.settings.compare_before_adopting) {
-            let dt = self.settings.predict_dt_s;
-            let (model, robot) = (&self.model, &self.robot);
             let ready = t + self
                 .settings
                 .latency_s
                 .unwrap_or(start.elapsed().as_secs_f64());
-            let copies = (self.inner.clone_box(), self.inner.clone_box());
-            let (c, d) = if let (Some(mut a), Some(mut b)) = copies {
-                let gp = self.settings.adopt_control_period_s;
-                let (tf, target) = (self.t_final, self.target);
-                let p = &mut self.predictor;
-                (
-                    p.closed_loop_capture(a.as_mut(), model, x, t, tf, gp, None, target),
-                    p.closed_loop_capture(
-                        b.as_mut(),
-                        model,
-                        x,
-                        t,
-                        tf,
-                        gp,
-                        Some((ready, tr)),
-                        target,
-                    ),
-                )
-            } else {
-                let cont = PlanUnderTest {
-                    reference: &self.reference,
-                    lqr: self.lqr.as_mut(),
-                };
-                let (_, c) =
-                    self.predictor
-                        .capture(model, robot, cont, x, t, self.t_final, dt, self.target);
-                let new = PlanUnderTest {
-                    reference: tr,
-                    lqr: lqr.as_mut(),
-                };
-                let (_, d) =
-                    self.predictor
-                        .capture(model, robot, new, x, t, self.t_final, dt, self.target);
-                (c, d)
-            };
+            let model = Arc::clone(&self.model);
+            let (c, d) = self.predict_pair(&model, t, x, tr, lqr.as_mut(), ready);
             compared = (Some(c), Some(d));
             if d.is_nan() || c.is_nan() || d + self.settings.adopt_margin_m >= c {
                 traj = None;
@@ -716,7 +733,12 @@ impl<C: Controller> Controller for Replanning<C> {
             if self.t_final - t > 0.0 {
                 let miss = self.predict_miss(t, x);
                 self.last_miss = miss;
-                if miss > self.settings.threshold_m && self.may_replan(t) {
+                self.over = if miss > self.settings.threshold_m {
+                    self.over + 1
+                } else {
+                    0
+                };
+                if self.over >= self.settings.confirm_checks && self.may_replan(t) {
                     self.replan(t, x, miss);
                 }
             }
