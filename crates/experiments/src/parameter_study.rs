@@ -61,6 +61,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 mod geometry;
+mod read;
+pub use read::read_parameter_study;
 use geometry::SRC;
 pub use geometry::{check_study_links, scaled_params, start_pose};
 

@@ -194,7 +194,7 @@ impl Results {
             }
         }
         if has("parameter-study") {
-            res.study = Some(crate::read::read_parameter_study(
+            res.study = Some(crate::parameter_study::read_parameter_study(
                 &dir.join("parameter-study"),
             )?);
         }

@@ -2,7 +2,7 @@
 //! benchmark's scorecard, [`mod@bench`]), drawn from its folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
-//! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
+//! `crates/run/assets/view/`, included at build time): it opens from disk in any browser,
 //! offline, and makes no network request. It shows the robot to scale (link capsules, joints, hand,
 //! grip and target bars, obstacles), the planned swing as a ghost beside the tracked one, the hand's
 //! path, and plots of q, qd, tau (with the limits), energy and the EE error, all with one time cursor.
