@@ -21,6 +21,7 @@ pub mod scenario;
 pub mod schema;
 pub mod settings_use;
 pub mod success;
+pub mod track_folder;
 pub mod track_run;
 pub mod tracker;
 pub mod traverse;
@@ -32,11 +33,12 @@ pub use plan_run::{
     plan_report, replay_trusted, run_plan, PlanReport, PlanRun, PARAMS_FILE, REPLAY_TRUST_M,
 };
 pub use progress::{no_progress, CancelToken, Progress, ProgressFn};
-pub use read::{PlanFolder, TrackFolder};
+pub use read::PlanFolder;
 pub use run_folder::{check_out_apart, check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use settings_use::{check_ladder_settings_apply, check_settings_apply};
 pub use success::{capture, Capture, SUCCESS_RADIUS_M};
+pub use track_folder::TrackFolder;
 pub use track_run::{
     read_plan_folder, run_track, track_plan, PlantWorld, TrackOutcome, TrackReport, TrackRun,
 };

@@ -10,14 +10,12 @@
 //! (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must lie inside it ([`inside`]).
 //!
 //! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
-//! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`ClosedLoopLog::to_csv`];
+//! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`brachia::sim::ClosedLoopLog::to_csv`];
 //! `contacts.csv` `t,link,body,impulse`; `obstacles.csv` `t,obstacle_0_x,obstacle_0_y,...`.
 
 use crate::plan_run::PlanReport;
 use crate::scenario::{LoadedScenario, Scenario, Uses};
-use crate::track_run::{PlantWorld, TrackReport};
 use brachia::limits;
-use brachia::sim::ClosedLoopLog;
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
 use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
@@ -129,7 +127,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
 
 /// An error of a CSV parser given the text after the schema line ([`read_csv_text`]): its `line N`
 /// counted from the header becomes the file's line, `line N+1`.
-fn past_schema_line(e: Error) -> Error {
+pub(crate) fn past_schema_line(e: Error) -> Error {
     match e {
         Error::InvalidValue {
             source_name,
@@ -450,61 +448,6 @@ impl PlanFolder {
             scenario,
             report,
             trajectory,
-        })
-    }
-}
-
-/// A track run's folder read back (`brachia track`).
-#[derive(Debug, Clone)]
-pub struct TrackFolder {
-    /// The folder.
-    pub dir: PathBuf,
-    /// `report.json`.
-    pub report: TrackReport,
-    /// `closed_loop.csv`, with the plant and controller names of the report (no controller timings).
-    pub log: ClosedLoopLog,
-    /// The plant's world: the report's obstacles, `contacts.csv` and `obstacles.csv` (empty when absent,
-    /// as on the model plant).
-    pub world: PlantWorld,
-    /// The plan under `plan/`, when this run planned it.
-    pub plan: Option<PlanFolder>,
-}
-
-const TRACK_FOLDER: &str =
-    "a track folder written by `brachia track` (report.json, closed_loop.csv)";
-
-impl TrackFolder {
-    /// Read the track folder `dir`: `report.json`, `closed_loop.csv` ([`ClosedLoopLog::from_csv`]),
-    /// `contacts.csv` and `obstacles.csv` when present, and the plan folder `plan/` when present.
-    pub fn read(dir: &Path) -> Result<Self, Error> {
-        let rfile = need(dir, "report.json", TRACK_FOLDER)?;
-        let lfile = need(dir, "closed_loop.csv", TRACK_FOLDER)?;
-        let report: TrackReport = read_json(&rfile)?;
-        let text = read_csv_text(&lfile, "closed_loop")?;
-        let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())
-            .map_err(past_schema_line)?;
-        log.controller = report.controller.clone();
-        log.plant = report.plant.clone();
-        let mut world = PlantWorld {
-            obstacles: report.plant_obstacles.clone(),
-            ..PlantWorld::default()
-        };
-        if let Some(cfile) = inside(dir, "contacts.csv")? {
-            world.contacts = read_contacts(&cfile, log.n, world.obstacles.len())?;
-        }
-        if let Some(ofile) = inside(dir, "obstacles.csv")? {
-            world.track = read_obstacle_track(&ofile, &world.obstacles)?;
-        }
-        let plan = match inside_dir(dir, "plan")? {
-            Some(p) => Some(PlanFolder::read(&p)?),
-            None => None,
-        };
-        Ok(TrackFolder {
-            dir: dir.to_path_buf(),
-            report,
-            log,
-            world,
-            plan,
         })
     }
 }

@@ -17,8 +17,9 @@ pub mod traverse;
 
 use crate::ladder::LoadedLadder;
 use crate::plan_run::PlanRun;
-use crate::read::{inside, need, read_csv_text, read_json, PlanFolder, TrackFolder};
+use crate::read::{inside, need, read_csv_text, read_json, PlanFolder};
 use crate::scenario::LoadedScenario;
+use crate::track_folder::TrackFolder;
 use crate::track_run::TrackRun;
 use crate::traverse::Traverse;
 use crate::ExpError;
