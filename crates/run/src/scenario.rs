@@ -254,10 +254,7 @@ pub fn in_section(e: Error, src: &str, section: &str) -> Error {
 }
 
 /// Parse TOML text into `T`; `source` names it in the error (the parser's message names line and field).
-pub fn parse_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    source: &str,
-) -> Result<T, Error> {
+pub fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source: &str) -> Result<T, Error> {
     toml::from_str(text).map_err(|e| Error::Parse {
         path: source.into(),
         message: e.to_string().trim_end().replace('\n', " "),
