@@ -258,7 +258,7 @@ pub(crate) fn plan_joint_swings(
             &obstacles,
         );
         let plan = plan_with_report(
-            chains[i % 2].clone(),
+            chains[brachia::ladder::holding_hand(i)].clone(),
             task,
             planner.clone(),
             nlp.clone(),
@@ -289,7 +289,7 @@ pub(crate) fn plan_joint_swings(
             )
         })
         .collect::<PyResult<Vec<_>>>()?;
-    let report = brachia_experiments::ladder::joint_swings_json(&j);
+    let report = brachia::ladder::joint_swings_json(&j);
     Ok(JointSwingPlan {
         inner: j,
         phases,

@@ -157,6 +157,7 @@ pub mod error;
 pub mod fdcheck;
 pub mod geometry;
 pub mod integrate;
+pub mod ladder;
 pub mod limits;
 pub mod math;
 pub mod model;

@@ -61,8 +61,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 mod geometry;
+mod read;
 use geometry::SRC;
 pub use geometry::{check_study_links, scaled_params, start_pose};
+pub use read::read_parameter_study;
 
 /// Two r2 values (or offsets) closer than this are the same grid value.
 const SAME: f64 = 1e-9;

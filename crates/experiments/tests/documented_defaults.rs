@@ -352,33 +352,33 @@ fn every_settings_field_documents_the_default_it_has() {
         &Disturbances::default(),
         &[],
     ));
-    let exp = "crates/experiments/src";
+    let run = "crates/run/src";
     problems.extend(check(
-        &format!("{exp}/scenario.rs"),
+        &format!("{run}/scenario.rs"),
         "TrackingSettings",
         &TrackingSettings::default(),
         &[],
     ));
     problems.extend(check(
-        &format!("{exp}/scenario.rs"),
+        &format!("{run}/scenario.rs"),
         "PlantSettings",
         &PlantSettings::default(),
         &[],
     ));
     problems.extend(check(
-        &format!("{exp}/parameter_study.rs"),
+        "crates/experiments/src/parameter_study.rs",
         "ParameterStudySettings",
         &ParameterStudySettings::default(),
         &[],
     ));
     problems.extend(check(
-        &format!("{exp}/gym/mod.rs"),
+        &format!("{run}/gym/mod.rs"),
         "SwingEnvSettings",
         &brachia_experiments::gym::SwingEnvSettings::default(),
         &[],
     ));
     problems.extend(check(
-        &format!("{exp}/gym/reward.rs"),
+        &format!("{run}/gym/reward.rs"),
         "RewardWeights",
         &brachia_experiments::gym::RewardWeights::default(),
         &[],

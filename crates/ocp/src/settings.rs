@@ -139,12 +139,15 @@ impl OcpSettings {
     }
 }
 
-/// The barrier update ([`OcpSettings::mu_strategy`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[non_exhaustive]
+/// The barrier update ([`OcpSettings::mu_strategy`]; IPOPT's `mu_strategy`), written in lowercase in
+/// settings files (`"monotone"`, `"adaptive"`). The one barrier-update type of brachia: the planner's
+/// `NlpSettings::mu_strategy` is this type too, and the pounce and ripopt backends map it onto theirs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum MuStrategy {
     /// Fiacco-McCormick: mu is kept until the barrier problem is solved to `10 mu`, then
     /// `mu <- max(tol/10, min(0.2 mu, mu^1.5))` (IPOPT's `monotone`).
+    #[default]
     Monotone,
     /// Mehrotra's probing heuristic (IPOPT's `adaptive` with the `probing` oracle): every
     /// iteration an affine-scaling step (mu = 0, same factorisation) predicts the complementarity

@@ -4,7 +4,7 @@
 //! Conventions: SI units (s, m, rad, rad/s, N m, J); the grip bar at the origin, y up. Each static figure
 //! is a PNG with an SVG beside it; animations are GIFs.
 
-use crate::read::TrackFolder;
+use crate::track_folder::TrackFolder;
 use crate::track_run::PlantWorld;
 use crate::CancelToken;
 use brachia::trajectory::Trajectory;

@@ -4,7 +4,7 @@
 //! Units: SI (s, m, N m, J); times of the MPC in microseconds where the name says so.
 
 use super::figures::{self, FigureDir};
-use super::{summary_skeleton, Results};
+use super::results::{summary_skeleton, Results};
 use crate::run_folder::resolved;
 use crate::ExpError;
 use serde_json::{json, Value};

@@ -77,16 +77,9 @@ impl Backend {
     }
 }
 
-/// Barrier-parameter update rule (IPOPT's `mu_strategy`; supported by both backends).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum MuStrategy {
-    /// Fiacco-McCormick monotone decrease (IPOPT's default).
-    #[default]
-    Monotone,
-    /// Adaptive (quality-function / probing) update.
-    Adaptive,
-}
+/// Barrier-parameter update rule (IPOPT's `mu_strategy`): the OCP solver's own type, which every
+/// backend takes (pounce and ripopt map it onto theirs).
+pub use brachia_ocp::MuStrategy;
 
 /// Settings of one NLP solve. Plain data with [`Default`], serde and [`NlpSettings::validate`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

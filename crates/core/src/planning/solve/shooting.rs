@@ -12,7 +12,7 @@ use crate::integrate;
 use crate::model::{Robot, Scratch};
 use crate::planning::clearance_check::check_clearance;
 use crate::planning::nlp::OcpNlp;
-use crate::planning::nlp::{Backend, MuStrategy, NlpSettings, PassStats, SolveStatus, TimeSplit};
+use crate::planning::nlp::{Backend, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use crate::planning::outcome::SolveRole;
 use crate::planning::outcome::{Plan, SolveAttempt, Violations};
 use crate::planning::profile::Clamped;
@@ -54,14 +54,6 @@ pub(crate) fn status_of(s: &OcpStatus) -> SolveStatus {
     }
 }
 
-/// The planner's name of the OCP solver's barrier update.
-pub(crate) fn mu_strategy_of(m: brachia_ocp::MuStrategy) -> MuStrategy {
-    match m {
-        brachia_ocp::MuStrategy::Adaptive => MuStrategy::Adaptive,
-        _ => MuStrategy::Monotone,
-    }
-}
-
 /// The OCP solver's one pass as a planner attempt: callbacks are its evaluations and Hessians, the
 /// linear algebra its condensing, factorisations and solves, the rest line search and bookkeeping;
 /// `settings` are the ones the pass ran with (its barrier update is the attempt's label).
@@ -78,7 +70,7 @@ pub(crate) fn ocp_attempt(
         line_search_and_other_s: (t.total_s - callbacks_s - t.linear_algebra_s).max(0.0),
     };
     SolveAttempt {
-        mu_strategy: mu_strategy_of(settings.mu_strategy),
+        mu_strategy: settings.mu_strategy,
         status: status.clone(),
         adopted: true,
         iterations: stats.iterations,
@@ -102,10 +94,7 @@ pub(crate) fn ocp_attempt(
 pub(crate) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     let d = OcpSettings::default();
     OcpSettings {
-        mu_strategy: match nlp.mu_strategy {
-            MuStrategy::Monotone => brachia_ocp::MuStrategy::Monotone,
-            MuStrategy::Adaptive => brachia_ocp::MuStrategy::Adaptive,
-        },
+        mu_strategy: nlp.mu_strategy,
         max_iter: nlp.max_iter,
         tol: nlp.tol,
         constr_viol_tol: nlp.constr_viol_tol,

@@ -27,7 +27,7 @@ use std::sync::Arc;
 /// A track run's machine-readable report (its `report.json`). Units: s, m, N m, N s, J. The closed
 /// loop's [`RunSummary`] is flattened into the top level (`ee_final_error_m`, `energy_j`, ...); `plan` is
 /// the report of the plan that was tracked. Written with its keys sorted; read back by
-/// [`crate::read::TrackFolder::read`].
+/// [`crate::track_folder::TrackFolder::read`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrackReport {
     /// The scenario's name.

@@ -222,7 +222,7 @@ pub struct LoadedScenario {
 /// Re-home an error of a settings section into the file it came from: the field of an
 /// [`Error::InvalidValue`] gets the prefix `section.` and the source `src`; an [`Error::Dimension`] becomes an
 /// invalid value of that section. Other errors pass through.
-pub(crate) fn in_section(e: Error, src: &str, section: &str) -> Error {
+pub fn in_section(e: Error, src: &str, section: &str) -> Error {
     match e {
         Error::InvalidValue {
             field,
@@ -254,10 +254,7 @@ pub(crate) fn in_section(e: Error, src: &str, section: &str) -> Error {
 }
 
 /// Parse TOML text into `T`; `source` names it in the error (the parser's message names line and field).
-pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    source: &str,
-) -> Result<T, Error> {
+pub fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source: &str) -> Result<T, Error> {
     toml::from_str(text).map_err(|e| Error::Parse {
         path: source.into(),
         message: e.to_string().trim_end().replace('\n', " "),
@@ -265,7 +262,7 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(
 }
 
 /// Read a text file of at most [`brachia::limits::MAX_TOML_BYTES`]; an I/O error names the path.
-pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
+pub fn read_text(path: &Path) -> Result<String, Error> {
     brachia::limits::read_text_capped(path, brachia::limits::MAX_TOML_BYTES, "TOML file")
 }
 

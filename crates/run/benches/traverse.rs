@@ -13,7 +13,7 @@
 //!
 //! Units: s.
 
-use brachia_experiments::{run_traverse, LadderScenario, LoadedLadder};
+use brachia_run::{run_traverse, LadderScenario, LoadedLadder};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
 use std::time::{Duration, Instant};

@@ -1,10 +1,10 @@
 //! The joint multi-swing plan against swing-by-swing planning on a ladder scenario (docs/ladders.md,
-//! "The joint multi-swing plan"): `cargo run --release -p brachia-experiments --example joint_swings --
+//! "The joint multi-swing plan"): `cargo run --release -p brachia-run --example joint_swings --
 //! scenarios/ladder-even.toml 2 [rest]` (`rest`: keep the rest condition at the inner switches) prints per swing the objective, eq. 18 energy and positive work of
 //! both plans, and the joint solve's status, iterations, time and residuals.
 
-use brachia_experiments::ladder::joint_swings;
-use brachia_experiments::LadderScenario;
+use brachia_run::ladder::joint_swings;
+use brachia_run::LadderScenario;
 use std::path::Path;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -7,7 +7,7 @@
 //! Conventions: SI units; positions in the grip frame of the imported robot's plane.
 
 use brachia::urdf::{load_robot, Tip, UrdfOptions};
-use brachia_experiments::{run_track, track_plan, ControllerKind, PlantKind, Scenario};
+use brachia_run::{run_track, track_plan, ControllerKind, PlantKind, Scenario};
 use std::path::PathBuf;
 
 fn hook_urdf() -> PathBuf {
@@ -61,7 +61,7 @@ qd_max = 10.0
     let plan = mpc.plan.as_ref().expect("planned here");
     assert!(plan.plan.converged());
     assert!(plan.plan.violations.ee_position < 1e-6);
-    let bar = |r: &brachia_experiments::TrackRun| r.report.bar_error_m.expect("a swing to a bar");
+    let bar = |r: &brachia_run::TrackRun| r.report.bar_error_m.expect("a swing to a bar");
     assert!(
         bar(&mpc) < 0.02 && mpc.report.reaches_bar == Some(true),
         "model plant: ends {} m from the bar",

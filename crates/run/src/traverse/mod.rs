@@ -5,7 +5,9 @@
 //! is in its grip frame, link 1 at the current grip (`q[0]` absolute, the rest relative; SI units).
 //! **Hands**: hand A is the end of the parameters file's link 1, hand B the end of its link n. Swings 0,
 //! 2, 4, ... hang from hand A (the chain as written), swings 1, 3, ... from hand B (the chain re-rooted,
-//! [`brachia::model::switch_grip`]).
+//! [`brachia::model::switch_grip`]). The ladder's sequencing (the grip-switch map, the frames, each
+//! swing's task, the capture residual) is the library's [`brachia::ladder`]; this module runs it on a
+//! plant and writes the run folder.
 //!
 //! **Capture rule**: a swing ends after its planned time (plus `tracking.hold_s`); the hand captures the
 //! bar when it is then within `ladder.capture_radius` of it and slower than `ladder.capture_speed`.
@@ -249,7 +251,7 @@ pub struct Traverse {
     pub swings: Vec<SwingRecord>,
     /// The closed-loop log of each tracked swing (its chain's grip frame).
     pub logs: Vec<ClosedLoopLog>,
-    /// The chain as written and re-rooted (swing k uses `chains[k % 2]`).
+    /// The chain as written and re-rooted (swing k uses `chains[brachia::ladder::holding_hand(k)]`).
     pub chains: [Robot; 2],
     /// The rapier world: its obstacles (the ladder's as fixed circles first, then the plant's),
     /// every contact (links in the parameters file's order) and the obstacle track, stamped with the
@@ -280,16 +282,10 @@ const GIF_FPS: f64 = 20.0;
 /// (the planner's [`brachia::planning::START_WIDEN_MARGIN`]).
 pub const Q1_WIDEN_MARGIN: f64 = brachia::planning::START_WIDEN_MARGIN;
 
-/// A later swing starts where the last one left the chain: its link 1 (the old link n) may point above
-/// the bar, a relative joint may end a little past `planner.bounds.q_rel_max` (the bound is on the
-/// plan; the tracked chain follows it within its tracking error), and its joint rates may exceed
-/// `planner.bounds.qd_max` a little. Take the start angle's representative (mod 2 pi) nearest
-/// `planner.bounds.q1`, then widen the bounds to take the start state
-/// ([`brachia::planning::Bounds::widened_for_start`], the rule a re-plan from a measured state uses).
+/// A later swing starts where the last one left the chain: the start angle's representative and the
+/// bounds widened to take the start state ([`brachia::ladder::later_swing_start`]).
 fn widen_start_bounds(sc: &mut crate::scenario::Scenario) {
-    sc.task.q0[0] = sc.planner.bounds.nearest_q1(sc.task.q0[0]);
-    let x: Vec<f64> = sc.task.q0.iter().chain(&sc.task.qd0).copied().collect();
-    sc.planner.bounds = sc.planner.bounds.widened_for_start(&x);
+    brachia::ladder::later_swing_start(&mut sc.task, &mut sc.planner.bounds);
 }
 
 /// Run the traverse of `ll` on its plant (`[plant] kind`). Errors only on bad input found at run time that no
@@ -401,14 +397,13 @@ fn plan_ahead(
 ) -> Result<SwingPlan, Error> {
     let sc = &ls.scenario;
     let n = ls.robot.n();
-    let task = brachia::planning::JointSwingTask {
-        x0: [&sc.task.q0[..], &x[n..]].concat(),
-        bars: std::iter::once(grip)
-            .chain(bars.iter().map(crate::ladder::Bar::p))
-            .collect(),
-        obstacles: obstacles.to_vec(),
+    let task = brachia::ladder::joint_swing_task(
+        [&sc.task.q0[..], &x[n..]].concat(),
+        grip,
+        bars,
+        obstacles,
         rest_at_switches,
-    };
+    );
     let j = brachia::planning::plan_joint_swings(&ls.robot, &task, &sc.planner, &sc.solver)?;
     let iterations = j.reference.iter().map(|p| p.iterations).sum::<usize>()
         + j.solve.as_ref().map_or(0, |s| s.iterations);
@@ -433,34 +428,15 @@ fn plan_ahead(
     })
 }
 
-/// How far the online re-plans of a joint-planned swing may end from the joint plan's switch pose,
-/// per joint, rad (`switch_pose_box`).
-pub const SWITCH_POSE_MARGIN_RAD: f64 = 0.1;
-
-/// The end box the online re-plans of the first swing of a joint plan aim at (`[tracking] replan`,
-/// `ladder.lookahead_switch = "rest"`; docs/ladders.md, "Lookahead"): each joint angle within
-/// [`SWITCH_POSE_MARGIN_RAD`] of the joint plan's own end pose of that swing (the switch pose it
-/// chose for the swings after it), the rates free (the rest condition of the planner's bounds holds
-/// there anyway).
-fn switch_pose_box(plan: &brachia::planning::Plan) -> Vec<[f64; 2]> {
-    let tr = &plan.trajectory;
-    let q = tr.q(tr.len() - 1);
-    let m = SWITCH_POSE_MARGIN_RAD;
-    q.iter()
-        .map(|v| [v - m, v + m])
-        .chain(std::iter::repeat_n(
-            [f64::NEG_INFINITY, f64::INFINITY],
-            q.len(),
-        ))
-        .collect()
-}
+pub use brachia::ladder::SWITCH_POSE_MARGIN_RAD;
+use brachia::ladder::{capture_residual, holding_hand, switch_pose_box};
 
 /// The traverse; `None` when `stop` said so before it finished.
 fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
     let sc = &ll.scenario;
     let bars = &sc.ladder.bars;
     let n = ll.robot.n();
-    let chains = [ll.robot.clone(), ll.robot.rerooted()?];
+    let chains = brachia::ladder::chains(&ll.robot)?;
     let pchains = plant_chains(ll)?;
     let src = ll.path.display().to_string();
     let mut x = ll.x0.clone();
@@ -486,7 +462,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         if stop() {
             return Ok(None);
         }
-        let robot = &chains[k % 2];
+        let robot = &chains[holding_hand(k)];
         let mut swing_sc = crate::ladder::swing_scenario(sc, &x[..n], &x[n..], grip, k + 1);
         if k > 0 {
             // the plant starts where the plan does: q1 as the representative (mod 2 pi) the plan uses
@@ -566,7 +542,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         let tracked = track_swing(
             ll,
             &ls,
-            &pchains[k % 2],
+            &pchains[holding_hand(k)],
             &x,
             p,
             plan_source,
@@ -587,11 +563,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         }
         let summary = log.summary();
         let xe = log.x(log.len() - 1).to_vec();
-        let ee = robot.ee_position(&xe[..n]);
-        let v = robot.ee_velocity(&xe[..n], &xe[n..]);
-        let bar = bars[k + 1].p();
-        let miss = (grip[0] + ee[0] - bar[0]).hypot(grip[1] + ee[1] - bar[1]);
-        let speed = v[0].hypot(v[1]);
+        let (miss, speed) = capture_residual(robot, grip, &xe, bars[k + 1].p());
         let captured = diverged_at.is_none()
             && miss <= sc.ladder.capture_radius
             && speed <= sc.ladder.capture_speed;
@@ -600,7 +572,7 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             swing: k,
             from_bar: k,
             to_bar: k + 1,
-            holding_hand: k % 2,
+            holding_hand: holding_hand(k),
             grip,
             t_start_s: t_start,
             duration_s: duration,
@@ -647,15 +619,15 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
             break;
         }
         // the capture impulse with the plant's masses (the true robot stops the hand)
-        match switch_grip(&pchains[k % 2], grip, &xe) {
+        match switch_grip(&pchains[holding_hand(k)], grip, &xe) {
             Ok(s) => {
                 rec.capture_impact_j = s.impact_energy_j;
                 x = s.x;
                 x[0] = sc.planner.bounds.nearest_q1(x[0]);
                 grip = s.grip;
                 if let Some(r) = rapier.as_mut() {
-                    match r.regrip(&pchains[(k + 1) % 2], grip, &x) {
-                        Ok(g) => rec.regrip = Some(RegripRecord::new(g, k % 2)),
+                    match r.regrip(&pchains[holding_hand(k + 1)], grip, &x) {
+                        Ok(g) => rec.regrip = Some(RegripRecord::new(g, holding_hand(k))),
                         Err(e) => {
                             swings.push(rec);
                             status = TraverseStatus::SwitchFailed {
@@ -800,7 +772,7 @@ fn record_contacts(
     world: &mut PlantWorld,
 ) {
     for c in contacts {
-        let flip = |j: usize| if k % 2 == 1 { n - 1 - j } else { j };
+        let flip = |j: usize| if holding_hand(k) == 1 { n - 1 - j } else { j };
         let body = match c.body {
             ContactBody::Link(j) => ContactBody::Link(flip(j)),
             other => other,
@@ -833,16 +805,9 @@ impl Traverse {
     /// World joint positions of row `row` of swing `k`'s log, in the parameters file's order (hand A
     /// first): n + 1 points.
     pub fn world_joints(&self, k: usize, row: usize) -> Vec<[f64; 2]> {
-        let robot = &self.chains[k % 2];
-        let n = robot.n();
-        let grip = self.swings[k].grip;
-        let mut p = vec![[0.0; 2]; n + 1];
-        robot.joint_positions(&self.logs[k].x(row)[..n], &mut p);
-        let mut w: Vec<[f64; 2]> = p.iter().map(|v| [v[0] + grip[0], v[1] + grip[1]]).collect();
-        if k % 2 == 1 {
-            w.reverse();
-        }
-        w
+        let hand = holding_hand(k);
+        let robot = &self.chains[hand];
+        brachia::ladder::world_joints(robot, self.swings[k].grip, self.logs[k].x(row), hand)
     }
 
     /// `obstacles.csv` of a rapier traverse: `t,obstacle_0_x,obstacle_0_y,...` (traverse time s, world m).
@@ -1058,7 +1023,7 @@ impl Traverse {
                 let t = t0 + log.t[row];
                 let joints = self.world_joints(k, row);
                 // the swinging hand: hand B on even swings, hand A on odd ones
-                let hand = if k % 2 == 0 {
+                let hand = if holding_hand(k) == 0 {
                     joints[joints.len() - 1]
                 } else {
                     joints[0]

@@ -4,8 +4,8 @@
 //!
 //! Conventions: SI units (s, m, rad, N s); ee errors are distances to the reference EE position.
 
-use brachia_experiments::scenario::LoadedScenario;
-use brachia_experiments::{run_track, track_plan, ControllerKind, PlantKind, Scenario, TrackRun};
+use brachia_run::scenario::LoadedScenario;
+use brachia_run::{run_track, track_plan, ControllerKind, PlantKind, Scenario, TrackRun};
 use std::path::{Path, PathBuf};
 
 fn scenario(name: &str) -> LoadedScenario {

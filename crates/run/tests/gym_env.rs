@@ -3,11 +3,11 @@
 
 use brachia::planning::SwingTask;
 use brachia::Robot;
-use brachia_experiments::gym::{
+use brachia_run::gym::{
     Autoreset, Randomization, SwingBatch, SwingEnv, SwingEnvSettings, SwingEnvSpec,
 };
-use brachia_experiments::scenario::PlantSettings;
-use brachia_experiments::PlantKind;
+use brachia_run::scenario::PlantSettings;
+use brachia_run::PlantKind;
 use std::sync::Arc;
 
 fn spec(

@@ -1,5 +1,5 @@
 //! Reading run folders back: the data a figure or a report needs, loaded from what `brachia plan`,
-//! `brachia track` and the parameter study wrote, checked before it is used.
+//! `brachia track` and the other runs wrote, checked before it is used.
 //!
 //! Every file is read with a size cap ([`brachia::limits`]); a missing file, a header that is not the
 //! writer's, a value that does not parse, a non-finite number or times that do not increase is an
@@ -10,19 +10,12 @@
 //! (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must lie inside it ([`inside`]).
 //!
 //! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
-//! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`ClosedLoopLog::to_csv`];
+//! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`brachia::sim::ClosedLoopLog::to_csv`];
 //! `contacts.csv` `t,link,body,impulse`; `obstacles.csv` `t,obstacle_0_x,obstacle_0_y,...`.
 
-use crate::parameter_study::{
-    BaseParams, ParameterStudy, ParameterStudySettings, StickDiagram, StudyCell, StudyRow,
-};
 use crate::plan_run::PlanReport;
 use crate::scenario::{LoadedScenario, Scenario, Uses};
-use crate::track_run::{PlantWorld, TrackReport};
 use brachia::limits;
-use brachia::model::RobotParams;
-use brachia::planning::SolveStatus;
-use brachia::sim::ClosedLoopLog;
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
 use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
@@ -134,7 +127,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
 
 /// An error of a CSV parser given the text after the schema line ([`read_csv_text`]): its `line N`
 /// counted from the header becomes the file's line, `line N+1`.
-fn past_schema_line(e: Error) -> Error {
+pub(crate) fn past_schema_line(e: Error) -> Error {
     match e {
         Error::InvalidValue {
             source_name,
@@ -459,64 +452,9 @@ impl PlanFolder {
     }
 }
 
-/// A track run's folder read back (`brachia track`).
-#[derive(Debug, Clone)]
-pub struct TrackFolder {
-    /// The folder.
-    pub dir: PathBuf,
-    /// `report.json`.
-    pub report: TrackReport,
-    /// `closed_loop.csv`, with the plant and controller names of the report (no controller timings).
-    pub log: ClosedLoopLog,
-    /// The plant's world: the report's obstacles, `contacts.csv` and `obstacles.csv` (empty when absent,
-    /// as on the model plant).
-    pub world: PlantWorld,
-    /// The plan under `plan/`, when this run planned it.
-    pub plan: Option<PlanFolder>,
-}
-
-const TRACK_FOLDER: &str =
-    "a track folder written by `brachia track` (report.json, closed_loop.csv)";
-
-impl TrackFolder {
-    /// Read the track folder `dir`: `report.json`, `closed_loop.csv` ([`ClosedLoopLog::from_csv`]),
-    /// `contacts.csv` and `obstacles.csv` when present, and the plan folder `plan/` when present.
-    pub fn read(dir: &Path) -> Result<Self, Error> {
-        let rfile = need(dir, "report.json", TRACK_FOLDER)?;
-        let lfile = need(dir, "closed_loop.csv", TRACK_FOLDER)?;
-        let report: TrackReport = read_json(&rfile)?;
-        let text = read_csv_text(&lfile, "closed_loop")?;
-        let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())
-            .map_err(past_schema_line)?;
-        log.controller = report.controller.clone();
-        log.plant = report.plant.clone();
-        let mut world = PlantWorld {
-            obstacles: report.plant_obstacles.clone(),
-            ..PlantWorld::default()
-        };
-        if let Some(cfile) = inside(dir, "contacts.csv")? {
-            world.contacts = read_contacts(&cfile, log.n, world.obstacles.len())?;
-        }
-        if let Some(ofile) = inside(dir, "obstacles.csv")? {
-            world.track = read_obstacle_track(&ofile, &world.obstacles)?;
-        }
-        let plan = match inside_dir(dir, "plan")? {
-            Some(p) => Some(PlanFolder::read(&p)?),
-            None => None,
-        };
-        Ok(TrackFolder {
-            dir: dir.to_path_buf(),
-            report,
-            log,
-            world,
-            plan,
-        })
-    }
-}
-
 /// Split a CSV file into its header and its non-empty rows (each with its 1-based line number), the
 /// header checked against `header`.
-fn csv_rows<'a>(
+pub fn csv_rows<'a>(
     text: &'a str,
     file: &str,
     header: &str,
@@ -539,7 +477,7 @@ fn csv_rows<'a>(
 }
 
 /// A finite number of a CSV cell.
-fn number(file: &str, line: usize, col: &str, v: &str) -> Result<f64, Error> {
+pub fn number(file: &str, line: usize, col: &str, v: &str) -> Result<f64, Error> {
     match v.parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
         Ok(_) => Err(Error::invalid(
@@ -645,154 +583,4 @@ pub(crate) fn read_obstacle_track(
         out.push(vals);
     }
     Ok(out)
-}
-
-/// The part of the parameter study's `report.json` a reader needs.
-#[derive(serde::Deserialize)]
-struct StudyReport {
-    settings: ParameterStudySettings,
-    start_q: Vec<f64>,
-    rows: Vec<StudyRow>,
-    cells: usize,
-    stick_r2: Vec<StudyStick>,
-    wall_time_s: f64,
-}
-
-#[derive(serde::Deserialize)]
-struct StudyStick {
-    r2: f64,
-    swing_time_s: f64,
-    status: SolveStatus,
-    energy_j: Option<f64>,
-}
-
-const STUDY_FOLDER: &str = "a parameter-study folder (report.json, cells.csv, stick_r2_*.csv)";
-
-/// A solver status from its snake-case name as `cells.csv` writes it (the text of a status that carries
-/// one is not in the CSV: it reads back empty).
-fn status_from_name(name: &str) -> Option<SolveStatus> {
-    serde_json::from_value(serde_json::Value::String(name.into()))
-        .ok()
-        .or_else(|| serde_json::from_value(serde_json::json!({ name: "" })).ok())
-}
-
-/// Read a parameter study's run folder (as [`crate::parameter_study_folder`] writes it): the settings,
-/// rows and stick-diagram swings of `report.json`, every cell of `cells.csv` (in row-major order, one per
-/// r2 and offset of the settings) and each stick swing's robot and trajectory.
-pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
-    let rfile = need(dir, "report.json", STUDY_FOLDER)?;
-    let cfile = need(dir, "cells.csv", STUDY_FOLDER)?;
-    let rep: StudyReport = read_json(&rfile)?;
-    let base = match &rep.settings.base_params {
-        BaseParams::Inline(p) => p.clone(),
-        other => {
-            return Err(Error::invalid(
-                rfile.display().to_string(),
-                "settings.base_params",
-                format!("{other:?}"),
-                "a study's report holds its base parameters inline",
-            ))
-        }
-    };
-    let (nr, no) = (rep.settings.r2.len(), rep.settings.offsets_s.len());
-    if rep.rows.len() != nr || rep.cells != nr * no {
-        return Err(Error::invalid(
-            rfile.display().to_string(),
-            "rows, cells",
-            format!("{} rows, {} cells", rep.rows.len(), rep.cells),
-            format!("the settings' grid has {nr} r2 x {no} offsets"),
-        ));
-    }
-    let file = cfile.display().to_string();
-    let text = read_csv_text(&cfile, "cells")?;
-    let header = "r2,offset_s,swing_time_s,status,converged,energy_j,positive_work_j,objective,\
-                  iterations,solve_time_s,start,replay_ee_error_m,torque_scale_reached";
-    let rows = csv_rows(&text, &file, header)?;
-    let columns = 13;
-    if rows.len() != rep.cells {
-        return Err(Error::invalid(
-            &file,
-            "rows",
-            rows.len(),
-            format!("report.json has {} cells", rep.cells),
-        ));
-    }
-    let mut cells = Vec::with_capacity(rows.len());
-    for (line, row) in rows {
-        if row.len() != columns {
-            return Err(Error::invalid(
-                &file,
-                format!("line {line}"),
-                row.join(","),
-                format!("expected {columns} columns: {header}"),
-            ));
-        }
-        let num = |i: usize, c: &str| number(&file, line, c, row[i]);
-        let opt = |i: usize, c: &str| {
-            if row[i].is_empty() {
-                Ok(None)
-            } else {
-                num(i, c).map(Some)
-            }
-        };
-        let bad = |c: &str, v: &str, rule: &str| {
-            Error::invalid(&file, format!("line {line}, {c}"), v, rule)
-        };
-        cells.push(StudyCell {
-            r2: num(0, "r2")?,
-            offset_s: num(1, "offset_s")?,
-            swing_time_s: num(2, "swing_time_s")?,
-            status: status_from_name(row[3])
-                .ok_or_else(|| bad("status", row[3], "a solver status (solved, ...)"))?,
-            converged: row[4]
-                .parse()
-                .map_err(|_| bad("converged", row[4], "true or false"))?,
-            energy_j: opt(5, "energy_j")?,
-            positive_work_j: opt(6, "positive_work_j")?,
-            objective: opt(7, "objective")?,
-            iterations: row[8]
-                .parse()
-                .map_err(|_| bad("iterations", row[8], "a whole number"))?,
-            solve_time_s: num(9, "solve_time_s")?,
-            start: serde_json::from_value(serde_json::Value::String(row[10].into())).map_err(
-                |_| {
-                    bad(
-                        "start",
-                        row[10],
-                        "cold, warm, cold-after-warm or warm-from-row",
-                    )
-                },
-            )?,
-            replay_ee_error_m: opt(11, "replay_ee_error_m")?,
-            torque_scale_reached: opt(12, "torque_scale_reached")?,
-        });
-    }
-    let mut sticks = Vec::with_capacity(rep.stick_r2.len());
-    for s in &rep.stick_r2 {
-        let tag = crate::parameter_study::r2_tag(s.r2);
-        let pfile = need(dir, &format!("stick_r2_{tag}_params.toml"), STUDY_FOLDER)?;
-        let tfile = need(dir, &format!("stick_r2_{tag}.csv"), STUDY_FOLDER)?;
-        let ptext = limits::read_text_capped(&pfile, limits::MAX_TOML_BYTES, "TOML file")?;
-        let params = RobotParams::from_toml_str(&ptext, &pfile.display().to_string())?;
-        let robot = Robot::from_params(params, &pfile.display().to_string())?;
-        let whose = format!("the robot of {}", pfile.display());
-        let trajectory = read_plan_trajectory(&tfile, &robot, &whose)?;
-        sticks.push(StickDiagram {
-            r2: s.r2,
-            robot,
-            swing_time_s: s.swing_time_s,
-            status: s.status.clone(),
-            energy_j: s.energy_j,
-            trajectory,
-        });
-    }
-    Ok(ParameterStudy {
-        settings: rep.settings,
-        base,
-        start_q: rep.start_q,
-        rows: rep.rows,
-        cells,
-        sticks,
-        wall_time_s: rep.wall_time_s,
-    })
 }

@@ -360,7 +360,7 @@ pub fn track_view(f: TrackParts<'_>) -> Value {
 }
 
 /// Text safe inside HTML element content.
-pub(crate) fn html_escape(s: &str) -> String {
+pub fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")

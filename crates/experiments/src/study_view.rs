@@ -4,19 +4,19 @@
 //! folder's files ([`crate::read_parameter_study`]). Hovering (or focusing) a cell or a point shows
 //! its values with their units.
 
-use super::data::html_escape;
 use crate::parameter_study::{status_name, ParameterStudy};
 use crate::StudyCell;
 use brachia::Error;
+use brachia_run::view::data::html_escape;
 use std::fmt::Write as _;
 use std::path::Path;
 
-const TEMPLATE: &str = include_str!("../../assets/view/study.html");
-const STYLE: &str = include_str!("../../assets/view/view.css");
+const TEMPLATE: &str = include_str!("../assets/view/study.html");
+const STYLE: &str = brachia_run::view::VIEW_STYLE;
 
 /// The page of the parameter-study folder `dir`; every file is checked as `brachia report` checks it.
 pub fn study_folder_html(dir: &Path) -> Result<String, Error> {
-    Ok(study_html(&crate::read::read_parameter_study(dir)?))
+    Ok(study_html(&crate::read_parameter_study(dir)?))
 }
 
 /// A number for the page: 4 significant digits.

@@ -134,7 +134,7 @@ impl RunFolder {
 /// Write the manifest of the staging folder `stage` listing every file of `folder` (size and CRC-32)
 /// before they are written: a run killed half-way leaves a staging folder whose files the next run
 /// can prove are brachia's.
-pub(crate) fn list_in_stage(folder: &RunFolder, stage: &Path) -> Result<(), ExpError> {
+pub fn list_in_stage(folder: &RunFolder, stage: &Path) -> Result<(), ExpError> {
     let stamps: BTreeMap<PathBuf, Stamp> = folder
         .files
         .iter()
@@ -267,7 +267,7 @@ fn symlink_target(dir: &Path) -> Option<PathBuf> {
 /// `path` made absolute with every symbolic link resolved, also when its last components do not exist
 /// yet: component by component, each existing prefix canonicalized, `..` after a missing folder taken
 /// lexically (as creating the missing folders first would make it).
-pub(crate) fn resolved(path: &Path) -> Option<PathBuf> {
+pub fn resolved(path: &Path) -> Option<PathBuf> {
     use std::path::Component;
     let abs = if path.is_absolute() {
         path.to_path_buf()
@@ -521,7 +521,7 @@ fn aside_name(path: &Path) -> PathBuf {
 }
 
 /// Move the user's entry at `path` (a file, link, folder or anything else) aside to a free name.
-pub(crate) fn move_aside(path: &Path) -> Result<(), ExpError> {
+pub fn move_aside(path: &Path) -> Result<(), ExpError> {
     let to = aside_name(path);
     std::fs::rename(path, &to).map_err(|e| werr(&to, e))
 }
@@ -553,7 +553,7 @@ fn install_stage(stage: &Path, dir: &Path) -> Result<(), ExpError> {
 /// previous run provably wrote is replaced; of the previous run's provable files that are not written
 /// again, those `replaced` selects are removed and the others stay listed; the manifest is rewritten.
 /// Returns the installed files (paths under `dir`).
-pub(crate) fn install_part(
+pub fn install_part(
     stage: &Path,
     dir: &Path,
     replaced: &dyn Fn(&Path) -> bool,

@@ -6,8 +6,8 @@
 //!
 //! Conventions: SI units; EE errors are distances to the bar.
 
-use brachia_experiments::scenario::LoadedScenario;
-use brachia_experiments::{run_track, track_plan, ControllerKind, PlantKind, Scenario, Uses};
+use brachia_run::scenario::LoadedScenario;
+use brachia_run::{run_track, track_plan, ControllerKind, PlantKind, Scenario, Uses};
 use std::path::Path;
 
 fn scenario(name: &str) -> LoadedScenario {

@@ -125,8 +125,7 @@ pub(super) fn plant_chains(ll: &LoadedLadder) -> Result<[Robot; 2], Error> {
         robot: ll.robot.clone(),
         path: ll.path.clone(),
     })?;
-    let rr = pr.rerooted()?;
-    Ok([pr, rr])
+    brachia::ladder::chains(&pr)
 }
 
 /// The ball of `[disturbances.ball]` as it was put into the world (rapier plant).

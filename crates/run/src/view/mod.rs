@@ -3,7 +3,7 @@
 //! folder.
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
-//! `crates/experiments/assets/view/`, included at build time): it opens from disk in any browser,
+//! `crates/run/assets/view/`, included at build time): it opens from disk in any browser,
 //! offline, and makes no network request. It shows the robot to scale (link capsules, joints, hand,
 //! grip and target bars, obstacles), the planned swing as a ghost beside the tracked one, the hand's
 //! path, and plots of q, qd, tau (with the limits), energy and the EE error, all with one time cursor.
@@ -14,13 +14,13 @@
 pub mod bench;
 pub mod data;
 pub mod simulate;
-pub mod study;
 pub mod traverse;
 
 use crate::ladder::LoadedLadder;
 use crate::plan_run::PlanRun;
-use crate::read::{inside, need, read_csv_text, read_json, PlanFolder, TrackFolder};
+use crate::read::{inside, need, read_csv_text, read_json, PlanFolder};
 use crate::scenario::LoadedScenario;
+use crate::track_folder::TrackFolder;
 use crate::track_run::TrackRun;
 use crate::traverse::Traverse;
 use crate::ExpError;
@@ -35,6 +35,9 @@ pub use traverse::{traverse_view, TraverseParts, TraverseReportView};
 
 /// The page's file name in a run folder.
 pub const VIEW_FILE: &str = "view.html";
+
+/// The style sheet every page embeds (light and dark themes).
+pub const VIEW_STYLE: &str = include_str!("../../assets/view/view.css");
 
 const TEMPLATE: &str = include_str!("../../assets/view/view.html");
 const STYLE: &str = include_str!("../../assets/view/view.css");
@@ -200,8 +203,6 @@ fn folder_kind(dir: &Path) -> Option<&'static str> {
         Some("plan")
     } else if has("scorecard.json") {
         Some("benchmark")
-    } else if has("cells.csv") && has("freefall.csv") {
-        Some("study")
     } else {
         None
     }
@@ -209,8 +210,8 @@ fn folder_kind(dir: &Path) -> Option<&'static str> {
 
 /// Read the run folder `dir` and make its page: a track folder (`closed_loop.csv`), a traverse
 /// (`traverse.csv`), a simulation (`trajectory.csv` without `scenario.toml`), a plan
-/// (`trajectory.csv`), a benchmark (`scorecard.json`) or a parameter study (`cells.csv`,
-/// `freefall.csv`). Every file is checked as the readers check
+/// (`trajectory.csv`) or a benchmark (`scorecard.json`); the paper layer adds the parameter study's
+/// page (`brachia_experiments::view`). Every file is checked as the readers check
 /// it ([`PlanFolder::read`], [`TrackFolder::read`], ...); a folder that is none of them is refused
 /// naming what it lacks.
 pub fn view_html(dir: &Path) -> Result<String, Error> {
@@ -227,7 +228,6 @@ pub fn view_html(dir: &Path) -> Result<String, Error> {
         Some("traverse") => traverse_folder_view(dir)?,
         Some("simulate") => simulate::simulate_folder_view(dir)?,
         Some("plan") => plan_folder_view(&PlanFolder::read(dir)?),
-        Some("study") => return study::study_folder_html(dir),
         Some(_) => return bench::benchmark_folder_html(dir),
         None => {
             return Err(Error::invalid(
@@ -250,7 +250,11 @@ pub fn view_html(dir: &Path) -> Result<String, Error> {
 /// keeping it as the user's) and a `view.html` of the user's is moved aside as `view.html.user`.
 /// Returns the page's path.
 pub fn write_view(dir: &Path) -> Result<PathBuf, ExpError> {
-    let html = view_html(dir)?;
+    write_page(dir, &view_html(dir)?)
+}
+
+/// Write the page `html` as `dir/view.html`, as [`write_view`] does.
+pub fn write_page(dir: &Path, html: &str) -> Result<PathBuf, ExpError> {
     // staged next to the folder, then installed under the folder's lock like any run's files: a
     // view.html of the user's is moved aside, the manifest lists the new page with its stamp
     let stage = crate::run_folder::stage_for(dir)?;

@@ -3,14 +3,14 @@
 //! the data must equal what was written (to the CSVs' 9 decimals, times to 6); damaged files are refused
 //! with the file, the field and the value named.
 
-use brachia_experiments::{
+use brachia_run::{
     run_plan, track_plan, ControllerKind, PlanFolder, PlantKind, Scenario, TrackFolder,
 };
 use serde_json::Value;
 use std::path::Path;
 
 /// The robustness scenario (a ball on the path) on a coarse grid: a plan in about a second.
-fn scenario() -> brachia_experiments::scenario::LoadedScenario {
+fn scenario() -> brachia_run::scenario::LoadedScenario {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robustness.toml");
     let mut ls = Scenario::load(&path).unwrap();
     ls.scenario.planner.knot_dt = 0.04;

@@ -5,7 +5,7 @@
 //! `check_out_dir` refuses a symbolic link with or without `force`, `RunFolder::write` refuses it too
 //! (for callers that skip the check), and a staging folder that cannot be renamed into place is removed.
 
-use brachia_experiments::{check_out_dir, RunFolder};
+use brachia_run::{check_out_dir, RunFolder};
 use std::path::Path;
 
 fn leftovers(dir: &Path) -> Vec<String> {

@@ -11,8 +11,8 @@ use brachia::model::switch_grip;
 use brachia::planning::JointSwingPlan;
 use brachia::sim::{ModelPlant, Plant};
 use brachia::Robot;
-use brachia_experiments::ladder::joint_swings;
-use brachia_experiments::{LadderScenario, LoadedLadder};
+use brachia_run::ladder::joint_swings;
+use brachia_run::{LadderScenario, LoadedLadder};
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 

@@ -6,7 +6,7 @@
 //! Conventions: world frame x right, y up, m; rad; SI units. The 3-bar cuts keep the scenario's
 //! planner, solver and rest condition; each runs in seconds in release.
 
-use brachia_experiments::{run_traverse, LadderScenario, TraverseStatus};
+use brachia_run::{run_traverse, LadderScenario, TraverseStatus};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
@@ -347,10 +347,7 @@ fn lookahead_two_completes_the_disturbed_irregular_ladder_with_rest_at_the_switc
     };
     let alone = run(1, None);
     let ahead = run(2, None);
-    assert_eq!(
-        ahead.swings[0].plan_source,
-        brachia_experiments::PlanSource::Joint
-    );
+    assert_eq!(ahead.swings[0].plan_source, brachia_run::PlanSource::Joint);
     for tr in [&alone, &ahead] {
         assert!(tr.status.completed(), "{} ({:?})", tr.status, tr.swings);
         for s in &tr.swings {
@@ -359,11 +356,10 @@ fn lookahead_two_completes_the_disturbed_irregular_ladder_with_rest_at_the_switc
         }
     }
     let sources: Vec<_> = ahead.swings.iter().map(|s| s.plan_source).collect();
-    use brachia_experiments::PlanSource::{Joint, JointGuess};
+    use brachia_run::PlanSource::{Joint, JointGuess};
     assert_eq!(sources, [Joint, Joint, JointGuess]);
-    let work = |tr: &brachia_experiments::Traverse| {
-        tr.swings.iter().map(|s| s.positive_work_j).sum::<f64>()
-    };
+    let work =
+        |tr: &brachia_run::Traverse| tr.swings.iter().map(|s| s.positive_work_j).sum::<f64>();
     eprintln!(
         "positive work: lookahead 1 {}, 2 {}",
         work(&alone),

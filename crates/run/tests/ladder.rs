@@ -5,7 +5,7 @@
 //! Conventions: world frame x right, y up, m; rad; SI units. Coarse knots (0.04 s) keep each traverse
 //! to a few seconds in release.
 
-use brachia_experiments::{run_traverse, LadderScenario, PlanSource};
+use brachia_run::{run_traverse, LadderScenario, PlanSource};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
