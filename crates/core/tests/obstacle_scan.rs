@@ -275,14 +275,27 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
         .filter(|r| r.converged == Some(true))
         .collect();
     assert_eq!(won.len(), 1, "{g:?}");
-    // every seed before the winner was tried and failed, none after it was tried
+    // the seeds run two at a time in their order: one after the winner can have started only
+    // once one before it had failed, and the race ended with the winner (the others cut short:
+    // not concluded)
     let at = g
         .seeds
         .iter()
         .position(|r| r.converged == Some(true))
         .unwrap();
-    assert!(g.seeds[..at].iter().all(|r| r.converged == Some(false)));
+    let failed_before = g.seeds[..at]
+        .iter()
+        .filter(|r| r.converged == Some(false))
+        .count();
     assert!(g.seeds[at + 1..].iter().all(|r| r.converged.is_none()));
+    let started_after = (at + 1..g.seeds.len())
+        .filter(|k| {
+            p.solves
+                .iter()
+                .any(|a| a.role == SolveRole::DetourSeed { index: *k })
+        })
+        .count();
+    assert!(started_after <= failed_before, "{g:?}");
     assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
     // the adopted attempt is the winning seed's (or its resume's), after the smooth step, the
     // obstacle-free plan and the failed seeds
@@ -294,12 +307,6 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
         adopted.role
     );
     assert!(p.solves.iter().any(|a| a.role == SolveRole::ObstacleFree));
-    for k in 0..at {
-        assert!(p
-            .solves
-            .iter()
-            .any(|a| a.role == SolveRole::DetourSeed { index: k }));
-    }
     assert!(p.violations.clearance <= 1e-8, "{:?}", p.violations);
     assert!(p.min_obstacle_clearance_m.unwrap() > -1e-3);
     assert!(p.blockage.is_none());
@@ -499,9 +506,9 @@ fn the_planner_falls_back_to_the_cspace_seed_when_every_detour_seed_fails() {
     assert!(p.converged(), "{:?}", p.failure_message());
     let g = p.guess.as_ref().unwrap();
     assert_eq!(g.strategy, GuessStrategy::Cspace, "{g:?}");
-    // every detour seed was tried and failed before the C-space seed, which converged
+    // no detour seed converged (each failed, or was cut short when the C-space seed won)
     assert!(!g.seeds.is_empty(), "{g:?}");
-    assert!(g.seeds.iter().all(|r| r.converged == Some(false)), "{g:?}");
+    assert!(g.seeds.iter().all(|r| r.converged != Some(true)), "{g:?}");
     let c = g.cspace.as_ref().unwrap();
     assert!(c.found && c.converged == Some(true), "{c:?}");
     assert!(g.scales.is_empty(), "{g:?}");
