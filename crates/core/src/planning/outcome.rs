@@ -242,6 +242,19 @@ pub enum SolveRole {
     /// The task again, warm from the solve before it, with the clearance rows also at the RK4
     /// sub-step states (that solve's resampled trajectory broke the clearance between the knots).
     SubstepClearance,
+    /// The task from a seed of the obstacle chain on a coarser mesh (knots `knot_dt_s` apart): the
+    /// guess of the solve on the task's own mesh that follows it
+    /// ([`crate::planning::strategy::candidate`]).
+    CoarseMesh {
+        /// Knot spacing of the coarse mesh, s.
+        knot_dt_s: f64,
+    },
+    /// The task from the configuration-space seed with the swing time free from the automatic
+    /// swing time up to `t_max_s` ([`crate::planning::strategy::candidate`]).
+    LongerSwing {
+        /// Longest swing time allowed, s.
+        t_max_s: f64,
+    },
 }
 
 impl std::fmt::Display for SolveRole {
@@ -256,6 +269,8 @@ impl std::fmt::Display for SolveRole {
             SolveRole::TorqueScale { scale } => write!(f, "torque limits x{scale:.3}"),
             SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
             SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
+            SolveRole::CoarseMesh { knot_dt_s } => write!(f, "coarse mesh {knot_dt_s:.3} s"),
+            SolveRole::LongerSwing { t_max_s } => write!(f, "swing time free up to {t_max_s:.4} s"),
             SolveRole::SwingTimeAnchor { t_s } => write!(f, "cold at T = {t_s:.4} s"),
             SolveRole::SwingTimeStep { t_s } => write!(f, "continued to T = {t_s:.4} s"),
         }

@@ -5,8 +5,11 @@
 //! - the continuation on the torque limits ([`torque_continuation`]);
 //! - the search in the swing time ([`swing_time`]) when the task's swing time does not plan.
 
+pub mod candidate;
 pub mod cspace;
 pub mod detour;
+pub mod goal;
 pub mod obstacles;
+pub mod race;
 pub mod swing_time;
 pub mod torque_continuation;

@@ -4,23 +4,29 @@
 //! The default guess (a smooth step to an inverse-kinematics target pose, [`crate::planning::planner`]) ignores the
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
 //! infeasible set and its restoration phase often fails. [`crate::planning::plan_with_guess`] then
-//! 1. plans the swing without the obstacles (self-collision kept) from the default guess;
-//! 2. tries the detour seeds of [`super::detour`] (the obstacle-free plan deformed around the
-//!    obstacles by barrier tracking, in a fixed measured order), each solved at full radius from its guess,
-//!    stopping at the first that converges;
-//! 3. tries the configuration-space seed of [`super::cspace`] (a collision-free joint path of another
-//!    homotopy class, found by a grid search), and when its solve fails, plans it with the torque
-//!    limits scaled by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the
-//!    actuator limits: the seed, timed over the swing, may need more torque than the limits allow);
-//! 4. grows every obstacle from a fraction `s` of its radius to the full radius, each step warm-started
-//!    from the previous converged plan (`s` doubles its step after a success, halves it after a
-//!    failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an obstacle the
-//!    swing sweeps through is not rescued, at any radius (measured: docs/planner.md, "Obstacles on the
-//!    path"), because a planar chain hanging from the grip lets a point it sweeps escape only past its
-//!    free end: avoiding it changes the whole swing, not a neighbourhood of it (which is what the
-//!    detour and C-space seeds of steps 2 and 3 do).
+//! runs an ordered chain of strategies, each recorded in the plan's solves by its role:
+//! 1. the smooth step alone, where its guess clears the obstacles (or nothing else is tried);
+//! 2. the swing without the obstacles (self-collision kept), which the seeds deform;
+//! 3. a final pose for the seeds that clears the obstacles, when the obstacle-free swing's does not
+//!    ([`super::goal`]);
+//! 4. the race ([`super::race`]): the smooth step (where its guess cuts through an obstacle, capped
+//!    at [`SMOOTH_STEP_RACE_MAX_ITER`]), the detour seeds of [`super::detour`] (the obstacle-free
+//!    plan deformed around the obstacles by barrier tracking, in a fixed measured order) and the
+//!    configuration-space seed of [`super::cspace`] (a collision-free joint path of another homotopy
+//!    class, found by a grid search), solved two at a time, each seed coarse to fine
+//!    ([`super::candidate`]); the first plan that converges wins;
+//! 5. when the C-space seed's solve failed: that seed planned with the torque limits scaled by
+//!    [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
+//!    limits: the seed, timed over the swing, may need more torque than the limits allow);
+//! 6. every obstacle grown from a fraction `s` of its radius to the full radius, each step
+//!    warm-started from the previous converged plan (`s` doubles its step after a success, halves it
+//!    after a failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an
+//!    obstacle the swing sweeps through is not rescued, at any radius (measured: docs/planner.md,
+//!    "Obstacles on the path"), because a planar chain hanging from the grip lets a point it sweeps
+//!    escape only past its free end: avoiding it changes the whole swing, not a neighbourhood of it
+//!    (which is what the detour and C-space seeds do).
 //!
-//! The guesses of steps 2 to 4 are trajectories (a plan's knots or collocation points), so the
+//! The guesses of steps 4 to 6 are trajectories (a plan's knots or collocation points), so the
 //! strategies work for every transcription and backend. Units: m, s.
 
 use crate::error::Result;
@@ -34,11 +40,16 @@ use crate::planning::settings::PlannerSettings;
 use crate::planning::solve::common::target_pose;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
+use crate::planning::strategy::candidate::{
+    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing,
+};
+use crate::planning::strategy::cspace::CspaceReport;
 use crate::planning::strategy::torque_continuation::with_torque_scale;
+use crate::planning::strategy::{goal, race};
 use crate::planning::task::SwingTask;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 /// Smallest step of the radius scale before the continuation gives up.
 pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
@@ -199,7 +210,48 @@ pub(crate) fn plan_around_obstacles(
     Ok(p)
 }
 
-/// The strategies of [`plan_around_obstacles`], for a call that began at `started`.
+/// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
+/// beside the seeds (a solve from that guess that converges does so in a few dozen iterations).
+pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 150;
+
+/// Where a candidate of the race came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    SmoothStep,
+    Detour(usize),
+    Cspace,
+    CspaceLonger,
+}
+
+/// The smooth step's plan of the task with what is left of the call begun at `started` (at least
+/// 1 ms: a plan is returned), at most `cap` iterations.
+fn smooth_step_now(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    cap: usize,
+) -> Result<Plan> {
+    let run = nlp.remaining(started).unwrap_or_else(|| NlpSettings {
+        max_wall_time_s: Some(1e-3),
+        ..nlp.clone()
+    });
+    plan_single(robot, task, settings, &run.capped(cap), None)
+}
+
+/// Whether a candidate's plans ended because the race was decided elsewhere (its last solve was
+/// cancelled): it neither converged nor failed.
+fn interrupted(plans: &race::Plans) -> bool {
+    plans
+        .last()
+        .is_some_and(|(_, p)| p.status == SolveStatus::Cancelled)
+}
+
+/// The strategies of [`plan_around_obstacles`], for a call that began at `started`, as an ordered
+/// chain (the module docs): the smooth step alone where it clears the obstacles; the obstacle-free
+/// swing; the race of the smooth step (where it does not clear them), the detour seeds and the
+/// C-space seed; the actuator-limit continuation from the C-space seed; the radius continuation.
 fn strategies(
     robot: &Robot,
     task: &SwingTask,
@@ -219,111 +271,274 @@ fn strategies(
         cspace: None,
         out_of_time: false,
     };
-    // the smooth step first, always: where it converged before, the plan is the same
     let mut log = SolveLog::default();
-    let mut best = plan_single(robot, task, settings, nlp, None)?;
-    log.record(&mut best, SolveRole::Task);
-    // an obstacle on the bar: no guess can help, the first solve's attempt is diagnosed
-    if best.converged()
-        || settings.obstacle_guess == ObstacleGuess::Direct
-        || obstacle_on_bar(robot, task, settings.obstacle_margin).is_some()
-    {
-        return Ok(finish(robot, task, settings, best, rep, log, None));
+    let direct = settings.obstacle_guess == ObstacleGuess::Direct;
+    let on_bar = obstacle_on_bar(robot, task, settings.obstacle_margin).is_some();
+    // 1. the smooth step alone where its guess clears the obstacles (where it converged before, the
+    // plan is the same) or where nothing else can help (an obstacle on the bar: the attempt is
+    // diagnosed)
+    let mut smooth = None;
+    if clear || direct || on_bar {
+        let mut p = plan_single(robot, task, settings, nlp, None)?;
+        log.record(&mut p, SolveRole::Task);
+        if p.converged() || direct || on_bar {
+            return Ok(finish(robot, task, settings, p, rep, log, None));
+        }
+        smooth = Some(p);
     }
-    // `nlp` with what is left of the call's time limit and at most `cap` iterations; `None` once
-    // the time is spent
-    let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
+    // 2. the obstacle-free swing, which the seeds deform (an obstacle-free task can still be
+    // refused, e.g. a target out of reach: that is the error)
     rep.strategy = GuessStrategy::Continuation;
     let no_obstacles = SwingTask {
         obstacles: vec![],
         ..task.clone()
     };
-    let Some(run) = within(usize::MAX) else {
-        return Ok(finish(robot, task, settings, best, rep, log, None));
+    let mut free = match nlp.remaining(started) {
+        Some(run) => Some(plan_single(robot, &no_obstacles, settings, &run, None)?),
+        None => None,
     };
-    // an obstacle-free task can still be refused (e.g. a target out of reach): that is the error
-    let mut free = plan_single(robot, &no_obstacles, settings, &run, None)?;
-    log.record(&mut free, SolveRole::ObstacleFree);
-    let free_final = free.points.q(free.points.len() - 1).to_vec();
-    let ff = Some(free_final.as_slice());
-    if !free.converged() {
+    let free_final = free
+        .as_ref()
+        .map(|f| f.points.q(f.points.len() - 1).to_vec());
+    let ff = free_final.as_deref();
+    let Some(free_points) = free
+        .as_ref()
+        .filter(|f| f.converged())
+        .map(|f| f.points.clone())
+    else {
+        let best = match smooth {
+            Some(p) => p,
+            None => {
+                let mut p = smooth_step_now(robot, task, settings, nlp, started, usize::MAX)?;
+                log.record(&mut p, SolveRole::Task);
+                p
+            }
+        };
+        if let Some(f) = free.as_mut() {
+            log.record(f, SolveRole::ObstacleFree);
+        }
         return Ok(finish(robot, task, settings, best, rep, log, ff));
-    }
-    // detour seeds in order, each solved at full radius until one converges
-    rep.strategy = GuessStrategy::Detour;
-    if within(usize::MAX).is_none() {
-        return Ok(finish(robot, task, settings, best, rep, log, ff));
-    }
+    };
+    // 3. the race: the smooth step (unless solved above), the detour seeds, the C-space seed
+    // the seeds end at a pose that clears the obstacles (the obstacle-free swing's, or another
+    // that grasps the bar)
+    let last = free_points.q(free_points.len() - 1).to_vec();
+    let seed_free =
+        match goal::clear_final_pose(robot, &task.obstacles, settings, &last, task.target)? {
+            Some(q) => goal::with_final_pose(&free_points, &q),
+            None => free_points.clone(),
+        };
     let seeds = crate::planning::strategy::detour::detour_seeds(
         robot,
         &task.obstacles,
         settings,
-        &free.points,
+        &seed_free,
     )?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
+    // the C-space search, run once by the first candidate that needs it (the others wait for it)
+    let cspace: OnceLock<Option<(CspaceReport, Option<Trajectory>)>> = OnceLock::new();
+    let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
+    let mut kinds = vec![];
+    let mut cands: Vec<race::Candidate<'_>> = vec![];
+    if smooth.is_none() {
+        kinds.push(Kind::SmoothStep);
+        cands.push(Box::new(move |run: &NlpSettings| {
+            let capped = run.clone().capped(SMOOTH_STEP_RACE_MAX_ITER);
+            Ok(vec![(
+                SolveRole::Task,
+                plan_single(robot, task, settings, &capped, None)?,
+            )])
+        }));
+    }
     for (i, (_, g)) in seeds.iter().enumerate() {
-        let role = SolveRole::DetourSeed { index: i };
-        let Some(p) = solve_seed(robot, task, settings, &within, g, role, &mut log)? else {
-            return Ok(finish(robot, task, settings, best, rep, log, ff));
-        };
-        rep.seeds[i].converged = Some(p.converged());
-        if p.converged() {
-            return Ok(finish(robot, task, settings, p, rep, log, ff));
-        }
-        // a failed seed's plan is not the one returned: the smooth step's attempt (`best`) shows the
-        // obstacle cutting through the swing, which is what the diagnosis names
+        kinds.push(Kind::Detour(i));
+        cands.push(Box::new(move |run: &NlpSettings| {
+            let role = SolveRole::DetourSeed { index: i };
+            solve_seed_coarse_to_fine(robot, task, settings, run, g, role)
+        }));
     }
-    // the configuration-space seed: a path of another homotopy class than the obstacle-free swing's
-    rep.strategy = GuessStrategy::Cspace;
-    if within(usize::MAX).is_none() {
-        return Ok(finish(robot, task, settings, best, rep, log, ff));
-    }
-    let (mut crep, seed) = crate::planning::strategy::cspace::cspace_seed(
-        robot,
-        &task.obstacles,
-        settings,
-        &free.points,
-    )?;
-    if let Some(g) = seed {
-        let role = SolveRole::CspaceSeed;
-        let Some(p) = solve_seed(robot, task, settings, &within, &g, role, &mut log)? else {
-            rep.cspace = Some(crep);
-            return Ok(finish(robot, task, settings, best, rep, log, ff));
+    let search = || {
+        cspace.get_or_init(|| {
+            crate::planning::strategy::cspace::cspace_seed(
+                robot,
+                &task.obstacles,
+                settings,
+                &seed_free,
+            )
+            .ok()
+        })
+    };
+    kinds.push(Kind::Cspace);
+    cands.push(Box::new(move |run: &NlpSettings| {
+        // the search's own time counts against the limit
+        let t0 = std::time::Instant::now();
+        let (Some((_, Some(g))), Some(run)) = (search(), run.remaining(t0)) else {
+            return Ok(vec![]);
         };
-        crep.converged = Some(p.converged());
-        if p.converged() {
-            rep.cspace = Some(crep);
-            return Ok(finish(robot, task, settings, p, rep, log, ff));
+        solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
+    }));
+    if longer_swing_settings(settings, t_auto, t_auto).is_some() {
+        kinds.push(Kind::CspaceLonger);
+        cands.push(Box::new(move |run: &NlpSettings| {
+            let t0 = std::time::Instant::now();
+            let (Some((_, Some(g))), Some(run)) = (search(), run.remaining(t0)) else {
+                return Ok(vec![]);
+            };
+            solve_seed_longer_swing(robot, task, settings, &run, g, t_auto)
+        }));
+    }
+    let outcome = race::race(&cands, nlp, started)?;
+    drop(cands);
+    let (mut crep, cguess) = match cspace.into_inner().flatten() {
+        Some((r, g)) => (Some(r), g),
+        None => (None, None),
+    };
+    // the solves in the report: the smooth step's first, then the obstacle-free plan, then the
+    // candidates in their order
+    let mut won_plan = None;
+    let mut cspace_failed = false;
+    let mut plans = outcome.plans;
+    if kinds[0] == Kind::SmoothStep {
+        let mut p = match plans[0].take().and_then(|v| v.into_iter().last()) {
+            Some((_, p)) => p,
+            None => smooth_step_now(
+                robot,
+                task,
+                settings,
+                nlp,
+                started,
+                SMOOTH_STEP_RACE_MAX_ITER,
+            )?,
+        };
+        log.record(&mut p, SolveRole::Task);
+        if outcome.winner == Some(0) {
+            rep.strategy = GuessStrategy::SmoothStep;
+            won_plan = Some(p.clone());
         }
-        // continuation on the actuator limits: the seed's path, timed over T, needs more torque than
-        // the limits allow; planned with the limits widened, then at the real ones from that plan
+        smooth = Some(p);
+    }
+    if let Some(f) = free.as_mut() {
+        log.record(f, SolveRole::ObstacleFree);
+    }
+    for (c, kind) in kinds.iter().enumerate() {
+        let Some(v) = plans[c].take() else {
+            continue;
+        };
+        let concluded = (!interrupted(&v)).then(|| race::won(&v));
+        match *kind {
+            Kind::SmoothStep => continue,
+            Kind::Detour(i) => rep.seeds[i].converged = concluded,
+            Kind::Cspace => {
+                if let Some(r) = crep.as_mut() {
+                    r.converged = concluded;
+                }
+                cspace_failed = concluded == Some(false);
+            }
+            Kind::CspaceLonger => {
+                if let (Some(r), Some(true)) = (crep.as_mut(), concluded) {
+                    r.converged = Some(true);
+                }
+            }
+        }
+        let n = v.len();
+        for (k, (role, mut p)) in v.into_iter().enumerate() {
+            log.record(&mut p, role);
+            if outcome.winner == Some(c) && k + 1 == n {
+                rep.strategy = match kind {
+                    Kind::Cspace | Kind::CspaceLonger => GuessStrategy::Cspace,
+                    _ => GuessStrategy::Detour,
+                };
+                won_plan = Some(p);
+            }
+        }
+    }
+    let best = match smooth {
+        Some(p) => p,
+        None => smooth_step_now(
+            robot,
+            task,
+            settings,
+            nlp,
+            started,
+            SMOOTH_STEP_RACE_MAX_ITER,
+        )?,
+    };
+    if let Some(p) = won_plan {
+        rep.cspace = crep;
+        return Ok(finish(robot, task, settings, p, rep, log, ff));
+    }
+    // 4. continuation on the actuator limits from the C-space seed: its path, timed over T, may need
+    // more torque than the limits allow; planned with the limits widened, then at the real ones
+    // from that plan
+    if let (Some(g), true) = (cguess.as_ref(), cspace_failed) {
+        let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
         let wide = with_torque_scale(robot, TORQUE_RELAX)?;
         let mut relaxed = None;
+        // the widened plan is only a guess: its knots' optimum, without the sub-step refinement
+        let mut knots_only = settings.clone();
+        knots_only.shooting.substep_clearance = false;
         if let Some(run) = within(usize::MAX) {
-            let mut p = plan_single(&wide, task, settings, &run, Some(&g))?;
+            let mut p = plan_single(&wide, task, &knots_only, &run, Some(g))?;
             log.record(
                 &mut p,
                 SolveRole::TorqueScale {
                     scale: TORQUE_RELAX,
                 },
             );
-            crep.relaxed_converged = Some(p.converged());
+            if let Some(r) = crep.as_mut() {
+                r.relaxed_converged = Some(p.status.is_converged());
+            }
             relaxed = Some(p);
         }
-        if let (Some(w), Some(run)) = (relaxed.filter(|p| p.converged()), within(usize::MAX)) {
+        let relaxed = relaxed.filter(|p| p.status.is_converged());
+        if let (Some(w), Some(run)) = (relaxed, within(usize::MAX)) {
             let mut p = plan_single(robot, task, settings, &run, Some(&w.points))?;
             log.record(&mut p, SolveRole::TorqueScale { scale: 1.0 });
-            crep.converged = Some(p.converged());
-            if p.converged() {
-                rep.cspace = Some(crep);
+            let ok = p.converged();
+            if let Some(r) = crep.as_mut() {
+                r.converged = Some(ok);
+            }
+            if ok {
+                rep.strategy = GuessStrategy::Cspace;
+                rep.cspace = crep;
                 return Ok(finish(robot, task, settings, p, rep, log, ff));
             }
         }
     }
-    rep.cspace = Some(crep);
+    rep.cspace = crep;
+    // 5. continuation on the obstacle radii
     rep.strategy = GuessStrategy::Continuation;
+    match radius_continuation(
+        robot,
+        task,
+        settings,
+        nlp,
+        started,
+        free_points,
+        &mut rep,
+        &mut log,
+    )? {
+        Some(p) => Ok(finish(robot, task, settings, p, rep, log, ff)),
+        // nothing converged: the smooth step's attempt, diagnosed
+        None => Ok(finish(robot, task, settings, best, rep, log, ff)),
+    }
+}
+
+/// Grow every obstacle from the obstacle-free plan `guess` to its full radius (the module docs,
+/// step 4); the plan at full radius when it converged.
+#[allow(clippy::too_many_arguments)]
+fn radius_continuation(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    mut guess: Trajectory,
+    rep: &mut GuessReport,
+    log: &mut SolveLog,
+) -> Result<Option<Plan>> {
+    let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
     rep.scales.push(0.0);
-    let mut guess = free.points;
     let (mut done, mut step) = (0.0f64, FIRST_SCALE_STEP);
     while step >= MIN_SCALE_STEP {
         let s = (done + step).min(1.0);
@@ -336,7 +551,7 @@ fn strategies(
         if p.converged() {
             rep.scales.push(s);
             if last {
-                return Ok(finish(robot, task, settings, p, rep, log, ff));
+                return Ok(Some(p));
             }
             guess = p.points;
             done = s;
@@ -345,35 +560,7 @@ fn strategies(
             step *= 0.5;
         }
     }
-    // nothing converged: the smooth step's attempt, diagnosed
-    Ok(finish(robot, task, settings, best, rep, log, ff))
-}
-
-/// Plan from the seed `g` (a solve for `role`, recorded in `log`) with the settings `within` gives
-/// (`None`: the time is spent, nothing solved); a solve that ran out of iterations, not of ideas,
-/// resumes once from where it stopped.
-fn solve_seed(
-    robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
-    within: &dyn Fn(usize) -> Option<NlpSettings>,
-    g: &Trajectory,
-    role: SolveRole,
-    log: &mut SolveLog,
-) -> Result<Option<Plan>> {
-    let Some(run) = within(usize::MAX) else {
-        return Ok(None);
-    };
-    let mut p = plan_single(robot, task, settings, &run, Some(g))?;
-    log.record(&mut p, role);
-    if p.status == SolveStatus::MaxIterations {
-        if let Some(run) = within(usize::MAX) {
-            let mut resumed = plan_single(robot, task, settings, &run, Some(&p.points))?;
-            log.record(&mut resumed, SolveRole::Resumed);
-            p = resumed;
-        }
-    }
-    Ok(Some(p))
+    Ok(None)
 }
 
 /// Attach every solve (`log`), the totals, the report and (if not converged) the diagnosis to `p`.

@@ -1,0 +1,156 @@
+//! One seed of the obstacle chain solved coarse to fine: the task on a mesh of knots
+//! [`COARSE_KNOT_DT_S`] apart from the seed, capped at [`COARSE_MAX_ITER`] iterations, then on the
+//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap);
+//! a seed whose coarse solve failed otherwise (locally infeasible, restoration failed) is dropped
+//! there (docs/planner.md, "Obstacles on the path"). A fine solve that ran out of iterations, not
+//! of ideas, resumes once from where it stopped.
+//!
+//! Units: s.
+
+use crate::error::Result;
+use crate::model::Robot;
+use crate::planning::nlp::{NlpSettings, SolveStatus};
+use crate::planning::outcome::SolveRole;
+use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::solve::plan_single;
+use crate::planning::strategy::race::Plans;
+use crate::planning::task::SwingTask;
+use crate::trajectory::Trajectory;
+use std::time::Instant;
+
+/// Knot spacing of the coarse solve, s (3 times the default 30 ms knots).
+pub const COARSE_KNOT_DT_S: f64 = 0.09;
+/// Iteration limit of the coarse solve.
+pub const COARSE_MAX_ITER: usize = 200;
+/// Longest swing the longer-swing candidate may take, as a factor on the automatic swing time.
+pub const LONGER_SWING_FACTOR: f64 = 1.5;
+
+/// The coarse mesh's settings for `settings`: multiple shooting with knots [`COARSE_KNOT_DT_S`]
+/// apart and no sub-step refinement (the fine solve keeps the clearance between knots); `None` when
+/// the task's own mesh is not finer than half of that, or the transcription is a collocation rule.
+pub(crate) fn coarse_settings(settings: &PlannerSettings) -> Option<PlannerSettings> {
+    if settings.transcription != Transcription::MultipleShooting
+        || settings.knot_dt > 0.5 * COARSE_KNOT_DT_S
+    {
+        return None;
+    }
+    let mut s = settings.clone();
+    s.knot_dt = COARSE_KNOT_DT_S;
+    s.shooting.substep_clearance = false;
+    Some(s)
+}
+
+/// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
+/// `run` (its time limit counted from now for all the solves). The plans in the order solved.
+pub(crate) fn solve_seed_coarse_to_fine(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    run: &NlpSettings,
+    g: &Trajectory,
+    role: SolveRole,
+) -> Result<Plans> {
+    let started = Instant::now();
+    let mut out: Plans = vec![];
+    if let Some(cs) = coarse_settings(settings) {
+        let capped = run.clone().capped(COARSE_MAX_ITER);
+        // a swing too short for the coarse mesh is refused there: solved on the task's mesh only
+        if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
+            // converged, or still making progress at the cap: the fine solve goes on from there
+            let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
+            out.push((
+                SolveRole::CoarseMesh {
+                    knot_dt_s: COARSE_KNOT_DT_S,
+                },
+                p,
+            ));
+            if !ok {
+                return Ok(out);
+            }
+        }
+    }
+    let Some(fine) = run.remaining(started) else {
+        return Ok(out);
+    };
+    let guess = out.last().map_or(g, |(_, p)| &p.points);
+    let p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    let resume = p.status == SolveStatus::MaxIterations;
+    let points = p.points.clone();
+    out.push((role, p));
+    if let Some(more) = run.remaining(started).filter(|_| resume) {
+        let p = plan_single(robot, task, settings, &more, Some(&points))?;
+        out.push((SolveRole::Resumed, p));
+    }
+    Ok(out)
+}
+
+/// The settings of a swing free to take from `t_s` (the automatic swing time, s) to
+/// [`LONGER_SWING_FACTOR`] times it, starting at `t0_s`; `None` unless the task's swing time is
+/// `"auto"` without a free range and the transcription is multiple shooting (a free swing time's).
+pub(crate) fn longer_swing_settings(
+    settings: &PlannerSettings,
+    t_s: f64,
+    t0_s: f64,
+) -> Option<PlannerSettings> {
+    let auto = matches!(settings.swing_time, SwingTime::Auto(_));
+    if !auto
+        || settings.free_swing_time.is_some()
+        || settings.transcription != Transcription::MultipleShooting
+    {
+        return None;
+    }
+    let mut s = settings.clone();
+    s.swing_time = SwingTime::Seconds(t0_s);
+    s.free_swing_time = Some([t_s, LONGER_SWING_FACTOR * t_s]);
+    Some(s)
+}
+
+/// Plan `task` from the seed `g` with the swing time free between the automatic swing time `t_s`
+/// and [`LONGER_SWING_FACTOR`] times it (an obstacle a path must go round may need a slower swing
+/// than the torque limits allow at `t_s`), coarse to fine as [`solve_seed_coarse_to_fine`]; the fine
+/// solve starts at the coarse plan's swing time. Nothing when the settings do not allow it
+/// ([`longer_swing_settings`]).
+pub(crate) fn solve_seed_longer_swing(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    run: &NlpSettings,
+    g: &Trajectory,
+    t_s: f64,
+) -> Result<Plans> {
+    let started = Instant::now();
+    let Some(free_t) = longer_swing_settings(settings, t_s, t_s) else {
+        return Ok(vec![]);
+    };
+    let role = SolveRole::LongerSwing {
+        t_max_s: LONGER_SWING_FACTOR * t_s,
+    };
+    let mut out: Plans = vec![];
+    let mut t0 = t_s;
+    if let Some(cs) = coarse_settings(&free_t) {
+        let capped = run.clone().capped(COARSE_MAX_ITER);
+        if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
+            let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
+            t0 = p.swing_time_s;
+            out.push((
+                SolveRole::CoarseMesh {
+                    knot_dt_s: COARSE_KNOT_DT_S,
+                },
+                p,
+            ));
+            if !ok {
+                return Ok(out);
+            }
+        }
+    }
+    let Some(fine) = run.remaining(started) else {
+        return Ok(out);
+    };
+    let Some(fine_settings) = longer_swing_settings(settings, t_s, t0) else {
+        return Ok(out);
+    };
+    let guess = out.last().map_or(g, |(_, p)| &p.points);
+    let p = plan_single(robot, task, &fine_settings, &fine, Some(guess))?;
+    out.push((role, p));
+    Ok(out)
+}

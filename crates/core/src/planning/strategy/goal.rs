@@ -1,0 +1,79 @@
+//! A final pose for the seeds when the obstacle-free swing ends inside an obstacle's margin.
+//!
+//! The detour seeds tracked backwards start from the obstacle-free swing's final pose, and the
+//! configuration-space search ends there; an obstacle near the bar can cover that pose, and then
+//! neither seed exists. The last link ends at the bar, but the chain has `n - 2` more degrees of
+//! freedom: [`clear_final_pose`] looks for another pose that grasps the bar and clears the obstacles
+//! by the margin plus [`super::detour::EXTRA_CLEARANCE`], by inverse kinematics from the final pose
+//! with its relative joints moved by every combination of [`GOAL_OFFSETS_RAD`] (at most
+//! [`MAX_GOAL_SEEDS`] of them), keeping the clear pose inside the joint bounds closest to the final
+//! pose. [`with_final_pose`] puts it at the end of the obstacle-free swing's knots, where the seeds
+//! take their final pose from.
+//!
+//! Units: rad, m.
+
+use crate::error::Result;
+use crate::model::{ik_from_seed, wrap_angle, Circle, ClearanceFn, Robot};
+use crate::planning::settings::PlannerSettings;
+use crate::planning::strategy::detour::EXTRA_CLEARANCE;
+use crate::trajectory::Trajectory;
+
+/// Offsets of the relative joints of the inverse-kinematics seeds around the final pose, rad.
+pub const GOAL_OFFSETS_RAD: [f64; 5] = [0.0, -0.6, 0.6, -1.2, 1.2];
+/// Most inverse-kinematics seeds tried.
+pub const MAX_GOAL_SEEDS: usize = 625;
+
+/// A pose within the bounds that puts the end effector at `target` and clears `obstacles` (and,
+/// with `settings.self_collision`, the non-adjacent links) by the margin plus
+/// [`EXTRA_CLEARANCE`], the closest to `q_final` found (see the module docs); `None` when `q_final`
+/// itself clears them (nothing to change) or no seed gave one.
+pub fn clear_final_pose(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_final: &[f64],
+    target: [f64; 2],
+) -> Result<Option<Vec<f64>>> {
+    let need = settings.obstacle_margin + EXTRA_CLEARANCE;
+    let cf = ClearanceFn::new(robot.clone(), obstacles, settings.obstacle_margin)?
+        .with_self_collision(settings.self_collision);
+    if obstacles.is_empty() || cf.min_clearance(q_final) >= need {
+        return Ok(None);
+    }
+    let n = robot.n;
+    let b = &settings.bounds;
+    let k = GOAL_OFFSETS_RAD.len();
+    let combos = k.saturating_pow((n - 1) as u32).min(MAX_GOAL_SEEDS);
+    let mut best: Option<(f64, Vec<f64>)> = None;
+    let mut seed = q_final.to_vec();
+    for c in 0..combos {
+        let mut r = c;
+        for i in 1..n {
+            seed[i] = q_final[i] + GOAL_OFFSETS_RAD[r % k];
+            r /= k;
+        }
+        let Some(q) = ik_from_seed(robot, &seed, target) else {
+            continue;
+        };
+        let q: Vec<f64> = q.iter().map(|v| wrap_angle(*v)).collect();
+        let inside =
+            q[0] >= b.q1[0] && q[0] <= b.q1[1] && q[1..].iter().all(|v| v.abs() <= b.q_rel_max);
+        if !inside || cf.min_clearance(&q) < need {
+            continue;
+        }
+        let dist: f64 = q.iter().zip(q_final).map(|(a, s)| (a - s).powi(2)).sum();
+        if best.as_ref().is_none_or(|(d, _)| dist < *d) {
+            best = Some((dist, q));
+        }
+    }
+    Ok(best.map(|(_, q)| q))
+}
+
+/// `free` with its last knot's pose replaced by `q` (velocities and torques kept).
+pub fn with_final_pose(free: &Trajectory, q: &[f64]) -> Trajectory {
+    let n = free.n;
+    let mut out = free.clone();
+    let last = out.len() - 1;
+    out.q[last * n..(last + 1) * n].copy_from_slice(q);
+    out
+}
