@@ -56,6 +56,7 @@ pub use settings::{
     MIN_FREE_SWING_TIME_RANGE_S, START_WIDEN_MARGIN,
 };
 pub use solve::{freefall_time, WARM_START_MU_INIT};
+pub use strategy::diagnosis::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
 pub use strategy::swing_time::{reference_swing_time, SwingTimeSearch, TriedSwingTime};
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
