@@ -48,7 +48,8 @@ pub use nlp::{AdapterTimings, OcpNlp, PassStats, TimeSplit};
 pub use outcome::{Plan, SolveAttempt, SolveRole, Violations};
 pub use planner::{plan, plan_with_guess};
 pub use report::{
-    Blockage, ContinuationStop, GuessReport, GuessStrategy, LinkClearance, TorqueContinuation,
+    Blockage, ContinuationStop, Diagnosis, GuessReport, GuessStrategy, LinkClearance, ProbeSolve,
+    SwingTimeProbe, TorqueContinuation, TorqueProbe, Verdict,
 };
 pub use settings::{
     Bounds, ObstacleGuess, PlannerSettings, ShootingSettings, SwingTime, Transcription,
@@ -56,7 +57,6 @@ pub use settings::{
     MIN_FREE_SWING_TIME_RANGE_S, START_WIDEN_MARGIN,
 };
 pub use solve::{freefall_time, WARM_START_MU_INIT};
-pub use strategy::diagnosis::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
 pub use strategy::swing_time::{reference_swing_time, SwingTimeSearch, TriedSwingTime};
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};

@@ -6,8 +6,7 @@
 use super::clearance_check::ClearanceViolation;
 use super::nlp::{Backend, MuStrategy, NlpSolution, PassStats, SolveStatus, TimeSplit};
 use super::profile::Clamped;
-use super::report::{Blockage, GuessReport, TorqueContinuation};
-use super::strategy::diagnosis::Diagnosis;
+use super::report::{Blockage, Diagnosis, GuessReport, TorqueContinuation};
 use super::transcription::collocation::{CallbackTimings, Layout};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
