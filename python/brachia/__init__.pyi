@@ -149,6 +149,9 @@ class Plan:
     @property
     def failure_message(self) -> Optional[str]: ...
     @property
+    def diagnosis(self) -> Optional[dict[str, Any]]:
+        """When an obstacle plan failed: the blocking obstacle and link, the verdict and what the best detour found would need."""
+    @property
     def objective(self) -> float: ...
     @property
     def iterations(self) -> int: ...

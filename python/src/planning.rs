@@ -76,6 +76,18 @@ impl Plan {
         self.plan.failure_message()
     }
 
+    /// When an obstacle plan failed: the obstacle and the link it blocks, the verdict and how much
+    /// more torque or swing time the best detour found would need, as a dict (the ``diagnosis`` of
+    /// ``report.json``, see docs/planner.md); ``None`` otherwise.
+    #[getter]
+    fn diagnosis<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.plan
+            .diagnosis
+            .as_ref()
+            .map(|d| to_py(py, d))
+            .transpose()
+    }
+
     /// Objective value (the transcription's quadrature of ``|qd|^2_Q1 + |tau|^2_R1``).
     #[getter]
     fn objective(&self) -> f64 {

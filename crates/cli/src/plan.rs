@@ -71,6 +71,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
             .unwrap_or_else(|| format!("the planner did not converge ({:?})", p.status));
         let fields: Vec<&str> = [
             p.blockage.is_some().then_some("blockage"),
+            p.diagnosis.is_some().then_some("diagnosis"),
             p.torque_continuation
                 .is_some()
                 .then_some("torque_continuation"),

@@ -215,6 +215,17 @@ fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
     assert_eq!(c.len(), 4, "{b}");
     assert_eq!((&c[3]["obstacle"], &c[3]["link"]), (&0.into(), &3.into()));
     assert_eq!(c[3]["violated"], true, "{b}");
+    // the diagnosis: the obstacle holds the bar, so the last link cannot reach it
+    assert!(
+        err.contains("obstacle 0 blocks link 4 where it must pass")
+            && err.contains("no torque or swing time clears it")
+            && err.contains("diagnosis in report.json"),
+        "{err}"
+    );
+    let d = &r["diagnosis"];
+    assert_eq!(d["verdict"], "unreachable", "{d}");
+    assert_eq!((&d["obstacle"], &d["link"]), (&0.into(), &3.into()), "{d}");
+    assert!(d["torque_probe"].is_null(), "{d}");
 }
 
 #[test]

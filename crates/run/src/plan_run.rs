@@ -171,6 +171,11 @@ pub struct PlanReport {
     /// obstacle's closest approach to every link with its time (`brachia::planning::Blockage`).
     #[serde(default)]
     pub blockage: Option<Blockage>,
+    /// When the plan failed on a task with obstacles: the obstacle and the link it blocks, the
+    /// verdict, and how much more torque (`torque_probe`) or swing time (`swing_time_probe`) the best
+    /// detour found would need (`brachia::planning::Diagnosis`).
+    #[serde(default)]
+    pub diagnosis: Option<brachia::planning::Diagnosis>,
     /// When the cold plan failed within the torque limits: the continuation on the limits, how far it
     /// got and the peak torques there (`brachia::planning::TorqueContinuation`).
     #[serde(default)]
@@ -232,6 +237,7 @@ impl PlanReport {
             min_obstacle_clearance_m: p.min_obstacle_clearance_m,
             clearance_violation: p.clearance_violation,
             blockage: p.blockage.clone(),
+            diagnosis: p.diagnosis.clone(),
             torque_continuation: p.torque_continuation.clone(),
             swing_time_search: p.swing_time_search.clone(),
             guess: p.guess.clone(),

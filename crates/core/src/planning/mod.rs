@@ -48,7 +48,8 @@ pub use nlp::{AdapterTimings, OcpNlp, PassStats, TimeSplit};
 pub use outcome::{Plan, SolveAttempt, SolveRole, Violations};
 pub use planner::{plan, plan_with_guess};
 pub use report::{
-    Blockage, ContinuationStop, GuessReport, GuessStrategy, LinkClearance, TorqueContinuation,
+    Blockage, ContinuationStop, Diagnosis, GuessReport, GuessStrategy, LinkClearance, ProbeSolve,
+    SwingTimeProbe, TorqueContinuation, TorqueProbe, Verdict,
 };
 pub use settings::{
     Bounds, ObstacleGuess, PlannerSettings, ShootingSettings, SwingTime, Transcription,

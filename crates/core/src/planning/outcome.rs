@@ -6,7 +6,7 @@
 use super::clearance_check::ClearanceViolation;
 use super::nlp::{Backend, MuStrategy, NlpSolution, PassStats, SolveStatus, TimeSplit};
 use super::profile::Clamped;
-use super::report::{Blockage, GuessReport, TorqueContinuation};
+use super::report::{Blockage, Diagnosis, GuessReport, TorqueContinuation};
 use super::transcription::collocation::{CallbackTimings, Layout};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -145,6 +145,11 @@ pub struct Plan {
     /// When no strategy converged on a task with obstacles: which obstacle blocks which link
     /// ([`Blockage`], its `Display` is the message); `None` otherwise.
     pub blockage: Option<Blockage>,
+    /// When no strategy converged on a task with obstacles (and the call was not cancelled): the
+    /// obstacle and the link it blocks, and how much more torque or swing time the best detour
+    /// found would need ([`Diagnosis`], its `Display` is the message; see
+    /// [`crate::planning::strategy::diagnosis`]); `None` otherwise.
+    pub diagnosis: Option<Diagnosis>,
     /// When a cold plan without obstacles did not converge within the torque limits (and
     /// `settings.torque_continuation` is on): what the continuation on the limits found (see
     /// [`crate::planning::strategy::torque_continuation`]); the plan is its result when it reached the real
@@ -180,6 +185,9 @@ impl Plan {
             Some(b) => format!("the planner did not converge ({:?}): {b}", self.status),
             None => format!("the planner did not converge ({:?})", self.status),
         };
+        if let Some(d) = &self.diagnosis {
+            msg += &format!("; {d}");
+        }
         if let Some(t) = &self.torque_continuation {
             msg += &format!("; {t}");
         }

@@ -37,7 +37,8 @@ pub fn plan(
 /// Without a guess, on a task whose obstacles are avoided, the initial guess comes from
 /// [`crate::planning::strategy::obstacles`] (`settings.obstacle_guess`): detour seeds, then continuation on the
 /// obstacle radii, when the solve from the smooth step fails; the plan then reports the strategy and
-/// the summed cost of every solve, and names what blocks the swing when nothing converged.
+/// the summed cost of every solve, and names what blocks the swing when nothing converged, with what
+/// the best detour found would need ([`crate::planning::strategy::diagnosis`]).
 ///
 /// Without a guess and without obstacles, a plan that does not converge is continued on the torque
 /// limits (`settings.torque_continuation`, [`crate::planning::strategy::torque_continuation`]): up to 3 widened
@@ -74,7 +75,13 @@ fn plan_strategies(
         nlp.validate()?;
         settings.check_backend(nlp, "planner")?;
         check_task(robot, task, settings)?;
-        return super::strategy::obstacles::plan_around_obstacles(robot, task, settings, nlp);
+        let started = std::time::Instant::now();
+        // the strategies leave a share of the time limit to the diagnosis of a failure
+        let chain = super::strategy::diagnosis::strategies_share(nlp);
+        let p = super::strategy::obstacles::plan_around_obstacles(robot, task, settings, &chain)?;
+        return super::strategy::diagnosis::diagnose_failure(
+            robot, task, settings, nlp, p, started,
+        );
     }
     let started = std::time::Instant::now();
     let centred =

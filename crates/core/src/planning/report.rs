@@ -1,6 +1,8 @@
 //! What the strategies report on a plan: how an initial guess around obstacles was found
 //! ([`GuessReport`]), what blocks a swing no strategy planned ([`Blockage`]), and what the
-//! continuation on the torque limits found ([`TorqueContinuation`]).
+//! continuation on the torque limits found ([`TorqueContinuation`]), and what a placement that no
+//! strategy planned would need ([`Diagnosis`], filled in by
+//! [`crate::planning::strategy::diagnosis`]).
 //!
 //! Units: m, s, N m.
 
@@ -366,5 +368,186 @@ impl fmt::Display for SwingTimeSearch {
                 Ok(())
             }
         }
+    }
+}
+
+/// What the diagnosis concludes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The obstacle touches the target bar's grasp (within the last link's radius plus the margin)
+    /// or the start pose (within the margin): no motion clears it, whatever the torque or swing time.
+    Unreachable,
+    /// A detour was found with the limits widened, and not within the real limits at a longer swing
+    /// time: it needs more torque (the [`TorqueProbe`]'s ratios).
+    NeedsTorque,
+    /// A detour plans within the real torque limits with a longer swing time (the
+    /// [`SwingTimeProbe`]'s `swing_time_s`).
+    NeedsSwingTime,
+    /// The torque probe's detour keeps the real limits: a detour exists that the strategies did not
+    /// find from their guesses.
+    DetourWithinLimits,
+    /// No probe converged (or no time was left for one): no detour was found.
+    NoDetourFound,
+}
+
+/// The task planned with every actuator limit widened by `scale`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TorqueProbe {
+    /// Factor on the actuator limits.
+    pub scale: f64,
+    /// Whether a plan with the widened limits converged (and kept the clearance).
+    pub converged: bool,
+    /// The guess of the plan that converged (or of the last one tried): `cspace-seed` or
+    /// `failed-attempt`.
+    pub guess: String,
+    /// Largest |tau| per actuated joint over that plan's 1 ms trajectory, N m (empty when none
+    /// converged).
+    pub peak_torque_nm: Vec<f64>,
+    /// The real limit per actuated joint, `max(|tau_min|, |tau_max|)`, N m.
+    pub limit_nm: Vec<f64>,
+    /// `peak_torque_nm / limit_nm` per actuated joint (empty when none converged): above 1, the
+    /// detour needs that many times the limit.
+    pub ratio: Vec<f64>,
+    /// Every solve of the probe, in order: its guess and how it ended.
+    pub tried: Vec<ProbeSolve>,
+}
+
+/// One solve of the torque probe.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProbeSolve {
+    /// The guess: `cspace-seed` or `failed-attempt`.
+    pub guess: String,
+    /// How the solve ended.
+    pub status: SolveStatus,
+}
+
+impl TorqueProbe {
+    /// The actuated joint (0-based among the actuated ones) with the largest ratio, and that ratio.
+    pub fn worst_joint(&self) -> Option<(usize, f64)> {
+        self.ratio
+            .iter()
+            .copied()
+            .enumerate()
+            .fold(None, |b: Option<(usize, f64)>, c| match b {
+                Some(b) if b.1 >= c.1 => Some(b),
+                _ => Some(c),
+            })
+    }
+}
+
+/// The task planned at the real limits with a free swing time, from the torque probe's detour.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SwingTimeProbe {
+    /// The range of T searched, s.
+    pub range_s: [f64; 2],
+    /// Whether it converged (and kept the clearance).
+    pub converged: bool,
+    /// The swing time of the plan that converged, s.
+    pub swing_time_s: Option<f64>,
+}
+
+/// Why an obstacle plan failed and what it would need (see the module docs); `Plan::diagnosis`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// 0-based index of the obstacle that blocks the swing (position in the task's list).
+    pub obstacle: usize,
+    /// 0-based index of the link it blocks.
+    pub link: usize,
+    /// The conclusion.
+    pub verdict: Verdict,
+    /// The task's swing time, s.
+    pub swing_time_s: f64,
+    /// The torque probe; `None` when it did not run (unreachable, or no time left).
+    pub torque_probe: Option<TorqueProbe>,
+    /// The swing-time probe; `None` when it did not run (no widened detour, not multiple shooting,
+    /// or no time left).
+    pub swing_time_probe: Option<SwingTimeProbe>,
+    /// The time limit or the cancel token stopped the probe before it was done.
+    pub out_of_time: bool,
+    /// Solves of the probe.
+    pub solves: usize,
+    /// Solver iterations of the probe.
+    pub iterations: usize,
+    /// Solve time of the probe, s.
+    pub solve_time_s: f64,
+}
+
+impl fmt::Display for Diagnosis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (o, l) = (self.obstacle, self.link + 1);
+        match self.verdict {
+            Verdict::Unreachable => {
+                return write!(
+                f,
+                "obstacle {o} blocks link {l} where it must pass (at the target bar or the start \
+                     pose): no torque or swing time clears it"
+            )
+            }
+            Verdict::NoDetourFound if self.torque_probe.is_none() => write!(
+                f,
+                "obstacle {o} blocks link {l}; no time was left to probe what a detour would need"
+            )?,
+            Verdict::NoDetourFound => {
+                write!(
+                    f,
+                    "obstacle {o} blocks link {l}; no detour was found, not with the torque limits \
+                     widened {:.0}x either",
+                    self.torque_probe.as_ref().map_or(0.0, |t| t.scale)
+                )?;
+                let tried = self.torque_probe.as_ref().map_or(&[][..], |t| &t.tried[..]);
+                if !tried.is_empty()
+                    && tried
+                        .iter()
+                        .all(|t| t.status == SolveStatus::LocallyInfeasible)
+                {
+                    write!(
+                        f,
+                        " (every widened solve, from {} guesses, ended locally infeasible: the \
+                         obstacle's place against the start, the bar and the joint limits blocks \
+                         it, not the torque)",
+                        tried.len()
+                    )?;
+                }
+            }
+            _ => write!(f, "obstacle {o} blocks link {l}")?,
+        }
+        if let Some(tp) = self.torque_probe.as_ref().filter(|t| t.converged) {
+            if let Some((j, r)) = tp.worst_joint() {
+                // joints are numbered from 1 with the passive grip joint first
+                write!(
+                    f,
+                    "; the detour found with the limits widened {:.0}x needs peak |tau| {:.2} N m at \
+                     joint {}, {r:.2}x its limit {} N m",
+                    tp.scale,
+                    tp.peak_torque_nm[j],
+                    j + 2,
+                    tp.limit_nm[j]
+                )?;
+            }
+        }
+        match &self.swing_time_probe {
+            Some(SwingTimeProbe {
+                swing_time_s: Some(t),
+                ..
+            }) => write!(
+                f,
+                "; within the limits it plans with a swing time of {t:.3} s ({:+.3} s)",
+                t - self.swing_time_s
+            )?,
+            Some(s) => write!(
+                f,
+                "; not within the limits with a swing time in [{:.3}, {:.3}] s",
+                s.range_s[0], s.range_s[1]
+            )?,
+            None => {}
+        }
+        if self.verdict == Verdict::DetourWithinLimits {
+            write!(f, "; that detour keeps the real limits")?;
+        }
+        if self.out_of_time {
+            write!(f, "; the probe stopped at the time limit")?;
+        }
+        write!(f, " (a local search, not a proof)")
     }
 }

@@ -496,6 +496,7 @@ pub(crate) fn finish_plan(
         clearance_violation,
         guess: None,
         blockage: None,
+        diagnosis: None,
         torque_continuation: None,
         swing_time_search: None,
     })

@@ -163,6 +163,7 @@ pub(crate) fn plan_single(
         clearance_violation,
         guess: None,
         blockage: None,
+        diagnosis: None,
         torque_continuation: None,
         swing_time_search: None,
     })

@@ -2,12 +2,14 @@
 //! ([`crate::planning::solve`]) from other guesses or on other limits:
 //! - the obstacle chain ([`obstacles`]): detour seeds ([`detour`]), the configuration-space seed
 //!   ([`cspace`]), continuation on the obstacle radii, and the diagnosis of what blocks a swing;
+//! - the diagnosis of an obstacle plan no strategy planned, with what it would need ([`diagnosis`]);
 //! - the continuation on the torque limits ([`torque_continuation`]);
 //! - the search in the swing time ([`swing_time`]) when the task's swing time does not plan.
 
 pub mod candidate;
 pub mod cspace;
 pub mod detour;
+pub mod diagnosis;
 pub mod goal;
 pub mod obstacles;
 pub mod race;

@@ -1,0 +1,428 @@
+//! What a placement with no detour within the limits would need: the diagnosis of an obstacle plan
+//! that no strategy of [`super::obstacles`] planned.
+//!
+//! After the obstacle chain fails, the planner ([`crate::planning::plan`]) names the obstacle that
+//! blocks the swing and the link it blocks, and probes, within what is left of the call's time
+//! limit, how far the task is from planning:
+//! 1. an obstacle within the last link's radius plus the margin of the target bar, or within the
+//!    margin of the start pose, blocks every motion: no torque or swing time helps, nothing is probed
+//!    ([`Verdict::Unreachable`]);
+//! 2. the torque probe plans the task with every actuator limit widened by [`PROBE_TORQUE_SCALE`],
+//!    from the configuration-space seed of the obstacle-free swing (a path of another homotopy
+//!    class, [`super::cspace`]), then from the failed attempt, until one converges: its peak torque
+//!    per actuated joint over the 1 ms trajectory, against the real limit, is how much more torque
+//!    the detour found needs ([`TorqueProbe`]);
+//! 3. from that detour, the swing-time probe plans the task at the real limits with a free swing time
+//!    in `[T, PROBE_SWING_TIME_FACTOR T]` (multiple shooting only): the swing time the detour needs
+//!    within the limits ([`SwingTimeProbe`]).
+//!
+//! Each probe is a local search from the guesses named, not a proof: a probe that does not converge
+//! says that none was found, not that none exists. The probe's solves are counted in the
+//! [`Diagnosis`] (`solves`, `iterations`, `solve_time_s`), not in the plan's `solves`. The call's
+//! `max_wall_time_s` bounds them (without one, [`PROBE_WALL_S`] does), and the cancel token stops them:
+//! with a limit, the obstacle strategies get all but [`PROBE_SHARE`] of it, and the probe what is left
+//! of the whole limit after them.
+//!
+//! Units: m, s, N m.
+
+use super::obstacles::{diagnose, obstacle_on_bar};
+use super::torque_continuation::with_torque_scale;
+use crate::error::Result;
+use crate::model::{ClearanceFn, ClearancePair, Robot};
+use crate::planning::nlp::NlpSettings;
+use crate::planning::outcome::Plan;
+use crate::planning::report::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
+use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::solve::plan_single;
+use crate::planning::task::SwingTask;
+use crate::trajectory::Trajectory;
+use std::time::Instant;
+
+/// Factor on every actuator limit of the torque probe (the widest scale of the continuation on the
+/// torque limits).
+pub const PROBE_TORQUE_SCALE: f64 = 8.0;
+/// The swing-time probe searches T in `[T, PROBE_SWING_TIME_FACTOR T]`.
+pub const PROBE_SWING_TIME_FACTOR: f64 = 2.0;
+/// Time limit of the whole probe when the call has no `max_wall_time_s`, s.
+pub const PROBE_WALL_S: f64 = 30.0;
+/// Share of the call's `max_wall_time_s` kept for the probe: the obstacle strategies get the rest.
+pub const PROBE_SHARE: f64 = 0.25;
+/// Iteration limit of one probe solve.
+pub const PROBE_MAX_ITER: usize = 1000;
+
+/// The probe's solves and their cost.
+#[derive(Default)]
+struct Cost {
+    solves: usize,
+    iterations: usize,
+    time_s: f64,
+}
+
+impl Cost {
+    fn add(&mut self, p: &Plan) {
+        self.solves += 1;
+        self.iterations += p.iterations;
+        self.time_s += p.solve_time_s;
+    }
+}
+
+/// The settings of the obstacle strategies of a call with `nlp`: its time limit less the share
+/// [`PROBE_SHARE`] kept for the probe; a copy without a limit.
+pub(crate) fn strategies_share(nlp: &NlpSettings) -> NlpSettings {
+    NlpSettings {
+        max_wall_time_s: nlp.max_wall_time_s.map(|w| w * (1.0 - PROBE_SHARE)),
+        ..nlp.clone()
+    }
+}
+
+/// Attach a [`Diagnosis`] to `p`, the result of the obstacle chain for a call that began at
+/// `started`, when it did not converge and the call was not cancelled (see the module docs).
+pub(crate) fn diagnose_failure(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    mut p: Plan,
+    started: Instant,
+) -> Result<Plan> {
+    if p.converged() || nlp.is_cancelled() || task.obstacles.is_empty() {
+        return Ok(p);
+    }
+    p.diagnosis = probe(robot, task, settings, nlp, &p, started)?;
+    Ok(p)
+}
+
+/// The obstacle and link that block `task` when no motion can clear them: an obstacle at the bar
+/// (the last link), or one within the margin of the start pose (its closest link there).
+fn unreachable(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<Option<(usize, usize)>> {
+    let margin = settings.obstacle_margin;
+    if let Some(o) = obstacle_on_bar(robot, task, margin) {
+        return Ok(Some((o, robot.n - 1)));
+    }
+    for (i, o) in task.obstacles.iter().enumerate() {
+        let one = [*o];
+        let cf = ClearanceFn::new(robot.clone(), &one[..], 0.0)?.with_self_collision(false);
+        let mut d = vec![0.0; cf.pairs().len()];
+        cf.surface_distances(&task.q0, &mut d);
+        let closest = cf
+            .pairs()
+            .iter()
+            .zip(&d)
+            .filter_map(|(pair, &v)| match *pair {
+                ClearancePair::LinkObstacle { link, .. } if v < margin => Some((link, v)),
+                _ => None,
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        if let Some((link, _)) = closest {
+            return Ok(Some((i, link)));
+        }
+    }
+    Ok(None)
+}
+
+/// The diagnosis of the failed plan `p` (see the module docs); `None` when no clearance row names
+/// an obstacle.
+fn probe(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    p: &Plan,
+    started: Instant,
+) -> Result<Option<Diagnosis>> {
+    let mut d = Diagnosis {
+        obstacle: 0,
+        link: 0,
+        verdict: Verdict::NoDetourFound,
+        swing_time_s: p.swing_time_s,
+        torque_probe: None,
+        swing_time_probe: None,
+        out_of_time: false,
+        solves: 0,
+        iterations: 0,
+        solve_time_s: 0.0,
+    };
+    if let Some((o, l)) = unreachable(robot, task, settings)? {
+        (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
+        return Ok(Some(d));
+    }
+    let named = match &p.blockage {
+        Some(b) => Some((b.obstacle, b.link)),
+        None => diagnose(robot, task, settings, &p.points, None)?.map(|b| (b.obstacle, b.link)),
+    };
+    // the probe's own limit when the call has none
+    let (limit, t0) = match nlp.max_wall_time_s {
+        Some(_) => (nlp.clone(), started),
+        None => (
+            NlpSettings {
+                max_wall_time_s: Some(PROBE_WALL_S),
+                ..nlp.clone()
+            },
+            Instant::now(),
+        ),
+    };
+    let within = || limit.remaining(t0).map(|n| n.capped(PROBE_MAX_ITER));
+    let mut cost = Cost::default();
+    // a probe solve the library refuses (it is no failure of the task) leaves that probe out
+    let (tp, detour) =
+        torque_probe(robot, task, settings, p, &within, &mut cost).unwrap_or((None, None));
+    // the detour found names the obstacle it goes around when the failed attempt named none
+    let named = named.or(match &detour {
+        Some(w) => diagnose(robot, task, settings, &w.points, None)?.map(|b| (b.obstacle, b.link)),
+        None => None,
+    });
+    let Some((obstacle, link)) = named else {
+        return Ok(None);
+    };
+    (d.obstacle, d.link) = (obstacle, link);
+    if let Some(tp) = &tp {
+        if tp.converged {
+            d.verdict = if tp.ratio.iter().all(|&r| r <= 1.0) {
+                Verdict::DetourWithinLimits
+            } else {
+                Verdict::NeedsTorque
+            };
+        }
+    }
+    if let (Some(w), Verdict::NeedsTorque) = (&detour, d.verdict) {
+        d.swing_time_probe = swing_time_probe(robot, task, settings, w, &within, &mut cost)
+            .ok()
+            .flatten();
+        if d.swing_time_probe.as_ref().is_some_and(|s| s.converged) {
+            d.verdict = Verdict::NeedsSwingTime;
+        }
+    }
+    d.torque_probe = tp;
+    d.out_of_time = limit.remaining(t0).is_none();
+    (d.solves, d.iterations, d.solve_time_s) = (cost.solves, cost.iterations, cost.time_s);
+    Ok(Some(d))
+}
+
+/// The largest |tau| per actuated joint over `p`'s 1 ms trajectory, N m.
+fn peak_torques(p: &Plan, m: usize) -> Vec<f64> {
+    let mut peak = vec![0.0f64; m];
+    for k in 0..p.trajectory.len() {
+        for (pk, t) in peak.iter_mut().zip(p.trajectory.tau(k)) {
+            *pk = pk.max(t.abs());
+        }
+    }
+    peak
+}
+
+/// The guess of the torque probe before the failed attempt: the configuration-space seed of the
+/// obstacle-free swing (planned here), named; empty when the obstacle-free swing does not plan, the
+/// search finds no path or the time is spent.
+fn seeds(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    within: &dyn Fn() -> Option<NlpSettings>,
+    cost: &mut Cost,
+) -> Result<Vec<(String, Trajectory)>> {
+    let Some(run) = within() else {
+        return Ok(vec![]);
+    };
+    let no_obstacles = SwingTask {
+        obstacles: vec![],
+        ..task.clone()
+    };
+    let free = plan_single(robot, &no_obstacles, settings, &run, None)?;
+    cost.add(&free);
+    if !free.converged() {
+        return Ok(vec![]);
+    }
+    if within().is_none() {
+        return Ok(vec![]);
+    }
+    // the C-space seed: its path leaves the obstacle-free swing's homotopy class, which is what a
+    // swept obstacle needs, and what widened limits make dynamically feasible (the detour seeds,
+    // which stay in that class, are not tried: widened, they end locally infeasible where the
+    // strategies' solves did)
+    let (_, seed) = super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
+    Ok(seed
+        .map(|g| vec![("cspace-seed".to_string(), g)])
+        .unwrap_or_default())
+}
+
+/// The torque probe (see the module docs) and the plan it converged to; `(None, None)` when no
+/// time was left for its first solve.
+fn torque_probe(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    failed: &Plan,
+    within: &dyn Fn() -> Option<NlpSettings>,
+    cost: &mut Cost,
+) -> Result<(Option<TorqueProbe>, Option<Plan>)> {
+    let m = robot.n - 1;
+    let a = &robot.params().actuators;
+    let limit_nm: Vec<f64> = (0..m)
+        .map(|j| a.tau_min[j].abs().max(a.tau_max[j].abs()))
+        .collect();
+    let wide = with_torque_scale(robot, PROBE_TORQUE_SCALE)?;
+    let mut rep = TorqueProbe {
+        scale: PROBE_TORQUE_SCALE,
+        converged: false,
+        guess: String::new(),
+        peak_torque_nm: vec![],
+        limit_nm,
+        ratio: vec![],
+        tried: vec![],
+    };
+    // the collision-free seeds first, the failed attempt (through the obstacle) last
+    let mut guesses = seeds(robot, task, settings, within, cost)?;
+    guesses.push(("failed-attempt".to_string(), failed.points.clone()));
+    let mut tried = false;
+    for (name, g) in guesses {
+        let Some(run) = within() else {
+            break;
+        };
+        tried = true;
+        let w = plan_single(&wide, task, settings, &run, Some(&g))?;
+        cost.add(&w);
+        rep.tried.push(ProbeSolve {
+            guess: name.clone(),
+            status: w.status.clone(),
+        });
+        rep.guess = name;
+        if w.converged() {
+            rep.converged = true;
+            rep.peak_torque_nm = peak_torques(&w, m);
+            rep.ratio = rep
+                .peak_torque_nm
+                .iter()
+                .zip(&rep.limit_nm)
+                .map(|(p, l)| p / l)
+                .collect();
+            return Ok((Some(rep), Some(w)));
+        }
+    }
+    Ok((tried.then_some(rep), None))
+}
+
+/// The swing-time probe from the widened detour `w` (see the module docs); `None` when the
+/// transcription has no free swing time or no time is left.
+fn swing_time_probe(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    w: &Plan,
+    within: &dyn Fn() -> Option<NlpSettings>,
+    cost: &mut Cost,
+) -> Result<Option<SwingTimeProbe>> {
+    if settings.transcription != Transcription::MultipleShooting {
+        return Ok(None);
+    }
+    let Some(run) = within() else {
+        return Ok(None);
+    };
+    let t = w.swing_time_s;
+    let range_s = [t, PROBE_SWING_TIME_FACTOR * t];
+    let free_t = PlannerSettings {
+        swing_time: SwingTime::Seconds(t),
+        free_swing_time: Some(range_s),
+        swing_time_starts: 1,
+        ..settings.clone()
+    };
+    let p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
+    cost.add(&p);
+    Ok(Some(SwingTimeProbe {
+        range_s,
+        converged: p.converged(),
+        swing_time_s: p.converged().then_some(p.swing_time_s),
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Circle;
+    use crate::CancelToken;
+
+    /// The paper's task with an obstacle on the swing's path, and a failed plan of it: one solve
+    /// cut at 3 iterations.
+    fn failed() -> (Robot, SwingTask, PlannerSettings, Plan) {
+        let robot = Robot::paper();
+        let task = SwingTask {
+            obstacles: vec![Circle {
+                center: [0.2, -0.9],
+                radius: 0.1,
+            }],
+            ..SwingTask::paper()
+        };
+        let s = PlannerSettings::default();
+        let nlp = NlpSettings {
+            max_iter: 3,
+            ..Default::default()
+        };
+        let p = plan_single(&robot, &task, &s, &nlp, None).unwrap();
+        assert!(!p.converged());
+        (robot, task, s, p)
+    }
+
+    #[test]
+    fn a_cancelled_call_gets_no_diagnosis() {
+        let (robot, task, s, p) = failed();
+        let cancel = CancelToken::new();
+        cancel.cancel();
+        let nlp = NlpSettings {
+            cancel: Some(cancel),
+            ..Default::default()
+        };
+        let p = diagnose_failure(&robot, &task, &s, &nlp, p, Instant::now()).unwrap();
+        assert!(p.diagnosis.is_none());
+    }
+
+    #[test]
+    fn a_spent_time_limit_names_the_obstacle_and_runs_no_probe() {
+        let (robot, task, s, p) = failed();
+        let nlp = NlpSettings {
+            max_wall_time_s: Some(1e-9),
+            ..Default::default()
+        };
+        let d = probe(&robot, &task, &s, &nlp, &p, Instant::now())
+            .unwrap()
+            .expect("a diagnosis");
+        assert_eq!(d.obstacle, 0);
+        assert!(d.link < robot.n);
+        assert_eq!(d.verdict, Verdict::NoDetourFound);
+        assert!(
+            d.torque_probe.is_none() && d.swing_time_probe.is_none(),
+            "{d:?}"
+        );
+        assert!(d.out_of_time && d.solves == 0, "{d:?}");
+        assert!(d.to_string().contains("no time was left"), "{d}");
+    }
+
+    #[test]
+    fn the_strategies_get_all_but_the_probes_share_of_the_limit() {
+        let nlp = NlpSettings {
+            max_wall_time_s: Some(10.0),
+            ..Default::default()
+        };
+        let w = strategies_share(&nlp).max_wall_time_s.unwrap();
+        assert!((w - 10.0 * (1.0 - PROBE_SHARE)).abs() < 1e-12, "{w}");
+        assert_eq!(
+            strategies_share(&NlpSettings::default()).max_wall_time_s,
+            None
+        );
+    }
+
+    #[test]
+    fn the_worst_joint_is_the_largest_ratio() {
+        let tp = TorqueProbe {
+            scale: 8.0,
+            converged: true,
+            guess: "failed-attempt".into(),
+            peak_torque_nm: vec![1.0, 12.0, 3.0],
+            limit_nm: vec![5.0, 5.0, 5.0],
+            ratio: vec![0.2, 2.4, 0.6],
+            tried: vec![],
+        };
+        assert_eq!(tp.worst_joint(), Some((1, 2.4)));
+    }
+}

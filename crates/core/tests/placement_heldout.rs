@@ -1,0 +1,409 @@
+//! A held-out placement scan: obstacles drawn on the unobstructed swings of the paper's robot and of
+//! the three-, five- and six-link robots (params/), at the default mesh (multiple shooting, 30 ms
+//! knots), from seeds fixed with the scan and never used to choose a constant of the planner.
+//!
+//! Each placement holds one, two or three obstacles of radius 0.05-0.15 m. An obstacle is drawn
+//! either on the path of a random link (at a random point along the link, at a random time in
+//! 0.05 T ... 0.95 T of the unobstructed swing) or near a bar: the grip's bar (the start) or the
+//! target bar, its surface 0-0.12 m from the bar at a random angle below it. A placement that
+//! overlaps the start pose or holds the target bar is refused by the task check and counted apart.
+//! Every placement is planned with the default planner under a wall-time limit; the test records
+//! its outcome, the smallest clearance to an obstacle over the 1 ms trajectory, the time and the
+//! strategy that won, and the diagnosis of a placement that did not plan.
+//!
+//! The fast tests check the drawing and plan a few placements; the whole scan (the table of
+//! docs/planner.md, "Held-out placement scan") runs with
+//! `cargo test --release -p brachia --test placement_heldout -- --ignored --nocapture`.
+//! Units: m, s.
+
+use brachia::model::{ik_from_seed, Circle, ClearanceFn};
+use brachia::planning::{
+    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask, Verdict,
+    CLEARANCE_TOLERANCE_M,
+};
+use brachia::Robot;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// The wall-time limit of one placement's planning call, s.
+const TIME_LIMIT_S: f64 = 20.0;
+/// Seeds of the whole scan start here (apart from every other scan's seeds).
+const SEED_BASE: u64 = 31_000;
+
+fn nlp() -> NlpSettings {
+    NlpSettings {
+        backend: Backend::Ocp,
+        max_wall_time_s: Some(TIME_LIMIT_S),
+        ..Default::default()
+    }
+}
+
+fn params(file: &str) -> Robot {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../params")
+        .join(file);
+    Robot::from_toml_file(&p).unwrap()
+}
+
+/// A robot of the scan with its obstacle-free task and the placements it gets in the whole scan.
+struct ScanRobot {
+    name: &'static str,
+    robot: Robot,
+    task: SwingTask,
+    placements: u64,
+}
+
+/// The rear hand on the previous bar `d` behind the grip, the chain below the bars.
+fn rear_hand_pose(robot: &Robot, d: f64) -> Vec<f64> {
+    let n = robot.n();
+    let mut seed = vec![-1.9 / (n - 1) as f64; n];
+    seed[0] = -2.2;
+    ik_from_seed(robot, &seed, [-d, 0.0]).expect("the previous bar is in reach")
+}
+
+/// The robots: the paper's with its task (scenarios/tracking.toml), the three- and six-link robots
+/// with the tasks of scenarios/three-link.toml and six-link.toml, and the five-link robot from the
+/// rear hand on the previous bar of its ladder (bars 1 m apart, scenarios/ladder-even-five-link.toml).
+fn robots() -> Vec<ScanRobot> {
+    let task = |q0: Vec<f64>, x: f64| SwingTask {
+        q0,
+        qd0: vec![],
+        target: [x, 0.0],
+        obstacles: vec![],
+    };
+    let five = params("five-link.toml");
+    let five_q0 = rear_hand_pose(&five, 1.0);
+    vec![
+        ScanRobot {
+            name: "paper (four-link)",
+            robot: Robot::paper(),
+            task: SwingTask::paper(),
+            placements: 30,
+        },
+        ScanRobot {
+            name: "three-link",
+            robot: params("three-link.toml"),
+            task: task(vec![-2.2, 0.0, -1.0], 0.8),
+            placements: 15,
+        },
+        ScanRobot {
+            name: "five-link",
+            robot: five,
+            task: task(five_q0, 1.0),
+            placements: 15,
+        },
+        ScanRobot {
+            name: "six-link",
+            robot: params("six-link.toml"),
+            task: task(vec![-2.35, 0.0, -0.5, 0.0, -0.5, 0.0], 0.7),
+            placements: 15,
+        },
+    ]
+}
+
+/// One placement: its obstacles and how they were drawn.
+#[derive(Debug, Clone)]
+struct Placement {
+    seed: u64,
+    what: String,
+    obstacles: Vec<Circle>,
+}
+
+/// The placement of `seed` on `free` (the unobstructed swing of `robot` for `task`): one obstacle
+/// (60 %), two (25 %) or three (15 %); each on a link's path (70 %; a random link, a point 0.2-1
+/// of the way along it, at a time in 0.05-0.95 of the swing), near the grip's bar (10 %) or near the
+/// target bar (20 %), radius 0.05-0.15 m.
+fn placement(robot: &Robot, task: &SwingTask, free: &Plan, seed: u64) -> Placement {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let u: f64 = rng.gen();
+    let count = if u < 0.6 {
+        1
+    } else if u < 0.85 {
+        2
+    } else {
+        3
+    };
+    let n = robot.n();
+    let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+    let (mut obstacles, mut what) = (vec![], vec![]);
+    for _ in 0..count {
+        let radius: f64 = rng.gen_range(0.05..0.15);
+        let kind: f64 = rng.gen();
+        if kind < 0.7 {
+            let frac: f64 = rng.gen_range(0.05..0.95);
+            let link = rng.gen_range(0..n);
+            let along: f64 = rng.gen_range(0.2..1.0);
+            let t = frac * free.swing_time_s;
+            let (j, _) = free.trajectory.locate(t);
+            robot.link_segments(free.trajectory.q(j), &mut segs);
+            let (a, b) = segs[link];
+            let center = [a[0] + along * (b[0] - a[0]), a[1] + along * (b[1] - a[1])];
+            obstacles.push(Circle { center, radius });
+            what.push(format!(
+                "r {radius:.3} on link {} ({along:.2} along) at {frac:.2} T",
+                link + 1
+            ));
+        } else {
+            let (bar, name) = if kind < 0.8 {
+                ([0.0, 0.0], "grip bar")
+            } else {
+                (task.target, "target bar")
+            };
+            let gap: f64 = rng.gen_range(0.0..0.12);
+            // below the bar, within 80 degrees of straight down
+            let angle: f64 = -std::f64::consts::FRAC_PI_2 + rng.gen_range(-1.4..1.4);
+            let d = radius + gap;
+            let center = [bar[0] + d * angle.cos(), bar[1] + d * angle.sin()];
+            obstacles.push(Circle { center, radius });
+            what.push(format!("r {radius:.3} near the {name} (gap {gap:.3})"));
+        }
+    }
+    Placement {
+        seed,
+        what: what.join(" + "),
+        obstacles,
+    }
+}
+
+/// How planning one placement ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// Converged, and the 1 ms trajectory keeps the margin (minus the tolerance).
+    Clear,
+    /// Reported converged while the 1 ms trajectory breaks the margin.
+    FalseSuccess,
+    /// Not converged.
+    Failed,
+    /// Refused by the task check (the start pose or the target bar overlaps an obstacle).
+    Refused,
+}
+
+/// What planning one placement gave.
+#[derive(Debug)]
+struct Outcome {
+    kind: Kind,
+    /// Smallest surface distance to an obstacle over the 1 ms trajectory, m (measured here).
+    min_clearance_m: f64,
+    time_s: f64,
+    strategy: Option<GuessStrategy>,
+    message: Option<String>,
+    /// The diagnosis's verdict and the obstacle and link it names.
+    diagnosis: Option<(Verdict, usize, usize)>,
+}
+
+fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> Outcome {
+    let task = SwingTask {
+        obstacles: pl.obstacles.clone(),
+        ..task.clone()
+    };
+    let t0 = Instant::now();
+    let p = match plan(robot, &task, s, &nlp()) {
+        Ok(p) => p,
+        Err(e) => {
+            return Outcome {
+                kind: Kind::Refused,
+                min_clearance_m: f64::NAN,
+                time_s: t0.elapsed().as_secs_f64(),
+                strategy: None,
+                message: Some(e.to_string()),
+                diagnosis: None,
+            }
+        }
+    };
+    let time_s = t0.elapsed().as_secs_f64();
+    let cf = ClearanceFn::new(robot.clone(), pl.obstacles.as_slice(), 0.0)
+        .unwrap()
+        .with_self_collision(false);
+    let min_clearance_m = (0..p.trajectory.len())
+        .map(|k| cf.min_clearance(p.trajectory.q(k)))
+        .fold(f64::INFINITY, f64::min);
+    let kind = match (
+        p.converged(),
+        min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M,
+    ) {
+        (true, true) => Kind::Clear,
+        (true, false) => Kind::FalseSuccess,
+        (false, _) => Kind::Failed,
+    };
+    Outcome {
+        kind,
+        min_clearance_m,
+        time_s,
+        strategy: p.guess.as_ref().map(|g| g.strategy),
+        message: p.failure_message(),
+        diagnosis: p
+            .diagnosis
+            .as_ref()
+            .map(|d| (d.verdict, d.obstacle, d.link)),
+    }
+}
+
+/// The unobstructed swing of `r`, which must plan.
+fn free_swing(r: &ScanRobot) -> Plan {
+    let p = plan(&r.robot, &r.task, &PlannerSettings::default(), &nlp()).unwrap();
+    assert!(p.converged(), "{}: {:?}", r.name, p.failure_message());
+    p
+}
+
+/// No false success; a placement that did not plan carries a diagnosis naming one of its obstacles
+/// and a link of the robot.
+fn check(r: &ScanRobot, pl: &Placement, o: &Outcome) {
+    assert_ne!(
+        o.kind,
+        Kind::FalseSuccess,
+        "{} seed {} ({}): converged at clearance {:.4} m",
+        r.name,
+        pl.seed,
+        pl.what,
+        o.min_clearance_m
+    );
+    if o.kind == Kind::Failed {
+        let (_, obstacle, link) = o
+            .diagnosis
+            .unwrap_or_else(|| panic!("{} seed {}: no diagnosis: {:?}", r.name, pl.seed, o));
+        assert!(obstacle < pl.obstacles.len() && link < r.robot.n(), "{o:?}");
+        assert!(o.message.is_some());
+    }
+}
+
+#[test]
+fn placements_are_drawn_from_their_seeds_on_the_swing_and_near_the_bars() {
+    let rs = robots();
+    let r = &rs[0];
+    let free = free_swing(r);
+    let a = placement(&r.robot, &r.task, &free, SEED_BASE + 7);
+    let b = placement(&r.robot, &r.task, &free, SEED_BASE + 7);
+    assert_eq!(a.obstacles, b.obstacles);
+    let all: Vec<Placement> = (0..r.placements)
+        .map(|i| placement(&r.robot, &r.task, &free, SEED_BASE + i))
+        .collect();
+    let count = |k: usize| all.iter().filter(|p| p.obstacles.len() == k).count();
+    assert!(
+        count(1) > 0 && count(2) > 0 && count(3) > 0,
+        "{} {} {}",
+        count(1),
+        count(2),
+        count(3)
+    );
+    assert!(all.iter().any(|p| p.what.contains("target bar")));
+    assert!(all.iter().any(|p| p.what.contains("on link")));
+    for o in all.iter().flat_map(|p| &p.obstacles) {
+        assert!((0.05..0.15).contains(&o.radius), "{o:?}");
+    }
+    // an obstacle drawn on a link's path lies on the unobstructed swing: it passes through its
+    // centre
+    for p in all
+        .iter()
+        .filter(|p| p.obstacles.len() == 1 && p.what.contains("on link"))
+    {
+        let cf = ClearanceFn::new(r.robot.clone(), p.obstacles.as_slice(), 0.0)
+            .unwrap()
+            .with_self_collision(false);
+        let d = (0..free.trajectory.len())
+            .map(|k| cf.min_clearance(free.trajectory.q(k)))
+            .fold(f64::INFINITY, f64::min);
+        assert!(d < -0.04, "{p:?}: {d}");
+    }
+}
+
+/// A few placements of the scan: on the paper's robot an obstacle near the target bar with one on
+/// link 4's path (seed 2) and one on link 3's path (seed 3); on the three-link robot one on link 3's
+/// path (seed 3) and one on link 2's path that does not plan (seed 4, a diagnosis).
+#[test]
+fn a_fast_subset_plans_clear_or_diagnoses() {
+    let rs = robots();
+    let mut kinds = vec![];
+    for (r, seeds) in [
+        (&rs[0], [SEED_BASE + 2, SEED_BASE + 3]),
+        (&rs[1], [SEED_BASE + 3, SEED_BASE + 4]),
+    ] {
+        let free = free_swing(r);
+        let s = PlannerSettings::default();
+        for seed in seeds {
+            let pl = placement(&r.robot, &r.task, &free, seed);
+            let o = run(&r.robot, &r.task, &s, &pl);
+            check(r, &pl, &o);
+            kinds.push(o.kind);
+        }
+    }
+    // none of these is refused: they reach the planner
+    assert!(!kinds.contains(&Kind::Refused), "{kinds:?}");
+}
+
+/// The value at fraction `f` of the sorted `v`.
+fn quantile(v: &[f64], f: f64) -> f64 {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len() as f64 - 1.0) * f).round() as usize)
+        .copied()
+        .unwrap_or(f64::NAN)
+}
+
+/// The whole scan; prints the table of docs/planner.md ("Held-out placement scan").
+#[test]
+#[ignore = "minutes: the whole held-out placement scan"]
+fn the_whole_heldout_placement_scan() {
+    let s = PlannerSettings::default();
+    let mut summary = vec![];
+    let mut false_successes = 0;
+    for r in robots() {
+        let free = free_swing(&r);
+        let mut rows: Vec<(Placement, Outcome)> = vec![];
+        eprintln!(
+            "| {} seed | placement | outcome | min clearance (m) | time (s) | strategy | diagnosis |",
+            r.name
+        );
+        for i in 0..r.placements {
+            let pl = placement(&r.robot, &r.task, &free, SEED_BASE + i);
+            let o = run(&r.robot, &r.task, &s, &pl);
+            eprintln!(
+                "| {} | {} | {:?} | {:.4} | {:.2} | {:?} | {:?} |",
+                pl.seed, pl.what, o.kind, o.min_clearance_m, o.time_s, o.strategy, o.diagnosis
+            );
+            if let Some(m) = &o.message {
+                eprintln!("|   | {m} | | | | | |");
+            }
+            rows.push((pl, o));
+        }
+        let n = |k: Kind| rows.iter().filter(|(_, o)| o.kind == k).count();
+        let diagnosed = rows
+            .iter()
+            .filter(|(_, o)| o.kind == Kind::Failed && o.diagnosis.is_some())
+            .count();
+        let times: Vec<f64> = rows
+            .iter()
+            .filter(|(_, o)| o.kind != Kind::Refused)
+            .map(|(_, o)| o.time_s)
+            .collect();
+        let line = format!(
+            "| {} | {} | {} | {} | {} ({} diagnosed) | {} | {:.2} | {:.2} | {:.2} |",
+            r.name,
+            rows.len(),
+            n(Kind::Refused),
+            n(Kind::Clear),
+            n(Kind::Failed),
+            diagnosed,
+            n(Kind::FalseSuccess),
+            quantile(&times, 0.5),
+            quantile(&times, 0.9),
+            times.iter().copied().fold(0.0, f64::max),
+        );
+        eprintln!("{line}");
+        summary.push(line);
+        false_successes += n(Kind::FalseSuccess);
+        for (pl, o) in &rows {
+            if o.kind != Kind::FalseSuccess {
+                check(&r, pl, o);
+            }
+        }
+    }
+    eprintln!(
+        "| robot | placements | refused | planned clear | failed | false successes | median (s) | p90 (s) | max (s) |"
+    );
+    eprintln!("|---|---|---|---|---|---|---|---|---|");
+    for l in &summary {
+        eprintln!("{l}");
+    }
+    assert_eq!(false_successes, 0);
+}
