@@ -264,7 +264,7 @@ def test_sb3_core_reports_terminal_observations():
 
 
 def test_importing_the_adapter_imports_neither_sb3_nor_torch():
-    # a fresh interpreter: other tests in this session may have imported stable_baselines3
+    # a fresh interpreter: other tests run in this one may have imported stable_baselines3
     code = (
         "import sys, brachia, brachia.sb3;"
         "assert 'stable_baselines3' not in sys.modules and 'torch' not in sys.modules"
