@@ -23,6 +23,7 @@ pub mod run_folder;
 pub mod scenario;
 pub mod schema;
 pub mod settings_use;
+pub mod staging;
 pub mod success;
 pub mod track_run;
 pub mod tracker;

@@ -27,6 +27,9 @@ use crate::model::Robot;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
+/// Shortest `window_s` and `model_update_period_s`, s.
+const MIN_PERIOD_S: f64 = 1e-3;
+
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
 
@@ -34,7 +37,7 @@ pub const MAX_HISTORY: usize = 1000;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ParamEstimatorSettings {
-    /// Length of one integration window, s. Default 0.3.
+    /// Length of one integration window, s, in [0.001, 40]. Default 0.3.
     pub window_s: f64,
     /// RLS forgetting factor per window row, in (0, 1]. Default 1.
     pub forgetting: f64,
@@ -47,7 +50,8 @@ pub struct ParamEstimatorSettings {
     /// A window with a row whose innovation exceeds this many of its standard deviations is
     /// rejected. Default 5.
     pub outlier_sigma: f64,
-    /// The controller's model is rebuilt from the estimate at most this often, s. Default 0.05.
+    /// The controller's model is rebuilt from the estimate at most this often, s, in [0.001, 40].
+    /// Default 0.05.
     pub model_update_period_s: f64,
 }
 
@@ -79,6 +83,25 @@ impl ParamEstimatorSettings {
         pos("noise_nm_s", self.noise_nm_s)?;
         pos("outlier_sigma", self.outlier_sigma)?;
         pos("model_update_period_s", self.model_update_period_s)?;
+        // a window or a model update shorter than a millisecond (a control period at 1 kHz) would
+        // run at every step whatever it says; one longer than the longest swing never ends
+        for (field, v) in [
+            ("window_s", self.window_s),
+            ("model_update_period_s", self.model_update_period_s),
+        ] {
+            if !(MIN_PERIOD_S..=crate::limits::MAX_SWING_TIME_S).contains(&v) {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    v,
+                    format!(
+                        "must be in [{MIN_PERIOD_S}, {}] s: at least a control period at 1 kHz, at \
+                         most the longest swing (brachia::limits::MAX_SWING_TIME_S)",
+                        crate::limits::MAX_SWING_TIME_S
+                    ),
+                ));
+            }
+        }
         if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
             return Err(Error::invalid(
                 src,
