@@ -5,8 +5,9 @@
 //! duration (planning, drawing, writing). After every kill:
 //! - the output folder holds one complete result: every file its manifest lists is there with the
 //!   listed size and CRC-32, and no file is there that neither the manifest nor the user put there;
-//! - the user's files are as they were (none deleted, changed or moved aside);
-//! and after the kills the next run succeeds and leaves no staging folder anywhere: not beside the
+//! - the user's files are as they were (none deleted, changed or moved aside).
+//!
+//! After the kills the next run succeeds and leaves no staging folder anywhere: not beside the
 //! output, not inside it, not in the temporary folder (`TMPDIR` is a folder of the test's own).
 
 mod common;

@@ -5,8 +5,8 @@
 
 use crate::{Error, Result};
 
-/// The deepest element nesting a URDF document may have ([`check_nesting`]). A URDF needs 4 levels,
-/// `<gazebo>` extensions a few more.
+/// The deepest element nesting a URDF document may have (checked on the text before it is parsed).
+/// A URDF needs 4 levels, `<gazebo>` extensions a few more.
 pub const MAX_URDF_DEPTH: usize = 64;
 
 /// Refuse a document whose root element is not `<robot>` or whose elements nest deeper than
