@@ -75,7 +75,7 @@ def test_env_settings_are_refused_before_any_episode(settings, words):
         ({"start_offset": [float("nan")] * 8}, ["start_offset"]),
         ({"pushes": [{"t_s": 100.0, "link": 4, "point_m": 0.1, "impulse_n_s": [0.0, 0.2]}]}, ["t_s"]),
         ({"pushes": [{"t_s": 0.5, "link": 9, "point_m": 0.1, "impulse_n_s": [0.0, 0.2]}]}, ["link"]),
-        ({"pushes": [{"t_s": 0.5, "link": 4, "point_m": 0.1, "impulse_n_s": [0.0, 0.2, 0.5]}]}, ["impulse_n_s"]),
+        ({"pushes": [{"t_s": 0.5, "link": 4, "point_m": 0.1, "impulse_n_s": [0.0, 0.2, 0.5]}]}, ["pushes", "exactly 2"]),
         ({"wind": 1.0}, ["wind"]),
     ],
 )
