@@ -34,8 +34,9 @@ _SEED_SPAN = 2**63
 def _check_seed(seed: Any) -> int | None:
     if seed is None:
         return None
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed = {seed!r}: must be None or an integer >= 0")
+    integer = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
+    if not integer or not 0 <= seed < 2**64:
+        raise ValueError(f"seed = {seed!r}: must be None or an integer in [0, 2**64)")
     return int(seed)
 
 

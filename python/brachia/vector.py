@@ -53,7 +53,8 @@ class SwingVectorEnv(gymnasium.vector.VectorEnv):
             raise ValueError(
                 f"autoreset_mode = {autoreset_mode!r}: expected 'next-step' or 'same-step'"
             )
-        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
+        integer = isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
+        if not integer or num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r}: expected an integer >= 1")
         settings.pop("render_mode", None)
         self._core = SwingBatchCore(

@@ -29,19 +29,26 @@ use std::sync::{Arc, Mutex};
 /// ``runs_csv`` and ``summary_md`` (text), or ``plan_status`` when the plan did not converge. An
 /// exception raised by a policy is raised here after the benchmark stops.
 #[pyfunction]
-#[pyo3(signature = (scenario, controllers = None, builtin = None, levels = 3, monte_carlo_runs = 6,
-    family_runs = 1, sweeps = None, seed = 0))]
+#[pyo3(signature = (scenario, controllers = None, builtin = None, levels = None,
+    monte_carlo_runs = None, family_runs = None, sweeps = None, seed = None))]
 pub(crate) fn benchmark<'py>(
     py: Python<'py>,
     scenario: &Bound<'py, PyAny>,
     controllers: Option<&Bound<'py, PyDict>>,
     builtin: Option<Vec<String>>,
-    levels: usize,
-    monte_carlo_runs: usize,
-    family_runs: usize,
+    levels: Option<&Bound<'py, PyAny>>,
+    monte_carlo_runs: Option<&Bound<'py, PyAny>>,
+    family_runs: Option<&Bound<'py, PyAny>>,
     sweeps: Option<Vec<String>>,
-    seed: u64,
+    seed: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // the counts and the seed are read as the CLI reads its flags: a negative, fractional or
+    // oversized value is refused naming the argument, before any run (the range is checked by
+    // BenchmarkSettings::validate)
+    let levels = whole(levels, 3, "levels")? as usize;
+    let monte_carlo_runs = whole(monte_carlo_runs, 6, "monte_carlo_runs")? as usize;
+    let family_runs = whole(family_runs, 1, "family_runs")? as usize;
+    let seed = whole(seed, 0, "seed")?;
     let ls = if let Ok(sc) = scenario.cast::<Scenario>() {
         sc.get().ls.clone()
     } else {
@@ -130,4 +137,24 @@ pub(crate) fn benchmark<'py>(
 /// The names of the built-in controllers.
 fn controllers_names() -> Vec<String> {
     controllers().iter().map(|c| c.name.to_string()).collect()
+}
+
+/// `obj` (`None`: `default`) as a count or seed: an integer (or anything with `__index__`, not a
+/// bool or a float) in 0..=u64::MAX; `name` names it.
+fn whole(obj: Option<&Bound<'_, PyAny>>, default: u64, name: &str) -> PyResult<u64> {
+    let Some(obj) = obj.filter(|o| !o.is_none()) else {
+        return Ok(default);
+    };
+    let shown = || {
+        obj.repr()
+            .map(|r| r.to_string())
+            .unwrap_or_else(|_| "?".into())
+    };
+    if obj.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(bad(format!("{name} = {}: must be a whole number", shown())));
+    }
+    let v: i128 = obj
+        .extract()
+        .map_err(|_| bad(format!("{name} = {}: must be a whole number", shown())))?;
+    u64::try_from(v).map_err(|_| bad(format!("{name} = {v}: must be in 0..={}", u64::MAX)))
 }

@@ -20,10 +20,53 @@ pub(crate) fn to_json(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
     let kw = PyDict::new(py);
     kw.set_item("default", wrap_pyfunction!(jsonable, py)?)?;
     kw.set_item("allow_nan", false)?;
-    let s = json
-        .call_method("dumps", (obj,), Some(&kw))
-        .map_err(|e| bad(format!("{name}: cannot be read as settings data ({e})")))?;
+    let s = json.call_method("dumps", (obj,), Some(&kw)).map_err(|e| {
+        match non_finite(obj, name, 0) {
+            Some((path, v)) => bad(format!("{path} = {v}: must be finite")),
+            None => bad(format!("{name}: cannot be read as settings data ({e})")),
+        }
+    })?;
     s.extract::<String>()
+}
+
+/// Where in `obj` (dicts, lists, tuples, numpy arrays and numbers, named `path`) the first NaN or
+/// infinity is, and the value, as `disturbances.mass_scale.uniform[0]` and `nan`.
+fn non_finite(obj: &Bound<'_, PyAny>, path: &str, depth: usize) -> Option<(String, String)> {
+    if depth > 32 {
+        return None;
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        for (k, v) in d.iter() {
+            let key = k.str().map(|s| s.to_string()).unwrap_or_default();
+            if let Some(found) = non_finite(&v, &format!("{path}.{key}"), depth + 1) {
+                return Some(found);
+            }
+        }
+        return None;
+    }
+    if obj.hasattr("tolist").unwrap_or(false) && !obj.is_instance_of::<pyo3::types::PyFloat>() {
+        let list = obj.call_method0("tolist").ok()?;
+        return non_finite(&list, path, depth + 1);
+    }
+    if let Ok(seq) = obj.cast::<pyo3::types::PySequence>() {
+        if obj.is_instance_of::<pyo3::types::PyString>() {
+            return None;
+        }
+        for i in 0..seq.len().unwrap_or(0).min(1 << 20) {
+            let item = seq.get_item(i).ok()?;
+            if let Some(found) = non_finite(&item, &format!("{path}[{i}]"), depth + 1) {
+                return Some(found);
+            }
+        }
+        return None;
+    }
+    if obj.is_instance_of::<pyo3::types::PyFloat>() {
+        let v: f64 = obj.extract().ok()?;
+        if !v.is_finite() {
+            return Some((path.to_string(), format!("{v}")));
+        }
+    }
+    None
 }
 
 /// A Python dict (or `None` = `{}`) with `kwargs` merged over it, as a serde value of type `T`;

@@ -149,7 +149,13 @@ fn spec_of(
     };
     let randomization = match disturbances.filter(|d| !d.is_none()) {
         None => None,
-        Some(d) => Some(randomization_of(d, "disturbances", n, settings.control_dt)?),
+        Some(d) => Some(randomization_of(
+            d,
+            "disturbances",
+            n,
+            settings.control_dt,
+            settings.time_limit_s,
+        )?),
     };
     let spec = match (&loaded, robot) {
         (Some(ls), _) => SwingEnvSpec::from_scenario(ls, plant, settings, randomization),
@@ -174,6 +180,7 @@ fn randomization_of(
     src: &str,
     n: usize,
     control_dt: f64,
+    time_limit_s: f64,
 ) -> PyResult<Randomization> {
     if !d.is_instance_of::<PyDict>() {
         return Err(bad(format!(
@@ -184,7 +191,9 @@ fn randomization_of(
     let text = to_json(d, src)?;
     let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| bad(format!("{src}: {e}")))?;
-    Randomization::new(value, src, n, control_dt).map_err(rs)
+    let r = Randomization::new(value, src, n, control_dt).map_err(rs)?;
+    r.check_pushes_within(time_limit_s).map_err(rs)?;
+    Ok(r)
 }
 
 /// The spec's public facts as a dict.
@@ -280,6 +289,7 @@ impl SwingCore {
                 "reset options[\"disturbances\"]",
                 self.spec.robot.n(),
                 self.spec.settings.control_dt,
+                self.spec.settings.time_limit_s,
             )?),
         };
         let mut guard = self.env.lock(py)?;
@@ -458,6 +468,7 @@ impl SwingBatchCore {
                 "reset options[\"disturbances\"]",
                 self.spec.robot.n(),
                 self.spec.settings.control_dt,
+                self.spec.settings.time_limit_s,
             )?),
         };
         let mut st = self.state.lock(py)?;

@@ -63,6 +63,26 @@ pub enum Part {
     MonteCarlo,
 }
 
+/// A refusal of a benchmark setting named as the user wrote it: the flag (`--family-runs`), not the
+/// settings field (`family_runs`).
+fn as_flag(e: brachia::Error) -> brachia::Error {
+    match e {
+        brachia::Error::InvalidValue {
+            field,
+            value,
+            reason,
+            ..
+        } => {
+            let flag = match field.as_str() {
+                "monte_carlo_runs" => "--monte-carlo".to_string(),
+                f => format!("--{}", f.replace('_', "-")),
+            };
+            brachia::Error::invalid("command line", flag, value, reason)
+        }
+        e => e,
+    }
+}
+
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let ls = Scenario::load(&a.scenario)?;
@@ -109,7 +129,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         }
         None => {}
     }
-    s.validate()?;
+    s.validate().map_err(as_flag)?;
     check_out_dir(&a.out, a.force)?;
     let bar = crate::io::progress_bar(a.no_progress);
     let show = |p: Progress| crate::io::show_progress(&bar, p);

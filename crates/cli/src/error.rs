@@ -20,6 +20,9 @@ pub enum CliError {
 /// Exit code of a run stopped by Ctrl-C (SIGINT): 128 + 2, as a shell reports a process it killed.
 pub const EXIT_INTERRUPTED: u8 = 130;
 
+/// Exit code of a run stopped by SIGTERM (`kill PID`): 128 + 15. The run stops as on Ctrl-C.
+pub const EXIT_TERMINATED: u8 = 143;
+
 /// `Err(CliError::Interrupted)` naming `out` once Ctrl-C was pressed: called before a result is
 /// written, so an interrupted command leaves `out` as it was.
 pub fn check_cancel(cancel: &CancelToken, out: &std::path::Path) -> Result<(), CliError> {

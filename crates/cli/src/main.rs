@@ -3,7 +3,7 @@
 //! Exit codes (docs/limits.md): 0 success, results to be trusted; 1 a solver or run failure (a plan that
 //! did not converge: its report is still written); 2 bad input, refused before any work (nothing is
 //! written); 3 an I/O failure after the inputs were accepted (a file could not be written); 130 stopped
-//! by Ctrl-C (SIGINT): nothing was written, the previous results are as they were.
+//! by Ctrl-C (SIGINT), 143 by SIGTERM: nothing was written, the previous results are as they were.
 
 mod benchmark;
 mod error;
@@ -20,7 +20,9 @@ mod view;
 
 use brachia_experiments::CancelToken;
 use clap::{Parser, Subcommand};
-pub use error::{check_cancel, exp_error, interrupted, CliError, EXIT_INTERRUPTED};
+pub use error::{
+    check_cancel, exp_error, interrupted, CliError, EXIT_INTERRUPTED, EXIT_TERMINATED,
+};
 use std::process::ExitCode;
 
 /// Plan and track energy-optimal swings of underactuated brachiation robots.
@@ -61,13 +63,21 @@ fn main() -> ExitCode {
     // an experiment, a swing, a thousand simulation rows) and then stops without writing anything; a
     // second press stops at once (the staging folder is left hidden, removed by the next run)
     let cancel = CancelToken::new();
-    let sigint = signal_hook::consts::SIGINT;
-    let handler = signal_hook::flag::register_conditional_shutdown(
-        sigint,
-        i32::from(EXIT_INTERRUPTED),
-        cancel.flag(),
-    )
-    .and_then(|_| signal_hook::flag::register(sigint, cancel.flag()));
+    // SIGTERM (`kill PID`, a service manager's stop) stops the same way, with its own exit code
+    let terminated = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let handler = [
+        (signal_hook::consts::SIGINT, EXIT_INTERRUPTED),
+        (signal_hook::consts::SIGTERM, EXIT_TERMINATED),
+    ]
+    .into_iter()
+    .try_for_each(|(sig, code)| {
+        signal_hook::flag::register_conditional_shutdown(sig, i32::from(code), cancel.flag())
+            .and_then(|_| signal_hook::flag::register(sig, cancel.flag()))
+            .map(|_| ())
+    })
+    .and_then(|()| {
+        signal_hook::flag::register(signal_hook::consts::SIGTERM, terminated.clone()).map(|_| ())
+    });
     if let Err(e) = handler {
         eprintln!("brachia: note: no Ctrl-C handler ({e}); Ctrl-C stops at once");
     }
@@ -95,6 +105,10 @@ fn main() -> ExitCode {
         Err(CliError::Io(msg)) => {
             eprintln!("error: {msg}");
             ExitCode::from(3)
+        }
+        Err(CliError::Interrupted(msg)) if terminated.load(std::sync::atomic::Ordering::SeqCst) => {
+            eprintln!("error: {}", msg.replace("(Ctrl-C)", "(SIGTERM)"));
+            ExitCode::from(EXIT_TERMINATED)
         }
         Err(CliError::Interrupted(msg)) => {
             eprintln!("error: {msg}");

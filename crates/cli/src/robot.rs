@@ -96,8 +96,33 @@ fn list(text: &Option<String>) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// Refuse an existing `out` without --force, before any work.
-fn check_out(out: &Path, force: bool) -> Result<(), CliError> {
+/// Refuse, before any work: an existing `out` without --force, a folder, an `out` that is one of the
+/// files read (`inputs`, also through a link: --force would replace the input), and an `out` whose
+/// folder does not exist.
+fn check_out(out: &Path, force: bool, inputs: &[&Path]) -> Result<(), CliError> {
+    let same = |input: &Path| match (out.canonicalize(), input.canonicalize()) {
+        (Ok(o), Ok(i)) => o == i,
+        _ => false,
+    };
+    if let Some(input) = inputs.iter().find(|i| same(i)) {
+        return Err(CliError::Input(format!(
+            "--out {}: is the input file {}; writing it would replace what is read (choose another \
+             --out)",
+            out.display(),
+            input.display()
+        )));
+    }
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(CliError::Input(format!(
+            "--out {}: the folder {} does not exist (create it first)",
+            out.display(),
+            parent.display()
+        )));
+    }
     if out.exists() && !force {
         return Err(CliError::Input(format!(
             "--out {}: the file exists (pass --force to overwrite it)",
@@ -113,14 +138,21 @@ fn check_out(out: &Path, force: bool) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Write `text` to `out` through a file beside it renamed into place.
+/// Write `text` to `out` through a file beside it (a name of this process's own, so that runs
+/// writing the same `out` at once never write into one temporary file) renamed into place.
 fn write(out: &Path, text: &str) -> Result<(), CliError> {
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_default();
-    let tmp = out.with_file_name(format!(".{name}.partial"));
-    std::fs::write(&tmp, text)
+    let tmp = out.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+    // a file of this name can only be left by a dead process that had this process id
+    let _ = std::fs::remove_file(&tmp);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&tmp)
+        .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()))
         .and_then(|_| std::fs::rename(&tmp, out))
         .map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
@@ -140,7 +172,7 @@ fn import(a: ImportArgs) -> Result<(), CliError> {
             brachia::limits::MAX_GRAVITY
         )));
     }
-    check_out(&a.out, a.force)?;
+    check_out(&a.out, a.force, &[&a.urdf])?;
     let opts = UrdfOptions {
         passive: list(&a.passive),
         ignore: list(&a.ignore),
@@ -154,7 +186,7 @@ fn import(a: ImportArgs) -> Result<(), CliError> {
 }
 
 fn export(a: ExportArgs) -> Result<(), CliError> {
-    check_out(&a.out, a.force)?;
+    check_out(&a.out, a.force, &[&a.params])?;
     let robot = Robot::from_toml_file(&a.params)?;
     let text = match a.format {
         Format::Urdf => to_urdf(&robot)?,

@@ -6,9 +6,10 @@
 //! A case line is `id | exit | must contain (&&-separated) | command | edits (;;-separated)`. Placeholders:
 //! `{S}` the case's scenario (a copy of `scenarios/tracking.toml` with the edits `S:old=>new`, `S+line`,
 //! or another base `S=path`), `{P}` its robot (a copy of `params/paper.toml` with `P:` / `P+` / `P=`
-//! edits), `{OUT}` an output folder in the case's temporary folder `{T}`, `{H}` the corpus folder, `{R}`
+//! edits), `{U}` its URDF robot (a copy of `crates/core/tests/data/urdf/hook2.urdf` with `U:` / `U=`
+//! edits; a scenario may name it as `params = "{U}"`), `{OUT}` an output folder in the case's temporary folder `{T}`, `{H}` the corpus folder, `{R}`
 //! the repository root. `pre:NAME` prepares the case (see `prepare`); `\n` in an edit is a newline;
-//! `sigint:MS` sends SIGINT (Ctrl-C) after MS ms; `fsize:BLOCKS` runs under `ulimit -f BLOCKS`, so that
+//! `sigint:MS` sends SIGINT (Ctrl-C) after MS ms, `sigterm:MS` SIGTERM; `fsize:BLOCKS` runs under `ulimit -f BLOCKS`, so that
 //! writing the results fails (an I/O failure, exit 3).
 //!
 //! Limits, measured per case from the child's own resource use (`wait4`): every refusal
@@ -19,12 +20,17 @@
 #![allow(unsafe_code)]
 
 mod common;
+#[path = "hostile/urdf_prep.rs"]
+mod urdf_prep;
 
 use common::root;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
+
+/// The base of `{U}`, relative to the repository root.
+const URDF_BASE: &str = "crates/core/tests/data/urdf/hook2.urdf";
 
 /// Time limit of one case (a refusal takes milliseconds; this only catches hangs).
 const CASE_LIMIT: Duration = Duration::from_secs(10);
@@ -84,6 +90,7 @@ struct Env {
     t: PathBuf,
     s: PathBuf,
     p: PathBuf,
+    u: PathBuf,
     out: PathBuf,
     h: PathBuf,
     r: PathBuf,
@@ -93,6 +100,7 @@ impl Env {
     fn subst(&self, s: &str) -> String {
         s.replace("{S}", &self.s.display().to_string())
             .replace("{P}", &self.p.display().to_string())
+            .replace("{U}", &self.u.display().to_string())
             .replace("{OUT}", &self.out.display().to_string())
             .replace("{T}", &self.t.display().to_string())
             .replace("{H}", &self.h.display().to_string())
@@ -380,7 +388,11 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
                 other => panic!("unknown damage {other}"),
             }
         }
-        other => panic!("unknown preparation {other}"),
+        other => {
+            if !urdf_prep::prepare(other, &env.u, &env.t) {
+                panic!("unknown preparation {other}")
+            }
+        }
     }
     keep
 }
@@ -440,14 +452,14 @@ fn try_wait4(pid: i32) -> Option<(Option<i32>, libc::rusage)> {
     }
 }
 
-/// Run brachia with `args` under the virtual-memory cap; `sigint_after` sends it SIGINT (as Ctrl-C
+/// Run brachia with `args` under the virtual-memory cap; `signal_after` sends it a signal (SIGINT as Ctrl-C
 /// does) after that long; `limit` is the hang limit.
 // the child is reaped by `try_wait4` (libc::wait4), which clippy cannot see
 #[allow(clippy::zombie_processes)]
 fn run_limited(
     args: &[String],
     cwd: &Path,
-    sigint_after: Option<Duration>,
+    signal_after: Option<(libc::c_int, Duration)>,
     fsize_blocks: Option<u64>,
     limit: Duration,
 ) -> Outcome {
@@ -483,10 +495,10 @@ fn run_limited(
         if let Some(done) = try_wait4(pid) {
             break done;
         }
-        if let Some(after) = sigint_after {
+        if let Some((sig, after)) = signal_after {
             if !signalled && start.elapsed() >= after {
                 // SAFETY: `pid` is our child and has not been reaped (try_wait4 said so)
-                unsafe { libc::kill(pid, libc::SIGINT) };
+                unsafe { libc::kill(pid, sig) };
                 signalled = true;
             }
         }
@@ -521,6 +533,7 @@ fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
     let env = Env {
         s: t.join("case.toml"),
         p: t.join("robot.toml"),
+        u: t.join("robot.urdf"),
         out: t.join("out"),
         h: h.to_path_buf(),
         r: root().canonicalize().unwrap(),
@@ -528,19 +541,27 @@ fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
     };
     let mut scen = std::fs::read_to_string(env.r.join("scenarios/tracking.toml")).unwrap();
     let mut params = std::fs::read_to_string(env.r.join("params/paper.toml")).unwrap();
+    let mut urdf = std::fs::read_to_string(env.r.join(URDF_BASE)).unwrap();
     let mut pres = Vec::new();
-    let mut sigint_after = None;
+    let mut signal_after = None;
     let mut fsize = None;
     for e in &case.edits {
         if let Some(b) = e.strip_prefix("fsize:") {
             fsize = Some(b.parse().expect("fsize:BLOCKS"));
         } else if let Some(ms) = e.strip_prefix("sigint:") {
             let ms: u64 = ms.parse().expect("sigint:MS");
-            sigint_after = Some(Duration::from_millis(ms));
+            signal_after = Some((libc::SIGINT, Duration::from_millis(ms)));
+        } else if let Some(ms) = e.strip_prefix("sigterm:") {
+            let ms: u64 = ms.parse().expect("sigterm:MS");
+            signal_after = Some((libc::SIGTERM, Duration::from_millis(ms)));
         } else if let Some(rest) = e.strip_prefix("S=") {
             scen = std::fs::read_to_string(env.subst(rest)).unwrap();
         } else if let Some(rest) = e.strip_prefix("P=") {
             params = std::fs::read_to_string(env.subst(rest)).unwrap();
+        } else if let Some(rest) = e.strip_prefix("U=") {
+            urdf = std::fs::read_to_string(env.subst(rest)).unwrap();
+        } else if let Some(rest) = e.strip_prefix('U') {
+            apply(&mut urdf, rest, case);
         } else if let Some(rest) = e.strip_prefix('S') {
             apply(&mut scen, rest, case);
         } else if let Some(rest) = e.strip_prefix('P') {
@@ -555,20 +576,22 @@ fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
         "params = \"../params/paper.toml\"",
         &format!("params = {:?}", env.p.display().to_string()),
     );
+    let scen = scen.replace("{U}", &env.u.display().to_string());
     std::fs::write(&env.s, scen).unwrap();
     std::fs::write(&env.p, params).unwrap();
+    std::fs::write(&env.u, urdf).unwrap();
     let mut keep = Vec::new();
     for p in &pres {
         keep.extend(prepare(p, &env));
     }
     let out_existed = env.out.exists();
     let args: Vec<String> = case.cmd.split_whitespace().map(|a| env.subst(a)).collect();
-    let limit = if sigint_after.is_some() {
+    let limit = if signal_after.is_some() {
         INTERRUPT_LIMIT
     } else {
         CASE_LIMIT
     };
-    let o = run_limited(&args, &env.r, sigint_after, fsize, limit);
+    let o = run_limited(&args, &env.r, signal_after, fsize, limit);
     let err = &o.stderr;
     let fail = |why: String| {
         Err(format!(
@@ -641,12 +664,32 @@ fn run_case(case: &Case, h: &Path) -> Result<Measured, String> {
 
 #[test]
 fn every_hostile_input_is_refused_fast_and_cleanly() {
+    run_corpus("cases.txt", 150);
+}
+
+/// The second corpus: the newer surfaces (benchmark families and seeds, the learning environments'
+/// scenario settings, re-planning, estimation, the swing-time search, `view`, concurrency), written
+/// from the documentation alone.
+#[test]
+fn every_input_of_the_sweep_is_refused_fast_and_cleanly() {
+    run_corpus("sweep.txt", 100);
+}
+
+/// URDF robots (`brachia robot import`, `params = "x.urdf"` with `[urdf]`) and `brachia robot export`.
+#[test]
+fn every_hostile_urdf_input_is_refused_fast_and_cleanly() {
+    run_corpus("urdf.txt", 40);
+}
+
+/// Run every case of the corpus file `file` (in `tests/hostile`), which must hold at least
+/// `min_cases` cases.
+fn run_corpus(file: &str, min_cases: usize) {
     let h = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/hostile")
         .canonicalize()
         .unwrap();
-    let cases = parse_cases(&std::fs::read_to_string(h.join("cases.txt")).unwrap());
-    assert!(cases.len() >= 150, "{} cases", cases.len());
+    let cases = parse_cases(&std::fs::read_to_string(h.join(file)).unwrap());
+    assert!(cases.len() >= min_cases, "{file}: {} cases", cases.len());
     let mut ids = std::collections::HashSet::new();
     for c in &cases {
         assert!(ids.insert(c.id.clone()), "duplicate case id {}", c.id);
@@ -705,7 +748,7 @@ fn every_hostile_input_is_refused_fast_and_cleanly() {
     let (rss_max, rss_id) = max_by(&|m| m.peak_rss_mb);
     let (wall_max, wall_id) = max_by(&|m| m.elapsed.as_secs_f64());
     eprintln!(
-        "hostile corpus: {} cases ({} refusals) in {:.1} s (2 workers); per refusal: wall median \
+        "hostile corpus {file}: {} cases ({} refusals) in {:.1} s (2 workers); per refusal: wall median \
          {:.3} s, max {:.3} s ({wall_id}); CPU median {:.3} s, max {cpu_max:.3} s ({cpu_id}); peak RSS \
          median {:.1} MB, max {rss_max:.1} MB ({rss_id})",
         cases.len(),
@@ -718,7 +761,7 @@ fn every_hostile_input_is_refused_fast_and_cleanly() {
     );
     assert!(
         failures.is_empty(),
-        "{} of {} hostile cases failed:\n{}",
+        "{file}: {} of {} hostile cases failed:\n{}",
         failures.len(),
         cases.len(),
         failures.join("\n")

@@ -879,7 +879,7 @@ impl Benchmark {
         match r {
             Ok(()) => install(&stage, dir),
             Err(e) => {
-                let _ = std::fs::remove_dir_all(&stage);
+                crate::staging::remove(&stage);
                 Err(e)
             }
         }

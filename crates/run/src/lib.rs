@@ -21,6 +21,7 @@ pub mod run_folder;
 pub mod scenario;
 pub mod schema;
 pub mod settings_use;
+pub mod staging;
 pub mod success;
 pub mod track_folder;
 pub mod track_run;

@@ -85,7 +85,7 @@ impl RunFolder {
             // install removes the staging folder itself
             Ok(()) => install(&stage, dir),
             Err(e) => {
-                let _ = std::fs::remove_dir_all(&stage);
+                crate::staging::remove(&stage);
                 Err(e)
             }
         }
@@ -169,24 +169,29 @@ pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
     std::fs::create_dir_all(&parent).map_err(|e| werr(&parent, e))?;
     let name = name_of(dir);
     let prefix = format!(".{name}.partial-");
-    if let Ok(entries) = std::fs::read_dir(&parent) {
-        for e in entries.flatten() {
-            let f = e.file_name().to_string_lossy().to_string();
-            let Some(rest) = f.strip_prefix(&prefix) else {
-                continue;
-            };
-            let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
-            let is_dir = e.file_type().is_ok_and(|t| t.is_dir());
-            if is_dir && pid.is_some_and(|p| !pid_alive(p)) {
-                remove_stale_stage(&e.path());
-            }
+    // staging folders brachia marked whose owner died (crate::staging); then unmarked ones of a
+    // process that no longer runs, cleared of what their manifests prove
+    for stale in crate::staging::clear_stale(&parent, &prefix) {
+        let rest = stale
+            .file_name()
+            .map(|f| f.to_string_lossy().to_string())
+            .unwrap_or_default();
+        let pid = rest[prefix.len().min(rest.len())..]
+            .split('-')
+            .next()
+            .and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|p| !pid_alive(p)) {
+            remove_stale_stage(&stale);
         }
     }
+    // a report's drawing killed inside this run folder, and a traverse's drawing folder
+    crate::staging::clear_stale(dir, crate::reproduce::REPORT_STAGE_PREFIX);
+    crate::staging::clear_stale(&std::env::temp_dir(), crate::traverse::DRAW_STAGE_PREFIX);
     loop {
         let stage = parent.join(format!("{prefix}{}", unique()));
-        match std::fs::create_dir(&stage) {
+        match crate::staging::create(&stage) {
             Ok(()) => {
-                // mark it as ours at once (an empty listing until its files are known)
+                // list it as a run folder at once (an empty listing until its files are known)
                 std::fs::write(stage.join(MANIFEST), manifest_text(&BTreeMap::new()))
                     .map_err(|e| werr(&stage, e))?;
                 return Ok(stage);
@@ -448,10 +453,8 @@ pub fn check_out_dir(dir: &Path, force: bool) -> Result<(), ExpError> {
 /// is rewritten. The staging folder is removed in every case.
 pub fn install(stage: &Path, dir: &Path) -> Result<(), ExpError> {
     let installed = install_stage(stage, dir);
-    if stage.is_dir() {
-        // created by this run; whatever is left in it was not installed
-        let _ = std::fs::remove_dir_all(stage);
-    }
+    // created by this run; whatever is left in it was not installed
+    crate::staging::remove(stage);
     installed
 }
 
@@ -560,7 +563,10 @@ pub fn install_part(
 ) -> Result<Vec<PathBuf>, ExpError> {
     let (staged, _) = entries_under(stage);
     let mut stamps = BTreeMap::new();
-    for rel in staged.iter().filter(|r| r.as_path() != Path::new(MANIFEST)) {
+    let own = |r: &&PathBuf| {
+        r.as_path() != Path::new(MANIFEST) && r.as_path() != Path::new(crate::staging::STAGE_LOCK)
+    };
+    for rel in staged.iter().filter(own) {
         let from = stage.join(rel);
         let data = std::fs::read(&from).map_err(|e| werr(&from, e))?;
         stamps.insert(rel.clone(), Stamp::of(&data));
@@ -570,6 +576,8 @@ pub fn install_part(
         // a new folder: the staging folder, with its manifest, becomes it in one rename
         let mpath = stage.join(MANIFEST);
         std::fs::write(&mpath, manifest_text(&stamps)).map_err(|e| werr(&mpath, e))?;
+        // the staging mark stays behind: the folder becomes a run folder (its manifest proves it)
+        let _ = std::fs::remove_file(stage.join(crate::staging::STAGE_LOCK));
         match std::fs::rename(stage, dir) {
             Ok(()) => return Ok(stamps.keys().map(|r| dir.join(r)).collect()),
             // another run created it meanwhile: install into it under its lock

@@ -80,6 +80,16 @@ fn check_sections(
     let name = controller_name(controller);
     let refuse =
         |field: &str, value: String, why: String| Err(Error::invalid(src, field, value, why));
+    if t.estimate_params.is_some() && controller != ControllerKind::Mpc {
+        return refuse(
+            "tracking.estimate_params",
+            "set".into(),
+            format!(
+                "the mass estimate feeds the MPC only; with controller \"{name}\" it would be \
+                 ignored: remove tracking.estimate_params or track with controller \"mpc\""
+            ),
+        );
+    }
     if t.replan.is_some() && controller != ControllerKind::Mpc {
         return refuse(
             "tracking.replan",

@@ -31,6 +31,8 @@ use std::sync::Arc;
 
 /// Most windows one estimator integrates at once (`windows_in_flight`).
 pub const MAX_WINDOWS_IN_FLIGHT: usize = 32;
+/// Shortest `window_s` and `model_update_period_s`, s.
+const MIN_PERIOD_S: f64 = 1e-3;
 
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
@@ -39,7 +41,7 @@ pub const MAX_HISTORY: usize = 1000;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ParamEstimatorSettings {
-    /// Length of one integration window, s. Default 0.3.
+    /// Length of one integration window, s, in [0.001, 40]. Default 0.3.
     pub window_s: f64,
     /// RLS forgetting factor per window row, in (0, 1]. Default 1.
     pub forgetting: f64,
@@ -52,7 +54,8 @@ pub struct ParamEstimatorSettings {
     /// A window with a row whose innovation exceeds this many of its standard deviations is
     /// rejected. Default 5.
     pub outlier_sigma: f64,
-    /// The controller's model is rebuilt from the estimate at most this often, s. Default 0.05.
+    /// The controller's model is rebuilt from the estimate at most this often, s, in [0.001, 40].
+    /// Default 0.05.
     pub model_update_period_s: f64,
     /// Windows integrated at once, started `window_s / windows_in_flight` apart (1: back to back),
     /// in 1..=[`MAX_WINDOWS_IN_FLIGHT`]; each row's residual variance is counted this many times
@@ -96,6 +99,25 @@ impl ParamEstimatorSettings {
                 self.windows_in_flight,
                 format!("must be in 1..={MAX_WINDOWS_IN_FLIGHT}"),
             ));
+        }
+        // a window or a model update shorter than a millisecond (a control period at 1 kHz) would
+        // run at every step whatever it says; one longer than the longest swing never ends
+        for (field, v) in [
+            ("window_s", self.window_s),
+            ("model_update_period_s", self.model_update_period_s),
+        ] {
+            if !(MIN_PERIOD_S..=crate::limits::MAX_SWING_TIME_S).contains(&v) {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    v,
+                    format!(
+                        "must be in [{MIN_PERIOD_S}, {}] s: at least a control period at 1 kHz, at \
+                         most the longest swing (brachia::limits::MAX_SWING_TIME_S)",
+                        crate::limits::MAX_SWING_TIME_S
+                    ),
+                ));
+            }
         }
         if !(self.forgetting > 0.0 && self.forgetting <= 1.0) {
             return Err(Error::invalid(

@@ -78,16 +78,19 @@ pub struct ReplanSettings {
     pub threshold_m: f64,
     /// How often the miss is predicted, s. Default 0.01.
     pub check_period_s: f64,
-    /// RK4 step of the prediction rollout, s. Default 0.01.
+    /// RK4 step of the prediction rollout, s, in [1e-4, 0.1]. Default 0.01.
     pub predict_dt_s: f64,
     /// Most re-plans per run (at most [`MAX_REPLANS`]). Default 3.
     pub max_replans: usize,
-    /// Least time between two re-plan triggers, s. Default 0.1.
+    /// Least time between two re-plan triggers, s (at most the longest swing,
+    /// [`crate::limits::MAX_SWING_TIME_S`]). Default 0.1.
     pub min_spacing_s: f64,
-    /// No re-plan with less than this left before T, s. Default 0.15.
+    /// No re-plan with less than this left before T, s (at most
+    /// [`crate::limits::MAX_SWING_TIME_S`]). Default 0.15.
     pub min_remaining_s: f64,
     /// Time from a re-plan's trigger to the switch of references, s; `None`: the measured wall time
-    /// of the re-plan (solve and plan building), which makes a run irreproducible. Default `None`.
+    /// of the re-plan (solve and plan building), which makes a run irreproducible. At most
+    /// [`crate::limits::MAX_SWING_TIME_S`]. Default `None`.
     pub latency_s: Option<f64>,
     /// Knot interval of the re-planning mesh that [`Replanning::build`] plans on, s (the planner
     /// keeps its interval count, so re-plans get finer as the swing runs). Default 0.03 (the paper's
@@ -151,7 +154,25 @@ impl ReplanSettings {
                 Err(Error::invalid(src, field, v, "must be finite and >= 0"))
             }
         };
-        nonneg("min_spacing_s", self.min_spacing_s)?;
+        // a time beyond the longest swing would switch the re-planning off silently (a re-plan
+        // ready only after the swing is never applied)
+        let within_swing = |field: &str, v: f64| -> Result<()> {
+            nonneg(field, v)?;
+            if v > crate::limits::MAX_SWING_TIME_S {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    v,
+                    format!(
+                        "must be at most the longest swing, {} s (brachia::limits::MAX_SWING_TIME_S): \
+                         a longer time would never let a re-plan act",
+                        crate::limits::MAX_SWING_TIME_S
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        within_swing("min_spacing_s", self.min_spacing_s)?;
         nonneg("adopt_margin_m", self.adopt_margin_m)?;
         if !(self.adopt_control_period_s.is_finite()
             && (1e-3..=0.1).contains(&self.adopt_control_period_s))
@@ -163,7 +184,7 @@ impl ReplanSettings {
                 "must be in [0.001, 0.1] s",
             ));
         }
-        nonneg("min_remaining_s", self.min_remaining_s)?;
+        within_swing("min_remaining_s", self.min_remaining_s)?;
         if self.confirm_checks == 0 {
             return Err(Error::invalid(
                 src,
@@ -181,7 +202,7 @@ impl ReplanSettings {
             ));
         }
         if let Some(l) = self.latency_s {
-            nonneg("latency_s", l)?;
+            within_swing("latency_s", l)?;
         }
         if self.max_replans > MAX_REPLANS {
             return Err(Error::invalid(
@@ -194,12 +215,12 @@ impl ReplanSettings {
             ));
         }
         // the rollout covers at most the swing; a step below 0.1 ms is refused (cost per check)
-        if self.predict_dt_s < 1e-4 {
+        if !(1e-4..=0.1).contains(&self.predict_dt_s) {
             return Err(Error::invalid(
                 src,
                 "predict_dt_s",
                 self.predict_dt_s,
-                "must be >= 1e-4 s",
+                "must be in [1e-4, 0.1] s (a coarser RK4 step predicts nothing of the swing)",
             ));
         }
         // every check rolls the model out to T twice: the checks are bounded in number (one per

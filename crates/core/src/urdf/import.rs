@@ -16,6 +16,10 @@ const PARALLEL_SIN: f64 = 1e-6;
 /// A link length below this (m) is a link of zero length.
 const ZERO_LENGTH: f64 = 1e-12;
 
+/// The largest magnitude of a tip coordinate (m) or a torque limit (N m) taken from a URDF file: the
+/// limit every robot's link values obey (`LinkParams`).
+const VALUE_MAX: f64 = 1e6;
+
 /// The tip of the chain: a URDF link and a point in its frame (m). Written `link` or
 /// `link:x,y,z`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -67,6 +71,12 @@ impl std::str::FromStr for Tip {
                     .map_err(|_| format!("tip `{s}`: the point must be three numbers x,y,z"))?;
                 if !finite3(&pt) {
                     return Err(format!("tip `{s}`: the point must be finite"));
+                }
+                if pt.iter().any(|v| v.abs() > VALUE_MAX) {
+                    return Err(format!(
+                        "tip `{s}`: the point must lie within {:e} m of the link's origin",
+                        VALUE_MAX
+                    ));
                 }
                 (l, pt)
             }
@@ -165,6 +175,7 @@ pub fn import_urdf_str(text: &str, src: &str, opts: &UrdfOptions) -> Result<Impo
         path: src.into(),
         message,
     };
+    super::nesting::check_nesting(text, src)?;
     let urdf = urdf_rs::read_from_string(text).map_err(|e| parse_err(e.to_string()))?;
     let trans: TransmissionRoot =
         quick_xml::de::from_str(text).map_err(|e| parse_err(format!("<transmission>: {e}")))?;
@@ -216,6 +227,12 @@ impl<'a> Importer<'a> {
         for (i, l) in urdf.links.iter().enumerate() {
             if link.insert(l.name.as_str(), i).is_some() {
                 return bad(lname(l), l.name.clone(), "two links of this name".into());
+            }
+        }
+        let mut joint_names = std::collections::HashSet::new();
+        for jt in &urdf.joints {
+            if !joint_names.insert(jt.name.as_str()) {
+                return bad(jname(jt), jt.name.clone(), "two joints of this name".into());
             }
         }
         let nl = urdf.links.len();
@@ -300,19 +317,29 @@ impl<'a> Importer<'a> {
             .any(|n| *n == jt.name || *n == jt.child.link)
     }
 
-    /// Refuses a name in `urdf.ignore` that is neither a joint nor a link of the file: a misspelt
-    /// name would otherwise leave out nothing without a word.
-    fn check_ignore_names(&self) -> Result<()> {
-        let urdf = self.urdf;
+    /// Every name of `urdf.ignore` must be a joint or link of the file, off the chain `path`: a
+    /// name that matches nothing, or a part of the chain, would be ignored silently.
+    fn check_ignore(&self, path: &[usize]) -> Result<()> {
         for n in &self.opts.ignore {
-            let known =
-                urdf.joints.iter().any(|j| j.name == *n) || self.link.contains_key(n.as_str());
-            if !known {
-                let names: Vec<&str> = urdf.joints.iter().map(|j| j.name.as_str()).collect();
+            let joint = self.urdf.joints.iter().position(|j| j.name == *n);
+            let link = self.link.contains_key(n.as_str());
+            if joint.is_none() && !link {
                 return Err(self.err(
                     "urdf.ignore",
                     n,
-                    format!("no joint or link of that name in the file (its joints: {names:?})"),
+                    "no joint or link of that name in the file",
+                ));
+            }
+            let on_chain = path.iter().any(|&j| {
+                let jt = &self.urdf.joints[j];
+                jt.name == *n || jt.child.link == *n
+            });
+            if on_chain {
+                return Err(self.err(
+                    "urdf.ignore",
+                    n,
+                    "is part of the chain from the grip to the tip; only branches off it can be \
+                     left out",
                 ));
             }
         }
@@ -373,6 +400,7 @@ impl<'a> Importer<'a> {
             l = self.link[urdf.joints[j].parent.link.as_str()];
         }
         path.reverse();
+        self.check_ignore(&path)?;
         for &j in &path {
             let jt = &urdf.joints[j];
             if !matches!(
@@ -475,7 +503,6 @@ impl<'a> Importer<'a> {
 
     fn run(&self, trans: &TransmissionRoot) -> Result<Imported> {
         let urdf = self.urdf;
-        self.check_ignore_names()?;
         let ch = self.chain()?;
         let nb = ch.joints.len();
         let jt = |k: usize| &urdf.joints[ch.joints[k]];
@@ -648,7 +675,7 @@ impl Projected {
             if lp.com_across.abs() < 1e-15 {
                 lp.com_across = 0.0;
             }
-            pr.limits(jt(k), &mut lp, &mut trace, k);
+            pr.limits(jt(k), &mut lp, &mut trace, k, im.src)?;
             links.push(lp);
             alpha_prev = alpha;
         }
@@ -677,8 +704,27 @@ impl Projected {
         lp: &mut LinkParams,
         trace: &mut Vec<(String, String)>,
         k: usize,
-    ) {
+        src: &str,
+    ) -> Result<()> {
         let lim = &j.limit;
+        if matches!(j.joint_type, JointType::Revolute)
+            && !(lim.lower.is_finite() && lim.upper.is_finite() && lim.lower <= lim.upper)
+        {
+            return Err(Error::invalid(
+                src,
+                format!("{} <limit lower upper>", jname(j)),
+                format!("{} {}", lim.lower, lim.upper),
+                "must be finite with lower <= upper",
+            ));
+        }
+        if !(lim.velocity.is_finite() && lim.velocity >= 0.0) {
+            return Err(Error::invalid(
+                src,
+                format!("{} <limit velocity>", jname(j)),
+                lim.velocity,
+                "must be finite and >= 0 (0: no velocity limit)",
+            ));
+        }
         if matches!(j.joint_type, JointType::Revolute)
             && lim.lower.is_finite()
             && lim.upper.is_finite()
@@ -702,6 +748,7 @@ impl Projected {
                 format!("{} <limit velocity>", jname(j)),
             ));
         }
+        Ok(())
     }
 
     /// Mass, centre of mass (in the plane) and inertia about the axis of body `k`.
@@ -858,11 +905,14 @@ fn actuation(
             ));
         }
         let e = jt.limit.effort;
-        if !(e.is_finite() && e > 0.0) {
+        if !(e.is_finite() && e > 0.0 && e <= VALUE_MAX) {
             return Err(im.err(
                 format!("{} <limit effort>", jname(jt)),
                 e,
-                "an actuated joint needs a torque limit > 0",
+                format!(
+                    "an actuated joint needs a torque limit > 0 and at most {:e} N m",
+                    VALUE_MAX
+                ),
             ));
         }
         lo.push(-e);
@@ -879,6 +929,33 @@ fn wrap(a: f64) -> f64 {
     crate::model::wrap_angle(a)
 }
 
+/// A refusal of a `[urdf]` option (`urdf.grip`, `urdf.tip`, `urdf.passive`, `urdf.ignore`, the
+/// gravity) named where the user wrote it: the file `src` that gave the options (a scenario), with
+/// the URDF file `path` in the rule. Other refusals (the URDF's own elements) keep naming the URDF.
+fn in_options(e: Error, src: &str, path: &Path) -> Error {
+    match e {
+        Error::InvalidValue {
+            field,
+            value,
+            reason,
+            ..
+        } if field.starts_with("urdf.") || field == "gravity" => {
+            let field = if field == "gravity" {
+                "urdf.gravity".to_string()
+            } else {
+                field
+            };
+            Error::invalid(
+                src,
+                field,
+                value,
+                format!("{reason} (in {})", path.display()),
+            )
+        }
+        e => e,
+    }
+}
+
 /// Load a robot from a parameters file: a URDF file (extension `.urdf`, read with `urdf`, which
 /// it needs) or a brachia TOML file (which takes no `urdf` options). `src` names the file that
 /// gave the options (a scenario) in messages.
@@ -888,8 +965,9 @@ pub fn load_robot(path: &Path, urdf: Option<&UrdfOptions>, src: &str) -> Result<
         .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
     match (is_urdf, urdf) {
         (true, Some(o)) => {
-            let imp = import_urdf_file(path, o)?;
+            let imp = import_urdf_file(path, o).map_err(|e| in_options(e, src, path))?;
             crate::Robot::from_params(imp.params, &path.display().to_string())
+                .map_err(|e| in_options(e, src, path))
         }
         (true, None) => Err(Error::invalid(
             src,

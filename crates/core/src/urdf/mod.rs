@@ -26,8 +26,10 @@
 mod export;
 mod frames;
 mod import;
+mod nesting;
 mod traced;
 
 pub use export::{to_mjcf, to_urdf};
 pub use import::{import_urdf_file, import_urdf_str, load_robot, Imported, Tip, UrdfOptions};
+pub use nesting::MAX_URDF_DEPTH;
 pub use traced::imported_toml;

@@ -527,12 +527,17 @@ fn put_in_place(dir: &Path, stage: &Path) -> Result<Vec<PathBuf>, ExpError> {
     })
 }
 
-/// A fresh hidden staging folder inside `dir` for [`redraw`] (a name no entry has yet).
+/// How the name of [`redraw`]'s staging folder inside a run folder starts.
+pub(crate) const REPORT_STAGE_PREFIX: &str = ".report.partial-";
+
+/// A fresh hidden staging folder inside `dir` for [`redraw`] (a name no entry has yet), marked as
+/// this run's ([`crate::staging`]); first the staging folders of a drawing killed earlier are removed.
 fn redraw_stage(dir: &Path) -> Result<PathBuf, ExpError> {
+    crate::staging::clear_stale(dir, REPORT_STAGE_PREFIX);
     let mut k = 0;
     loop {
-        let stage = dir.join(format!(".report.partial-{}-{k}", std::process::id()));
-        match std::fs::create_dir(&stage) {
+        let stage = dir.join(format!("{REPORT_STAGE_PREFIX}{}-{k}", std::process::id()));
+        match crate::staging::create(&stage) {
             Ok(()) => return Ok(stage),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => k += 1,
             Err(source) => {
@@ -574,8 +579,6 @@ struct RemoveOnDrop(PathBuf);
 
 impl Drop for RemoveOnDrop {
     fn drop(&mut self) {
-        if self.0.is_dir() {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
+        crate::staging::remove(&self.0);
     }
 }

@@ -84,6 +84,7 @@ impl SwingEnvSpec {
             Some(r) => r,
             None => Randomization::fixed(&Disturbances::default(), src),
         };
+        randomization.check_pushes_within(settings.time_limit_s)?;
         let obstacles = task
             .obstacles
             .iter()

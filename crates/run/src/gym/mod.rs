@@ -93,6 +93,20 @@ impl SwingEnvSettings {
             "must be in (0, 0.1] s",
         )?;
         let k = self.control_dt / self.plant_dt;
+        if k.round() > brachia::limits::MAX_SUBSTEPS as f64 {
+            // every control period runs k plant steps: a tiny plant_dt makes one step unbounded
+            return Err(Error::invalid(
+                src,
+                "plant_dt",
+                self.plant_dt,
+                format!(
+                    "control_dt = {} s would take {k:.3e} plant steps per control period; at most \
+                     {} (brachia::limits::MAX_SUBSTEPS)",
+                    self.control_dt,
+                    brachia::limits::MAX_SUBSTEPS
+                ),
+            ));
+        }
         if (k - k.round()).abs() > 1e-9 * k.max(1.0) || k.round() < 1.0 {
             return Err(Error::invalid(
                 src,

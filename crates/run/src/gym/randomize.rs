@@ -96,12 +96,45 @@ impl Randomization {
         Ok(d)
     }
 
+    /// Refuse a push at or after `time_limit_s`, the end of an episode, at either end of its range:
+    /// it would never be applied, while the episode's disturbances list it.
+    pub fn check_pushes_within(&self, time_limit_s: f64) -> Result<(), Error> {
+        for pick in [Pick::Low, Pick::High] {
+            let d = self.resolve(pick)?;
+            for (i, p) in d.pushes.iter().enumerate() {
+                if p.t_s >= time_limit_s {
+                    return Err(Error::invalid(
+                        &self.src,
+                        format!("disturbances.pushes[{i}].t_s"),
+                        p.t_s,
+                        format!(
+                            "a push happens during the episode: t_s must be below time_limit_s \
+                             = {time_limit_s} s (a later push would never be applied)"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// The value with every range replaced as `pick` says.
     fn resolve(&self, mut pick: Pick<'_>) -> Result<Disturbances, Error> {
         let v = resolve(&self.value, "", &self.src, &mut pick)?;
-        serde_json::from_value(v).map_err(|e| Error::Parse {
-            path: self.src.clone().into(),
-            message: format!("disturbances: {e}"),
+        serde_json::from_value::<Disturbances>(v.clone()).map_err(|e| {
+            // serde names no field for a mistyped value: find the one that fails alone
+            let field = v.as_object().and_then(|m| {
+                m.iter().find_map(|(k, x)| {
+                    let alone = Value::Object([(k.clone(), x.clone())].into_iter().collect());
+                    serde_json::from_value::<Disturbances>(alone)
+                        .is_err()
+                        .then(|| format!(".{k}"))
+                })
+            });
+            Error::Parse {
+                path: self.src.clone().into(),
+                message: format!("disturbances{}: {e}", field.unwrap_or_default()),
+            }
         })
     }
 }

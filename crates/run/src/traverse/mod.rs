@@ -45,6 +45,10 @@ use world::{plant_chains, rapier_world, throw_ball};
 
 mod world;
 
+/// How the name of a traverse's drawing folder in the temporary folder starts (a staging folder,
+/// [`crate::staging`]).
+pub(crate) const DRAW_STAGE_PREFIX: &str = ".brachia-traverse-";
+
 /// One swing of a traverse.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SwingRecord {
@@ -947,7 +951,7 @@ impl Traverse {
             return Ok(folder);
         }
         let tmp = std::env::temp_dir().join(format!(
-            ".brachia-traverse-{}-{}",
+            "{DRAW_STAGE_PREFIX}{}-{}",
             std::process::id(),
             std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
@@ -958,7 +962,8 @@ impl Traverse {
             path: tmp.clone(),
             source: e,
         };
-        std::fs::create_dir_all(&tmp).map_err(werr)?;
+        crate::staging::clear_stale(&std::env::temp_dir(), DRAW_STAGE_PREFIX);
+        crate::staging::create(&tmp).map_err(werr)?;
         let drawn = self.draw(ll, &tmp);
         let mut result = Ok(());
         if drawn.is_ok() {
@@ -978,7 +983,7 @@ impl Traverse {
                 }
             }
         }
-        let _ = std::fs::remove_dir_all(&tmp);
+        crate::staging::remove(&tmp);
         drawn.map_err(|e| match e {
             brachia_plot::PlotError::Cancelled { .. } => crate::ExpError::Cancelled,
             e => crate::ExpError::Write {

@@ -267,7 +267,9 @@ pub fn write_page(dir: &Path, html: &str) -> Result<PathBuf, ExpError> {
         .and_then(|()| crate::run_folder::install_part(&stage, dir, &|_| false));
     let _ = std::fs::remove_file(stage.join(crate::MANIFEST));
     let _ = std::fs::remove_file(&staged);
+    let _ = std::fs::remove_file(stage.join(crate::staging::STAGE_LOCK));
     let _ = std::fs::remove_dir(&stage);
+    crate::staging::release(&stage);
     result?;
     Ok(dir.join(VIEW_FILE))
 }

@@ -1,0 +1,179 @@
+//! Staging folders that a run killed outright (SIGKILL, a power cut) leaves behind, recognised and
+//! removed by the next run.
+//!
+//! Every staging folder brachia creates (a run folder's `.NAME.partial-PID-K` next to `--out`, a
+//! report's `.report.partial-PID-K` inside the run folder, a ladder traverse's
+//! `.brachia-traverse-PID-NANOS` in the temporary folder) is made with [`create`]: a folder new to
+//! this run, holding at once a lock file [`STAGE_LOCK`] that starts with brachia's header and on
+//! which this process holds an exclusive lock (`flock`) for as long as the folder lives. The
+//! operating system drops that lock when the process dies, however it dies. A folder is proven
+//! stale ([`clear_stale`]) only when its name has the expected form, it is a real folder (not a
+//! link), its lock file is a plain file with brachia's header, and the lock can be taken: then no
+//! live process owns it, and it is removed whole (links inside it are removed, never followed).
+//! Anything else with a similar name (a user's folder, a folder of a run still working, a folder
+//! without the lock file) is left alone.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock, PoisonError};
+
+/// The lock file inside every staging folder brachia creates.
+pub const STAGE_LOCK: &str = ".brachia-stage";
+
+/// First line of [`STAGE_LOCK`].
+const STAGE_HEADER: &str = "# brachia staging folder, schema 1\n";
+
+/// The lock files of this process's live staging folders (each holding its lock).
+fn held() -> std::sync::MutexGuard<'static, HashMap<PathBuf, File>> {
+    static HELD: OnceLock<Mutex<HashMap<PathBuf, File>>> = OnceLock::new();
+    HELD.get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Create the staging folder `path` (an error if anything exists there) and mark it as this
+/// process's: its lock file is written and locked before this returns, and stays locked until
+/// [`remove`] or [`release`] (or the process's death).
+pub fn create(path: &Path) -> std::io::Result<()> {
+    std::fs::create_dir(path)?;
+    match mark(path) {
+        Ok(f) => {
+            held().insert(path.to_path_buf(), f);
+            Ok(())
+        }
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(path);
+            Err(e)
+        }
+    }
+}
+
+/// Write and lock the lock file of the new folder `path`: locked first, then the header written,
+/// so a folder whose lock file has the header always has a live owner or a dead one.
+fn mark(path: &Path) -> std::io::Result<File> {
+    let mut f = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create_new(true)
+        .open(path.join(STAGE_LOCK))?;
+    f.lock()?;
+    f.write_all(format!("{STAGE_HEADER}pid {}\n", std::process::id()).as_bytes())?;
+    Ok(f)
+}
+
+/// Remove this process's staging folder `path` whole and release its lock.
+pub fn remove(path: &Path) {
+    if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir()) {
+        let _ = std::fs::remove_dir_all(path);
+    }
+    release(path);
+}
+
+/// Release the lock of this process's staging folder `path` (already removed or renamed).
+pub fn release(path: &Path) {
+    held().remove(path);
+}
+
+/// The lock file of `dir`, locked by this call, when `dir` is a staging folder brachia marked and
+/// no live process owns; `None` otherwise (not a real folder, no lock file, a lock file without
+/// brachia's header, or an owner still running).
+fn dead_owners_lock(dir: &Path) -> Option<File> {
+    if !std::fs::symlink_metadata(dir).ok()?.is_dir() {
+        return None;
+    }
+    let lock = dir.join(STAGE_LOCK);
+    let meta = std::fs::symlink_metadata(&lock).ok()?;
+    if !meta.is_file() || meta.len() > 4096 {
+        return None;
+    }
+    let f = File::open(&lock).ok()?;
+    let mut text = String::new();
+    (&f).take(4096).read_to_string(&mut text).ok()?;
+    if !text.starts_with(STAGE_HEADER) {
+        return None;
+    }
+    f.try_lock().ok()?;
+    Some(f)
+}
+
+/// Whether `dir` is a staging folder brachia marked (whatever its owner's state).
+fn marked(dir: &Path) -> bool {
+    std::fs::symlink_metadata(dir.join(STAGE_LOCK)).is_ok_and(|m| m.is_file())
+}
+
+/// Remove every staging folder in `parent` whose name starts with `prefix` that brachia marked and
+/// whose owner is dead (see the module docs). Returns the folders with such a name that carry no
+/// lock file at all (left for the caller to judge; a folder with a lock file of another form, or a
+/// live owner, is neither removed nor returned).
+pub fn clear_stale(parent: &Path, prefix: &str) -> Vec<PathBuf> {
+    let mut unmarked = Vec::new();
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return unmarked;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        if !name.to_string_lossy().starts_with(prefix) {
+            continue;
+        }
+        if !e.file_type().is_ok_and(|t| t.is_dir()) {
+            continue;
+        }
+        let dir = e.path();
+        if held().contains_key(&dir) {
+            continue;
+        }
+        if let Some(lock) = dead_owners_lock(&dir) {
+            // removed while holding its lock: a second run clearing at the same time waits for it
+            let _ = std::fs::remove_dir_all(&dir);
+            drop(lock);
+        } else if !marked(&dir) {
+            unmarked.push(dir);
+        }
+    }
+    unmarked
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_live_stage_is_kept_and_a_released_one_is_cleared() {
+        let d = tempfile::tempdir().unwrap();
+        let s = d.path().join(".x.partial-1-0");
+        create(&s).unwrap();
+        std::fs::write(s.join("a.png"), b"drawn").unwrap();
+        // this process owns it: kept
+        assert!(clear_stale(d.path(), ".x.partial-").is_empty());
+        assert!(s.join("a.png").is_file());
+        // its owner gone (the lock released without removing it): cleared
+        release(&s);
+        assert!(clear_stale(d.path(), ".x.partial-").is_empty());
+        assert!(!s.exists());
+    }
+
+    #[test]
+    fn folders_brachia_cannot_prove_are_kept() {
+        let d = tempfile::tempdir().unwrap();
+        // no lock file: returned, untouched
+        let plain = d.path().join(".x.partial-2-0");
+        std::fs::create_dir(&plain).unwrap();
+        std::fs::write(plain.join("mine.txt"), b"mine").unwrap();
+        // a lock file without the header
+        let other = d.path().join(".x.partial-3-0");
+        std::fs::create_dir(&other).unwrap();
+        std::fs::write(other.join(STAGE_LOCK), b"not brachia's\n").unwrap();
+        // a link to a folder of the user's, named like a stage
+        let user = d.path().join("user");
+        std::fs::create_dir(&user).unwrap();
+        std::fs::write(user.join(STAGE_LOCK), STAGE_HEADER).unwrap();
+        std::os::unix::fs::symlink(&user, d.path().join(".x.partial-4-0")).unwrap();
+        let unmarked = clear_stale(d.path(), ".x.partial-");
+        assert_eq!(unmarked, vec![plain.clone()]);
+        assert!(plain.join("mine.txt").is_file());
+        assert!(other.join(STAGE_LOCK).is_file());
+        assert!(user.join(STAGE_LOCK).is_file());
+    }
+}
