@@ -19,6 +19,10 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock, PoisonError};
 
+/// How the name of a report's staging folder inside a run folder starts (`brachia report` redraws a
+/// reproduction's figures there).
+pub const REPORT_STAGE_PREFIX: &str = ".report.partial-";
+
 /// The lock file inside every staging folder brachia creates.
 pub const STAGE_LOCK: &str = ".brachia-stage";
 

@@ -527,16 +527,17 @@ fn put_in_place(dir: &Path, stage: &Path) -> Result<Vec<PathBuf>, ExpError> {
     })
 }
 
-/// How the name of [`redraw`]'s staging folder inside a run folder starts.
-pub(crate) const REPORT_STAGE_PREFIX: &str = ".report.partial-";
-
 /// A fresh hidden staging folder inside `dir` for [`redraw`] (a name no entry has yet), marked as
 /// this run's ([`crate::staging`]); first the staging folders of a drawing killed earlier are removed.
 fn redraw_stage(dir: &Path) -> Result<PathBuf, ExpError> {
-    crate::staging::clear_stale(dir, REPORT_STAGE_PREFIX);
+    crate::staging::clear_stale(dir, crate::staging::REPORT_STAGE_PREFIX);
     let mut k = 0;
     loop {
-        let stage = dir.join(format!("{REPORT_STAGE_PREFIX}{}-{k}", std::process::id()));
+        let stage = dir.join(format!(
+            "{}{}-{k}",
+            crate::staging::REPORT_STAGE_PREFIX,
+            std::process::id()
+        ));
         match crate::staging::create(&stage) {
             Ok(()) => return Ok(stage),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => k += 1,
