@@ -234,6 +234,26 @@ fn killed_at_every_point(args: &[&std::ffi::OsStr], out: &Path, points: &[Kill],
     );
 }
 
+/// A fresh folder holding `tmp/` (the runs' temporary folder) and `plan/`, the plan folder of
+/// scenarios/tracking.toml.
+fn planned_folder() -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let plan = dir.path().join("plan");
+    run_ok(
+        &[
+            os("plan"),
+            os("--scenario"),
+            os("scenarios/tracking.toml"),
+            os("--out"),
+            plan.as_os_str(),
+        ],
+        &tmp,
+    );
+    (dir, tmp, plan)
+}
+
 fn os(s: &str) -> &std::ffi::OsStr {
     std::ffi::OsStr::new(s)
 }
@@ -268,20 +288,7 @@ fn a_simulation_killed_at_any_point_keeps_the_previous_result() {
 
 #[test]
 fn a_report_killed_while_drawing_leaves_nothing_the_next_one_keeps() {
-    let dir = tempfile::tempdir().unwrap();
-    let tmp = dir.path().join("tmp");
-    std::fs::create_dir(&tmp).unwrap();
-    let plan = dir.path().join("plan");
-    run_ok(
-        &[
-            os("plan"),
-            os("--scenario"),
-            os("scenarios/tracking.toml"),
-            os("--out"),
-            plan.as_os_str(),
-        ],
-        &tmp,
-    );
+    let (_dir, tmp, plan) = planned_folder();
     let args = [os("report"), plan.as_os_str()];
     let points = [
         Kill::After(0.2),
@@ -322,20 +329,7 @@ fn a_traverse_killed_while_drawing_leaves_no_temporary_folder_behind() {
 /// holds one complete result, the user's files unchanged, no staging folder left.
 #[test]
 fn overlapping_reports_and_views_with_one_killed_leave_one_complete_result() {
-    let dir = tempfile::tempdir().unwrap();
-    let tmp = dir.path().join("tmp");
-    std::fs::create_dir(&tmp).unwrap();
-    let plan = dir.path().join("plan");
-    run_ok(
-        &[
-            os("plan"),
-            os("--scenario"),
-            os("scenarios/tracking.toml"),
-            os("--out"),
-            plan.as_os_str(),
-        ],
-        &tmp,
-    );
+    let (_dir, tmp, plan) = planned_folder();
     let user = user_files(&plan);
     let report = [os("report"), plan.as_os_str()];
     let view = [os("view"), plan.as_os_str()];
