@@ -329,7 +329,7 @@ fn a_traverse_killed_while_drawing_leaves_no_temporary_folder_behind() {
 /// holds one complete result, the user's files unchanged, no staging folder left.
 #[test]
 fn overlapping_reports_and_views_with_one_killed_leave_one_complete_result() {
-    let (_dir, tmp, plan) = planned_folder();
+    let (dir, tmp, plan) = planned_folder();
     let user = user_files(&plan);
     let report = [os("report"), plan.as_os_str()];
     let view = [os("view"), plan.as_os_str()];
