@@ -186,7 +186,7 @@ pub fn stage_for(dir: &Path) -> Result<PathBuf, ExpError> {
     }
     // a report's drawing killed inside this run folder, and a traverse's drawing folder
     crate::staging::clear_stale(dir, crate::staging::REPORT_STAGE_PREFIX);
-    crate::staging::clear_stale(&std::env::temp_dir(), crate::traverse::DRAW_STAGE_PREFIX);
+    crate::staging::clear_stale(&std::env::temp_dir(), crate::staging::DRAW_STAGE_PREFIX);
     loop {
         let stage = parent.join(format!("{prefix}{}", unique()));
         match crate::staging::create(&stage) {

@@ -23,6 +23,10 @@ use std::sync::{Mutex, OnceLock, PoisonError};
 /// reproduction's figures there).
 pub const REPORT_STAGE_PREFIX: &str = ".report.partial-";
 
+/// How the name of a traverse's drawing folder in the temporary folder starts (a staging folder,
+/// [`crate::staging`]).
+pub const DRAW_STAGE_PREFIX: &str = ".brachia-traverse-";
+
 /// The lock file inside every staging folder brachia creates.
 pub const STAGE_LOCK: &str = ".brachia-stage";
 

@@ -45,10 +45,6 @@ use world::{plant_chains, rapier_world, throw_ball};
 
 mod world;
 
-/// How the name of a traverse's drawing folder in the temporary folder starts (a staging folder,
-/// [`crate::staging`]).
-pub(crate) const DRAW_STAGE_PREFIX: &str = ".brachia-traverse-";
-
 /// One swing of a traverse.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SwingRecord {
@@ -951,7 +947,8 @@ impl Traverse {
             return Ok(folder);
         }
         let tmp = std::env::temp_dir().join(format!(
-            "{DRAW_STAGE_PREFIX}{}-{}",
+            "{}{}-{}",
+            crate::staging::DRAW_STAGE_PREFIX,
             std::process::id(),
             std::time::SystemTime::now()
                 .duration_since(std::time::UNIX_EPOCH)
@@ -962,7 +959,7 @@ impl Traverse {
             path: tmp.clone(),
             source: e,
         };
-        crate::staging::clear_stale(&std::env::temp_dir(), DRAW_STAGE_PREFIX);
+        crate::staging::clear_stale(&std::env::temp_dir(), crate::staging::DRAW_STAGE_PREFIX);
         crate::staging::create(&tmp).map_err(werr)?;
         let drawn = self.draw(ll, &tmp);
         let mut result = Ok(());

@@ -7,51 +7,19 @@
 use super::data::html_escape;
 use crate::read::{need, read_csv_text, read_json};
 use brachia::Error;
-use serde::Deserialize;
-use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
+mod card;
 mod families;
+
+use card::{ControllerCard, Scorecard, SweepDef};
 
 const TEMPLATE: &str = include_str!("../../assets/view/bench.html");
 const STYLE: &str = include_str!("../../assets/view/view.css");
 
 const BENCH_FOLDER: &str =
     "a benchmark folder written by `brachia benchmark` (scorecard.json, runs.csv)";
-
-#[derive(Debug, Deserialize)]
-struct Scorecard {
-    scenario: String,
-    success_radius_m: f64,
-    sweeps: Vec<SweepDef>,
-    controllers: Vec<ControllerCard>,
-}
-
-#[derive(Debug, Deserialize)]
-struct SweepDef {
-    name: String,
-    level: String,
-    levels: Vec<f64>,
-}
-
-#[derive(Debug, Deserialize)]
-struct ControllerCard {
-    controller: String,
-    robustness_score: f64,
-    overall: Score,
-    per_disturbance: BTreeMap<String, Score>,
-}
-
-#[derive(Debug, Deserialize)]
-struct Score {
-    runs: usize,
-    success_pct: f64,
-    energy_j: f64,
-    peak_torque_nm: f64,
-    smoothness_nm: f64,
-    final_error_m: f64,
-}
 
 /// One run of `runs.csv`, as the curves use it.
 struct Run {
@@ -310,7 +278,9 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::card::Score;
     use super::*;
+    use std::collections::BTreeMap;
 
     #[test]
     fn runs_csv_is_checked_and_curves_follow_the_runs() {

@@ -211,8 +211,9 @@ pub(crate) fn plan_around_obstacles(
 }
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
-/// beside the seeds (a solve from that guess that converges does so in a few dozen iterations).
-pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 150;
+/// beside the seeds (a solve from that guess that converges does so in a few hundred iterations at
+/// most; the seeds after it cannot win before it ends).
+pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
 /// Where a candidate of the race came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -471,38 +472,12 @@ fn strategies(
     // more torque than the limits allow; planned with the limits widened, then at the real ones
     // from that plan
     if let (Some(g), true) = (cguess.as_ref(), cspace_failed) {
-        let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
-        let wide = with_torque_scale(robot, TORQUE_RELAX)?;
-        let mut relaxed = None;
-        // the widened plan is only a guess: its knots' optimum, without the sub-step refinement
-        let mut knots_only = settings.clone();
-        knots_only.shooting.substep_clearance = false;
-        if let Some(run) = within(usize::MAX) {
-            let mut p = plan_single(&wide, task, &knots_only, &run, Some(g))?;
-            log.record(
-                &mut p,
-                SolveRole::TorqueScale {
-                    scale: TORQUE_RELAX,
-                },
-            );
-            if let Some(r) = crep.as_mut() {
-                r.relaxed_converged = Some(p.status.is_converged());
-            }
-            relaxed = Some(p);
-        }
-        let relaxed = relaxed.filter(|p| p.status.is_converged());
-        if let (Some(w), Some(run)) = (relaxed, within(usize::MAX)) {
-            let mut p = plan_single(robot, task, settings, &run, Some(&w.points))?;
-            log.record(&mut p, SolveRole::TorqueScale { scale: 1.0 });
-            let ok = p.converged();
-            if let Some(r) = crep.as_mut() {
-                r.converged = Some(ok);
-            }
-            if ok {
-                rep.strategy = GuessStrategy::Cspace;
-                rep.cspace = crep;
-                return Ok(finish(robot, task, settings, p, rep, log, ff));
-            }
+        if let Some(p) =
+            cspace_torque_continuation(robot, task, settings, nlp, started, g, &mut crep, &mut log)?
+        {
+            rep.strategy = GuessStrategy::Cspace;
+            rep.cspace = crep;
+            return Ok(finish(robot, task, settings, p, rep, log, ff));
         }
     }
     rep.cspace = crep;
@@ -522,6 +497,53 @@ fn strategies(
         // nothing converged: the smooth step's attempt, diagnosed
         None => Ok(finish(robot, task, settings, best, rep, log, ff)),
     }
+}
+
+/// The continuation on the actuator limits from the C-space seed `g` (the module docs, step 4):
+/// planned with the limits widened by [`TORQUE_RELAX`] (a guess: its knots' optimum, without the
+/// sub-step refinement), then at the real limits from that plan; the plan when it converged.
+#[allow(clippy::too_many_arguments)]
+fn cspace_torque_continuation(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    g: &Trajectory,
+    crep: &mut Option<CspaceReport>,
+    log: &mut SolveLog,
+) -> Result<Option<Plan>> {
+    let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
+    let wide = with_torque_scale(robot, TORQUE_RELAX)?;
+    let mut relaxed = None;
+    let mut knots_only = settings.clone();
+    knots_only.shooting.substep_clearance = false;
+    if let Some(run) = within(usize::MAX) {
+        let mut p = plan_single(&wide, task, &knots_only, &run, Some(g))?;
+        log.record(
+            &mut p,
+            SolveRole::TorqueScale {
+                scale: TORQUE_RELAX,
+            },
+        );
+        if let Some(r) = crep.as_mut() {
+            r.relaxed_converged = Some(p.status.is_converged());
+        }
+        relaxed = Some(p);
+    }
+    let relaxed = relaxed.filter(|p| p.status.is_converged());
+    if let (Some(w), Some(run)) = (relaxed, within(usize::MAX)) {
+        let mut p = plan_single(robot, task, settings, &run, Some(&w.points))?;
+        log.record(&mut p, SolveRole::TorqueScale { scale: 1.0 });
+        let ok = p.converged();
+        if let Some(r) = crep.as_mut() {
+            r.converged = Some(ok);
+        }
+        if ok {
+            return Ok(Some(p));
+        }
+    }
+    Ok(None)
 }
 
 /// Grow every obstacle from the obstacle-free plan `guess` to its full radius (the module docs,

@@ -1,12 +1,15 @@
-//! Candidate guesses solved side by side: the first plan that converges (and keeps the clearance on
-//! its resampled trajectory) wins, and the solves still running are cancelled.
+//! Candidate guesses solved side by side: the first candidate in order whose plan converges (and
+//! keeps the clearance on its resampled trajectory) wins, whichever finishes first, and the
+//! candidates after it are cancelled; the result is the one solving them one after the other gives
+//! (short of the time limit).
 //!
 //! Each candidate is a closure that plans the task from one guess and returns its plans in the order
 //! they were solved (the candidate's own solves: a coarse solve, the solve at the task's mesh, a
 //! resume). Up to [`RACE_WORKERS`] candidates run at a time, taken in their order; a candidate
-//! starts only while no plan has won and time is left. The solves of a race share one cancel token
-//! of their own, set when a plan wins or when the caller's token is set (the calling thread watches
-//! it every [`WATCH_PERIOD`]), so a cancelled call ends within one iteration of every solve running.
+//! starts only while no candidate before it has won and time is left. Each candidate has a cancel
+//! token of its own, set when a candidate before it wins or when the caller's token is set (the
+//! calling thread watches it every [`WATCH_PERIOD`]), so a cancelled call ends within one iteration
+//! of every solve running.
 //! With one worker (one core, or called from a thread pool's worker whose cores are taken) the
 //! candidates run one after the other on the calling thread, with the caller's own token.
 //!
@@ -42,7 +45,7 @@ pub(crate) fn won(plans: &Plans) -> bool {
 pub(crate) struct RaceOutcome {
     /// Per candidate, in the candidates' order, the plans it solved (`None`: not started).
     pub plans: Vec<Option<Plans>>,
-    /// The candidate whose last plan converged first.
+    /// The first candidate, in order, whose last plan converged.
     pub winner: Option<usize>,
 }
 
@@ -83,32 +86,36 @@ pub(crate) fn race(
         }
         return Ok(out);
     }
-    let token = CancelToken::new();
+    // one token per candidate: a converged candidate cancels only the candidates after it, so the
+    // winner is the first candidate in order that converges, whatever the threads' timing
+    let tokens: Vec<CancelToken> = (0..n).map(|_| CancelToken::new()).collect();
+    let cancel_from = |first: usize| tokens.iter().skip(first).for_each(CancelToken::cancel);
     let next = AtomicUsize::new(0);
+    let best = AtomicUsize::new(n);
     let running = AtomicUsize::new(workers(n));
     let results: Mutex<Vec<(usize, Result<Plans>)>> = Mutex::new(vec![]);
-    let winner: Mutex<Option<usize>> = Mutex::new(None);
     let worker = || {
         loop {
             let i = next.fetch_add(1, Ordering::SeqCst);
-            if i >= n || token.is_cancelled() {
+            if i >= n || i > best.load(Ordering::SeqCst) || tokens[i].is_cancelled() {
                 break;
             }
             let Some(run) = nlp.remaining(started) else {
                 break;
             };
             let run = NlpSettings {
-                cancel: Some(token.clone()),
+                cancel: Some(tokens[i].clone()),
                 ..run
             };
             let r = candidates[i](&run);
-            if r.as_ref().map_or(true, won) {
-                // a converged plan ends the race; so does an error
-                let mut w = winner.lock().unwrap_or_else(|e| e.into_inner());
-                if w.is_none() && r.is_ok() {
-                    *w = Some(i);
+            match &r {
+                Ok(plans) if won(plans) => {
+                    best.fetch_min(i, Ordering::SeqCst);
+                    cancel_from(i + 1);
                 }
-                token.cancel();
+                Ok(_) => {}
+                // an error ends the race
+                Err(_) => cancel_from(0),
             }
             results
                 .lock()
@@ -123,7 +130,7 @@ pub(crate) fn race(
         }
         while running.load(Ordering::SeqCst) > 0 {
             if nlp.is_cancelled() {
-                token.cancel();
+                cancel_from(0);
             }
             std::thread::sleep(WATCH_PERIOD);
         }
@@ -133,6 +140,7 @@ pub(crate) fn race(
     for (i, r) in results {
         out.plans[i] = Some(r?);
     }
-    out.winner = winner.into_inner().unwrap_or_else(|e| e.into_inner());
+    let b = best.into_inner();
+    out.winner = (b < n).then_some(b);
     Ok(out)
 }

@@ -2,7 +2,7 @@
 //! controller with each family's run count, and the same as a bar chart (inline SVG, hovering a bar
 //! names the controller, the family, the rate and the runs).
 
-use super::{ControllerCard, Scorecard};
+use super::card::{ControllerCard, Scorecard};
 use crate::view::data::html_escape;
 use std::fmt::Write as _;
 
@@ -144,7 +144,7 @@ fn chart(card: &Scorecard, fams: &[(String, usize)]) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Score, SweepDef};
+    use super::super::card::{Score, SweepDef};
     use super::*;
     use std::collections::BTreeMap;
 
