@@ -1,6 +1,6 @@
-//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, a
-//! benchmark's scorecard, [`mod@bench`], or a parameter study's grid, [`study`]), drawn from its
-//! folder.
+//! `view.html`: one self-contained interactive page of a run (plan, track, traverse, simulation, or a
+//! benchmark's scorecard, [`mod@bench`]), drawn from its folder. The paper layer adds the parameter
+//! study's page (`brachia_experiments::view`).
 //!
 //! The page embeds its data as JSON ([`data`]) and its own small script and style sheet (the files under
 //! `crates/run/assets/view/`, included at build time): it opens from disk in any browser,
