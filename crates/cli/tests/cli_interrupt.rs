@@ -117,7 +117,7 @@ fn ctrl_c_stops_a_long_plan_inside_its_solve() {
 #[test]
 fn ctrl_c_stops_a_plan_on_pounce_inside_its_solve() {
     let dir = tempfile::tempdir().unwrap();
-    let sc = long_swing(dir.path(), 20.0, 0.03, "", "backend = \"pounce\"");
+    let sc = long_swing(dir.path(), 20.0, 0.01, "", "backend = \"pounce\"");
     let out = previous_results(dir.path(), "plan");
     let mut cmd = brachia();
     cmd.args(["plan", "--scenario"])
