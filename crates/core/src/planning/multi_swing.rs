@@ -40,7 +40,7 @@ use super::solve::common::{swing_time, WARM_START_MU_INIT};
 use crate::error::{Error, Result};
 use crate::model::{reroot_jacobian, reroot_state, Circle, Robot};
 use crate::planning::nlp::{Backend, NlpSettings, SolveStatus};
-use crate::planning::settings::{PlannerSettings, Transcription};
+use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
 use crate::planning::solve::shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
@@ -634,6 +634,13 @@ pub fn plan_joint_swings(
             s.bounds = s.bounds.widened_for_start(&x);
         }
         let t = swing_task(&x, task.bars[i], task.bars[i + 1], &task.obstacles);
+        // the automatic swing time fixed for this swing, so that its plan and the joint problem's
+        // phase share one mesh (a strategy may not lengthen the swing of one and not the other)
+        if matches!(s.swing_time, SwingTime::Auto(_)) {
+            if let Ok((t_auto, _)) = swing_time(&chains[i % 2], &t, &s) {
+                s.swing_time = SwingTime::Seconds(t_auto);
+            }
+        }
         let p = match plan(&chains[i % 2], &t, &s, nlp) {
             Ok(p) => p,
             Err(e) => return Ok(failed(reference, i, e.to_string())),
