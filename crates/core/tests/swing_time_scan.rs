@@ -149,6 +149,19 @@ fn a_swing_time_that_does_not_plan_names_the_nearest_that_do() {
     );
     // the swing time named above does plan, cold or warm: it was a converged plan of the search
     assert!(s.tried.iter().any(|x| x.converged && x.swing_time_s == hi));
+    // the continuation from above stops there, its swing pressing against the elbow's bound and
+    // the rate bound as well as the torque limit
+    let stop = s.stops.iter().find(|x| x.swing_time_s == hi).expect("{s}");
+    assert!(
+        stop.torque_use > 0.99 && stop.joints_at_bound == [2],
+        "{stop:?}"
+    );
+    assert!(stop.at_joint_or_rate_bound(), "{stop:?}");
+    assert!(
+        msg.contains("the continuations in T stop at")
+            && msg.contains("joint 2 at its 2.9 rad bound"),
+        "{msg}"
+    );
 }
 
 /// The whole scan: every robot, start pose and bar spacing, `"auto"` and the swing-time grid (the
