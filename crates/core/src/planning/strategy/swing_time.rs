@@ -18,7 +18,9 @@
 //!
 //! When nothing reaches T the failed plan is returned with a [`SwingTimeSearch`] that lists what was
 //! tried: every anchor with its outcome, and how far each continuation came (the swing times that
-//! plan nearest T on either side). That is evidence, not proof: another family of swings may plan.
+//! plan nearest T on either side) with the bounds its last plan presses against ([`SwingTimeStop`]:
+//! the torque limits, the rate bound, the relative joints' bound). That is evidence, not proof:
+//! another family of swings may plan.
 //!
 //! Units: s.
 
