@@ -57,7 +57,9 @@ pub use settings::{
     MIN_FREE_SWING_TIME_RANGE_S, START_WIDEN_MARGIN,
 };
 pub use solve::{freefall_time, WARM_START_MU_INIT};
-pub use strategy::swing_time::{reference_swing_time, SwingTimeSearch, TriedSwingTime};
+pub use strategy::swing_time::{
+    reference_swing_time, SwingTimeSearch, SwingTimeStop, TriedSwingTime,
+};
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
 pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
 pub use transcription::collocation::{

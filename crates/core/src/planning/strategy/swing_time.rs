@@ -18,7 +18,9 @@
 //!
 //! When nothing reaches T the failed plan is returned with a [`SwingTimeSearch`] that lists what was
 //! tried: every anchor with its outcome, and how far each continuation came (the swing times that
-//! plan nearest T on either side). That is evidence, not proof: another family of swings may plan.
+//! plan nearest T on either side) with the bounds its last plan presses against ([`SwingTimeStop`]:
+//! the torque limits, the rate bound, the relative joints' bound). That is evidence, not proof:
+//! another family of swings may plan.
 //!
 //! Units: s.
 
@@ -27,7 +29,8 @@ use crate::model::Robot;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
-pub use crate::planning::report::{SwingTimeSearch, TriedSwingTime};
+use crate::planning::report::AT_BOUND;
+pub use crate::planning::report::{SwingTimeSearch, SwingTimeStop, TriedSwingTime};
 use crate::planning::settings::{PlannerSettings, SwingTime};
 use crate::planning::solve::common::swing_time;
 use crate::planning::solve::single::plan_single;
@@ -195,6 +198,7 @@ fn plan_without_rule_time(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     search(robot, task, settings, nlp, None, reference, rep, started)
 }
@@ -218,6 +222,7 @@ fn plan_by_swing_time_search(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     search(
         robot,
@@ -346,6 +351,7 @@ fn plan_free_range_search(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     let mut log = SolveLog::default();
     let mut failed = failed;
@@ -463,9 +469,47 @@ fn continue_in_t(
         } else {
             step *= 0.5;
             if step.abs() < MIN_STEP_S {
-                return Ok(None);
+                break;
             }
         }
     }
+    rep.stops.push(stop_of(robot, settings, &ok));
     Ok(None)
+}
+
+/// What the converged plan `p` presses against (see [`SwingTimeStop`]).
+fn stop_of(robot: &Robot, settings: &PlannerSettings, p: &Plan) -> SwingTimeStop {
+    let (n, m) = (robot.n, robot.n - 1);
+    let b = &settings.bounds;
+    let mut torque_use = 0.0f64;
+    for row in p.points.tau.chunks(m.max(1)) {
+        for (j, &u) in row.iter().enumerate() {
+            let lim = if u >= 0.0 {
+                robot.tau_max()[j]
+            } else {
+                -robot.tau_min()[j]
+            };
+            if lim > 0.0 {
+                torque_use = torque_use.max(u.abs() / lim);
+            }
+        }
+    }
+    let peak_rate_rad_s = p.points.qd.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let joints_at_bound = (1..n)
+        .filter(|&j| {
+            p.points
+                .q
+                .chunks(n)
+                .any(|q| q[j].abs() >= (1.0 - AT_BOUND) * b.q_rel_max)
+        })
+        .map(|j| j + 1)
+        .collect();
+    SwingTimeStop {
+        swing_time_s: p.swing_time_s,
+        torque_use,
+        peak_rate_rad_s,
+        rate_bound_rad_s: b.qd_max,
+        joints_at_bound,
+        joint_bound_rad: b.q_rel_max,
+    }
 }
