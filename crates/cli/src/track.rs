@@ -28,12 +28,8 @@ pub struct Args {
     /// Track the plan in this folder (written by `brachia plan`) instead of planning.
     #[arg(long)]
     plan: Option<PathBuf>,
-    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
-    #[arg(long)]
-    force: bool,
-    /// Do not write the interactive page view.html into the run folder.
-    #[arg(long)]
-    no_view: bool,
+    #[command(flatten)]
+    folder: crate::io::FolderArgs,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -73,7 +69,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         Some(dir) => Some(read_plan_folder(dir, &ls)?),
         None => None,
     };
-    check_out_dir(&a.out, a.force)?;
+    check_out_dir(&a.out, a.folder.force)?;
     if let Some(dir) = &a.plan {
         // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
         check_out_apart(&a.out, dir, "--plan", true)?;
@@ -88,7 +84,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let outcome = outcome?;
     match outcome {
         TrackOutcome::Tracked(mut run) => {
-            if !a.no_view {
+            if !a.folder.no_view {
                 let page = track_run_page(&ls, &run);
                 run.folder.add(VIEW_FILE, page);
             }

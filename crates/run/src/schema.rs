@@ -17,6 +17,21 @@ pub const SCHEMA_FIELD: &str = "schema_version";
 
 const CSV_PREFIX: &str = "# brachia ";
 
+/// The columns a CSV file of the states of an `n`-link chain starts with:
+/// `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y` (a simulation's `trajectory.csv`, `traverse.csv`).
+pub fn state_columns(n: usize) -> String {
+    let mut s = String::from("t");
+    for name in ["q", "qd"] {
+        for i in 1..=n {
+            s.push_str(&format!(",{name}{i}"));
+        }
+    }
+    for i in 2..=n {
+        s.push_str(&format!(",tau{i}"));
+    }
+    s + ",ee_x,ee_y"
+}
+
 /// The kind of a CSV file named `name` (its last path part): the name without `.csv`, `stick` for the
 /// parameter study's `stick_r2_*.csv`.
 pub fn csv_kind(name: &str) -> Option<&str> {
