@@ -32,9 +32,9 @@ use crate::model::{ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::Plan;
 use crate::planning::report::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
-use crate::planning::settings::{Transcription, ValidSettings};
+use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
-use crate::planning::task::ValidTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
@@ -96,8 +96,8 @@ pub(crate) fn diagnose_failure(
 /// (the last link), or one within the margin of the start pose (its closest link there).
 fn unreachable(
     robot: &Robot,
-    task: &ValidTask,
-    settings: &ValidSettings,
+    task: &SwingTask,
+    settings: &PlannerSettings,
 ) -> Result<Option<(usize, usize)>> {
     let margin = settings.obstacle_margin;
     if let Some(o) = obstacle_on_bar(robot, task, margin) {
@@ -333,7 +333,6 @@ fn swing_time_probe(
 mod tests {
     use super::*;
     use crate::model::Circle;
-    use crate::planning::{PlannerSettings, SwingTask};
     use crate::CancelToken;
 
     /// The paper's task with an obstacle on the swing's path, and a failed plan of it: one solve

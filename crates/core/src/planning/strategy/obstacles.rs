@@ -36,7 +36,7 @@ use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
-use crate::planning::settings::ValidSettings;
+use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::target_pose;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
@@ -76,7 +76,11 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
 
 /// Whether the smooth step from `q0` to the target pose (sampled at 100 points) clears every
 /// obstacle by the margin. Errors as [`target_pose`].
-fn smooth_step_is_clear(robot: &Robot, task: &ValidTask, settings: &ValidSettings) -> Result<bool> {
+fn smooth_step_is_clear(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+) -> Result<bool> {
     let cf = ClearanceFn::new(
         robot.clone(),
         task.obstacles.as_slice(),
@@ -100,8 +104,8 @@ fn smooth_step_is_clear(robot: &Robot, task: &ValidTask, settings: &ValidSetting
 /// every obstacle's closest approach to every link.
 pub fn diagnose(
     robot: &Robot,
-    task: &ValidTask,
-    settings: &ValidSettings,
+    task: &SwingTask,
+    settings: &PlannerSettings,
     points: &Trajectory,
     free_final_pose: Option<&[f64]>,
 ) -> Result<Option<Blockage>> {
@@ -572,8 +576,8 @@ fn radius_continuation(
 #[allow(clippy::too_many_arguments)]
 fn finish(
     robot: &Robot,
-    task: &ValidTask,
-    settings: &ValidSettings,
+    task: &SwingTask,
+    settings: &PlannerSettings,
     mut p: Plan,
     mut rep: GuessReport,
     log: SolveLog,
