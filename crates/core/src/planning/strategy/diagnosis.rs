@@ -32,9 +32,9 @@ use crate::model::{ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::Plan;
 use crate::planning::report::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
-use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
-use crate::planning::task::SwingTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
@@ -79,8 +79,8 @@ pub(crate) fn strategies_share(nlp: &NlpSettings) -> NlpSettings {
 /// `started`, when it did not converge and the call was not cancelled (see the module docs).
 pub(crate) fn diagnose_failure(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     mut p: Plan,
     started: Instant,
@@ -128,8 +128,8 @@ fn unreachable(
 /// an obstacle.
 fn probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     p: &Plan,
     started: Instant,
@@ -218,18 +218,15 @@ fn peak_torques(p: &Plan, m: usize) -> Vec<f64> {
 /// search finds no path or the time is spent.
 fn seeds(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
 ) -> Result<Vec<(String, Trajectory)>> {
     let Some(run) = within() else {
         return Ok(vec![]);
     };
-    let no_obstacles = SwingTask {
-        obstacles: vec![],
-        ..task.clone()
-    };
+    let no_obstacles = task.without_obstacles();
     let free = plan_single(robot, &no_obstacles, settings, &run, None)?;
     cost.add(&free);
     if !free.converged() {
@@ -252,8 +249,8 @@ fn seeds(
 /// time was left for its first solve.
 fn torque_probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     failed: &Plan,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
@@ -308,8 +305,8 @@ fn torque_probe(
 /// transcription has no free swing time or no time is left.
 fn swing_time_probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     w: &Plan,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
@@ -322,12 +319,7 @@ fn swing_time_probe(
     };
     let t = w.swing_time_s;
     let range_s = [t, PROBE_SWING_TIME_FACTOR * t];
-    let free_t = PlannerSettings {
-        swing_time: SwingTime::Seconds(t),
-        free_swing_time: Some(range_s),
-        swing_time_starts: 1,
-        ..settings.clone()
-    };
+    let free_t = settings.with_free_swing_time(t, range_s)?;
     let p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
     cost.add(&p);
     Ok(Some(SwingTimeProbe {
@@ -345,7 +337,7 @@ mod tests {
 
     /// The paper's task with an obstacle on the swing's path, and a failed plan of it: one solve
     /// cut at 3 iterations.
-    fn failed() -> (Robot, SwingTask, PlannerSettings, Plan) {
+    fn failed() -> (Robot, ValidTask, ValidSettings, Plan) {
         let robot = Robot::paper();
         let task = SwingTask {
             obstacles: vec![Circle {
@@ -354,7 +346,8 @@ mod tests {
             }],
             ..SwingTask::paper()
         };
-        let s = PlannerSettings::default();
+        let s = ValidSettings::new(PlannerSettings::default(), robot.n, "test").unwrap();
+        let task = ValidTask::new(&robot, task, &s, "task", "").unwrap();
         let nlp = NlpSettings {
             max_iter: 3,
             ..Default::default()

@@ -36,7 +36,7 @@ use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
-use crate::planning::settings::PlannerSettings;
+use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::target_pose;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
@@ -46,7 +46,7 @@ use crate::planning::strategy::candidate::{
 use crate::planning::strategy::cspace::CspaceReport;
 use crate::planning::strategy::torque_continuation::with_torque_scale;
 use crate::planning::strategy::{goal, race};
-use crate::planning::task::SwingTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
@@ -72,21 +72,6 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
         (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
             < r_last + margin
     })
-}
-
-/// `task` with every obstacle's radius scaled by `s`.
-fn scaled(task: &SwingTask, s: f64) -> SwingTask {
-    SwingTask {
-        obstacles: task
-            .obstacles
-            .iter()
-            .map(|o| Circle {
-                center: o.center,
-                radius: s * o.radius,
-            })
-            .collect(),
-        ..task.clone()
-    }
 }
 
 /// Whether the smooth step from `q0` to the target pose (sampled at 100 points) clears every
@@ -195,8 +180,8 @@ pub fn diagnose(
 /// step's attempt is then returned).
 pub(crate) fn plan_around_obstacles(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
 ) -> Result<Plan> {
     let started = std::time::Instant::now();
@@ -228,8 +213,8 @@ enum Kind {
 /// 1 ms: a plan is returned), at most `cap` iterations.
 fn smooth_step_now(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     cap: usize,
@@ -255,8 +240,8 @@ fn interrupted(plans: &race::Plans) -> bool {
 /// C-space seed; the actuator-limit continuation from the C-space seed; the radius continuation.
 fn strategies(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
 ) -> Result<Plan> {
@@ -290,10 +275,7 @@ fn strategies(
     // 2. the obstacle-free swing, which the seeds deform (an obstacle-free task can still be
     // refused, e.g. a target out of reach: that is the error)
     rep.strategy = GuessStrategy::Continuation;
-    let no_obstacles = SwingTask {
-        obstacles: vec![],
-        ..task.clone()
-    };
+    let no_obstacles = task.without_obstacles();
     let mut free = match nlp.remaining(started) {
         Some(run) => Some(plan_single(robot, &no_obstacles, settings, &run, None)?),
         None => None,
@@ -505,8 +487,8 @@ fn strategies(
 #[allow(clippy::too_many_arguments)]
 fn cspace_torque_continuation(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     g: &Trajectory,
@@ -516,8 +498,7 @@ fn cspace_torque_continuation(
     let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
     let wide = with_torque_scale(robot, TORQUE_RELAX)?;
     let mut relaxed = None;
-    let mut knots_only = settings.clone();
-    knots_only.shooting.substep_clearance = false;
+    let knots_only = settings.without_substep_clearance();
     if let Some(run) = within(usize::MAX) {
         let mut p = plan_single(&wide, task, &knots_only, &run, Some(g))?;
         log.record(
@@ -551,8 +532,8 @@ fn cspace_torque_continuation(
 #[allow(clippy::too_many_arguments)]
 fn radius_continuation(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     mut guess: Trajectory,
@@ -568,7 +549,13 @@ fn radius_continuation(
         let Some(run) = within(if last { usize::MAX } else { STEP_MAX_ITER }) else {
             break;
         };
-        let mut p = plan_single(robot, &scaled(task, s), settings, &run, Some(&guess))?;
+        let mut p = plan_single(
+            robot,
+            &task.with_obstacles_scaled(s),
+            settings,
+            &run,
+            Some(&guess),
+        )?;
         log.record(&mut p, SolveRole::ObstacleScale { scale: s });
         if p.converged() {
             rep.scales.push(s);

@@ -31,12 +31,11 @@ use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
 use crate::planning::report::AT_BOUND;
 pub use crate::planning::report::{SwingTimeSearch, SwingTimeStop, TriedSwingTime};
-use crate::planning::settings::{PlannerSettings, SwingTime};
+use crate::planning::settings::{PlannerSettings, SwingTime, ValidSettings};
 use crate::planning::solve::common::swing_time;
 use crate::planning::solve::single::plan_single;
 use crate::planning::solve_log::SolveLog;
-use crate::planning::task::check_task;
-use crate::planning::task::SwingTask;
+use crate::planning::task::ValidTask;
 use std::time::Instant;
 
 /// Factors on the swing time at which anchors are tried, in order (alternately longer and
@@ -71,34 +70,26 @@ pub fn reference_swing_time(robot: &Robot, q0: &[f64]) -> Option<f64> {
 /// A plan of `task` at the swing time `t` (s), from `guess` or cold.
 fn plan_at(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     t: f64,
     guess: Option<&crate::trajectory::Trajectory>,
 ) -> Result<Plan> {
-    let s = PlannerSettings {
-        swing_time: SwingTime::Seconds(t),
-        torque_continuation: false,
-        swing_time_search: false,
-        ..settings.clone()
-    };
+    let s = settings.with_swing_time(t)?.without_recoveries();
     plan_single(robot, task, &s, nlp, guess)
 }
 
 /// `Some(why)` when `settings.swing_time` is `"auto"` and the free-fall rule gives no time (the
-/// locked chain never reaches the midpoint); `None` when it gives one or T is in seconds. Validates
-/// the settings and the task first (errors as the planner does on bad input).
+/// locked chain never reaches the midpoint); `None` when it gives one or T is in seconds.
 fn rule_gives_no_time(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
 ) -> Result<Option<String>> {
     if !matches!(settings.swing_time, SwingTime::Auto(_)) {
         return Ok(None);
     }
-    settings.validate(robot.n, "planner")?;
-    check_task(robot, task, settings)?;
     match swing_time(robot, task, settings) {
         Ok(_) => Ok(None),
         Err(Error::InfeasibleTask(m)) => Ok(Some(m)),
@@ -111,7 +102,7 @@ pub(crate) enum Before {
     /// The search without a rule time ran: its plan is the result.
     Planned(Box<Plan>),
     /// Plan with these settings (`None`: the caller's).
-    Plan(Option<PlannerSettings>),
+    Plan(Option<ValidSettings>),
 }
 
 /// Before the first plan of a task without obstacles: with `"auto"` and no free-fall time (and the
@@ -119,8 +110,8 @@ pub(crate) enum Before {
 /// swing time as well, the plan starts from the middle of its range.
 pub(crate) fn before_plan(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&crate::trajectory::Trajectory>,
     started: Instant,
@@ -135,10 +126,7 @@ pub(crate) fn before_plan(
         None => Before::Planned(Box::new(plan_without_rule_time(
             robot, task, settings, nlp, why, started,
         )?)),
-        Some([lo, hi]) => Before::Plan(Some(PlannerSettings {
-            swing_time: SwingTime::Seconds(0.5 * (lo + hi)),
-            ..settings.clone()
-        })),
+        Some([lo, hi]) => Before::Plan(Some(settings.with_swing_time(0.5 * (lo + hi))?)),
     })
 }
 
@@ -147,8 +135,8 @@ pub(crate) fn before_plan(
 /// refused), the search in T (a free swing time's own, or the anchors and continuations); else `p`.
 pub(crate) fn after_plan(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&crate::trajectory::Trajectory>,
     p: Plan,
@@ -180,8 +168,8 @@ pub(crate) fn after_plan(
 /// has no half period either (no gravity torque about the grip).
 fn plan_without_rule_time(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     why: String,
     started: Instant,
@@ -208,8 +196,8 @@ fn plan_without_rule_time(
 /// call. Returns the plan found, else `failed` with what was tried.
 fn plan_by_swing_time_search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Plan,
     requested: f64,
@@ -240,8 +228,8 @@ fn plan_by_swing_time_search(
 #[allow(clippy::too_many_arguments)]
 fn search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Option<Plan>,
     centre: f64,
@@ -337,8 +325,8 @@ pub const FREE_RANGE_ANCHORS: usize = 5;
 /// its fixed T, which lies in the range), or `failed` with what was tried.
 fn plan_free_range_search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Plan,
     [lo, hi]: [f64; 2],
@@ -362,11 +350,7 @@ fn plan_free_range_search(
         .collect();
     let mid = 0.5 * (lo + hi);
     ts.sort_by(|a, b| (a - mid).abs().total_cmp(&(b - mid).abs()));
-    let fixed = PlannerSettings {
-        free_swing_time: None,
-        swing_time_starts: 1,
-        ..settings.clone()
-    };
+    let fixed = settings.without_free_swing_time();
     let mut reached = None;
     for t in ts {
         let Some(run) = nlp.remaining(started) else {
@@ -384,13 +368,11 @@ fn plan_free_range_search(
         if !p.converged() {
             continue;
         }
-        let free = PlannerSettings {
-            swing_time: SwingTime::Seconds(t),
-            swing_time_starts: 1,
-            ..settings.clone()
-        };
         let q = match nlp.remaining(started) {
-            Some(run) => Some(plan_single(robot, task, &free, &run, Some(&p.points))?),
+            Some(run) => {
+                let free = settings.with_swing_time(t)?.with_one_start();
+                Some(plan_single(robot, task, &free, &run, Some(&p.points))?)
+            }
             None => None,
         };
         match q {
@@ -425,8 +407,8 @@ fn plan_free_range_search(
 #[allow(clippy::too_many_arguments)]
 fn continue_in_t(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     anchor: Plan,
     t: f64,
