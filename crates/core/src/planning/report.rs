@@ -52,6 +52,10 @@ pub struct GuessReport {
     /// detour seed failed, so it was not run).
     #[serde(default)]
     pub cspace: Option<CspaceReport>,
+    /// Every configuration-space search of the homotopy seeds (goal by goal, route by route;
+    /// [`crate::planning::strategy::homotopy`]), with whether the plan from each seed converged.
+    #[serde(default)]
+    pub cspace_routes: Vec<CspaceReport>,
     /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
     /// first solve, none converged, and the limit was spent.
     #[serde(default)]
