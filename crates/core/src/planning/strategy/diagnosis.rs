@@ -98,6 +98,12 @@ pub(crate) fn diagnose_failure(
         return Ok(p);
     }
     p.diagnosis = probe(robot, task, settings, nlp, &p, started, probed)?;
+    // the chain's searches: every one exhausted without a path
+    let routes = p.guess.as_ref().map_or(&[][..], |g| &g.cspace_routes[..]);
+    let exhausted = !routes.is_empty() && routes.iter().all(|r| r.exhausted && !r.found);
+    if let Some(d) = p.diagnosis.as_mut() {
+        d.paths_exhausted = exhausted && d.verdict != Verdict::Unreachable;
+    }
     Ok(p)
 }
 
@@ -155,6 +161,7 @@ fn probe(
         solves: 0,
         iterations: 0,
         solve_time_s: 0.0,
+        paths_exhausted: false,
     };
     if let Some((o, l)) = unreachable(robot, task, settings)? {
         (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
@@ -456,6 +463,30 @@ mod tests {
         assert_eq!(
             strategies_share(&NlpSettings::default()).max_wall_time_s,
             None
+        );
+    }
+
+    #[test]
+    fn exhausted_path_searches_are_in_the_message() {
+        let mut d = Diagnosis {
+            obstacle: 0,
+            link: 1,
+            verdict: Verdict::NoDetourFound,
+            swing_time_s: 2.0,
+            torque_probe: None,
+            swing_time_probe: None,
+            out_of_time: false,
+            solves: 0,
+            iterations: 0,
+            solve_time_s: 0.0,
+            paths_exhausted: false,
+        };
+        assert!(!d.to_string().contains("no collision-free path"), "{d}");
+        d.paths_exhausted = true;
+        let msg = d.to_string();
+        assert!(
+            msg.starts_with("obstacle 0 blocks link 2") && msg.contains("no collision-free path"),
+            "{msg}"
         );
     }
 

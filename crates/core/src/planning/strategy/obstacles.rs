@@ -5,13 +5,13 @@
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
 //! infeasible set and its restoration phase often fails. [`crate::planning::plan_with_guess`] then
 //! runs an ordered chain of strategies, each recorded in the plan's solves by its role:
-//! 1. with `obstacle_guess = "direct"`, or an obstacle on the target bar, the smooth step alone;
+//! 1. the smooth step alone, where its guess clears the obstacles (or nothing else is tried: with
+//!    `obstacle_guess = "direct"`, or an obstacle on the target bar);
 //! 2. the swing without the obstacles (self-collision kept), which the seeds deform;
 //! 3. a final pose for the seeds that clears the obstacles, when the obstacle-free swing's does not
 //!    ([`super::goal`]);
-//! 4. the race ([`super::race`]), in this order: the smooth step (with its own iteration limit where
-//!    its guess clears the obstacles, so that where it converges the plan is the one without the
-//!    chain; capped at [`SMOOTH_STEP_RACE_MAX_ITER`] where it cuts through one), the forward detour
+//! 4. the race ([`super::race`]), in this order: the smooth step (where its guess cuts through an
+//!    obstacle, capped at [`SMOOTH_STEP_RACE_MAX_ITER`]), the forward detour
 //!    seeds of [`super::detour`] (the obstacle-free plan deformed around the obstacles by barrier
 //!    tracking), the best-ranked configuration-space seed of [`super::homotopy`] (a collision-free
 //!    joint path of another homotopy class) and the same with a longer swing, the backward detour
@@ -289,13 +289,16 @@ fn strategies(
     // plan is the same) or where nothing else can help (an obstacle on the bar: the attempt is
     // diagnosed)
     let mut smooth = None;
-    if direct || on_bar {
+    if clear || direct || on_bar {
         let mut p = plan_single(robot, task, settings, nlp, None)?;
         log.record(&mut p, SolveRole::Task);
-        return Ok((
-            finish(robot, task, settings, p, rep, log, None),
-            Probed::default(),
-        ));
+        if p.converged() || direct || on_bar {
+            return Ok((
+                finish(robot, task, settings, p, rep, log, None),
+                Probed::default(),
+            ));
+        }
+        smooth = Some(p);
     }
     // 2. the obstacle-free swing, which the seeds deform (an obstacle-free task can still be
     // refused, e.g. a target out of reach: that is the error)
@@ -360,17 +363,10 @@ fn strategies(
     let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
     let mut kinds = vec![];
     let mut cands: Vec<race::Candidate<'_>> = vec![];
-    // the smooth step first: with its own iteration limit where its guess clears the obstacles (where
-    // it converges, the plan is the one without the chain), capped where it cuts through one
-    let smooth_cap = if clear {
-        usize::MAX
-    } else {
-        SMOOTH_STEP_RACE_MAX_ITER
-    };
     if smooth.is_none() {
         kinds.push(Kind::SmoothStep);
         cands.push(Box::new(move |run: &NlpSettings| {
-            let capped = run.clone().capped(smooth_cap);
+            let capped = run.clone().capped(SMOOTH_STEP_RACE_MAX_ITER);
             Ok(vec![(
                 SolveRole::Task,
                 plan_single(robot, task, settings, &capped, None)?,
