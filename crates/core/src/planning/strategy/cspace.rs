@@ -636,7 +636,7 @@ pub fn cspace_seed(
 
 /// The piecewise-linear joint path `path` timed over `free`'s time axis (the module docs, step 4),
 /// with the report's largest speed and torque ratio.
-pub(crate) fn time_path(
+pub fn time_path(
     robot: &Robot,
     path: &[Vec<f64>],
     free: &Trajectory,
