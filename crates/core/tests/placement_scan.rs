@@ -152,6 +152,37 @@ fn a_fast_subset_of_the_scan_never_reports_a_plan_through_an_obstacle() {
     }
 }
 
+/// A placement no strategy plans within a short time limit (fixed seed 5: two obstacles that link 2
+/// and link 3 sweep) returns once the limit is spent, with the limit's status and a diagnosis: every
+/// stage (the searches, the solves, the diagnosis's probes) stops at it. The bound on the elapsed time
+/// is loose (a loaded machine); the old overruns were seconds past the limit.
+#[test]
+fn a_placement_returns_at_its_time_limit_with_a_diagnosis() {
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 5).expect("a placement");
+    let task = SwingTask {
+        obstacles: pl.obstacles.clone(),
+        ..SwingTask::paper()
+    };
+    let limit = 1.0;
+    let nlp = NlpSettings {
+        max_wall_time_s: Some(limit),
+        ..nlp()
+    };
+    let t0 = Instant::now();
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    let elapsed = t0.elapsed().as_secs_f64();
+    assert!(!p.converged(), "{:?}", p.failure_message());
+    let g = p.guess.as_ref().expect("a guess report");
+    let d = p.diagnosis.as_ref().expect("a diagnosis");
+    assert!(g.out_of_time || d.out_of_time, "{g:?} {d:?}");
+    assert!(p.failure_message().is_some());
+    assert!(
+        elapsed < limit + 5.0,
+        "{elapsed} s against a {limit} s limit"
+    );
+}
+
 /// The whole scan; prints the table of docs/planner.md ("Obstacles anywhere on the path").
 #[test]
 #[ignore = "minutes: the whole placement scan"]

@@ -128,9 +128,10 @@ fn plan_strategies(
         let started = std::time::Instant::now();
         // the strategies leave a share of the time limit to the diagnosis of a failure
         let chain = super::strategy::diagnosis::strategies_share(nlp);
-        let p = super::strategy::obstacles::plan_around_obstacles(robot, task, settings, &chain)?;
+        let (p, probed) =
+            super::strategy::obstacles::plan_around_obstacles(robot, task, settings, &chain)?;
         return super::strategy::diagnosis::diagnose_failure(
-            robot, task, settings, nlp, p, started,
+            robot, task, settings, nlp, p, started, &probed,
         );
     }
     let started = std::time::Instant::now();

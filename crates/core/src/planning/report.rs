@@ -52,6 +52,10 @@ pub struct GuessReport {
     /// detour seed failed, so it was not run).
     #[serde(default)]
     pub cspace: Option<CspaceReport>,
+    /// Every configuration-space search of the homotopy seeds (goal by goal, route by route;
+    /// [`crate::planning::strategy::homotopy`]), with whether the plan from each seed converged.
+    #[serde(default)]
+    pub cspace_routes: Vec<CspaceReport>,
     /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
     /// first solve, none converged, and the limit was spent.
     #[serde(default)]
@@ -539,6 +543,11 @@ pub struct Diagnosis {
     pub iterations: usize,
     /// Solve time of the probe, s.
     pub solve_time_s: f64,
+    /// Every configuration-space search of the obstacle chain (to every goal pose tried) ran out of
+    /// free cells without a path: no collision-free path of poses within the joint limits joins
+    /// the start to the bar (at the search's grid and margin; evidence, not proof).
+    #[serde(default)]
+    pub paths_exhausted: bool,
 }
 
 impl fmt::Display for Diagnosis {
@@ -579,6 +588,13 @@ impl fmt::Display for Diagnosis {
                 }
             }
             _ => write!(f, "obstacle {o} blocks link {l}")?,
+        }
+        if self.paths_exhausted {
+            write!(
+                f,
+                "; the configuration-space search found no collision-free path of poses within the \
+                 joint limits to any goal pose tried (every reachable grid cell searched)"
+            )?;
         }
         if let Some(tp) = self.torque_probe.as_ref().filter(|t| t.converged) {
             if let Some((j, r)) = tp.worst_joint() {
