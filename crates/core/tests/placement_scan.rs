@@ -13,10 +13,11 @@
 mod common;
 
 use brachia::model::{Circle, ClearanceFn, Robot};
-use brachia::planning::{GuessStrategy, Plan, PlannerSettings, SwingTask};
-use common::placement::{free_swing, keeps_margin, min_clearance, plan_placement, Placement};
+use brachia::planning::{plan, GuessStrategy, Plan, PlannerSettings, SwingTask};
+use common::placement::{free_swing, keeps_margin, min_clearance, nlp, plan_placement, Placement};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
 
 /// The wall-time limit of one placement's planning call, s.
 const TIME_LIMIT_S: f64 = 30.0;
@@ -165,10 +166,7 @@ fn a_placement_returns_at_its_time_limit_with_a_diagnosis() {
         ..SwingTask::paper()
     };
     let limit = 1.0;
-    let nlp = NlpSettings {
-        max_wall_time_s: Some(limit),
-        ..nlp()
-    };
+    let nlp = nlp(limit);
     let t0 = Instant::now();
     let p = plan(&robot, &task, &s, &nlp).unwrap();
     let elapsed = t0.elapsed().as_secs_f64();

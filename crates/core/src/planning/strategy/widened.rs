@@ -18,10 +18,10 @@ use crate::error::Result;
 use crate::model::Robot;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::{Plan, SolveRole};
-use crate::planning::settings::{PlannerSettings, SwingTime};
+use crate::planning::settings::ValidSettings;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
-use crate::planning::task::SwingTask;
+use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
@@ -61,8 +61,8 @@ pub(crate) fn torque_limits(robot: &Robot) -> Vec<f64> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn widened_detour(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: Instant,
     g: &Trajectory,
@@ -109,12 +109,7 @@ pub(crate) fn widened_detour(
     let (Some(_), Some(run)) = (longer_swing_settings(settings, t, t), within()) else {
         return Ok((None, probed));
     };
-    let free_t = PlannerSettings {
-        swing_time: SwingTime::Seconds(t),
-        free_swing_time: Some([t, PROBE_SWING_TIME_FACTOR * t]),
-        swing_time_starts: 1,
-        ..settings.clone()
-    };
+    let free_t = settings.with_free_swing_time(t, [t, PROBE_SWING_TIME_FACTOR * t])?;
     let mut p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
     let kept = p.clone();
     log.record(
