@@ -264,9 +264,14 @@ fn errors_at(
     let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
     let x0 = [reference.q(0), reference.qd(0)].concat();
     let mut mp = ModelPlant::new(plant.clone(), &x0);
+    // the table may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
+    let scale: f64 = std::env::var("BRACHIA_EST_NOISE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1.0);
     let noise = NoiseSettings {
-        q_std: 0.0015,
-        qd_std: 0.015,
+        q_std: 0.0015 * scale,
+        qd_std: 0.015 * scale,
         seed,
     };
     let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();

@@ -1,8 +1,8 @@
 //! Online estimation of the robot's base inertial parameters (docs/estimation.md).
 //!
 //! With `method = "ekf"` (the default) [`ParamEstimator`] runs the joint state and parameter filter
-//! of [`super::joint_ekf`] on every sample. With `method = "windows"` it integrates Lagrange's equations against a triangular weight `w` over windows
-//! of `window_s` (`w` rises from 0 to 1 over the first half and falls back to 0): with the momentum
+//! of [`super::joint_ekf`] on every sample. With `method = "windows"` it integrates Lagrange's
+//! equations against a triangular weight `w` over windows of `window_s` (`w` rises from 0 to 1 over the first half and falls back to 0): with the momentum
 //! regressor `Yp` and the Lagrangian-gradient regressor `Yl` of [`super::base_params`], and
 //! `int w dp/dt = -int w' p` (w vanishes at both ends), every window gives n linear equations in the
 //! 2n base parameters `theta = [ZZR_1..ZZR_n, MXR_1..MXR_n]`,
