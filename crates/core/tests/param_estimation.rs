@@ -407,7 +407,9 @@ fn the_windowed_estimator_recovers_a_mismatched_plant_over_the_swing() {
 }
 
 /// The table of docs/estimation.md: the worst base parameter at 25 %, 50 % and 100 % of the swing
-/// on the tuned plants and on the held-out ones, for each method. A scan, hence ignored:
+/// on the tuned plants and on the held-out ones, for each method (`BRACHIA_EST_NOISE` scales the
+/// sensor noise, `BRACHIA_EST_PRIOR` and `BRACHIA_EST_PQD` set `prior_rel_std` and `process_qd_std`,
+/// `BRACHIA_EST_EKF_ONLY` skips the windowed method). A scan, hence ignored:
 /// `cargo test --release -p brachia --test param_estimation -- --ignored --nocapture
 /// estimate_table`.
 #[test]
