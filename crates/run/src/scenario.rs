@@ -34,8 +34,8 @@
 //! ```
 
 use brachia::control::{
-    EstimatorSettings, MpcSettings, ParamEstimatorSettings, PdSettings, ReplanSettings,
-    TvlqrSettings,
+    EstimateMethod, EstimatorSettings, MpcSettings, ParamEstimatorSettings, PdSettings,
+    ReplanSettings, TvlqrSettings,
 };
 use brachia::limits;
 use brachia::planning::{freefall_time, NlpSettings, PlannerSettings, SwingTask, SwingTime};
@@ -491,6 +491,15 @@ impl LoadedScenario {
         if let Some(e) = &t.estimate_params {
             e.validate(&src)
                 .map_err(|e| rename(e, "tracking.estimate_params"))?;
+            if e.method == EstimateMethod::Ekf && self.robot.off_axis() {
+                return Err(Error::invalid(
+                    &src,
+                    "tracking.estimate_params.method",
+                    "ekf",
+                    "the joint filter needs every centre of mass on its link's axis (com_across = 0): \
+                     use method = \"windows\" for this robot",
+                ));
+            }
             if t.controller != ControllerKind::Mpc || t.kalman {
                 return Err(Error::invalid(
                     &src,

@@ -82,3 +82,38 @@ qd_max = 10.0
         bar(&r)
     );
 }
+
+/// The joint filter of the mass estimate needs every centre of mass on its link's axis: a scenario
+/// with the off-axis hook robot and the default estimate is refused when it is read, naming the
+/// field, before anything is planned; the windowed method is accepted.
+#[test]
+fn the_default_mass_estimate_on_an_off_axis_robot_is_refused_when_read() {
+    let urdf = hook_urdf();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |method: &str| {
+        let file = dir.path().join(format!("hook-{method}.toml"));
+        let estimate = if method.is_empty() {
+            "{}".to_string()
+        } else {
+            format!("{{ method = \"{method}\" }}")
+        };
+        std::fs::write(
+            &file,
+            format!(
+                "params = \"{}\"\n[urdf]\ngrip = \"hand\"\ntip = \"hook:0,0.03,-0.05\"\n\
+                 [task]\nq0 = [-2.3, -0.6]\ntarget = [0.45, 0.0]\n\
+                 [planner.bounds]\nq_rel_max = 2.0\nqd_max = 10.0\n\
+                 [tracking]\nestimate_params = {estimate}\n",
+                urdf.display()
+            ),
+        )
+        .unwrap();
+        file
+    };
+    let e = Scenario::load(&write("")).unwrap_err().to_string();
+    assert!(
+        e.contains("tracking.estimate_params.method") && e.contains("windows"),
+        "{e}"
+    );
+    Scenario::load(&write("windows")).unwrap();
+}

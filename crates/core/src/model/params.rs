@@ -605,4 +605,9 @@ impl Robot {
     pub fn total_mass(&self) -> f64 {
         self.total_mass
     }
+
+    /// True when some link's centre of mass lies off its axis (`com_across` not zero).
+    pub fn off_axis(&self) -> bool {
+        self.off_axis
+    }
 }

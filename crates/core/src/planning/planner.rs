@@ -8,7 +8,7 @@ use super::outcome::Plan;
 use super::settings::{PlannerSettings, ValidSettings};
 use super::solve::common::check_guess;
 use super::solve::plan_single;
-use super::task::{SwingTask, ValidTask};
+use super::task::{validate_task, SwingTask, ValidTask};
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
@@ -63,7 +63,8 @@ pub fn plan_with_guess(
 /// [`plan_with_guess`] of settings and a task checked where they entered (a scenario file, a
 /// caller that plans many swings with one set of settings): the solver settings `nlp`, the settings
 /// against its backend (`ocp` solves multiple shooting only) and the guess are checked here. Errors
-/// as [`plan_with_guess`] on those, and on settings checked for a robot of another number of links.
+/// as [`plan_with_guess`] on those, on settings checked for a robot of another number of links, and
+/// on a task that does not pass [`validate_task`] for this robot and these settings.
 pub fn plan_validated(
     robot: &Robot,
     task: &ValidTask,
@@ -78,6 +79,9 @@ pub fn plan_validated(
             got: settings.links(),
         });
     }
+    // the task was checked by its maker for some robot and settings: checked again for these (a
+    // few comparisons), so a task of another robot or other bounds never reaches the solver
+    validate_task(robot, task, settings, "planner", "task.")?;
     check_solver_and_guess(robot, settings, nlp, guess)?;
     plan_checked(robot, task, settings, nlp, guess)
 }

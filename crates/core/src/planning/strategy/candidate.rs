@@ -116,7 +116,8 @@ pub(crate) fn solve_seed_longer_swing(
     t_s: f64,
 ) -> Result<Plans> {
     let started = Instant::now();
-    if longer_swing_settings(settings, t_s, t_s).is_none() {
+    // a range the mesh or the swing-time limit cannot hold: not a candidate here
+    if !matches!(longer_swing_settings(settings, t_s, t_s), Some(Ok(_))) {
         return Ok(vec![]);
     }
     let role = SolveRole::LongerSwing {
@@ -146,10 +147,9 @@ pub(crate) fn solve_seed_longer_swing(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let Some(fine_settings) = longer_swing_settings(settings, t_s, t0) else {
+    let Some(Ok(fine_settings)) = longer_swing_settings(settings, t_s, t0) else {
         return Ok(out);
     };
-    let fine_settings = fine_settings?;
     let guess = out.last().map_or(g, |(_, p)| &p.points);
     let p = plan_single(robot, task, &fine_settings, &fine, Some(guess))?;
     out.push((role, p));

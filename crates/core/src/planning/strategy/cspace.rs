@@ -326,7 +326,9 @@ pub fn cspace_routes(
             continue;
         };
         let path = search.shortcut(q_start, q_goal, &cells, &mut r);
-        search.block_tube(&cells);
+        if route + 1 < k.max(1) {
+            search.block_tube(&cells);
+        }
         let distinct = found.iter().all(|f| !same_route(f, &path));
         if distinct {
             found.push(path.clone());
@@ -345,6 +347,10 @@ pub type Route = (CspaceReport, Option<Vec<Vec<f64>>>);
 
 /// Cells round a route blocked for the routes after it (L-infinity radius in cells).
 pub const ROUTE_TUBE_CELLS: usize = 3;
+/// Most cells of the box round one route cell that the tube visits: on a grid of many dimensions
+/// the tube's half-width shrinks below [`ROUTE_TUBE_CELLS`] until its box holds at most this many
+/// (`(2 r + 1)^n`), down to the route's own cells, so blocking it stays cheap for any link count.
+pub const MAX_TUBE_BOX_CELLS: usize = 20_000;
 /// Two routes whose waypoints, resampled at 32 points along their arc length, all agree to this
 /// (rad, largest joint difference) are one route.
 pub const SAME_ROUTE_RAD: f64 = 0.3;
@@ -556,15 +562,23 @@ impl Search<'_> {
         out
     }
 
-    /// Block the cells within [`ROUTE_TUBE_CELLS`] (L-infinity) of the route `cells` for the
-    /// searches after it, except near its two ends.
+    /// Block the cells within [`ROUTE_TUBE_CELLS`] (L-infinity; less on a grid of many dimensions,
+    /// [`MAX_TUBE_BOX_CELLS`]) of the route `cells` for the searches after it, except near its two
+    /// ends. Stops when the search is told to.
     fn block_tube(&mut self, cells: &[usize]) {
         let (Some(&first), Some(&last)) = (cells.first(), cells.last()) else {
             return;
         };
         let grid = &self.grid;
         let n = grid.dims.len();
-        let r = ROUTE_TUBE_CELLS as isize;
+        let mut r = ROUTE_TUBE_CELLS as isize;
+        while r > 0
+            && ((2 * r + 1) as usize)
+                .checked_pow(n as u32)
+                .is_none_or(|c| c > MAX_TUBE_BOX_CELLS)
+        {
+            r -= 1;
+        }
         let (mut a, mut z, mut c, mut nb) = (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
         grid.coords(first, &mut a);
         grid.coords(last, &mut z);
@@ -578,6 +592,9 @@ impl Search<'_> {
         let side = (2 * r + 1) as usize;
         let count = side.pow(n as u32);
         for &k in cells {
+            if (self.stop)() {
+                return;
+            }
             grid.coords(k, &mut c);
             for m in 0..count {
                 let mut rem = m;

@@ -35,6 +35,7 @@ use super::cspace::{cspace_routes, time_path};
 use super::obstacles::{diagnose, obstacle_on_bar};
 use super::torque_continuation::with_torque_scale;
 use super::widened::{peak_torques, torque_limits, Probed};
+pub use super::widened::{PROBE_MAX_ITER, PROBE_SWING_TIME_FACTOR, PROBE_TORQUE_SCALE};
 use crate::error::Result;
 use crate::model::{ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::NlpSettings;
@@ -46,17 +47,10 @@ use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
-/// Factor on every actuator limit of the torque probe (the widest scale of the continuation on the
-/// torque limits).
-pub const PROBE_TORQUE_SCALE: f64 = 8.0;
-/// The swing-time probe searches T in `[T, PROBE_SWING_TIME_FACTOR T]`.
-pub const PROBE_SWING_TIME_FACTOR: f64 = 2.0;
 /// Time limit of the whole probe when the call has no `max_wall_time_s`, s.
 pub const PROBE_WALL_S: f64 = 30.0;
 /// Share of the call's `max_wall_time_s` kept for the probe: the obstacle strategies get the rest.
 pub const PROBE_SHARE: f64 = 0.25;
-/// Iteration limit of one probe solve.
-pub const PROBE_MAX_ITER: usize = 1000;
 
 /// The probe's solves and their cost.
 #[derive(Default)]

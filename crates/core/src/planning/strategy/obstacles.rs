@@ -64,7 +64,7 @@ pub const MIN_SCALE_STEP: f64 = 1.0 / 16.0;
 /// First step of the radius scale after the obstacle-free plan.
 pub const FIRST_SCALE_STEP: f64 = 0.5;
 /// Factor on the torque limits of the first solve of the actuator-limit continuation from the C-space
-/// seed (measured on the scan's #4 and #7: docs/planner.md, "The two placements that still fail").
+/// seed (measured on two placements of the scan: docs/planner-measurements.md).
 pub const TORQUE_RELAX: f64 = 2.0;
 /// Iteration limit of one intermediate continuation solve, and of the final attempt after the
 /// continuation gave up (the step at full radius keeps the settings' `max_iter`): a step that does not
@@ -255,18 +255,7 @@ fn strategies(
     started: std::time::Instant,
 ) -> Result<(Plan, Probed)> {
     let clear = smooth_step_is_clear(robot, task, settings)?;
-    let mut rep = GuessReport {
-        strategy: GuessStrategy::SmoothStep,
-        smooth_step_clear: clear,
-        solves: 0,
-        iterations: 0,
-        solve_time_s: 0.0,
-        scales: vec![],
-        seeds: vec![],
-        cspace: None,
-        cspace_routes: vec![],
-        out_of_time: false,
-    };
+    let mut rep = empty_report(clear);
     let mut log = SolveLog::default();
     let direct = settings.obstacle_guess == ObstacleGuess::Direct;
     let on_bar = obstacle_on_bar(robot, task, settings.obstacle_margin).is_some();
@@ -316,7 +305,7 @@ fn strategies(
         let p = finish(robot, task, settings, best, rep, log, ff);
         return Ok((p, Probed::default()));
     };
-    // 3. the race: the smooth step (unless solved above), the detour seeds, the C-space seed
+    // 3. a clear final pose for the seeds; 4. the race: the smooth step (unless solved above), the detour seeds, the C-space seed
     // the seeds end at a pose that clears the obstacles (the obstacle-free swing's, or another
     // that grasps the bar)
     let last = free_points.q(free_points.len() - 1).to_vec();
@@ -371,7 +360,7 @@ fn strategies(
             .unwrap_or_default()
         })
     };
-    let longer = longer_swing_settings(settings, t_auto, t_auto).is_some();
+    let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
     // the order: the forward detour seeds (they start at the start pose, and win most), the
     // best-ranked C-space seed (and with a longer swing), the backward detour seeds, the other
     // C-space seeds in their rank
@@ -498,7 +487,52 @@ fn strategies(
         let p = finish(robot, task, settings, p, rep, log, ff);
         return Ok((p, Probed::default()));
     }
-    // 4. continuation on the actuator limits from the best C-space seed: its path, timed over T,
+    let fallback = Fallback {
+        cguess,
+        cspace_failed,
+        top,
+        routes,
+        best,
+        free_points,
+    };
+    after_race(robot, task, settings, nlp, started, fallback, rep, log, ff)
+}
+
+/// What the race leaves to the fallbacks after it: the best-ranked C-space seed (`cguess`, its
+/// report index `top`), whether its solve failed, every route's report, the plan to diagnose when
+/// nothing converges (`best`) and the obstacle-free swing's knots.
+struct Fallback {
+    cguess: Option<Trajectory>,
+    cspace_failed: bool,
+    top: Option<usize>,
+    routes: Vec<CspaceReport>,
+    best: Plan,
+    free_points: Trajectory,
+}
+
+/// Steps 5-7 of [`strategies`] when the race found no plan: the actuator-limit continuation from
+/// the best C-space seed, the diagnosis's widened detour, the radius continuation.
+#[allow(clippy::too_many_arguments)]
+fn after_race(
+    robot: &Robot,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    fallback: Fallback,
+    mut rep: GuessReport,
+    mut log: SolveLog,
+    ff: Option<&[f64]>,
+) -> Result<(Plan, Probed)> {
+    let Fallback {
+        cguess,
+        cspace_failed,
+        top,
+        mut routes,
+        best,
+        free_points,
+    } = fallback;
+    // 5. continuation on the actuator limits from the best C-space seed: its path, timed over T,
     // may need more torque than the limits allow; planned with the limits widened, then at the
     // real ones from that plan
     let mut crep = top.map(|i| routes[i].clone());
@@ -518,7 +552,7 @@ fn strategies(
     if let (Some(i), Some(c)) = (top, crep) {
         routes[i] = c;
     }
-    // 5. the diagnosis's detour: the seed with the limits widened as the torque probe does, then
+    // 6. the diagnosis's detour: the seed with the limits widened as the torque probe does, then
     // at the real limits or with a longer swing
     let mut probed = Probed::default();
     if let Some(g) = cguess.as_ref() {
@@ -535,7 +569,7 @@ fn strategies(
         }
     }
     put_cspace(&mut rep, routes, top);
-    // 6. continuation on the obstacle radii
+    // 7. continuation on the obstacle radii
     rep.strategy = GuessStrategy::Continuation;
     let p = match radius_continuation(
         robot,
@@ -552,6 +586,23 @@ fn strategies(
         None => finish(robot, task, settings, best, rep, log, ff),
     };
     Ok((p, probed))
+}
+
+/// The report of a chain that has solved nothing yet, with whether the smooth step's guess clears
+/// the obstacles.
+fn empty_report(smooth_step_clear: bool) -> GuessReport {
+    GuessReport {
+        strategy: GuessStrategy::SmoothStep,
+        smooth_step_clear,
+        solves: 0,
+        iterations: 0,
+        solve_time_s: 0.0,
+        scales: vec![],
+        seeds: vec![],
+        cspace: None,
+        cspace_routes: vec![],
+        out_of_time: false,
+    }
 }
 
 /// The C-space searches' reports into `rep`: all of them, and the best-ranked seed's (`top`; the

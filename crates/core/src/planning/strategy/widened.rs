@@ -1,6 +1,6 @@
 //! The diagnosis's detour as a candidate of the obstacle chain: the best-ranked configuration-space
 //! seed ([`super::homotopy`]) planned with every actuator limit widened by
-//! [`PROBE_TORQUE_SCALE`] (the torque probe of [`super::diagnosis`]), and from that plan:
+//! [`PROBE_TORQUE_SCALE`] (the torque probe of the diagnosis), and from that plan:
 //! - when its torques stay within the real limits (the probe's `detour_within_limits`): the task at
 //!   the real limits, warm from it;
 //! - otherwise, when the swing time is `"auto"` (multiple shooting, no `free_swing_time`): the task
@@ -12,7 +12,6 @@
 //! solving the same problems again. Units: s, N m.
 
 use super::candidate::longer_swing_settings;
-use super::diagnosis::{PROBE_MAX_ITER, PROBE_SWING_TIME_FACTOR, PROBE_TORQUE_SCALE};
 use super::torque_continuation::with_torque_scale;
 use crate::error::Result;
 use crate::model::Robot;
@@ -24,6 +23,14 @@ use crate::planning::solve_log::SolveLog;
 use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
 use std::time::Instant;
+
+/// Factor on every actuator limit of the torque probe (the widest scale of the continuation on the
+/// torque limits).
+pub const PROBE_TORQUE_SCALE: f64 = 8.0;
+/// The swing-time probe searches T in `[T, PROBE_SWING_TIME_FACTOR T]`.
+pub const PROBE_SWING_TIME_FACTOR: f64 = 2.0;
+/// Iteration limit of one probe solve.
+pub const PROBE_MAX_ITER: usize = 1000;
 
 /// What the chain solved that the diagnosis's probes would solve again.
 #[derive(Debug, Default, Clone)]
@@ -109,7 +116,10 @@ pub(crate) fn widened_detour(
     let (Some(_), Some(run)) = (longer_swing_settings(settings, t, t), within()) else {
         return Ok((None, probed));
     };
-    let free_t = settings.with_free_swing_time(t, [t, PROBE_SWING_TIME_FACTOR * t])?;
+    // a range the mesh or the swing-time limit cannot hold: not a candidate here
+    let Ok(free_t) = settings.with_free_swing_time(t, [t, PROBE_SWING_TIME_FACTOR * t]) else {
+        return Ok((None, probed));
+    };
     let mut p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
     let kept = p.clone();
     log.record(
