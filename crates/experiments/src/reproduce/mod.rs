@@ -445,7 +445,10 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     }
     // a manifest that lists a path leaving the folder, or of another schema, is refused before any work
     crate::manifest::read_manifest(dir)?;
-    let single = dir.join("report.json").is_file() && !dir.join("summary.json").is_file();
+    // a report.json of any kind (a folder or a link in its place is refused by the run's reading,
+    // naming it) makes it a single run folder
+    let exists = |name: &str| std::fs::symlink_metadata(dir.join(name)).is_ok();
+    let single = exists("report.json") && !exists("summary.json");
     if single && dir.join(crate::MANIFEST).is_file() {
         return redraw_run(dir, cancel);
     }
