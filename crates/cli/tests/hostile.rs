@@ -241,6 +241,80 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
         }
         "emptydir" => std::fs::create_dir_all(env.t.join("empty")).unwrap(),
         "emptysub" => std::fs::create_dir_all(env.t.join("sub")).unwrap(),
+        // {T}/run: a simulate run folder written by brachia, then damaged: `simfolder:HOW`
+        other if other.starts_with("simfolder:") => {
+            let d = env.t.join("run");
+            let o = Command::new(env!("CARGO_BIN_EXE_brachia"))
+                .args(["simulate", "--params"])
+                .arg(env.r.join("params/paper.toml"))
+                .args(["--q0=-2.35,0,-1.55,0", "--duration", "0.2", "--out"])
+                .arg(&d)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let traj = std::fs::read_to_string(d.join("trajectory.csv")).unwrap();
+            let report = std::fs::read_to_string(d.join("report.json")).unwrap();
+            match &other["simfolder:".len()..] {
+                "ok" => {}
+                "future" => std::fs::write(
+                    d.join("trajectory.csv"),
+                    traj.replacen("schema 1", "schema 9", 1),
+                )
+                .unwrap(),
+                "reportfuture" => std::fs::write(
+                    d.join("report.json"),
+                    report.replacen("\"schema_version\": 1", "\"schema_version\": 9", 1),
+                )
+                .unwrap(),
+                "nan" => std::fs::write(
+                    d.join("trajectory.csv"),
+                    traj.replacen("-2.350000000", "nan", 1),
+                )
+                .unwrap(),
+                "swap" => {
+                    let mut lines: Vec<&str> = traj.lines().collect();
+                    lines.swap(5, 6);
+                    std::fs::write(d.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+                }
+                how => panic!("unknown damage {how}"),
+            }
+            // every file of the folder must survive the refusal unchanged
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                if e.file_type().unwrap().is_file() {
+                    let data = std::fs::read(e.path()).unwrap();
+                    file(e.path(), &data);
+                }
+            }
+        }
+        // {T}/run: the corpus' plan folder made to look like another kind: `fakekind:KIND`
+        other if other.starts_with("fakekind:") => {
+            let d = env.t.join("run");
+            let src = env.h.join("runs/plan");
+            let kind = &other["fakekind:".len()..];
+            let skip: &[&str] = match kind {
+                "benchmark" => &["trajectory.csv", "report.json"],
+                _ => &[],
+            };
+            if kind != "empty" {
+                for e in std::fs::read_dir(&src).unwrap().flatten() {
+                    if !skip.iter().any(|n| e.file_name() == **n) {
+                        file(d.join(e.file_name()), &std::fs::read(e.path()).unwrap());
+                    }
+                }
+            }
+            match kind {
+                "traverse" => file(
+                    d.join("traverse.csv"),
+                    &std::fs::read(src.join("trajectory.csv")).unwrap(),
+                ),
+                "benchmark" => file(d.join("scorecard.json"), b"{\"schema_version\": 1}\n"),
+                "empty" => file(
+                    d.join(".brachia-run"),
+                    b"# brachia run-folder manifest, schema 1\n",
+                ),
+                other => panic!("unknown kind {other}"),
+            }
+        }
         // a FIFO (reading it would block, replacing it would destroy it)
         "fifo" => {
             let fifo = env.t.join("fifo");
