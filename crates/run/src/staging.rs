@@ -246,9 +246,11 @@ mod tests {
         assert_ne!(a, b);
         assert!(a.join(STAGE_LOCK).is_file() && b.join(STAGE_LOCK).is_file());
         // `a`'s owner gone: the next stage clears it, and keeps the live `b`
+        std::fs::write(a.join("drawn.png"), b"left by a dead run").unwrap();
         release(&a);
         let c = create_unique(d.path(), ".f.partial-").unwrap();
-        assert!(!a.exists() && b.is_dir() && c.is_dir());
+        // `a` was cleared (its name is free again and may be `c`'s), `b` kept
+        assert!(!a.join("drawn.png").exists() && b.join(STAGE_LOCK).is_file() && c.is_dir());
         remove(&b);
         remove(&c);
         assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
