@@ -22,6 +22,7 @@ See docs/python.md.
 
 from ._brachia import (
     SUCCESS_RADIUS_M,
+    CAPTURE_SPEED_M_S,
     Adaptive,
     BrachiaError,
     JointPhase,
@@ -60,6 +61,7 @@ _register_envs()
 
 __all__ = [
     "SUCCESS_RADIUS_M",
+    "CAPTURE_SPEED_M_S",
     "Adaptive",
     "BrachiaError",
     "JointPhase",

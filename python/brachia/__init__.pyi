@@ -21,6 +21,7 @@ StrPath = Union[str, PathLike[str]]
 Controller = Literal["mpc", "tvlqr", "pd", "open-loop"]
 
 SUCCESS_RADIUS_M: float
+CAPTURE_SPEED_M_S: float
 """The success rule, m: a swing reaches the bar when the plant's hand ends the swing within this distance
 of the target bar (``TrackResult.report["reaches_bar"]``, ``report["bar_error_m"]``)."""
 

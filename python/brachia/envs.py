@@ -50,8 +50,10 @@ class SwingEnv(gymnasium.Env):
     scenario's section), ``reward_fn`` (``reward_fn(obs, action, info) -> float`` replacing the
     built-in reward; ``info`` holds every term), ``render_size`` ((width, height) pixels) and the
     settings as keywords: ``control_dt`` (s, default 0.01), ``plant_dt`` (0.001), ``time_limit_s``
-    (3), ``capture_speed_m_s`` (0.5), ``max_angle_rad`` (2 pi), ``max_rate_rad_s`` (40), ``reward``
-    (weights: ``capture``, ``progress``, ``energy``, ``positive_work``, ``out_of_limits``).
+    (3), ``max_angle_rad`` (2 pi), ``max_rate_rad_s`` (40), ``reward`` (weights: ``capture``,
+    ``progress``, ``energy``, ``positive_work``, ``out_of_limits``). An episode terminates at the
+    capture by the rule every run is judged by (``brachia.SUCCESS_RADIUS_M``,
+    ``brachia.CAPTURE_SPEED_M_S``; docs/limits.md "Success").
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 100}

@@ -10,11 +10,13 @@ by the same success rule. The trained policy and the random one act in the envir
 the 10 ms control period); the random policy draws uniform actions. ``mpc-python`` is the MPC called
 from Python each control period; it scores as the built-in ``mpc`` row by row.
 
-The benchmark scores the hand at the end of the planned swing. The environment ends an episode at
-the capture, so a policy trained there is also scored in the environment's own terms (capture at any
-time within the 3 s limit, then the episode ends): ``--env-episodes`` episodes of Swing-v0 per policy,
-undisturbed and under the benchmark's Monte Carlo mismatch on the model plant (every link mass x
-U(0.85, 1.15), sensor noise 0.002 rad), written to ``env_scores.md``.
+Every run is judged by the one capture rule (docs/limits.md "Success"): the plant's hand within 2 cm
+of the bar and no faster than 0.5 m/s, at any time of the run; the run is scored up to its capture.
+The environment ends an episode by the same rule, and each policy is also scored in the
+environment's own terms (capture within the 3 s limit): ``--env-episodes`` episodes of Swing-v0 per
+policy, undisturbed and under the benchmark's Monte Carlo mismatch on the model plant (every link
+mass x U(0.85, 1.15), sensor noise 0.002 rad), written to ``env_scores.md``. ``--also NAME=DIR``
+scores further trained policies (e.g. one trained under disturbances) beside the first.
 
 Writes ``scorecard.json``, ``runs.csv``, ``summary.md`` and ``env_scores.md`` into ``--out`` and
 prints the summaries.
@@ -97,8 +99,9 @@ def trained_policy(model_dir: Path):
     return act
 
 
-def env_scores(act, episodes: int, seed: int) -> str:
-    """The in-env table: the trained and a random policy, undisturbed and with ``MISMATCH``."""
+def env_scores(acts: dict, episodes: int, seed: int) -> str:
+    """The in-env table: the trained policies ``acts`` (name -> ``obs -> action``) and a random
+    policy, undisturbed and with ``MISMATCH``."""
     rng = np.random.default_rng(seed)
 
     def rand(obs: np.ndarray) -> np.ndarray:
@@ -109,7 +112,7 @@ def env_scores(act, episodes: int, seed: int) -> str:
         "| energy, eq. 18 (J) | positive work (J) | final distance (m) |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    for name, pol in (("ppo", act), ("random", rand)):
+    for name, pol in [*acts.items(), ("random", rand)]:
         for label, dist in (("none", None), ("mass x U(0.85, 1.15), noise", MISMATCH)):
             e = evaluate(pol, episodes, seed, dist)
             t = "-" if e["capture_time_s"] is None else f"{e['capture_time_s']:.2f}"
@@ -127,6 +130,13 @@ def main() -> int:
         type=Path,
         default=ROOT / "python" / "examples" / "swing_ppo",
         help="train_ppo.py's output folder (default: the policy trained for docs/rl.md)",
+    )
+    ap.add_argument(
+        "--also",
+        action="append",
+        default=[],
+        metavar="NAME=DIR",
+        help="another train_ppo.py output folder, scored as NAME (repeatable)",
     )
     ap.add_argument("--out", type=Path, default=None, help="default: MODEL/benchmark")
     ap.add_argument("--levels", type=int, default=3, help="levels per sweep")
@@ -147,10 +157,16 @@ def main() -> int:
         print(f"the scenario's plan did not converge: {plan.status}", file=sys.stderr)
         return 1
     env = gymnasium.make("brachia/Swing-v0", scenario=SCENARIO)
-    act = trained_policy(args.model)
+    acts = {"ppo": trained_policy(args.model)}
+    for spec in args.also:
+        name, _, folder = spec.partition("=")
+        if not name or not folder:
+            print(f"--also {spec!r}: expected NAME=DIR", file=sys.stderr)
+            return 2
+        acts[name] = trained_policy(Path(folder))
     rand = RandomActions(env.action_space.shape[0], args.seed)
     controllers = {
-        "ppo": EnvPolicy(act, env),
+        **{name: EnvPolicy(a, env) for name, a in acts.items()},
         "random": Resettable(rand, env, inner=rand),
         "mpc-python": MpcPolicy(scenario.robot, plan, scenario.mpc_settings),
     }
@@ -173,7 +189,7 @@ def main() -> int:
     (out / "summary.md").write_text(card["summary_md"])
     print(card["summary_md"])
     print(f"benchmark: {time.perf_counter() - t0:.0f} s")
-    table = env_scores(act, args.env_episodes, args.seed)
+    table = env_scores(acts, args.env_episodes, args.seed)
     (out / "env_scores.md").write_text(table)
     print(table)
     print(f"written to {out}")

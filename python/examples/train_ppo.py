@@ -6,6 +6,10 @@ Needs stable-baselines3 (and so torch), installed by the user:
     python python/examples/train_ppo.py --steps 1000000 --out runs/ppo
     python python/examples/compare_policies.py --model runs/ppo
 
+``--disturbances FILE`` trains (and evaluates) under a ``[disturbances]`` table with ranges, drawn
+anew for every episode (``monte_carlo_disturbances.json``: the benchmark's Monte Carlo families on the
+model plant; ``benchmark_disturbances.json``: every disturbance at once).
+
 The environment is Swing-v0 at its defaults (scenarios/tracking.toml, model plant, 10 ms control
 period, 1 ms plant step, the default reward and limits), ``--envs`` copies of the Rust vector env
 behind the stable-baselines3 adapter (``brachia.sb3.swing_vec_env``), observations and rewards
@@ -111,7 +115,15 @@ def main() -> None:
     ap.add_argument("--log-every", type=int, default=50_000, help="steps between curve rows")
     ap.add_argument("--eval-episodes", type=int, default=32)
     ap.add_argument("--torch-threads", type=int, default=1)
+    ap.add_argument(
+        "--disturbances",
+        type=Path,
+        default=None,
+        help="a JSON file of the scenario's [disturbances] schema (ranges allowed), drawn anew for "
+        "every training and evaluation episode (e.g. python/examples/benchmark_disturbances.json)",
+    )
     args = ap.parse_args()
+    disturbances = json.loads(args.disturbances.read_text()) if args.disturbances else None
 
     import stable_baselines3
     import torch
@@ -126,7 +138,11 @@ def main() -> None:
     settings["torch"] = torch.__version__
     (args.out / "settings.json").write_text(json.dumps(settings, indent=2) + "\n")
 
-    venv = VecNormalize(swing_vec_env(num_envs=args.envs, seed=args.seed, scenario=SCENARIO))
+    venv = VecNormalize(
+        swing_vec_env(
+            num_envs=args.envs, seed=args.seed, scenario=SCENARIO, disturbances=disturbances
+        )
+    )
     model = PPO(
         "MlpPolicy",
         venv,
@@ -139,7 +155,7 @@ def main() -> None:
 
     rng = np.random.default_rng(args.seed)
     random_act = lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3)).astype(np.float32)  # noqa: E731
-    random_eval = evaluate(random_act, args.eval_episodes, EVAL_SEED)
+    random_eval = evaluate(random_act, args.eval_episodes, EVAL_SEED, disturbances)
 
     def policy_act(obs: np.ndarray) -> np.ndarray:
         return model.predict(venv.normalize_obs(obs), deterministic=True)[0]
@@ -164,7 +180,7 @@ def main() -> None:
 
         def row(self) -> None:
             wall = time.perf_counter() - self.t0
-            ev = evaluate(policy_act, args.eval_episodes, EVAL_SEED)
+            ev = evaluate(policy_act, args.eval_episodes, EVAL_SEED, disturbances)
             mean = lambda v: float(np.mean(v)) if v else float("nan")  # noqa: E731
             r = {
                 "steps": self.num_timesteps,

@@ -275,13 +275,19 @@ fn checked<T: serde::de::DeserializeOwned>(
     Ok(s)
 }
 
-/// The recipe of a feedback controller along `reference` with its checked settings `s`.
-fn feedback<S: Clone>(
+/// The recipe of a feedback controller along `reference` and its settings: a dict and keyword
+/// arguments (`name` names them in errors) checked by `validate` for the robot's link count.
+fn feedback<S: serde::de::DeserializeOwned + Clone>(
     robot: &Robot,
     reference: &Bound<'_, PyAny>,
-    s: S,
+    settings: Option<&Bound<'_, PyAny>>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+    name: &str,
+    validate: fn(&S, usize) -> brachia::Result<()>,
     make: impl FnOnce(Arc<brachia::Robot>, Arc<Trajectory>, S) -> Spec,
 ) -> PyResult<(Arc<Spec>, S)> {
+    let n = robot.inner.n();
+    let s = checked(settings, kwargs, name, |s: &S| validate(s, n))?;
     let reference = reference_of(reference)?;
     reference.check_reference(&robot.inner).map_err(rs)?;
     Ok((Arc::new(make(robot.inner.clone(), reference, s.clone())), s))
@@ -306,6 +312,38 @@ fn named(e: brachia::Error, name: &str) -> brachia::Error {
     }
 }
 
+/// The `#[pymethods]` of a controller class: the items given (its constructor), `__repr__`
+/// (`Name(...)`) and, when a docstring subject is given (`"The settings"`), the getter `settings`
+/// (the class's `settings` field, defaults filled in, as a dict).
+macro_rules! controller_methods {
+    ($class:ident, $name:literal, $settings_doc:literal, { $($items:tt)* }) => {
+        #[pymethods]
+        impl $class {
+            $($items)*
+
+            #[doc = concat!($settings_doc, " (defaults filled in) as a dict.")]
+            #[getter]
+            fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+                to_py(py, &self.settings)
+            }
+
+            fn __repr__(&self) -> String {
+                concat!($name, "(...)").into()
+            }
+        }
+    };
+    ($class:ident, $name:literal, { $($items:tt)* }) => {
+        #[pymethods]
+        impl $class {
+            $($items)*
+
+            fn __repr__(&self) -> String {
+                concat!($name, "(...)").into()
+            }
+        }
+    };
+}
+
 /// Time-varying LQR along the plan (a scenario's ``controller = "tvlqr"``).
 ///
 /// ``Tvlqr(robot, reference, settings=None, **kwargs)``: ``reference`` a ``Plan`` or a
@@ -317,8 +355,7 @@ pub struct Tvlqr {
     settings: TvlqrSettings,
 }
 
-#[pymethods]
-impl Tvlqr {
+controller_methods!(Tvlqr, "Tvlqr", "The settings", {
     #[new]
     #[pyo3(signature = (robot, reference, settings = None, **kwargs))]
     fn new(
@@ -327,28 +364,19 @@ impl Tvlqr {
         settings: Option<&Bound<'_, PyAny>>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let n = robot.inner.n();
+        let name = "tvlqr settings";
         let (spec, settings) = feedback(
             robot,
             reference,
-            checked(settings, kwargs, "tvlqr settings", |s: &TvlqrSettings| {
-                s.validate(n)
-            })?,
+            settings,
+            kwargs,
+            name,
+            TvlqrSettings::validate,
             Spec::Tvlqr,
         )?;
         Ok(Tvlqr { spec, settings })
     }
-
-    /// The settings (defaults filled in) as a dict.
-    #[getter]
-    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.settings)
-    }
-
-    fn __repr__(&self) -> String {
-        "Tvlqr(...)".into()
-    }
-}
+});
 
 /// PD on the actuated joints plus the planned torque (a scenario's ``controller = "pd"``).
 ///
@@ -360,8 +388,7 @@ pub struct Pd {
     settings: PdSettings,
 }
 
-#[pymethods]
-impl Pd {
+controller_methods!(Pd, "Pd", "The settings", {
     #[new]
     #[pyo3(signature = (robot, reference, settings = None, **kwargs))]
     fn new(
@@ -370,28 +397,19 @@ impl Pd {
         settings: Option<&Bound<'_, PyAny>>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
-        let n = robot.inner.n();
+        let name = "pd settings";
         let (spec, settings) = feedback(
             robot,
             reference,
-            checked(settings, kwargs, "pd settings", |s: &PdSettings| {
-                s.validate(n)
-            })?,
+            settings,
+            kwargs,
+            name,
+            PdSettings::validate,
             Spec::Pd,
         )?;
         Ok(Pd { spec, settings })
     }
-
-    /// The settings (defaults filled in) as a dict.
-    #[getter]
-    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.settings)
-    }
-
-    fn __repr__(&self) -> String {
-        "Pd(...)".into()
-    }
-}
+});
 
 /// The planned torques replayed without feedback (a scenario's ``controller = "open-loop"``).
 #[pyclass(module = "brachia", frozen)]
@@ -399,8 +417,7 @@ pub struct OpenLoop {
     spec: Arc<Spec>,
 }
 
-#[pymethods]
-impl OpenLoop {
+controller_methods!(OpenLoop, "OpenLoop", {
     #[new]
     fn new(robot: &Robot, reference: &Bound<'_, PyAny>) -> PyResult<Self> {
         let reference = reference_of(reference)?;
@@ -409,11 +426,7 @@ impl OpenLoop {
             spec: Arc::new(Spec::OpenLoop(robot.inner.clone(), reference)),
         })
     }
-
-    fn __repr__(&self) -> String {
-        "OpenLoop(...)".into()
-    }
-}
+});
 
 /// A controller fed through the Kalman filter along its plan (a scenario's ``kalman = true``).
 ///
@@ -426,8 +439,7 @@ pub struct Kalman {
     settings: EstimatorSettings,
 }
 
-#[pymethods]
-impl Kalman {
+controller_methods!(Kalman, "Kalman", "The filter's settings", {
     #[new]
     #[pyo3(signature = (controller, settings = None, **kwargs))]
     fn new(
@@ -457,17 +469,7 @@ impl Kalman {
             settings: s,
         })
     }
-
-    /// The filter's settings (defaults filled in) as a dict.
-    #[getter]
-    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.settings)
-    }
-
-    fn __repr__(&self) -> String {
-        "Kalman(...)".into()
-    }
-}
+});
 
 /// Online re-planning around the MPC (a scenario's ``[tracking] replan``, docs/replanning.md).
 ///
@@ -483,8 +485,7 @@ pub struct ReplanningCtrl {
     settings: ReplanSettings,
 }
 
-#[pymethods]
-impl ReplanningCtrl {
+controller_methods!(ReplanningCtrl, "Replanning", "The re-planning settings", {
     #[new]
     #[pyo3(signature = (controller, task, plan_settings = None, settings = None, **kwargs))]
     fn new(
@@ -530,17 +531,7 @@ impl ReplanningCtrl {
             settings: s,
         })
     }
-
-    /// The re-planning settings (defaults filled in) as a dict.
-    #[getter]
-    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.settings)
-    }
-
-    fn __repr__(&self) -> String {
-        "Replanning(...)".into()
-    }
-}
+});
 
 /// The MPC fed an online estimate of the robot's masses and inertias (a scenario's
 /// ``[tracking] estimate_params``, docs/estimation.md).
@@ -555,8 +546,7 @@ pub struct AdaptiveCtrl {
     settings: ParamEstimatorSettings,
 }
 
-#[pymethods]
-impl AdaptiveCtrl {
+controller_methods!(AdaptiveCtrl, "Adaptive", "The estimator's settings", {
     #[new]
     #[pyo3(signature = (controller, settings = None, **kwargs))]
     fn new(
@@ -586,14 +576,4 @@ impl AdaptiveCtrl {
             settings: s,
         })
     }
-
-    /// The estimator's settings (defaults filled in) as a dict.
-    #[getter]
-    fn settings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        to_py(py, &self.settings)
-    }
-
-    fn __repr__(&self) -> String {
-        "Adaptive(...)".into()
-    }
-}
+});

@@ -15,6 +15,18 @@ use std::time::Duration;
 /// How long the calling thread waits without the GIL between two checks for signals.
 const POLL: Duration = Duration::from_millis(20);
 
+/// Wait without the GIL for [`POLL`], in 1 ms slices, or until `finished` says the work has ended.
+fn wait_released(py: Python<'_>, finished: impl Fn() -> bool + Sync) {
+    py.detach(|| {
+        let step = Duration::from_millis(1);
+        let mut waited = Duration::ZERO;
+        while waited < POLL && !finished() {
+            std::thread::sleep(step);
+            waited += step;
+        }
+    });
+}
+
 /// Run `work(token)` on a worker thread, checking for Python signals every [`POLL`]: on a signal the
 /// token is set and the signal's exception is raised after the work has stopped. `cancel` is the
 /// token the work was given (its settings carry it).
@@ -27,14 +39,7 @@ pub(crate) fn interruptible<T: Send>(
         let handle = s.spawn(work);
         let mut raised: Option<PyErr> = None;
         while !handle.is_finished() {
-            py.detach(|| {
-                let step = Duration::from_millis(1);
-                let mut waited = Duration::ZERO;
-                while waited < POLL && !handle.is_finished() {
-                    std::thread::sleep(step);
-                    waited += step;
-                }
-            });
+            wait_released(py, || handle.is_finished());
             if raised.is_none() {
                 if let Err(e) = py.check_signals() {
                     cancel.cancel();
@@ -64,14 +69,7 @@ pub(crate) fn interruptible_owned<T: Send + 'static>(
         .spawn(work)
         .map_err(|e| crate::convert::bad(format!("could not start the work: {e}")))?;
     while !handle.is_finished() {
-        py.detach(|| {
-            let step = Duration::from_millis(1);
-            let mut waited = Duration::ZERO;
-            while waited < POLL && !handle.is_finished() {
-                std::thread::sleep(step);
-                waited += step;
-            }
-        });
+        wait_released(py, || handle.is_finished());
         if let Err(e) = py.check_signals() {
             cancel.cancel();
             return Err(e);

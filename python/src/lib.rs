@@ -52,9 +52,10 @@ mod view;
 fn _brachia(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("BrachiaError", py.get_type::<BrachiaError>())?;
-    // the one success rule (brachia_experiments::success): a scenario's TrackResult.report has its
-    // verdict `reaches_bar` and the distance `bar_error_m`
+    // the one capture rule (brachia_experiments::success): a scenario's TrackResult.report has its
+    // verdict `reaches_bar`, the time `capture_t_s` and the distance `bar_error_m`
     m.add("SUCCESS_RADIUS_M", brachia_experiments::SUCCESS_RADIUS_M)?;
+    m.add("CAPTURE_SPEED_M_S", brachia_experiments::CAPTURE_SPEED_M_S)?;
     m.add_class::<model::Robot>()?;
     m.add_class::<model::Trajectory>()?;
     m.add_class::<planning::Plan>()?;

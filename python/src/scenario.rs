@@ -335,21 +335,17 @@ impl Scenario {
             let ls = ls.clone();
             interruptible_owned(py, &cancel, move || run_track(&ls, c, p, given))?.map_err(rs)?
         };
+        // a plan of the run as a Python object, its report read from its folder
+        let plan_of = |pr: brachia_experiments::PlanRun| {
+            let rep = folder_report(&pr.folder);
+            let task = ls.scenario.task.clone();
+            Plan::new(self.robot.clone(), task, pr.plan, rep, Some(pr.folder))
+        };
         match out {
             TrackOutcome::Tracked(run) => {
                 let report = folder_report(&run.folder);
                 let plan = match run.plan {
-                    Some(pr) => {
-                        let rep = folder_report(&pr.folder);
-                        let plan = Plan::new(
-                            self.robot.clone(),
-                            ls.scenario.task.clone(),
-                            pr.plan,
-                            rep,
-                            Some(pr.folder),
-                        );
-                        Some(Py::new(py, plan)?)
-                    }
+                    Some(pr) => Some(Py::new(py, plan_of(pr))?),
                     None => reference.map(|r| r.clone().unbind()),
                 };
                 Ok(TrackResult::new(
@@ -360,23 +356,13 @@ impl Scenario {
                     Some(run.folder),
                 ))
             }
-            TrackOutcome::PlanFailed(pr) => {
-                let rep = folder_report(&pr.folder);
-                let plan = Plan::new(
-                    self.robot.clone(),
-                    ls.scenario.task.clone(),
-                    pr.plan,
-                    rep,
-                    Some(pr.folder),
-                );
-                Ok(TrackResult::new(
-                    Default::default(),
-                    None,
-                    serde_json::Value::Null,
-                    Some(Py::new(py, plan)?),
-                    None,
-                ))
-            }
+            TrackOutcome::PlanFailed(pr) => Ok(TrackResult::new(
+                Default::default(),
+                None,
+                serde_json::Value::Null,
+                Some(Py::new(py, plan_of(*pr))?),
+                None,
+            )),
         }
     }
 

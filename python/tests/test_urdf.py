@@ -30,36 +30,11 @@ URDFS = [
     ("paper4_skew.urdf", "grip", "tip", ["grip", "j2", "j3", "j4"]),
 ]
 
-GENERAL = """
-name = "general"
-gravity = 9.81
-end_effector = [0.21, -0.04]
-[[links]]
-length = 0.3
-mass = 0.8
-com = 0.12
-com_across = 0.015
-inertia = 0.02
-joint_offset = 0.3
-[[links]]
-length = 0.0
-mass = 0.4
-com = 0.02
-com_across = -0.03
-inertia = 0.004
-joint_reversed = true
-q_min = -2.0
-q_max = 2.5
-[[links]]
-length = 0.25
-mass = 0.6
-com = 0.1
-inertia = 0.01
-joint_offset = -1.2
-[actuators]
-tau_min = [-4.0, -3.0]
-tau_max = [3.5, 2.0]
-"""
+# a robot with every generalised field set (the Rust tests read it too), with asymmetric torque
+# limits here: an MJCF control range has two ends (a URDF's effort limit has one)
+GENERAL_SYMMETRIC = (DATA.parent / "general.toml").read_text()
+GENERAL = GENERAL_SYMMETRIC.replace("tau_max = [4.0, 3.0]", "tau_max = [3.5, 2.0]")
+assert GENERAL != GENERAL_SYMMETRIC
 
 
 def brachia_in_phi(robot, phi, phid):

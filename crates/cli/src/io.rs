@@ -1,9 +1,22 @@
-//! Parsing of command-line values. (Run folders are `brachia_experiments::RunFolder`: every file is
+//! Parsing of command-line values, and the options every command that writes a run folder with a
+//! page takes. (Run folders are `brachia_experiments::RunFolder`: every file is
 //! written to a temporary name and renamed into place.)
 
 use crate::CliError;
 use brachia_experiments::Progress;
 use indicatif::{ProgressBar, ProgressStyle};
+
+/// How `plan`, `track`, `traverse` and `simulate` write their run folder (flattened into their
+/// arguments).
+#[derive(clap::Args)]
+pub struct FolderArgs {
+    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
+    #[arg(long)]
+    pub force: bool,
+    /// Do not write the interactive page view.html into the run folder.
+    #[arg(long)]
+    pub no_view: bool,
+}
 
 /// The terminal progress bar of the long commands (reproduce, benchmark), hidden under
 /// `--no-progress`. The library reports [`Progress`]; [`show_progress`] draws it.

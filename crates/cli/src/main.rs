@@ -37,11 +37,11 @@ struct Cli {
 enum Command {
     /// Simulate the passive chain (zero torque) with the RK4 model plant.
     Simulate(simulate::Args),
-    /// Plan an energy-optimal swing for a scenario (direct collocation).
+    /// Plan an energy-optimal swing for a scenario (multiple shooting on the Riccati solver by default).
     Plan(plan::Args),
     /// Plan (or read a plan) and track it in closed loop at 1 kHz (MPC, PD or open loop).
     Track(track::Args),
-    /// Traverse a ladder: plan and track every swing, switching the grip at every bar (model plant).
+    /// Traverse a ladder: plan and track every swing, switching the grip at every bar (model or rapier plant).
     Traverse(traverse::Args),
     /// Reproduce the paper's experiments (Section V): run folders, figures, animations, REPORT.md.
     Reproduce(reproduce::Args),

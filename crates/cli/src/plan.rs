@@ -16,18 +16,14 @@ pub struct Args {
     /// Output folder: knots.csv, trajectory.csv, scenario.toml, params.toml, report.json, view.html.
     #[arg(long)]
     out: PathBuf,
-    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
-    #[arg(long)]
-    force: bool,
-    /// Do not write the interactive page view.html into the run folder.
-    #[arg(long)]
-    no_view: bool,
+    #[command(flatten)]
+    folder: crate::io::FolderArgs,
 }
 
 /// Run the command.
 pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let mut ls = Scenario::load_for(&a.scenario, Uses::Plan)?;
-    check_out_dir(&a.out, a.force)?;
+    check_out_dir(&a.out, a.folder.force)?;
     // every solve checks the token between its iterations, every strategy before its solves
     ls.scenario.solver.cancel = Some(cancel.clone());
     let run = {
@@ -36,7 +32,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     };
     check_cancel(cancel, &a.out)?;
     let mut run = run?;
-    if !a.no_view {
+    if !a.folder.no_view {
         let page = plan_run_page(&ls, &run);
         run.folder.add(VIEW_FILE, page);
     }

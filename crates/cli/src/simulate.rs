@@ -37,12 +37,8 @@ pub struct Args {
     /// Output folder: trajectory.csv, report.json, params.toml and view.html.
     #[arg(long)]
     out: PathBuf,
-    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
-    #[arg(long)]
-    force: bool,
-    /// Do not write the interactive page view.html into the run folder.
-    #[arg(long)]
-    no_view: bool,
+    #[command(flatten)]
+    folder: crate::io::FolderArgs,
 }
 
 /// Run the command.
@@ -105,7 +101,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
             limits::MAX_SIM_STEPS
         )));
     }
-    check_out_dir(&a.out, a.force)?;
+    check_out_dir(&a.out, a.folder.force)?;
     let mut plant = ModelPlant::new(robot.clone(), &[q0.clone(), qd0.clone()].concat());
     plant.substeps = a.substeps;
     let mut traj = Trajectory::new(n);
@@ -133,7 +129,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let drift = energy.iter().map(|e| (e - e0).abs()).fold(0.0, f64::max);
     let mut out = RunFolder::default();
     let csv = traj.to_csv(&robot, &[("energy", &energy)]);
-    if !a.no_view {
+    if !a.folder.no_view {
         let page = simulate_view(SimulateParts {
             file: "trajectory.csv",
             csv: &csv,

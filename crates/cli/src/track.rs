@@ -5,7 +5,8 @@ use brachia::sim::DIVERGENCE_BOUND;
 use brachia_experiments::view::{track_run_page, VIEW_FILE};
 use brachia_experiments::{
     check_out_apart, check_out_dir, check_settings_apply, read_plan_folder, run_track, CancelToken,
-    ControllerKind, PlantKind, RunFolder, Scenario, TrackOutcome, REPLAY_TRUST_M, SUCCESS_RADIUS_M,
+    ControllerKind, PlantKind, RunFolder, Scenario, TrackOutcome, CAPTURE_SPEED_M_S,
+    REPLAY_TRUST_M, SUCCESS_RADIUS_M,
 };
 use std::path::PathBuf;
 
@@ -28,12 +29,8 @@ pub struct Args {
     /// Track the plan in this folder (written by `brachia plan`) instead of planning.
     #[arg(long)]
     plan: Option<PathBuf>,
-    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
-    #[arg(long)]
-    force: bool,
-    /// Do not write the interactive page view.html into the run folder.
-    #[arg(long)]
-    no_view: bool,
+    #[command(flatten)]
+    folder: crate::io::FolderArgs,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -73,7 +70,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
         Some(dir) => Some(read_plan_folder(dir, &ls)?),
         None => None,
     };
-    check_out_dir(&a.out, a.force)?;
+    check_out_dir(&a.out, a.folder.force)?;
     if let Some(dir) = &a.plan {
         // a run replaces the files of --out: it must not be (or hold, or lie in) the plan it reads
         check_out_apart(&a.out, dir, "--plan", true)?;
@@ -88,7 +85,7 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     let outcome = outcome?;
     match outcome {
         TrackOutcome::Tracked(mut run) => {
-            if !a.no_view {
+            if !a.folder.no_view {
                 let page = track_run_page(&ls, &run);
                 run.folder.add(VIEW_FILE, page);
             }
@@ -122,17 +119,21 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
                     None => eprintln!("track: the robot touched no obstacle"),
                 }
             }
+            if let (Some(t), Some(e)) = (run.report.capture_t_s, run.report.bar_error_m) {
+                eprintln!("track: the hand captures the bar at {t:.3} s ({e:.4} m from it)");
+            }
             if run.report.reaches_bar != Some(true) {
                 // a miss is a failure (exit 1), so a script can tell a catch from a miss
                 let bar = run.report.target;
                 return Err(CliError::Failed(format!(
-                    "this swing misses the bar: at the end of the swing the plant's hand is {:.4} m from \
-                     the target bar [{}, {}] of {}, more than the success radius of {SUCCESS_RADIUS_M} m \
-                     (brachia_experiments::SUCCESS_RADIUS_M); the run is in {}",
-                    run.report.bar_error_m.unwrap_or(f64::INFINITY),
+                    "this swing misses the bar: the plant's hand never came within the success radius \
+                     of {SUCCESS_RADIUS_M} m of the target bar [{}, {}] of {} no faster than \
+                     {CAPTURE_SPEED_M_S} m/s (brachia_experiments::success, the capture rule); at the \
+                     end of the swing it is {:.4} m from the bar; the run is in {}",
                     bar[0],
                     bar[1],
                     a.scenario.display(),
+                    run.report.bar_error_m.unwrap_or(f64::INFINITY),
                     a.out.display()
                 )));
             }

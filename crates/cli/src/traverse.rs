@@ -20,12 +20,8 @@ pub struct Args {
     /// obstacles.csv).
     #[arg(long)]
     out: PathBuf,
-    /// Write into a non-empty --out folder that is not a brachia run folder (its files are kept).
-    #[arg(long)]
-    force: bool,
-    /// Do not write the interactive page view.html into the run folder.
-    #[arg(long)]
-    no_view: bool,
+    #[command(flatten)]
+    folder: crate::io::FolderArgs,
 }
 
 /// Run the command: exit 2 on bad input (nothing planned or written), 1 when the traverse did not
@@ -36,13 +32,13 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
     check_ladder_settings_apply(&ll)?;
     // the figures' animation stops on Ctrl-C too
     ll.scenario.solver.cancel = Some(cancel.clone());
-    check_out_dir(&a.out, a.force)?;
+    check_out_dir(&a.out, a.folder.force)?;
     let tr = run_traverse_cancellable(&ll, cancel).map_err(exp_error(&a.out))?;
     let mut folder = tr.folder(&ll).map_err(exp_error(&a.out))?;
     folder.add(PARAMS_FILE, params_toml(&ll.robot, &ll.scenario.params));
     // a page plays the rows of the traverse: one that stopped at its first row has none to play
     let rows: usize = tr.logs.iter().map(|l| l.len()).sum();
-    if !a.no_view && rows >= 2 {
+    if !a.folder.no_view && rows >= 2 {
         folder.add(VIEW_FILE, traverse_run_page(&ll, &tr)?);
     }
     check_cancel(cancel, &a.out)?;

@@ -120,6 +120,10 @@ fn mpc_absorbs_ten_percent_heavier_links() {
             e <= 0.02,
             "{ctrl}: error {e} m"
         );
+        // a catch has its capture time (the first slow pass within 2 cm), a miss has none
+        let t = report(&out)["capture_t_s"].as_f64();
+        assert_eq!(t.is_some(), e <= 0.02, "{ctrl}: capture at {t:?}");
+        assert!(t.is_none_or(|t| t > 0.0), "{ctrl}: capture at {t:?}");
         errs.push(e);
     }
     // the open loop on the heavier plant misses (the note above was printed for it)

@@ -57,7 +57,8 @@ fn copy_dir(from: &Path, to: &Path) {
 /// target with `reaches_bar: true` and a 0.3 mm error while the hand ended at the plan's bar: only the
 /// start state was compared, and the error was measured to the plan's end point. Now every field the
 /// plan and the scenario share must agree (refused with exit 2 before any work, naming the field and
-/// both values), and a plan that does belong to the scenario is tracked and measured against the bar.
+/// both values), and a plan that does belong to the scenario is tracked and measured against the bar
+/// (at the capture: the first row within 2 cm of it, no faster than 0.5 m/s).
 #[test]
 fn a_plan_for_another_task_is_refused_and_success_is_measured_at_the_bar() {
     let dir = tempfile::tempdir().unwrap();
@@ -126,10 +127,16 @@ fn a_plan_for_another_task_is_refused_and_success_is_measured_at_the_bar() {
     let r = report(&out);
     let bar = r["bar_error_m"].as_f64().unwrap();
     assert!(bar < 0.02 && r["reaches_bar"] == true, "{r}");
-    // the measure is the plant's hand against the bar: the last swing row of closed_loop.csv
+    // the measure is the plant's hand against the bar at the capture (its row of closed_loop.csv),
+    // within the swing; no earlier row is within 2 cm and slow, and the first rows are far away
     let csv = std::fs::read_to_string(out.join("closed_loop.csv")).unwrap();
     let swing_end = r["plan"]["swing_time_s"].as_f64().unwrap();
-    let row: Vec<f64> = csv
+    let t_cap = r["capture_t_s"].as_f64().unwrap();
+    assert!(
+        t_cap > 0.5 * swing_end && t_cap <= swing_end + 1e-6,
+        "{t_cap} of {swing_end}"
+    );
+    let rows: Vec<Vec<f64>> = csv
         .lines()
         .skip(2)
         .map(|l| {
@@ -137,12 +144,15 @@ fn a_plan_for_another_task_is_refused_and_success_is_measured_at_the_bar() {
                 .map(|v| v.parse().unwrap())
                 .collect::<Vec<f64>>()
         })
-        .filter(|r| r[0] <= swing_end + 1e-6)
-        .last()
-        .unwrap();
+        .collect();
+    let row = rows
+        .iter()
+        .find(|r| (r[0] - t_cap).abs() < 1e-6)
+        .expect("the capture's row");
     let (x, y) = (row[12], row[13]);
     let d = (x - 0.8).hypot(y);
     assert!((d - bar).abs() < 1e-6, "hand {x}, {y}: {d} vs {bar}");
+    assert!((rows[0][12] - 0.8).hypot(rows[0][13]) > 0.5);
 }
 
 /// A plan folder whose content lies: times 0, 1e-300, ...; a NaN or a moved hand column; a trajectory

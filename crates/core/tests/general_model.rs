@@ -19,42 +19,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
-/// A three-link robot with every generalised field set, a zero-length link in the middle.
+/// A three-link robot with every generalised field set, a zero-length link in the middle
+/// (`tests/data/general.toml`).
 fn general_robot() -> Robot {
-    let text = r#"
-        name = "general"
-        gravity = 9.81
-        end_effector = [0.21, -0.04]
-        [[links]]
-        length = 0.3
-        mass = 0.8
-        com = 0.12
-        com_across = 0.015
-        inertia = 0.02
-        joint_offset = 0.3
-        [[links]]
-        length = 0.0
-        mass = 0.4
-        com = 0.02
-        com_across = -0.03
-        inertia = 0.004
-        joint_reversed = true
-        q_min = -2.0
-        q_max = 2.5
-        qd_max = 8.0
-        [[links]]
-        length = 0.25
-        mass = 0.6
-        com = 0.1
-        com_across = 0.02
-        inertia = 0.01
-        joint_offset = -1.2
-        [actuators]
-        tau_min = [-4.0, -3.0]
-        tau_max = [4.0, 3.0]
-    "#;
-    let p = RobotParams::from_toml_str(text, "general.toml").unwrap();
-    Robot::from_params(p, "general.toml").unwrap()
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/general.toml");
+    Robot::from_toml_file(&path).unwrap()
 }
 
 fn random_q(rng: &mut ChaCha8Rng, n: usize, scale: f64) -> Vec<f64> {

@@ -615,3 +615,113 @@ fn the_obstacle_strategies_share_the_time_limit() {
         p.solve_time_s
     );
 }
+
+#[test]
+fn the_homotopy_seeds_are_distinct_clear_routes_to_poses_at_the_bar_ranked_by_torque() {
+    use brachia::planning::strategy::cspace::SAME_ROUTE_RAD;
+    use brachia::planning::strategy::homotopy::{homotopy_seeds, MAX_GOALS, ROUTES_PER_GOAL};
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
+    // #4 of the scan: link 2 swept at 0.74 s
+    let obstacles = [places[3].obstacle];
+    let (reports, seeds) =
+        homotopy_seeds(&robot, &obstacles, &s, &base.points, [0.8, 0.0], &|| false).unwrap();
+    assert!(seeds.len() >= 2, "{reports:?}");
+    assert!(reports.len() <= MAX_GOALS * ROUTES_PER_GOAL, "{reports:?}");
+    let cf = ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)
+        .unwrap()
+        .with_self_collision(true);
+    let len = base.points.len();
+    for (i, g) in &seeds {
+        let r = &reports[*i];
+        assert!(r.found && !r.stopped && r.peak_torque_ratio > 0.0, "{r:?}");
+        // clear at every knot, from the start pose to a pose that grasps the bar
+        let worst = (0..len)
+            .map(|k| cf.min_clearance(g.q(k)))
+            .fold(f64::INFINITY, f64::min);
+        assert!(worst >= s.obstacle_margin, "{worst}");
+        assert_eq!(g.q(0), base.points.q(0));
+        let ee = robot.ee_position(g.q(len - 1));
+        assert!((ee[0] - 0.8).hypot(ee[1]) < 1e-6, "{ee:?}");
+    }
+    // ranked by the torque ratio, lowest first
+    for w in seeds.windows(2) {
+        assert!(reports[w[0].0].peak_torque_ratio <= reports[w[1].0].peak_torque_ratio);
+    }
+    // no two seeds follow the same route: they differ somewhere by more than SAME_ROUTE_RAD
+    for (a, (_, ga)) in seeds.iter().enumerate() {
+        for (_, gb) in &seeds[a + 1..] {
+            let apart =
+                ga.q.iter()
+                    .zip(&gb.q)
+                    .any(|(x, y)| (x - y).abs() > SAME_ROUTE_RAD);
+            assert!(apart, "two seeds on one route");
+        }
+    }
+}
+
+#[test]
+fn a_configuration_space_search_told_to_stop_ends_within_one_check() {
+    use brachia::planning::strategy::cspace::{cspace_routes, STOP_CHECK_CELLS};
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let (base, places) = swing_and_placements(&robot, &s, &nlp);
+    let obstacles = [places[3].obstacle];
+    let (q0, q1) = (base.points.q(0), base.points.q(base.points.len() - 1));
+    let runs = cspace_routes(&robot, &obstacles, &s, q0, q1, 3, &|| true).unwrap();
+    // one search, ended at its first check: no path, not exhausted, no other route searched
+    assert_eq!(runs.len(), 1);
+    let (r, path) = &runs[0];
+    assert!(
+        path.is_none() && r.stopped && !r.found && !r.exhausted,
+        "{r:?}"
+    );
+    assert!(r.cells_discovered <= STOP_CHECK_CELLS, "{r:?}");
+    // the same search left alone finds a route
+    let runs = cspace_routes(&robot, &obstacles, &s, q0, q1, 1, &|| false).unwrap();
+    assert!(runs[0].1.is_some() && !runs[0].0.stopped, "{:?}", runs[0].0);
+}
+
+#[test]
+fn the_clear_final_poses_are_one_per_elbow_family_nearest_first() {
+    use brachia::planning::strategy::goal::clear_final_poses;
+    let robot = Robot::paper();
+    let (s, nlp) = settings();
+    let base = plan(&robot, &tracking(), &s, &nlp).unwrap();
+    let last = base.points.q(base.points.len() - 1).to_vec();
+    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
+    robot.link_segments(&last, &mut segs);
+    let (a, b) = segs[1];
+    let o = brachia::model::Circle {
+        center: [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])],
+        radius: 0.05,
+    };
+    let poses = clear_final_poses(&robot, &[o], &s, &last, [0.8, 0.0], 4, &|| false).unwrap();
+    assert!(poses.len() >= 2, "{poses:?}");
+    let first = clear_final_pose(&robot, &[o], &s, &last, [0.8, 0.0])
+        .unwrap()
+        .unwrap();
+    assert_eq!(poses[0], first);
+    let need = s.obstacle_margin + EXTRA_CLEARANCE;
+    let cf = ClearanceFn::new(robot.clone(), vec![o], 0.0)
+        .unwrap()
+        .with_self_collision(true);
+    let family = |q: &[f64]| q[1..].iter().map(|v| *v >= 0.0).collect::<Vec<_>>();
+    let dist = |q: &[f64]| -> f64 { q.iter().zip(&last).map(|(x, y)| (x - y).powi(2)).sum() };
+    for (i, q) in poses.iter().enumerate() {
+        let ee = robot.ee_position(q);
+        assert!((ee[0] - 0.8).hypot(ee[1]) < 1e-6, "{ee:?}");
+        assert!(cf.min_clearance(q) >= need);
+        for p in &poses[i + 1..] {
+            assert_ne!(family(q), family(p));
+            assert!(dist(q) <= dist(p));
+        }
+    }
+    // asked to stop at once: nothing searched
+    assert!(
+        clear_final_poses(&robot, &[o], &s, &last, [0.8, 0.0], 4, &|| true)
+            .unwrap()
+            .is_empty()
+    );
+}

@@ -11,8 +11,11 @@ mod common;
 use brachia::control::base_params::{
     base_params, lagrangian_regressor, momentum_regressor, regressor, robot_from_base,
 };
-use brachia::control::{Adaptive, Mpc, MpcSettings, ParamEstimator, ParamEstimatorSettings};
-use brachia::fdcheck::{compare, fd_jacobian};
+use brachia::control::joint_ekf::{JointEkf, JointEkfNoise};
+use brachia::control::{
+    Adaptive, EstimateMethod, Mpc, MpcSettings, ParamEstimator, ParamEstimatorSettings,
+};
+use brachia::fdcheck::{assert_jacobian, compare, fd_jacobian};
 use brachia::model::{Robot, Scratch};
 use brachia::planning::{
     Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
@@ -123,6 +126,55 @@ fn a_robot_rebuilt_from_its_base_parameters_has_the_same_dynamics() {
     assert!(e.contains("MXR_4"), "{e}");
 }
 
+/// The joint filter's model: `qdd(q, qd, theta)` with the torque held, and its exact Jacobian in
+/// `[q, qd, theta]` (analytic in the state, `-M^-1 Y` in the base parameters) against central
+/// differences, at random states of the paper's robot and of a mismatched one.
+#[test]
+fn the_joint_filter_model_has_exact_jacobians() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let noise = JointEkfNoise {
+        meas_q_std: 0.0015,
+        meas_qd_std: 0.015,
+        process_qd_std: 0.05,
+        outlier_sigma: 5.0,
+    };
+    let nominal = Robot::paper();
+    let n = nominal.n();
+    let mut theta_nom = vec![0.0; 2 * n];
+    base_params(&nominal, &mut theta_nom);
+    let mut ekf = JointEkf::new(&nominal, &theta_nom, &vec![1.0; 2 * n], noise).unwrap();
+    for robot in [
+        Robot::paper(),
+        scaled(&[0.9, 1.1, 1.05, 0.87], &[1.12, 0.93, 0.88, 1.1]),
+    ] {
+        let mut theta = vec![0.0; 2 * n];
+        base_params(&robot, &mut theta);
+        for _ in 0..10 {
+            let (q, qd, _) = random_state(&mut rng, n);
+            let tau: Vec<f64> = (0..n - 1).map(|_| rng.gen_range(-5.0..5.0)).collect();
+            let z = [q.clone(), qd.clone(), theta.clone()].concat();
+            let (mut qdd, mut jac) = (vec![0.0; n], vec![0.0; n * 4 * n]);
+            ekf.model_jacobian(&z, &tau, &mut qdd, &mut jac);
+            // the model with theta is the robot's forward dynamics
+            let fd = robot.forward_dynamics(&q, &qd, &tau);
+            for j in 0..n {
+                assert!(
+                    (qdd[j] - fd[j]).abs() <= 1e-9 * (1.0 + fd[j].abs()),
+                    "{qdd:?} vs {fd:?}"
+                );
+            }
+            let mut probe = ekf.clone();
+            assert_jacobian(
+                "joint filter model",
+                |zz, out| probe.model_qdd(zz, &tau, out),
+                &z,
+                &jac,
+                1e-6,
+            );
+        }
+    }
+}
+
 /// The paper's swing planned on the 30 ms mesh.
 fn swing() -> Arc<Trajectory> {
     let s = PlannerSettings {
@@ -141,20 +193,8 @@ fn swing() -> Arc<Trajectory> {
 }
 
 /// Track `reference` with the adaptive MPC on the model plant of `plant` (sensor noise
-/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s) up to `fraction` of the swing; the largest relative
-/// error of the base parameters there.
-fn estimate_until(reference: &Arc<Trajectory>, plant: &Robot, seed: u64, fraction: f64) -> f64 {
-    let errors = estimate_with(
-        reference,
-        plant,
-        seed,
-        fraction,
-        ParamEstimatorSettings::default(),
-    );
-    errors.into_iter().fold(0.0, f64::max)
-}
-
-/// [`estimate_until`] with estimator settings `es`: every base parameter's relative error.
+/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, scaled by `BRACHIA_EST_NOISE`) up to `fraction` of
+/// the swing with estimator settings `es`: every base parameter's relative error there.
 fn estimate_with(
     reference: &Arc<Trajectory>,
     plant: &Robot,
@@ -203,25 +243,215 @@ fn estimate_with(
         .collect()
 }
 
-/// Over the whole swing every base parameter within 5 % for per-link mass and inertia factors from
-/// U(0.85, 1.15) and within 2.5 % for a coherent 0.85 or 1.15 (measured: at most 4.9 %, and 0.8 %
-/// and 2.0 %). At mid-swing the estimate is not that close yet (17 % on the worst parameter for both
-/// coherent plants; docs/estimation.md).
-#[test]
-fn the_estimator_recovers_a_mismatched_plant_over_the_swing() {
-    let reference = swing();
+/// Track the whole swing with the adaptive MPC on the model plant of `plant` (sensor noise
+/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, seeded `seed`) with estimator settings `es`; every
+/// base parameter's relative error at each fraction of the swing in `at` (the last recorded
+/// estimate at or before it).
+fn errors_at(
+    reference: &Arc<Trajectory>,
+    plant: &Robot,
+    seed: u64,
+    es: ParamEstimatorSettings,
+    at: &[f64],
+) -> Vec<Vec<f64>> {
+    let nominal = Arc::new(Robot::paper());
+    let mpc = Mpc::new(
+        Arc::clone(&nominal),
+        Arc::clone(reference),
+        MpcSettings::default(),
+    )
+    .unwrap();
+    let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
+    let x0 = [reference.q(0), reference.qd(0)].concat();
+    let mut mp = ModelPlant::new(plant.clone(), &x0);
+    // the table may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
+    let scale: f64 = std::env::var("BRACHIA_EST_NOISE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1.0);
+    let noise = NoiseSettings {
+        q_std: 0.0015 * scale,
+        qd_std: 0.015 * scale,
+        seed,
+    };
+    let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();
+    let rs = RunSettings {
+        duration_s: reference.duration(),
+        control_dt: 1e-3,
+        cancel: None,
+    };
+    run_closed_loop(&mut p, &mut c, reference, &nominal, &rs).unwrap();
+    let n = plant.n();
+    let mut truth = vec![0.0; 2 * n];
+    base_params(plant, &mut truth);
+    let report = c.report();
+    assert!(c.model_updates() > 0);
+    at.iter()
+        .map(|f| {
+            let t = f * reference.duration() + 1e-9;
+            let theta = report
+                .history
+                .iter()
+                .rfind(|s| s.t_s <= t)
+                .map_or(&report.nominal, |s| &s.theta);
+            truth
+                .iter()
+                .zip(theta)
+                .map(|(a, b)| ((a - b) / a).abs())
+                .collect()
+        })
+        .collect()
+}
+
+/// The plants the estimator was tuned on: four per-link draws of mass and inertia factors from
+/// U(0.85, 1.15) (noise seeds 100..103), then the coherent 0.85 and 1.15 plants (noise seed 7).
+fn tuned_plants() -> Vec<(String, Robot, u64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
+    let mut v = Vec::new();
     for draw in 0..4 {
         let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
         let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-        let err = estimate_until(&reference, &scaled(&mass, &inertia), 100 + draw, 1.0);
-        eprintln!("per-link draw {draw}: largest relative error {err:.4}");
-        assert!(err <= 0.05, "draw {draw}: {err}");
+        v.push((
+            format!("per-link{draw}"),
+            scaled(&mass, &inertia),
+            100 + draw,
+        ));
     }
     for f in [0.85, 1.15] {
-        let err = estimate_until(&reference, &scaled(&[f; 4], &[f; 4]), 7, 1.0);
-        eprintln!("coherent {f}: largest relative error {err:.4}");
-        assert!(err <= 0.025, "coherent {f}: {err}");
+        v.push((format!("coherent{f}"), scaled(&[f; 4], &[f; 4]), 7));
+    }
+    v
+}
+
+/// Plants never used in tuning: six per-link draws (factor seed 31337, noise seeds 7000..7005), the
+/// coherent 0.85 and 1.15 plants with other noise (seeds 7100, 7101), and two coherent factors drawn
+/// from U(0.85, 1.15) (seeds 7102, 7103).
+fn held_out_plants() -> Vec<(String, Robot, u64)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(31337);
+    let mut v = Vec::new();
+    for draw in 0..6 {
+        let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
+        let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
+        v.push((
+            format!("per-link{draw}"),
+            scaled(&mass, &inertia),
+            7000 + draw,
+        ));
+    }
+    for (i, f) in [0.85, 1.15].into_iter().enumerate() {
+        v.push((
+            format!("coherent{f}"),
+            scaled(&[f; 4], &[f; 4]),
+            7100 + i as u64,
+        ));
+    }
+    for i in 0..2 {
+        let f: f64 = rng.gen_range(0.85..1.15);
+        v.push((
+            format!("coherent{f:.3}"),
+            scaled(&[f; 4], &[f; 4]),
+            7102 + i,
+        ));
+    }
+    v
+}
+
+/// With the default settings (the joint filter) the worst base parameter is within 5 % on the
+/// per-link draws and within 2 % on the coherent 0.85 and 1.15 plants before mid-swing, and stays
+/// within those by the end of the swing (docs/estimation.md has the measured table).
+#[test]
+fn the_estimator_recovers_a_mismatched_plant_before_mid_swing() {
+    let reference = swing();
+    for (name, plant, seed) in tuned_plants() {
+        let e = errors_at(
+            &reference,
+            &plant,
+            seed,
+            ParamEstimatorSettings::default(),
+            &[0.5, 1.0],
+        );
+        let bound = if name.starts_with("coherent") {
+            0.02
+        } else {
+            0.05
+        };
+        for (at, e) in [0.5, 1.0].iter().zip(&e) {
+            eprintln!("{name} at {at}:{}", worst("", e));
+            let w = e.iter().copied().fold(0.0, f64::max);
+            assert!(w <= bound, "{name} at {at} of the swing: {w}");
+        }
+    }
+}
+
+/// The windowed least squares (`method = "windows"`) recovers the plants over the whole swing:
+/// every base parameter within 5 % on the per-link draws and 2.5 % on the coherent plants.
+#[test]
+fn the_windowed_estimator_recovers_a_mismatched_plant_over_the_swing() {
+    let reference = swing();
+    let es = ParamEstimatorSettings {
+        method: EstimateMethod::Windows,
+        prior_rel_std: 1.0,
+        ..Default::default()
+    };
+    for (name, plant, seed) in tuned_plants() {
+        let e = &errors_at(&reference, &plant, seed, es, &[1.0])[0];
+        let w = e.iter().copied().fold(0.0, f64::max);
+        eprintln!("{name}:{}", worst("", e));
+        let bound = if name.starts_with("coherent") {
+            0.025
+        } else {
+            0.05
+        };
+        assert!(w <= bound, "{name}: {w}");
+    }
+}
+
+/// The table of docs/estimation.md: the worst base parameter at 25 %, 50 % and 100 % of the swing
+/// on the tuned plants and on the held-out ones, for each method (`BRACHIA_EST_NOISE` scales the
+/// sensor noise, `BRACHIA_EST_PRIOR` and `BRACHIA_EST_PQD` set `prior_rel_std` and `process_qd_std`,
+/// `BRACHIA_EST_EKF_ONLY` skips the windowed method). A scan, hence ignored:
+/// `cargo test --release -p brachia --test param_estimation -- --ignored --nocapture
+/// estimate_table`.
+#[test]
+#[ignore = "a table of measurements; see the doc comment for the command"]
+fn estimate_table() {
+    let reference = swing();
+    for method in [EstimateMethod::Ekf, EstimateMethod::Windows] {
+        // the windowed method with its better prior (docs/estimation.md)
+        let mut es = ParamEstimatorSettings {
+            method,
+            prior_rel_std: if method == EstimateMethod::Windows {
+                1.0
+            } else {
+                ParamEstimatorSettings::default().prior_rel_std
+            },
+            ..Default::default()
+        };
+        if let Some(v) = std::env::var("BRACHIA_EST_PRIOR")
+            .ok()
+            .and_then(|v| v.parse().ok())
+        {
+            es.prior_rel_std = v;
+        }
+        if let Some(v) = std::env::var("BRACHIA_EST_PQD")
+            .ok()
+            .and_then(|v| v.parse().ok())
+        {
+            es.process_qd_std = v;
+        }
+        if std::env::var("BRACHIA_EST_EKF_ONLY").is_ok() && method == EstimateMethod::Windows {
+            continue;
+        }
+        for (set, plants) in [("tuned", tuned_plants()), ("held-out", held_out_plants())] {
+            for (name, plant, seed) in plants {
+                let e = errors_at(&reference, &plant, seed, es, &[0.25, 0.5, 1.0]);
+                let cols: Vec<String> = e
+                    .iter()
+                    .map(|e| format!("{:.1}", 100.0 * e.iter().copied().fold(0.0, f64::max)))
+                    .collect();
+                eprintln!("| {method:?} | {set} | {name} | {} |", cols.join(" | "));
+            }
+        }
     }
 }
 
@@ -233,6 +463,7 @@ fn overlapping_windows_update_the_estimate_more_often() {
     let reference = swing();
     let closed = |k: usize| {
         let es = ParamEstimatorSettings {
+            method: EstimateMethod::Windows,
             windows_in_flight: k,
             ..Default::default()
         };
@@ -260,7 +491,7 @@ fn overlapping_windows_update_the_estimate_more_often() {
 
 /// The worst base parameter at mid-swing (or at the fraction of the swing in `BRACHIA_EST_AT`, with
 /// the sensor noise scaled by `BRACHIA_EST_NOISE`) over the four per-link draws and the two coherent plants
-/// of [`the_estimator_recovers_a_mismatched_plant_over_the_swing`] for estimator settings given in
+/// of [`tuned_plants`] with the windowed method for the settings given in
 /// `BRACHIA_EST` (`window_s,windows_in_flight,noise_nm_s` per setting, `;` between settings). A
 /// scan, hence ignored: `BRACHIA_EST="0.3,1,0.02;0.3,6,0.02" cargo test --release -p brachia --test
 /// param_estimation -- --ignored --nocapture mid_swing_scan`.
@@ -282,6 +513,8 @@ fn mid_swing_scan() {
             window_s: v[0],
             windows_in_flight: v[1] as usize,
             noise_nm_s: v[2],
+            method: EstimateMethod::Windows,
+            prior_rel_std: 1.0,
             ..Default::default()
         };
         let mut rng = ChaCha8Rng::seed_from_u64(2024);

@@ -16,28 +16,19 @@
 //! `cargo test --release -p brachia --test placement_heldout -- --ignored --nocapture`.
 //! Units: m, s.
 
-use brachia::model::{ik_from_seed, Circle, ClearanceFn};
-use brachia::planning::{
-    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask, Verdict,
-    CLEARANCE_TOLERANCE_M,
-};
+mod common;
+
+use brachia::model::{ik_from_seed, Circle};
+use brachia::planning::{GuessStrategy, Plan, PlannerSettings, SwingTask, Verdict};
 use brachia::Robot;
+use common::placement::{free_swing, keeps_margin, min_clearance, plan_placement, Placement};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::time::Instant;
 
 /// The wall-time limit of one placement's planning call, s.
 const TIME_LIMIT_S: f64 = 20.0;
 /// Seeds of the whole scan start here (apart from every other scan's seeds).
 const SEED_BASE: u64 = 31_000;
-
-fn nlp() -> NlpSettings {
-    NlpSettings {
-        backend: Backend::Ocp,
-        max_wall_time_s: Some(TIME_LIMIT_S),
-        ..Default::default()
-    }
-}
 
 fn params(file: &str) -> Robot {
     let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -100,14 +91,6 @@ fn robots() -> Vec<ScanRobot> {
             placements: 15,
         },
     ]
-}
-
-/// One placement: its obstacles and how they were drawn.
-#[derive(Debug, Clone)]
-struct Placement {
-    seed: u64,
-    what: String,
-    obstacles: Vec<Circle>,
 }
 
 /// The placement of `seed` on `free` (the unobstructed swing of `robot` for `task`): one obstacle
@@ -193,43 +176,29 @@ struct Outcome {
 }
 
 fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> Outcome {
-    let task = SwingTask {
-        obstacles: pl.obstacles.clone(),
-        ..task.clone()
-    };
-    let t0 = Instant::now();
-    let p = match plan(robot, &task, s, &nlp()) {
+    let m = plan_placement(robot, task, s, pl, TIME_LIMIT_S);
+    let p = match m.plan {
         Ok(p) => p,
         Err(e) => {
             return Outcome {
                 kind: Kind::Refused,
                 min_clearance_m: f64::NAN,
-                time_s: t0.elapsed().as_secs_f64(),
+                time_s: m.time_s,
                 strategy: None,
                 message: Some(e.to_string()),
                 diagnosis: None,
             }
         }
     };
-    let time_s = t0.elapsed().as_secs_f64();
-    let cf = ClearanceFn::new(robot.clone(), pl.obstacles.as_slice(), 0.0)
-        .unwrap()
-        .with_self_collision(false);
-    let min_clearance_m = (0..p.trajectory.len())
-        .map(|k| cf.min_clearance(p.trajectory.q(k)))
-        .fold(f64::INFINITY, f64::min);
-    let kind = match (
-        p.converged(),
-        min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M,
-    ) {
+    let kind = match (p.converged(), keeps_margin(s, m.min_clearance_m)) {
         (true, true) => Kind::Clear,
         (true, false) => Kind::FalseSuccess,
         (false, _) => Kind::Failed,
     };
     Outcome {
         kind,
-        min_clearance_m,
-        time_s,
+        min_clearance_m: m.min_clearance_m,
+        time_s: m.time_s,
         strategy: p.guess.as_ref().map(|g| g.strategy),
         message: p.failure_message(),
         diagnosis: p
@@ -240,10 +209,8 @@ fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> 
 }
 
 /// The unobstructed swing of `r`, which must plan.
-fn free_swing(r: &ScanRobot) -> Plan {
-    let p = plan(&r.robot, &r.task, &PlannerSettings::default(), &nlp()).unwrap();
-    assert!(p.converged(), "{}: {:?}", r.name, p.failure_message());
-    p
+fn free_plan(r: &ScanRobot) -> Plan {
+    free_swing(&r.robot, &r.task, r.name, TIME_LIMIT_S)
 }
 
 /// No false success; a placement that did not plan carries a diagnosis naming one of its obstacles
@@ -271,7 +238,7 @@ fn check(r: &ScanRobot, pl: &Placement, o: &Outcome) {
 fn placements_are_drawn_from_their_seeds_on_the_swing_and_near_the_bars() {
     let rs = robots();
     let r = &rs[0];
-    let free = free_swing(r);
+    let free = free_plan(r);
     let a = placement(&r.robot, &r.task, &free, SEED_BASE + 7);
     let b = placement(&r.robot, &r.task, &free, SEED_BASE + 7);
     assert_eq!(a.obstacles, b.obstacles);
@@ -297,12 +264,7 @@ fn placements_are_drawn_from_their_seeds_on_the_swing_and_near_the_bars() {
         .iter()
         .filter(|p| p.obstacles.len() == 1 && p.what.contains("on link"))
     {
-        let cf = ClearanceFn::new(r.robot.clone(), p.obstacles.as_slice(), 0.0)
-            .unwrap()
-            .with_self_collision(false);
-        let d = (0..free.trajectory.len())
-            .map(|k| cf.min_clearance(free.trajectory.q(k)))
-            .fold(f64::INFINITY, f64::min);
+        let d = min_clearance(&r.robot, &p.obstacles, &free.trajectory);
         assert!(d < -0.04, "{p:?}: {d}");
     }
 }
@@ -318,7 +280,7 @@ fn a_fast_subset_plans_clear_or_diagnoses() {
         (&rs[0], [SEED_BASE + 2, SEED_BASE + 3]),
         (&rs[1], [SEED_BASE + 3, SEED_BASE + 4]),
     ] {
-        let free = free_swing(r);
+        let free = free_plan(r);
         let s = PlannerSettings::default();
         for seed in seeds {
             let pl = placement(&r.robot, &r.task, &free, seed);
@@ -348,7 +310,7 @@ fn the_whole_heldout_placement_scan() {
     let mut summary = vec![];
     let mut false_successes = 0;
     for r in robots() {
-        let free = free_swing(&r);
+        let free = free_plan(&r);
         let mut rows: Vec<(Placement, Outcome)> = vec![];
         eprintln!(
             "| {} seed | placement | outcome | min clearance (m) | time (s) | strategy | diagnosis |",

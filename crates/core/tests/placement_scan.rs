@@ -10,33 +10,17 @@
 //! row per placement (with every solve: its role, status, iterations and time) and the totals;
 //! `BRACHIA_SCAN_SET=fixed` or `BRACHIA_SCAN_SET=held-out` runs one of the two sets. Units: m, s.
 
+mod common;
+
 use brachia::model::{Circle, ClearanceFn, Robot};
-use brachia::planning::{
-    plan, Backend, GuessStrategy, NlpSettings, Plan, PlannerSettings, SwingTask,
-    CLEARANCE_TOLERANCE_M,
-};
+use brachia::planning::{plan, GuessStrategy, Plan, PlannerSettings, SwingTask};
+use common::placement::{free_swing, keeps_margin, min_clearance, nlp, plan_placement, Placement};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
 /// The wall-time limit of one placement's planning call, s.
 const TIME_LIMIT_S: f64 = 30.0;
-
-fn nlp() -> NlpSettings {
-    NlpSettings {
-        backend: Backend::Ocp,
-        max_wall_time_s: Some(TIME_LIMIT_S),
-        ..Default::default()
-    }
-}
-
-/// One placement: the obstacles and how they were drawn.
-#[derive(Debug, Clone)]
-struct Placement {
-    seed: u64,
-    what: String,
-    obstacles: Vec<Circle>,
-}
 
 /// The placement of `seed`: two obstacles for every fifth seed, one for the others, each at
 /// the midpoint or the tip of a random link of `free` (the unobstructed swing's 1 ms trajectory) at
@@ -91,23 +75,12 @@ struct Outcome {
 }
 
 fn run(robot: &Robot, s: &PlannerSettings, pl: &Placement) -> Outcome {
-    let task = SwingTask {
-        obstacles: pl.obstacles.clone(),
-        ..SwingTask::paper()
-    };
-    let t0 = Instant::now();
-    let p = plan(robot, &task, s, &nlp()).unwrap();
-    let time_s = t0.elapsed().as_secs_f64();
-    let cf = ClearanceFn::new(robot.clone(), pl.obstacles.as_slice(), 0.0)
-        .unwrap()
-        .with_self_collision(false);
-    let min_clearance_m = (0..p.trajectory.len())
-        .map(|k| cf.min_clearance(p.trajectory.q(k)))
-        .fold(f64::INFINITY, f64::min);
+    let m = plan_placement(robot, &SwingTask::paper(), s, pl, TIME_LIMIT_S);
+    let p = m.plan.unwrap();
     Outcome {
         converged: p.converged(),
-        min_clearance_m,
-        time_s,
+        min_clearance_m: m.min_clearance_m,
+        time_s: m.time_s,
         strategy: p.guess.as_ref().map(|g| g.strategy),
         message: p.failure_message(),
         solves: p
@@ -126,17 +99,15 @@ fn run(robot: &Robot, s: &PlannerSettings, pl: &Placement) -> Outcome {
 
 fn setup() -> (Robot, PlannerSettings, Plan) {
     let robot = Robot::paper();
-    let s = PlannerSettings::default();
-    let free = plan(&robot, &SwingTask::paper(), &s, &nlp()).unwrap();
-    assert!(free.converged(), "{:?}", free.failure_message());
-    (robot, s, free)
+    let free = free_swing(&robot, &SwingTask::paper(), "paper", TIME_LIMIT_S);
+    (robot, PlannerSettings::default(), free)
 }
 
 /// A converged plan keeps the clearance on its 1 ms trajectory; a failed one says why.
 fn check(s: &PlannerSettings, pl: &Placement, o: &Outcome) {
     if o.converged {
         assert!(
-            o.min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M,
+            keeps_margin(s, o.min_clearance_m),
             "seed {} ({}): converged at clearance {:.4} m",
             pl.seed,
             pl.what,
@@ -165,13 +136,7 @@ fn placements_are_drawn_on_the_swing_from_their_seeds() {
         for o in &p.obstacles {
             assert!((0.05..0.15).contains(&o.radius), "{p:?}");
             // on the unobstructed swing: it passes through the obstacle's centre
-            let one = [*o];
-            let cf = ClearanceFn::new(robot.clone(), &one[..], 0.0)
-                .unwrap()
-                .with_self_collision(false);
-            let d = (0..free.trajectory.len())
-                .map(|k| cf.min_clearance(free.trajectory.q(k)))
-                .fold(f64::INFINITY, f64::min);
+            let d = min_clearance(&robot, &[*o], &free.trajectory);
             assert!(d < -0.04, "{p:?}: {d}");
         }
     }
@@ -186,6 +151,34 @@ fn a_fast_subset_of_the_scan_never_reports_a_plan_through_an_obstacle() {
         let o = run(&robot, &s, &pl);
         check(&s, &pl, &o);
     }
+}
+
+/// A placement no strategy plans within a short time limit (fixed seed 5: two obstacles that link 2
+/// and link 3 sweep) returns once the limit is spent, with the limit's status and a diagnosis: every
+/// stage (the searches, the solves, the diagnosis's probes) stops at it. The bound on the elapsed time
+/// is loose (a loaded machine); the old overruns were seconds past the limit.
+#[test]
+fn a_placement_returns_at_its_time_limit_with_a_diagnosis() {
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 5).expect("a placement");
+    let task = SwingTask {
+        obstacles: pl.obstacles.clone(),
+        ..SwingTask::paper()
+    };
+    let limit = 1.0;
+    let nlp = nlp(limit);
+    let t0 = Instant::now();
+    let p = plan(&robot, &task, &s, &nlp).unwrap();
+    let elapsed = t0.elapsed().as_secs_f64();
+    assert!(!p.converged(), "{:?}", p.failure_message());
+    let g = p.guess.as_ref().expect("a guess report");
+    let d = p.diagnosis.as_ref().expect("a diagnosis");
+    assert!(g.out_of_time || d.out_of_time, "{g:?} {d:?}");
+    assert!(p.failure_message().is_some());
+    assert!(
+        elapsed < limit + 5.0,
+        "{elapsed} s against a {limit} s limit"
+    );
 }
 
 /// The whole scan; prints the table of docs/planner.md ("Obstacles anywhere on the path").
@@ -210,7 +203,7 @@ fn the_whole_placement_scan() {
                 continue;
             };
             let o = run(&robot, &s, &pl);
-            let ok_clear = o.min_clearance_m >= s.obstacle_margin - CLEARANCE_TOLERANCE_M;
+            let ok_clear = keeps_margin(&s, o.min_clearance_m);
             match (o.converged, ok_clear) {
                 (true, true) => clear += 1,
                 (true, false) => false_success += 1,

@@ -149,6 +149,19 @@ fn a_swing_time_that_does_not_plan_names_the_nearest_that_do() {
     );
     // the swing time named above does plan, cold or warm: it was a converged plan of the search
     assert!(s.tried.iter().any(|x| x.converged && x.swing_time_s == hi));
+    // the continuation from above stops there, its swing pressing against the elbow's bound and
+    // the rate bound as well as the torque limit
+    let stop = s.stops.iter().find(|x| x.swing_time_s == hi).expect("{s}");
+    assert!(
+        stop.torque_use > 0.99 && stop.joints_at_bound == [2],
+        "{stop:?}"
+    );
+    assert!(stop.at_joint_or_rate_bound(), "{stop:?}");
+    assert!(
+        msg.contains("the continuations in T stop at")
+            && msg.contains("joint 2 at its 2.9 rad bound"),
+        "{msg}"
+    );
 }
 
 /// The whole scan: every robot, start pose and bar spacing, `"auto"` and the swing-time grid (the
@@ -157,8 +170,10 @@ fn a_swing_time_that_does_not_plan_names_the_nearest_that_do() {
 #[test]
 #[ignore = "the whole swing-time scan, several minutes; see the module docs"]
 fn swing_time_scan_table() {
-    println!("| robot | start | bars m | T s | outcome | planned T s | time s |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| robot | start | bars m | T s | outcome | planned T s | objective | peak abs(tau) N m | time s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     let (mut auto_ok, mut auto_all, mut grid_ok, mut grid_all) = (0, 0, 0, 0);
     for r in robots() {
         for (si, &d) in r.spacings.iter().enumerate() {
@@ -210,8 +225,15 @@ fn swing_time_scan_table() {
                         grid_all += 1;
                         grid_ok += usize::from(p.converged());
                     }
+                    // objective and peak torque of a converged plan only
+                    let (obj, peak) = if p.converged() {
+                        let peak = p.points.tau.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                        (format!("{:.4}", p.objective), format!("{peak:.3}"))
+                    } else {
+                        ("-".to_string(), "-".to_string())
+                    };
                     println!(
-                        "| {} | {pose} | {d}{} | {label}{} | {outcome} | {} | {secs:.2} |",
+                        "| {} | {pose} | {d}{} | {label}{} | {outcome} | {} | {obj} | {peak} | {secs:.2} |",
                         r.name,
                         if si == 1 { " (held out)" } else { "" },
                         if held_out && si == 0 {

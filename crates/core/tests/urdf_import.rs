@@ -161,43 +161,6 @@ fn the_three_link_robot_has_a_zero_length_link() {
 
 #[test]
 fn export_then_import_gives_the_same_robot() {
-    let general = RobotParams::from_toml_str(
-        r#"
-        name = "general"
-        gravity = 9.81
-        end_effector = [0.21, -0.04]
-        [[links]]
-        length = 0.3
-        mass = 0.8
-        com = 0.12
-        com_across = 0.015
-        inertia = 0.02
-        joint_offset = 0.3
-        q_min = -3.0
-        q_max = 1.0
-        [[links]]
-        length = 0.0
-        mass = 0.4
-        com = 0.02
-        com_across = -0.03
-        inertia = 0.004
-        joint_reversed = true
-        q_min = -2.0
-        q_max = 2.5
-        qd_max = 8.0
-        [[links]]
-        length = 0.25
-        mass = 0.6
-        com = 0.1
-        inertia = 0.01
-        joint_offset = -1.2
-        [actuators]
-        tau_min = [-4.0, -3.0]
-        tau_max = [4.0, 3.0]
-        "#,
-        "general.toml",
-    )
-    .unwrap();
     // every robot the project ships, and one with every general field
     let params = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../params");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&params)
@@ -211,7 +174,12 @@ fn export_then_import_gives_the_same_robot() {
         .iter()
         .map(|f| Robot::from_toml_file(f).unwrap())
         .collect();
-    robots.push(Robot::from_params(general, "general.toml").unwrap());
+    robots.push(
+        Robot::from_toml_file(
+            &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/general.toml"),
+        )
+        .unwrap(),
+    );
     for r in robots {
         let text = to_urdf(&r).unwrap();
         let imp = import_urdf_str(&text, "exported.urdf", &opts("grip", "tip")).unwrap();

@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 const TEMPLATE: &str = include_str!("../assets/view/study.html");
-const STYLE: &str = brachia_run::view::VIEW_STYLE;
+const STYLE: &str = include_str!("../assets/view/study.css");
 
 /// The page of the parameter-study folder `dir`; every file is checked as `brachia report` checks it.
 pub fn study_folder_html(dir: &Path) -> Result<String, Error> {
@@ -329,14 +329,14 @@ pub fn study_html(st: &ParameterStudy) -> String {
             r.r2
         );
     }
-    TEMPLATE
-        .replace("/*{{STYLE}}*/", STYLE)
+    let body = TEMPLATE
         .replace("{{TITLE}}", &html_escape(&title))
         .replace("{{SUBTITLE}}", &html_escape(&subtitle))
         .replace("{{MAPS}}", &maps)
         .replace("{{LEGEND}}", &legend)
         .replace("{{CURVES}}", &energy_curves(st))
-        .replace("{{ROWS}}", &rows_table(st))
+        .replace("{{ROWS}}", &rows_table(st));
+    brachia_run::view::page(&title, STYLE, &body)
 }
 
 #[cfg(test)]

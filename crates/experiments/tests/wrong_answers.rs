@@ -8,7 +8,9 @@
 use brachia::sim::{ClosedLoopLog, Disturbances, Push};
 use brachia::Robot;
 use brachia_experiments::benchmark::{sweeps, with_scenario, SweepContext};
-use brachia_experiments::{capture, LadderScenario, SUCCESS_RADIUS_M};
+use brachia_experiments::{
+    capture, hand_at_bar, judged_log, LadderScenario, CAPTURE_SPEED_M_S, SUCCESS_RADIUS_M,
+};
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
@@ -206,36 +208,53 @@ fn a_ladder_returning_to_an_earlier_bar_is_refused() {
     }
 }
 
-/// The one success rule: the plant's hand within [`SUCCESS_RADIUS_M`] of the bar at the end of the
-/// swing (a hold after it does not count), measured to the bar, never to the reference's end.
+/// The one success rule: the plant's hand within [`SUCCESS_RADIUS_M`] of the bar and no faster than
+/// [`CAPTURE_SPEED_M_S`], at any row of the run (the first such row is the capture, and the run is
+/// judged there), measured to the bar, never to the reference's end.
 #[test]
-fn success_is_the_hand_at_the_bar_at_the_end_of_the_swing() {
+fn success_is_the_first_slow_capture_at_the_bar_at_any_time() {
     let robot = paper();
     let q_end = [-0.3, 0.6, 0.0, 0.0];
     let ee = robot.ee_position(&q_end);
     let far = [-2.35, 0.0, -1.55, 0.0];
-    let x: Vec<f64> = [&far[..], &q_end[..], &far[..]]
-        .iter()
-        .flat_map(|q| [*q, &[0.0; 4][..]].concat())
-        .collect();
+    let other = [-1.0, 0.3, 0.2, 0.1];
+    let ee_other = robot.ee_position(&other);
+    let rows = |qs: &[[f64; 4]], qd: [f64; 4]| -> Vec<f64> {
+        qs.iter().flat_map(|q| [*q, qd].concat()).collect()
+    };
     let mut log = ClosedLoopLog {
         n: 4,
         t: vec![0.0, 1.0, 2.0],
-        x,
+        x: rows(&[far, q_end, other], [0.0; 4]),
+        tau: vec![0.5; 9],
         ..ClosedLoopLog::default()
     };
-    // at the end of a 1 s swing the hand is on a bar at ee; the hold moves it away, which does not count
+    // the hand rests on the bar at 1 s: captured there, whatever comes after
     let c = capture(&robot, &log, 1.0, ee);
     assert!(c.reaches_bar && c.bar_error_m < 1e-12, "{c:?}");
-    assert_eq!(c.t_s, 1.0);
-    // 3 cm from the bar: a miss, whatever the reference says
+    assert_eq!((c.t_s, c.row, c.capture_t_s), (1.0, 1, Some(1.0)));
+    // the run is judged up to the capture: two rows of the three
+    let judged = judged_log(&log, &c);
+    assert_eq!((judged.len(), judged.tau.len()), (2, 6));
+    // a capture after the swing's end counts too (any time of the run)
+    let c = capture(&robot, &log, 1.0, ee_other);
+    assert_eq!((c.reaches_bar, c.capture_t_s), (true, Some(2.0)), "{c:?}");
+    // 3 cm from the bar: a miss, measured at the end of the swing, whatever the reference says
     let c = capture(&robot, &log, 1.0, [ee[0] + 0.03, ee[1]]);
     assert!(
-        !c.reaches_bar && (c.bar_error_m - 0.03).abs() < 1e-12,
+        !c.reaches_bar && (c.bar_error_m - 0.03).abs() < 1e-12 && c.capture_t_s.is_none(),
         "{c:?}"
     );
     assert!(c.bar_error_m > SUCCESS_RADIUS_M);
-    // a diverged loop never reaches the bar
-    log.diverged_at_s = Some(2.0);
+    assert_eq!(judged_log(&log, &c).len(), 3);
+    // on the bar but fast: no capture
+    log.x = rows(&[far, q_end, far], [0.0, 0.0, 0.0, 3.0]);
+    let fast = hand_at_bar(&robot, log.x(1), ee);
+    assert!(fast.distance_m < 1e-12 && fast.speed_m_s > CAPTURE_SPEED_M_S && !fast.captures);
     assert!(!capture(&robot, &log, 1.0, ee).reaches_bar);
+    // a loop that diverged after its capture was caught before; one that never captured misses
+    log.x = rows(&[far, q_end, far], [0.0; 4]);
+    log.diverged_at_s = Some(2.5);
+    assert!(capture(&robot, &log, 1.0, ee).reaches_bar);
+    assert!(!capture(&robot, &log, 1.0, [ee[0] + 0.03, ee[1]]).reaches_bar);
 }

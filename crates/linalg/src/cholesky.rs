@@ -23,8 +23,13 @@ pub struct NotPositiveDefinite {
 /// How [`cholesky`] and [`cholesky_solve`] scale by a pivot `p`: `v / p` for every entry, or
 /// `v * (1 / p)` with one division per pivot. The two round differently in the last bit, and a
 /// plan's iterates depend on such bits: the OCP solver's Riccati factors divide and its solves
-/// multiply by the reciprocal; the robot model's mass-matrix factor multiplies and its solves
-/// divide; the detour seeds divide in both.
+/// multiply by the reciprocal; the robot model's mass-matrix factor (forward dynamics, the model
+/// plant, the re-rooting) and the Kalman filter's factor multiply and their solves divide; the
+/// detour seeds divide in both.
+///
+/// It is an option rather than one rounding for all: one rule for every caller would change the
+/// last bits of either the Riccati solves or the model's forward dynamics, and with them the
+/// iterations and optima of every plan (which the solver and planner tests compare).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scaling {
     /// `v / p`.

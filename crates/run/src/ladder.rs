@@ -30,8 +30,8 @@
 //! ([`brachia::ladder::check_bars`]).
 
 use crate::scenario::{
-    in_section, parse_toml, read_text, LoadedScenario, PlantKind, PlantSettings, Scenario,
-    TrackingSettings,
+    check_solve_sections, in_section, parse_toml, read_text, resolve_name_and_params,
+    LoadedScenario, PlantKind, PlantSettings, Scenario, TrackingSettings,
 };
 pub use brachia::ladder::{
     check_bars, default_hang, joint_swings_json, swing_time, Bar, MAX_BARS, MAX_SPACING_OF_SPAN,
@@ -312,21 +312,11 @@ impl LadderScenario {
         let path = source;
         let src = path.display().to_string();
         let mut sc: LadderScenario = parse_toml(text, &src)?;
-        if sc.name.is_empty() {
-            sc.name = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().to_string())
-                .unwrap_or_default();
-        }
-        sc.params = base_dir.join(&sc.params);
+        resolve_name_and_params(&mut sc.name, &mut sc.params, path, base_dir);
         let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
+        check_solve_sections(&sc.planner, &sc.solver, robot.n(), &src)?;
         let n = robot.n();
         let rename = |e: Error, section: &str| in_section(e, &src, section);
-        sc.planner
-            .validate(n, &src)
-            .map_err(|e| rename(e, "planner"))?;
-        sc.solver.validate().map_err(|e| rename(e, "solver"))?;
-        sc.planner.check_backend(&sc.solver, &src)?;
         let l = &sc.ladder;
         check_bars(&robot, &l.bars, &src)?;
         for (field, v, max) in [

@@ -6,8 +6,9 @@
 //! [`Error::InvalidValue`] naming the file, the field (line and column), the value and the rule. Nothing
 //! here plans or simulates.
 //!
-//! Every JSON file must carry `schema_version` 1 and every CSV file its schema line
-//! (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must lie inside it ([`inside`]).
+//! Every JSON file must carry `schema_version` 1 (a track report or a scorecard: 1 or 2) and every CSV
+//! file its schema line (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must
+//! lie inside it ([`inside`]).
 //!
 //! Units and CSV layouts as written (SI: s, m, rad, rad/s, N m, N s, J): `trajectory.csv`
 //! `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y`; `closed_loop.csv` as [`brachia::sim::ClosedLoopLog::to_csv`];

@@ -266,6 +266,41 @@ pub fn read_text(path: &Path) -> Result<String, Error> {
     brachia::limits::read_text_capped(path, brachia::limits::MAX_TOML_BYTES, "TOML file")
 }
 
+/// The first step of loading a scenario file `source` (swing or traverse): an empty `name` becomes
+/// the file's stem, and `params` is resolved against `base_dir`.
+pub(crate) fn resolve_name_and_params(
+    name: &mut String,
+    params: &mut PathBuf,
+    source: &Path,
+    base_dir: &Path,
+) {
+    if name.is_empty() {
+        *name = source
+            .file_stem()
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or_default();
+    }
+    *params = base_dir.join(&*params);
+}
+
+/// The `[planner]` and `[solver]` sections of the scenario file `src` checked for a robot of `n`
+/// links and against each other (the backend); errors name the field as written
+/// (`planner.knot_dt`, `solver.max_iter`).
+pub(crate) fn check_solve_sections(
+    planner: &PlannerSettings,
+    solver: &NlpSettings,
+    n: usize,
+    src: &str,
+) -> Result<(), Error> {
+    planner
+        .validate(n, src)
+        .map_err(|e| in_section(e, src, "planner"))?;
+    solver
+        .validate()
+        .map_err(|e| in_section(e, src, "solver"))?;
+    planner.check_backend(solver, src)
+}
+
 /// Which sections of a scenario a command uses (and so validates).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Uses {
@@ -308,20 +343,10 @@ impl Scenario {
         let path = source;
         let src = path.display().to_string();
         let mut sc = Self::from_toml_str(text, &src)?;
-        if sc.name.is_empty() {
-            sc.name = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().to_string())
-                .unwrap_or_default();
-        }
-        sc.params = base_dir.join(&sc.params);
+        resolve_name_and_params(&mut sc.name, &mut sc.params, path, base_dir);
         let robot = brachia::urdf::load_robot(&sc.params, sc.urdf.as_ref(), &src)?;
+        check_solve_sections(&sc.planner, &sc.solver, robot.n(), &src)?;
         let rename = |e: Error, section: &str| in_section(e, &src, section);
-        sc.planner
-            .validate(robot.n(), &src)
-            .map_err(|e| rename(e, "planner"))?;
-        sc.solver.validate().map_err(|e| rename(e, "solver"))?;
-        sc.planner.check_backend(&sc.solver, &src)?;
         brachia::planning::validate_task(&robot, &sc.task, &sc.planner, &src, "task.")?;
         let swing_time = match sc.planner.swing_time {
             SwingTime::Seconds(t) => t,

@@ -12,10 +12,30 @@ use brachia::Error;
 /// The schema version of every JSON and CSV format this brachia writes and reads.
 pub const SCHEMA_VERSION: u32 = 1;
 
+/// The schema version of a track run's `report.json` and a benchmark's `scorecard.json`: 2, since
+/// `reaches_bar` and `success` mean the capture rule at any time of the run ([`crate::success`]);
+/// every other JSON file is at [`SCHEMA_VERSION`]. Readers take 1 to this.
+pub const CAPTURE_SCHEMA_VERSION: u32 = 2;
+
 /// The JSON field holding the schema version.
 pub const SCHEMA_FIELD: &str = "schema_version";
 
 const CSV_PREFIX: &str = "# brachia ";
+
+/// The columns a CSV file of the states of an `n`-link chain starts with:
+/// `t,q1..qn,qd1..qdn,tau2..taun,ee_x,ee_y` (a simulation's `trajectory.csv`, `traverse.csv`).
+pub fn state_columns(n: usize) -> String {
+    let mut s = String::from("t");
+    for name in ["q", "qd"] {
+        for i in 1..=n {
+            s.push_str(&format!(",{name}{i}"));
+        }
+    }
+    for i in 2..=n {
+        s.push_str(&format!(",tau{i}"));
+    }
+    s + ",ee_x,ee_y"
+}
 
 /// The kind of a CSV file named `name` (its last path part): the name without `.csv`, `stick` for the
 /// parameter study's `stick_r2_*.csv`.
@@ -31,12 +51,12 @@ pub fn csv_kind(name: &str) -> Option<&str> {
 
 /// The schema version this brachia writes for CSV files of kind `kind`: [`SCHEMA_VERSION`], except
 /// `closed_loop` at 2 (its last column `control_us`, the controller's step time; a schema 1 file,
-/// without it, still reads).
+/// without it, still reads) and the benchmark's `runs` at 2 (`success` is the capture rule at any
+/// time of the run, scores up to the capture, and a last column `capture_t_s`).
 pub fn csv_version(kind: &str) -> u32 {
-    if kind == "closed_loop" {
-        2
-    } else {
-        SCHEMA_VERSION
+    match kind {
+        "closed_loop" | "runs" => 2,
+        _ => SCHEMA_VERSION,
     }
 }
 
@@ -112,8 +132,13 @@ pub fn json_version(value: &serde_json::Value, file: &str) -> Result<(), Error> 
     };
     match m.get(SCHEMA_FIELD) {
         None => Err(older(file, SCHEMA_FIELD)),
-        Some(v) if v.as_u64() == Some(u64::from(SCHEMA_VERSION)) => Ok(()),
-        Some(v) => Err(unknown(file, SCHEMA_FIELD, v, SCHEMA_VERSION)),
+        Some(v)
+            if v.as_u64()
+                .is_some_and(|k| (1..=u64::from(CAPTURE_SCHEMA_VERSION)).contains(&k)) =>
+        {
+            Ok(())
+        }
+        Some(v) => Err(unknown(file, SCHEMA_FIELD, v, CAPTURE_SCHEMA_VERSION)),
     }
 }
 
@@ -188,10 +213,20 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("older brachia") && e.contains("r.json"), "{e}");
-        let e = json_version(&serde_json::json!({"schema_version": 2}), "r.json")
+        // a track report or a scorecard at schema 2 reads; 3 does not
+        assert!(json_version(&serde_json::json!({"schema_version": 2}), "r.json").is_ok());
+        let e = json_version(&serde_json::json!({"schema_version": 3}), "r.json")
             .unwrap_err()
             .to_string();
-        assert!(e.contains('2') && e.contains("schema 1"), "{e}");
+        assert!(e.contains('3') && e.contains("schema 1 to 2"), "{e}");
+        // the benchmark's runs.csv is written at schema 2
+        let runs = stamp(
+            "bench/runs.csv",
+            b"controller
+"
+            .to_vec(),
+        );
+        assert!(runs.starts_with(b"# brachia runs schema 2\n"));
         assert!(json_version(&serde_json::json!([1]), "r.json").is_err());
         // other files pass unchanged
         assert_eq!(stamp("params.toml", b"x = 1\n".to_vec()), b"x = 1\n");

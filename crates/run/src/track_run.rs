@@ -68,13 +68,17 @@ pub struct TrackReport {
     /// The re-plans, in time order.
     #[serde(default)]
     pub replans: Vec<ReplanEvent>,
-    /// Whether the swing catches the bar ([`crate::success::capture`]): the plant's hand within
-    /// [`crate::success::SUCCESS_RADIUS_M`] (2 cm) of the target bar at the end of the swing and the
-    /// closed loop not diverged. `brachia track` exits 1 when it is false.
+    /// Whether the swing catches the bar ([`crate::success::capture`]): at some row of the run
+    /// (before any divergence) the plant's hand is within [`crate::success::SUCCESS_RADIUS_M`]
+    /// (2 cm) of the target bar and no faster than [`crate::success::CAPTURE_SPEED_M_S`]
+    /// (0.5 m/s). `brachia track` exits 1 when it is false.
     #[serde(default)]
     pub reaches_bar: Option<bool>,
-    /// The plant's hand's distance to the target bar at the end of the swing, m (the measure behind
-    /// `reaches_bar`; `ee_final_error_m` is the distance to the reference at the last row).
+    /// Time of the first capture, s from the run's start (`None`: a miss).
+    #[serde(default)]
+    pub capture_t_s: Option<f64>,
+    /// The plant's hand's distance to the target bar at the capture, or (a miss) at the end of the
+    /// swing, m (`ee_final_error_m` is the distance to the reference at the last row).
     #[serde(default)]
     pub bar_error_m: Option<f64>,
     /// The online estimate of the base inertial parameters (`[tracking] estimate_params`,
@@ -372,11 +376,20 @@ pub fn track_plan(
         replan_count: replans.len(),
         replans,
         reaches_bar: Some(caught.reaches_bar),
+        capture_t_s: caught.capture_t_s,
         bar_error_m: Some(caught.bar_error_m),
         estimate,
         summary,
     };
-    folder.add_json("report.json", &report.to_json());
+    // schema 2: `reaches_bar` is the capture rule at any time of the run, with `capture_t_s`
+    let mut json = report.to_json();
+    if let serde_json::Value::Object(m) = &mut json {
+        m.insert(
+            crate::schema::SCHEMA_FIELD.into(),
+            crate::schema::CAPTURE_SCHEMA_VERSION.into(),
+        );
+    }
+    folder.add_json("report.json", &json);
     if let Some(p) = &plan {
         for name in p.folder.names() {
             if let Some(data) = p.folder.get(name) {

@@ -7,7 +7,7 @@ use brachia_run::gym::{
     Autoreset, Randomization, SwingBatch, SwingEnv, SwingEnvSettings, SwingEnvSpec,
 };
 use brachia_run::scenario::PlantSettings;
-use brachia_run::PlantKind;
+use brachia_run::{hand_at_bar, PlantKind, CAPTURE_SPEED_M_S, SUCCESS_RADIUS_M};
 use std::sync::Arc;
 
 fn spec(
@@ -225,4 +225,45 @@ fn capture_at_the_bar_and_truncation_at_the_time_limit() {
         })
         .collect();
     assert_eq!(flags, [(false, false), (false, false), (false, true)]);
+}
+
+/// The environment ends an episode by the capture rule of every run (`brachia_run::success`): a hand
+/// at the bar but faster than `CAPTURE_SPEED_M_S` is no capture, and every step's `captured` is the
+/// rule applied to the plant's true state.
+#[test]
+fn capture_is_the_rule_of_every_run() {
+    let q0 = vec![-2.35, 0.0, -1.55, 0.0];
+    let hand = Robot::paper().ee_position(&q0);
+    let target = [hand[0] + 0.01, hand[1]];
+    // the last joint spins at 3 rad/s: the hand passes the bar at about 1 m/s
+    let task = SwingTask {
+        q0,
+        qd0: vec![0.0, 0.0, 0.0, 3.0],
+        target,
+        obstacles: vec![],
+    };
+    let s = spec(PlantKind::Model, task, SwingEnvSettings::default(), None);
+    let mut env = SwingEnv::new(s, 0).expect("env");
+    let mut near_but_fast = 0;
+    for k in 0..300 {
+        let a = [(k as f64 * 0.37).sin(), (k as f64 * 0.11).cos(), -0.5];
+        let o = env.step(&a).expect("step");
+        let h = hand_at_bar(env.plant_robot(), env.true_state(), target);
+        assert_eq!(o.captured, h.captures && !o.out_of_limits, "step {k}");
+        assert!((o.distance_m - h.distance_m).abs() < 1e-12, "step {k}");
+        if h.distance_m <= SUCCESS_RADIUS_M && h.speed_m_s > CAPTURE_SPEED_M_S {
+            near_but_fast += 1;
+            assert!(
+                !o.terminated,
+                "step {k}: a fast hand at the bar ends nothing"
+            );
+        }
+        if o.terminated || o.truncated {
+            break;
+        }
+    }
+    assert!(
+        near_but_fast >= 1,
+        "the hand passed the bar fast at least once"
+    );
 }

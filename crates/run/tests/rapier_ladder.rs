@@ -6,7 +6,8 @@
 //! Conventions: world frame x right, y up, m; rad; SI units. The 3-bar cuts keep the scenario's
 //! planner, solver and rest condition; each runs in seconds in release.
 
-use brachia_run::{run_traverse, LadderScenario, TraverseStatus};
+use brachia_run::{run_traverse, LadderScenario, LoadedLadder, TraverseStatus};
+use std::cell::Cell;
 use std::path::{Path, PathBuf};
 
 fn root() -> PathBuf {
@@ -28,11 +29,53 @@ fn cut(dir: &Path, name: &str, bars: usize, edit: impl FnOnce(&mut toml::Table))
     p
 }
 
+/// Cuts of the scenarios ([`cut`]) loaded as traverses, each written into a folder of its own under
+/// one temporary folder (kept while the runs need it).
+struct Cuts {
+    dir: tempfile::TempDir,
+    made: Cell<usize>,
+}
+
+impl Cuts {
+    fn new() -> Self {
+        Cuts {
+            dir: tempfile::tempdir().unwrap(),
+            made: Cell::new(0),
+        }
+    }
+
+    /// The cut, written and loaded as [`LadderScenario::load`] gives it.
+    fn try_load(
+        &self,
+        name: &str,
+        bars: usize,
+        edit: impl FnOnce(&mut toml::Table),
+    ) -> Result<LoadedLadder, brachia::Error> {
+        let sub = self.dir.path().join(self.made.get().to_string());
+        self.made.set(self.made.get() + 1);
+        std::fs::create_dir_all(&sub).unwrap();
+        LadderScenario::load(&cut(&sub, name, bars, edit))
+    }
+
+    /// The cut, loaded (a refusal fails the test, naming it).
+    fn load(&self, name: &str, bars: usize, edit: impl FnOnce(&mut toml::Table)) -> LoadedLadder {
+        self.try_load(name, bars, edit)
+            .unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The message of the cut's refusal (a cut that loads fails the test).
+    fn refusal(&self, name: &str, bars: usize, edit: impl FnOnce(&mut toml::Table)) -> String {
+        match self.try_load(name, bars, edit) {
+            Ok(_) => panic!("{name}: the edited cut loads"),
+            Err(e) => e.to_string(),
+        }
+    }
+}
+
 #[test]
 fn a_three_bar_cut_of_the_even_ladder_completes_on_rapier_with_captures_within_2_cm() {
-    let dir = tempfile::tempdir().unwrap();
-    let ll = LadderScenario::load(&cut(dir.path(), "ladder-even-rapier.toml", 3, |_| {}))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let cuts = Cuts::new();
+    let ll = cuts.load("ladder-even-rapier.toml", 3, |_| {});
     let tr = run_traverse(&ll).unwrap();
     assert!(tr.status.completed(), "{} ({:?})", tr.status, tr.swings);
     assert_eq!(tr.plant, "rapier");
@@ -79,13 +122,12 @@ fn a_three_bar_cut_of_the_even_ladder_completes_on_rapier_with_captures_within_2
 
 #[test]
 fn a_miss_on_rapier_ends_the_run_with_a_status_naming_the_swing_and_the_miss() {
-    let dir = tempfile::tempdir().unwrap();
+    let cuts = Cuts::new();
     // a capture radius of 1 micrometre: no tracked hand gets that close
-    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+    let ll = cuts.load("ladder-even-rapier.toml", 3, |v| {
         let l = v["ladder"].as_table_mut().unwrap();
         l.insert("capture_radius".into(), toml::Value::Float(1e-6));
     });
-    let ll = LadderScenario::load(&path).unwrap();
     let tr = run_traverse(&ll).unwrap();
     match &tr.status {
         TraverseStatus::CaptureMissed {
@@ -109,18 +151,17 @@ fn a_miss_on_rapier_ends_the_run_with_a_status_naming_the_swing_and_the_miss() {
 
 #[test]
 fn traverse_disturbances_take_only_the_per_link_factors() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+    let cuts = Cuts::new();
+    let e = cuts.refusal("ladder-even-rapier.toml", 3, |v| {
         let mut d = toml::Table::new();
         d.insert("viscous_nm_s".into(), toml::Value::Float(0.1));
         v.insert("disturbances".into(), toml::Value::Table(d));
     });
-    let e = LadderScenario::load(&path).unwrap_err().to_string();
     assert!(
         e.contains("disturbances.viscous_nm_s") && e.contains("mass_scale"),
         "{e}"
     );
-    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+    let e = cuts.refusal("ladder-even-rapier.toml", 3, |v| {
         let mut d = toml::Table::new();
         d.insert(
             "mass_scale".into(),
@@ -128,7 +169,6 @@ fn traverse_disturbances_take_only_the_per_link_factors() {
         );
         v.insert("disturbances".into(), toml::Value::Table(d));
     });
-    let e = LadderScenario::load(&path).unwrap_err().to_string();
     assert!(e.contains("mass_scale"), "{e}");
 }
 
@@ -136,9 +176,8 @@ fn traverse_disturbances_take_only_the_per_link_factors() {
 fn the_irregular_ladder_completes_on_rapier_with_every_capture_within_2_cm() {
     // all six bars: swing 2 starts with a relative joint past planner.bounds.q_rel_max (the tracked
     // chain ends a little past the plan's bound), which the traverse widens for that swing
-    let dir = tempfile::tempdir().unwrap();
-    let ll = LadderScenario::load(&cut(dir.path(), "ladder-irregular-rapier.toml", 6, |_| {}))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let cuts = Cuts::new();
+    let ll = cuts.load("ladder-irregular-rapier.toml", 6, |_| {});
     let tr = run_traverse(&ll).unwrap();
     assert!(tr.status.completed(), "{} ({:?})", tr.status, tr.swings);
     assert_eq!(tr.swings.len(), 5);
@@ -171,34 +210,31 @@ fn ball_table(swing: i64, at_s: f64, mass: f64) -> toml::Value {
 
 #[test]
 fn a_ball_on_a_swing_is_validated_naming_the_field() {
-    let dir = tempfile::tempdir().unwrap();
+    let cuts = Cuts::new();
     for (swing, at_s, mass, field) in [
         (2, 0.9, 0.2, "disturbances.ball.swing"),
         (0, -0.1, 0.2, "disturbances.ball.at_s"),
         (0, 0.9, 0.0, "disturbances.ball.mass"),
     ] {
-        let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+        let e = cuts.refusal("ladder-even-rapier.toml", 3, |v| {
             v.insert("disturbances".into(), ball_table(swing, at_s, mass));
         });
-        let e = LadderScenario::load(&path).unwrap_err().to_string();
         assert!(e.contains(field), "{field}: {e}");
     }
     // a time past the swing's planned time is found when the swing is planned
-    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+    let ll = cuts.load("ladder-even-rapier.toml", 3, |v| {
         v.insert("disturbances".into(), ball_table(0, 50.0, 0.2));
     });
-    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
     let e = run_traverse(&ll).unwrap_err().to_string();
     assert!(e.contains("disturbances.ball.at_s"), "{e}");
 }
 
 #[test]
 fn the_model_plant_ignores_the_ball_and_completes() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = cut(dir.path(), "ladder-even.toml", 3, |v| {
+    let cuts = Cuts::new();
+    let ll = cuts.load("ladder-even.toml", 3, |v| {
         v.insert("disturbances".into(), ball_table(1, 0.9, 0.2));
     });
-    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
     let tr = run_traverse(&ll).unwrap();
     assert!(tr.status.completed(), "{}", tr.status);
     let b = tr.ball.as_ref().expect("the ball of swing 1 is recorded");
@@ -212,11 +248,10 @@ fn the_model_plant_ignores_the_ball_and_completes() {
 fn a_ball_on_swing_1_is_hit_by_the_swinging_hand_on_rapier() {
     // the ball is put into the world when swing 1 starts, on its planned hand path 0.9 s in:
     // the contact log shows the hit within swing 1, after the ball appeared
-    let dir = tempfile::tempdir().unwrap();
-    let path = cut(dir.path(), "ladder-even-rapier.toml", 3, |v| {
+    let cuts = Cuts::new();
+    let ll = cuts.load("ladder-even-rapier.toml", 3, |v| {
         v.insert("disturbances".into(), ball_table(1, 0.9, 0.2));
     });
-    let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
     let tr = run_traverse(&ll).unwrap();
     assert!(tr.swings.len() == 2, "{} ({:?})", tr.status, tr.swings);
     let b = tr.ball.as_ref().expect("the ball of swing 1");
@@ -250,9 +285,8 @@ fn a_ball_on_swing_1_is_hit_by_the_swinging_hand_on_rapier() {
 /// every capture within 2 cm, the ball is hit by the chain during swing 1 and re-planned after; the
 /// same cut without re-planning misses swing 0 (the mass mismatch alone).
 fn disturbed_cut(name: &str, bars: usize) {
-    let dir = tempfile::tempdir().unwrap();
-    let ll = LadderScenario::load(&cut(dir.path(), name, bars, |_| {}))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let cuts = Cuts::new();
+    let ll = cuts.load(name, bars, |_| {});
     assert!(ll
         .scenario
         .disturbances
@@ -292,13 +326,12 @@ fn disturbed_cut(name: &str, bars: usize) {
     );
 
     // without re-planning the heavier chain misses the first bar
-    let plain = cut(dir.path(), name, 2, |v| {
+    let ll = cuts.load(name, 2, |v| {
         let t = v["tracking"].as_table_mut().unwrap();
         t.remove("replan");
         let d = v["disturbances"].as_table_mut().unwrap();
         d.remove("ball");
     });
-    let ll = LadderScenario::load(&plain).unwrap_or_else(|e| panic!("{e}"));
     let tr = run_traverse(&ll).unwrap();
     match &tr.status {
         TraverseStatus::CaptureMissed { swing, miss_m, .. } => {
@@ -330,19 +363,16 @@ fn the_irregular_ladder_with_heavier_links_and_a_ball_completes_on_rapier_with_r
 /// less positive work than the same cut planned swing by swing (lookahead 1).
 #[test]
 fn lookahead_two_completes_the_disturbed_irregular_ladder_with_rest_at_the_switches() {
-    let dir = tempfile::tempdir().unwrap();
+    let cuts = Cuts::new();
     let name = "ladder-irregular-disturbed-rapier.toml";
     let run = |lookahead: i64, switch: Option<&str>| {
-        let sub = dir.path().join(format!("{lookahead}-{switch:?}"));
-        std::fs::create_dir_all(&sub).unwrap();
-        let path = cut(&sub, name, 4, |v| {
+        let ll = cuts.load(name, 4, |v| {
             let l = v["ladder"].as_table_mut().unwrap();
             l.insert("lookahead".into(), toml::Value::Integer(lookahead));
             if let Some(s) = switch {
                 l.insert("lookahead_switch".into(), toml::Value::String(s.into()));
             }
         });
-        let ll = LadderScenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
         run_traverse(&ll).unwrap()
     };
     let alone = run(1, None);

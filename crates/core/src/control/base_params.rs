@@ -201,3 +201,29 @@ pub fn check_model(current: &Robot, robot: &Robot) -> Result<()> {
     }
     Ok(())
 }
+
+/// Set the mass-matrix and gravity coefficients of `robot` (centres of mass on the links' axes) to
+/// those of the base parameters `theta` (2n), in place and without allocating:
+/// `d_jj = ZZR_j`, `d_jk = d_kj = l_j MXR_k` (j < k), `gcoef_j = g MXR_j`. The dynamics
+/// ([`Robot::forward_dynamics_into`], [`crate::model::DynamicsDerivatives`]) then are those of
+/// `theta`; the robot's masses and inertias (which the dynamics do not read) are left as they were,
+/// so the robot serves only as the joint filter's model and is never handed out.
+pub(crate) fn set_base_params(robot: &mut Robot, theta: &[f64]) {
+    debug_assert!(
+        !robot.off_axis,
+        "base parameters need centres of mass on the axes"
+    );
+    let n = robot.n;
+    for j in 0..n {
+        robot.d[j * n + j] = theta[j];
+        robot.rho[j * n + j] = theta[j];
+        for k in j + 1..n {
+            let v = robot.len[j] * theta[n + k];
+            robot.d[j * n + k] = v;
+            robot.d[k * n + j] = v;
+            robot.rho[j * n + k] = v;
+            robot.rho[k * n + j] = v;
+        }
+        robot.gcoef[j] = robot.gravity * theta[n + j];
+    }
+}

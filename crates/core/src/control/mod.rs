@@ -17,6 +17,7 @@ pub mod adaptive;
 pub mod base_params;
 pub mod baselines;
 pub mod estimator;
+pub mod joint_ekf;
 pub mod mpc;
 pub mod param_estimator;
 pub mod replan_gate;
@@ -24,7 +25,9 @@ pub mod replanning;
 pub mod tvlqr;
 
 pub use adaptive::Adaptive;
-pub use param_estimator::{EstimateReport, EstimateSample, ParamEstimator, ParamEstimatorSettings};
+pub use param_estimator::{
+    EstimateMethod, EstimateReport, EstimateSample, ParamEstimator, ParamEstimatorSettings,
+};
 
 pub use baselines::{OpenLoop, Pd, PdSettings};
 pub use estimator::{Estimated, EstimatorSettings};

@@ -1,8 +1,8 @@
-//! Online estimation of the robot's base inertial parameters by recursive least squares
-//! (docs/estimation.md).
+//! Online estimation of the robot's base inertial parameters (docs/estimation.md).
 //!
-//! [`ParamEstimator`] integrates Lagrange's equations against a triangular weight `w` over windows
-//! of `window_s` (`w` rises from 0 to 1 over the first half and falls back to 0): with the momentum
+//! With `method = "ekf"` (the default) [`ParamEstimator`] runs the joint state and parameter filter
+//! of [`super::joint_ekf`] on every sample. With `method = "windows"` it integrates Lagrange's
+//! equations against a triangular weight `w` over windows of `window_s` (`w` rises from 0 to 1 over the first half and falls back to 0): with the momentum
 //! regressor `Yp` and the Lagrangian-gradient regressor `Yl` of [`super::base_params`], and
 //! `int w dp/dt = -int w' p` (w vanishes at both ends), every window gives n linear equations in the
 //! 2n base parameters `theta = [ZZR_1..ZZR_n, MXR_1..MXR_n]`,
@@ -24,6 +24,7 @@
 //! Units: s, rad, rad/s, N m, N m s; `theta` in kg m^2 (ZZR) and kg m (MXR).
 
 use super::base_params::{base_params, lagrangian_regressor, momentum_regressor, robot_from_base};
+use super::joint_ekf::{EkfStep, JointEkf, JointEkfNoise};
 use crate::error::{Error, Result};
 use crate::model::Robot;
 use serde::{Deserialize, Serialize};
@@ -37,16 +38,37 @@ const MIN_PERIOD_S: f64 = 1e-3;
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
 
+/// How [`ParamEstimator`] estimates (docs/estimation.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EstimateMethod {
+    /// An extended Kalman filter on the state and the base parameters together, every sample
+    /// ([`super::joint_ekf::JointEkf`]).
+    Ekf,
+    /// Recursive least squares on windows of the integrated Lagrange equations.
+    Windows,
+}
+
 /// Settings of [`ParamEstimator`] (scenario section `[tracking] estimate_params = { ... }`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ParamEstimatorSettings {
+    /// How the parameters are estimated: `"ekf"` (the joint state and parameter filter) or
+    /// `"windows"` (least squares on integration windows). Default [`EstimateMethod::Ekf`].
+    pub method: EstimateMethod,
+    /// The joint filter's measurement noise on q, rad (`method = "ekf"`). Default 0.0015.
+    pub meas_q_std: f64,
+    /// The joint filter's measurement noise on qd, rad/s (`method = "ekf"`). Default 0.015.
+    pub meas_qd_std: f64,
+    /// The joint filter's process noise density on qd, rad/(s sqrt(s)) (`method = "ekf"`): model
+    /// error it allows per second; a larger value discards information. Default 0.002.
+    pub process_qd_std: f64,
     /// Length of one integration window, s, in [0.001, 40]. Default 0.3.
     pub window_s: f64,
     /// RLS forgetting factor per window row, in (0, 1]. Default 1.
     pub forgetting: f64,
-    /// Prior standard deviation of each base parameter, as a fraction of its nominal value.
-    /// Default 1.
+    /// Prior standard deviation of each base parameter, as a fraction of its nominal value
+    /// (`method = "windows"` measures better with 1: docs/estimation.md). Default 0.3.
     pub prior_rel_std: f64,
     /// Standard deviation of one window equation's residual (sensor noise on the momenta), N m s.
     /// Default 0.02.
@@ -66,9 +88,13 @@ pub struct ParamEstimatorSettings {
 impl Default for ParamEstimatorSettings {
     fn default() -> Self {
         ParamEstimatorSettings {
+            method: EstimateMethod::Ekf,
+            meas_q_std: 0.0015,
+            meas_qd_std: 0.015,
+            process_qd_std: 0.002,
             window_s: 0.3,
             forgetting: 1.0,
-            prior_rel_std: 1.0,
+            prior_rel_std: 0.3,
             noise_nm_s: 0.02,
             outlier_sigma: 5.0,
             model_update_period_s: 0.05,
@@ -92,6 +118,9 @@ impl ParamEstimatorSettings {
         pos("noise_nm_s", self.noise_nm_s)?;
         pos("outlier_sigma", self.outlier_sigma)?;
         pos("model_update_period_s", self.model_update_period_s)?;
+        pos("meas_q_std", self.meas_q_std)?;
+        pos("meas_qd_std", self.meas_qd_std)?;
+        pos("process_qd_std", self.process_qd_std)?;
         if !(1..=MAX_WINDOWS_IN_FLIGHT).contains(&self.windows_in_flight) {
             return Err(Error::invalid(
                 src,
@@ -153,9 +182,9 @@ pub struct EstimateReport {
     pub theta: Vec<f64>,
     /// Its standard deviations.
     pub std: Vec<f64>,
-    /// Windows used.
+    /// Windows used (`method = "ekf"`: measurements used).
     pub windows: usize,
-    /// Windows rejected as outliers.
+    /// Windows rejected as outliers (`method = "ekf"`: measurements rejected).
     pub rejected: usize,
     /// The estimate after every used window (at most [`MAX_HISTORY`]).
     pub history: Vec<EstimateSample>,
@@ -195,6 +224,9 @@ pub struct ParamEstimator {
     windows: usize,
     rejected: usize,
     history: Vec<EstimateSample>,
+    /// The joint filter (`method = "ekf"`), and when its estimate was last recorded.
+    ekf: Option<Box<JointEkf>>,
+    last_record: f64,
 }
 
 impl ParamEstimator {
@@ -207,11 +239,30 @@ impl ParamEstimator {
         let mut theta = vec![0.0; np];
         base_params(&nominal, &mut theta);
         let mut p = vec![0.0; np * np];
+        let prior_std: Vec<f64> = theta
+            .iter()
+            .map(|v| settings.prior_rel_std * v.abs().max(1e-6))
+            .collect();
         for i in 0..np {
-            let s = settings.prior_rel_std * theta[i].abs().max(1e-6);
-            p[i * np + i] = s * s;
+            p[i * np + i] = prior_std[i] * prior_std[i];
         }
+        let ekf = match settings.method {
+            EstimateMethod::Windows => None,
+            EstimateMethod::Ekf => Some(Box::new(JointEkf::new(
+                &nominal,
+                &theta,
+                &prior_std,
+                JointEkfNoise {
+                    meas_q_std: settings.meas_q_std,
+                    meas_qd_std: settings.meas_qd_std,
+                    process_qd_std: settings.process_qd_std,
+                    outlier_sigma: settings.outlier_sigma,
+                },
+            )?)),
+        };
         Ok(ParamEstimator {
+            ekf,
+            last_record: f64::NEG_INFINITY,
             nominal,
             settings,
             theta_nom: theta.clone(),
@@ -252,6 +303,9 @@ impl ParamEstimator {
 
     /// Standard deviation of estimate entry `i`.
     pub fn std(&self, i: usize) -> f64 {
+        if let Some(ekf) = &self.ekf {
+            return ekf.theta_std(i);
+        }
         let np = self.theta.len();
         self.p[i * np + i].max(0.0).sqrt()
     }
@@ -279,18 +333,30 @@ impl ParamEstimator {
         self.windows = 0;
         self.rejected = 0;
         self.history.clear();
+        self.last_record = f64::NEG_INFINITY;
+        if let Some(ekf) = &mut self.ekf {
+            let std: Vec<f64> = (0..np).map(|i| self.p[i * np + i].sqrt()).collect();
+            ekf.reset(&self.theta_nom, &std);
+        }
     }
 
     /// Take the measured state `x` (2n) at `t`, with `tau` (n - 1) the torque held since the previous
-    /// call. Returns true when a window closed and updated the estimate. A state with NaNs breaks the
-    /// window (the next call starts a new one). Does not allocate (past [`MAX_HISTORY`] windows the
-    /// history stops growing).
+    /// call. Returns true when the estimate was updated (a window closed; with the joint filter,
+    /// every measurement not rejected). A state with NaNs breaks the window (the next call starts a
+    /// new one). Does not allocate (past [`MAX_HISTORY`] updates the history stops growing; with the
+    /// joint filter the history records the estimate at most every `model_update_period_s`).
     pub fn observe(&mut self, t: f64, x: &[f64], tau: &[f64]) -> bool {
         let n = self.nominal.n();
         let (q, qd) = (&x[..n], &x[n..2 * n]);
         if !x.iter().all(|v| v.is_finite()) || !tau.iter().all(|v| v.is_finite()) {
             self.break_windows();
+            if let Some(ekf) = &mut self.ekf {
+                ekf.break_state();
+            }
             return false;
+        }
+        if self.ekf.is_some() {
+            return self.observe_ekf(t, x, tau);
         }
         lagrangian_regressor(&self.nominal, q, qd, &mut self.yl);
         momentum_regressor(&self.nominal, q, qd, &mut self.yp);
@@ -333,6 +399,34 @@ impl ParamEstimator {
         }
         self.keep_sample(t);
         updated
+    }
+
+    /// [`Self::observe`] with the joint filter.
+    fn observe_ekf(&mut self, t: f64, x: &[f64], tau: &[f64]) -> bool {
+        let Some(ekf) = self.ekf.as_mut() else {
+            return false;
+        };
+        match ekf.observe(t, x, tau) {
+            EkfStep::Started => false,
+            EkfStep::Rejected => {
+                self.rejected += 1;
+                false
+            }
+            EkfStep::Updated => {
+                self.theta.copy_from_slice(ekf.theta());
+                self.windows += 1;
+                let period = self.settings.model_update_period_s;
+                if t - self.last_record >= period - 1e-9 && self.history.len() < MAX_HISTORY {
+                    self.last_record = t;
+                    self.history.push(EstimateSample {
+                        t_s: t,
+                        theta: self.theta.clone(),
+                        std: (0..self.theta.len()).map(|i| ekf.theta_std(i)).collect(),
+                    });
+                }
+                true
+            }
+        }
     }
 
     /// Keep the sample at `t` (`yl`, `yp` hold its regressors) as the last one.

@@ -46,20 +46,22 @@ pub use multi_swing::{
 pub use nlp::{solve, Backend, MuStrategy, NlpSettings, NlpSolution, SolveStatus, SparseNlp};
 pub use nlp::{AdapterTimings, OcpNlp, PassStats, TimeSplit};
 pub use outcome::{Plan, SolveAttempt, SolveRole, Violations};
-pub use planner::{plan, plan_with_guess};
+pub use planner::{plan, plan_validated, plan_with_guess};
 pub use report::{
     Blockage, ContinuationStop, Diagnosis, GuessReport, GuessStrategy, LinkClearance, ProbeSolve,
     SwingTimeProbe, TorqueContinuation, TorqueProbe, Verdict,
 };
 pub use settings::{
     Bounds, ObstacleGuess, PlannerSettings, ShootingSettings, SwingTime, Transcription,
-    DEFAULT_KNOT_DT_S, DEFAULT_SHOOTING_SUBSTEPS, MAX_SWING_TIME_STARTS,
+    ValidSettings, DEFAULT_KNOT_DT_S, DEFAULT_SHOOTING_SUBSTEPS, MAX_SWING_TIME_STARTS,
     MIN_FREE_SWING_TIME_RANGE_S, START_WIDEN_MARGIN,
 };
 pub use solve::{freefall_time, WARM_START_MU_INIT};
-pub use strategy::swing_time::{reference_swing_time, SwingTimeSearch, TriedSwingTime};
+pub use strategy::swing_time::{
+    reference_swing_time, SwingTimeSearch, SwingTimeStop, TriedSwingTime,
+};
 pub use swing_planner::{Checkpoint, ReplanOutcome, SwingPlanner, WarmPrimal};
-pub use task::{validate_task, SwingTask, MAX_OBSTACLES};
+pub use task::{validate_task, SwingTask, ValidTask, MAX_OBSTACLES};
 pub use transcription::collocation::{
     CallbackTimings, CollocationNlp, EeTerminalFn, Layout, NoPath, RowBlocks,
 };

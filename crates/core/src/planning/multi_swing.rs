@@ -35,16 +35,16 @@
 //! Units: s, m, rad, rad/s, N m, J; world frame x right, y up.
 
 use super::outcome::{Plan, SolveAttempt};
-use super::planner::plan;
+use super::planner::plan_validated;
 use super::solve::common::{swing_time, WARM_START_MU_INIT};
 use crate::error::{Error, Result};
 use crate::model::{reroot_jacobian, reroot_state, Circle, Robot};
 use crate::planning::nlp::{Backend, NlpSettings, SolveStatus};
-use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::settings::{PlannerSettings, SwingTime, Transcription, ValidSettings};
 use crate::planning::solve::shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
-use crate::planning::task::{validate_task, SwingTask};
+use crate::planning::task::{validate_task, SwingTask, ValidTask};
 use crate::planning::transcription::shooting::SwingOcp;
 use brachia_ocp::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, OcpSolver, Primal, StageBounds,
@@ -556,11 +556,14 @@ pub fn plan_joint_swings(
 ) -> Result<JointSwingPlan> {
     let src = "joint swings";
     let n = robot.n;
-    let settings = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        ..settings.clone()
-    };
-    settings.validate(n, "planner")?;
+    let settings = ValidSettings::new(
+        PlannerSettings {
+            transcription: Transcription::MultipleShooting,
+            ..settings.clone()
+        },
+        n,
+        "planner",
+    )?;
     nlp.validate()?;
     settings.refuse_free_swing_time("planner", "a joint multi-swing plan")?;
     if nlp.backend != Backend::Ocp {
@@ -629,19 +632,29 @@ pub fn plan_joint_swings(
         max_defect: f64::NAN,
     };
     for i in 0..count {
-        let mut s = settings.clone();
-        if i > 0 {
-            s.bounds = s.bounds.widened_for_start(&x);
-        }
         let t = swing_task(&x, task.bars[i], task.bars[i + 1], &task.obstacles);
-        // the automatic swing time fixed for this swing, so that its plan and the joint problem's
-        // phase share one mesh (a strategy may not lengthen the swing of one and not the other)
-        if matches!(s.swing_time, SwingTime::Auto(_)) {
-            if let Ok((t_auto, _)) = swing_time(&chains[i % 2], &t, &s) {
-                s.swing_time = SwingTime::Seconds(t_auto);
+        let s = settings.derive(|s| {
+            if i > 0 {
+                s.bounds = s.bounds.widened_for_start(&x);
             }
-        }
-        let p = match plan(&chains[i % 2], &t, &s, nlp) {
+            // the automatic swing time fixed for this swing, so that its plan and the joint
+            // problem's phase share one mesh (a strategy may not lengthen the swing of one and not
+            // the other)
+            if matches!(s.swing_time, SwingTime::Auto(_)) {
+                if let Ok((t_auto, _)) = swing_time(&chains[i % 2], &t, s) {
+                    s.swing_time = SwingTime::Seconds(t_auto);
+                }
+            }
+        });
+        let checked = s.and_then(|s| {
+            let t = ValidTask::new(&chains[i % 2], t, &s, "task", "")?;
+            Ok((s, t))
+        });
+        let (s, t) = match checked {
+            Ok(st) => st,
+            Err(e) => return Ok(failed(reference, i, e.to_string())),
+        };
+        let p = match plan_validated(&chains[i % 2], &t, &s, nlp, None) {
             Ok(p) => p,
             Err(e) => return Ok(failed(reference, i, e.to_string())),
         };
@@ -674,7 +687,7 @@ pub fn plan_joint_swings(
     for i in 0..count {
         let mut s = phase_settings[i].clone();
         if i + 1 < count && !task.rest_at_switches {
-            s.bounds.qd_end_max = None;
+            s = s.without_end_rest();
         }
         let p = &reference[i];
         let ShootingSetup {
@@ -728,7 +741,7 @@ pub fn plan_joint_swings(
         };
         ocp.set_start(&zp.x[0])?;
         let objective = phase_cost(&mut ocp, &zp);
-        let mut t = tasks[i].clone();
+        let mut t = tasks[i].task().clone();
         t.q0 = zp.x[0][..n].to_vec();
         t.qd0 = zp.x[0][n..].to_vec();
         let (layout, t_final, freefall) = layouts[i];

@@ -5,10 +5,11 @@
 
 use super::nlp::{NlpSettings, SolveStatus};
 use super::outcome::Plan;
-use super::settings::PlannerSettings;
+use super::settings::{PlannerSettings, ValidSettings};
+use super::solve::common::check_guess;
 use super::solve::plan_single;
-use super::task::{check_task, SwingTask};
-use crate::error::Result;
+use super::task::{SwingTask, ValidTask};
+use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::trajectory::Trajectory;
 
@@ -52,6 +53,59 @@ pub fn plan_with_guess(
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
+    // the one check of the input: everything below takes the validated types
+    let settings = ValidSettings::new(settings.clone(), robot.n, "planner")?;
+    check_solver_and_guess(robot, &settings, nlp, guess)?;
+    let task = ValidTask::new(robot, task.clone(), &settings, "task", "")?;
+    plan_checked(robot, &task, &settings, nlp, guess)
+}
+
+/// [`plan_with_guess`] of settings and a task checked where they entered (a scenario file, a
+/// caller that plans many swings with one set of settings): the solver settings `nlp`, the settings
+/// against its backend (`ocp` solves multiple shooting only) and the guess are checked here. Errors
+/// as [`plan_with_guess`] on those, and on settings checked for a robot of another number of links.
+pub fn plan_validated(
+    robot: &Robot,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
+    if settings.links() != robot.n {
+        return Err(Error::Dimension {
+            what: "planner settings: links of the robot they were checked for".into(),
+            expected: robot.n,
+            got: settings.links(),
+        });
+    }
+    check_solver_and_guess(robot, settings, nlp, guess)?;
+    plan_checked(robot, task, settings, nlp, guess)
+}
+
+/// The checks of the input besides the settings and the task: the solver settings, the settings
+/// against the backend, the guess.
+fn check_solver_and_guess(
+    robot: &Robot,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<()> {
+    nlp.validate()?;
+    settings.check_backend(nlp, "planner")?;
+    if let Some(g) = guess {
+        check_guess(robot, g)?;
+    }
+    Ok(())
+}
+
+/// [`plan_with_guess`] of checked input.
+fn plan_checked(
+    robot: &Robot,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    guess: Option<&Trajectory>,
+) -> Result<Plan> {
     let mut p = plan_strategies(robot, task, settings, nlp, guess)?;
     // a cancelled call ends between strategies or inside a solve: whatever it returns did not
     // converge and is no failure of the task
@@ -65,22 +119,19 @@ pub fn plan_with_guess(
 /// `nlp.max_wall_time_s` is spent or `nlp.cancel` is set.
 fn plan_strategies(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
     if guess.is_none() && settings.avoid_obstacles && !task.obstacles.is_empty() {
-        settings.validate(robot.n, "planner")?;
-        nlp.validate()?;
-        settings.check_backend(nlp, "planner")?;
-        check_task(robot, task, settings)?;
         let started = std::time::Instant::now();
         // the strategies leave a share of the time limit to the diagnosis of a failure
         let chain = super::strategy::diagnosis::strategies_share(nlp);
-        let p = super::strategy::obstacles::plan_around_obstacles(robot, task, settings, &chain)?;
+        let (p, probed) =
+            super::strategy::obstacles::plan_around_obstacles(robot, task, settings, &chain)?;
         return super::strategy::diagnosis::diagnose_failure(
-            robot, task, settings, nlp, p, started,
+            robot, task, settings, nlp, p, started, &probed,
         );
     }
     let started = std::time::Instant::now();

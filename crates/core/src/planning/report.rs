@@ -52,6 +52,10 @@ pub struct GuessReport {
     /// detour seed failed, so it was not run).
     #[serde(default)]
     pub cspace: Option<CspaceReport>,
+    /// Every configuration-space search of the homotopy seeds (goal by goal, route by route;
+    /// [`crate::planning::strategy::homotopy`]), with whether the plan from each seed converged.
+    #[serde(default)]
+    pub cspace_routes: Vec<CspaceReport>,
     /// True when the call's time limit (`max_wall_time_s`) ended the strategies: they went past the
     /// first solve, none converged, and the limit was spent.
     #[serde(default)]
@@ -296,6 +300,70 @@ pub struct SwingTimeSearch {
     pub planned_s: Option<f64>,
     /// The search stopped because `max_wall_time_s` was spent or the call was cancelled.
     pub out_of_time: bool,
+    /// Where each continuation in T that stopped short of the swing time asked for ended: its last
+    /// converged plan and the bounds that plan presses against.
+    #[serde(default)]
+    pub stops: Vec<SwingTimeStop>,
+}
+
+/// The last converged plan of a continuation in T that could not step further towards the swing
+/// time asked for, and what that plan presses against (within [`AT_BOUND`] of each bound): its
+/// torque limits, the rate bound `qd_max`, the relative joints' bound `q_rel_max`. Whether more
+/// torque alone would reach the swing time asked for is the continuation on the torque limits'
+/// answer (`Plan::torque_continuation`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SwingTimeStop {
+    /// The swing time of the last converged plan, s.
+    pub swing_time_s: f64,
+    /// Its largest `|tau|` over the limit of its joint (1 = at the limit).
+    pub torque_use: f64,
+    /// Its largest `|qd|`, rad/s.
+    pub peak_rate_rad_s: f64,
+    /// The rate bound `qd_max`, rad/s.
+    pub rate_bound_rad_s: f64,
+    /// The relative joints (2..n) that reach the bound `q_rel_max`.
+    pub joints_at_bound: Vec<usize>,
+    /// The bound `q_rel_max`, rad.
+    pub joint_bound_rad: f64,
+}
+
+/// Within this fraction of a bound a plan presses against it.
+pub const AT_BOUND: f64 = 0.005;
+
+impl fmt::Display for SwingTimeStop {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut at = vec![];
+        if self.torque_use >= 1.0 - AT_BOUND {
+            at.push("the torque at its limit".to_string());
+        }
+        if self.peak_rate_rad_s >= (1.0 - AT_BOUND) * self.rate_bound_rad_s {
+            at.push(format!(
+                "a rate at its {} rad/s bound",
+                self.rate_bound_rad_s
+            ));
+        }
+        if !self.joints_at_bound.is_empty() {
+            let j: Vec<String> = self.joints_at_bound.iter().map(|j| j.to_string()).collect();
+            at.push(format!(
+                "joint {} at its {} rad bound",
+                j.join(", "),
+                self.joint_bound_rad
+            ));
+        }
+        if at.is_empty() {
+            write!(f, "{:.3} s (within every bound)", self.swing_time_s)
+        } else {
+            write!(f, "{:.3} s with {}", self.swing_time_s, at.join(", "))
+        }
+    }
+}
+
+impl SwingTimeStop {
+    /// The plan presses against a joint or rate bound (not only its torque limits).
+    pub fn at_joint_or_rate_bound(&self) -> bool {
+        !self.joints_at_bound.is_empty()
+            || self.peak_rate_rad_s >= (1.0 - AT_BOUND) * self.rate_bound_rad_s
+    }
 }
 
 impl SwingTimeSearch {
@@ -361,6 +429,10 @@ impl fmt::Display for SwingTimeSearch {
                         name(lo),
                         name(hi)
                     )?;
+                }
+                if !self.stops.is_empty() {
+                    let s: Vec<String> = self.stops.iter().map(|s| s.to_string()).collect();
+                    write!(f, "; the continuations in T stop at {}", s.join("; "))?;
                 }
                 if self.out_of_time {
                     write!(f, "; stopped at max_wall_time_s")?;
@@ -471,6 +543,11 @@ pub struct Diagnosis {
     pub iterations: usize,
     /// Solve time of the probe, s.
     pub solve_time_s: f64,
+    /// Every configuration-space search of the obstacle chain (to every goal pose tried) ran out of
+    /// free cells without a path: no collision-free path of poses within the joint limits joins
+    /// the start to the bar (at the search's grid and margin; evidence, not proof).
+    #[serde(default)]
+    pub paths_exhausted: bool,
 }
 
 impl fmt::Display for Diagnosis {
@@ -511,6 +588,13 @@ impl fmt::Display for Diagnosis {
                 }
             }
             _ => write!(f, "obstacle {o} blocks link {l}")?,
+        }
+        if self.paths_exhausted {
+            write!(
+                f,
+                "; the configuration-space search found no collision-free path of poses within the \
+                 joint limits to any goal pose tried (every reachable grid cell searched)"
+            )?;
         }
         if let Some(tp) = self.torque_probe.as_ref().filter(|t| t.converged) {
             if let Some((j, r)) = tp.worst_joint() {

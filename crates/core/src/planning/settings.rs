@@ -592,6 +592,129 @@ impl PlannerSettings {
     }
 }
 
+/// [`PlannerSettings`] that passed [`PlannerSettings::validate`] for a robot of
+/// [`ValidSettings::links`] links: what the planner's internal functions take, so that a plan checks
+/// its settings once, where they enter ([`crate::planning::plan`], a scenario file, the persistent
+/// planner's constructor). Read the fields through `Deref`; the only ways to make one are
+/// [`ValidSettings::new`] and the derivations below, each of which keeps it valid: the fallible ones
+/// apply the checks of [`PlannerSettings::validate`] to what they change (errors name the source
+/// `"planner"`), the infallible ones only turn off an option or drop a constraint.
+///
+/// The bounds and `avoid_obstacles` (what a task is checked against, [`crate::planning::ValidTask`])
+/// change only through [`ValidSettings::with_bounds`] and [`ValidSettings::without_end_rest`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidSettings {
+    settings: PlannerSettings,
+    links: usize,
+}
+
+impl std::ops::Deref for ValidSettings {
+    type Target = PlannerSettings;
+
+    fn deref(&self) -> &PlannerSettings {
+        &self.settings
+    }
+}
+
+impl ValidSettings {
+    /// Check `settings` for a robot of `links` links ([`PlannerSettings::validate`]; `src` names
+    /// the origin in messages).
+    pub fn new(settings: PlannerSettings, links: usize, src: &str) -> Result<Self> {
+        settings.validate(links, src)?;
+        Ok(ValidSettings { settings, links })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &PlannerSettings {
+        &self.settings
+    }
+
+    /// The settings, given back.
+    pub fn into_inner(self) -> PlannerSettings {
+        self.settings
+    }
+
+    /// The number of links of the robot the settings were checked for.
+    pub fn links(&self) -> usize {
+        self.links
+    }
+
+    /// A copy changed by `change`, checked again.
+    pub(crate) fn derive(&self, change: impl FnOnce(&mut PlannerSettings)) -> Result<Self> {
+        let mut settings = self.settings.clone();
+        change(&mut settings);
+        ValidSettings::new(settings, self.links, "planner")
+    }
+
+    /// These settings at the fixed swing time `t` (s). Errors as [`PlannerSettings::validate`] on a
+    /// `t` that is not finite and > 0, longer than [`limits::MAX_SWING_TIME_S`], or whose mesh of
+    /// `knot_dt` does not fit [`PlannerSettings::grid`].
+    pub fn with_swing_time(&self, t: f64) -> Result<Self> {
+        self.derive(|s| s.swing_time = SwingTime::Seconds(t))
+    }
+
+    /// These settings with the swing time free in `range` (s), starting at `t0` (s), one start.
+    /// Errors as [`PlannerSettings::validate`] (the range, its transcription, its grid; `t0`).
+    pub fn with_free_swing_time(&self, t0: f64, range: [f64; 2]) -> Result<Self> {
+        self.derive(|s| {
+            s.swing_time = SwingTime::Seconds(t0);
+            s.free_swing_time = Some(range);
+            s.swing_time_starts = 1;
+        })
+    }
+
+    /// These settings with knots `knot_dt` (s) apart. Errors as [`PlannerSettings::validate`] (a
+    /// spacing not finite and > 0; a fixed swing time whose mesh does not fit the grid).
+    pub fn with_knot_dt(&self, knot_dt: f64) -> Result<Self> {
+        self.derive(|s| s.knot_dt = knot_dt)
+    }
+
+    /// These settings with `bounds`. Errors as [`PlannerSettings::validate`] on the bounds.
+    pub fn with_bounds(&self, bounds: Bounds) -> Result<Self> {
+        self.derive(|s| s.bounds = bounds)
+    }
+
+    /// These settings at their own swing time (`swing_time`), not free: no `free_swing_time`, one
+    /// start.
+    pub fn without_free_swing_time(&self) -> Self {
+        let mut v = self.clone();
+        v.settings.free_swing_time = None;
+        v.settings.swing_time_starts = 1;
+        v
+    }
+
+    /// These settings with one start of a free swing time ([`PlannerSettings::swing_time_starts`]).
+    pub fn with_one_start(&self) -> Self {
+        let mut v = self.clone();
+        v.settings.swing_time_starts = 1;
+        v
+    }
+
+    /// These settings without the recoveries of a failed plan (`torque_continuation`,
+    /// `swing_time_search` off).
+    pub fn without_recoveries(&self) -> Self {
+        let mut v = self.clone();
+        v.settings.torque_continuation = false;
+        v.settings.swing_time_search = false;
+        v
+    }
+
+    /// These settings without the sub-step clearance rows
+    /// ([`ShootingSettings::substep_clearance`] off).
+    pub fn without_substep_clearance(&self) -> Self {
+        let mut v = self.clone();
+        v.settings.shooting.substep_clearance = false;
+        v
+    }
+
+    /// These settings without the rest condition at the last knot ([`Bounds::qd_end_max`] none).
+    pub fn without_end_rest(&self) -> Self {
+        let mut v = self.clone();
+        v.settings.bounds.qd_end_max = None;
+        v
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -638,6 +761,106 @@ mod tests {
         );
         assert!(s.grid(4, 20.5, "s.toml").is_err());
         assert_eq!(s.grid(2, 20.0, "s.toml").unwrap(), 2000);
+    }
+
+    #[test]
+    fn valid_settings_refuse_what_validate_refuses_with_its_message() {
+        let bad = PlannerSettings {
+            knot_dt: -1.0,
+            ..PlannerSettings::default()
+        };
+        let want = bad.validate(4, "s.toml").unwrap_err().to_string();
+        let got = ValidSettings::new(bad, 4, "s.toml")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(got, want);
+        assert!(got.contains("s.toml") && got.contains("knot_dt"), "{got}");
+        let v = ValidSettings::new(PlannerSettings::default(), 4, "s.toml").unwrap();
+        assert_eq!((v.links(), v.settings()), (4, &PlannerSettings::default()));
+    }
+
+    #[test]
+    fn derivations_check_what_they_change() {
+        let v = ValidSettings::new(PlannerSettings::default(), 4, "s.toml").unwrap();
+        // a fixed swing time: set, and refused past the limit or on a mesh that does not fit
+        let t = v.with_swing_time(1.5).unwrap();
+        assert_eq!(t.swing_time, SwingTime::Seconds(1.5));
+        let e = v
+            .with_swing_time(limits::MAX_SWING_TIME_S * 2.0)
+            .unwrap_err();
+        assert!(e.to_string().contains("swing_time"), "{e}");
+        assert!(v.with_swing_time(f64::NAN).is_err());
+        // a coarser mesh: fine with "auto", refused for a fixed swing too short for it
+        assert_eq!(v.with_knot_dt(0.09).unwrap().knot_dt, 0.09);
+        let e = t.with_knot_dt(1.0).unwrap_err().to_string();
+        assert!(e.contains("knot_dt") && e.contains("intervals"), "{e}");
+        // a free swing time: set with one start, refused for a collocation rule
+        let f = v.with_free_swing_time(1.0, [1.0, 1.5]).unwrap();
+        assert_eq!(
+            (f.swing_time, f.free_swing_time, f.swing_time_starts),
+            (SwingTime::Seconds(1.0), Some([1.0, 1.5]), 1)
+        );
+        let coll = ValidSettings::new(
+            PlannerSettings {
+                transcription: Transcription::Trapezoidal,
+                ..PlannerSettings::default()
+            },
+            4,
+            "s.toml",
+        )
+        .unwrap();
+        let e = coll.with_free_swing_time(1.0, [1.0, 1.5]).unwrap_err();
+        assert!(e.to_string().contains("multiple-shooting"), "{e}");
+        // bounds: refused when they break the rules of validate
+        let wide = Bounds {
+            qd_max: limits::MAX_RATE_RAD_S * 2.0,
+            ..Bounds::default()
+        };
+        assert!(v.with_bounds(wide).is_err());
+        let b = Bounds::default().widened_for_start(&[0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(v.with_bounds(b.clone()).unwrap().bounds, b);
+    }
+
+    #[test]
+    fn infallible_derivations_stay_valid() {
+        let s = PlannerSettings {
+            free_swing_time: Some([1.0, 2.0]),
+            swing_time_starts: 3,
+            bounds: Bounds {
+                qd_end_max: Some(1.0),
+                ..Bounds::default()
+            },
+            ..PlannerSettings::default()
+        };
+        let v = ValidSettings::new(s, 4, "s.toml").unwrap();
+        let derived = [
+            v.without_free_swing_time(),
+            v.with_one_start(),
+            v.without_recoveries(),
+            v.without_substep_clearance(),
+            v.without_end_rest(),
+        ];
+        for d in &derived {
+            d.settings().validate(d.links(), "derived").unwrap();
+        }
+        let [fixed, one, norec, knots, norest] = derived;
+        assert_eq!((fixed.free_swing_time, fixed.swing_time_starts), (None, 1));
+        assert_eq!(
+            (one.free_swing_time, one.swing_time_starts),
+            (Some([1.0, 2.0]), 1)
+        );
+        assert!(!norec.torque_continuation && !norec.swing_time_search);
+        assert!(!knots.shooting.substep_clearance);
+        assert_eq!(norest.bounds.qd_end_max, None);
+        // each changes only what it names
+        assert_eq!(
+            PlannerSettings {
+                torque_continuation: true,
+                swing_time_search: true,
+                ..norec.into_inner()
+            },
+            *v.settings()
+        );
     }
 
     #[test]

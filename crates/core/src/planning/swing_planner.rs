@@ -25,11 +25,12 @@ use crate::error::{Error, Result};
 use crate::model::Robot;
 use crate::planning::nlp::{Backend, NlpSettings, SolveStatus};
 use crate::planning::settings::Bounds;
-use crate::planning::settings::PlannerSettings;
+use crate::planning::settings::{PlannerSettings, ValidSettings};
+use crate::planning::solve::common::check_guess;
 use crate::planning::solve::shooting::{
     finish_plan, ocp_attempt, ocp_settings, setup_shooting, status_of, ShootingSetup, SolveSummary,
 };
-use crate::planning::task::SwingTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::planning::transcription::collocation::Layout;
 use crate::planning::transcription::shooting::SwingOcp;
 use crate::trajectory::Trajectory;
@@ -226,12 +227,19 @@ impl SwingPlanner {
         guess: Option<&Trajectory>,
     ) -> Result<Self> {
         let robot: Arc<Robot> = robot.into();
-        let settings = PlannerSettings {
-            transcription: crate::planning::settings::Transcription::MultipleShooting,
-            ..settings.clone()
-        };
-        settings.validate(robot.n, "planner")?;
+        let settings = ValidSettings::new(
+            PlannerSettings {
+                transcription: crate::planning::settings::Transcription::MultipleShooting,
+                ..settings.clone()
+            },
+            robot.n,
+            "planner",
+        )?;
         nlp.validate()?;
+        if let Some(g) = guess {
+            check_guess(&robot, g)?;
+        }
+        let task = ValidTask::new(&robot, task, &settings, "task", "")?;
         let ShootingSetup {
             ocp,
             layout,
@@ -279,8 +287,8 @@ impl SwingPlanner {
         Ok(SwingPlanner {
             id,
             robot,
-            task,
-            settings,
+            task: task.into_inner(),
+            settings: settings.into_inner(),
             cold,
             warm,
             prev: Checkpoint {

@@ -5,7 +5,7 @@
 
 use crate::error::{Error, Result};
 use crate::model::{Circle, ClearanceFn, Robot};
-use crate::planning::settings::PlannerSettings;
+use crate::planning::settings::{PlannerSettings, ValidSettings};
 use serde::{Deserialize, Serialize};
 
 /// What to plan: where the robot starts, which bar it must reach, what is in the way.
@@ -106,13 +106,89 @@ fn check_bounds_within_robot(robot: &Robot, b: &super::Bounds, src: &str) -> Res
     Ok(())
 }
 
-/// Check the task before any solving; returns qd0 (filled in when empty).
-pub(super) fn check_task(
-    robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
-) -> Result<Vec<f64>> {
-    validate_task(robot, task, settings, "task", "")
+/// A [`SwingTask`] that passed [`validate_task`] for a robot and [`ValidSettings`], with its start
+/// velocities filled in ([`ValidTask::qd0`]): what the planner's internal functions take, so that a
+/// plan checks its task once. Read the task through `Deref`.
+///
+/// It stays valid for settings derived from those it was checked with (their bounds and
+/// `avoid_obstacles` are the same, or wider bounds that still hold the start state), and for a robot
+/// of the same links and joint limits (the actuator-limit continuation's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ValidTask {
+    task: SwingTask,
+    qd0: Vec<f64>,
+}
+
+impl std::ops::Deref for ValidTask {
+    type Target = SwingTask;
+
+    fn deref(&self) -> &SwingTask {
+        &self.task
+    }
+}
+
+impl ValidTask {
+    /// Check `task` for `robot` under `settings` ([`validate_task`]; `src` names the file and
+    /// `prefix` the section in messages).
+    pub fn new(
+        robot: &Robot,
+        task: SwingTask,
+        settings: &ValidSettings,
+        src: &str,
+        prefix: &str,
+    ) -> Result<Self> {
+        let qd0 = validate_task(robot, &task, settings, src, prefix)?;
+        Ok(ValidTask { task, qd0 })
+    }
+
+    /// The task.
+    pub fn task(&self) -> &SwingTask {
+        &self.task
+    }
+
+    /// The task, given back.
+    pub fn into_inner(self) -> SwingTask {
+        self.task
+    }
+
+    /// The start joint velocities (n), rad/s: the task's, or zeros when it gave none.
+    pub fn qd0(&self) -> &[f64] {
+        &self.qd0
+    }
+
+    /// The task without its obstacles (valid: nothing else changes).
+    pub(crate) fn without_obstacles(&self) -> ValidTask {
+        ValidTask {
+            task: SwingTask {
+                obstacles: vec![],
+                ..self.task.clone()
+            },
+            qd0: self.qd0.clone(),
+        }
+    }
+
+    /// The task with every obstacle's radius scaled by `s` in `(0, 1]` (valid: a smaller obstacle
+    /// clears the start pose and the target by more). Panics on `s` outside `(0, 1]`, a caller's
+    /// error.
+    pub(crate) fn with_obstacles_scaled(&self, s: f64) -> ValidTask {
+        assert!(s > 0.0 && s <= 1.0, "obstacle scale {s} outside (0, 1]");
+        let obstacles = self
+            .task
+            .obstacles
+            .iter()
+            .map(|o| Circle {
+                center: o.center,
+                radius: s * o.radius,
+            })
+            .collect();
+        ValidTask {
+            task: SwingTask {
+                obstacles,
+                ..self.task.clone()
+            },
+            qd0: self.qd0.clone(),
+        }
+    }
 }
 
 /// Check a task for `robot` under `settings` before anything is solved: lengths of `q0` and `qd0`,
@@ -268,6 +344,39 @@ pub fn validate_task(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_valid_task_fills_qd0_and_its_derivations_stay_valid() {
+        let robot = Robot::paper();
+        let s = ValidSettings::new(PlannerSettings::default(), robot.n, "s.toml").unwrap();
+        let task = SwingTask {
+            obstacles: vec![Circle::PAPER],
+            ..SwingTask::paper()
+        };
+        let v = ValidTask::new(&robot, task.clone(), &s, "s.toml", "task.").unwrap();
+        assert_eq!((v.task(), v.qd0()), (&task, &[0.0; 4][..]));
+        let free = v.without_obstacles();
+        assert!(free.obstacles.is_empty() && free.qd0() == v.qd0());
+        for k in [0.25, 0.5, 1.0] {
+            let t = v.with_obstacles_scaled(k);
+            assert_eq!(t.obstacles[0].radius, k * task.obstacles[0].radius);
+            validate_task(&robot, &t, &s, "s.toml", "").unwrap();
+        }
+        validate_task(&robot, &free, &s, "s.toml", "").unwrap();
+        // refused as validate_task refuses, with its message
+        let far = SwingTask {
+            target: [5.0, 0.0],
+            ..SwingTask::paper()
+        };
+        let want = validate_task(&robot, &far, &s, "s.toml", "task.")
+            .unwrap_err()
+            .to_string();
+        let got = ValidTask::new(&robot, far, &s, "s.toml", "task.")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(got, want);
+        assert!(got.contains("task.target"), "{got}");
+    }
 
     /// `SwingTask::paper()` is the task of `scenarios/tracking.toml` (the file a user runs).
     #[test]

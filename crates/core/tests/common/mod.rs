@@ -2,6 +2,8 @@
 //! simulating the model plant under small smooth torques.
 #![allow(dead_code)]
 
+pub mod placement;
+
 use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};
 use brachia::sim::{ModelPlant, Plant};
 use brachia::trajectory::Trajectory;

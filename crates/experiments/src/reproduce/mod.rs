@@ -348,13 +348,7 @@ pub fn reproduce_cancellable(
     res.wall_s = start.elapsed().as_secs_f64();
     let summary = report::summary(&res, &failures, &warnings);
     let summary_text = serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n";
-    let md = report::markdown(
-        &res,
-        &failures,
-        &warnings,
-        Path::new("figures"),
-        report::Target::Report,
-    ) + &views::markdown(&pages);
+    let md = report_md(&res, &failures, &warnings, &pages);
     let mut top = crate::RunFolder::default();
     top.add("summary.json", summary_text);
     top.add("REPORT.md", md);
@@ -378,6 +372,19 @@ pub fn reproduce_cancellable(
         files,
         wall_s: res.wall_s,
     })
+}
+
+/// `REPORT.md` of a reproduction folder: the report of `res` (its figures under `figures/`) and the
+/// list of its interactive pages.
+fn report_md(
+    res: &Results,
+    failures: &[String],
+    warnings: &[String],
+    pages: &[(&str, &str)],
+) -> String {
+    let figs = Path::new("figures");
+    report::markdown(res, failures, warnings, figs, report::Target::Report)
+        + &views::markdown(pages)
 }
 
 /// Draw every figure and animation of `res` into `out/figures/` (created); returns `failures` with the
@@ -514,13 +521,7 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     cancel.check()?;
     let (pages, _pages) = views::write_pages(dir, &stage, &mut failures)?;
     cancel.check()?;
-    let md = report::markdown(
-        &res,
-        &failures,
-        &warnings,
-        Path::new("figures"),
-        report::Target::Report,
-    ) + &views::markdown(&pages);
+    let md = report_md(&res, &failures, &warnings, &pages);
     let mut top = crate::RunFolder::default();
     top.add("REPORT.md", md);
     top.write_into(&stage)?;

@@ -3,7 +3,6 @@
 
 use super::{Randomization, RewardTerms, SwingEnvSettings};
 use crate::scenario::{LoadedScenario, PlantKind};
-use crate::SUCCESS_RADIUS_M;
 use brachia::model::RobotParams;
 use brachia::planning::SwingTask;
 use brachia::sim::{Disturbances, ModelPlant, Plant, DIVERGENCE_BOUND};
@@ -361,11 +360,10 @@ impl SwingEnv {
         let out = diverged
             || self.xt[..n].iter().any(|q| q.abs() > s.max_angle_rad)
             || self.xt[n..].iter().any(|qd| qd.abs() > s.max_rate_rad_s);
-        let d = self.hand_distance();
-        let captured = !out && d <= SUCCESS_RADIUS_M && {
-            let v = pt.ee_velocity(&self.xt[..n], &self.xt[n..]);
-            v[0].hypot(v[1]) <= s.capture_speed_m_s
-        };
+        // the capture rule of every run (crate::success): the true hand within 2 cm, slow
+        let hand = crate::success::hand_at_bar(pt, &self.xt, spec.target);
+        let d = hand.distance_m;
+        let captured = !out && hand.captures;
         terms.capture = f64::from(u8::from(captured));
         terms.out_of_limits = f64::from(u8::from(out));
         terms.progress_m = if out { 0.0 } else { self.distance - d };

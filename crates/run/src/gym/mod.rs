@@ -11,9 +11,11 @@
 //! - **Observation** (2n + 3 values, float32): the measured state (after the sensor disturbances),
 //!   the target bar relative to the hand (the hand from the measured angles and the nominal
 //!   robot), and the time left (s); each clipped to [`SwingEnvSpec::observation_bounds`].
-//! - **Termination**: capture (the plant's true hand within [`crate::SUCCESS_RADIUS_M`] of the bar
-//!   and slower than `capture_speed_m_s`), or the true state leaving the limits (`max_angle_rad`,
-//!   `max_rate_rad_s`, or a diverged plant). **Truncation**: at `time_limit_s`.
+//! - **Termination**: capture by the rule of every run ([`crate::success::hand_at_bar`]: the
+//!   plant's true hand within [`crate::SUCCESS_RADIUS_M`] of the bar and no faster than
+//!   [`crate::CAPTURE_SPEED_M_S`], tested after every control period), or the true state leaving
+//!   the limits (`max_angle_rad`, `max_rate_rad_s`, or a diverged plant). **Truncation**: at
+//!   `time_limit_s`.
 //! - **Randomness**: each env owns a ChaCha8 generator seeded by `reset(seed)`; every episode draws
 //!   its own seed from it, and the episode's disturbances ([`Randomization`]) are drawn from that.
 
@@ -41,8 +43,6 @@ pub struct SwingEnvSettings {
     pub plant_dt: f64,
     /// Episode length: truncation when this much time has passed, s (at most 60). Default 3.
     pub time_limit_s: f64,
-    /// A capture needs the hand slower than this, m/s. Default 0.5.
-    pub capture_speed_m_s: f64,
     /// Limit on every joint angle, rad: beyond it the episode terminates. Default 6.283185307179586.
     pub max_angle_rad: f64,
     /// Limit on every joint rate, rad/s: beyond it the episode terminates. Default 40.
@@ -57,7 +57,6 @@ impl Default for SwingEnvSettings {
             control_dt: 0.01,
             plant_dt: 0.001,
             time_limit_s: 3.0,
-            capture_speed_m_s: 0.5,
             max_angle_rad: std::f64::consts::TAU,
             max_rate_rad_s: 40.0,
             reward: RewardWeights::default(),
@@ -136,13 +135,6 @@ impl SwingEnvSettings {
                 ),
             ));
         }
-        range(
-            "capture_speed_m_s",
-            self.capture_speed_m_s,
-            0.0,
-            100.0,
-            "must be in (0, 100] m/s",
-        )?;
         range(
             "max_angle_rad",
             self.max_angle_rad,

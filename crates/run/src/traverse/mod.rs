@@ -787,6 +787,16 @@ fn record_contacts(
     }
 }
 
+/// The header of `traverse.csv` for an `n`-link chain (see the module docs), without its newline.
+pub(crate) fn csv_header(n: usize) -> String {
+    let mut s = crate::schema::state_columns(n);
+    s.push_str(",swing,holding_hand,grip_bar,grip_x,grip_y,hand_a_x,hand_a_y");
+    for i in 1..n {
+        let _ = write!(s, ",p{i}_x,p{i}_y");
+    }
+    s + ",hand_b_x,hand_b_y"
+}
+
 impl Traverse {
     /// The links' contacts with the ball of `[disturbances.ball]` (none without a ball, or on the
     /// model plant).
@@ -830,20 +840,8 @@ impl Traverse {
     /// `traverse.csv` (see the module docs for the header).
     pub fn to_csv(&self) -> String {
         let n = self.chains[0].n();
-        let mut s = String::from("t");
-        for name in ["q", "qd"] {
-            for i in 1..=n {
-                let _ = write!(s, ",{name}{i}");
-            }
-        }
-        for i in 2..=n {
-            let _ = write!(s, ",tau{i}");
-        }
-        s.push_str(",ee_x,ee_y,swing,holding_hand,grip_bar,grip_x,grip_y,hand_a_x,hand_a_y");
-        for i in 1..n {
-            let _ = write!(s, ",p{i}_x,p{i}_y");
-        }
-        s.push_str(",hand_b_x,hand_b_y\n");
+        let mut s = csv_header(n);
+        s.push('\n');
         for (k, log) in self.logs.iter().enumerate() {
             let rec = &self.swings[k];
             let t0 = rec.t_start_s - log.t[0];

@@ -16,7 +16,7 @@ mod families;
 use card::{ControllerCard, Scorecard, SweepDef};
 
 const TEMPLATE: &str = include_str!("../../assets/view/bench.html");
-const STYLE: &str = include_str!("../../assets/view/view.css");
+const STYLE: &str = include_str!("../../assets/view/bench.css");
 
 const BENCH_FOLDER: &str =
     "a benchmark folder written by `brachia benchmark` (scorecard.json, runs.csv)";
@@ -265,15 +265,15 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
         runs.len(),
         card.success_radius_m
     );
-    TEMPLATE
-        .replace("/*{{STYLE}}*/", STYLE)
+    let body = TEMPLATE
         .replace("{{TITLE}}", &html_escape(&title))
         .replace("{{SUBTITLE}}", &html_escape(&subtitle))
         .replace("{{SCORECARD}}", &table)
         .replace("{{PER_DISTURBANCE}}", &per)
         .replace("{{FAMILIES}}", &families::section(card, &legend))
         .replace("{{LEGEND}}", &legend)
-        .replace("{{CURVES}}", &curves)
+        .replace("{{CURVES}}", &curves);
+    super::page(&title, STYLE, &body)
 }
 
 #[cfg(test)]

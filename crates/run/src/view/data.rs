@@ -12,7 +12,7 @@ use brachia::planning::SwingTask;
 use brachia::sim::ClosedLoopLog;
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
-use brachia_rapier::{ContactBody, Obstacle};
+use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
 use serde_json::{json, Value};
 
 /// Version of the embedded data's layout.
@@ -44,6 +44,15 @@ pub(super) fn with_full(
         let all: Vec<usize> = (0..rows).collect();
         m.insert("full".into(), Value::Object(series(&all)));
     }
+}
+
+/// A contact of the plant's log as the page lists it (links and obstacles named, links from 1).
+pub(super) fn contact_json(c: &ContactEvent) -> Value {
+    let body = match c.body {
+        ContactBody::Obstacle(i) => format!("obstacle {i}"),
+        ContactBody::Link(j) => format!("link {}", j + 1),
+    };
+    json!({ "t": r(c.t), "link": c.link + 1, "body": body, "impulse": r(c.impulse) })
 }
 
 /// `x` rounded to 1e-5 (what a page can show), so the embedded JSON stays small.
@@ -296,18 +305,7 @@ pub fn track_view(f: TrackParts<'_>) -> Value {
     let track = &f.world.track;
     let tt: Vec<f64> = track.iter().map(|row| row[0]).collect();
     let obstacle_track: Vec<Vec<f64>> = draw_indices(&tt).iter().map(|&k| rv(&track[k])).collect();
-    let contacts: Vec<Value> = f
-        .world
-        .contacts
-        .iter()
-        .map(|c| {
-            let body = match c.body {
-                ContactBody::Obstacle(i) => format!("obstacle {i}"),
-                ContactBody::Link(j) => format!("link {}", j + 1),
-            };
-            json!({ "t": r(c.t), "link": c.link + 1, "body": body, "impulse": r(c.impulse) })
-        })
-        .collect();
+    let contacts: Vec<Value> = f.world.contacts.iter().map(contact_json).collect();
     let replans: Vec<Value> = f
         .report
         .replans

@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod data;
+pub mod page;
 pub mod simulate;
 pub mod traverse;
 
@@ -36,11 +37,9 @@ pub use traverse::{traverse_view, TraverseParts, TraverseReportView};
 /// The page's file name in a run folder.
 pub const VIEW_FILE: &str = "view.html";
 
-/// The style sheet every page embeds (light and dark themes).
-pub const VIEW_STYLE: &str = include_str!("../../assets/view/view.css");
+pub use page::{page, VIEW_STYLE};
 
 const TEMPLATE: &str = include_str!("../../assets/view/view.html");
-const STYLE: &str = include_str!("../../assets/view/view.css");
 const SCRIPT: &str = include_str!("../../assets/view/view.js");
 
 /// The page for the data `data` (as [`plan_view`] or [`track_view`] make it).
@@ -52,11 +51,11 @@ pub fn render(data: &Value) -> String {
     // no `</script` or `<!--` may appear inside a script element: `<` only occurs inside JSON strings,
     // where `\u003c` stands for it
     let json = data.to_string().replace('<', "\\u003c");
-    TEMPLATE
+    let body = TEMPLATE
         .replace("{{TITLE}}", &html_escape(title))
-        .replace("/*{{STYLE}}*/", STYLE)
         .replace("/*{{SCRIPT}}*/", SCRIPT)
-        .replace("{{DATA}}", &json)
+        .replace("{{DATA}}", &json);
+    page(title, "", &body)
 }
 
 /// The page data of a plan folder.

@@ -24,16 +24,7 @@ pub struct SimulateParts<'a> {
 
 /// The header of a simulation's `trajectory.csv` for an `n`-link chain.
 fn header(n: usize) -> String {
-    let mut s = String::from("t");
-    for name in ["q", "qd"] {
-        for i in 1..=n {
-            s.push_str(&format!(",{name}{i}"));
-        }
-    }
-    for i in 2..=n {
-        s.push_str(&format!(",tau{i}"));
-    }
-    s + ",ee_x,ee_y,energy"
+    crate::schema::state_columns(n) + ",energy"
 }
 
 /// Rows of finite numbers under exactly the header `want` (after the schema line), times increasing.

@@ -2,11 +2,13 @@
 //! `traverse.csv` (the chain's world joints at every row), its `report.json` (bars, swings, status)
 //! and, on the rapier plant, its contacts and obstacle track; grip switches are marks in the plots.
 
-use super::data::{circle, draw_indices, r, robot_json, rv, with_full, DEFAULT_RADIUS_M};
+use super::data::{
+    circle, contact_json, draw_indices, r, robot_json, rv, with_full, DEFAULT_RADIUS_M,
+};
 use crate::ladder::Bar;
 use brachia::model::Circle;
 use brachia::{Error, Robot};
-use brachia_rapier::{ContactBody, ContactEvent, Obstacle};
+use brachia_rapier::{ContactEvent, Obstacle};
 use serde::Deserialize;
 use serde_json::{json, Value};
 
@@ -85,25 +87,6 @@ impl Rows {
     }
 }
 
-/// The header `traverse.csv` has for an `n`-link chain.
-fn header(n: usize) -> String {
-    let mut s = String::from("t");
-    for name in ["q", "qd"] {
-        for i in 1..=n {
-            s.push_str(&format!(",{name}{i}"));
-        }
-    }
-    for i in 2..=n {
-        s.push_str(&format!(",tau{i}"));
-    }
-    s.push_str(",ee_x,ee_y,swing,holding_hand,grip_bar,grip_x,grip_y,hand_a_x,hand_a_y");
-    for i in 1..n {
-        s.push_str(&format!(",p{i}_x,p{i}_y"));
-    }
-    s.push_str(",hand_b_x,hand_b_y");
-    s
-}
-
 /// Parse `traverse.csv` (after its schema line): the header of an n-link chain, finite numbers, times
 /// that never decrease, swing indices of the report's swings, holding hands 0 or 1.
 fn parse(file: &str, text: &str, swings: usize) -> Result<Rows, Error> {
@@ -111,7 +94,7 @@ fn parse(file: &str, text: &str, swings: usize) -> Result<Rows, Error> {
     let mut lines = text.lines();
     let got = lines.next().unwrap_or("").trim();
     let n = got.split(',').filter(|c| c.starts_with("qd")).count();
-    let want = header(n.max(2));
+    let want = crate::traverse::csv_header(n.max(2));
     if n < 2 || got != want {
         return Err(Error::invalid(
             file,
@@ -288,17 +271,7 @@ pub fn traverse_view(p: TraverseParts<'_>) -> Result<Value, Error> {
                     "from": s.from_bar, "to": s.to_bar })
         })
         .collect();
-    let contacts: Vec<Value> = p
-        .contacts
-        .iter()
-        .map(|c| {
-            let body = match c.body {
-                ContactBody::Obstacle(i) => format!("obstacle {i}"),
-                ContactBody::Link(j) => format!("link {}", j + 1),
-            };
-            json!({ "t": r(c.t), "link": c.link + 1, "body": body, "impulse": r(c.impulse) })
-        })
-        .collect();
+    let contacts: Vec<Value> = p.contacts.iter().map(contact_json).collect();
     let robot = match p.robot {
         Some(robot) => robot_json(robot),
         None => json!({ "n": n, "lengths": [], "radii": vec![DEFAULT_RADIUS_M; n],
@@ -383,7 +356,7 @@ mod tests {
     /// A two-link traverse of `swings` swings, 1 s each at 1 ms, every row with the chain hanging
     /// straight down from its grip bar: `hand` of each swing moved by `dy` to make a tampered row.
     fn csv(swings: usize) -> String {
-        let mut s = header(2) + "\n";
+        let mut s = crate::traverse::csv_header(2) + "\n";
         for k in 0..swings {
             for i in 0..=1000 {
                 let t = k as f64 + i as f64 * 1e-3;

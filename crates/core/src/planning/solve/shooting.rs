@@ -16,9 +16,9 @@ use crate::planning::nlp::{Backend, NlpSettings, PassStats, SolveStatus, TimeSpl
 use crate::planning::outcome::SolveRole;
 use crate::planning::outcome::{Plan, SolveAttempt, Violations};
 use crate::planning::profile::Clamped;
-use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve_log::SolveLog;
-use crate::planning::task::{check_task, SwingTask};
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::planning::transcription::clearance_fn::DistanceClearanceFn;
 use crate::planning::transcription::collocation::{CallbackTimings, Layout};
 use crate::planning::transcription::shooting::{SwingOcp, SwingOcpSpec};
@@ -107,21 +107,18 @@ pub(crate) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
     }
 }
 
-/// Plan the swing by multiple shooting (called by [`super::plan_with_guess`], which has validated the
-/// settings and the guess and set the warm-start `mu_init`). Refuses `backend = "ocp"` with a
-/// collocation transcription.
+/// Plan the swing by multiple shooting (called by [`super::plan_single`], which has checked the
+/// guess and set the warm-start `mu_init`; the settings and the task are valid by their types).
 pub(crate) fn plan_shooting(
     robot: &Arc<Robot>,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
     if settings.free_range().is_none() || settings.swing_time_starts <= 1 {
         return plan_shooting_once(robot, task, settings, nlp, guess);
     }
-    // (the task is checked before its swing time is computed from it)
-    check_task(robot, task, settings)?;
     let starts = swing_time_starts(robot, task, settings)?;
     // a free swing time from several starts: the converged plan of lowest objective (the first
     // start's if none converged), every start's attempts and times in its report (a solve each,
@@ -140,10 +137,7 @@ pub(crate) fn plan_shooting(
             },
             None => break,
         };
-        let s = PlannerSettings {
-            swing_time: SwingTime::Seconds(t0),
-            ..settings.clone()
-        };
+        let s = settings.with_swing_time(t0)?;
         plans.push(plan_shooting_once(robot, task, &s, &nlp_left, guess)?);
     }
     let best = (0..plans.len())
@@ -166,8 +160,8 @@ pub(crate) fn plan_shooting(
 /// range (or with one start), the task's swing time alone.
 fn swing_time_starts(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
 ) -> Result<Vec<f64>> {
     let (t, _) = swing_time(robot, task, settings)?;
     let t0 = settings.start_swing_time(t);
@@ -191,8 +185,8 @@ fn swing_time_starts(
 /// [`SolveRole::SubstepClearance`]); that plan is returned, with both solves in its report.
 fn plan_shooting_once(
     robot: &Arc<Robot>,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
@@ -222,8 +216,8 @@ fn plan_shooting_once(
 /// the interior RK4 sub-step states when `substep_rows`.
 fn solve_shooting(
     robot: &Arc<Robot>,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
     substep_rows: bool,
@@ -328,11 +322,12 @@ pub(crate) struct SolveSummary {
 }
 
 /// Build the multiple-shooting problem of `task` with its initial guess (from `guess`, or the
-/// smoothstep towards the inverse-kinematics target pose). Refuses a collocation transcription.
+/// smoothstep towards the inverse-kinematics target pose), whatever the settings' `transcription`
+/// says (the entries refuse the `ocp` backend with a collocation rule).
 pub(crate) fn setup_shooting(
     robot: &Arc<Robot>,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     guess: Option<&Trajectory>,
 ) -> Result<ShootingSetup> {
     setup_shooting_rows(robot, task, settings, guess, false)
@@ -342,23 +337,16 @@ pub(crate) fn setup_shooting(
 /// `substep_rows`.
 fn setup_shooting_rows(
     robot: &Arc<Robot>,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     guess: Option<&Trajectory>,
     substep_rows: bool,
 ) -> Result<ShootingSetup> {
-    if settings.transcription != Transcription::MultipleShooting {
-        let ocp = NlpSettings {
-            backend: Backend::Ocp,
-            ..NlpSettings::default()
-        };
-        settings.check_backend(&ocp, "planner")?;
-    }
     if let Some(g) = guess {
         check_guess(robot, g)?;
     }
     let n = robot.n;
-    let qd0 = check_task(robot, task, settings)?;
+    let qd0 = task.qd0();
     let (t_final, freefall) = swing_time(robot, task, settings)?;
     // a free swing time starts from the task's T clamped into its range
     let t_final = settings.start_swing_time(t_final);
@@ -376,14 +364,14 @@ fn setup_shooting_rows(
     let cf = clearance_rows(robot, task, settings)?;
 
     // initial guess, on the knots (stacked [q, qd, tau] per knot as for collocation)
-    let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);
+    let bounds = variable_bounds(robot, &layout, settings, &task.q0, qd0);
     let nz = layout.nz;
     let mut x0 = vec![0.0; layout.n_vars()];
     if let Some(g) = guess {
         guess_from_trajectory(g, &layout, t_final, &bounds, &mut x0);
     } else {
         let q_t = target_pose(robot, task, settings, cf.as_ref())?;
-        smooth_step_guess(&layout, t_final, &task.q0, &q_t, &qd0, &mut x0);
+        smooth_step_guess(&layout, t_final, &task.q0, &q_t, qd0, &mut x0);
     }
     let spec = SwingOcpSpec {
         intervals,
@@ -391,7 +379,7 @@ fn setup_shooting_rows(
         substeps: settings.shooting.substeps,
         q1_diag: settings.q1(n),
         r1_diag: settings.r1(n),
-        x_start: [task.q0.as_slice(), &qd0].concat(),
+        x_start: [task.q0.as_slice(), qd0].concat(),
         target: task.target,
         bounds: settings.bounds.clone(),
         parallel_min_stages: settings.shooting.parallel_min_stages,

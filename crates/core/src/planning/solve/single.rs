@@ -1,4 +1,4 @@
-//! One plan from one initial guess: the settings checked, the warm start's barrier, then the
+//! One plan from one initial guess: the guess checked, the warm start's barrier, then the
 //! collocation solve here or the shooting solve ([`super::shooting`]), and the plan's report.
 
 use super::common::{
@@ -11,25 +11,29 @@ use crate::planning::clearance_check::check_clearance;
 use crate::planning::nlp::{NlpSettings, SparseNlp, TimeSplit};
 use crate::planning::outcome::{Plan, Violations};
 use crate::planning::profile::{replay_ee_error, resample};
-use crate::planning::settings::{PlannerSettings, Transcription};
-use crate::planning::task::{check_task, SwingTask};
+use crate::planning::settings::{Transcription, ValidSettings};
+use crate::planning::task::ValidTask;
 use crate::planning::transcription::clearance_fn::DistanceClearanceFn;
 use crate::planning::transcription::collocation::{CollocationNlp, EeTerminalFn, Layout};
 use crate::trajectory::Trajectory;
 use std::sync::Arc;
 
 /// One plan from one initial guess (the guess given, or the smooth step): [`plan_with_guess`] without
-/// the obstacle strategies.
+/// the obstacle strategies. The input was checked where it entered: the settings and the task (their
+/// types), the solver settings and the settings against its backend (the strategies change neither
+/// the backend nor the transcription, and derive the solver settings for each solve only by a time
+/// left, an iteration cap or a warm start's barrier). The guess is checked here: the strategies
+/// start solves from their plans' points.
+///
+/// [`plan_with_guess`]: crate::planning::plan_with_guess
 pub(crate) fn plan_single(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&Trajectory>,
 ) -> Result<Plan> {
-    settings.validate(robot.n, "planner")?;
-    nlp.validate()?;
-    settings.check_backend(nlp, "planner")?;
+    debug_assert_eq!(settings.links(), robot.n);
     if let Some(g) = guess {
         check_guess(robot, g)?;
     }
@@ -58,19 +62,19 @@ pub(crate) fn plan_single(
     // the evaluators the problem holds share one copy of the robot
     let shared = Arc::new(robot.clone());
     let n = robot.n;
-    let qd0 = check_task(robot, task, settings)?;
+    let qd0 = task.qd0();
     let (t_final, freefall) = swing_time(robot, task, settings)?;
     let intervals = settings.grid(robot.n, t_final, "planner")?;
     let layout = Layout::new(n, n - 1, intervals, t_final, settings.transcription);
     let path = clearance_rows(&shared, task, settings)?.map(DistanceClearanceFn::new);
-    let bounds = variable_bounds(robot, &layout, settings, &task.q0, &qd0);
+    let bounds = variable_bounds(robot, &layout, settings, &task.q0, qd0);
     let mut x0 = vec![0.0; layout.n_vars()];
     if let Some(g) = guess {
         guess_from_trajectory(g, &layout, t_final, &bounds, &mut x0);
     } else {
         // initial guess: smooth-step from q0 to the target pose, zero torque
         let q_t = target_pose(robot, task, settings, path.as_ref().map(|p| &p.inner))?;
-        smooth_step_guess(&layout, t_final, &task.q0, &q_t, &qd0, &mut x0);
+        smooth_step_guess(&layout, t_final, &task.q0, &q_t, qd0, &mut x0);
     }
     let (q1, r1) = (settings.q1(n), settings.r1(n));
     let target = vec![task.target[0], task.target[1], 0.0, 0.0];

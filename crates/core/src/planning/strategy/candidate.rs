@@ -11,10 +11,10 @@ use crate::error::Result;
 use crate::model::Robot;
 use crate::planning::nlp::{NlpSettings, SolveStatus};
 use crate::planning::outcome::SolveRole;
-use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::settings::{SwingTime, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
 use crate::planning::strategy::race::Plans;
-use crate::planning::task::SwingTask;
+use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
@@ -27,25 +27,24 @@ pub const LONGER_SWING_FACTOR: f64 = 1.5;
 
 /// The coarse mesh's settings for `settings`: multiple shooting with knots [`COARSE_KNOT_DT_S`]
 /// apart and no sub-step refinement (the fine solve keeps the clearance between knots); `None` when
-/// the task's own mesh is not finer than half of that, or the transcription is a collocation rule.
-pub(crate) fn coarse_settings(settings: &PlannerSettings) -> Option<PlannerSettings> {
+/// the task's own mesh is not finer than half of that, the transcription is a collocation rule, or
+/// the swing is too short for the coarse mesh ([`ValidSettings::with_knot_dt`]).
+pub(crate) fn coarse_settings(settings: &ValidSettings) -> Option<ValidSettings> {
     if settings.transcription != Transcription::MultipleShooting
         || settings.knot_dt > 0.5 * COARSE_KNOT_DT_S
     {
         return None;
     }
-    let mut s = settings.clone();
-    s.knot_dt = COARSE_KNOT_DT_S;
-    s.shooting.substep_clearance = false;
-    Some(s)
+    let s = settings.with_knot_dt(COARSE_KNOT_DT_S).ok()?;
+    Some(s.without_substep_clearance())
 }
 
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
 /// `run` (its time limit counted from now for all the solves). The plans in the order solved.
 pub(crate) fn solve_seed_coarse_to_fine(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     run: &NlpSettings,
     g: &Trajectory,
     role: SolveRole,
@@ -85,13 +84,14 @@ pub(crate) fn solve_seed_coarse_to_fine(
 }
 
 /// The settings of a swing free to take from `t_s` (the automatic swing time, s) to
-/// [`LONGER_SWING_FACTOR`] times it, starting at `t0_s`; `None` unless the task's swing time is
-/// `"auto"` without a free range and the transcription is multiple shooting (a free swing time's).
+/// [`LONGER_SWING_FACTOR`] times it, starting at `t0_s` (an error when its mesh does not fit the
+/// grid, [`ValidSettings::with_free_swing_time`]); `None` unless the task's swing time is `"auto"`
+/// without a free range and the transcription is multiple shooting (a free swing time's).
 pub(crate) fn longer_swing_settings(
-    settings: &PlannerSettings,
+    settings: &ValidSettings,
     t_s: f64,
     t0_s: f64,
-) -> Option<PlannerSettings> {
+) -> Option<Result<ValidSettings>> {
     let auto = matches!(settings.swing_time, SwingTime::Auto(_));
     if !auto
         || settings.free_swing_time.is_some()
@@ -99,10 +99,7 @@ pub(crate) fn longer_swing_settings(
     {
         return None;
     }
-    let mut s = settings.clone();
-    s.swing_time = SwingTime::Seconds(t0_s);
-    s.free_swing_time = Some([t_s, LONGER_SWING_FACTOR * t_s]);
-    Some(s)
+    Some(settings.with_free_swing_time(t0_s, [t_s, LONGER_SWING_FACTOR * t_s]))
 }
 
 /// Plan `task` from the seed `g` with the swing time free between the automatic swing time `t_s`
@@ -112,22 +109,25 @@ pub(crate) fn longer_swing_settings(
 /// ([`longer_swing_settings`]).
 pub(crate) fn solve_seed_longer_swing(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     run: &NlpSettings,
     g: &Trajectory,
     t_s: f64,
 ) -> Result<Plans> {
     let started = Instant::now();
-    let Some(free_t) = longer_swing_settings(settings, t_s, t_s) else {
+    if longer_swing_settings(settings, t_s, t_s).is_none() {
         return Ok(vec![]);
-    };
+    }
     let role = SolveRole::LongerSwing {
         t_max_s: LONGER_SWING_FACTOR * t_s,
     };
     let mut out: Plans = vec![];
     let mut t0 = t_s;
-    if let Some(cs) = coarse_settings(&free_t) {
+    // a coarse mesh the longer swing does not fit is skipped
+    let coarse =
+        coarse_settings(settings).and_then(|cs| longer_swing_settings(&cs, t_s, t_s)?.ok());
+    if let Some(cs) = coarse {
         let capped = run.clone().capped(COARSE_MAX_ITER);
         if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
             let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
@@ -149,6 +149,7 @@ pub(crate) fn solve_seed_longer_swing(
     let Some(fine_settings) = longer_swing_settings(settings, t_s, t0) else {
         return Ok(out);
     };
+    let fine_settings = fine_settings?;
     let guess = out.last().map_or(g, |(_, p)| &p.points);
     let p = plan_single(robot, task, &fine_settings, &fine, Some(guess))?;
     out.push((role, p));

@@ -92,6 +92,22 @@ pub struct CspaceReport {
     /// [`crate::planning::strategy::obstacles::TORQUE_RELAX`] converged (`None`: not tried, the seed's own solve converged).
     #[serde(default)]
     pub relaxed_converged: Option<bool>,
+    /// Which route of the search this is (0: the first; later ones go round the tubes of the
+    /// routes before them, [`cspace_routes`]).
+    #[serde(default)]
+    pub route: usize,
+    /// Which goal pose the route ends at (0: the obstacle-free swing's final pose or the clear
+    /// pose closest to it; later ones other clear poses at the bar, [`super::goal`]).
+    #[serde(default)]
+    pub goal: usize,
+    /// The search ended early: the call's time limit was spent or it was cancelled.
+    #[serde(default)]
+    pub stopped: bool,
+    /// Largest |inverse-dynamics torque| of the timed seed over its limit, over the actuated joints
+    /// and the passive joint's residual (against the largest limit): how far the seed is from the
+    /// limits, the rank of the seeds (lower first). 0 until timed.
+    #[serde(default)]
+    pub peak_torque_ratio: f64,
 }
 
 impl CspaceReport {
@@ -111,6 +127,10 @@ impl CspaceReport {
             min_clearance_m: f64::NEG_INFINITY,
             converged: None,
             relaxed_converged: None,
+            route: 0,
+            goal: 0,
+            stopped: false,
+            peak_torque_ratio: 0.0,
         }
     }
 }
@@ -189,12 +209,16 @@ impl Grid {
     }
 }
 
-/// Cell states: not reached, reached and blocked, the start, or reached by move `dir` (its state is
-/// `FIRST_MOVE + dir`, `dir = 2 d + up`).
+/// Cell states: not reached, reached and blocked, known free, in an earlier route's tube, the start,
+/// or reached by move `dir` (its state is `FIRST_MOVE + dir`, `dir = 2 d + up`).
 const UNSEEN: u8 = 0;
 const BLOCKED: u8 = 1;
-const START: u8 = 2;
-const FIRST_MOVE: u8 = 3;
+/// Checked free by an earlier search of the same grid, not reached by this one.
+const FREE: u8 = 2;
+/// Blocked for this search: round an earlier route.
+const TUBE: u8 = 3;
+const START: u8 = 4;
+const FIRST_MOVE: u8 = 5;
 
 /// Collision checks against the planner's margin plus an extra clearance.
 struct Checker {
@@ -227,6 +251,9 @@ impl Checker {
     }
 }
 
+/// How often (in cells reached) the search asks its stop rule whether to end.
+pub const STOP_CHECK_CELLS: usize = 2048;
+
 /// A collision-free piecewise-linear joint path from `q_start` to `q_goal` (see the module docs): its
 /// waypoints (start and goal included), or `None` with the report saying why.
 pub fn cspace_path(
@@ -236,6 +263,27 @@ pub fn cspace_path(
     q_start: &[f64],
     q_goal: &[f64],
 ) -> Result<(CspaceReport, Option<Vec<Vec<f64>>>)> {
+    let mut routes = cspace_routes(robot, obstacles, settings, q_start, q_goal, 1, &|| false)?;
+    Ok(routes.remove(0))
+}
+
+/// Up to `k` distinct collision-free joint paths from `q_start` to `q_goal`, best first: the first
+/// as [`cspace_path`]; each next one searched on the same grid with a tube of
+/// [`ROUTE_TUBE_CELLS`] cells round every route before it blocked (except within
+/// [`ROUTE_TUBE_CELLS`] + 1 cells of the two ends), so it takes another way round; a route whose
+/// waypoints stay within [`SAME_ROUTE_RAD`] of an earlier route's is dropped. Cells checked once
+/// are not checked again. `stop` is asked every [`STOP_CHECK_CELLS`] cells reached: once it says
+/// stop, the search running ends without a path (its report says `stopped`) and no other starts.
+/// One report per search run (at least one); the waypoints of those that found a distinct route.
+pub fn cspace_routes(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_start: &[f64],
+    q_goal: &[f64],
+    k: usize,
+    stop: &dyn Fn() -> bool,
+) -> Result<Vec<Route>> {
     let n = robot.n;
     let b = &settings.bounds;
     let mut lo = vec![-b.q_rel_max; n];
@@ -244,7 +292,7 @@ pub fn cspace_path(
     let (step, grid) = Grid::new(&lo, &hi);
     let mut rep = CspaceReport::not_searched(step);
     let Some(grid) = grid else {
-        return Ok((rep, None));
+        return Ok(vec![(rep, None)]);
     };
     rep.grid_cells = grid.cells;
     rep.grid_step_rad = grid.nominal_step;
@@ -255,126 +303,305 @@ pub fn cspace_path(
     };
     rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
     if !rep.endpoints_clear {
-        return Ok((rep, None));
+        return Ok(vec![(rep, None)]);
     }
-    let (mut c, mut nb, mut goal) = (vec![0; n], vec![0; n], vec![0; n]);
-    let mut q = vec![0.0; n];
-    grid.nearest(q_goal, &mut goal);
-    grid.nearest(q_start, &mut c);
-    let (start_idx, goal_idx) = (grid.index(&c), grid.index(&goal));
-    let h = |c: &[usize]| -> u32 {
-        c.iter()
-            .zip(&goal)
-            .map(|(a, g)| a.abs_diff(*g) as u32)
-            .sum()
+    let mut search = Search {
+        grid,
+        check,
+        state: vec![],
+        stop,
     };
-    let mut state = vec![UNSEEN; grid.cells];
-    state[start_idx] = START;
-    // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
-    // poses are checked by the shortcut)
-    let mut open: BinaryHeap<Reverse<(u32, u32, u32)>> = BinaryHeap::new();
-    open.push(Reverse((
-        HEURISTIC_WEIGHT * h(&c),
-        u32::MAX,
-        start_idx as u32,
-    )));
-    rep.cells_discovered = 1;
-    let mut found = start_idx == goal_idx;
-    'search: while let Some(Reverse((_, deep, idx))) = open.pop() {
-        let g = u32::MAX - deep;
-        grid.coords(idx as usize, &mut c);
-        for d in 0..n {
-            for up in [false, true] {
-                if (up && c[d] + 1 >= grid.dims[d]) || (!up && c[d] == 0) {
-                    continue;
-                }
-                nb.copy_from_slice(&c);
-                if up {
-                    nb[d] += 1;
-                } else {
-                    nb[d] -= 1;
-                }
-                let k = grid.index(&nb);
-                if state[k] != UNSEEN {
-                    continue;
-                }
-                if rep.cells_discovered >= MAX_DISCOVERED {
-                    break 'search;
-                }
-                rep.cells_discovered += 1;
-                grid.value(&nb, &mut q);
-                let dir = (2 * d + usize::from(up)) as u8;
-                if k == goal_idx {
+    search.state = vec![UNSEEN; search.grid.cells];
+    let mut out: Vec<Route> = vec![];
+    let mut found: Vec<Vec<Vec<f64>>> = vec![];
+    for route in 0..k.max(1) {
+        if route > 0 && (stop() || out.iter().any(|(r, _)| !r.found)) {
+            break;
+        }
+        let mut r = rep.clone();
+        r.route = route;
+        let cells = search.route(q_start, q_goal, &mut r);
+        let Some(cells) = cells else {
+            out.push((r, None));
+            continue;
+        };
+        let path = search.shortcut(q_start, q_goal, &cells, &mut r);
+        search.block_tube(&cells);
+        let distinct = found.iter().all(|f| !same_route(f, &path));
+        if distinct {
+            found.push(path.clone());
+            out.push((r, Some(path)));
+        }
+    }
+    if out.is_empty() {
+        out.push((rep, None));
+    }
+    Ok(out)
+}
+
+/// One search of [`cspace_routes`]: its report and, when it found a distinct route, the route's
+/// waypoints.
+pub type Route = (CspaceReport, Option<Vec<Vec<f64>>>);
+
+/// Cells round a route blocked for the routes after it (L-infinity radius in cells).
+pub const ROUTE_TUBE_CELLS: usize = 3;
+/// Two routes whose waypoints, resampled at 32 points along their arc length, all agree to this
+/// (rad, largest joint difference) are one route.
+pub const SAME_ROUTE_RAD: f64 = 0.3;
+
+/// Whether two paths are the same route ([`SAME_ROUTE_RAD`]).
+fn same_route(a: &[Vec<f64>], b: &[Vec<f64>]) -> bool {
+    let (pa, pb) = (along(a, 32), along(b, 32));
+    pa.iter().zip(&pb).all(|(x, y)| {
+        x.iter()
+            .zip(y)
+            .all(|(u, v)| (u - v).abs() <= SAME_ROUTE_RAD)
+    })
+}
+
+/// `m + 1` points evenly spaced along the arc length of the piecewise-linear path `p`.
+fn along(p: &[Vec<f64>], m: usize) -> Vec<Vec<f64>> {
+    let mut acc = vec![0.0];
+    for w in p.windows(2) {
+        acc.push(acc.last().copied().unwrap_or(0.0) + dist(&w[0], &w[1]));
+    }
+    let total = acc.last().copied().unwrap_or(0.0);
+    (0..=m)
+        .map(|j| {
+            let s = total * j as f64 / m as f64;
+            let seg = (acc.partition_point(|&a| a <= s).max(1) - 1).min(p.len().saturating_sub(2));
+            if p.len() < 2 {
+                return p[0].clone();
+            }
+            let l = acc[seg + 1] - acc[seg];
+            let f = if l > 0.0 {
+                ((s - acc[seg]) / l).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            p[seg]
+                .iter()
+                .zip(&p[seg + 1])
+                .map(|(a, b)| a + f * (b - a))
+                .collect()
+        })
+        .collect()
+}
+
+/// One grid with its cells' states, searched for one route after another.
+struct Search<'a> {
+    grid: Grid,
+    check: Checker,
+    state: Vec<u8>,
+    stop: &'a dyn Fn() -> bool,
+}
+
+impl Search<'_> {
+    /// The weighted A* of the module docs from `q_start`'s cell to `q_goal`'s: the cells of the
+    /// route, start to goal, or `None` (the report says why).
+    fn route(
+        &mut self,
+        q_start: &[f64],
+        q_goal: &[f64],
+        rep: &mut CspaceReport,
+    ) -> Option<Vec<usize>> {
+        let n = q_start.len();
+        let grid = &self.grid;
+        // cells reached by an earlier search are known free; its path marks are cleared
+        for s in self.state.iter_mut() {
+            if *s >= START {
+                *s = FREE;
+            }
+        }
+        let (mut c, mut nb, mut goal) = (vec![0; n], vec![0; n], vec![0; n]);
+        let mut q = vec![0.0; n];
+        grid.nearest(q_goal, &mut goal);
+        grid.nearest(q_start, &mut c);
+        let (start_idx, goal_idx) = (grid.index(&c), grid.index(&goal));
+        let h = |c: &[usize]| -> u32 {
+            c.iter()
+                .zip(&goal)
+                .map(|(a, g)| a.abs_diff(*g) as u32)
+                .sum()
+        };
+        let state = &mut self.state;
+        state[start_idx] = START;
+        // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
+        // poses are checked by the shortcut)
+        let mut open: BinaryHeap<Reverse<(u32, u32, u32)>> = BinaryHeap::new();
+        open.push(Reverse((
+            HEURISTIC_WEIGHT * h(&c),
+            u32::MAX,
+            start_idx as u32,
+        )));
+        rep.cells_discovered = 1;
+        let mut found = start_idx == goal_idx;
+        'search: while let Some(Reverse((_, deep, idx))) = open.pop() {
+            let g = u32::MAX - deep;
+            grid.coords(idx as usize, &mut c);
+            for d in 0..n {
+                for up in [false, true] {
+                    if (up && c[d] + 1 >= grid.dims[d]) || (!up && c[d] == 0) {
+                        continue;
+                    }
+                    nb.copy_from_slice(&c);
+                    if up {
+                        nb[d] += 1;
+                    } else {
+                        nb[d] -= 1;
+                    }
+                    let k = grid.index(&nb);
+                    let s = state[k];
+                    if s != UNSEEN && s != FREE {
+                        continue;
+                    }
+                    if rep.cells_discovered >= MAX_DISCOVERED {
+                        break 'search;
+                    }
+                    if rep.cells_discovered.is_multiple_of(STOP_CHECK_CELLS) && (self.stop)() {
+                        rep.stopped = true;
+                        break 'search;
+                    }
+                    rep.cells_discovered += 1;
+                    let dir = (2 * d + usize::from(up)) as u8;
+                    if k == goal_idx {
+                        state[k] = FIRST_MOVE + dir;
+                        found = true;
+                        break 'search;
+                    }
+                    if s == UNSEEN {
+                        grid.value(&nb, &mut q);
+                        if self.check.clearance(&q) < CELL_EXTRA_CLEARANCE {
+                            state[k] = BLOCKED;
+                            continue;
+                        }
+                    }
                     state[k] = FIRST_MOVE + dir;
-                    found = true;
-                    break 'search;
+                    let g1 = g + 1;
+                    open.push(Reverse((
+                        g1 + HEURISTIC_WEIGHT * h(&nb),
+                        u32::MAX - g1,
+                        k as u32,
+                    )));
                 }
-                if check.clearance(&q) < CELL_EXTRA_CLEARANCE {
-                    state[k] = BLOCKED;
+            }
+        }
+        if !found {
+            rep.exhausted =
+                !rep.stopped && open.is_empty() && rep.cells_discovered < MAX_DISCOVERED;
+            return None;
+        }
+        rep.found = true;
+        // the grid path, goal back to start
+        let mut cells = vec![goal_idx];
+        let mut k = goal_idx;
+        while state[k] != START {
+            let dir = (state[k] - FIRST_MOVE) as usize;
+            grid.coords(k, &mut c);
+            let d = dir / 2;
+            if dir % 2 == 1 {
+                c[d] -= 1;
+            } else {
+                c[d] += 1;
+            }
+            k = grid.index(&c);
+            cells.push(k);
+        }
+        cells.reverse();
+        rep.grid_moves = cells.len() - 1;
+        Some(cells)
+    }
+
+    /// The route `cells` from `q_start` to `q_goal` shortened (the module docs, step 3), with the
+    /// report's waypoints, clearance and length.
+    fn shortcut(
+        &self,
+        q_start: &[f64],
+        q_goal: &[f64],
+        cells: &[usize],
+        rep: &mut CspaceReport,
+    ) -> Vec<Vec<f64>> {
+        let n = q_start.len();
+        let (grid, check) = (&self.grid, &self.check);
+        let (mut c, mut q) = (vec![0; n], vec![0.0; n]);
+        let mut pts: Vec<Vec<f64>> = Vec::with_capacity(cells.len() + 2);
+        pts.push(q_start.to_vec());
+        for &k in cells {
+            grid.coords(k, &mut c);
+            grid.value(&c, &mut q);
+            pts.push(q.clone());
+        }
+        pts.push(q_goal.to_vec());
+        // greedy shortcut: from each kept point to the farthest later one a clear segment reaches
+        let mut out = vec![pts[0].clone()];
+        let mut i = 0;
+        let last = pts.len() - 1;
+        while i < last {
+            let mut j = i + 1;
+            while j < last
+                && check.segment(&pts[i], &pts[j + 1], &mut q, SEGMENT_EXTRA_CLEARANCE)
+                    >= SEGMENT_EXTRA_CLEARANCE
+            {
+                j += 1;
+            }
+            out.push(pts[j].clone());
+            i = j;
+        }
+        rep.waypoints = out.len();
+        rep.min_clearance_m = out
+            .windows(2)
+            .map(|w| check.segment(&w[0], &w[1], &mut q, f64::NEG_INFINITY))
+            .fold(f64::INFINITY, f64::min);
+        rep.path_length_rad = out.windows(2).map(|w| dist(&w[0], &w[1])).sum();
+        out
+    }
+
+    /// Block the cells within [`ROUTE_TUBE_CELLS`] (L-infinity) of the route `cells` for the
+    /// searches after it, except near its two ends.
+    fn block_tube(&mut self, cells: &[usize]) {
+        let (Some(&first), Some(&last)) = (cells.first(), cells.last()) else {
+            return;
+        };
+        let grid = &self.grid;
+        let n = grid.dims.len();
+        let r = ROUTE_TUBE_CELLS as isize;
+        let (mut a, mut z, mut c, mut nb) = (vec![0; n], vec![0; n], vec![0; n], vec![0; n]);
+        grid.coords(first, &mut a);
+        grid.coords(last, &mut z);
+        let near_end = |x: &[usize]| {
+            [&a, &z].iter().any(|e| {
+                x.iter()
+                    .zip(e.iter())
+                    .all(|(u, v)| u.abs_diff(*v) <= ROUTE_TUBE_CELLS + 1)
+            })
+        };
+        let side = (2 * r + 1) as usize;
+        let count = side.pow(n as u32);
+        for &k in cells {
+            grid.coords(k, &mut c);
+            for m in 0..count {
+                let mut rem = m;
+                let mut inside = true;
+                for d in 0..n {
+                    let off = (rem % side) as isize - r;
+                    rem /= side;
+                    let v = c[d] as isize + off;
+                    if v < 0 || v >= grid.dims[d] as isize {
+                        inside = false;
+                        break;
+                    }
+                    nb[d] = v as usize;
+                }
+                if !inside || near_end(&nb) {
                     continue;
                 }
-                state[k] = FIRST_MOVE + dir;
-                let g1 = g + 1;
-                open.push(Reverse((
-                    g1 + HEURISTIC_WEIGHT * h(&nb),
-                    u32::MAX - g1,
-                    k as u32,
-                )));
+                let i = grid.index(&nb);
+                if self.state[i] != BLOCKED {
+                    self.state[i] = TUBE;
+                }
             }
         }
     }
-    if !found {
-        rep.exhausted = open.is_empty() && rep.cells_discovered < MAX_DISCOVERED;
-        return Ok((rep, None));
-    }
-    rep.found = true;
-    // the grid path, goal back to start
-    let mut cells = vec![goal_idx];
-    let mut k = goal_idx;
-    while state[k] != START {
-        let dir = (state[k] - FIRST_MOVE) as usize;
-        grid.coords(k, &mut c);
-        let d = dir / 2;
-        if dir % 2 == 1 {
-            c[d] -= 1;
-        } else {
-            c[d] += 1;
-        }
-        k = grid.index(&c);
-        cells.push(k);
-    }
-    cells.reverse();
-    rep.grid_moves = cells.len() - 1;
-    let mut pts: Vec<Vec<f64>> = Vec::with_capacity(cells.len() + 2);
-    pts.push(q_start.to_vec());
-    for &k in &cells {
-        grid.coords(k, &mut c);
-        grid.value(&c, &mut q);
-        pts.push(q.clone());
-    }
-    pts.push(q_goal.to_vec());
-    // greedy shortcut: from each kept point to the farthest later one a clear segment reaches
-    let mut out = vec![pts[0].clone()];
-    let mut i = 0;
-    let last = pts.len() - 1;
-    while i < last {
-        let mut j = i + 1;
-        while j < last
-            && check.segment(&pts[i], &pts[j + 1], &mut q, SEGMENT_EXTRA_CLEARANCE)
-                >= SEGMENT_EXTRA_CLEARANCE
-        {
-            j += 1;
-        }
-        out.push(pts[j].clone());
-        i = j;
-    }
-    rep.waypoints = out.len();
-    rep.min_clearance_m = out
-        .windows(2)
-        .map(|w| check.segment(&w[0], &w[1], &mut q, f64::NEG_INFINITY))
-        .fold(f64::INFINITY, f64::min);
-    rep.path_length_rad = out.windows(2).map(|w| dist(&w[0], &w[1])).sum();
-    Ok((rep, Some(out)))
 }
 
 fn dist(a: &[f64], b: &[f64]) -> f64 {
@@ -395,7 +622,6 @@ pub fn cspace_seed(
     settings: &PlannerSettings,
     free: &Trajectory,
 ) -> Result<(CspaceReport, Option<Trajectory>)> {
-    let n = robot.n;
     let len = free.len();
     if len < 2 || obstacles.is_empty() {
         return Ok((CspaceReport::not_searched(GRID_STEP_RAD), None));
@@ -404,18 +630,38 @@ pub fn cspace_seed(
     let Some(path) = path else {
         return Ok((rep, None));
     };
+    let g = time_path(robot, &path, free, &mut rep);
+    Ok((rep, Some(g)))
+}
+
+/// The piecewise-linear joint path `path` timed over `free`'s time axis (the module docs, step 4),
+/// with the report's largest speed and torque ratio.
+pub fn time_path(
+    robot: &Robot,
+    path: &[Vec<f64>],
+    free: &Trajectory,
+    rep: &mut CspaceReport,
+) -> Trajectory {
+    let n = robot.n;
+    let len = free.len();
     // cumulative arc length at the waypoints
     let mut acc = vec![0.0];
     for w in path.windows(2) {
-        acc.push(acc.last().unwrap() + dist(&w[0], &w[1]));
+        acc.push(acc.last().copied().unwrap_or(0.0) + dist(&w[0], &w[1]));
     }
-    let total = *acc.last().unwrap();
+    let total = acc.last().copied().unwrap_or(0.0);
     let (t0, dur) = (free.t[0], free.duration());
     let mut ws = Scratch::new(n);
     let (mut q, mut qd, mut qdd, mut f) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let mut e = vec![0.0; n];
     let mut g = Trajectory::new(n);
     let mut max_dir = 0.0f64;
+    let a = &robot.params().actuators;
+    let limit: Vec<f64> = (0..n - 1)
+        .map(|j| a.tau_min[j].abs().max(a.tau_max[j].abs()).max(1e-9))
+        .collect();
+    let biggest = limit.iter().fold(1e-9f64, |m, v| m.max(*v));
+    let mut ratio = 0.0f64;
     for k in 0..len {
         let r = ((free.t[k] - t0) / dur).clamp(0.0, 1.0);
         let s = total * r * r * (3.0 - 2.0 * r);
@@ -434,8 +680,13 @@ pub fn cspace_seed(
             max_dir = max_dir.max(e[i].abs());
         }
         robot.inverse_dynamics_into(&mut ws, &q, &qd, &qdd, &mut f);
+        ratio = ratio.max(f[0].abs() / biggest);
+        for (fj, lj) in f[1..].iter().zip(&limit) {
+            ratio = ratio.max(fj.abs() / lj);
+        }
         g.push(free.t[k], &q, &qd, &f[1..]);
     }
     rep.max_speed_rad_s = 1.5 * total / dur * max_dir;
-    Ok((rep, Some(g)))
+    rep.peak_torque_ratio = ratio;
+    g
 }

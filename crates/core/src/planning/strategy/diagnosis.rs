@@ -8,13 +8,19 @@
 //!    margin of the start pose, blocks every motion: no torque or swing time helps, nothing is probed
 //!    ([`Verdict::Unreachable`]);
 //! 2. the torque probe plans the task with every actuator limit widened by [`PROBE_TORQUE_SCALE`],
-//!    from the configuration-space seed of the obstacle-free swing (a path of another homotopy
-//!    class, [`super::cspace`]), then from the failed attempt, until one converges: its peak torque
-//!    per actuated joint over the 1 ms trajectory, against the real limit, is how much more torque
-//!    the detour found needs ([`TorqueProbe`]);
+//!    from the obstacle chain's best-ranked configuration-space seed (a path of another homotopy
+//!    class, [`super::homotopy`]; the configuration-space seed of the obstacle-free swing when the
+//!    chain made none), then from the failed attempt, until one converges: its peak torque per
+//!    actuated joint over the 1 ms trajectory, against the real limit, is how much more torque the
+//!    detour found needs ([`TorqueProbe`]);
 //! 3. from that detour, the swing-time probe plans the task at the real limits with a free swing time
 //!    in `[T, PROBE_SWING_TIME_FACTOR T]` (multiple shooting only): the swing time the detour needs
 //!    within the limits ([`SwingTimeProbe`]).
+//!
+//! The chain plans the first probe's seed widened itself, and from it the task at the real limits or
+//! with a free swing time (its step 6): a detour within the limits, or one a longer swing makes
+//! feasible under `swing_time = "auto"`, is then the chain's plan. What those solves found is
+//! handed here and read, not solved again.
 //!
 //! Each probe is a local search from the guesses named, not a proof: a probe that does not converge
 //! says that none was found, not that none exists. The probe's solves are counted in the
@@ -25,16 +31,18 @@
 //!
 //! Units: m, s, N m.
 
+use super::cspace::{cspace_routes, time_path};
 use super::obstacles::{diagnose, obstacle_on_bar};
 use super::torque_continuation::with_torque_scale;
+use super::widened::{peak_torques, torque_limits, Probed};
 use crate::error::Result;
 use crate::model::{ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::Plan;
 use crate::planning::report::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
-use crate::planning::settings::{PlannerSettings, SwingTime, Transcription};
+use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
-use crate::planning::task::SwingTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use std::time::Instant;
 
@@ -79,16 +87,23 @@ pub(crate) fn strategies_share(nlp: &NlpSettings) -> NlpSettings {
 /// `started`, when it did not converge and the call was not cancelled (see the module docs).
 pub(crate) fn diagnose_failure(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     mut p: Plan,
     started: Instant,
+    probed: &Probed,
 ) -> Result<Plan> {
     if p.converged() || nlp.is_cancelled() || task.obstacles.is_empty() {
         return Ok(p);
     }
-    p.diagnosis = probe(robot, task, settings, nlp, &p, started)?;
+    p.diagnosis = probe(robot, task, settings, nlp, &p, started, probed)?;
+    // the chain's searches: every one exhausted without a path
+    let routes = p.guess.as_ref().map_or(&[][..], |g| &g.cspace_routes[..]);
+    let exhausted = !routes.is_empty() && routes.iter().all(|r| r.exhausted && !r.found);
+    if let Some(d) = p.diagnosis.as_mut() {
+        d.paths_exhausted = exhausted && d.verdict != Verdict::Unreachable;
+    }
     Ok(p)
 }
 
@@ -128,11 +143,12 @@ fn unreachable(
 /// an obstacle.
 fn probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     p: &Plan,
     started: Instant,
+    probed: &Probed,
 ) -> Result<Option<Diagnosis>> {
     let mut d = Diagnosis {
         obstacle: 0,
@@ -145,6 +161,7 @@ fn probe(
         solves: 0,
         iterations: 0,
         solve_time_s: 0.0,
+        paths_exhausted: false,
     };
     if let Some((o, l)) = unreachable(robot, task, settings)? {
         (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
@@ -169,7 +186,7 @@ fn probe(
     let mut cost = Cost::default();
     // a probe solve the library refuses (it is no failure of the task) leaves that probe out
     let (tp, detour) =
-        torque_probe(robot, task, settings, p, &within, &mut cost).unwrap_or((None, None));
+        torque_probe(robot, task, settings, p, &within, &mut cost, probed).unwrap_or((None, None));
     // the detour found names the obstacle it goes around when the failed attempt named none
     let named = named.or(match &detour {
         Some(w) => diagnose(robot, task, settings, &w.points, None)?.map(|b| (b.obstacle, b.link)),
@@ -189,9 +206,17 @@ fn probe(
         }
     }
     if let (Some(w), Verdict::NeedsTorque) = (&detour, d.verdict) {
-        d.swing_time_probe = swing_time_probe(robot, task, settings, w, &within, &mut cost)
-            .ok()
-            .flatten();
+        d.swing_time_probe = match &probed.swing_time {
+            // the chain planned it from the same detour
+            Some(q) => Some(SwingTimeProbe {
+                range_s: [w.swing_time_s, PROBE_SWING_TIME_FACTOR * w.swing_time_s],
+                converged: q.converged(),
+                swing_time_s: q.converged().then_some(q.swing_time_s),
+            }),
+            None => swing_time_probe(robot, task, settings, w, &within, &mut cost)
+                .ok()
+                .flatten(),
+        };
         if d.swing_time_probe.as_ref().is_some_and(|s| s.converged) {
             d.verdict = Verdict::NeedsSwingTime;
         }
@@ -202,34 +227,20 @@ fn probe(
     Ok(Some(d))
 }
 
-/// The largest |tau| per actuated joint over `p`'s 1 ms trajectory, N m.
-fn peak_torques(p: &Plan, m: usize) -> Vec<f64> {
-    let mut peak = vec![0.0f64; m];
-    for k in 0..p.trajectory.len() {
-        for (pk, t) in peak.iter_mut().zip(p.trajectory.tau(k)) {
-            *pk = pk.max(t.abs());
-        }
-    }
-    peak
-}
-
 /// The guess of the torque probe before the failed attempt: the configuration-space seed of the
 /// obstacle-free swing (planned here), named; empty when the obstacle-free swing does not plan, the
 /// search finds no path or the time is spent.
 fn seeds(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
 ) -> Result<Vec<(String, Trajectory)>> {
     let Some(run) = within() else {
         return Ok(vec![]);
     };
-    let no_obstacles = SwingTask {
-        obstacles: vec![],
-        ..task.clone()
-    };
+    let no_obstacles = task.without_obstacles();
     let free = plan_single(robot, &no_obstacles, settings, &run, None)?;
     cost.add(&free);
     if !free.converged() {
@@ -242,27 +253,34 @@ fn seeds(
     // swept obstacle needs, and what widened limits make dynamically feasible (the detour seeds,
     // which stay in that class, are not tried: widened, they end locally infeasible where the
     // strategies' solves did)
-    let (_, seed) = super::cspace::cspace_seed(robot, &task.obstacles, settings, &free.points)?;
-    Ok(seed
-        .map(|g| vec![("cspace-seed".to_string(), g)])
-        .unwrap_or_default())
+    let stop = || within().is_none();
+    let pts = &free.points;
+    let (q0, q1) = (pts.q(0), pts.q(pts.len() - 1));
+    let mut routes = cspace_routes(robot, &task.obstacles, settings, q0, q1, 1, &stop)?;
+    Ok(match routes.pop() {
+        Some((mut rep, Some(path))) => {
+            vec![(
+                "cspace-seed".to_string(),
+                time_path(robot, &path, pts, &mut rep),
+            )]
+        }
+        _ => vec![],
+    })
 }
 
 /// The torque probe (see the module docs) and the plan it converged to; `(None, None)` when no
 /// time was left for its first solve.
 fn torque_probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     failed: &Plan,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
+    probed: &Probed,
 ) -> Result<(Option<TorqueProbe>, Option<Plan>)> {
     let m = robot.n - 1;
-    let a = &robot.params().actuators;
-    let limit_nm: Vec<f64> = (0..m)
-        .map(|j| a.tau_min[j].abs().max(a.tau_max[j].abs()))
-        .collect();
+    let limit_nm = torque_limits(robot);
     let wide = with_torque_scale(robot, PROBE_TORQUE_SCALE)?;
     let mut rep = TorqueProbe {
         scale: PROBE_TORQUE_SCALE,
@@ -273,17 +291,33 @@ fn torque_probe(
         ratio: vec![],
         tried: vec![],
     };
-    // the collision-free seeds first, the failed attempt (through the obstacle) last
-    let mut guesses = seeds(robot, task, settings, within, cost)?;
-    guesses.push(("failed-attempt".to_string(), failed.points.clone()));
+    // the collision-free seeds first, the failed attempt (through the obstacle) last; the chain's
+    // widened plan from its best C-space seed is that seed's probe, read, not solved again
+    // (a guess of `None`: the chain's plan)
+    let mut guesses: Vec<(String, Option<Trajectory>)> = match (&probed.widened, &probed.seed) {
+        (Some(_), _) => vec![("cspace-seed".to_string(), None)],
+        (None, Some(g)) => vec![("cspace-seed".to_string(), Some(g.clone()))],
+        (None, None) => seeds(robot, task, settings, within, cost)?
+            .into_iter()
+            .map(|(n, g)| (n, Some(g)))
+            .collect(),
+    };
+    guesses.push(("failed-attempt".to_string(), Some(failed.points.clone())));
     let mut tried = false;
     for (name, g) in guesses {
-        let Some(run) = within() else {
-            break;
+        let w = match (g, &probed.widened) {
+            (Some(g), _) => {
+                let Some(run) = within() else {
+                    break;
+                };
+                let w = plan_single(&wide, task, settings, &run, Some(&g))?;
+                cost.add(&w);
+                w
+            }
+            (None, Some(w)) => w.clone(),
+            (None, None) => continue,
         };
         tried = true;
-        let w = plan_single(&wide, task, settings, &run, Some(&g))?;
-        cost.add(&w);
         rep.tried.push(ProbeSolve {
             guess: name.clone(),
             status: w.status.clone(),
@@ -308,8 +342,8 @@ fn torque_probe(
 /// transcription has no free swing time or no time is left.
 fn swing_time_probe(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     w: &Plan,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
@@ -322,12 +356,7 @@ fn swing_time_probe(
     };
     let t = w.swing_time_s;
     let range_s = [t, PROBE_SWING_TIME_FACTOR * t];
-    let free_t = PlannerSettings {
-        swing_time: SwingTime::Seconds(t),
-        free_swing_time: Some(range_s),
-        swing_time_starts: 1,
-        ..settings.clone()
-    };
+    let free_t = settings.with_free_swing_time(t, range_s)?;
     let p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
     cost.add(&p);
     Ok(Some(SwingTimeProbe {
@@ -345,7 +374,7 @@ mod tests {
 
     /// The paper's task with an obstacle on the swing's path, and a failed plan of it: one solve
     /// cut at 3 iterations.
-    fn failed() -> (Robot, SwingTask, PlannerSettings, Plan) {
+    fn failed() -> (Robot, ValidTask, ValidSettings, Plan) {
         let robot = Robot::paper();
         let task = SwingTask {
             obstacles: vec![Circle {
@@ -354,7 +383,8 @@ mod tests {
             }],
             ..SwingTask::paper()
         };
-        let s = PlannerSettings::default();
+        let s = ValidSettings::new(PlannerSettings::default(), robot.n, "test").unwrap();
+        let task = ValidTask::new(&robot, task, &s, "task", "").unwrap();
         let nlp = NlpSettings {
             max_iter: 3,
             ..Default::default()
@@ -373,7 +403,16 @@ mod tests {
             cancel: Some(cancel),
             ..Default::default()
         };
-        let p = diagnose_failure(&robot, &task, &s, &nlp, p, Instant::now()).unwrap();
+        let p = diagnose_failure(
+            &robot,
+            &task,
+            &s,
+            &nlp,
+            p,
+            Instant::now(),
+            &Probed::default(),
+        )
+        .unwrap();
         assert!(p.diagnosis.is_none());
     }
 
@@ -384,9 +423,17 @@ mod tests {
             max_wall_time_s: Some(1e-9),
             ..Default::default()
         };
-        let d = probe(&robot, &task, &s, &nlp, &p, Instant::now())
-            .unwrap()
-            .expect("a diagnosis");
+        let d = probe(
+            &robot,
+            &task,
+            &s,
+            &nlp,
+            &p,
+            Instant::now(),
+            &Probed::default(),
+        )
+        .unwrap()
+        .expect("a diagnosis");
         assert_eq!(d.obstacle, 0);
         assert!(d.link < robot.n);
         assert_eq!(d.verdict, Verdict::NoDetourFound);
@@ -409,6 +456,30 @@ mod tests {
         assert_eq!(
             strategies_share(&NlpSettings::default()).max_wall_time_s,
             None
+        );
+    }
+
+    #[test]
+    fn exhausted_path_searches_are_in_the_message() {
+        let mut d = Diagnosis {
+            obstacle: 0,
+            link: 1,
+            verdict: Verdict::NoDetourFound,
+            swing_time_s: 2.0,
+            torque_probe: None,
+            swing_time_probe: None,
+            out_of_time: false,
+            solves: 0,
+            iterations: 0,
+            solve_time_s: 0.0,
+            paths_exhausted: false,
+        };
+        assert!(!d.to_string().contains("no collision-free path"), "{d}");
+        d.paths_exhausted = true;
+        let msg = d.to_string();
+        assert!(
+            msg.starts_with("obstacle 0 blocks link 2") && msg.contains("no collision-free path"),
+            "{msg}"
         );
     }
 

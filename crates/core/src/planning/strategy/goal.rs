@@ -34,23 +34,65 @@ pub fn clear_final_pose(
     q_final: &[f64],
     target: [f64; 2],
 ) -> Result<Option<Vec<f64>>> {
+    clear_final_pose_until(robot, obstacles, settings, q_final, target, &|| false)
+}
+
+/// [`clear_final_pose`], asking `stop` before each inverse-kinematics seed: once it says stop, the
+/// closest pose found so far.
+pub fn clear_final_pose_until(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_final: &[f64],
+    target: [f64; 2],
+    stop: &dyn Fn() -> bool,
+) -> Result<Option<Vec<f64>>> {
     let need = settings.obstacle_margin + EXTRA_CLEARANCE;
     let cf = ClearanceFn::new(robot.clone(), obstacles, settings.obstacle_margin)?
         .with_self_collision(settings.self_collision);
     if obstacles.is_empty() || cf.min_clearance(q_final) >= need {
         return Ok(None);
     }
+    let poses = clear_final_poses(robot, obstacles, settings, q_final, target, 1, stop)?;
+    Ok(poses.into_iter().next())
+}
+
+/// Up to `k` poses that grasp the bar at `target` and clear `obstacles` as [`clear_final_pose`],
+/// one per family (the signs of the relative joints: elbow up or down at each joint), the family
+/// of `q_final` first when `q_final` clears them (then `q_final` itself), the others by their
+/// distance to `q_final`, each the family's pose closest to `q_final`. `stop` is asked before each
+/// inverse-kinematics seed: once it says stop, the poses found so far.
+pub fn clear_final_poses(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_final: &[f64],
+    target: [f64; 2],
+    k: usize,
+    stop: &dyn Fn() -> bool,
+) -> Result<Vec<Vec<f64>>> {
+    let need = settings.obstacle_margin + EXTRA_CLEARANCE;
+    let cf = ClearanceFn::new(robot.clone(), obstacles, settings.obstacle_margin)?
+        .with_self_collision(settings.self_collision);
     let n = robot.n;
+    let family = |q: &[f64]| -> Vec<bool> { q[1..].iter().map(|v| *v >= 0.0).collect() };
+    // per family, the closest pose found (distance, pose)
+    let mut best: Vec<(Vec<bool>, f64, Vec<f64>)> = vec![];
+    if cf.min_clearance(q_final) >= need {
+        best.push((family(q_final), -1.0, q_final.to_vec()));
+    }
     let b = &settings.bounds;
-    let k = GOAL_OFFSETS_RAD.len();
-    let combos = k.saturating_pow((n - 1) as u32).min(MAX_GOAL_SEEDS);
-    let mut best: Option<(f64, Vec<f64>)> = None;
+    let m = GOAL_OFFSETS_RAD.len();
+    let combos = m.saturating_pow((n - 1) as u32).min(MAX_GOAL_SEEDS);
     let mut seed = q_final.to_vec();
     for c in 0..combos {
+        if stop() {
+            break;
+        }
         let mut r = c;
         for i in 1..n {
-            seed[i] = q_final[i] + GOAL_OFFSETS_RAD[r % k];
-            r /= k;
+            seed[i] = q_final[i] + GOAL_OFFSETS_RAD[r % m];
+            r /= m;
         }
         let Some(q) = ik_from_seed(robot, &seed, target) else {
             continue;
@@ -62,11 +104,15 @@ pub fn clear_final_pose(
             continue;
         }
         let dist: f64 = q.iter().zip(q_final).map(|(a, s)| (a - s).powi(2)).sum();
-        if best.as_ref().is_none_or(|(d, _)| dist < *d) {
-            best = Some((dist, q));
+        let fam = family(&q);
+        match best.iter_mut().find(|(f, _, _)| *f == fam) {
+            Some(e) if dist < e.1 => (e.1, e.2) = (dist, q),
+            Some(_) => {}
+            None => best.push((fam, dist, q)),
         }
     }
-    Ok(best.map(|(_, q)| q))
+    best.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Ok(best.into_iter().take(k).map(|(_, _, q)| q).collect())
 }
 
 /// `free` with its last knot's pose replaced by `q` (velocities and torques kept).

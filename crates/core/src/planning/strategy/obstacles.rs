@@ -5,20 +5,24 @@
 //! obstacles between the two poses; when it cuts through one, the interior point starts deep inside the
 //! infeasible set and its restoration phase often fails. [`crate::planning::plan_with_guess`] then
 //! runs an ordered chain of strategies, each recorded in the plan's solves by its role:
-//! 1. the smooth step alone, where its guess clears the obstacles (or nothing else is tried);
+//! 1. the smooth step alone, where its guess clears the obstacles (or nothing else is tried: with
+//!    `obstacle_guess = "direct"`, or an obstacle on the target bar);
 //! 2. the swing without the obstacles (self-collision kept), which the seeds deform;
 //! 3. a final pose for the seeds that clears the obstacles, when the obstacle-free swing's does not
 //!    ([`super::goal`]);
-//! 4. the race ([`super::race`]): the smooth step (where its guess cuts through an obstacle, capped
-//!    at [`SMOOTH_STEP_RACE_MAX_ITER`]), the detour seeds of [`super::detour`] (the obstacle-free
-//!    plan deformed around the obstacles by barrier tracking, in a fixed measured order) and the
-//!    configuration-space seed of [`super::cspace`] (a collision-free joint path of another homotopy
-//!    class, found by a grid search), solved two at a time, each seed coarse to fine
-//!    ([`super::candidate`]); the first plan that converges wins;
-//! 5. when the C-space seed's solve failed: that seed planned with the torque limits scaled by
-//!    [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
+//! 4. the race ([`super::race`]), in this order: the smooth step (where its guess cuts through an
+//!    obstacle, capped at [`SMOOTH_STEP_RACE_MAX_ITER`]), the forward detour
+//!    seeds of [`super::detour`] (the obstacle-free plan deformed around the obstacles by barrier
+//!    tracking), the best-ranked configuration-space seed of [`super::homotopy`] (a collision-free
+//!    joint path of another homotopy class) and the same with a longer swing, the backward detour
+//!    seeds, then the other configuration-space seeds in their rank; solved two at a time, each
+//!    seed coarse to fine ([`super::candidate`]); the first plan in order that converges wins;
+//! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
+//!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
-//! 6. every obstacle grown from a fraction `s` of its radius to the full radius, each step
+//! 6. the diagnosis's detour (`widened.rs`): the best C-space seed with the limits widened 8x, then at
+//!    the real limits, or with a free swing time under `swing_time = "auto"`;
+//! 7. every obstacle grown from a fraction `s` of its radius to the full radius, each step
 //!    warm-started from the previous converged plan (`s` doubles its step after a success, halves it
 //!    after a failure, down to [`MIN_SCALE_STEP`]). This rescues obstacles a link passes near; an
 //!    obstacle the swing sweeps through is not rescued, at any radius (measured: docs/planner.md,
@@ -26,7 +30,7 @@
 //!    escape only past its free end: avoiding it changes the whole swing, not a neighbourhood of it
 //!    (which is what the detour and C-space seeds do).
 //!
-//! The guesses of steps 4 to 6 are trajectories (a plan's knots or collocation points), so the
+//! The guesses of steps 4 to 7 are trajectories (a plan's knots or collocation points), so the
 //! strategies work for every transcription and backend. Units: m, s.
 
 use crate::error::Result;
@@ -36,7 +40,7 @@ use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
-use crate::planning::settings::PlannerSettings;
+use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::target_pose;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
@@ -44,9 +48,13 @@ use crate::planning::strategy::candidate::{
     longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing,
 };
 use crate::planning::strategy::cspace::CspaceReport;
+use crate::planning::strategy::homotopy::{
+    homotopy_seeds, HomotopySeeds, MAX_GOALS, ROUTES_PER_GOAL,
+};
 use crate::planning::strategy::torque_continuation::with_torque_scale;
+use crate::planning::strategy::widened::{widened_detour, Probed};
 use crate::planning::strategy::{goal, race};
-use crate::planning::task::SwingTask;
+use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::sync::{Arc, OnceLock};
@@ -72,21 +80,6 @@ pub fn obstacle_on_bar(robot: &Robot, task: &SwingTask, margin: f64) -> Option<u
         (task.target[0] - o.center[0]).hypot(task.target[1] - o.center[1]) - o.radius
             < r_last + margin
     })
-}
-
-/// `task` with every obstacle's radius scaled by `s`.
-fn scaled(task: &SwingTask, s: f64) -> SwingTask {
-    SwingTask {
-        obstacles: task
-            .obstacles
-            .iter()
-            .map(|o| Circle {
-                center: o.center,
-                radius: s * o.radius,
-            })
-            .collect(),
-        ..task.clone()
-    }
 }
 
 /// Whether the smooth step from `q0` to the target pose (sampled at 100 points) clears every
@@ -195,19 +188,19 @@ pub fn diagnose(
 /// step's attempt is then returned).
 pub(crate) fn plan_around_obstacles(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
-) -> Result<Plan> {
+) -> Result<(Plan, Probed)> {
     let started = std::time::Instant::now();
-    let mut p = strategies(robot, task, settings, nlp, started)?;
+    let (mut p, probed) = strategies(robot, task, settings, nlp, started)?;
     // the time limit ended the strategies: they went past the first solve, none converged, and
     // nothing is left of the limit (a solve it stopped ends once it is spent)
     let spent = !p.converged() && nlp.remaining(started).is_none();
     if let Some(g) = p.guess.as_mut() {
         g.out_of_time = spent && g.strategy != GuessStrategy::SmoothStep;
     }
-    Ok(p)
+    Ok((p, probed))
 }
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
@@ -220,7 +213,8 @@ pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 enum Kind {
     SmoothStep,
     Detour(usize),
-    Cspace,
+    /// The C-space seed of this rank ([`super::homotopy`]).
+    Cspace(usize),
     CspaceLonger,
 }
 
@@ -228,8 +222,8 @@ enum Kind {
 /// 1 ms: a plan is returned), at most `cap` iterations.
 fn smooth_step_now(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     cap: usize,
@@ -255,11 +249,11 @@ fn interrupted(plans: &race::Plans) -> bool {
 /// C-space seed; the actuator-limit continuation from the C-space seed; the radius continuation.
 fn strategies(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
-) -> Result<Plan> {
+) -> Result<(Plan, Probed)> {
     let clear = smooth_step_is_clear(robot, task, settings)?;
     let mut rep = GuessReport {
         strategy: GuessStrategy::SmoothStep,
@@ -270,6 +264,7 @@ fn strategies(
         scales: vec![],
         seeds: vec![],
         cspace: None,
+        cspace_routes: vec![],
         out_of_time: false,
     };
     let mut log = SolveLog::default();
@@ -283,17 +278,17 @@ fn strategies(
         let mut p = plan_single(robot, task, settings, nlp, None)?;
         log.record(&mut p, SolveRole::Task);
         if p.converged() || direct || on_bar {
-            return Ok(finish(robot, task, settings, p, rep, log, None));
+            return Ok((
+                finish(robot, task, settings, p, rep, log, None),
+                Probed::default(),
+            ));
         }
         smooth = Some(p);
     }
     // 2. the obstacle-free swing, which the seeds deform (an obstacle-free task can still be
     // refused, e.g. a target out of reach: that is the error)
     rep.strategy = GuessStrategy::Continuation;
-    let no_obstacles = SwingTask {
-        obstacles: vec![],
-        ..task.clone()
-    };
+    let no_obstacles = task.without_obstacles();
     let mut free = match nlp.remaining(started) {
         Some(run) => Some(plan_single(robot, &no_obstacles, settings, &run, None)?),
         None => None,
@@ -318,17 +313,25 @@ fn strategies(
         if let Some(f) = free.as_mut() {
             log.record(f, SolveRole::ObstacleFree);
         }
-        return Ok(finish(robot, task, settings, best, rep, log, ff));
+        let p = finish(robot, task, settings, best, rep, log, ff);
+        return Ok((p, Probed::default()));
     };
     // 3. the race: the smooth step (unless solved above), the detour seeds, the C-space seed
     // the seeds end at a pose that clears the obstacles (the obstacle-free swing's, or another
     // that grasps the bar)
     let last = free_points.q(free_points.len() - 1).to_vec();
-    let seed_free =
-        match goal::clear_final_pose(robot, &task.obstacles, settings, &last, task.target)? {
-            Some(q) => goal::with_final_pose(&free_points, &q),
-            None => free_points.clone(),
-        };
+    let spent = || nlp.remaining(started).is_none();
+    let seed_free = match goal::clear_final_pose_until(
+        robot,
+        &task.obstacles,
+        settings,
+        &last,
+        task.target,
+        &spent,
+    )? {
+        Some(q) => goal::with_final_pose(&free_points, &q),
+        None => free_points.clone(),
+    };
     let seeds = crate::planning::strategy::detour::detour_seeds(
         robot,
         &task.obstacles,
@@ -336,8 +339,9 @@ fn strategies(
         &seed_free,
     )?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
-    // the C-space search, run once by the first candidate that needs it (the others wait for it)
-    let cspace: OnceLock<Option<(CspaceReport, Option<Trajectory>)>> = OnceLock::new();
+    // the homotopy search, run once by the first candidate that needs it (the others wait for it),
+    // within that candidate's time limit and cancel token
+    let cspace: OnceLock<HomotopySeeds> = OnceLock::new();
     let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
     let mut kinds = vec![];
     let mut cands: Vec<race::Candidate<'_>> = vec![];
@@ -351,49 +355,71 @@ fn strategies(
             )])
         }));
     }
-    for (i, (_, g)) in seeds.iter().enumerate() {
-        kinds.push(Kind::Detour(i));
-        cands.push(Box::new(move |run: &NlpSettings| {
-            let role = SolveRole::DetourSeed { index: i };
-            solve_seed_coarse_to_fine(robot, task, settings, run, g, role)
-        }));
-    }
-    let search = || {
+    let seed_free = &seed_free;
+    let search = |run: &NlpSettings| -> &HomotopySeeds {
         cspace.get_or_init(|| {
-            crate::planning::strategy::cspace::cspace_seed(
+            let t0 = std::time::Instant::now();
+            let stop = || run.remaining(t0).is_none();
+            homotopy_seeds(
                 robot,
                 &task.obstacles,
                 settings,
-                &seed_free,
+                seed_free,
+                task.target,
+                &stop,
             )
-            .ok()
+            .unwrap_or_default()
         })
     };
-    kinds.push(Kind::Cspace);
-    cands.push(Box::new(move |run: &NlpSettings| {
-        // the search's own time counts against the limit
-        let t0 = std::time::Instant::now();
-        let (Some((_, Some(g))), Some(run)) = (search(), run.remaining(t0)) else {
-            return Ok(vec![]);
-        };
-        solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
-    }));
-    if longer_swing_settings(settings, t_auto, t_auto).is_some() {
-        kinds.push(Kind::CspaceLonger);
-        cands.push(Box::new(move |run: &NlpSettings| {
-            let t0 = std::time::Instant::now();
-            let (Some((_, Some(g))), Some(run)) = (search(), run.remaining(t0)) else {
-                return Ok(vec![]);
-            };
-            solve_seed_longer_swing(robot, task, settings, &run, g, t_auto)
-        }));
+    let longer = longer_swing_settings(settings, t_auto, t_auto).is_some();
+    // the order: the forward detour seeds (they start at the start pose, and win most), the
+    // best-ranked C-space seed (and with a longer swing), the backward detour seeds, the other
+    // C-space seeds in their rank
+    let (forward, backward): (Vec<usize>, Vec<usize>) =
+        (0..seeds.len()).partition(|&i| !seeds[i].0.kind.backward());
+    let mut order: Vec<Kind> = forward.into_iter().map(Kind::Detour).collect();
+    order.push(Kind::Cspace(0));
+    if longer {
+        order.push(Kind::CspaceLonger);
+    }
+    order.extend(backward.into_iter().map(Kind::Detour));
+    order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).map(Kind::Cspace));
+    for kind in order {
+        kinds.push(kind);
+        match kind {
+            Kind::Detour(i) => {
+                let g = &seeds[i].1;
+                cands.push(Box::new(move |run: &NlpSettings| {
+                    let role = SolveRole::DetourSeed { index: i };
+                    solve_seed_coarse_to_fine(robot, task, settings, run, g, role)
+                }));
+            }
+            Kind::Cspace(j) => cands.push(Box::new(move |run: &NlpSettings| {
+                // the search's own time counts against the limit
+                let t0 = std::time::Instant::now();
+                let h = search(run);
+                let (Some((_, g)), Some(run)) = (h.1.get(j), run.remaining(t0)) else {
+                    return Ok(vec![]);
+                };
+                solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
+            })),
+            Kind::CspaceLonger => cands.push(Box::new(move |run: &NlpSettings| {
+                let t0 = std::time::Instant::now();
+                let h = search(run);
+                let (Some((_, g)), Some(run)) = (h.1.first(), run.remaining(t0)) else {
+                    return Ok(vec![]);
+                };
+                solve_seed_longer_swing(robot, task, settings, &run, g, t_auto)
+            })),
+            Kind::SmoothStep => {}
+        }
     }
     let outcome = race::race(&cands, nlp, started)?;
     drop(cands);
-    let (mut crep, cguess) = match cspace.into_inner().flatten() {
-        Some((r, g)) => (Some(r), g),
-        None => (None, None),
-    };
+    let (mut routes, ranked) = cspace.into_inner().unwrap_or_default();
+    // the report of the seed of rank j
+    let of_rank = |j: usize| ranked.get(j).map(|(i, _)| *i);
+    let top = of_rank(0);
     // the solves in the report: the smooth step's first, then the obstacle-free plan, then the
     // candidates in their order
     let mut won_plan = None;
@@ -429,15 +455,17 @@ fn strategies(
         match *kind {
             Kind::SmoothStep => continue,
             Kind::Detour(i) => rep.seeds[i].converged = concluded,
-            Kind::Cspace => {
-                if let Some(r) = crep.as_mut() {
-                    r.converged = concluded;
+            Kind::Cspace(j) => {
+                if let Some(i) = of_rank(j) {
+                    routes[i].converged = concluded;
                 }
-                cspace_failed = concluded == Some(false);
+                if j == 0 {
+                    cspace_failed = concluded == Some(false);
+                }
             }
             Kind::CspaceLonger => {
-                if let (Some(r), Some(true)) = (crep.as_mut(), concluded) {
-                    r.converged = Some(true);
+                if let (Some(i), Some(true)) = (of_rank(0), concluded) {
+                    routes[i].converged = Some(true);
                 }
             }
         }
@@ -446,7 +474,7 @@ fn strategies(
             log.record(&mut p, role);
             if outcome.winner == Some(c) && k + 1 == n {
                 rep.strategy = match kind {
-                    Kind::Cspace | Kind::CspaceLonger => GuessStrategy::Cspace,
+                    Kind::Cspace(_) | Kind::CspaceLonger => GuessStrategy::Cspace,
                     _ => GuessStrategy::Detour,
                 };
                 won_plan = Some(p);
@@ -464,26 +492,52 @@ fn strategies(
             SMOOTH_STEP_RACE_MAX_ITER,
         )?,
     };
+    let cguess = ranked.into_iter().next().map(|(_, g)| g);
     if let Some(p) = won_plan {
-        rep.cspace = crep;
-        return Ok(finish(robot, task, settings, p, rep, log, ff));
+        put_cspace(&mut rep, routes, top);
+        let p = finish(robot, task, settings, p, rep, log, ff);
+        return Ok((p, Probed::default()));
     }
-    // 4. continuation on the actuator limits from the C-space seed: its path, timed over T, may need
-    // more torque than the limits allow; planned with the limits widened, then at the real ones
-    // from that plan
+    // 4. continuation on the actuator limits from the best C-space seed: its path, timed over T,
+    // may need more torque than the limits allow; planned with the limits widened, then at the
+    // real ones from that plan
+    let mut crep = top.map(|i| routes[i].clone());
     if let (Some(g), true) = (cguess.as_ref(), cspace_failed) {
         if let Some(p) =
             cspace_torque_continuation(robot, task, settings, nlp, started, g, &mut crep, &mut log)?
         {
             rep.strategy = GuessStrategy::Cspace;
-            rep.cspace = crep;
-            return Ok(finish(robot, task, settings, p, rep, log, ff));
+            if let (Some(i), Some(c)) = (top, crep) {
+                routes[i] = c;
+            }
+            put_cspace(&mut rep, routes, top);
+            let p = finish(robot, task, settings, p, rep, log, ff);
+            return Ok((p, Probed::default()));
         }
     }
-    rep.cspace = crep;
-    // 5. continuation on the obstacle radii
+    if let (Some(i), Some(c)) = (top, crep) {
+        routes[i] = c;
+    }
+    // 5. the diagnosis's detour: the seed with the limits widened as the torque probe does, then
+    // at the real limits or with a longer swing
+    let mut probed = Probed::default();
+    if let Some(g) = cguess.as_ref() {
+        let (p, pr) = widened_detour(robot, task, settings, nlp, started, g, &mut log)?;
+        probed = pr;
+        if let Some(p) = p {
+            rep.strategy = GuessStrategy::Cspace;
+            if let Some(i) = top {
+                routes[i].converged = Some(true);
+            }
+            put_cspace(&mut rep, routes, top);
+            let p = finish(robot, task, settings, p, rep, log, ff);
+            return Ok((p, probed));
+        }
+    }
+    put_cspace(&mut rep, routes, top);
+    // 6. continuation on the obstacle radii
     rep.strategy = GuessStrategy::Continuation;
-    match radius_continuation(
+    let p = match radius_continuation(
         robot,
         task,
         settings,
@@ -493,10 +547,20 @@ fn strategies(
         &mut rep,
         &mut log,
     )? {
-        Some(p) => Ok(finish(robot, task, settings, p, rep, log, ff)),
+        Some(p) => finish(robot, task, settings, p, rep, log, ff),
         // nothing converged: the smooth step's attempt, diagnosed
-        None => Ok(finish(robot, task, settings, best, rep, log, ff)),
-    }
+        None => finish(robot, task, settings, best, rep, log, ff),
+    };
+    Ok((p, probed))
+}
+
+/// The C-space searches' reports into `rep`: all of them, and the best-ranked seed's (`top`; the
+/// first search's when no seed was found) as `cspace`.
+fn put_cspace(rep: &mut GuessReport, routes: Vec<CspaceReport>, top: Option<usize>) {
+    rep.cspace = top
+        .or((!routes.is_empty()).then_some(0))
+        .map(|i| routes[i].clone());
+    rep.cspace_routes = routes;
 }
 
 /// The continuation on the actuator limits from the C-space seed `g` (the module docs, step 4):
@@ -505,8 +569,8 @@ fn strategies(
 #[allow(clippy::too_many_arguments)]
 fn cspace_torque_continuation(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     g: &Trajectory,
@@ -516,8 +580,7 @@ fn cspace_torque_continuation(
     let within = |cap: usize| nlp.remaining(started).map(|n| n.capped(cap));
     let wide = with_torque_scale(robot, TORQUE_RELAX)?;
     let mut relaxed = None;
-    let mut knots_only = settings.clone();
-    knots_only.shooting.substep_clearance = false;
+    let knots_only = settings.without_substep_clearance();
     if let Some(run) = within(usize::MAX) {
         let mut p = plan_single(&wide, task, &knots_only, &run, Some(g))?;
         log.record(
@@ -551,8 +614,8 @@ fn cspace_torque_continuation(
 #[allow(clippy::too_many_arguments)]
 fn radius_continuation(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     started: std::time::Instant,
     mut guess: Trajectory,
@@ -568,7 +631,13 @@ fn radius_continuation(
         let Some(run) = within(if last { usize::MAX } else { STEP_MAX_ITER }) else {
             break;
         };
-        let mut p = plan_single(robot, &scaled(task, s), settings, &run, Some(&guess))?;
+        let mut p = plan_single(
+            robot,
+            &task.with_obstacles_scaled(s),
+            settings,
+            &run,
+            Some(&guess),
+        )?;
         log.record(&mut p, SolveRole::ObstacleScale { scale: s });
         if p.converged() {
             rep.scales.push(s);

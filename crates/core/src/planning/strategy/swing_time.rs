@@ -18,7 +18,9 @@
 //!
 //! When nothing reaches T the failed plan is returned with a [`SwingTimeSearch`] that lists what was
 //! tried: every anchor with its outcome, and how far each continuation came (the swing times that
-//! plan nearest T on either side). That is evidence, not proof: another family of swings may plan.
+//! plan nearest T on either side) with the bounds its last plan presses against ([`SwingTimeStop`]:
+//! the torque limits, the rate bound, the relative joints' bound). That is evidence, not proof:
+//! another family of swings may plan.
 //!
 //! Units: s.
 
@@ -27,13 +29,13 @@ use crate::model::Robot;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
-pub use crate::planning::report::{SwingTimeSearch, TriedSwingTime};
-use crate::planning::settings::{PlannerSettings, SwingTime};
+use crate::planning::report::AT_BOUND;
+pub use crate::planning::report::{SwingTimeSearch, SwingTimeStop, TriedSwingTime};
+use crate::planning::settings::{PlannerSettings, SwingTime, ValidSettings};
 use crate::planning::solve::common::swing_time;
 use crate::planning::solve::single::plan_single;
 use crate::planning::solve_log::SolveLog;
-use crate::planning::task::check_task;
-use crate::planning::task::SwingTask;
+use crate::planning::task::ValidTask;
 use std::time::Instant;
 
 /// Factors on the swing time at which anchors are tried, in order (alternately longer and
@@ -68,34 +70,26 @@ pub fn reference_swing_time(robot: &Robot, q0: &[f64]) -> Option<f64> {
 /// A plan of `task` at the swing time `t` (s), from `guess` or cold.
 fn plan_at(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     t: f64,
     guess: Option<&crate::trajectory::Trajectory>,
 ) -> Result<Plan> {
-    let s = PlannerSettings {
-        swing_time: SwingTime::Seconds(t),
-        torque_continuation: false,
-        swing_time_search: false,
-        ..settings.clone()
-    };
+    let s = settings.with_swing_time(t)?.without_recoveries();
     plan_single(robot, task, &s, nlp, guess)
 }
 
 /// `Some(why)` when `settings.swing_time` is `"auto"` and the free-fall rule gives no time (the
-/// locked chain never reaches the midpoint); `None` when it gives one or T is in seconds. Validates
-/// the settings and the task first (errors as the planner does on bad input).
+/// locked chain never reaches the midpoint); `None` when it gives one or T is in seconds.
 fn rule_gives_no_time(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
 ) -> Result<Option<String>> {
     if !matches!(settings.swing_time, SwingTime::Auto(_)) {
         return Ok(None);
     }
-    settings.validate(robot.n, "planner")?;
-    check_task(robot, task, settings)?;
     match swing_time(robot, task, settings) {
         Ok(_) => Ok(None),
         Err(Error::InfeasibleTask(m)) => Ok(Some(m)),
@@ -108,7 +102,7 @@ pub(crate) enum Before {
     /// The search without a rule time ran: its plan is the result.
     Planned(Box<Plan>),
     /// Plan with these settings (`None`: the caller's).
-    Plan(Option<PlannerSettings>),
+    Plan(Option<ValidSettings>),
 }
 
 /// Before the first plan of a task without obstacles: with `"auto"` and no free-fall time (and the
@@ -116,8 +110,8 @@ pub(crate) enum Before {
 /// swing time as well, the plan starts from the middle of its range.
 pub(crate) fn before_plan(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&crate::trajectory::Trajectory>,
     started: Instant,
@@ -132,10 +126,7 @@ pub(crate) fn before_plan(
         None => Before::Planned(Box::new(plan_without_rule_time(
             robot, task, settings, nlp, why, started,
         )?)),
-        Some([lo, hi]) => Before::Plan(Some(PlannerSettings {
-            swing_time: SwingTime::Seconds(0.5 * (lo + hi)),
-            ..settings.clone()
-        })),
+        Some([lo, hi]) => Before::Plan(Some(settings.with_swing_time(0.5 * (lo + hi))?)),
     })
 }
 
@@ -144,8 +135,8 @@ pub(crate) fn before_plan(
 /// refused), the search in T (a free swing time's own, or the anchors and continuations); else `p`.
 pub(crate) fn after_plan(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     guess: Option<&crate::trajectory::Trajectory>,
     p: Plan,
@@ -177,8 +168,8 @@ pub(crate) fn after_plan(
 /// has no half period either (no gravity torque about the grip).
 fn plan_without_rule_time(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     why: String,
     started: Instant,
@@ -195,6 +186,7 @@ fn plan_without_rule_time(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     search(robot, task, settings, nlp, None, reference, rep, started)
 }
@@ -204,8 +196,8 @@ fn plan_without_rule_time(
 /// call. Returns the plan found, else `failed` with what was tried.
 fn plan_by_swing_time_search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Plan,
     requested: f64,
@@ -218,6 +210,7 @@ fn plan_by_swing_time_search(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     search(
         robot,
@@ -235,8 +228,8 @@ fn plan_by_swing_time_search(
 #[allow(clippy::too_many_arguments)]
 fn search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Option<Plan>,
     centre: f64,
@@ -332,8 +325,8 @@ pub const FREE_RANGE_ANCHORS: usize = 5;
 /// its fixed T, which lies in the range), or `failed` with what was tried.
 fn plan_free_range_search(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Plan,
     [lo, hi]: [f64; 2],
@@ -346,6 +339,7 @@ fn plan_free_range_search(
         tried: vec![],
         planned_s: None,
         out_of_time: false,
+        stops: vec![],
     };
     let mut log = SolveLog::default();
     let mut failed = failed;
@@ -356,11 +350,7 @@ fn plan_free_range_search(
         .collect();
     let mid = 0.5 * (lo + hi);
     ts.sort_by(|a, b| (a - mid).abs().total_cmp(&(b - mid).abs()));
-    let fixed = PlannerSettings {
-        free_swing_time: None,
-        swing_time_starts: 1,
-        ..settings.clone()
-    };
+    let fixed = settings.without_free_swing_time();
     let mut reached = None;
     for t in ts {
         let Some(run) = nlp.remaining(started) else {
@@ -378,13 +368,11 @@ fn plan_free_range_search(
         if !p.converged() {
             continue;
         }
-        let free = PlannerSettings {
-            swing_time: SwingTime::Seconds(t),
-            swing_time_starts: 1,
-            ..settings.clone()
-        };
         let q = match nlp.remaining(started) {
-            Some(run) => Some(plan_single(robot, task, &free, &run, Some(&p.points))?),
+            Some(run) => {
+                let free = settings.with_swing_time(t)?.with_one_start();
+                Some(plan_single(robot, task, &free, &run, Some(&p.points))?)
+            }
             None => None,
         };
         match q {
@@ -419,8 +407,8 @@ fn plan_free_range_search(
 #[allow(clippy::too_many_arguments)]
 fn continue_in_t(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     anchor: Plan,
     t: f64,
@@ -463,9 +451,47 @@ fn continue_in_t(
         } else {
             step *= 0.5;
             if step.abs() < MIN_STEP_S {
-                return Ok(None);
+                break;
             }
         }
     }
+    rep.stops.push(stop_of(robot, settings, &ok));
     Ok(None)
+}
+
+/// What the converged plan `p` presses against (see [`SwingTimeStop`]).
+fn stop_of(robot: &Robot, settings: &PlannerSettings, p: &Plan) -> SwingTimeStop {
+    let (n, m) = (robot.n, robot.n - 1);
+    let b = &settings.bounds;
+    let mut torque_use = 0.0f64;
+    for row in p.points.tau.chunks(m.max(1)) {
+        for (j, &u) in row.iter().enumerate() {
+            let lim = if u >= 0.0 {
+                robot.tau_max()[j]
+            } else {
+                -robot.tau_min()[j]
+            };
+            if lim > 0.0 {
+                torque_use = torque_use.max(u.abs() / lim);
+            }
+        }
+    }
+    let peak_rate_rad_s = p.points.qd.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let joints_at_bound = (1..n)
+        .filter(|&j| {
+            p.points
+                .q
+                .chunks(n)
+                .any(|q| q[j].abs() >= (1.0 - AT_BOUND) * b.q_rel_max)
+        })
+        .map(|j| j + 1)
+        .collect();
+    SwingTimeStop {
+        swing_time_s: p.swing_time_s,
+        torque_use,
+        peak_rate_rad_s,
+        rate_bound_rad_s: b.qd_max,
+        joints_at_bound,
+        joint_bound_rad: b.q_rel_max,
+    }
 }

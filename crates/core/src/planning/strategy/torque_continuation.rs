@@ -25,10 +25,10 @@ use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
 pub use crate::planning::report::MAX_STEPS;
 use crate::planning::report::{ContinuationStop, TorqueContinuation};
-use crate::planning::settings::PlannerSettings;
+use crate::planning::settings::ValidSettings;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
-use crate::planning::task::SwingTask;
+use crate::planning::task::ValidTask;
 use std::time::Instant;
 
 /// Limit scales of the relaxed cold solves, tried in order until one converges.
@@ -91,8 +91,8 @@ fn peak_torques(p: &Plan, m: usize) -> Vec<f64> {
 /// `iterations`, `attempts` and `solve_time_s` count every solve.
 pub(crate) fn plan_by_torque_continuation(
     robot: &Robot,
-    task: &SwingTask,
-    settings: &PlannerSettings,
+    task: &ValidTask,
+    settings: &ValidSettings,
     nlp: &NlpSettings,
     failed: Plan,
     started: Instant,

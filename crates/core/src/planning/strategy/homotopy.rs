@@ -1,0 +1,102 @@
+//! Seeds of several homotopy classes for the obstacle race: configuration-space paths to several
+//! goal poses, several routes to each, ranked by a cheap measure before any of them is solved.
+//!
+//! The detour seeds ([`super::detour`]) stay in the obstacle-free swing's homotopy class, and one
+//! configuration-space path ([`super::cspace`]) is one more class. Which class plans depends on the
+//! obstacle's place against each link's sweep (a link passes it before or after in its angle sweep,
+//! the chain folds above or below it) and on the pose the chain ends in at the bar. So the seeds
+//! here are:
+//! 1. **Goals.** The pose the obstacle-free swing's knots end at (the seeds' final pose), then up
+//!    to [`MAX_GOALS`] - 1 other poses that grasp the bar and clear the obstacles, one per family of
+//!    signs of the relative joints (elbow up or down at each joint; [`super::goal::clear_final_poses`]),
+//!    nearest first.
+//! 2. **Routes.** For each goal, up to [`ROUTES_PER_GOAL`] grid routes from the start pose
+//!    ([`super::cspace::cspace_routes`]): each next route goes round a tube about the routes before it,
+//!    so it passes the obstacles another way; routes that stay within
+//!    [`super::cspace::SAME_ROUTE_RAD`] of an earlier one are dropped.
+//! 3. **Rank.** Each route timed over the swing ([`super::cspace::time_path`]) with its
+//!    inverse-dynamics torques; the seeds are solved in the order of their largest torque against
+//!    the limits (`CspaceReport::peak_torque_ratio`, the passive joint's residual included), lowest
+//!    first: a path the actuators can nearly follow is the likeliest to plan.
+//!
+//! A stop rule (the call's time limit and cancel token) is asked throughout: once it says stop, the
+//! seeds found so far are returned. Units: rad, s.
+
+use super::cspace::{cspace_routes, time_path, CspaceReport, GRID_STEP_RAD};
+use super::goal::{clear_final_poses, with_final_pose};
+use crate::error::Result;
+use crate::model::{Circle, Robot};
+use crate::planning::settings::PlannerSettings;
+use crate::trajectory::Trajectory;
+
+/// Every search's report (in the order run) and the seeds found, best first, each with the index of
+/// its report.
+pub type HomotopySeeds = (Vec<CspaceReport>, Vec<(usize, Trajectory)>);
+
+/// Most goal poses searched to (the seeds' final pose included).
+pub const MAX_GOALS: usize = 3;
+/// Most routes searched per goal.
+pub const ROUTES_PER_GOAL: usize = 2;
+
+/// The ranked configuration-space seeds of the obstacle-free swing's knots `free` (its last knot the
+/// seeds' final pose, which clears the obstacles; the bar at `target`) against `obstacles` (see the
+/// module docs): every
+/// search's report (in the order run) and the seeds found, best first, each with the index of its
+/// report.
+pub fn homotopy_seeds(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    target: [f64; 2],
+    stop: &dyn Fn() -> bool,
+) -> Result<HomotopySeeds> {
+    let len = free.len();
+    if len < 2 || obstacles.is_empty() {
+        return Ok((vec![], vec![]));
+    }
+    let (q_start, q_end) = (free.q(0), free.q(len - 1));
+    let mut goals = vec![q_end.to_vec()];
+    if MAX_GOALS > 1 && !stop() {
+        let others = clear_final_poses(robot, obstacles, settings, q_end, target, MAX_GOALS, stop)?;
+        for q in others {
+            let same = goals
+                .iter()
+                .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < GRID_STEP_RAD));
+            if !same && goals.len() < MAX_GOALS {
+                goals.push(q);
+            }
+        }
+    }
+    let mut reports = vec![];
+    let mut seeds: Vec<(usize, Trajectory)> = vec![];
+    for (gi, goal) in goals.iter().enumerate() {
+        if gi > 0 && stop() {
+            break;
+        }
+        let axis = with_final_pose(free, goal);
+        for (mut rep, path) in cspace_routes(
+            robot,
+            obstacles,
+            settings,
+            q_start,
+            goal,
+            ROUTES_PER_GOAL,
+            stop,
+        )? {
+            rep.goal = gi;
+            if let Some(path) = path {
+                let g = time_path(robot, &path, &axis, &mut rep);
+                seeds.push((reports.len(), g));
+            }
+            reports.push(rep);
+        }
+    }
+    // lowest torque ratio first; ties keep the search order
+    seeds.sort_by(|a, b| {
+        reports[a.0]
+            .peak_torque_ratio
+            .total_cmp(&reports[b.0].peak_torque_ratio)
+    });
+    Ok((reports, seeds))
+}
