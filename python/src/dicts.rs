@@ -85,7 +85,23 @@ pub(crate) fn from_value<T: serde::de::DeserializeOwned>(
     v: serde_json::Value,
     name: &str,
 ) -> PyResult<T> {
-    serde_json::from_value(v).map_err(|e| bad(format!("{name}: {e}")))
+    serde_json::from_value(v.clone()).map_err(|e| {
+        // name the key at fault: the one without which the rest reads (serde's messages of an
+        // untagged enum or a wrong type do not name it)
+        let culprit = v.as_object().and_then(|m| {
+            m.iter().find_map(|(k, val)| {
+                let mut rest = m.clone();
+                rest.remove(k);
+                serde_json::from_value::<T>(serde_json::Value::Object(rest))
+                    .is_ok()
+                    .then(|| (k.clone(), val.clone()))
+            })
+        });
+        match culprit {
+            Some((k, val)) => bad(format!("{name}.{k} = {val}: {e}")),
+            None => bad(format!("{name}: {e}")),
+        }
+    })
 }
 
 /// A dict (or `None`) with `kwargs` merged over it, as a JSON object.

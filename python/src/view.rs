@@ -4,7 +4,7 @@
 use crate::convert::{exp, rs};
 use brachia_experiments::plan_run::PlanReport;
 use brachia_experiments::view::{plan_view, render, PlanParts};
-use brachia_experiments::RunFolder;
+use brachia_experiments::{staging, ExpError, RunFolder};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -41,19 +41,23 @@ pub(crate) fn plan_page(
     })))
 }
 
-/// The page of a run whose folder is in memory: written to a private temporary folder, read back as
-/// `brachia view` reads it, then removed.
+/// The page of a run whose folder is in memory: written into a private staging folder in the
+/// temporary folder (locked while this process lives, cleared by a later call if it dies), read back
+/// as `brachia view` reads it, then removed.
 pub(crate) fn folder_page(folder: &RunFolder) -> PyResult<String> {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let dir = std::env::temp_dir().join(format!(".brachia-view-{}-{nanos}", std::process::id()));
+    let tmp = std::env::temp_dir();
+    let stage = staging::create_unique(&tmp, staging::VIEW_STAGE_PREFIX).map_err(|e| {
+        exp(ExpError::Write {
+            path: tmp.join(staging::VIEW_STAGE_PREFIX),
+            source: e,
+        })
+    })?;
+    let dir = stage.join("run");
     let page = folder
         .write(&dir)
         .map_err(exp)
         .and_then(|()| brachia_experiments::view::view_html(&dir).map_err(rs));
-    let _ = std::fs::remove_dir_all(&dir);
+    staging::remove(&stage);
     page
 }
 

@@ -4,6 +4,7 @@
 use crate::CliError;
 use brachia::urdf::{import_urdf_file, imported_toml, to_mjcf, to_urdf, Tip, UrdfOptions};
 use brachia::Robot;
+use brachia_experiments::staging;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `brachia robot`.
@@ -96,9 +97,9 @@ fn list(text: &Option<String>) -> Vec<String> {
         .unwrap_or_default()
 }
 
-/// Refuse, before any work: an existing `out` without --force, a folder, an `out` that is one of the
-/// files read (`inputs`, also through a link: --force would replace the input), and an `out` whose
-/// folder does not exist.
+/// Refuse, before any work: an existing `out` without --force, a folder (also spelt with a trailing
+/// `/`), a symbolic link, a FIFO, socket or device, an `out` that is one of the files read (`inputs`,
+/// also through a link: --force would replace the input), and an `out` whose folder does not exist.
 fn check_out(out: &Path, force: bool, inputs: &[&Path]) -> Result<(), CliError> {
     let same = |input: &Path| match (out.canonicalize(), input.canonicalize()) {
         (Ok(o), Ok(i)) => o == i,
@@ -123,6 +124,28 @@ fn check_out(out: &Path, force: bool, inputs: &[&Path]) -> Result<(), CliError> 
             parent.display()
         )));
     }
+    if out.as_os_str().to_string_lossy().ends_with('/') {
+        return Err(CliError::Input(format!(
+            "--out {}: ends with `/`, so it names a folder; the output is a file",
+            out.display()
+        )));
+    }
+    if let Ok(m) = std::fs::symlink_metadata(out) {
+        if m.file_type().is_symlink() {
+            return Err(CliError::Input(format!(
+                "--out {}: is a symbolic link; brachia writes a regular file and never replaces a \
+                 link (give the path of the file itself)",
+                out.display()
+            )));
+        }
+        if !m.is_file() && !m.is_dir() {
+            return Err(CliError::Input(format!(
+                "--out {}: is not a regular file (a FIFO, socket or device), which writing would \
+                 replace",
+                out.display()
+            )));
+        }
+    }
     if out.exists() && !force {
         return Err(CliError::Input(format!(
             "--out {}: the file exists (pass --force to overwrite it)",
@@ -138,26 +161,29 @@ fn check_out(out: &Path, force: bool, inputs: &[&Path]) -> Result<(), CliError> 
     Ok(())
 }
 
-/// Write `text` to `out` through a file beside it (a name of this process's own, so that runs
-/// writing the same `out` at once never write into one temporary file) renamed into place.
+/// Write `text` to `out` through a staging folder beside it (`.NAME.partial-PID-K`, locked while
+/// this process lives, see `brachia_experiments::staging`): the file is written there and renamed
+/// into place. Staging folders of `out` whose owner died are removed first; a live one is kept.
 fn write(out: &Path, text: &str) -> Result<(), CliError> {
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_default();
-    let tmp = out.with_file_name(format!(".{name}.partial-{}", std::process::id()));
-    // a file of this name can only be left by a dead process that had this process id
-    let _ = std::fs::remove_file(&tmp);
-    std::fs::OpenOptions::new()
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let err = |e: std::io::Error| CliError::Io(format!("could not write {}: {e}", out.display()));
+    let stage = staging::create_unique(parent, &format!(".{name}.partial-")).map_err(err)?;
+    let tmp = stage.join(&name);
+    let done = std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
         .open(&tmp)
         .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()))
-        .and_then(|_| std::fs::rename(&tmp, out))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            CliError::Io(format!("could not write {}: {e}", out.display()))
-        })
+        .and_then(|_| std::fs::rename(&tmp, out));
+    staging::remove(&stage);
+    done.map_err(err)
 }
 
 fn import(a: ImportArgs) -> Result<(), CliError> {

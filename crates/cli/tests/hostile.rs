@@ -240,6 +240,111 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
             std::fs::write(&env.s, text).unwrap();
         }
         "emptydir" => std::fs::create_dir_all(env.t.join("empty")).unwrap(),
+        "emptysub" => std::fs::create_dir_all(env.t.join("sub")).unwrap(),
+        // {T}/run: a simulate run folder written by brachia, then damaged: `simfolder:HOW`
+        other if other.starts_with("simfolder:") => {
+            let d = env.t.join("run");
+            let o = Command::new(env!("CARGO_BIN_EXE_brachia"))
+                .args(["simulate", "--params"])
+                .arg(env.r.join("params/paper.toml"))
+                .args(["--q0=-2.35,0,-1.55,0", "--duration", "0.2", "--out"])
+                .arg(&d)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let traj = std::fs::read_to_string(d.join("trajectory.csv")).unwrap();
+            let report = std::fs::read_to_string(d.join("report.json")).unwrap();
+            match &other["simfolder:".len()..] {
+                "ok" => {}
+                "future" => std::fs::write(
+                    d.join("trajectory.csv"),
+                    traj.replacen("schema 1", "schema 9", 1),
+                )
+                .unwrap(),
+                "reportfuture" => std::fs::write(
+                    d.join("report.json"),
+                    report.replacen("\"schema_version\": 1", "\"schema_version\": 9", 1),
+                )
+                .unwrap(),
+                "nan" => std::fs::write(
+                    d.join("trajectory.csv"),
+                    traj.replacen("-2.350000000", "nan", 1),
+                )
+                .unwrap(),
+                "swap" => {
+                    let mut lines: Vec<&str> = traj.lines().collect();
+                    lines.swap(5, 6);
+                    std::fs::write(d.join("trajectory.csv"), lines.join("\n") + "\n").unwrap();
+                }
+                how => panic!("unknown damage {how}"),
+            }
+            // every file of the folder must survive the refusal unchanged
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                if e.file_type().unwrap().is_file() {
+                    let data = std::fs::read(e.path()).unwrap();
+                    file(e.path(), &data);
+                }
+            }
+        }
+        // {T}/run: the corpus' plan folder made to look like another kind: `fakekind:KIND`
+        other if other.starts_with("fakekind:") => {
+            let d = env.t.join("run");
+            let src = env.h.join("runs/plan");
+            let kind = &other["fakekind:".len()..];
+            let skip: &[&str] = match kind {
+                "benchmark" => &["trajectory.csv", "report.json"],
+                _ => &[],
+            };
+            if kind != "empty" {
+                for e in std::fs::read_dir(&src).unwrap().flatten() {
+                    if !skip.iter().any(|n| e.file_name() == **n) {
+                        file(d.join(e.file_name()), &std::fs::read(e.path()).unwrap());
+                    }
+                }
+            }
+            match kind {
+                "traverse" => file(
+                    d.join("traverse.csv"),
+                    &std::fs::read(src.join("trajectory.csv")).unwrap(),
+                ),
+                "benchmark" => file(d.join("scorecard.json"), b"{\"schema_version\": 1}\n"),
+                "empty" => file(
+                    d.join(".brachia-run"),
+                    b"# brachia run-folder manifest, schema 1\n",
+                ),
+                other => panic!("unknown kind {other}"),
+            }
+        }
+        // a FIFO (reading it would block, replacing it would destroy it)
+        "fifo" => {
+            let fifo = env.t.join("fifo");
+            let ok = Command::new("mkfifo").arg(&fifo).status().unwrap();
+            assert!(ok.success());
+        }
+        // an output that is a symbolic link to a file of the user's, or to nothing
+        "outlink" => {
+            file(env.t.join("target.urdf"), b"the user's file");
+            std::os::unix::fs::symlink(env.t.join("target.urdf"), env.t.join("link.urdf")).unwrap();
+        }
+        "outdangling" => {
+            std::os::unix::fs::symlink(env.t.join("nowhere.urdf"), env.t.join("dangling.urdf"))
+                .unwrap()
+        }
+        // a link to the URDF robot file
+        "urdflink" => std::os::unix::fs::symlink(&env.u, env.t.join("urdflink")).unwrap(),
+        // a thousand pushes
+        "manypushes" => {
+            let mut s = std::fs::read_to_string(&env.s).unwrap();
+            s.push_str("\n[disturbances]\npushes = [\n");
+            for k in 0..1000 {
+                s.push_str(&format!(
+                    "{{ t_s = {}, link = 4, point_m = 0.1, impulse_n_s = [0.0, 0.01] }},\n",
+                    k as f64 * 0.002
+                ));
+            }
+            s.push_str("]\n");
+            std::fs::write(&env.s, s).unwrap();
+        }
         // a symlink to itself
         "symlinkloop" => {
             std::os::unix::fs::symlink(env.t.join("loop"), env.t.join("loop")).unwrap()
@@ -378,6 +483,93 @@ fn prepare(name: &str, env: &Env) -> Vec<(PathBuf, Vec<u8>)> {
                         target,
                         (lines[..lines.len() - 10].join("\n") + "\n").as_bytes(),
                     );
+                }
+                // the file's schema version from the future, or no schema line / field at all
+                "future" | "noschema" => {
+                    let text = if f.ends_with(".json") {
+                        let field = if how == "future" {
+                            "\"schema_version\": 9,"
+                        } else {
+                            ""
+                        };
+                        orig.replacen("\"schema_version\": 1,", field, 1)
+                    } else if how == "future" {
+                        orig.replacen("schema 1", "schema 9", 1)
+                    } else {
+                        orig.lines().skip(1).collect::<Vec<_>>().join("\n") + "\n"
+                    };
+                    file(target, text.as_bytes());
+                }
+                // CSV rows edited: the last column dropped, a time of 1e308, two rows swapped, an
+                // infinite time, a value beyond f64, the file cut mid-row, a column named twice, a
+                // negative time
+                "dropcol" | "hugetime" | "swap" | "inftime" | "overflow" | "trunc" | "dupcol"
+                | "negtime" => {
+                    let mut lines: Vec<String> = orig.lines().map(String::from).collect();
+                    let set = |line: &mut String, col: usize, v: &str| {
+                        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+                        cells[col] = v.into();
+                        *line = cells.join(",");
+                    };
+                    let n = lines.len();
+                    match how {
+                        "dropcol" => {
+                            for l in lines.iter_mut().skip(1) {
+                                let cut = l.rfind(',').unwrap();
+                                l.truncate(cut);
+                            }
+                        }
+                        "hugetime" => set(&mut lines[n - 1], 0, "1e308"),
+                        "swap" => lines.swap(5, 6),
+                        "inftime" => set(&mut lines[n / 2], 0, "inf"),
+                        "overflow" => set(&mut lines[4], 3, "1e999"),
+                        "trunc" => {
+                            let l = &mut lines[n - 1];
+                            l.truncate(l.len() / 2);
+                        }
+                        "dupcol" => lines[1] = lines[1].replacen("q2", "q1", 1),
+                        _ => set(&mut lines[3], 0, "-0.02"),
+                    }
+                    let mut text = lines.join("\n");
+                    if how != "trunc" {
+                        text.push('\n');
+                    }
+                    file(target, text.as_bytes());
+                }
+                // the file replaced by a folder (holding a file of the user's)
+                "dir" => file(target.join("inside.txt"), b"the user's"),
+                // a symbolic link to a copy of the file outside the folder
+                "linkout" => {
+                    let outside = env.t.join("outside").join(f);
+                    file(outside.clone(), orig.as_bytes());
+                    std::os::unix::fs::symlink(&outside, &target).unwrap();
+                }
+                "null" => file(target, b"null\n"),
+                // the plan's scenario with an obstacle far off the swing
+                "obstacle" => {
+                    let text = orig.replacen(
+                        "obstacles = []",
+                        "obstacles = [{ center = [0.0, 2.0], radius = 0.05 }]",
+                        1,
+                    );
+                    file(target, text.as_bytes());
+                }
+                // manifests: an entry listed twice, an entry under a listed file, another schema, a
+                // size beyond u64, an absolute path, an empty path, a NUL byte in a path
+                "dup" | "collide" | "hugesize" | "abs" | "emptypath" | "nul" => {
+                    let first = orig.lines().nth(1).unwrap().to_string();
+                    let extra = match how {
+                        "dup" => first,
+                        "collide" => format!("{first}/inner.csv"),
+                        "hugesize" => "99999999999999999999999 00000000 extra.csv".to_string(),
+                        "abs" => format!("1 00000000 {}", env.t.join("victim.txt").display()),
+                        "emptypath" => "1 00000000 ".to_string(),
+                        _ => "1 00000000 a\0b".to_string(),
+                    };
+                    if how == "abs" {
+                        file(env.t.join("victim.txt"), b"x");
+                    }
+                    file(target, format!("{orig}{extra}\n").as_bytes());
                 }
                 "nanmass" => {
                     let i = orig.find("mass = ").expect("mass in params.toml") + "mass = ".len();
@@ -670,6 +862,15 @@ fn every_hostile_input_is_refused_fast_and_cleanly() {
 /// The second corpus: the newer surfaces (benchmark families and seeds, the learning environments'
 /// scenario settings, re-planning, estimation, the swing-time search, `view`, concurrency), written
 /// from the documentation alone.
+/// The third corpus: plan and run folders edited by hand (given to `track --plan`, `report`, `view`
+/// and as `--out`), plans made for another robot, ladders, every `[disturbances]` field, the
+/// benchmark's flags, re-planning and estimator settings, and the output paths of `robot import` and
+/// `export`.
+#[test]
+fn every_input_of_the_surfaces_corpus_is_refused_fast_and_cleanly() {
+    run_corpus("surfaces.txt", 250);
+}
+
 #[test]
 fn every_input_of_the_sweep_is_refused_fast_and_cleanly() {
     run_corpus("sweep.txt", 100);

@@ -143,6 +143,31 @@ impl BenchmarkSettings {
                 return Err(Error::invalid(src, "jobs", j, "must be 1..=1024"));
             }
         }
+        if !self.run_sweeps && self.monte_carlo_runs == 0 && self.family_runs == 0 {
+            return Err(Error::invalid(
+                src,
+                "monte_carlo_runs",
+                0,
+                "with no sweeps and no family runs the benchmark would run nothing (give at least 1)",
+            ));
+        }
+        for (field, names) in [
+            ("sweep", &self.only_sweeps),
+            ("controller", &self.only_controllers),
+        ] {
+            if let Some((_, n)) = names
+                .iter()
+                .enumerate()
+                .find(|(k, n)| names[..*k].contains(n))
+            {
+                return Err(Error::invalid(
+                    src,
+                    field,
+                    n,
+                    "given twice: each is run once, so name it once",
+                ));
+            }
+        }
         let sw: Vec<&str> = sweeps().iter().map(|s| s.name).collect();
         if let Some(s) = self.only_sweeps.iter().find(|s| !sw.contains(&s.as_str())) {
             return Err(Error::invalid(
@@ -497,6 +522,27 @@ pub fn run_benchmark(
     Ok(BenchmarkOutcome::Done(Box::new(b)))
 }
 
+/// A refusal of the disturbances a sweep level makes, named as the user wrote the field
+/// (`disturbances.mass_scale[0]`) and with the sweep and level that took it out of range.
+fn at_level(e: Error, sweep: &str, level: f64) -> Error {
+    match e {
+        Error::InvalidValue {
+            source_name,
+            field,
+            value,
+            reason,
+        } => Error::InvalidValue {
+            source_name,
+            field: format!("disturbances.{field}"),
+            value,
+            reason: format!(
+                "{reason} (the scenario's value with the `{sweep}` sweep's level {level} added)"
+            ),
+        },
+        e => e,
+    }
+}
+
 /// The benchmark of a given plan `reference` (1 ms samples of a converged plan of `ls`). Once
 /// `settings.cancel` is set, the runs not yet started are skipped: the rows then miss them (check the
 /// token; [`run_benchmark`] says [`BenchmarkOutcome::Cancelled`]).
@@ -568,7 +614,7 @@ pub fn run_benchmark_with(
             let mut d = base.clone();
             d.seed = seed;
             s.apply(&mut d, l, &ctx);
-            let probot = make_robot(&d)?;
+            let probot = make_robot(&d).map_err(|e| at_level(e, s.name, l))?;
             for ci in 0..entries.len() {
                 jobs.push(Job {
                     controller: ci,

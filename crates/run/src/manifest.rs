@@ -157,7 +157,7 @@ pub fn read_listing(dir: &Path, name: &str) -> Result<Option<Manifest>, Error> {
             format!("a brachia manifest starts with `{HEADER_PREFIX}{MANIFEST_SCHEMA}`"),
         ));
     };
-    let mut files = BTreeMap::new();
+    let mut files: BTreeMap<PathBuf, Option<Stamp>> = BTreeMap::new();
     for (i, l) in lines.enumerate() {
         let line = i + 2;
         if l.is_empty() || l.starts_with('#') {
@@ -188,6 +188,42 @@ pub fn read_listing(dir: &Path, name: &str) -> Result<Option<Manifest>, Error> {
                  or empty part)",
             ));
         };
+        if rel == Path::new(name) {
+            return Err(bad(
+                &rel.to_string_lossy(),
+                "a manifest does not list itself",
+            ));
+        }
+        if files.contains_key(&rel) {
+            return Err(bad(
+                &rel.to_string_lossy(),
+                "the path is listed twice (a manifest lists each file once)",
+            ));
+        }
+        // a listed file cannot also be a folder holding another listed file
+        let clash = rel
+            .ancestors()
+            .skip(1)
+            .find(|a| files.contains_key(*a))
+            .map(Path::to_path_buf)
+            .or_else(|| {
+                files
+                    .range::<PathBuf, _>(rel.clone()..)
+                    .map(|(p, _)| p)
+                    .next()
+                    .filter(|p| p.starts_with(&rel))
+                    .cloned()
+            });
+        if let Some(other) = clash {
+            return Err(bad(
+                &rel.to_string_lossy(),
+                &format!(
+                    "the path collides with the listed {}: one is a folder of the other, so both \
+                     cannot be files",
+                    other.display()
+                ),
+            ));
+        }
         files.insert(rel, stamp);
     }
     Ok(Some(Manifest { files }))
@@ -287,6 +323,33 @@ mod tests {
             p.into_iter().collect::<Vec<_>>(),
             vec![PathBuf::from("sub/a.csv")]
         );
+    }
+
+    #[test]
+    fn listing_a_path_twice_itself_or_under_a_listed_file_is_refused() {
+        let head = format!("{HEADER_PREFIX}{MANIFEST_SCHEMA}\n");
+        for (lines, words) in [
+            ("1 00000000 a.csv\n1 00000000 a.csv\n", "listed twice"),
+            (
+                "1 00000000 a\n1 00000000 a/b.csv\n",
+                "collides with the listed a",
+            ),
+            (
+                "1 00000000 a/b.csv\n1 00000000 a\n",
+                "collides with the listed a/b.csv",
+            ),
+            ("1 00000000 .brachia-run\n", "does not list itself"),
+        ] {
+            let d = tempfile::tempdir().unwrap();
+            std::fs::write(d.path().join(MANIFEST), format!("{head}{lines}")).unwrap();
+            let e = read_manifest(d.path()).unwrap_err().to_string();
+            assert!(e.contains(words) && e.contains("line "), "{lines:?}: {e}");
+        }
+        // siblings whose names share a start are no clash
+        let d = tempfile::tempdir().unwrap();
+        let ok = format!("{head}1 00000000 a\n1 00000000 a.csv\n1 00000000 ab/c\n");
+        std::fs::write(d.path().join(MANIFEST), ok).unwrap();
+        assert_eq!(read_manifest(d.path()).unwrap().unwrap().files.len(), 3);
     }
 
     #[test]

@@ -407,6 +407,21 @@ fn check_params_inside(dir: &Path, sfile: &Path, params: &Path) -> Result<(), Er
     }
 }
 
+/// Load a plan folder's `scenario.toml` (`sfile`, inside `dir`): the robot file it names is checked
+/// to be a regular file inside `dir` (no link or `..` leading out) before anything reads it.
+pub(crate) fn load_plan_scenario(dir: &Path, sfile: &Path) -> Result<LoadedScenario, Error> {
+    let stext = limits::read_text_capped(sfile, limits::MAX_TOML_BYTES, "scenario file")?;
+    let named = toml::from_str::<toml::Table>(&stext)
+        .ok()
+        .and_then(|t| t.get("params").and_then(|v| v.as_str().map(PathBuf::from)));
+    if let Some(params) = named {
+        check_params_inside(dir, sfile, &dir.join(params))?;
+    }
+    let scenario = Scenario::load_for(sfile, Uses::Plan)?;
+    check_params_inside(dir, sfile, &scenario.scenario.params)?;
+    Ok(scenario)
+}
+
 /// A plan's run folder read back (`brachia plan`, or the `plan/` of a track run).
 #[derive(Debug, Clone)]
 pub struct PlanFolder {
@@ -431,16 +446,7 @@ impl PlanFolder {
         let sfile = need(dir, "scenario.toml", PLAN_FOLDER)?;
         let rfile = need(dir, "report.json", PLAN_FOLDER)?;
         let tfile = need(dir, "trajectory.csv", PLAN_FOLDER)?;
-        // the robot file the scenario names is checked before anything reads it
-        let stext = limits::read_text_capped(&sfile, limits::MAX_TOML_BYTES, "scenario file")?;
-        let named = toml::from_str::<toml::Table>(&stext)
-            .ok()
-            .and_then(|t| t.get("params").and_then(|v| v.as_str().map(PathBuf::from)));
-        if let Some(params) = named {
-            check_params_inside(dir, &sfile, &dir.join(params))?;
-        }
-        let scenario = Scenario::load_for(&sfile, Uses::Plan)?;
-        check_params_inside(dir, &sfile, &scenario.scenario.params)?;
+        let scenario = load_plan_scenario(dir, &sfile)?;
         let report: PlanReport = read_json(&rfile)?;
         let whose = format!("the robot of {}", sfile.display());
         let trajectory = read_plan_trajectory(&tfile, &scenario.robot, &whose)?;

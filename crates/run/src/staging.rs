@@ -3,7 +3,9 @@
 //!
 //! Every staging folder brachia creates (a run folder's `.NAME.partial-PID-K` next to `--out`, a
 //! report's `.report.partial-PID-K` inside the run folder, a ladder traverse's
-//! `.brachia-traverse-PID-NANOS` in the temporary folder) is made with [`create`]: a folder new to
+//! `.brachia-traverse-PID-NANOS` in the temporary folder, the Python viewer's `.brachia-view-PID-NANOS`
+//! in the temporary folder, `brachia robot import`/`export`'s `.NAME.partial-PID-K` next to the file it
+//! writes) is made with [`create`]: a folder new to
 //! this run, holding at once a lock file [`STAGE_LOCK`] that starts with brachia's header and on
 //! which this process holds an exclusive lock (`flock`) for as long as the folder lives. The
 //! operating system drops that lock when the process dies, however it dies. A folder is proven
@@ -11,7 +13,9 @@
 //! link), its lock file is a plain file with brachia's header, and the lock can be taken: then no
 //! live process owns it, and it is removed whole (links inside it are removed, never followed).
 //! Anything else with a similar name (a user's folder, a folder of a run still working, a folder
-//! without the lock file) is left alone.
+//! without the lock file) is left alone, except an empty folder without a lock file, which holds
+//! nothing (a process killed between making a folder and marking it): it is removed. A folder is
+//! removed with its lock file last, so a process killed while removing it leaves it marked.
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -26,6 +30,10 @@ pub const REPORT_STAGE_PREFIX: &str = ".report.partial-";
 /// How the name of a traverse's drawing folder in the temporary folder starts (a staging folder,
 /// [`crate::staging`]).
 pub const DRAW_STAGE_PREFIX: &str = ".brachia-traverse-";
+
+/// How the name of the Python viewer's folder in the temporary folder starts (a run folder written
+/// there to draw its page, then removed).
+pub const VIEW_STAGE_PREFIX: &str = ".brachia-view-";
 
 /// The lock file inside every staging folder brachia creates.
 pub const STAGE_LOCK: &str = ".brachia-stage";
@@ -45,15 +53,20 @@ fn held() -> std::sync::MutexGuard<'static, HashMap<PathBuf, File>> {
 /// process's: its lock file is written and locked before this returns, and stays locked until
 /// [`remove`] or [`release`] (or the process's death).
 pub fn create(path: &Path) -> std::io::Result<()> {
-    std::fs::create_dir(path)?;
-    match mark(path) {
-        Ok(f) => {
-            held().insert(path.to_path_buf(), f);
-            Ok(())
-        }
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(path);
-            Err(e)
+    loop {
+        std::fs::create_dir(path)?;
+        match mark(path) {
+            Ok(f) => {
+                held().insert(path.to_path_buf(), f);
+                return Ok(());
+            }
+            // another process's [`clear_stale`] removed the folder while it was still empty and
+            // unmarked: make it again
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(path);
+                return Err(e);
+            }
         }
     }
 }
@@ -71,12 +84,31 @@ fn mark(path: &Path) -> std::io::Result<File> {
     Ok(f)
 }
 
-/// Remove this process's staging folder `path` whole and release its lock.
+/// Remove this process's staging folder `path` whole and release its lock. Its lock file goes last,
+/// so that a process killed while removing leaves a folder still marked (cleared by a later run).
 pub fn remove(path: &Path) {
     if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_dir()) {
-        let _ = std::fs::remove_dir_all(path);
+        remove_marked(path);
     }
     release(path);
+}
+
+/// Remove the folder `dir` (not a link): everything in it but its lock file (links removed, never
+/// followed), then the lock file, then the folder.
+fn remove_marked(dir: &Path) {
+    for e in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        if e.file_name() == STAGE_LOCK {
+            continue;
+        }
+        let p = e.path();
+        let _ = if e.file_type().is_ok_and(|t| t.is_dir()) {
+            std::fs::remove_dir_all(&p)
+        } else {
+            std::fs::remove_file(&p)
+        };
+    }
+    let _ = std::fs::remove_file(dir.join(STAGE_LOCK));
+    let _ = std::fs::remove_dir(dir);
 }
 
 /// Release the lock of this process's staging folder `path` (already removed or renamed).
@@ -134,13 +166,34 @@ pub fn clear_stale(parent: &Path, prefix: &str) -> Vec<PathBuf> {
         }
         if let Some(lock) = dead_owners_lock(&dir) {
             // removed while holding its lock: a second run clearing at the same time waits for it
-            let _ = std::fs::remove_dir_all(&dir);
+            remove_marked(&dir);
             drop(lock);
         } else if !marked(&dir) {
-            unmarked.push(dir);
+            // an empty folder of a staging name holds nothing to lose: a process killed between
+            // making it and marking it (or between removing its lock file and it); `remove_dir`
+            // fails on a folder that is not empty
+            if std::fs::remove_dir(&dir).is_err() {
+                unmarked.push(dir);
+            }
         }
     }
     unmarked
+}
+
+/// Create a fresh staging folder in `parent` named `PREFIXPID-K` (the first `K` from 0 that no entry
+/// has), after removing the staging folders of that prefix whose owner died ([`clear_stale`]).
+pub fn create_unique(parent: &Path, prefix: &str) -> std::io::Result<PathBuf> {
+    clear_stale(parent, prefix);
+    let pid = std::process::id();
+    for k in 0u32.. {
+        let stage = parent.join(format!("{prefix}{pid}-{k}"));
+        match create(&stage) {
+            Ok(()) => return Ok(stage),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    Err(std::io::Error::other("no free staging folder name"))
 }
 
 #[cfg(test)]
@@ -183,5 +236,23 @@ mod tests {
         assert!(plain.join("mine.txt").is_file());
         assert!(other.join(STAGE_LOCK).is_file());
         assert!(user.join(STAGE_LOCK).is_file());
+    }
+
+    #[test]
+    fn unique_stages_take_fresh_names_and_clear_dead_ones() {
+        let d = tempfile::tempdir().unwrap();
+        let a = create_unique(d.path(), ".f.partial-").unwrap();
+        let b = create_unique(d.path(), ".f.partial-").unwrap();
+        assert_ne!(a, b);
+        assert!(a.join(STAGE_LOCK).is_file() && b.join(STAGE_LOCK).is_file());
+        // `a`'s owner gone: the next stage clears it, and keeps the live `b`
+        std::fs::write(a.join("drawn.png"), b"left by a dead run").unwrap();
+        release(&a);
+        let c = create_unique(d.path(), ".f.partial-").unwrap();
+        // `a` was cleared (its name is free again and may be `c`'s), `b` kept
+        assert!(!a.join("drawn.png").exists() && b.join(STAGE_LOCK).is_file() && c.is_dir());
+        remove(&b);
+        remove(&c);
+        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
     }
 }

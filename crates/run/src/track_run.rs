@@ -510,8 +510,7 @@ pub fn read_plan_folder(
     }
     crate::plan_match::check_duration(&traj, rep.swing_time_s, &report)?;
     crate::plan_match::check_ends_at_target(&traj, ls, &tfile)?;
-    let sfile = dir.join("scenario.toml");
-    if !sfile.is_file() {
+    let Some(sfile) = crate::read::inside(dir, "scenario.toml")? else {
         return Err(Error::invalid(
             dir.display().to_string(),
             "scenario.toml",
@@ -520,8 +519,8 @@ pub fn read_plan_folder(
              params.toml): without it the plan's robot, target, obstacles and limits cannot be \
              checked against the scenario, so it is not tracked",
         ));
-    }
-    let plan_ls = crate::scenario::Scenario::load_for(&sfile, crate::scenario::Uses::Plan)?;
+    };
+    let plan_ls = crate::read::load_plan_scenario(dir, &sfile)?;
     crate::plan_match::check_same_task(&plan_ls, ls)?;
     Ok((traj, rep))
 }

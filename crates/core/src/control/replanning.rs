@@ -134,6 +134,9 @@ impl Default for ReplanSettings {
     }
 }
 
+/// Largest `threshold_m`, m: the largest link length brachia accepts.
+pub const MAX_THRESHOLD_M: f64 = 1e6;
+
 impl ReplanSettings {
     /// Check the values; `src` names the source (file or section) in errors.
     pub fn validate(&self, src: &str) -> Result<()> {
@@ -173,6 +176,32 @@ impl ReplanSettings {
             Ok(())
         };
         within_swing("min_spacing_s", self.min_spacing_s)?;
+        // a check period beyond the longest swing never checks; a threshold beyond any link's reach
+        // is never exceeded; more confirmations than checks in the longest swing never confirm
+        within_swing("check_period_s", self.check_period_s)?;
+        if self.threshold_m > MAX_THRESHOLD_M {
+            return Err(Error::invalid(
+                src,
+                "threshold_m",
+                self.threshold_m,
+                format!(
+                    "must be at most {MAX_THRESHOLD_M:e} m (the largest link length): a larger \
+                     miss is never predicted, so the re-planning would never act"
+                ),
+            ));
+        }
+        let max_confirm = (crate::limits::MAX_SWING_TIME_S / MIN_CHECK_PERIOD_S).round() as usize;
+        if self.confirm_checks > max_confirm {
+            return Err(Error::invalid(
+                src,
+                "confirm_checks",
+                self.confirm_checks,
+                format!(
+                    "must be at most {max_confirm}, the checks of the longest swing at the shortest \
+                     check period: more would never confirm a trigger"
+                ),
+            ));
+        }
         nonneg("adopt_margin_m", self.adopt_margin_m)?;
         if !(self.adopt_control_period_s.is_finite()
             && (1e-3..=0.1).contains(&self.adopt_control_period_s))

@@ -176,6 +176,7 @@ pub fn import_urdf_str(text: &str, src: &str, opts: &UrdfOptions) -> Result<Impo
         message,
     };
     super::nesting::check_nesting(text, src)?;
+    super::numbers::check_numbers(text, src)?;
     let urdf = urdf_rs::read_from_string(text).map_err(|e| parse_err(e.to_string()))?;
     let trans: TransmissionRoot =
         quick_xml::de::from_str(text).map_err(|e| parse_err(format!("<transmission>: {e}")))?;

@@ -27,6 +27,7 @@ mod export;
 mod frames;
 mod import;
 mod nesting;
+mod numbers;
 mod traced;
 
 pub use export::{to_mjcf, to_urdf};

@@ -417,6 +417,32 @@ pub struct Redraw {
     pub failures: Vec<String>,
 }
 
+/// The kind of a run folder `report` does not draw (a traverse, a benchmark, a simulation), told by
+/// its files as `brachia view` tells them.
+fn not_drawn_here(dir: &Path) -> Option<&'static str> {
+    let has = |f: &str| std::fs::symlink_metadata(dir.join(f)).is_ok();
+    if has("closed_loop.csv") || has("summary.json") {
+        None
+    } else if has("traverse.csv") {
+        Some("a `brachia traverse` folder")
+    } else if has("scorecard.json") {
+        Some("a `brachia benchmark` folder")
+    } else if has("trajectory.csv") && !has("scenario.toml") {
+        let report = crate::read::inside(dir, "report.json").ok().flatten()?;
+        let text = brachia::limits::read_text_capped(
+            &report,
+            brachia::limits::MAX_JSON_BYTES,
+            "JSON file",
+        )
+        .ok()?;
+        let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+        (v.get("command").and_then(|c| c.as_str()) == Some("simulate"))
+            .then_some("a `brachia simulate` folder")
+    } else {
+        None
+    }
+}
+
 /// A folder that is not a reproduction: `dir` and what it lacks.
 fn not_a_reproduction(dir: &Path, missing: &str) -> ExpError {
     ExpError::Input(brachia::Error::invalid(
@@ -452,7 +478,19 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     }
     // a manifest that lists a path leaving the folder, or of another schema, is refused before any work
     crate::manifest::read_manifest(dir)?;
-    let single = dir.join("report.json").is_file() && !dir.join("summary.json").is_file();
+    if let Some(kind) = not_drawn_here(dir) {
+        return Err(ExpError::Input(brachia::Error::invalid(
+            dir.display().to_string(),
+            "(the folder)",
+            kind,
+            "`brachia report` draws the figures of plan, track and reproduce folders; `brachia view \
+             DIR` shows this one",
+        )));
+    }
+    // a report.json of any kind (a folder or a link in its place is refused by the run's reading,
+    // naming it) makes it a single run folder
+    let exists = |name: &str| std::fs::symlink_metadata(dir.join(name)).is_ok();
+    let single = exists("report.json") && !exists("summary.json");
     if single && dir.join(crate::MANIFEST).is_file() {
         return redraw_run(dir, cancel);
     }
