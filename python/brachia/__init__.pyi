@@ -21,9 +21,11 @@ StrPath = Union[str, PathLike[str]]
 Controller = Literal["mpc", "tvlqr", "pd", "open-loop"]
 
 SUCCESS_RADIUS_M: float
+"""The capture radius, m: the plant's hand captures the bar when it is within this distance of the target
+bar and no faster than ``CAPTURE_SPEED_M_S``, at any time of the run (``TrackResult.report["reaches_bar"]``,
+``report["capture_t_s"]``, ``report["bar_error_m"]`` at the capture, or at the end of the swing on a miss)."""
 CAPTURE_SPEED_M_S: float
-"""The success rule, m: a swing reaches the bar when the plant's hand ends the swing within this distance
-of the target bar (``TrackResult.report["reaches_bar"]``, ``report["bar_error_m"]``)."""
+"""The capture speed, m/s: the fastest hand that can capture the bar (see ``SUCCESS_RADIUS_M``)."""
 
 class BrachiaError(ValueError):
     """Bad input: the message is the Rust library's (file, field, value, rule)."""

@@ -100,10 +100,8 @@ pub fn run(a: Args, cancel: &CancelToken) -> Result<(), CliError> {
                 )));
             }
             eprintln!(
-                "track: hand {:.2e} m from the bar at the end of the swing, EE final error {:.2e} m \
-                 from the reference (max {:.2e} m), joint RMS error {:.2e} rad, energy {:.3} J, \
-                 control step p50 {:.0} us",
-                run.report.bar_error_m.unwrap_or(f64::INFINITY),
+                "track: EE final error {:.2e} m from the reference (max {:.2e} m), joint RMS error \
+                 {:.2e} rad, energy {:.3} J, control step p50 {:.0} us",
                 s.ee_final_error_m,
                 s.ee_error_max_m,
                 s.joint_rms_error_rad,

@@ -260,11 +260,20 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
         .map(|s| curve(s, &card.controllers, runs))
         .collect();
     let title = format!("{}: robustness benchmark", card.scenario);
-    let subtitle = format!(
-        "{} runs; success: the final hand within {} m of the bar",
-        runs.len(),
-        card.success_radius_m
-    );
+    let subtitle = match card.capture_speed_m_s {
+        Some(v) => format!(
+            "{} runs; success: the hand captures the bar (within {} m of it, no faster than {} m/s) \
+             at any time of the run",
+            runs.len(),
+            card.success_radius_m,
+            v
+        ),
+        None => format!(
+            "{} runs; success: the final hand within {} m of the bar",
+            runs.len(),
+            card.success_radius_m
+        ),
+    };
     let body = TEMPLATE
         .replace("{{TITLE}}", &html_escape(&title))
         .replace("{{SUBTITLE}}", &html_escape(&subtitle))

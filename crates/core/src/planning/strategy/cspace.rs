@@ -274,7 +274,8 @@ pub fn cspace_path(
 /// waypoints stay within [`SAME_ROUTE_RAD`] of an earlier route's is dropped. Cells checked once
 /// are not checked again. `stop` is asked every [`STOP_CHECK_CELLS`] cells reached: once it says
 /// stop, the search running ends without a path (its report says `stopped`) and no other starts.
-/// One report per search run (at least one); the waypoints of those that found a distinct route.
+/// One report per search run that found no route or a distinct one (at least one report); the
+/// waypoints of those that found a distinct route (a route too near an earlier one is dropped).
 pub fn cspace_routes(
     robot: &Robot,
     obstacles: &[Circle],

@@ -7,6 +7,10 @@ use std::collections::BTreeMap;
 pub(super) struct Scorecard {
     pub(super) scenario: String,
     pub(super) success_radius_m: f64,
+    /// The capture speed of the success rule, m/s (schema 2 on; absent in a schema 1 scorecard,
+    /// whose rule judged the hand at the end of the swing).
+    #[serde(default)]
+    pub(super) capture_speed_m_s: Option<f64>,
     pub(super) sweeps: Vec<SweepDef>,
     pub(super) controllers: Vec<ControllerCard>,
 }

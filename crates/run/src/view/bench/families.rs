@@ -174,6 +174,7 @@ mod tests {
         let sc = Scorecard {
             scenario: "tracking".into(),
             success_radius_m: 0.02,
+            capture_speed_m_s: Some(0.5),
             sweeps: vec![SweepDef {
                 name: "mass".into(),
                 level: "x".into(),
