@@ -192,16 +192,17 @@ fn swing() -> Arc<Trajectory> {
     Arc::new(plan.trajectory)
 }
 
-/// Track `reference` with the adaptive MPC on the model plant of `plant` (sensor noise
-/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, scaled by `BRACHIA_EST_NOISE`) up to `fraction` of
-/// the swing with estimator settings `es`: every base parameter's relative error there.
-fn estimate_with(
+/// The adaptive MPC tracking `reference` on the model plant of `plant` (sensor noise
+/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, seeded `seed`, scaled by `BRACHIA_EST_NOISE`) for
+/// `duration_s` with estimator settings `es`: the controller after the run and the plant's true base
+/// parameters.
+fn adaptive_run(
     reference: &Arc<Trajectory>,
     plant: &Robot,
     seed: u64,
-    fraction: f64,
     es: ParamEstimatorSettings,
-) -> Vec<f64> {
+    duration_s: f64,
+) -> (Adaptive<Mpc>, Vec<f64>) {
     let nominal = Arc::new(Robot::paper());
     let mpc = Mpc::new(
         Arc::clone(&nominal),
@@ -212,7 +213,7 @@ fn estimate_with(
     let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
     let x0 = [reference.q(0), reference.qd(0)].concat();
     let mut mp = ModelPlant::new(plant.clone(), &x0);
-    // the scan below may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
+    // the table and the scan may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
     let scale: f64 = std::env::var("BRACHIA_EST_NOISE")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -224,14 +225,26 @@ fn estimate_with(
     };
     let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();
     let rs = RunSettings {
-        duration_s: fraction * reference.duration(),
+        duration_s,
         control_dt: 1e-3,
         cancel: None,
     };
     run_closed_loop(&mut p, &mut c, reference, &nominal, &rs).unwrap();
-    let n = plant.n();
-    let mut truth = vec![0.0; 2 * n];
+    let mut truth = vec![0.0; 2 * plant.n()];
     base_params(plant, &mut truth);
+    (c, truth)
+}
+
+/// Track `reference` with the adaptive MPC on the model plant of `plant` ([`adaptive_run`]) up to
+/// `fraction` of the swing with estimator settings `es`: every base parameter's relative error there.
+fn estimate_with(
+    reference: &Arc<Trajectory>,
+    plant: &Robot,
+    seed: u64,
+    fraction: f64,
+    es: ParamEstimatorSettings,
+) -> Vec<f64> {
+    let (c, truth) = adaptive_run(reference, plant, seed, es, fraction * reference.duration());
     let est = c.estimator().theta();
     if fraction >= 1.0 {
         assert!(c.model_updates() > 0);
@@ -243,10 +256,9 @@ fn estimate_with(
         .collect()
 }
 
-/// Track the whole swing with the adaptive MPC on the model plant of `plant` (sensor noise
-/// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, seeded `seed`) with estimator settings `es`; every
-/// base parameter's relative error at each fraction of the swing in `at` (the last recorded
-/// estimate at or before it).
+/// Track the whole swing with the adaptive MPC on the model plant of `plant` ([`adaptive_run`]) with
+/// estimator settings `es`; every base parameter's relative error at each fraction of the swing in
+/// `at` (the last recorded estimate at or before it).
 fn errors_at(
     reference: &Arc<Trajectory>,
     plant: &Robot,
@@ -254,36 +266,7 @@ fn errors_at(
     es: ParamEstimatorSettings,
     at: &[f64],
 ) -> Vec<Vec<f64>> {
-    let nominal = Arc::new(Robot::paper());
-    let mpc = Mpc::new(
-        Arc::clone(&nominal),
-        Arc::clone(reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
-    let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
-    let x0 = [reference.q(0), reference.qd(0)].concat();
-    let mut mp = ModelPlant::new(plant.clone(), &x0);
-    // the table may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
-    let scale: f64 = std::env::var("BRACHIA_EST_NOISE")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1.0);
-    let noise = NoiseSettings {
-        q_std: 0.0015 * scale,
-        qd_std: 0.015 * scale,
-        seed,
-    };
-    let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();
-    let rs = RunSettings {
-        duration_s: reference.duration(),
-        control_dt: 1e-3,
-        cancel: None,
-    };
-    run_closed_loop(&mut p, &mut c, reference, &nominal, &rs).unwrap();
-    let n = plant.n();
-    let mut truth = vec![0.0; 2 * n];
-    base_params(plant, &mut truth);
+    let (c, truth) = adaptive_run(reference, plant, seed, es, reference.duration());
     let report = c.report();
     assert!(c.model_updates() > 0);
     at.iter()
