@@ -14,7 +14,8 @@
 //! live process owns it, and it is removed whole (links inside it are removed, never followed).
 //! Anything else with a similar name (a user's folder, a folder of a run still working, a folder
 //! without the lock file) is left alone, except an empty folder without a lock file, which holds
-//! nothing (a process killed between making a folder and marking it): it is removed. A folder is
+//! nothing (a process killed between making a folder and marking it): it is removed, as is a lock file
+//! still being made ([`STAGE_LOCK_NEW`]) that no process holds. A folder is
 //! removed with its lock file last, so a process killed while removing it leaves it marked.
 
 use std::collections::HashMap;
@@ -38,6 +39,10 @@ pub const VIEW_STAGE_PREFIX: &str = ".brachia-view-";
 /// The lock file inside every staging folder brachia creates.
 pub const STAGE_LOCK: &str = ".brachia-stage";
 
+/// The lock file while it is made: locked and given its header under this name, then renamed to
+/// [`STAGE_LOCK`], so a [`STAGE_LOCK`] always carries the header of an owner that locked it.
+const STAGE_LOCK_NEW: &str = ".brachia-stage.new";
+
 /// First line of [`STAGE_LOCK`].
 const STAGE_HEADER: &str = "# brachia staging folder, schema 1\n";
 
@@ -60,9 +65,12 @@ pub fn create(path: &Path) -> std::io::Result<()> {
                 held().insert(path.to_path_buf(), f);
                 return Ok(());
             }
-            // another process's [`clear_stale`] removed the folder while it was still empty and
-            // unmarked: make it again
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            // another process's [`clear_stale`] removed the folder (or its lock file being made)
+            // while it was still unmarked: make it again
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                let _ = std::fs::remove_dir(path);
+                continue;
+            }
             Err(e) => {
                 let _ = std::fs::remove_dir_all(path);
                 return Err(e);
@@ -71,16 +79,21 @@ pub fn create(path: &Path) -> std::io::Result<()> {
     }
 }
 
-/// Write and lock the lock file of the new folder `path`: locked first, then the header written,
-/// so a folder whose lock file has the header always has a live owner or a dead one.
+/// Write and lock the lock file of the new folder `path`: made under [`STAGE_LOCK_NEW`], locked,
+/// given the header, then renamed to [`STAGE_LOCK`] (the lock stays with the file), so a folder
+/// whose lock file exists always has a live owner or a dead one. A process killed before the
+/// rename leaves [`STAGE_LOCK_NEW`] unlocked, which [`clear_stale`] removes; a live one whose file
+/// another run removed that early gets `NotFound` and makes its folder again.
 fn mark(path: &Path) -> std::io::Result<File> {
+    let new = path.join(STAGE_LOCK_NEW);
     let mut f = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
         .create_new(true)
-        .open(path.join(STAGE_LOCK))?;
+        .open(&new)?;
     f.lock()?;
     f.write_all(format!("{STAGE_HEADER}pid {}\n", std::process::id()).as_bytes())?;
+    std::fs::rename(&new, path.join(STAGE_LOCK))?;
     Ok(f)
 }
 
@@ -169,6 +182,16 @@ pub fn clear_stale(parent: &Path, prefix: &str) -> Vec<PathBuf> {
             remove_marked(&dir);
             drop(lock);
         } else if !marked(&dir) {
+            // a lock file being made that no process holds: its maker died before marking the
+            // folder (or has not locked it yet, and then makes its folder again)
+            let new = dir.join(STAGE_LOCK_NEW);
+            if std::fs::symlink_metadata(&new).is_ok_and(|m| m.is_file() && m.len() <= 4096) {
+                if let Ok(f) = File::open(&new) {
+                    if f.try_lock().is_ok() {
+                        let _ = std::fs::remove_file(&new);
+                    }
+                }
+            }
             // an empty folder of a staging name holds nothing to lose: a process killed between
             // making it and marking it (or between removing its lock file and it); `remove_dir`
             // fails on a folder that is not empty
@@ -199,6 +222,23 @@ pub fn create_unique(parent: &Path, prefix: &str) -> std::io::Result<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lock_file_being_made_is_cleared_only_when_no_process_holds_it() {
+        let d = tempfile::tempdir().unwrap();
+        let s = d.path().join(".x.partial-1-0");
+        std::fs::create_dir(&s).unwrap();
+        let new = s.join(STAGE_LOCK_NEW);
+        let f = File::create(&new).unwrap();
+        f.lock().unwrap();
+        // its maker holds it (between locking and renaming): kept, and given back as unmarked
+        assert_eq!(clear_stale(d.path(), ".x.partial-"), vec![s.clone()]);
+        assert!(new.is_file());
+        // its maker died before the rename: the folder holds nothing to lose and is cleared
+        drop(f);
+        assert!(clear_stale(d.path(), ".x.partial-").is_empty());
+        assert!(!s.exists());
+    }
 
     #[test]
     fn a_live_stage_is_kept_and_a_released_one_is_cleared() {
