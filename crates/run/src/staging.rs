@@ -15,7 +15,7 @@
 //! Anything else with a similar name (a user's folder, a folder of a run still working, a folder
 //! without the lock file) is left alone, except an empty folder without a lock file, which holds
 //! nothing (a process killed between making a folder and marking it): it is removed, as is a lock file
-//! still being made ([`STAGE_LOCK_NEW`]) that no process holds. A folder is
+//! still being made (`.brachia-stage.new`) that no process holds. A folder is
 //! removed with its lock file last, so a process killed while removing it leaves it marked.
 
 use std::collections::HashMap;
