@@ -330,8 +330,7 @@ pub fn study_html(st: &ParameterStudy) -> String {
         );
     }
     let body = TEMPLATE
-        .replace("{{TITLE}}", &html_escape(&title))
-        .replace("{{SUBTITLE}}", &html_escape(&subtitle))
+        .replace("{{HEADER}}", &brachia_run::view::header(&title, &subtitle))
         .replace("{{MAPS}}", &maps)
         .replace("{{LEGEND}}", &legend)
         .replace("{{CURVES}}", &energy_curves(st))

@@ -275,8 +275,7 @@ fn benchmark_html(card: &Scorecard, runs: &[Run]) -> String {
         ),
     };
     let body = TEMPLATE
-        .replace("{{TITLE}}", &html_escape(&title))
-        .replace("{{SUBTITLE}}", &html_escape(&subtitle))
+        .replace("{{HEADER}}", &super::header(&title, &subtitle))
         .replace("{{SCORECARD}}", &table)
         .replace("{{PER_DISTURBANCE}}", &per)
         .replace("{{FAMILIES}}", &families::section(card, &legend))

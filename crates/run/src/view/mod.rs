@@ -37,7 +37,7 @@ pub use traverse::{traverse_view, TraverseParts, TraverseReportView};
 /// The page's file name in a run folder.
 pub const VIEW_FILE: &str = "view.html";
 
-pub use page::{page, VIEW_STYLE};
+pub use page::{header, page, VIEW_STYLE};
 
 const TEMPLATE: &str = include_str!("../../assets/view/view.html");
 const SCRIPT: &str = include_str!("../../assets/view/view.js");
