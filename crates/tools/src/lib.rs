@@ -1,0 +1,4 @@
+//! Measurement probes of brachia's planner, solver and MPC; the library part holds what more than one
+//! probe or test uses.
+pub mod reduced_two_link;
+pub mod swing_dp;
