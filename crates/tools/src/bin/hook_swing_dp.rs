@@ -14,12 +14,15 @@
 //! cargo run --release -p brachia-tools --bin hook_swing_dp -- 2 csv=rollout.csv t=1.0
 //!     # also write the motion of swing time 1.0 s from resolution 2 (t s, q1, H, q2, u)
 //! cargo run --release -p brachia-tools --bin hook_swing_dp -- 2 plan t=1.16
-//!     # also plan the real robot at 1.16 s (3 N m, then 100 N m) from that motion as the guess
+//!     # also plan the real robot at 1.16 s from that motion as the guess: within 3 N m, and within
+//!     # 100 N m then lowered warm to the least limit that still converges
 //!     # (with `free`, the planner's q1 bound widened to +-4 pi)
 //! ```
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::{ik_from_seed, RobotParams};
-use brachia::planning::{plan_with_guess, NlpSettings, PlannerSettings, SwingTask, SwingTime};
+use brachia::planning::{
+    plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask, SwingTime,
+};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
@@ -34,9 +37,9 @@ type Resolution = (usize, usize, usize, usize, f64);
 fn resolution(r: &str, below: bool) -> Result<Resolution, Box<dyn std::error::Error>> {
     let n1 = |k: usize| if below { k * 5 / 8 } else { k };
     Ok(match r {
-        "1" => (n1(96), 48, 48, 13, 0.02),
-        "2" => (n1(160), 80, 80, 21, 0.02),
-        "3" => (n1(240), 120, 120, 31, 0.02),
+        "1" => (n1(96), 48, 48, 13, 0.025),
+        "2" => (n1(160), 80, 80, 21, 0.025),
+        "3" => (n1(240), 120, 120, 31, 0.025),
         _ => {
             // N1xNHxN2xNUxDT
             let p: Vec<&str> = r.split('x').collect();
@@ -94,7 +97,7 @@ fn plan_from(
         target: [0.34, 0.0],
         obstacles: vec![],
     };
-    for limit in [3.0, 100.0] {
+    let solve = |limit: f64, guess: &Trajectory| -> Result<Plan, Box<dyn std::error::Error>> {
         let mut p = robot.params().clone();
         p.actuators.tau_min = vec![-limit];
         p.actuators.tau_max = vec![limit];
@@ -109,16 +112,34 @@ fn plan_from(
             s.bounds.q1 = [-4.0 * PI, 4.0 * PI];
         }
         let t0 = Instant::now();
-        let pl = plan_with_guess(&r, &task, &s, &NlpSettings::default(), Some(&guess))?;
-        let peak = pl.points.tau.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let pl = plan_with_guess(&r, &task, &s, &NlpSettings::default(), Some(guess))?;
         println!(
-            "plan at {t} s within {limit} N m from the reduced motion: {:?}, {} iterations, peak |tau| {peak:.2} N m, {:.1} s",
+            "plan at {t} s within {limit:.3} N m: {:?}, {} iterations, peak |tau| {:.3} N m, {:.1} s",
             pl.status,
             pl.iterations,
+            peak(&pl),
             t0.elapsed().as_secs_f64()
         );
+        Ok(pl)
+    };
+    solve(3.0, &guess)?;
+    // from the plan within 100 N m, the limit lowered warm to 97 % of the last peak while plans converge
+    let mut last = solve(100.0, &guess)?;
+    for _ in 0..40 {
+        if !last.converged() {
+            break;
+        }
+        let next = solve(0.97 * peak(&last), &last.points)?;
+        if !next.converged() {
+            break;
+        }
+        last = next;
     }
     Ok(())
+}
+
+fn peak(p: &Plan) -> f64 {
+    p.points.tau.iter().fold(0.0f64, |a, b| a.max(b.abs()))
 }
 
 fn load() -> String {
@@ -157,7 +178,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rear[1],
         model.max_dv_dq1()
     );
-    let times: Vec<f64> = (0..=40).map(|k| 0.70 + 0.02 * k as f64).collect();
+    let times: Vec<f64> = (0..=32).map(|k| 0.70 + 0.025 * k as f64).collect();
     let mut cols = vec![];
     for r in &res {
         let s = settings(resolution(r, q1_range.is_some())?, q1_range);
@@ -205,7 +226,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!();
     for (i, t) in times.iter().enumerate() {
-        print!("| {t:.2} |");
+        print!("| {t:.3} |");
         for (_, vals, rolls) in &cols {
             let ro = rolls[i][0].as_ref().map(|r| r.end);
             let m = ro.map_or("-".into(), |e| {
