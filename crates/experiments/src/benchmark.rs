@@ -43,6 +43,7 @@ use std::time::Instant;
 mod controllers;
 mod extra;
 mod family_figure;
+mod per_draw;
 mod sweeps;
 pub use controllers::{
     controllers, replan_settings, BenchController, ControllerEntry, REPLAN_LATENCY_S,
@@ -50,6 +51,7 @@ pub use controllers::{
 use extra::Entry;
 pub use extra::{BuildExtra, ExtraController};
 pub use family_figure::FAMILY_FIGURE;
+pub use per_draw::{per_draw, per_draw_md, PerDraw, PER_DRAW_NOISE_M};
 pub use sweeps::{sweeps, ApplyLevel, Rule, Sweep, SweepContext};
 
 /// The success radius: the hand within this distance of the bar (and slow) captures it, m (the
@@ -858,6 +860,8 @@ impl Benchmark {
             }
             s.push('\n');
         }
+        let families: Vec<&str> = crate::families::families().iter().map(|f| f.name).collect();
+        s.push_str(&per_draw_md(&self.rows, &families));
         s.push_str("\nPlots: `success_<disturbance>.png` (success against level, one curve per controller)");
         if !self.families_run().is_empty() {
             s.push_str(", `success_by_family.png` (success per Monte Carlo family and controller)");

@@ -212,6 +212,28 @@ fn variants() -> Vec<(&'static str, Build, bool)> {
             false,
         ),
         (
+            "mpc+replan/averaged",
+            |ls, r| {
+                Built::Replan(Box::new(replanning_cfg(ls, r, |s| {
+                    s.average_steps = 20;
+                    s.compare_at_switch = true;
+                })))
+            },
+            false,
+        ),
+        (
+            "mpc+replan/2cm+confirm+averaged",
+            |ls, r| {
+                Built::Replan(Box::new(replanning_cfg(ls, r, |s| {
+                    s.threshold_m = 0.02;
+                    s.confirm_checks = 2;
+                    s.average_steps = 20;
+                    s.compare_at_switch = true;
+                })))
+            },
+            false,
+        ),
+        (
             "mpc+estimate",
             |ls, r| {
                 let a = Adaptive::new(mpc(ls, r), ls.robot.clone(), Default::default()).unwrap();

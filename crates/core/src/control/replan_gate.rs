@@ -148,3 +148,105 @@ impl CapturePredictor {
         }
     }
 }
+
+/// The measured state averaged over the last control steps, relative to the tracked plan: the
+/// mean of `x_k - x^d(t_k)` over the samples kept, added to `x^d(t)` (sensor noise averages out, a
+/// hit's deviation stays; the plan's own motion does not lag). Keeps at most `cap` samples
+/// (allocated once).
+#[derive(Debug, Clone)]
+pub(crate) struct StateAverage {
+    cap: usize,
+    t: Vec<f64>,
+    x: Vec<f64>,
+    next: usize,
+    len: usize,
+    xr: Vec<f64>,
+    mean: Vec<f64>,
+}
+
+impl StateAverage {
+    pub(crate) fn new(nx: usize, cap: usize) -> Self {
+        let cap = cap.max(1);
+        StateAverage {
+            cap,
+            t: vec![0.0; cap],
+            x: vec![0.0; cap * nx],
+            next: 0,
+            len: 0,
+            xr: vec![0.0; nx],
+            mean: vec![0.0; nx],
+        }
+    }
+
+    /// Keep the state `x` measured at `t` (the oldest sample is dropped when full).
+    pub(crate) fn push(&mut self, t: f64, x: &[f64]) {
+        let nx = self.xr.len();
+        self.t[self.next] = t;
+        self.x[self.next * nx..(self.next + 1) * nx].copy_from_slice(x);
+        self.next = (self.next + 1) % self.cap;
+        self.len = (self.len + 1).min(self.cap);
+    }
+
+    /// The averaged state at `t` relative to `plan`, written into `out` (nx values); the samples
+    /// kept, at least one (`x` itself when none is kept).
+    pub(crate) fn state(&mut self, plan: &Trajectory, t: f64, x: &[f64], out: &mut [f64]) -> usize {
+        if self.len <= 1 {
+            out.copy_from_slice(x);
+            return 1;
+        }
+        let nx = self.xr.len();
+        self.mean.fill(0.0);
+        for k in 0..self.len {
+            plan.state_at(self.t[k], &mut self.xr);
+            let xk = &self.x[k * nx..(k + 1) * nx];
+            for i in 0..nx {
+                self.mean[i] += xk[i] - self.xr[i];
+            }
+        }
+        plan.state_at(t, out);
+        for i in 0..nx {
+            out[i] += self.mean[i] / self.len as f64;
+        }
+        self.len
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StateAverage;
+    use crate::trajectory::Trajectory;
+
+    /// A plan of one link moving at 1 rad/s: q = t, qd = 1 (n = 1, no torque).
+    fn ramp() -> Trajectory {
+        let mut tr = Trajectory::new(1);
+        for k in 0..=100 {
+            let t = k as f64 * 0.01;
+            tr.push(t, &[t], &[1.0], &[]);
+        }
+        tr
+    }
+
+    #[test]
+    fn a_constant_offset_from_the_plan_is_kept_and_a_glitch_is_diluted() {
+        let plan = ramp();
+        let mut avg = StateAverage::new(2, 4);
+        let mut out = [0.0; 2];
+        // nothing kept yet: the measured state itself
+        assert_eq!(avg.state(&plan, 0.5, &[9.0, 9.0], &mut out), 1);
+        assert_eq!(out, [9.0, 9.0]);
+        // on the plan + (0.1, -0.2): the average is the plan at t + the offset, whatever t
+        for k in 0..6 {
+            let t = 0.3 + k as f64 * 0.001;
+            avg.push(t, &[t + 0.1, 1.0 - 0.2]);
+        }
+        let t = 0.305;
+        assert_eq!(avg.state(&plan, t, &[0.0, 0.0], &mut out), 4);
+        assert!((out[0] - (t + 0.1)).abs() < 1e-12, "{out:?}");
+        assert!((out[1] - 0.8).abs() < 1e-12, "{out:?}");
+        // one sample off by 0.4 rad/s moves the average by a quarter of it
+        avg.push(0.306, &[0.406, 1.0 + 0.4]);
+        avg.state(&plan, 0.306, &[0.0, 0.0], &mut out);
+        let expect = (3.0 * -0.2 + 0.4) / 4.0;
+        assert!((out[1] - (1.0 + expect)).abs() < 1e-12, "{out:?}");
+    }
+}

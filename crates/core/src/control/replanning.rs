@@ -25,10 +25,16 @@
 //! converge (or misses the bar by more than 1 mm, or is not predicted better) is recorded and not
 //! adopted.
 //!
+//! With `average_steps > 1` the prediction, the re-plan and the comparisons start from the measured
+//! state averaged over the last control steps relative to the tracked plan (sensor noise on one
+//! measurement otherwise moves the prediction by millimetres); with `compare_at_switch` a pending
+//! re-plan is compared with continuing once more at its switch, from the state measured then, and
+//! dropped unless still predicted better.
+//!
 //! Units: s, m, rad, rad/s, N m; state `x = [q (n), qd (n)]`, torques of joints 2..n. The plan's
 //! times are absolute (the new plan's samples start at the trigger time).
 
-use super::replan_gate::{CapturePredictor, PlanUnderTest};
+use super::replan_gate::{CapturePredictor, PlanUnderTest, StateAverage};
 use super::{ControlInfo, Controller, Tvlqr, TvlqrSettings};
 use crate::error::{Error, Result};
 use crate::model::Robot;
@@ -51,6 +57,9 @@ pub const MIN_CHECK_TIMES_STEP_S2: f64 = 1e-6;
 
 /// Most re-plans one run may do (`max_replans` is refused above it; the event log is allocated once).
 pub const MAX_REPLANS: usize = 100;
+
+/// Most control steps the measured state is averaged over (`average_steps`).
+pub const MAX_AVERAGE_STEPS: usize = 1000;
 
 /// A re-planned swing must end this close to the bar to be adopted, m.
 const ADOPT_EE_ERROR_M: f64 = 1e-3;
@@ -112,6 +121,19 @@ pub struct ReplanSettings {
     /// Re-plan only when the predicted miss exceeds `threshold_m` on this many checks in a row
     /// (at least 1). Default 1.
     pub confirm_checks: usize,
+    /// Compare an adopted re-plan with continuing once more at its switch, from the state
+    /// measured then, and drop it unless it still beats continuing by more than `adopt_margin_m`
+    /// (docs/replanning.md "Comparing again at the switch"; only with `compare_before_adopting`).
+    /// The re-plan starts from the state measured at the trigger, sensor noise included, so the
+    /// comparison from that same state favours it; the state measured at the switch carries
+    /// other noise. Default false.
+    pub compare_at_switch: bool,
+    /// Predict the miss, re-plan and compare from the measured state averaged over this many
+    /// control steps (the last ones, each relative to the tracked plan at its time; 1: the
+    /// state measured at the check alone; at most [`MAX_AVERAGE_STEPS`]). Sensor noise on one
+    /// measurement moves the predicted miss by millimetres and the re-plan starts from it
+    /// (docs/replanning.md "Averaging the measured state"). Default 1.
+    pub average_steps: usize,
 }
 
 impl Default for ReplanSettings {
@@ -130,6 +152,8 @@ impl Default for ReplanSettings {
             adopt_margin_m: 0.002,
             adopt_control_period_s: 0.001,
             confirm_checks: 1,
+            compare_at_switch: false,
+            average_steps: 1,
         }
     }
 }
@@ -214,6 +238,17 @@ impl ReplanSettings {
             ));
         }
         within_swing("min_remaining_s", self.min_remaining_s)?;
+        if !(1..=MAX_AVERAGE_STEPS).contains(&self.average_steps) {
+            return Err(Error::invalid(
+                src,
+                "average_steps",
+                self.average_steps,
+                format!(
+                    "must be in [1, {MAX_AVERAGE_STEPS}] (brachia::control::replanning::\
+                     MAX_AVERAGE_STEPS)"
+                ),
+            ));
+        }
         if self.confirm_checks == 0 {
             return Err(Error::invalid(
                 src,
@@ -327,6 +362,12 @@ pub struct ReplanEvent {
     /// otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub planned_on_estimate: bool,
+    /// With `compare_at_switch`: the predicted capture errors of continuing and of switching,
+    /// from the state measured at the switch, m (`[continue, re-plan]`); absent otherwise. The
+    /// re-plan was dropped there (`adopted = false`) unless the second beats the first by more
+    /// than `adopt_margin_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted_at_switch_m: Option<[f64; 2]>,
 }
 
 /// A re-planned swing waiting for its ready time.
@@ -359,6 +400,10 @@ pub struct Replanning<C> {
     predictor: CapturePredictor,
     /// How to build a planner on another model (set by [`Replanning::build`]).
     rebuild: Option<Rebuild>,
+    /// The measured states of the last `average_steps` control steps.
+    average: StateAverage,
+    /// The averaged state (scratch).
+    xs: Vec<f64>,
 }
 
 /// What a planner on an estimated model is built from.
@@ -417,6 +462,8 @@ impl<C: Controller> Replanning<C> {
             model: Arc::clone(&robot),
             target: planner.target(),
             rebuild: None,
+            average: StateAverage::new(robot.nx(), settings.average_steps),
+            xs: vec![0.0; robot.nx()],
             robot,
             planner,
             reference,
@@ -653,6 +700,31 @@ impl<C: Controller> Replanning<C> {
         (c, d)
     }
 
+    /// With `compare_at_switch` (and `compare_before_adopting`): whether the pending re-plan `p`
+    /// still beats continuing from the state `x` measured at its switch time `t` (predicted as at
+    /// the trigger, the switch now); the predictions go into its event, and a re-plan that does
+    /// not is marked not adopted. True otherwise (and for a measured state that is not finite).
+    fn still_better_at_switch(&mut self, t: f64, x: &[f64], p: &mut Pending) -> bool {
+        let s = &self.settings;
+        let valid = x.len() == self.robot.nx() && x.iter().all(|v| v.is_finite());
+        if !(s.compare_at_switch && s.compare_before_adopting && valid) {
+            return true;
+        }
+        let margin = s.adopt_margin_m;
+        let model = Arc::clone(&self.model);
+        let plan = Arc::clone(&p.plan);
+        let mut xs = std::mem::take(&mut self.xs);
+        self.average.state(&self.reference, t, x, &mut xs);
+        let (c, d) = self.predict_pair(&model, t, &xs, &plan, p.lqr.as_mut(), t);
+        self.xs = xs;
+        let better = !(d.is_nan() || c.is_nan() || d + margin >= c);
+        if let Some(e) = self.events.last_mut() {
+            e.predicted_at_switch_m = Some([c, d]);
+            e.adopted = better;
+        }
+        better
+    }
+
     fn replan(&mut self, t: f64, x: &[f64], miss: f64) {
         self.last_trigger = Some(t);
         let start = Instant::now();
@@ -754,6 +826,7 @@ impl<C: Controller> Replanning<C> {
             predicted_continue_m: compared.0,
             predicted_replan_m: compared.1,
             planned_on_estimate: on_model,
+            predicted_at_switch_m: None,
         });
     }
 }
@@ -763,10 +836,16 @@ impl<C: Controller> Controller for Replanning<C> {
     /// threshold, then the tracking controller's torque. A measured state of the wrong length or
     /// with NaNs goes to the tracking controller unchecked.
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
+        let valid = x.len() == self.robot.nx() && x.iter().all(|v| v.is_finite());
+        if valid {
+            self.average.push(t, x);
+        }
         if let Some(p) = &self.pending {
             if t >= p.ready - 1e-9 {
-                let p = self.pending.take().expect("pending plan");
-                if self.inner.set_reference(Arc::clone(&p.plan)).is_ok() {
+                let mut p = self.pending.take().expect("pending plan");
+                if self.still_better_at_switch(t, x, &mut p)
+                    && self.inner.set_reference(Arc::clone(&p.plan)).is_ok()
+                {
                     self.reference = p.plan;
                     if p.lqr.is_some() {
                         self.lqr = p.lqr;
@@ -777,11 +856,12 @@ impl<C: Controller> Controller for Replanning<C> {
                 }
             }
         }
-        let valid = x.len() == self.robot.nx() && x.iter().all(|v| v.is_finite());
         if valid && t >= self.next_check - 1e-9 {
             self.next_check = t + self.settings.check_period_s;
             if self.t_final - t > 0.0 {
-                let miss = self.predict_miss(t, x);
+                let mut xs = std::mem::take(&mut self.xs);
+                self.average.state(&self.reference, t, x, &mut xs);
+                let miss = self.predict_miss(t, &xs);
                 self.last_miss = miss;
                 self.over = if miss > self.settings.threshold_m {
                     self.over + 1
@@ -789,8 +869,9 @@ impl<C: Controller> Controller for Replanning<C> {
                     0
                 };
                 if self.over >= self.settings.confirm_checks && self.may_replan(t) {
-                    self.replan(t, x, miss);
+                    self.replan(t, &xs, miss);
                 }
+                self.xs = xs;
             }
         }
         self.inner.control(t, x, tau)
