@@ -148,3 +148,30 @@ fn only_when_they_look_differs() {
     let empty = ClosedLoopLog::default();
     assert!(swing_capture(&l, &robot, GRIP, &empty, bar).is_none());
 }
+
+#[test]
+fn the_ladders_judge_measures_the_hand_in_the_world_from_its_grip() {
+    let robot = Robot::paper();
+    let l = ladder("");
+    let ee = robot.ee_position(&HANG);
+    let on_bar = [GRIP[0] + ee[0], GRIP[1] + ee[1]];
+    let still = log(&robot, &[HANG], [0.0; 4]);
+    let h = swing_capture(&l, &robot, GRIP, &still, on_bar).unwrap();
+    assert!(h.distance_m < 1e-12 && h.speed_m_s == 0.0 && h.captures);
+    let h = swing_capture(
+        &l,
+        &robot,
+        GRIP,
+        &still,
+        [on_bar[0] + 0.03, on_bar[1] - 0.04],
+    )
+    .unwrap();
+    assert!((h.distance_m - 0.05).abs() < 1e-12 && !h.captures);
+    // turning the whole chain about the grip at w moves the hand at w times its distance from the grip
+    let turning = log(&robot, &[HANG], [0.5, 0.0, 0.0, 0.0]);
+    let h = swing_capture(&l, &robot, GRIP, &turning, on_bar).unwrap();
+    assert!(
+        (h.speed_m_s - 0.5 * ee[0].hypot(ee[1])).abs() < 1e-12,
+        "{h:?}"
+    );
+}
