@@ -1,15 +1,19 @@
-"""Type stubs of brachia (the Rust extension ``brachia._brachia``).
+"""Type stubs of brachia (the Rust extension ``brachia._brachia``). The conventions (frame, angles,
+state, units) are the package's docstring (``help(brachia)``); each class and function documents
+itself there too. What holds for every one of them is said here, once:
 
-Units: m, kg, s, rad, N m, J. State ``x = [q, qd]`` (2n); ``q[0]`` absolute angle of link 1 from +x,
-``q[1:]`` relative; torques ``tau`` of joints 2..n (n - 1). Arrays are float64 numpy arrays.
-
-Array arguments: real numbers in any byte order and layout (converted), checked for shape, finiteness
-and range (``|q| <= 4 pi`` rad, ``|qd| <= 1000`` rad/s, ``|tau| <= 1e6`` N m, positions within 1000 m);
-anything else raises ``BrachiaError`` (docs/python.md, "Validation"). Every object may be used from any
-thread (``Mpc``, ``SwingPlanner`` and the plants run one call at a time).
+- Array arguments: real numbers in any byte order and layout (converted), checked for shape,
+  finiteness and range (``|q| <= 4 pi`` rad, ``|qd| <= 1000`` rad/s, ``|tau| <= 1e6`` N m, positions
+  within 1000 m); anything else raises ``BrachiaError`` (docs/python.md, "Validation").
+- Threads: every object may be used from any thread; ``Mpc``, ``SwingPlanner`` and the plants run one
+  call at a time (a solve releases the GIL).
+- Plants (``ModelPlant``, ``RapierPlant``): a step that diverges raises ``BrachiaError`` and the plant
+  refuses every use but ``reset`` from then on.
+- ``_repr_html_`` (``Plan``, ``TrackResult``, ``TraverseResult``): the run page inline in Jupyter.
 """
 
 from os import PathLike
+from pathlib import Path
 from typing import Any, Callable, Literal, Optional, Sequence, Union
 
 import numpy as np
@@ -142,7 +146,8 @@ class Trajectory:
     def __len__(self) -> int: ...
 
 class Plan:
-    """A planned swing (check ``converged``)."""
+    """A planned swing (check ``converged``). ``t``, ``q``, ``qd`` and ``tau`` are those of its 1 ms
+    ``trajectory`` (see ``Trajectory``), ``ee`` the end effector along it."""
 
     @property
     def status(self) -> str:
@@ -169,17 +174,13 @@ class Plan:
     def energy(self) -> float:
         """Paper eq. 18 energy, J."""
     @property
-    def t(self) -> Array:
-        """1 ms times, s, shape (samples,)."""
+    def t(self) -> Array: ...
     @property
-    def q(self) -> Array:
-        """Shape (samples, n), rad."""
+    def q(self) -> Array: ...
     @property
-    def qd(self) -> Array:
-        """Shape (samples, n), rad/s."""
+    def qd(self) -> Array: ...
     @property
-    def tau(self) -> Array:
-        """Shape (samples, n - 1), N m."""
+    def tau(self) -> Array: ...
     @property
     def ee(self) -> Array:
         """End-effector positions, shape (samples, 2), m."""
@@ -195,8 +196,7 @@ class Plan:
         """Write the run folder (a scenario's plan only)."""
     def _view_html(self) -> Optional[str]:
         """The run page (docs/viewer.md), None without a trajectory."""
-    def _repr_html_(self) -> Optional[str]:
-        """The run page inline in Jupyter."""
+    def _repr_html_(self) -> Optional[str]: ...
 
 def plan(
     robot: Robot,
@@ -231,9 +231,7 @@ class ReplanOutcome:
     def ee_error_m(self) -> float: ...
 
 class SwingPlanner:
-    """The persistent multiple-shooting planner: a cold plan, then warm re-plans from measured states.
-
-    Usable from several threads: calls run one after the other, solves with the GIL released."""
+    """The persistent multiple-shooting planner: a cold plan, then warm re-plans from measured states."""
 
     def __init__(
         self,
@@ -331,7 +329,7 @@ def plan_joint_swings(
     """Plan the swings from x0 (2n, holding bars[0]) through bars[1:] (world, m) as one problem."""
 
 class Mpc:
-    """The linear MPC tracker (paper Section IV); usable from several threads, one call at a time."""
+    """The linear MPC tracker (paper Section IV)."""
 
     def __init__(
         self,
@@ -425,9 +423,7 @@ class Adaptive:
 ControllerObject = Union[Mpc, Tvlqr, Pd, OpenLoop, Kalman, Replanning, Adaptive]
 
 class ModelPlant:
-    """RK4 integration of the robot's model. A step that diverges raises ``BrachiaError`` and the
-    plant refuses every use but ``reset`` from then on. Usable from several threads, one call at a
-    time."""
+    """RK4 integration of the robot's model."""
 
     def __init__(self, robot: Robot, x0: Optional[ArrayLike] = None, substeps: int = 1) -> None: ...
     def reset(self, x: ArrayLike) -> None: ...
@@ -440,9 +436,7 @@ class ModelPlant:
     def energy(self) -> float: ...
 
 class RapierPlant:
-    """The rapier2d physics-engine plant with contacts. A step that diverges raises ``BrachiaError``
-    and the plant refuses every use but ``reset`` from then on. Usable from several threads, one call
-    at a time."""
+    """The rapier2d physics-engine plant with contacts."""
 
     def __init__(
         self,
@@ -495,8 +489,7 @@ class TrackResult:
     def write(self, out: StrPath, force: bool = False) -> None: ...
     def _view_html(self) -> Optional[str]:
         """The run page of a scenario's run (docs/viewer.md), else None."""
-    def _repr_html_(self) -> Optional[str]:
-        """The run page inline in Jupyter."""
+    def _repr_html_(self) -> Optional[str]: ...
 
 def track(
     robot: Robot,
@@ -643,8 +636,9 @@ class SwingBatchCore:
     def step(self, actions: ArrayLike) -> tuple[Array, Array, Array, Array, dict[str, Array], Array, Array]: ...
     def episodes(self) -> list[dict[str, Any]]: ...
 
-def view_folder(path: StrPath) -> str:
-    """Write DIR/view.html for a run folder (as ``brachia view``); returns its path."""
-
-def view(obj: Union[StrPath, Plan, TrackResult, TraverseResult], path: Optional[StrPath] = None, open: bool = False) -> Any:
-    """Write the interactive page of a run folder, Plan or TrackResult; returns its path."""
+# ``view`` is written in Python (brachia/view.py, documented there)
+def view(
+    obj: Union[StrPath, Plan, TrackResult, TraverseResult],
+    path: Optional[StrPath] = None,
+    open: bool = False,
+) -> Path: ...

@@ -45,6 +45,16 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "tracking.toml"
 
 
+def write_benchmark(out: Path, card: dict) -> None:
+    """Write the files of ``brachia benchmark`` from the dict of ``brachia.benchmark`` into ``out``:
+    ``scorecard.json`` (with its ``schema_version``), ``runs.csv`` (its schema line first) and
+    ``summary.md``; ``brachia view out`` reads them back."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "scorecard.json").write_text(json.dumps(card["scorecard"], indent=2) + "\n")
+    (out / "runs.csv").write_text(card["runs_csv"])
+    (out / "summary.md").write_text(card["summary_md"])
+
+
 class MpcPolicy:
     """The MPC as a Python callable; ``reset()`` before each run, as a fresh MPC would be."""
 
@@ -183,10 +193,7 @@ def main() -> int:
     if "plan_status" in card:
         print(f"the scenario's plan did not converge: {card['plan_status']}", file=sys.stderr)
         return 1
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "scorecard.json").write_text(json.dumps(card["scorecard"], indent=2) + "\n")
-    (out / "runs.csv").write_text(card["runs_csv"])
-    (out / "summary.md").write_text(card["summary_md"])
+    write_benchmark(out, card)
     print(card["summary_md"])
     print(f"benchmark: {time.perf_counter() - t0:.0f} s")
     table = env_scores(acts, args.env_episodes, args.seed)

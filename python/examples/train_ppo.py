@@ -31,7 +31,7 @@ import csv
 import json
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, TextIO
 
 import numpy as np
 
@@ -41,6 +41,10 @@ from brachia.vector import SwingVectorEnv
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "tracking.toml"
 EVAL_SEED = 10_000_000
+
+#: The first line of ``curve.csv`` (``# brachia KIND schema N``, KIND the file name without ``.csv``,
+#: as in every CSV file brachia writes; docs/formats.md).
+CURVE_SCHEMA_LINE = "# brachia curve schema 1"
 
 CURVE_COLUMNS = [
     "steps",
@@ -60,6 +64,16 @@ CURVE_COLUMNS = [
     "random_final_distance_m",
     "random_min_distance_m",
 ]
+
+
+def open_curve(path: Path) -> tuple[TextIO, csv.DictWriter]:
+    """Open the training curve ``path`` for writing: its schema line (``CURVE_SCHEMA_LINE``, as every
+    brachia CSV file starts) and header written; rows go through the returned writer."""
+    f = path.open("w", newline="")
+    f.write(CURVE_SCHEMA_LINE + "\n")
+    writer = csv.DictWriter(f, fieldnames=CURVE_COLUMNS)
+    writer.writeheader()
+    return f, writer
 
 
 def evaluate(
@@ -160,11 +174,7 @@ def main() -> None:
     def policy_act(obs: np.ndarray) -> np.ndarray:
         return model.predict(venv.normalize_obs(obs), deterministic=True)[0]
 
-    curve_path = args.out / "curve.csv"
-    curve_file = curve_path.open("w", newline="")
-    curve_file.write("# brachia training-curve schema 1\n")
-    writer = csv.DictWriter(curve_file, fieldnames=CURVE_COLUMNS)
-    writer.writeheader()
+    curve_file, writer = open_curve(args.out / "curve.csv")
 
     class Curve(BaseCallback):
         """A curve row every ``--log-every`` steps."""
@@ -240,7 +250,7 @@ def main() -> None:
 
     model.learn(total_timesteps=args.steps, callback=[Curve(), Checkpoint()])
     curve_file.close()
-    print(f"saved {args.out / 'model.zip'} and {args.out / 'vecnormalize.pkl'}; curve {curve_path}")
+    print(f"saved {args.out / 'model.zip'} and {args.out / 'vecnormalize.pkl'}; curve {args.out / 'curve.csv'}")
 
 
 if __name__ == "__main__":

@@ -26,7 +26,8 @@ use std::sync::{Arc, Mutex};
 /// ``family_runs`` (runs of each other Monte Carlo family, as ``--family-runs``; 0 skips them), ``sweeps``
 /// (names; ``None``: all), ``seed``. With Python policies the runs go one at a time (they need the
 /// GIL). Returns a dict: ``scorecard`` (the ``scorecard.json`` of ``brachia benchmark``),
-/// ``runs_csv`` and ``summary_md`` (text), or ``plan_status`` when the plan did not converge. An
+/// ``runs_csv`` (the text of its ``runs.csv``, led by the schema line ``# brachia runs schema 2``;
+/// docs/formats.md) and ``summary_md`` (text), or ``plan_status`` when the plan did not converge. An
 /// exception raised by a policy is raised here after the benchmark stops.
 #[pyfunction]
 #[pyo3(signature = (scenario, controllers = None, builtin = None, levels = None,
@@ -127,7 +128,9 @@ pub(crate) fn benchmark<'py>(
         Err(status) => d.set_item("plan_status", status)?,
         Ok(b) => {
             d.set_item("scorecard", to_py(py, &b.scorecard_json())?)?;
-            d.set_item("runs_csv", b.runs_csv())?;
+            // the text of runs.csv as `brachia benchmark` writes it: its schema line first
+            let runs = brachia_experiments::schema::stamp("runs.csv", b.runs_csv().into_bytes());
+            d.set_item("runs_csv", String::from_utf8_lossy(&runs))?;
             d.set_item("summary_md", b.summary_md())?;
         }
     }

@@ -338,7 +338,8 @@ class MpcPolicy:
 
 
 def runs_by_controller(csv):
-    lines = csv.strip().splitlines()
+    schema, *lines = csv.strip().splitlines()
+    assert schema == "# brachia runs schema 2"
     head = lines[0].split(",")
     rows = [dict(zip(head, line.split(","))) for line in lines[1:]]
     out = {}

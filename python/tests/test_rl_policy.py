@@ -43,7 +43,8 @@ def test_benchmark_runs_a_policy_that_spins_the_joints(scenario):
         scenario, controllers={"full": EnvPolicy(lambda obs: np.ones(3), env)}, builtin=[],
         levels=2, monte_carlo_runs=0, family_runs=0, sweeps=["mass"],
     )
-    lines = out["runs_csv"].strip().splitlines()
+    schema, *lines = out["runs_csv"].strip().splitlines()
+    assert schema == "# brachia runs schema 2"
     head = lines[0].split(",")
     rows = [dict(zip(head, line.split(","))) for line in lines[1:]]
     assert [r["controller"] for r in rows] == ["full", "full"]

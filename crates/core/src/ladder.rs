@@ -263,17 +263,6 @@ pub fn world_joints(
     w
 }
 
-/// How far the swinging hand of `chain` (holding `grip`, world) at state `x` (grip frame) is from
-/// `bar` (world), m, and how fast it moves, m/s: the two numbers of the capture rule (a hand captures
-/// the bar within a capture radius and below a capture speed).
-pub fn capture_residual(chain: &Robot, grip: [f64; 2], x: &[f64], bar: [f64; 2]) -> (f64, f64) {
-    let n = chain.n();
-    let ee = chain.ee_position(&x[..n]);
-    let v = chain.ee_velocity(&x[..n], &x[n..]);
-    let miss = (grip[0] + ee[0] - bar[0]).hypot(grip[1] + ee[1] - bar[1]);
-    (miss, v[0].hypot(v[1]))
-}
-
 /// The joint multi-swing task from the state `x0` of the chain holding `grip` (world) through `bars`
 /// (world, one per swing), with `obstacles` (world), the rest condition at the last bar (and at every
 /// switch with `rest_at_switches`; [`crate::planning::plan_joint_swings`]).

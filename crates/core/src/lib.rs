@@ -40,6 +40,7 @@
 //! - [`limits`]: the bounds every input is checked against.
 //! - [`error`]: the typed [`Error`].
 //! - [`serde_exact`]: serde helpers for fixed-length values.
+//! - [`toml_path`]: TOML parse errors that name the dotted field (`links[2].mass`).
 //!
 //! ## Plan a swing
 //! ```
@@ -164,6 +165,7 @@ pub mod model;
 pub mod planning;
 pub mod serde_exact;
 pub mod sim;
+pub mod toml_path;
 pub mod trajectory;
 pub mod urdf;
 

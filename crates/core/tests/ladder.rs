@@ -1,9 +1,10 @@
 //! The ladder's sequencing in the library (`brachia::ladder`): the reach rule, the grip-switch map
-//! with the grip and world frames, the capture residual and each swing's task.
+//! with the grip and world frames and each swing's task (a swing's capture is judged by the run
+//! layer's rule: crates/run/tests/capture_rule.rs).
 
 use brachia::ladder::{
-    capture_residual, chains, check_bars, holding_hand, joint_swing_task, swing_task, world_joints,
-    Bar, MAX_SPACING_OF_SPAN, MIN_SPACING_OF_SPAN,
+    chains, check_bars, holding_hand, joint_swing_task, swing_task, world_joints, Bar,
+    MAX_SPACING_OF_SPAN, MIN_SPACING_OF_SPAN,
 };
 use brachia::model::{switch_grip, Circle};
 use brachia::{Error, Robot};
@@ -66,24 +67,6 @@ fn the_hands_take_turns_and_the_chain_stays_put_across_a_switch() {
     }
     // the new grip is hand B: the last point in the parameters file's order
     assert!((after[4][0] - s.grip[0]).abs() < 1e-12 && (after[4][1] - s.grip[1]).abs() < 1e-12);
-}
-
-#[test]
-fn the_capture_residual_is_the_hands_distance_to_the_bar_and_its_speed() {
-    let robot = Robot::paper();
-    let grip = [1.0, 2.0];
-    let q = [-2.35, 0.0, -1.55, 0.0];
-    let ee = robot.ee_position(&q);
-    let on_bar = [grip[0] + ee[0], grip[1] + ee[1]];
-    let at_rest = [&q[..], &[0.0; 4]].concat();
-    assert_eq!(capture_residual(&robot, grip, &at_rest, on_bar), (0.0, 0.0));
-    let (miss, speed) =
-        capture_residual(&robot, grip, &at_rest, [on_bar[0] + 0.03, on_bar[1] - 0.04]);
-    assert!((miss - 0.05).abs() < 1e-12 && speed == 0.0);
-    // turning the whole chain about the grip at w moves the hand at w times its distance from the grip
-    let moving = [&q[..], &[0.5, 0.0, 0.0, 0.0]].concat();
-    let (_, speed) = capture_residual(&robot, grip, &moving, on_bar);
-    assert!((speed - 0.5 * ee[0].hypot(ee[1])).abs() < 1e-12, "{speed}");
 }
 
 #[test]

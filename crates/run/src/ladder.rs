@@ -108,6 +108,17 @@ pub struct Ladder {
     pub lookahead_switch: LookaheadSwitch,
 }
 
+impl Ladder {
+    /// The rule the gripper closes by: the capture rule of every run ([`crate::success`]) with
+    /// `capture_radius` and `capture_speed`.
+    pub fn capture_rule(&self) -> crate::success::CaptureRule {
+        crate::success::CaptureRule {
+            radius_m: self.capture_radius,
+            speed_m_s: self.capture_speed,
+        }
+    }
+}
+
 /// A traverse scenario as written in a TOML file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -40,7 +40,8 @@ pub use run_folder::{check_out_apart, check_out_dir, RunFolder, MANIFEST};
 pub use scenario::{ControllerKind, PlantKind, Scenario, Uses};
 pub use settings_use::{check_ladder_settings_apply, check_settings_apply};
 pub use success::{
-    capture, hand_at_bar, judged_log, Capture, HandAtBar, CAPTURE_SPEED_M_S, SUCCESS_RADIUS_M,
+    capture, hand_at_bar, judged_log, Capture, CaptureRule, HandAtBar, CAPTURE_SPEED_M_S,
+    SUCCESS_RADIUS_M,
 };
 pub use track_folder::TrackFolder;
 pub use track_run::{

@@ -16,6 +16,7 @@
 
 use crate::plan_run::PlanReport;
 use crate::scenario::{LoadedScenario, Scenario, Uses};
+use crate::schema::JsonKind;
 use brachia::limits;
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
@@ -113,16 +114,17 @@ pub fn inside_dir(dir: &Path, name: &str) -> Result<Option<PathBuf>, Error> {
     Ok(p.is_dir().then_some(p))
 }
 
-/// Read and parse a JSON file (at most [`limits::MAX_JSON_BYTES`]).
-/// The file must carry the schema version this brachia reads ([`crate::schema::json_version`]).
-pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T, Error> {
+/// Read and parse a JSON file of kind `kind` (at most [`limits::MAX_JSON_BYTES`]).
+/// The file must carry a schema version this brachia reads for the kind
+/// ([`crate::schema::json_version`]).
+pub fn read_json<T: DeserializeOwned>(path: &Path, kind: JsonKind) -> Result<T, Error> {
     let text = limits::read_text_capped(path, limits::MAX_JSON_BYTES, "JSON file")?;
     let parse = |e: serde_json::Error| Error::Parse {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
     let value: serde_json::Value = serde_json::from_str(&text).map_err(parse)?;
-    crate::schema::json_version(&value, &path.display().to_string())?;
+    crate::schema::json_version(&value, &path.display().to_string(), kind)?;
     serde_json::from_value(value).map_err(parse)
 }
 
@@ -447,7 +449,7 @@ impl PlanFolder {
         let rfile = need(dir, "report.json", PLAN_FOLDER)?;
         let tfile = need(dir, "trajectory.csv", PLAN_FOLDER)?;
         let scenario = load_plan_scenario(dir, &sfile)?;
-        let report: PlanReport = read_json(&rfile)?;
+        let report: PlanReport = read_json(&rfile, JsonKind::PlanReport)?;
         let whose = format!("the robot of {}", sfile.display());
         let trajectory = read_plan_trajectory(&tfile, &scenario.robot, &whose)?;
         Ok(PlanFolder {

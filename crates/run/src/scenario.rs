@@ -253,12 +253,10 @@ pub fn in_section(e: Error, src: &str, section: &str) -> Error {
     }
 }
 
-/// Parse TOML text into `T`; `source` names it in the error (the parser's message names line and field).
+/// Parse TOML text into `T`; `source` names it in the error, with the dotted field the error lies in
+/// and the parser's line, column and text ([`brachia::toml_path::toml_error`]).
 pub fn parse_toml<T: serde::de::DeserializeOwned>(text: &str, source: &str) -> Result<T, Error> {
-    toml::from_str(text).map_err(|e| Error::Parse {
-        path: source.into(),
-        message: e.to_string().trim_end().replace('\n', " "),
-    })
+    toml::from_str(text).map_err(|e| brachia::toml_path::toml_error(&e, text, source))
 }
 
 /// Read a text file of at most [`brachia::limits::MAX_TOML_BYTES`]; an I/O error names the path.

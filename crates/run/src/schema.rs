@@ -5,7 +5,8 @@
 //! `# brachia KIND schema N` (KIND the file's name without `.csv`, `stick` for `stick_r2_*.csv`) before
 //! its header. [`stamp`] adds them as a run folder is queued ([`crate::RunFolder::add`]); the readers
 //! ([`json_version`], [`csv_body`]) refuse a file without one (written by an older brachia: re-run it) or
-//! with a version this brachia does not know, naming the file, the version found and the one supported.
+//! with a version this brachia does not know for the file's kind ([`JsonKind`], [`csv_version`]), naming
+//! the file, its kind, the version found and the ones supported.
 
 use brachia::Error;
 
@@ -14,7 +15,7 @@ pub const SCHEMA_VERSION: u32 = 1;
 
 /// The schema version of a track run's `report.json` and a benchmark's `scorecard.json`: 2, since
 /// `reaches_bar` and `success` mean the capture rule at any time of the run ([`crate::success`]);
-/// every other JSON file is at [`SCHEMA_VERSION`]. Readers take 1 to this.
+/// every other JSON file is at [`SCHEMA_VERSION`]. Readers of those two take 1 to this ([`JsonKind`]).
 pub const CAPTURE_SCHEMA_VERSION: u32 = 2;
 
 /// The JSON field holding the schema version.
@@ -91,54 +92,109 @@ pub fn stamp(name: &str, data: Vec<u8>) -> Vec<u8> {
     data
 }
 
-fn older(file: &str, field: &str) -> Error {
+/// A kind of JSON file brachia writes: each has the schema version it is written at and the oldest
+/// version it still reads ([`json_version`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum JsonKind {
+    /// A plan run's `report.json` (also `plan/report.json` of a track run).
+    PlanReport,
+    /// A track run's `report.json`: schema 2 ([`CAPTURE_SCHEMA_VERSION`]), reads 1 and 2.
+    TrackReport,
+    /// A simulate run's `report.json`.
+    SimulateReport,
+    /// A traverse's `report.json` (also a reproduction's `ladder/report.json`).
+    TraverseReport,
+    /// The parameter study's `report.json`.
+    StudyReport,
+    /// A benchmark's `scorecard.json`: schema 2 ([`CAPTURE_SCHEMA_VERSION`]), reads 1 and 2.
+    Scorecard,
+    /// A reproduction's `summary.json`.
+    Summary,
+    /// A reproduction's `ladder/joint_swings.json`.
+    JointSwings,
+}
+
+impl JsonKind {
+    /// What the file is, in words (`a track run's report.json`).
+    pub fn name(self) -> &'static str {
+        match self {
+            JsonKind::PlanReport => "a plan run's report.json",
+            JsonKind::TrackReport => "a track run's report.json",
+            JsonKind::SimulateReport => "a simulate run's report.json",
+            JsonKind::TraverseReport => "a traverse's report.json",
+            JsonKind::StudyReport => "the parameter study's report.json",
+            JsonKind::Scorecard => "a benchmark's scorecard.json",
+            JsonKind::Summary => "a reproduction's summary.json",
+            JsonKind::JointSwings => "a reproduction's joint_swings.json",
+        }
+    }
+
+    /// The schema version this brachia writes for the kind.
+    pub fn version(self) -> u32 {
+        match self {
+            JsonKind::TrackReport | JsonKind::Scorecard => CAPTURE_SCHEMA_VERSION,
+            _ => SCHEMA_VERSION,
+        }
+    }
+
+    /// The oldest schema version of the kind this brachia still reads (every version from it to
+    /// [`JsonKind::version`] reads).
+    pub fn oldest(self) -> u32 {
+        SCHEMA_VERSION
+    }
+}
+
+fn supported(oldest: u32, newest: u32) -> String {
+    if oldest == newest {
+        format!("schema {newest}")
+    } else {
+        format!("schema {oldest} to {newest}")
+    }
+}
+
+fn older(file: &str, field: &str, what: &str, reads: &str) -> Error {
     Error::invalid(
         file,
         field,
         "missing",
         format!(
-            "the file has no schema version: it was written by an older brachia (before versioned \
-             outputs); run the command that wrote it again (this brachia reads schema {SCHEMA_VERSION})"
+            "{what} without a schema version: it was written by an older brachia (before versioned \
+             outputs); run the command that wrote it again (this brachia reads {reads})"
         ),
     )
 }
 
-fn unknown(file: &str, field: &str, found: impl ToString, max: u32) -> Error {
-    let reads = if max == 1 {
-        "1".to_string()
-    } else {
-        format!("1 to {max}")
-    };
+fn unknown(file: &str, field: &str, found: impl ToString, what: &str, reads: &str) -> Error {
     Error::invalid(
         file,
         field,
         found,
         format!(
-            "unknown schema version: this brachia reads schema {reads}; the file was \
+            "unknown schema version of {what}: this brachia reads {reads}; the file was \
              written by another version of brachia (run the command that wrote it again)"
         ),
     )
 }
 
-/// Check the `schema_version` of the JSON value read from `file`.
-pub fn json_version(value: &serde_json::Value, file: &str) -> Result<(), Error> {
+/// Check the `schema_version` of the JSON value read from `file`, a file of kind `kind`: from
+/// [`JsonKind::oldest`] to [`JsonKind::version`]. The error names the file, the kind, the version
+/// found and the versions supported.
+pub fn json_version(value: &serde_json::Value, file: &str, kind: JsonKind) -> Result<(), Error> {
+    let reads = supported(kind.oldest(), kind.version());
     let Some(m) = value.as_object() else {
         return Err(Error::invalid(
             file,
             "(the file)",
             "not a JSON object",
-            format!("a brachia JSON file is an object with a field {SCHEMA_FIELD}"),
+            format!("{} is an object with a field {SCHEMA_FIELD}", kind.name()),
         ));
     };
+    let range = u64::from(kind.oldest())..=u64::from(kind.version());
     match m.get(SCHEMA_FIELD) {
-        None => Err(older(file, SCHEMA_FIELD)),
-        Some(v)
-            if v.as_u64()
-                .is_some_and(|k| (1..=u64::from(CAPTURE_SCHEMA_VERSION)).contains(&k)) =>
-        {
-            Ok(())
-        }
-        Some(v) => Err(unknown(file, SCHEMA_FIELD, v, CAPTURE_SCHEMA_VERSION)),
+        None => Err(older(file, SCHEMA_FIELD, kind.name(), &reads)),
+        Some(v) if v.as_u64().is_some_and(|k| range.contains(&k)) => Ok(()),
+        Some(v) => Err(unknown(file, SCHEMA_FIELD, v, kind.name(), &reads)),
     }
 }
 
@@ -148,7 +204,12 @@ pub fn csv_body<'a>(text: &'a str, file: &str, kind: &str) -> Result<&'a str, Er
     let (first, rest) = text.split_once('\n').unwrap_or((text, ""));
     let first = first.trim_end_matches('\r');
     let Some(tail) = first.strip_prefix(CSV_PREFIX) else {
-        return Err(older(file, "line 1 (schema line)"));
+        return Err(older(
+            file,
+            "line 1 (schema line)",
+            &format!("a {kind} CSV file"),
+            &supported(1, csv_version(kind)),
+        ));
     };
     let want = format!("{kind} schema ");
     let Some(v) = tail.strip_prefix(&want) else {
@@ -165,7 +226,8 @@ pub fn csv_body<'a>(text: &'a str, file: &str, kind: &str) -> Result<&'a str, Er
             file,
             "line 1 (schema line)",
             v.trim(),
-            csv_version(kind),
+            &format!("a {kind} CSV file"),
+            &supported(1, csv_version(kind)),
         )),
     }
 }
@@ -208,17 +270,12 @@ mod tests {
 
         let js = stamp("report.json", b"{\"a\": 1}".to_vec());
         let v: serde_json::Value = serde_json::from_slice(&js).unwrap();
-        assert!(json_version(&v, "r.json").is_ok());
-        let e = json_version(&serde_json::json!({"a": 1}), "r.json")
+        assert!(json_version(&v, "r.json", JsonKind::PlanReport).is_ok());
+        let e = json_version(&serde_json::json!({"a": 1}), "r.json", JsonKind::PlanReport)
             .unwrap_err()
             .to_string();
         assert!(e.contains("older brachia") && e.contains("r.json"), "{e}");
-        // a track report or a scorecard at schema 2 reads; 3 does not
-        assert!(json_version(&serde_json::json!({"schema_version": 2}), "r.json").is_ok());
-        let e = json_version(&serde_json::json!({"schema_version": 3}), "r.json")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains('3') && e.contains("schema 1 to 2"), "{e}");
+        assert!(json_version(&serde_json::json!([1]), "r.json", JsonKind::Summary).is_err());
         // the benchmark's runs.csv is written at schema 2
         let runs = stamp(
             "bench/runs.csv",
@@ -227,8 +284,65 @@ mod tests {
             .to_vec(),
         );
         assert!(runs.starts_with(b"# brachia runs schema 2\n"));
-        assert!(json_version(&serde_json::json!([1]), "r.json").is_err());
         // other files pass unchanged
         assert_eq!(stamp("params.toml", b"x = 1\n".to_vec()), b"x = 1\n");
+    }
+
+    const KINDS: [JsonKind; 8] = [
+        JsonKind::PlanReport,
+        JsonKind::TrackReport,
+        JsonKind::SimulateReport,
+        JsonKind::TraverseReport,
+        JsonKind::StudyReport,
+        JsonKind::Scorecard,
+        JsonKind::Summary,
+        JsonKind::JointSwings,
+    ];
+
+    #[test]
+    fn each_json_kind_reads_its_own_versions_only() {
+        let at = |v: u32| serde_json::json!({ "schema_version": v, "a": 1 });
+        for kind in KINDS {
+            for v in 0..=4 {
+                let read = json_version(&at(v), "d/report.json", kind);
+                let want = (kind.oldest()..=kind.version()).contains(&v);
+                assert_eq!(read.is_ok(), want, "{kind:?} at schema {v}: {read:?}");
+                if let Err(e) = read {
+                    let e = e.to_string();
+                    assert!(e.contains("d/report.json"), "{e}");
+                    assert!(e.contains(kind.name()), "{e}");
+                    assert!(e.contains(&format!("= {v}")), "{e}");
+                }
+            }
+        }
+        // the capture rule moved a track report and a scorecard to 2; both still read 1
+        for kind in [JsonKind::TrackReport, JsonKind::Scorecard] {
+            assert_eq!((kind.oldest(), kind.version()), (1, CAPTURE_SCHEMA_VERSION));
+            let e = json_version(&at(3), "s.json", kind)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("schema 1 to 2"), "{e}");
+        }
+        // every other kind is at 1 alone: a report claiming 2 is refused, naming what it is
+        let e = json_version(&at(2), "p/report.json", JsonKind::PlanReport)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("a plan run's report.json")
+                && e.contains("reads schema 1;")
+                && e.contains("schema_version` = 2"),
+            "{e}"
+        );
+        let e = json_version(
+            &serde_json::json!({"a": 1}),
+            "t.json",
+            JsonKind::TrackReport,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("a track run's report.json") && e.contains("schema 1 to 2"),
+            "{e}"
+        );
     }
 }

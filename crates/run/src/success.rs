@@ -10,6 +10,11 @@
 //! ([`judged_log`]). A run without a capture is a miss, and its distance is the hand's at the end
 //! of the swing (the reference's duration). Distances are measured to the bar itself
 //! (`task.target`), never to the reference's end point.
+//!
+//! **Other radii and speeds.** A ladder's gripper closes by the same test with its own radius and
+//! speed (`[ladder] capture_radius`, `capture_speed`): a [`CaptureRule`] holds the two numbers,
+//! [`CaptureRule::SUCCESS`] is the rule above, and [`hand_at_bar`] and [`capture`] are its methods
+//! for that rule.
 
 use brachia::sim::ClosedLoopLog;
 use brachia::Robot;
@@ -20,6 +25,85 @@ pub const SUCCESS_RADIUS_M: f64 = 0.02;
 /// The capture speed: the hand at the bar slower than this (or as fast), m/s.
 pub const CAPTURE_SPEED_M_S: f64 = 0.5;
 
+/// The two numbers of a capture: the hand within `radius_m` of the bar and no faster than
+/// `speed_m_s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaptureRule {
+    /// The capture radius, m.
+    pub radius_m: f64,
+    /// The capture speed, m/s.
+    pub speed_m_s: f64,
+}
+
+impl CaptureRule {
+    /// The success rule of every run: [`SUCCESS_RADIUS_M`] and [`CAPTURE_SPEED_M_S`].
+    pub const SUCCESS: CaptureRule = CaptureRule {
+        radius_m: SUCCESS_RADIUS_M,
+        speed_m_s: CAPTURE_SPEED_M_S,
+    };
+
+    /// The hand of `plant` at the state `x = [q, qd]` (the plant's true state, in the frame of its
+    /// grip) against the bar `target` (same frame), judged by this rule: see [`HandAtBar`].
+    pub fn hand_at_bar(&self, plant: &Robot, x: &[f64], target: [f64; 2]) -> HandAtBar {
+        let n = plant.n();
+        let p = plant.ee_position(&x[..n]);
+        let v = plant.ee_velocity(&x[..n], &x[n..2 * n]);
+        let distance_m = (p[0] - target[0]).hypot(p[1] - target[1]);
+        let speed_m_s = v[0].hypot(v[1]);
+        HandAtBar {
+            ee: [p[0], p[1]],
+            distance_m,
+            speed_m_s,
+            captures: distance_m.is_finite()
+                && speed_m_s.is_finite()
+                && distance_m <= self.radius_m
+                && speed_m_s <= self.speed_m_s,
+        }
+    }
+
+    /// The capture verdict of `log` by this rule: as [`capture`].
+    pub fn capture(
+        &self,
+        plant: &Robot,
+        log: &ClosedLoopLog,
+        swing_end_s: f64,
+        target: [f64; 2],
+    ) -> Capture {
+        let rows = log.len();
+        if rows == 0 {
+            return Capture {
+                t_s: 0.0,
+                row: 0,
+                ee: [f64::NAN; 2],
+                bar_error_m: f64::INFINITY,
+                hand_speed_m_s: f64::INFINITY,
+                capture_t_s: None,
+                reaches_bar: false,
+            };
+        }
+        let hit = (0..rows).find_map(|k| {
+            let h = self.hand_at_bar(plant, log.x(k), target);
+            h.captures.then_some((k, h))
+        });
+        let (row, h) = hit.unwrap_or_else(|| {
+            // the last row at or before the end of the swing (to half a microsecond: the log's times
+            // are sums of control periods)
+            let t_end = log.t[0] + swing_end_s + 5e-7;
+            let k = log.t.iter().rposition(|&t| t <= t_end).unwrap_or(0);
+            (k, self.hand_at_bar(plant, log.x(k), target))
+        });
+        Capture {
+            t_s: log.t[row],
+            row,
+            ee: h.ee,
+            bar_error_m: h.distance_m,
+            hand_speed_m_s: h.speed_m_s,
+            capture_t_s: hit.map(|_| log.t[row] - log.t[0]),
+            reaches_bar: hit.is_some(),
+        }
+    }
+}
+
 /// The plant's hand against the bar in one state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HandAtBar {
@@ -29,28 +113,15 @@ pub struct HandAtBar {
     pub distance_m: f64,
     /// Its speed, m/s.
     pub speed_m_s: f64,
-    /// The rule: every value finite, `distance_m <= SUCCESS_RADIUS_M` and
-    /// `speed_m_s <= CAPTURE_SPEED_M_S`.
+    /// The rule ([`CaptureRule`]; [`CaptureRule::SUCCESS`] unless said otherwise): every value
+    /// finite, `distance_m <= radius_m` and `speed_m_s <= speed_m_s`.
     pub captures: bool,
 }
 
 /// The hand of `plant` at the state `x = [q, qd]` (the plant's true state) against the bar
-/// `target`: see [`HandAtBar`].
+/// `target`, by the success rule ([`CaptureRule::SUCCESS`]): see [`HandAtBar`].
 pub fn hand_at_bar(plant: &Robot, x: &[f64], target: [f64; 2]) -> HandAtBar {
-    let n = plant.n();
-    let p = plant.ee_position(&x[..n]);
-    let v = plant.ee_velocity(&x[..n], &x[n..2 * n]);
-    let distance_m = (p[0] - target[0]).hypot(p[1] - target[1]);
-    let speed_m_s = v[0].hypot(v[1]);
-    HandAtBar {
-        ee: [p[0], p[1]],
-        distance_m,
-        speed_m_s,
-        captures: distance_m.is_finite()
-            && speed_m_s.is_finite()
-            && distance_m <= SUCCESS_RADIUS_M
-            && speed_m_s <= CAPTURE_SPEED_M_S,
-    }
+    CaptureRule::SUCCESS.hand_at_bar(plant, x, target)
 }
 
 /// How a closed loop's hand met the bar.
@@ -78,38 +149,7 @@ pub struct Capture {
 /// the log's start) is where a miss is measured. Every row of the log is tested (a diverged loop's
 /// log ends before its divergence, so a capture before it counts).
 pub fn capture(plant: &Robot, log: &ClosedLoopLog, swing_end_s: f64, target: [f64; 2]) -> Capture {
-    let rows = log.len();
-    if rows == 0 {
-        return Capture {
-            t_s: 0.0,
-            row: 0,
-            ee: [f64::NAN; 2],
-            bar_error_m: f64::INFINITY,
-            hand_speed_m_s: f64::INFINITY,
-            capture_t_s: None,
-            reaches_bar: false,
-        };
-    }
-    let hit = (0..rows).find_map(|k| {
-        let h = hand_at_bar(plant, log.x(k), target);
-        h.captures.then_some((k, h))
-    });
-    let (row, h) = hit.unwrap_or_else(|| {
-        // the last row at or before the end of the swing (to half a microsecond: the log's times
-        // are sums of control periods)
-        let t_end = log.t[0] + swing_end_s + 5e-7;
-        let k = log.t.iter().rposition(|&t| t <= t_end).unwrap_or(0);
-        (k, hand_at_bar(plant, log.x(k), target))
-    });
-    Capture {
-        t_s: log.t[row],
-        row,
-        ee: h.ee,
-        bar_error_m: h.distance_m,
-        hand_speed_m_s: h.speed_m_s,
-        capture_t_s: hit.map(|_| log.t[row] - log.t[0]),
-        reaches_bar: hit.is_some(),
-    }
+    CaptureRule::SUCCESS.capture(plant, log, swing_end_s, target)
 }
 
 /// The part of `log` a run is judged on: up to and including the row of the first capture (the

@@ -35,7 +35,7 @@ impl TrackFolder {
     pub fn read(dir: &Path) -> Result<Self, Error> {
         let rfile = need(dir, "report.json", TRACK_FOLDER)?;
         let lfile = need(dir, "closed_loop.csv", TRACK_FOLDER)?;
-        let report: TrackReport = read_json(&rfile)?;
+        let report: TrackReport = read_json(&rfile, crate::schema::JsonKind::TrackReport)?;
         let text = read_csv_text(&lfile, "closed_loop")?;
         let mut log = ClosedLoopLog::from_csv(&text, &lfile.display().to_string())
             .map_err(past_schema_line)?;

@@ -464,7 +464,7 @@ pub fn read_plan_folder(
         }
     }
     let report = crate::read::need(dir, "report.json", PLAN)?;
-    let rep: PlanReport = crate::read::read_json(&report)?;
+    let rep: PlanReport = crate::read::read_json(&report, crate::schema::JsonKind::PlanReport)?;
     // the clearance on the folder's own trajectory (a folder written before the check, or edited,
     // says nothing of it)
     let violation = match rep.clearance_violation {

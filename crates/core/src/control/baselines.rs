@@ -4,6 +4,7 @@
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute, the rest relative), torques of
 //! joints 2..n in N m, clamped to the robot's limits.
 
+use super::tracking::Tracking;
 use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::Robot;
@@ -153,10 +154,7 @@ impl PdSettings {
 /// Owns shared handles to its robot and reference; [`Pd::set_reference`] swaps the plan.
 #[derive(Debug, Clone)]
 pub struct Pd {
-    robot: Arc<Robot>,
-    reference: Arc<Trajectory>,
-    settings: PdSettings,
-    xref: Vec<f64>,
+    tr: Tracking<PdSettings>,
 }
 
 impl Pd {
@@ -166,14 +164,8 @@ impl Pd {
         reference: impl Into<Arc<Trajectory>>,
         settings: PdSettings,
     ) -> Result<Self> {
-        let (robot, reference) = (robot.into(), reference.into());
-        reference.check_reference(&robot)?;
-        settings.validate(robot.n)?;
         Ok(Pd {
-            settings: settings.resolved(robot.n),
-            xref: vec![0.0; robot.nx()],
-            robot,
-            reference,
+            tr: Tracking::new(robot, reference, &settings)?,
         })
     }
 
@@ -181,42 +173,43 @@ impl Pd {
     /// plan is kept). Passing an `Arc` does not allocate; an owned `Trajectory` is moved into one new
     /// `Arc`.
     pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
-        super::swap_reference(&self.robot, &mut self.reference, reference)
+        self.tr.set_reference(reference)
     }
 
     /// The plan being tracked.
     pub fn reference(&self) -> &Arc<Trajectory> {
-        &self.reference
+        &self.tr.reference
     }
 
     /// The robot controlled.
     pub fn robot(&self) -> &Arc<Robot> {
-        &self.robot
+        &self.tr.robot
     }
 
     /// The gains in use (empty gains of the settings filled with the per-link defaults).
     pub fn settings(&self) -> &PdSettings {
-        &self.settings
+        &self.tr.settings
     }
 }
 
 impl Controller for Pd {
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
-        let n = self.robot.n;
+        let tr = &mut self.tr;
+        let n = tr.robot.n;
         let nu = n - 1;
         let mut ff = [0.0; crate::model::MAX_LINKS];
-        if self.settings.feedforward {
-            self.reference.tau_at(t, &mut ff[..nu]);
+        if tr.settings.feedforward {
+            tr.reference.tau_at(t, &mut ff[..nu]);
         }
-        self.reference.state_at(t, &mut self.xref);
+        tr.reference.state_at(t, &mut tr.xref);
         let valid = x.len() == 2 * n;
         for (j, o) in tau.iter_mut().enumerate().take(nu) {
             let mut v = ff[j];
             if valid {
-                v += self.settings.kp[j] * (self.xref[j + 1] - x[j + 1])
-                    + self.settings.kd[j] * (self.xref[n + j + 1] - x[n + j + 1]);
+                v += tr.settings.kp[j] * (tr.xref[j + 1] - x[j + 1])
+                    + tr.settings.kd[j] * (tr.xref[n + j + 1] - x[n + j + 1]);
             }
-            *o = v.clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            *o = v.clamp(tr.robot.tau_min[j], tr.robot.tau_max[j]);
         }
         ControlInfo { iterations: 0 }
     }

@@ -22,6 +22,7 @@ pub mod mpc;
 pub mod param_estimator;
 pub mod replan_gate;
 pub mod replanning;
+mod tracking;
 pub mod tvlqr;
 
 pub use adaptive::Adaptive;
@@ -162,40 +163,90 @@ pub trait Controller {
     }
 }
 
-/// A mutable borrow of a controller is a controller (so a loop can drive one the caller keeps).
-impl<C: Controller + ?Sized> Controller for &mut C {
-    fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
-        (**self).control(t, x, tau)
-    }
-    fn name(&self) -> &'static str {
-        (**self).name()
-    }
-    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
-        (**self).set_reference(reference)
-    }
-    fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
-        (**self).set_model(robot)
-    }
-    fn clone_box(&self) -> Option<Box<dyn Controller>> {
-        (**self).clone_box()
-    }
+/// [`Controller`] for a pointer `$ptr` to a controller `C` (a borrow, a box): every method
+/// forwarded to the controller it points to (none falls back to a default), written once for every
+/// pointer.
+macro_rules! controller_through {
+    ($(#[$m:meta])* $ptr:ty) => {
+        $(#[$m])*
+        impl<C: Controller + ?Sized> Controller for $ptr {
+            fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
+                (**self).control(t, x, tau)
+            }
+            fn name(&self) -> &'static str {
+                (**self).name()
+            }
+            fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
+                (**self).set_reference(reference)
+            }
+            fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
+                (**self).set_model(robot)
+            }
+            fn clone_box(&self) -> Option<Box<dyn Controller>> {
+                (**self).clone_box()
+            }
+        }
+    };
 }
 
-/// A boxed controller is a controller (so a loop can hold one chosen at run time).
-impl<C: Controller + ?Sized> Controller for Box<C> {
-    fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
-        (**self).control(t, x, tau)
+controller_through!(
+    /// A mutable borrow of a controller is a controller (so a loop can drive one the caller keeps).
+    &mut C
+);
+controller_through!(
+    /// A boxed controller is a controller (so a loop can hold one chosen at run time).
+    Box<C>
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A controller that answers every method itself (none of the trait's defaults).
+    #[derive(Clone)]
+    struct Own(f64);
+
+    impl Controller for Own {
+        fn control(&mut self, _t: f64, _x: &[f64], tau: &mut [f64]) -> ControlInfo {
+            tau.fill(self.0);
+            ControlInfo { iterations: 7 }
+        }
+        fn name(&self) -> &'static str {
+            "own"
+        }
+        fn set_reference(&mut self, _reference: Arc<Trajectory>) -> Result<()> {
+            self.0 = 1.0;
+            Ok(())
+        }
+        fn set_model(&mut self, _robot: Arc<crate::model::Robot>) -> Result<()> {
+            self.0 = 2.0;
+            Ok(())
+        }
+        fn clone_box(&self) -> Option<Box<dyn Controller>> {
+            Some(Box::new(self.clone()))
+        }
     }
-    fn name(&self) -> &'static str {
-        (**self).name()
+
+    /// Every method, called through `c`, reaches `Own`'s.
+    fn all_reach_the_controller(mut c: impl Controller) {
+        let mut tau = [0.0; 3];
+        assert_eq!(c.control(0.0, &[], &mut tau).iterations, 7);
+        assert_eq!(c.name(), "own");
+        c.set_reference(Arc::new(Trajectory::new(4))).unwrap();
+        c.control(0.0, &[], &mut tau);
+        assert_eq!(tau, [1.0; 3]);
+        c.set_model(Arc::new(crate::model::Robot::paper())).unwrap();
+        c.control(0.0, &[], &mut tau);
+        assert_eq!(tau, [2.0; 3]);
+        assert_eq!(c.clone_box().map(|b| b.name()), Some("own"));
     }
-    fn set_reference(&mut self, reference: Arc<Trajectory>) -> Result<()> {
-        (**self).set_reference(reference)
-    }
-    fn set_model(&mut self, robot: Arc<crate::model::Robot>) -> Result<()> {
-        (**self).set_model(robot)
-    }
-    fn clone_box(&self) -> Option<Box<dyn Controller>> {
-        (**self).clone_box()
+
+    #[test]
+    fn a_borrowed_or_boxed_controller_forwards_every_method() {
+        let mut own = Own(0.0);
+        all_reach_the_controller(&mut own);
+        assert_eq!(own.0, 2.0);
+        all_reach_the_controller(Box::new(Own(0.0)));
+        all_reach_the_controller(Box::new(Own(0.0)) as Box<dyn Controller>);
     }
 }

@@ -15,6 +15,7 @@
 //! `u = clamp(u^d(t) - K(t) (x - x^d(t)))` with K linearly interpolated between grid points and held
 //! past the ends.
 
+use super::tracking::Tracking;
 use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::{LinearModel, Linearizer, Robot, MAX_LINKS};
@@ -147,13 +148,10 @@ pub fn riccati_gains(
 /// [`Tvlqr::set_reference`]); a control call does not allocate.
 #[derive(Debug, Clone)]
 pub struct Tvlqr {
-    robot: Arc<Robot>,
-    reference: Arc<Trajectory>,
-    settings: TvlqrSettings,
+    tr: Tracking<TvlqrSettings>,
     /// Gains `K_k` row-major nu x nx, k = 0..=N (the last repeats K_{N-1}).
     gains: Vec<f64>,
     stages: usize,
-    xref: Vec<f64>,
 }
 
 impl Tvlqr {
@@ -163,42 +161,33 @@ impl Tvlqr {
         reference: impl Into<Arc<Trajectory>>,
         settings: TvlqrSettings,
     ) -> Result<Self> {
-        let (robot, reference): (Arc<Robot>, Arc<Trajectory>) = (robot.into(), reference.into());
-        reference.check_reference(&robot)?;
-        settings.validate(robot.n)?;
-        let settings = settings.resolved(robot.n);
-        let gains = compute_gains(&robot, &reference, &settings)?;
-        let stages = gains.len() / (robot.nu() * robot.nx()) - 1;
-        Ok(Tvlqr {
-            xref: vec![0.0; robot.nx()],
-            robot,
-            reference,
-            settings,
-            gains,
-            stages,
-        })
+        let tr = Tracking::new(robot, reference, &settings)?;
+        let gains = compute_gains(&tr.robot, &tr.reference, &tr.settings)?;
+        let stages = gains.len() / (tr.robot.nu() * tr.robot.nx()) - 1;
+        Ok(Tvlqr { tr, gains, stages })
     }
 
     /// Track another plan: the gains are recomputed (this allocates); on error the current plan and
     /// gains are kept.
     pub fn set_reference(&mut self, reference: impl Into<Arc<Trajectory>>) -> Result<()> {
         let reference: Arc<Trajectory> = reference.into();
-        reference.check_reference(&self.robot)?;
-        let gains = compute_gains(&self.robot, &reference, &self.settings)?;
-        self.stages = gains.len() / (self.robot.nu() * self.robot.nx()) - 1;
+        let tr = &mut self.tr;
+        reference.check_reference(&tr.robot)?;
+        let gains = compute_gains(&tr.robot, &reference, &tr.settings)?;
+        self.stages = gains.len() / (tr.robot.nu() * tr.robot.nx()) - 1;
         self.gains = gains;
-        self.reference = reference;
+        tr.reference = reference;
         Ok(())
     }
 
     /// The settings in use (empty weights filled with the per-link defaults).
     pub fn settings(&self) -> &TvlqrSettings {
-        &self.settings
+        &self.tr.settings
     }
 
     /// The gain at grid point k (nu x nx row-major), k = 0..=N.
     pub fn gain(&self, k: usize) -> &[f64] {
-        let blk = self.robot.nu() * self.robot.nx();
+        let blk = self.tr.robot.nu() * self.tr.robot.nx();
         let k = k.min(self.stages);
         &self.gains[k * blk..(k + 1) * blk]
     }
@@ -319,14 +308,15 @@ impl Tvlqr {
     /// that holds the torque over a step takes the plan's torque at the step's midpoint). A state of
     /// the wrong length or with NaNs yields `u^d(t_ff)` (clamped). Does not allocate.
     pub fn law(&mut self, t: f64, t_ff: f64, x: &[f64], tau: &mut [f64]) {
-        let n = self.robot.n;
+        let tr = &mut self.tr;
+        let n = tr.robot.n;
         let (nx, nu) = (2 * n, n - 1);
         let mut ud = [0.0; MAX_LINKS];
-        self.reference.tau_at(t_ff, &mut ud[..nu]);
+        tr.reference.tau_at(t_ff, &mut ud[..nu]);
         let valid = x.len() == nx && x.iter().all(|v| v.is_finite());
         if valid {
-            self.reference.state_at(t, &mut self.xref);
-            let pos = ((t - self.reference.t[0]) / self.settings.dt).clamp(0.0, self.stages as f64);
+            tr.reference.state_at(t, &mut tr.xref);
+            let pos = ((t - tr.reference.t[0]) / tr.settings.dt).clamp(0.0, self.stages as f64);
             let k0 = (pos.floor() as usize).min(self.stages);
             let k1 = (k0 + 1).min(self.stages);
             let r = pos - k0 as f64;
@@ -339,13 +329,13 @@ impl Tvlqr {
                 let mut v = 0.0;
                 for j in 0..nx {
                     let kij = g0[i * nx + j] + r * (g1[i * nx + j] - g0[i * nx + j]);
-                    v += kij * (x[j] - self.xref[j]);
+                    v += kij * (x[j] - tr.xref[j]);
                 }
                 ud[i] -= v;
             }
         }
         for (j, o) in tau.iter_mut().enumerate().take(nu) {
-            *o = ud[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]);
+            *o = ud[j].clamp(tr.robot.tau_min[j], tr.robot.tau_max[j]);
         }
     }
 }

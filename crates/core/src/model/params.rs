@@ -131,10 +131,7 @@ pub struct RobotParams {
 impl RobotParams {
     /// Parse a TOML string; `source_name` names the origin in error messages.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
-        toml::from_str(text).map_err(|e| Error::Parse {
-            path: source_name.into(),
-            message: e.to_string().trim_end().replace('\n', " "),
-        })
+        toml::from_str(text).map_err(|e| crate::toml_path::toml_error(&e, text, source_name))
     }
 
     /// Read and parse a TOML file (not yet validated: see [`Robot::from_params`]).

@@ -95,58 +95,106 @@ pub trait Plant {
     }
 }
 
-/// A mutable borrow of a plant is a plant (so a loop can drive a plant the caller keeps).
-impl<P: Plant + ?Sized> Plant for &mut P {
-    fn n_links(&self) -> usize {
-        (**self).n_links()
-    }
-    fn time(&self) -> f64 {
-        (**self).time()
-    }
-    fn state(&self, x: &mut [f64]) {
-        (**self).state(x)
-    }
-    fn true_state(&self, x: &mut [f64]) {
-        (**self).true_state(x)
-    }
-    fn step(&mut self, tau: &[f64], dt: f64) {
-        (**self).step(tau, dt)
-    }
-    fn energy(&self) -> f64 {
-        (**self).energy()
-    }
-    fn name(&self) -> &'static str {
-        (**self).name()
-    }
-    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
-        (**self).push(link, point_m, impulse)
-    }
+/// [`Plant`] for a pointer `$ptr` to a plant `P` (a borrow, a box): every method forwarded to the
+/// plant it points to, written once for every pointer.
+macro_rules! plant_through {
+    ($(#[$m:meta])* $ptr:ty) => {
+        $(#[$m])*
+        impl<P: Plant + ?Sized> Plant for $ptr {
+            fn n_links(&self) -> usize {
+                (**self).n_links()
+            }
+            fn time(&self) -> f64 {
+                (**self).time()
+            }
+            fn state(&self, x: &mut [f64]) {
+                (**self).state(x)
+            }
+            fn true_state(&self, x: &mut [f64]) {
+                (**self).true_state(x)
+            }
+            fn step(&mut self, tau: &[f64], dt: f64) {
+                (**self).step(tau, dt)
+            }
+            fn energy(&self) -> f64 {
+                (**self).energy()
+            }
+            fn name(&self) -> &'static str {
+                (**self).name()
+            }
+            fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
+                (**self).push(link, point_m, impulse)
+            }
+        }
+    };
 }
 
-/// A boxed plant is a plant (so a loop can hold a plant chosen at run time).
-impl<P: Plant + ?Sized> Plant for Box<P> {
-    fn n_links(&self) -> usize {
-        (**self).n_links()
+plant_through!(
+    /// A mutable borrow of a plant is a plant (so a loop can drive a plant the caller keeps).
+    &mut P
+);
+plant_through!(
+    /// A boxed plant is a plant (so a loop can hold a plant chosen at run time).
+    Box<P>
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plant that answers every method itself (none of the trait's defaults).
+    struct Own {
+        t: f64,
+        pushed: usize,
     }
-    fn time(&self) -> f64 {
-        (**self).time()
+
+    impl Plant for Own {
+        fn n_links(&self) -> usize {
+            4
+        }
+        fn time(&self) -> f64 {
+            self.t
+        }
+        fn state(&self, x: &mut [f64]) {
+            x.fill(1.0);
+        }
+        fn true_state(&self, x: &mut [f64]) {
+            x.fill(2.0);
+        }
+        fn step(&mut self, _tau: &[f64], dt: f64) {
+            self.t += dt;
+        }
+        fn energy(&self) -> f64 {
+            3.0
+        }
+        fn name(&self) -> &'static str {
+            "own"
+        }
+        fn push(&mut self, _link: usize, _point_m: f64, _impulse: [f64; 2]) -> crate::Result<()> {
+            self.pushed += 1;
+            Ok(())
+        }
     }
-    fn state(&self, x: &mut [f64]) {
-        (**self).state(x)
+
+    /// Every method, called through `p`, reaches `Own`'s.
+    fn all_reach_the_plant(mut p: impl Plant) {
+        let mut x = [0.0; 8];
+        assert_eq!((p.n_links(), p.name(), p.energy()), (4, "own", 3.0));
+        p.state(&mut x);
+        assert_eq!(x, [1.0; 8]);
+        p.true_state(&mut x);
+        assert_eq!(x, [2.0; 8]);
+        p.step(&[0.0; 3], 0.25);
+        assert_eq!(p.time(), 0.25);
+        p.push(1, 0.1, [0.0, 1.0]).unwrap();
     }
-    fn true_state(&self, x: &mut [f64]) {
-        (**self).true_state(x)
-    }
-    fn step(&mut self, tau: &[f64], dt: f64) {
-        (**self).step(tau, dt)
-    }
-    fn energy(&self) -> f64 {
-        (**self).energy()
-    }
-    fn name(&self) -> &'static str {
-        (**self).name()
-    }
-    fn push(&mut self, link: usize, point_m: f64, impulse: [f64; 2]) -> crate::Result<()> {
-        (**self).push(link, point_m, impulse)
+
+    #[test]
+    fn a_borrowed_or_boxed_plant_forwards_every_method() {
+        let mut own = Own { t: 0.0, pushed: 0 };
+        all_reach_the_plant(&mut own);
+        assert_eq!((own.t, own.pushed), (0.25, 1));
+        all_reach_the_plant(Box::new(Own { t: 0.0, pushed: 0 }));
+        all_reach_the_plant(Box::new(Own { t: 0.0, pushed: 0 }) as Box<dyn Plant>);
     }
 }

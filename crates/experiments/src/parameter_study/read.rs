@@ -9,6 +9,7 @@ use brachia::model::RobotParams;
 use brachia::planning::SolveStatus;
 use brachia::{Error, Robot};
 use brachia_run::read::{csv_rows, need, number, read_csv_text, read_json, read_plan_trajectory};
+use brachia_run::schema::JsonKind;
 use std::path::Path;
 
 /// The part of the parameter study's `report.json` a reader needs.
@@ -46,7 +47,7 @@ fn status_from_name(name: &str) -> Option<SolveStatus> {
 pub fn read_parameter_study(dir: &Path) -> Result<ParameterStudy, Error> {
     let rfile = need(dir, "report.json", STUDY_FOLDER)?;
     let cfile = need(dir, "cells.csv", STUDY_FOLDER)?;
-    let rep: StudyReport = read_json(&rfile)?;
+    let rep: StudyReport = read_json(&rfile, JsonKind::StudyReport)?;
     let base = match &rep.settings.base_params {
         BaseParams::Inline(p) => p.clone(),
         other => {

@@ -501,7 +501,7 @@ pub fn redraw_cancellable(dir: &Path, cancel: &CancelToken) -> Result<Redraw, Ex
     }
     check_complete(dir)?;
     let spath = dir.join("summary.json");
-    let sum: Value = crate::read::read_json(&spath)?;
+    let sum: Value = crate::read::read_json(&spath, crate::schema::JsonKind::Summary)?;
     let head = check::summary_head(&spath, &sum)?;
     let (quick, wall_s, cores) = (head.quick, head.wall_s, head.cores);
     let run_failures: Vec<String> = head

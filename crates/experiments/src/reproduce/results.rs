@@ -5,6 +5,7 @@ use super::check;
 use crate::parameter_study::ParameterStudy;
 use crate::read::{read_json, PlanFolder};
 use crate::scenario::LoadedScenario;
+use crate::schema::JsonKind;
 use crate::track_folder::TrackFolder;
 use serde_json::{json, Value};
 use std::path::Path;
@@ -103,12 +104,12 @@ impl Results {
         }
         if has("ladder") {
             let path = dir.join("ladder/report.json");
-            let l: Value = read_json(&path)?;
+            let l: Value = read_json(&path, JsonKind::TraverseReport)?;
             check::ladder_report(&path, &l)?;
             res.ladder = Some(l);
             let path = dir.join("ladder/joint_swings.json");
             if path.is_file() {
-                let j: Value = read_json(&path)?;
+                let j: Value = read_json(&path, JsonKind::JointSwings)?;
                 check::joint_swings(&path, &j)?;
                 res.ladder_joint = Some(j);
             }

@@ -5,7 +5,6 @@
 
 #![allow(dead_code)]
 
-use brachia::model::{ActuatorParams, LinkParams, RobotParams};
 use brachia::sim::{ModelPlant, Plant};
 use brachia::Robot;
 use brachia_rapier::{RapierPlant, RapierSettings};
@@ -28,30 +27,12 @@ pub fn light_robot() -> Robot {
     robot_with_inertia([0.0098, 0.001, 0.001, 0.0098])
 }
 
-/// The paper's masses, lengths and COM offsets with the given planar inertias (kg m^2).
+/// The paper's robot (`params/paper.toml`, [`Robot::paper`]) with the given planar inertias (kg m^2).
 pub fn robot_with_inertia(inertia: [f64; 4]) -> Robot {
-    let mass = [0.35, 0.56, 0.56, 0.35];
-    let com = [0.2059, 0.1832, 0.1718, 0.1491];
-    let links = (0..4)
-        .map(|i| LinkParams {
-            length: 0.355,
-            mass: mass[i],
-            com: com[i],
-            inertia: inertia[i],
-            radius: 0.02,
-            ..Default::default()
-        })
-        .collect();
-    let params = RobotParams {
-        name: "paper".into(),
-        gravity: 9.81,
-        links,
-        actuators: ActuatorParams {
-            tau_min: vec![-5.0; 3],
-            tau_max: vec![5.0; 3],
-        },
-        end_effector: None,
-    };
+    let mut params = Robot::paper().params().clone();
+    for (link, i) in params.links.iter_mut().zip(inertia) {
+        link.inertia = i;
+    }
     Robot::from_params(params, "<test>").expect("paper robot is valid")
 }
 

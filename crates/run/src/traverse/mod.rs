@@ -6,11 +6,13 @@
 //! **Hands**: hand A is the end of the parameters file's link 1, hand B the end of its link n. Swings 0,
 //! 2, 4, ... hang from hand A (the chain as written), swings 1, 3, ... from hand B (the chain re-rooted,
 //! [`brachia::model::switch_grip`]). The ladder's sequencing (the grip-switch map, the frames, each
-//! swing's task, the capture residual) is the library's [`brachia::ladder`]; this module runs it on a
+//! swing's task) is the library's [`brachia::ladder`]; this module runs it on a
 //! plant and writes the run folder.
 //!
-//! **Capture rule**: a swing ends after its planned time (plus `tracking.hold_s`); the hand captures the
-//! bar when it is then within `ladder.capture_radius` of it and slower than `ladder.capture_speed`.
+//! **Capture rule**: a swing ends after its planned time (plus `tracking.hold_s`), when the gripper
+//! closes; the plant's hand captures the bar when it is then within `ladder.capture_radius` of it and
+//! no faster than `ladder.capture_speed`: the rule of every run ([`crate::success::CaptureRule`]) with
+//! the ladder's two numbers ([`swing_capture`]).
 //! The new grip is where the hand closed (within the capture radius of the bar); a remaining hand speed
 //! is stopped by the capture impulse (reported as the switch residual and the energy it takes). A miss
 //! ends the run with [`TraverseStatus::CaptureMissed`], naming the swing and the miss.
@@ -429,7 +431,22 @@ fn plan_ahead(
 }
 
 pub use brachia::ladder::SWITCH_POSE_MARGIN_RAD;
-use brachia::ladder::{capture_residual, holding_hand, switch_pose_box};
+use brachia::ladder::{holding_hand, switch_pose_box};
+
+/// How the swinging hand of `chain` (the plant's chain, holding `grip`, world) meets `bar` (world)
+/// at the last row of the swing's `log`, where the gripper closes: the capture rule of every run
+/// ([`crate::success::CaptureRule`]) with the ladder's `capture_radius` and `capture_speed`.
+pub fn swing_capture(
+    ladder: &crate::ladder::Ladder,
+    chain: &Robot,
+    grip: [f64; 2],
+    log: &ClosedLoopLog,
+    bar: [f64; 2],
+) -> Option<crate::success::HandAtBar> {
+    let x = log.x(log.len().checked_sub(1)?);
+    let target = [bar[0] - grip[0], bar[1] - grip[1]];
+    Some(ladder.capture_rule().hand_at_bar(chain, x, target))
+}
 
 /// The traverse; `None` when `stop` said so before it finished.
 fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Traverse>, Error> {
@@ -563,10 +580,11 @@ fn traverse(ll: &LoadedLadder, stop: &dyn Fn() -> bool) -> Result<Option<Travers
         }
         let summary = log.summary();
         let xe = log.x(log.len() - 1).to_vec();
-        let (miss, speed) = capture_residual(robot, grip, &xe, bars[k + 1].p());
-        let captured = diverged_at.is_none()
-            && miss <= sc.ladder.capture_radius
-            && speed <= sc.ladder.capture_speed;
+        let pchain = &pchains[holding_hand(k)];
+        let hand = swing_capture(&sc.ladder, pchain, grip, &log, bars[k + 1].p())
+            .ok_or_else(|| Error::InfeasibleTask("an empty swing log".into()))?;
+        let (miss, speed) = (hand.distance_m, hand.speed_m_s);
+        let captured = diverged_at.is_none() && hand.captures;
         let duration = log.t[log.len() - 1] - log.t[0];
         let mut rec = SwingRecord {
             swing: k,

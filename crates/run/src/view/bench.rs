@@ -6,6 +6,7 @@
 
 use super::data::html_escape;
 use crate::read::{need, read_csv_text, read_json};
+use crate::schema::JsonKind;
 use brachia::Error;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -189,7 +190,7 @@ fn curve(sweep: &SweepDef, cards: &[ControllerCard], runs: &[Run]) -> String {
 pub fn benchmark_folder_html(dir: &Path) -> Result<String, Error> {
     let sfile = need(dir, "scorecard.json", BENCH_FOLDER)?;
     let rfile = need(dir, "runs.csv", BENCH_FOLDER)?;
-    let card: Scorecard = read_json(&sfile)?;
+    let card: Scorecard = read_json(&sfile, JsonKind::Scorecard)?;
     let runs = read_runs(
         &rfile.display().to_string(),
         &read_csv_text(&rfile, "runs")?,

@@ -21,6 +21,7 @@ use crate::ladder::LoadedLadder;
 use crate::plan_run::PlanRun;
 use crate::read::{inside, need, read_csv_text, read_json, PlanFolder};
 use crate::scenario::LoadedScenario;
+use crate::schema::JsonKind;
 use crate::track_folder::TrackFolder;
 use crate::track_run::TrackRun;
 use crate::traverse::Traverse;
@@ -136,7 +137,7 @@ const TRAVERSE_FOLDER: &str =
 pub fn traverse_folder_view(dir: &Path) -> Result<Value, Error> {
     let rfile = need(dir, "report.json", TRAVERSE_FOLDER)?;
     let tfile = need(dir, "traverse.csv", TRAVERSE_FOLDER)?;
-    let report: TraverseReportView = read_json(&rfile)?;
+    let report: TraverseReportView = read_json(&rfile, JsonKind::TraverseReport)?;
     let csv = read_csv_text(&tfile, "traverse")?;
     let robot = folder_robot(dir)?;
     let n = match &robot {

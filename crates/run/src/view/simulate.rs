@@ -5,6 +5,7 @@
 
 use super::data::{draw_indices, r, robot_json, row, with_full};
 use crate::read::{need, read_csv_text, read_json};
+use crate::schema::JsonKind;
 use brachia::{Error, Robot};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -146,7 +147,7 @@ pub fn simulate_folder_view(dir: &Path) -> Result<Value, Error> {
     let rfile = need(dir, "report.json", SIMULATE_FOLDER)?;
     let tfile = need(dir, "trajectory.csv", SIMULATE_FOLDER)?;
     let pfile = need(dir, crate::plan_run::PARAMS_FILE, SIMULATE_FOLDER)?;
-    let report: SimulateReport = read_json(&rfile)?;
+    let report: SimulateReport = read_json(&rfile, JsonKind::SimulateReport)?;
     if report.command != "simulate" {
         return Err(Error::invalid(
             rfile.display().to_string(),
