@@ -14,7 +14,8 @@
 //! `cargo test --release -p brachia --test placement_oracle -- --ignored --nocapture`.
 //! `BRACHIA_ORACLE_SEEDS=5,7,...` takes those seeds only, `BRACHIA_ORACLE_SKIP_DEFAULT=1` searches
 //! them without the default planner's run first, `BRACHIA_ORACLE_BUDGET_S` sets the budget per
-//! placement (default 240 s). Units: m, s.
+//! placement (default 240 s), `BRACHIA_ORACLE_CSPACE_ONLY=1` leaves the detour seeds out. Units:
+//! m, s.
 
 mod common;
 
@@ -80,11 +81,15 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
         }
     }
     let mut cs = vec![];
+    let (mut searched, mut exhausted, mut unclear) = (0, 0, 0);
     for (gi, goal) in goals.iter().enumerate() {
         let axis = with_final_pose(&base, goal);
         let routes =
             cspace_routes(robot, obstacles, s, base.q(0), goal, ORACLE_ROUTES, &never).unwrap();
         for (mut rep, path) in routes {
+            searched += 1;
+            exhausted += usize::from(rep.exhausted && !rep.found);
+            unclear += usize::from(!rep.endpoints_clear);
             if let Some(path) = path {
                 let g = time_path(robot, &path, &axis, &mut rep);
                 cs.push((
@@ -100,6 +105,12 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
             }
         }
     }
+    eprintln!(
+        "  {} goal poses, {searched} C-space searches: {} routes, {exhausted} exhausted, \
+         {unclear} with an end pose within the margin",
+        goals.len(),
+        cs.len()
+    );
     cs.sort_by(|a, b| a.0.total_cmp(&b.0));
     out.extend(cs.into_iter().map(|(_, s)| s));
     out
@@ -251,7 +262,12 @@ fn search(robot: &Robot, free: &Plan, pl: &Placement, budget_s: f64) -> Option<S
     let cs: Vec<usize> = (0..all.len())
         .filter(|&i| all[i].label.starts_with("cspace"))
         .collect();
-    let mut order: Vec<(usize, usize)> = (0..all.len()).map(|i| (i, 0)).collect();
+    // `BRACHIA_ORACLE_CSPACE_ONLY=1`: the C-space seeds only (the detour seeds searched before)
+    let first: Vec<usize> = match std::env::var_os("BRACHIA_ORACLE_CSPACE_ONLY") {
+        Some(_) => cs.clone(),
+        None => (0..all.len()).collect(),
+    };
+    let mut order: Vec<(usize, usize)> = first.into_iter().map(|i| (i, 0)).collect();
     for j in 1..times.len() {
         order.extend(cs.iter().map(|&i| (i, j)));
     }

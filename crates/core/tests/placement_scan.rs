@@ -116,6 +116,18 @@ fn a_fast_subset_of_the_scan_never_reports_a_plan_through_an_obstacle() {
     }
 }
 
+/// Fixed seed 5 (two obstacles, on link 4 at 0.90 s and link 3 at 0.99 s): the forward-fold detour
+/// seed's coarse solve stops at its iteration cap, and the fine solve plans clear from the seed
+/// itself (warm from the stalled coarse plan it ended locally infeasible).
+#[test]
+fn a_seed_whose_coarse_solve_stalls_plans_from_the_seed_itself() {
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 5).expect("a placement");
+    let o = run(&robot, &s, &pl);
+    check(&s, &pl, &o);
+    assert!(o.converged, "{:?}: {}", o.message, o.solves);
+}
+
 /// A placement no strategy plans within a short time limit (fixed seed 5: two obstacles that link 2
 /// and link 3 sweep) returns once the limit is spent, with the limit's status and a diagnosis: every
 /// stage (the searches, the solves, the diagnosis's probes) stops at it. The bound on the elapsed time
