@@ -14,8 +14,9 @@
 //! `cargo test --release -p brachia --test placement_oracle -- --ignored --nocapture`.
 //! `BRACHIA_ORACLE_SEEDS=5,7,...` takes those seeds only, `BRACHIA_ORACLE_SKIP_DEFAULT=1` searches
 //! them without the default planner's run first, `BRACHIA_ORACLE_BUDGET_S` sets the budget per
-//! placement (default 240 s), `BRACHIA_ORACLE_CSPACE_ONLY=1` leaves the detour seeds out. Units:
-//! m, s.
+//! placement (default 240 s), `BRACHIA_ORACLE_CSPACE_ONLY=1` leaves the detour seeds out,
+//! `BRACHIA_ORACLE_LONGER_ONLY=1` tries the C-space seeds at the longer swing times only, without
+//! the torque continuation. Units: m, s.
 
 mod common;
 
@@ -162,6 +163,7 @@ fn attempt(
     range: Option<[f64; 2]>,
     g: &Trajectory,
     left: &dyn Fn() -> Option<f64>,
+    continuation: bool,
 ) -> Attempt {
     let run = |cap: usize| -> Option<NlpSettings> {
         left().map(|l| NlpSettings {
@@ -206,7 +208,7 @@ fn attempt(
             break;
         }
     }
-    if done.is_none() {
+    if done.is_none() && continuation {
         for k in [2.0, 8.0] {
             let wide = torque_scaled(robot, k);
             let Some((w, _, _)) = solve(&wide, &fine_s, FINE_ITER, g, &format!("tau x{k}")) else {
@@ -271,13 +273,19 @@ fn search(robot: &Robot, free: &Plan, pl: &Placement, budget_s: f64) -> Option<S
     for j in 1..times.len() {
         order.extend(cs.iter().map(|&i| (i, j)));
     }
+    // `BRACHIA_ORACLE_LONGER_ONLY=1`: the C-space seeds at the longer swing times only, without the
+    // torque continuation (a second pass after the first spent its budget at T)
+    let longer_only = std::env::var_os("BRACHIA_ORACLE_LONGER_ONLY").is_some();
+    if longer_only {
+        order.retain(|&(i, j)| j > 0 && cs.contains(&i));
+    }
     for (i, j) in order {
         let (sd, (what, ts, range)) = (&all[i], &times[j]);
         if left().is_none() {
             eprintln!("  seed {}: budget spent", pl.seed);
             return None;
         }
-        let a = attempt(robot, &task, *ts, *range, &sd.guess, &left);
+        let a = attempt(robot, &task, *ts, *range, &sd.guess, &left, !longer_only);
         eprintln!("    {} | {what} | {}", sd.label, a.line);
         if let Some((it, ts, d)) = a.clear {
             return Some(format!(
