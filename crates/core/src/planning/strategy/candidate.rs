@@ -1,12 +1,12 @@
 //! One seed of the obstacle chain solved coarse to fine: the task on a mesh of knots
 //! [`COARSE_KNOT_DT_S`] apart from the seed, capped at [`COARSE_MAX_ITER`] iterations, then on the
-//! task's own mesh: warm from the coarse plan when that plan converged with its 1 ms trajectory
-//! clear of the obstacles, from the seed itself when the coarse solve stopped at its iteration cap
-//! or its plan passes through an obstacle between its knots 90 ms apart (a warm start on the far
-//! side of an obstacle leads the fine solve into a class it cannot leave: measured on the placement
-//! scan, docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally
-//! infeasible, restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). A
-//! fine solve that ran out of iterations, not of ideas, resumes once from where it stopped.
+//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap),
+//! and, when that fine solve ends without a clear plan, once more from the seed itself (a coarse
+//! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
+//! can lead the fine solve into a class it cannot leave: measured on the placement scan,
+//! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
+//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). A fine solve
+//! that ran out of iterations, not of ideas, resumes once from where it stopped.
 //!
 //! Units: s.
 
@@ -42,13 +42,10 @@ pub(crate) fn coarse_settings(settings: &ValidSettings) -> Option<ValidSettings>
     Some(s.without_substep_clearance())
 }
 
-/// The fine solve's guess after the coarse solve of `out` (if any) from the seed `g`: the coarse
-/// plan when it converged and its 1 ms trajectory keeps the clearance, else the seed.
-fn warm_start<'a>(out: &'a Plans, g: &'a Trajectory) -> &'a Trajectory {
-    match out.last() {
-        Some((_, p)) if p.converged() => &p.points,
-        _ => g,
-    }
+/// Whether a fine solve warm from the coarse plan that ended with `status` is worth solving again
+/// from the seed: it stopped for itself (not cancelled, time left), not at a converged clear plan.
+fn retry_from_seed(p: &crate::planning::outcome::Plan) -> bool {
+    !p.converged() && !matches!(p.status, SolveStatus::Cancelled | SolveStatus::MaxWallTime)
 }
 
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
@@ -83,8 +80,18 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let guess = warm_start(&out, g);
-    let p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    let from_coarse = !out.is_empty();
+    let guess = out.last().map_or(g, |(_, p)| &p.points);
+    let mut p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
+    // its cap, the fine solve can end locally infeasible where the seed itself plans
+    if from_coarse && retry_from_seed(&p) {
+        if let Some(again) = run.remaining(started) {
+            let first =
+                std::mem::replace(&mut p, plan_single(robot, task, settings, &again, Some(g))?);
+            out.push((role, first));
+        }
+    }
     let resume = p.status == SolveStatus::MaxIterations;
     let points = p.points.clone();
     out.push((role, p));
@@ -144,9 +151,7 @@ pub(crate) fn solve_seed_longer_swing(
         let capped = run.clone().capped(COARSE_MAX_ITER);
         if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
             let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
-            if p.converged() {
-                t0 = p.swing_time_s;
-            }
+            t0 = p.swing_time_s;
             out.push((
                 SolveRole::CoarseMesh {
                     knot_dt_s: COARSE_KNOT_DT_S,
@@ -164,7 +169,7 @@ pub(crate) fn solve_seed_longer_swing(
     let Some(Ok(fine_settings)) = longer_swing_settings(settings, t_s, t0) else {
         return Ok(out);
     };
-    let guess = warm_start(&out, g);
+    let guess = out.last().map_or(g, |(_, p)| &p.points);
     let p = plan_single(robot, task, &fine_settings, &fine, Some(guess))?;
     out.push((role, p));
     Ok(out)
