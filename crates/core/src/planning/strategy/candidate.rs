@@ -1,9 +1,12 @@
 //! One seed of the obstacle chain solved coarse to fine: the task on a mesh of knots
 //! [`COARSE_KNOT_DT_S`] apart from the seed, capped at [`COARSE_MAX_ITER`] iterations, then on the
-//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap);
-//! a seed whose coarse solve failed otherwise (locally infeasible, restoration failed) is dropped
-//! there (docs/planner.md, "Obstacles on the path"). A fine solve that ran out of iterations, not
-//! of ideas, resumes once from where it stopped.
+//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap),
+//! and, when that fine solve ends without a clear plan, once more from the seed itself (a coarse
+//! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
+//! can lead the fine solve into a class it cannot leave: measured on the placement scan,
+//! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
+//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). A fine solve
+//! that ran out of iterations, not of ideas, resumes once from where it stopped.
 //!
 //! Units: s.
 
@@ -39,6 +42,12 @@ pub(crate) fn coarse_settings(settings: &ValidSettings) -> Option<ValidSettings>
     Some(s.without_substep_clearance())
 }
 
+/// Whether a fine solve warm from the coarse plan that ended with `status` is worth solving again
+/// from the seed: it stopped for itself (not cancelled, time left), not at a converged clear plan.
+fn retry_from_seed(p: &crate::planning::outcome::Plan) -> bool {
+    !p.converged() && !matches!(p.status, SolveStatus::Cancelled | SolveStatus::MaxWallTime)
+}
+
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
 /// `run` (its time limit counted from now for all the solves). The plans in the order solved.
 pub(crate) fn solve_seed_coarse_to_fine(
@@ -71,8 +80,18 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
+    let from_coarse = !out.is_empty();
     let guess = out.last().map_or(g, |(_, p)| &p.points);
-    let p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    let mut p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
+    // its cap, the fine solve can end locally infeasible where the seed itself plans
+    if from_coarse && retry_from_seed(&p) {
+        if let Some(again) = run.remaining(started) {
+            let first =
+                std::mem::replace(&mut p, plan_single(robot, task, settings, &again, Some(g))?);
+            out.push((role, first));
+        }
+    }
     let resume = p.status == SolveStatus::MaxIterations;
     let points = p.points.clone();
     out.push((role, p));

@@ -204,9 +204,10 @@ pub(crate) fn plan_around_obstacles(
 }
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
-/// beside the seeds (a solve from that guess that converges does so in a few hundred iterations at
-/// most; the seeds after it cannot win before it ends).
-pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
+/// beside the seeds (the seeds after it cannot win before it ends). On the placement scan's fixed
+/// set a smooth step that converges does so within 60 iterations and one that does not runs to the
+/// limit, holding a worker for seconds that the seeds need (docs/planner-measurements.md).
+pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 150;
 
 /// Where a candidate of the race came from.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,0 +1,357 @@
+//! Which placements of the fixed placement scan (`placement_scan.rs`, seeds 1..=40) can be planned
+//! at all: every placement the default planner does not plan clear within the scan's time limit is
+//! searched hard, with a large budget of its own, from many more seeds than the planner's race
+//! (every detour seed, C-space routes to more goal poses and more routes per goal), at longer swing
+//! times (a fixed `f T` for several factors `f` up to 2, and a swing time free in `[T, 2 T]`; the
+//! task's swing time is `"auto"`), with more iterations and with the continuation on the torque
+//! limits. Each solve is coarse to fine (90 ms knots, then the task's 30 ms knots warm from it). The
+//! first plan that converges with its 1 ms trajectory clear of every obstacle by the margin (less
+//! the tolerance) ends the search of a placement and is recorded with what it came from (the seed's
+//! class, goal and route, the swing time, the iterations). A placement the search does not plan
+//! is, on this evidence, probably infeasible (a local solver from many seeds, not a proof).
+//!
+//! Ignored (about half an hour):
+//! `cargo test --release -p brachia --test placement_oracle -- --ignored --nocapture`.
+//! `BRACHIA_ORACLE_SEEDS=5,7,...` takes those seeds only, `BRACHIA_ORACLE_SKIP_DEFAULT=1` searches
+//! them without the default planner's run first, `BRACHIA_ORACLE_BUDGET_S` sets the budget per
+//! placement (default 240 s), `BRACHIA_ORACLE_CSPACE_ONLY=1` leaves the detour seeds out,
+//! `BRACHIA_ORACLE_LONGER_ONLY=1` tries the C-space seeds at the longer swing times only, without
+//! the torque continuation. Units: m, s.
+
+mod common;
+
+use brachia::model::{Circle, Robot};
+use brachia::planning::strategy::cspace::{cspace_routes, time_path};
+use brachia::planning::strategy::detour::detour_seeds;
+use brachia::planning::strategy::goal::{
+    clear_final_pose_until, clear_final_poses, with_final_pose,
+};
+use brachia::planning::{
+    plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask, SwingTime,
+};
+use brachia::trajectory::Trajectory;
+use common::placement::{
+    free_swing, keeps_margin, min_clearance, nlp, plan_placement, swing_placement, Placement,
+};
+use std::time::Instant;
+
+/// The scan's wall-time limit of the default planner's call, s.
+const SCAN_LIMIT_S: f64 = 30.0;
+/// Goal poses the oracle searches routes to (the seeds' final pose included).
+const ORACLE_GOALS: usize = 8;
+/// Routes per goal pose.
+const ORACLE_ROUTES: usize = 4;
+/// Iteration limits of the coarse and the fine solve.
+const COARSE_ITER: usize = 1000;
+const FINE_ITER: usize = 3000;
+/// Swing-time factors tried at a fixed swing time, after the task's own (1).
+const FACTORS: [f64; 3] = [2.0, 1.5, 1.25];
+
+/// One seed of the oracle: where it came from and its guess (on the unobstructed swing's time axis).
+struct Seed {
+    label: String,
+    guess: Trajectory,
+}
+
+/// Every seed: the detour seeds, then the C-space routes ranked by their torque ratio.
+fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) -> Vec<Seed> {
+    let never = || false;
+    let pts = &free.points;
+    let last = pts.q(pts.len() - 1).to_vec();
+    let target = SwingTask::paper().target;
+    let base = match clear_final_pose_until(robot, obstacles, s, &last, target, &never).unwrap() {
+        Some(q) => with_final_pose(pts, &q),
+        None => pts.clone(),
+    };
+    let mut out: Vec<Seed> = detour_seeds(robot, obstacles, s, &base)
+        .unwrap()
+        .into_iter()
+        .map(|(r, g)| Seed {
+            label: format!("detour {:?}", r.kind),
+            guess: g,
+        })
+        .collect();
+    let q_end = base.q(base.len() - 1).to_vec();
+    let mut goals = vec![q_end.clone()];
+    for q in clear_final_poses(robot, obstacles, s, &q_end, target, ORACLE_GOALS, &never).unwrap() {
+        let same = goals
+            .iter()
+            .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.1));
+        if !same && goals.len() < ORACLE_GOALS {
+            goals.push(q);
+        }
+    }
+    let mut cs = vec![];
+    let (mut searched, mut exhausted, mut unclear) = (0, 0, 0);
+    for (gi, goal) in goals.iter().enumerate() {
+        let axis = with_final_pose(&base, goal);
+        let routes =
+            cspace_routes(robot, obstacles, s, base.q(0), goal, ORACLE_ROUTES, &never).unwrap();
+        for (mut rep, path) in routes {
+            searched += 1;
+            exhausted += usize::from(rep.exhausted && !rep.found);
+            unclear += usize::from(!rep.endpoints_clear);
+            if let Some(path) = path {
+                let g = time_path(robot, &path, &axis, &mut rep);
+                cs.push((
+                    rep.peak_torque_ratio,
+                    Seed {
+                        label: format!(
+                            "cspace goal {gi} route {} (torque ratio {:.2})",
+                            rep.route, rep.peak_torque_ratio
+                        ),
+                        guess: g,
+                    },
+                ));
+            }
+        }
+    }
+    eprintln!(
+        "  {} goal poses, {searched} C-space searches: {} routes, {exhausted} exhausted, \
+         {unclear} with an end pose within the margin",
+        goals.len(),
+        cs.len()
+    );
+    cs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out.extend(cs.into_iter().map(|(_, s)| s));
+    out
+}
+
+/// The settings of one oracle solve: the swing time (`t_s`, or free in `range`), the knots.
+fn settings_for(t_s: f64, range: Option<[f64; 2]>, knot_dt: f64) -> PlannerSettings {
+    let mut s = PlannerSettings {
+        swing_time: SwingTime::Seconds(t_s),
+        free_swing_time: range,
+        knot_dt,
+        ..PlannerSettings::default()
+    };
+    if knot_dt > 0.05 {
+        s.shooting.substep_clearance = false;
+    }
+    s
+}
+
+/// `robot` with every torque limit scaled by `k`.
+fn torque_scaled(robot: &Robot, k: f64) -> Robot {
+    let mut prm = robot.params().clone();
+    for v in prm
+        .actuators
+        .tau_min
+        .iter_mut()
+        .chain(prm.actuators.tau_max.iter_mut())
+    {
+        *v *= k;
+    }
+    Robot::from_params(prm, "oracle").unwrap()
+}
+
+/// What one attempt gave: a clear plan (with its iterations and swing time) or why not.
+struct Attempt {
+    clear: Option<(usize, f64, f64)>,
+    line: String,
+}
+
+/// Plan `task` from `g`: coarse (90 ms knots), then fine warm from the coarse plan (from `g` when
+/// the coarse solve failed), and from `g` itself when the coarse solve failed and the fine one from
+/// it too; when no fine solve converged, the continuation on the torque limits: the fine task with
+/// every limit scaled by 2, then by 8, from `g`, and the first that converges warm-starts the task
+/// at the real limits. Each solve within the time `left`.
+fn attempt(
+    robot: &Robot,
+    task: &SwingTask,
+    t_s: f64,
+    range: Option<[f64; 2]>,
+    g: &Trajectory,
+    left: &dyn Fn() -> Option<f64>,
+    continuation: bool,
+) -> Attempt {
+    let run = |cap: usize| -> Option<NlpSettings> {
+        left().map(|l| NlpSettings {
+            max_iter: cap,
+            ..nlp(l)
+        })
+    };
+    let mut iters = 0;
+    let mut notes = vec![];
+    let coarse_s = settings_for(t_s, range, 0.09);
+    let fine_s = settings_for(t_s, range, PlannerSettings::default().knot_dt);
+    let mut solve = |r: &Robot, s: &PlannerSettings, cap: usize, from: &Trajectory, tag: &str| {
+        let n = run(cap)?;
+        match plan_with_guess(r, task, s, &n, Some(from)) {
+            Ok(p) => {
+                iters += p.iterations;
+                let d = min_clearance(robot, &task.obstacles, &p.trajectory);
+                notes.push(format!("{tag} {:?} {d:.4}", p.status));
+                let clear = p.converged() && keeps_margin(&PlannerSettings::default(), d);
+                Some((p, clear, d))
+            }
+            Err(e) => {
+                notes.push(format!("{tag} refused: {e}"));
+                None
+            }
+        }
+    };
+    let mut done = None;
+    let coarse = solve(robot, &coarse_s, COARSE_ITER, g, "coarse");
+    let warm = coarse
+        .as_ref()
+        .filter(|(p, _, _)| p.status.is_converged())
+        .map(|(p, _, _)| p.points.clone());
+    let mut froms = vec![];
+    if let Some(w) = &warm {
+        froms.push((w.clone(), "fine from coarse"));
+    }
+    froms.push((g.clone(), "fine from seed"));
+    for (from, tag) in &froms {
+        if let Some((p, true, d)) = solve(robot, &fine_s, FINE_ITER, from, tag) {
+            done = Some((p.swing_time_s, d));
+            break;
+        }
+    }
+    if done.is_none() && continuation {
+        for k in [2.0, 8.0] {
+            let wide = torque_scaled(robot, k);
+            let Some((w, _, _)) = solve(&wide, &fine_s, FINE_ITER, g, &format!("tau x{k}")) else {
+                break;
+            };
+            if !w.status.is_converged() {
+                continue;
+            }
+            if let Some((p, true, d)) = solve(robot, &fine_s, FINE_ITER, &w.points, "real limits") {
+                done = Some((p.swing_time_s, d));
+            }
+            break;
+        }
+    }
+    Attempt {
+        clear: done.map(|(ts, d)| (iters, ts, d)),
+        line: notes.join(", "),
+    }
+}
+
+/// Search one placement for up to `budget_s`; the first clear plan's account, or `None`.
+fn search(robot: &Robot, free: &Plan, pl: &Placement, budget_s: f64) -> Option<String> {
+    let t0 = Instant::now();
+    let left = || {
+        let l = budget_s - t0.elapsed().as_secs_f64();
+        (l > 0.5).then_some(l)
+    };
+    let s = PlannerSettings::default();
+    let task = SwingTask {
+        obstacles: pl.obstacles.clone(),
+        ..SwingTask::paper()
+    };
+    let all = seeds(robot, &s, free, &pl.obstacles);
+    let t = free.swing_time_s;
+    eprintln!(
+        "  seed {}: {} seeds ({:.1} s to build), T = {t:.3} s",
+        pl.seed,
+        all.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    // every seed at the task's swing time, then the C-space seeds (other homotopy classes: the
+    // detour seeds' class needs the same torque at any swing time) with a swing time free in
+    // [T, 2 T], then at fixed longer ones
+    let mut times: Vec<(String, f64, Option<[f64; 2]>)> = vec![(format!("T {t:.3}"), t, None)];
+    times.push((
+        format!("free [{t:.3}, {:.3}]", 2.0 * t),
+        t,
+        Some([t, 2.0 * t]),
+    ));
+    for f in FACTORS {
+        times.push((format!("T {:.3} ({f} T)", f * t), f * t, None));
+    }
+    let cs: Vec<usize> = (0..all.len())
+        .filter(|&i| all[i].label.starts_with("cspace"))
+        .collect();
+    // `BRACHIA_ORACLE_CSPACE_ONLY=1`: the C-space seeds only (the detour seeds searched before)
+    let first: Vec<usize> = match std::env::var_os("BRACHIA_ORACLE_CSPACE_ONLY") {
+        Some(_) => cs.clone(),
+        None => (0..all.len()).collect(),
+    };
+    let mut order: Vec<(usize, usize)> = first.into_iter().map(|i| (i, 0)).collect();
+    for j in 1..times.len() {
+        order.extend(cs.iter().map(|&i| (i, j)));
+    }
+    // `BRACHIA_ORACLE_LONGER_ONLY=1`: the C-space seeds at the longer swing times only, without the
+    // torque continuation (a second pass after the first spent its budget at T)
+    let longer_only = std::env::var_os("BRACHIA_ORACLE_LONGER_ONLY").is_some();
+    if longer_only {
+        order.retain(|&(i, j)| j > 0 && cs.contains(&i));
+    }
+    for (i, j) in order {
+        let (sd, (what, ts, range)) = (&all[i], &times[j]);
+        if left().is_none() {
+            eprintln!("  seed {}: budget spent", pl.seed);
+            return None;
+        }
+        let a = attempt(robot, &task, *ts, *range, &sd.guess, &left, !longer_only);
+        eprintln!("    {} | {what} | {}", sd.label, a.line);
+        if let Some((it, ts, d)) = a.clear {
+            return Some(format!(
+                "{} at {what} (swing {ts:.3} s), {it} iterations, clearance {d:.4} m, after {:.1} s",
+                sd.label,
+                t0.elapsed().as_secs_f64()
+            ));
+        }
+    }
+    None
+}
+
+#[test]
+#[ignore = "about half an hour: the oracle of the fixed placement scan"]
+fn the_oracle_of_the_fixed_placement_scan() {
+    let robot = Robot::paper();
+    let free = free_swing(&robot, &SwingTask::paper(), "paper", SCAN_LIMIT_S);
+    let budget: f64 = std::env::var("BRACHIA_ORACLE_BUDGET_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(240.0);
+    let only: Option<Vec<u64>> = std::env::var("BRACHIA_ORACLE_SEEDS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect());
+    let s = PlannerSettings::default();
+    let (mut by_default, mut by_oracle, mut neither) = (vec![], vec![], vec![]);
+    for seed in only.clone().unwrap_or_else(|| (1..=40).collect()) {
+        let Some(pl) = swing_placement(&robot, &free, seed) else {
+            continue;
+        };
+        if std::env::var_os("BRACHIA_ORACLE_SKIP_DEFAULT").is_none() {
+            let m = plan_placement(&robot, &SwingTask::paper(), &s, &pl, SCAN_LIMIT_S);
+            let p = m.plan.unwrap();
+            if p.converged() && keeps_margin(&s, m.min_clearance_m) {
+                eprintln!(
+                    "| {seed} | {} | default planner: clear in {:.2} s ({:?}) |",
+                    pl.what,
+                    m.time_s,
+                    p.guess.as_ref().map(|g| g.strategy)
+                );
+                by_default.push(seed);
+                continue;
+            }
+            eprintln!(
+                "| {seed} | {} | default planner: failed in {:.2} s: {} |",
+                pl.what,
+                m.time_s,
+                p.failure_message().unwrap_or_default()
+            );
+        }
+        match search(&robot, &free, &pl, budget) {
+            Some(how) => {
+                eprintln!("| {seed} | {} | oracle: clear, {how} |", pl.what);
+                by_oracle.push(seed);
+            }
+            None => {
+                eprintln!("| {seed} | {} | oracle: no clear plan |", pl.what);
+                neither.push(seed);
+            }
+        }
+    }
+    eprintln!(
+        "default planner clear: {} {by_default:?}; oracle clear: {} {by_oracle:?}; neither: {} \
+         {neither:?}",
+        by_default.len(),
+        by_oracle.len(),
+        neither.len()
+    );
+}
