@@ -75,9 +75,13 @@ fn at_solution(robot: &Robot, task: &SwingTask, p: &Plan) -> AtSolution {
         parallel_min_stages: s.shooting.parallel_min_stages,
         substep_clearance: true,
     };
-    let cf = ClearanceFn::new(Arc::new(robot.clone()), &task.obstacles, s.obstacle_margin)
-        .unwrap()
-        .with_self_collision(s.self_collision);
+    let cf = ClearanceFn::new(
+        Arc::new(robot.clone()),
+        task.obstacles.as_slice(),
+        s.obstacle_margin,
+    )
+    .unwrap()
+    .with_self_collision(s.self_collision);
     let mut ocp = SwingOcp::new(robot.clone(), spec, Some(DistanceClearanceFn::new(cf))).unwrap();
     let dims = ocp.dims().clone();
     let mut z = Primal::zeros(&dims);
