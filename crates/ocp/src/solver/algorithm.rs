@@ -105,7 +105,10 @@ impl OcpSolver {
             current = None;
             let phi_orig = self.accept(&ls, &acc, mu);
             stats.time.line_search_s += tl.elapsed().as_secs_f64() - ls_eval;
-            if let Err(e) = self
+            if acc.evaluated {
+                // the trial's evaluation at this very point, first derivatives included
+                self.it.take_evaluation(&mut self.trial);
+            } else if let Err(e) = self
                 .it
                 .evaluate(p, &self.data.lay, EvalLevel::FirstOrder, stats)
             {

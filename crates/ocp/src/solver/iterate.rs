@@ -47,7 +47,8 @@ pub(super) struct Iterate {
     pub(super) remap: Vec<f64>,
 }
 
-/// A trial point of the line search and the evaluation of the problem there (values only).
+/// A trial point of the line search and the evaluation of the problem there (values, and first
+/// derivatives for the line search's first trial).
 pub(super) struct Trial {
     pub(super) z: Vec<f64>,
     pub(super) s: Vec<f64>,
@@ -55,6 +56,11 @@ pub(super) struct Trial {
     pub(super) ev: Vec<StageEval>,
     pub(super) term: TerminalEval,
     pub(super) cv: Vec<f64>,
+    /// Whether `ev` and `term` hold first derivatives at `z` as well.
+    pub(super) first_order: bool,
+    /// Whether the next line search evaluates its first trial with first derivatives (it does
+    /// while the line searches accept their first trial).
+    pub(super) speculate: bool,
 }
 
 /// A Newton step: the primal and slack steps, the equality multipliers as new values, and the
@@ -144,6 +150,22 @@ impl Iterate {
         self.store_multipliers(lay);
         scatter_primal(&self.z, lay, &mut self.zp);
         evaluation::hessians(p, &self.zp, sigma, &self.mult, &mut self.ev, stats)
+    }
+
+    /// Takes over the first-order evaluation of the trial point `trial` once that point has become
+    /// the iterate (its primal swapped in by [`Self::accept`]): the problem's values and first
+    /// derivatives there, swapped in instead of evaluated again (the Hessian buffers stay).
+    pub(super) fn take_evaluation(&mut self, trial: &mut Trial) {
+        std::mem::swap(&mut self.zp, &mut trial.zp);
+        for (a, b) in self.ev.iter_mut().zip(trial.ev.iter_mut()) {
+            std::mem::swap(&mut a.cost, &mut b.cost);
+            std::mem::swap(&mut a.grad, &mut b.grad);
+            std::mem::swap(&mut a.f, &mut b.f);
+            std::mem::swap(&mut a.jac_f, &mut b.jac_f);
+            std::mem::swap(&mut a.c, &mut b.c);
+            std::mem::swap(&mut a.jac_c, &mut b.jac_c);
+        }
+        std::mem::swap(&mut self.term, &mut trial.term);
     }
 
     /// Copies the primal of the problem's shape (`zp`) into `z`.
@@ -259,25 +281,22 @@ impl Trial {
             ev: stage_evals(dims, lay),
             term: TerminalEval::zeros(dims.n_terminal, lay.nx[lay.kk]),
             cv: vec![0.0; max_rows(lay)],
+            first_order: false,
+            speculate: true,
         }
     }
 
-    /// Evaluates the problem at the trial point (values only).
+    /// Evaluates the problem at the trial point (`level`: values only, or with first derivatives
+    /// as well, for a trial point that becomes the iterate without another evaluation).
     pub(super) fn evaluate(
         &mut self,
         p: &mut dyn OcpProblem,
         lay: &Layout,
+        level: EvalLevel,
         stats: &mut OcpStats,
     ) -> Result<(), String> {
         scatter_primal(&self.z, lay, &mut self.zp);
-        evaluation::evaluate(
-            p,
-            &self.zp,
-            EvalLevel::Values,
-            &mut self.ev,
-            &mut self.term,
-            stats,
-        )
+        evaluation::evaluate(p, &self.zp, level, &mut self.ev, &mut self.term, stats)
     }
 
     /// Sets the trial point `z + alpha dz`, `s + alpha ds`.

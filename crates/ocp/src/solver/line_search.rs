@@ -8,7 +8,7 @@ use super::filter::Filter;
 use super::kkt::Centring;
 use super::restoration::phase_grad;
 use super::workspace::OcpSolver;
-use crate::problem::OcpProblem;
+use crate::problem::{EvalLevel, OcpProblem};
 use crate::settings::{OcpSettings, OcpStats};
 
 // IPOPT's constants (Waechter & Biegler 2006, Table 1 and the implementation's defaults).
@@ -43,6 +43,9 @@ pub(super) struct Accepted {
     pub(super) theta_orig: f64,
     /// An h-type step (it augments the filter).
     pub(super) h_type: bool,
+    /// The trial's evaluation has first derivatives at the accepted point: the new iterate takes
+    /// it over instead of being evaluated again.
+    pub(super) evaluated: bool,
 }
 
 impl LineSearch {
@@ -124,19 +127,30 @@ impl OcpSolver {
         d
     }
 
-    /// Evaluates the trial point `z + alpha dz` (slacks and restoration slacks likewise): returns
-    /// (theta of the phase, original theta, barrier function of the phase), or None if the
-    /// evaluation failed or is not finite.
+    /// Evaluates the trial point `z + alpha dz` (slacks and restoration slacks likewise) at
+    /// `level`: returns (theta of the phase, original theta, barrier function of the phase), or
+    /// None if the evaluation failed or is not finite. A first-order evaluation that fails is
+    /// repeated with values only (only the values decide about a trial point).
     fn trial(
         &mut self,
         p: &mut dyn OcpProblem,
         alpha: f64,
         mu: f64,
+        level: EvalLevel,
         stats: &mut OcpStats,
     ) -> Option<(f64, f64, f64)> {
         self.trial.set(&self.it, &self.step, alpha);
         self.resto.set_trial(self.data.nrows(), alpha);
-        self.trial.evaluate(p, &self.data.lay, stats).ok()?;
+        let lay = &self.data.lay;
+        if self.trial.evaluate(p, lay, level, stats).is_err() {
+            if level == EvalLevel::Values {
+                return None;
+            }
+            self.trial.evaluate(p, lay, EvalLevel::Values, stats).ok()?;
+            self.trial.first_order = false;
+        } else {
+            self.trial.first_order = level == EvalLevel::FirstOrder;
+        }
         let mut cv = std::mem::take(&mut self.trial.cv);
         let t = &self.trial;
         self.data.row_values(&t.z, &t.s, &t.ev, &t.term, &mut cv);
@@ -190,21 +204,40 @@ impl OcpSolver {
         let nrows = self.data.nrows();
         let mut first = true;
         loop {
-            if let Some((tt, to, phit)) = self.trial(p, alpha, mu, stats) {
+            // the first trial point (the full step to the boundary) is usually accepted once the
+            // iterates converge: while the last iteration's was, it is evaluated with first
+            // derivatives, and becomes the next iterate without another evaluation
+            let level = if first && self.trial.speculate {
+                EvalLevel::FirstOrder
+            } else {
+                EvalLevel::Values
+            };
+            if let Some((tt, to, phit)) = self.trial(p, alpha, mu, level, stats) {
+                let evaluated = self.trial.first_order;
                 let accepted = |alpha, h_type| Accepted {
                     alpha,
                     adual,
                     theta_orig: to,
                     h_type,
+                    evaluated,
                 };
                 if tiny {
+                    self.trial.speculate = first;
                     return Ok((ls, Some(accepted(alpha, false))));
                 }
                 if let Some(h) = ls.accepts(&self.filter, tt, phit, alpha) {
+                    self.trial.speculate = first;
                     return Ok((ls, Some(accepted(alpha, h))));
                 }
+                self.trial.speculate = false;
                 // second-order correction (IPOPT section 2.4) when the full step raised theta
-                if first && !in_resto && st.max_soc > 0 && tt >= theta0 {
+                // (from the trial's values as a value-only evaluation gives them: the same numbers
+                // whatever the level, for any problem)
+                let soc = first && !in_resto && st.max_soc > 0 && tt >= theta0;
+                if soc
+                    && (!self.trial.first_order
+                        || self.trial(p, alpha, mu, EvalLevel::Values, stats).is_some())
+                {
                     if let Some(a) = self.second_order_corrections(
                         p, &ls, alpha, mu, tau, centring, st.max_soc, stats,
                     ) {
@@ -216,6 +249,7 @@ impl OcpSolver {
                 }
             }
             first = false;
+            self.trial.speculate = false;
             alpha *= 0.5;
             // a cancelled solve stops between trials (the caller sees the flag and stops; the
             // iterate is unchanged)
@@ -252,7 +286,7 @@ impl OcpSolver {
                 return None;
             }
             let (ap, ad) = self.max_step(tau);
-            let (ts, _, phis) = self.trial(p, ap, mu, stats)?;
+            let (ts, _, phis) = self.trial(p, ap, mu, EvalLevel::Values, stats)?;
             // Armijo and switching tests with the original step length (IPOPT)
             if let Some(h) = ls.accepts(&self.filter, ts, phis, alpha) {
                 return Some(Accepted {
@@ -260,6 +294,7 @@ impl OcpSolver {
                     adual: ad,
                     theta_orig: ts,
                     h_type: h,
+                    evaluated: false,
                 });
             }
             if ts > KAPPA_SOC * th_old {

@@ -49,13 +49,55 @@ pub(super) fn add_sandwich_upper(
                 .enumerate()
                 .all(|(c, &v)| c == r || c == half + r || v == 0.0)
         });
-    // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other size
-    // through the same code with run-time sizes
-    match (nx, nz, sparse_q) {
-        (8, 11, false) => sandwich_upper_body::<false>(8, 11, sens, identity, h, tmp, hess),
-        (8, 11, true) => sandwich_upper_body::<true>(8, 11, sens, identity, h, tmp, hess),
-        (_, _, false) => sandwich_upper_body::<false>(nx, nz, sens, identity, h, tmp, hess),
-        (_, _, true) => sandwich_upper_body::<true>(nx, nz, sens, identity, h, tmp, hess),
+    pulp::Arch::new().dispatch(Sandwich {
+        nx,
+        nz,
+        sens,
+        identity,
+        sparse_q,
+        h,
+        tmp,
+        hess,
+    });
+}
+
+/// The arguments of [`sandwich_upper_body`], run through [`pulp::Arch::dispatch`]: the body is
+/// compiled for the widest vector instructions the CPU has. The same numbers: its loops are
+/// element-wise (no reordered sums) and Rust never fuses a multiply and an add.
+struct Sandwich<'a> {
+    nx: usize,
+    nz: usize,
+    sens: &'a [f64],
+    identity: bool,
+    sparse_q: bool,
+    h: &'a [f64],
+    tmp: &'a mut [f64],
+    hess: &'a mut [f64],
+}
+
+impl pulp::WithSimd for Sandwich<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let Sandwich {
+            nx,
+            nz,
+            sens,
+            identity,
+            sparse_q,
+            h,
+            tmp,
+            hess,
+        } = self;
+        // the paper's 4-link robot with constant sizes (unrolled, no bounds checks), any other
+        // size through the same code with run-time sizes
+        match (nx, nz, sparse_q) {
+            (8, 11, false) => sandwich_upper_body::<false>(8, 11, sens, identity, h, tmp, hess),
+            (8, 11, true) => sandwich_upper_body::<true>(8, 11, sens, identity, h, tmp, hess),
+            (_, _, false) => sandwich_upper_body::<false>(nx, nz, sens, identity, h, tmp, hess),
+            (_, _, true) => sandwich_upper_body::<true>(nx, nz, sens, identity, h, tmp, hess),
+        }
     }
 }
 
