@@ -91,7 +91,7 @@ pub struct ParamEstimatorSettings {
     /// ... and only once it differs from the nominal robot significantly: the nominal parameters
     /// outside the estimate's confidence region of this many standard normal deviations (a
     /// chi-square test with 2n degrees of freedom, one-sided level of a normal variable at this
-    /// value). Default 3.
+    /// value; 0 turns the test off). Default 3.
     pub use_min_sigma: f64,
     /// ... and by at least this fraction of a nominal value in one base parameter (smaller
     /// differences are left to the feedback). Default 0.03.
@@ -424,7 +424,8 @@ impl ParamEstimator {
             return true;
         }
         self.max_rel_change() >= s.use_min_rel_change
-            && self.nominal_chi2() >= chi2_quantile(self.theta.len(), s.use_min_sigma)
+            && (s.use_min_sigma == 0.0
+                || self.nominal_chi2() >= chi2_quantile(self.theta.len(), s.use_min_sigma))
     }
 
     /// The joint filter (`method = "ekf"`), for its diagnostics.
