@@ -417,7 +417,9 @@ impl ParamEstimator {
         if self.max_rel_std() > s.use_max_rel_std {
             return false;
         }
-        if self.ekf.is_some() && !(self.nis_ratio() <= s.use_max_nis_ratio) {
+        let nis = self.nis_ratio();
+        // NaN (no update yet) fails too
+        if self.ekf.is_some() && (nis.is_nan() || nis > s.use_max_nis_ratio) {
             return false;
         }
         if in_use {
