@@ -13,8 +13,9 @@
 //!
 //! `estimate_probe [CASE ...]` runs the named cases (default all); `BRACHIA_PROBE_PLANTS` `model`,
 //! `rapier` or both (the default); `BRACHIA_PROBE_ACTIVE=0` skips the runs that use the estimate.
-//! `BRACHIA_PROBE_EST` overrides the estimate settings with a TOML inline table, e.g.
-//! `BRACHIA_PROBE_EST='process_qd_std = 0.05'`.
+//! `BRACHIA_PROBE_EST` overrides the estimate settings with the inside of a TOML inline table, e.g.
+//! `BRACHIA_PROBE_EST='use_max_rel_std = 1e3, use_max_nis_ratio = 1e3, use_min_sigma = 0.0,
+//! use_min_rel_change = 0.0'` (every estimate handed over from the first sample).
 //!
 //! Units: rad, rad/s, m, s, kg.
 
@@ -218,7 +219,14 @@ fn cases() -> Vec<Case> {
 fn settings() -> ParamEstimatorSettings {
     match std::env::var("BRACHIA_PROBE_EST") {
         Ok(v) if !v.trim().is_empty() => {
-            toml::from_str(&v).expect("BRACHIA_PROBE_EST: a TOML table of estimate settings")
+            #[derive(serde::Deserialize)]
+            struct Wrap {
+                e: ParamEstimatorSettings,
+            }
+            let w: Wrap = toml::from_str(&format!("e = {{ {v} }}")).expect(
+                "BRACHIA_PROBE_EST: the inside of a TOML inline table of estimate settings",
+            );
+            w.e
         }
         _ => ParamEstimatorSettings::default(),
     }
