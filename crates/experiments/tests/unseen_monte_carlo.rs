@@ -8,7 +8,8 @@
 //!
 //! Controllers: the MPC, the MPC with re-planning that adopts every converged re-plan (`ungated`),
 //! with re-planning that adopts a re-plan only when it is predicted to end closer to the bar (the
-//! default), the MPC fed the online mass estimate, and both together (the robust configuration).
+//! default), the MPC fed the online mass estimate, both together, and the estimate with the robust
+//! re-planning configuration (a 2 cm threshold confirmed by two checks).
 //!
 //! Two seed sets: `fixed` (seeds 1000 + i, the ball centred on a point of link 3 or 4 of the plan at
 //! a time in [0.2 T, 0.8 T]) and `held-out` (seeds 50000 + i, a different placement rule: the ball
@@ -245,6 +246,18 @@ fn variants() -> Vec<(&'static str, Build, bool)> {
             "mpc+estimate+replan",
             |ls, r| {
                 let rp = replanning_with(ls, r, true);
+                let a = Adaptive::new(rp, ls.robot.clone(), Default::default()).unwrap();
+                Built::AdaptiveReplan(Box::new(a))
+            },
+            false,
+        ),
+        (
+            "mpc+estimate+replan/2cm+confirm",
+            |ls, r| {
+                let rp = replanning_cfg(ls, r, |s| {
+                    s.threshold_m = 0.02;
+                    s.confirm_checks = 2;
+                });
                 let a = Adaptive::new(rp, ls.robot.clone(), Default::default()).unwrap();
                 Built::AdaptiveReplan(Box::new(a))
             },

@@ -6,7 +6,9 @@
 //! the measured state and the torque held since the previous step; at most every
 //! `model_update_period_s`, after a window that updated the estimate, the wrapped controller gets a
 //! robot with the estimated base parameters ([`super::base_params::robot_from_base`]; building it
-//! allocates). An estimate with no physical robot (a mass or inertia not > 0) is not passed on.
+//! allocates), once the estimate is ready ([`ParamEstimator::ready_to_use`]: determined, and
+//! significantly different from the nominal robot; until then the wrapped controller keeps the
+//! nominal robot). An estimate with no physical robot (a mass or inertia not > 0) is not passed on.
 
 use super::param_estimator::{EstimateReport, ParamEstimator, ParamEstimatorSettings};
 use super::{ControlInfo, Controller};
@@ -24,6 +26,8 @@ pub struct Adaptive<C> {
     have_tau: bool,
     last_update: f64,
     model_updates: usize,
+    /// When the wrapped controller was first given the estimate.
+    used_from: Option<f64>,
 }
 
 impl<C: Controller> Adaptive<C> {
@@ -41,6 +45,7 @@ impl<C: Controller> Adaptive<C> {
             have_tau: false,
             last_update: f64::NEG_INFINITY,
             model_updates: 0,
+            used_from: None,
         })
     }
 
@@ -65,6 +70,7 @@ impl<C: Controller> Adaptive<C> {
         self.estimator.reset();
         self.have_tau = false;
         self.last_update = f64::NEG_INFINITY;
+        self.used_from = None;
     }
 
     /// How many times the wrapped controller's model was updated.
@@ -72,9 +78,17 @@ impl<C: Controller> Adaptive<C> {
         self.model_updates
     }
 
+    /// When the wrapped controller was first given the estimate, s (`None`: not yet).
+    pub fn used_from(&self) -> Option<f64> {
+        self.used_from
+    }
+
     /// The estimate, its uncertainty and its history.
     pub fn report(&self) -> EstimateReport {
-        self.estimator.report()
+        EstimateReport {
+            used_from_s: self.used_from,
+            ..self.estimator.report()
+        }
     }
 }
 
@@ -92,11 +106,15 @@ impl<C: Controller> Controller for Adaptive<C> {
         } else {
             false
         };
-        if updated && t - self.last_update >= self.settings.model_update_period_s - 1e-9 {
+        if updated
+            && t - self.last_update >= self.settings.model_update_period_s - 1e-9
+            && self.estimator.ready_to_use(self.used_from.is_some())
+        {
             if let Ok(r) = self.estimator.robot() {
                 if self.inner.set_model(Arc::new(r)).is_ok() {
                     self.last_update = t;
                     self.model_updates += 1;
+                    self.used_from.get_or_insert(t);
                 }
             }
         }

@@ -68,6 +68,8 @@ pub struct JointEkf {
     z_good: Vec<f64>,
     p_good: Vec<f64>,
     t_prev: Option<f64>,
+    /// Normalised innovation squared of the last measurement update (NaN when none or rejected).
+    nis: f64,
     /// The box the parameters are kept in: [prior / PARAM_BOX, prior * PARAM_BOX].
     lo: Vec<f64>,
     hi: Vec<f64>,
@@ -134,6 +136,7 @@ impl JointEkf {
             z_good: vec![0.0; nz],
             p_good: vec![0.0; nz * nz],
             t_prev: None,
+            nis: f64::NAN,
             lo: vec![0.0; 2 * n],
             hi: vec![0.0; 2 * n],
             zin: vec![0.0; 3 * n - 1],
@@ -188,6 +191,23 @@ impl JointEkf {
         let n = self.model.n;
         let (nz, k) = (4 * n, 2 * n + i);
         self.p[k * nz + k].max(0.0).sqrt()
+    }
+
+    /// The parameters' covariance (2n x 2n row-major) into `out`.
+    pub fn param_cov_into(&self, out: &mut [f64]) {
+        let n = self.model.n;
+        let (nx, nz, np) = (2 * n, 4 * n, 2 * n);
+        for i in 0..np {
+            out[i * np..(i + 1) * np]
+                .copy_from_slice(&self.p[(nx + i) * nz + nx..(nx + i) * nz + nz]);
+        }
+    }
+
+    /// The normalised innovation squared `e^T S^-1 e` of the last measurement update (2n degrees
+    /// of freedom when the filter is consistent); NaN when the last measurement started the state
+    /// or was rejected.
+    pub fn last_nis(&self) -> f64 {
+        self.nis
     }
 
     /// Forget the state (the next measurement starts it again); the parameters keep their estimate
@@ -373,6 +393,7 @@ impl JointEkf {
             self.s[i * nx + i] += self.r(i);
         }
         let mut e = [0.0; 2 * crate::model::MAX_LINKS];
+        self.nis = f64::NAN;
         for i in 0..nx {
             e[i] = x[i] - self.z[i];
             if e[i].abs() > self.noise.outlier_sigma * self.s[i * nx + i].sqrt() {
@@ -382,8 +403,11 @@ impl JointEkf {
         if cholesky(&mut self.s, nx, Scaling::Reciprocal).is_err() {
             return false;
         }
-        // kt = S^-1 P[x, :] (nx x nz): K = kt^T
         let mut col = [0.0; 2 * crate::model::MAX_LINKS];
+        col[..nx].copy_from_slice(&e[..nx]);
+        cholesky_solve_vec(&self.s, nx, &mut col[..nx], Scaling::Divide);
+        self.nis = (0..nx).map(|i| e[i] * col[i]).sum();
+        // kt = S^-1 P[x, :] (nx x nz): K = kt^T
         for c in 0..nz {
             for i in 0..nx {
                 col[i] = self.p[i * nz + c];
@@ -431,6 +455,7 @@ impl JointEkf {
         let Some(t_prev) = self.t_prev.filter(|&tp| t > tp) else {
             self.restart_state(x);
             self.t_prev = Some(t);
+            self.nis = f64::NAN;
             return EkfStep::Started;
         };
         self.t_prev = Some(t);

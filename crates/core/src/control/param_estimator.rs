@@ -27,6 +27,7 @@ use super::base_params::{base_params, lagrangian_regressor, momentum_regressor, 
 use super::joint_ekf::{EkfStep, JointEkf, JointEkfNoise};
 use crate::error::{Error, Result};
 use crate::model::Robot;
+use brachia_linalg::{cholesky, cholesky_solve_vec, Scaling};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -34,6 +35,10 @@ use std::sync::Arc;
 pub const MAX_WINDOWS_IN_FLIGHT: usize = 32;
 /// Shortest `window_s` and `model_update_period_s`, s.
 const MIN_PERIOD_S: f64 = 1e-3;
+
+/// Time constant of the joint filter's running mean of the normalised innovation squared, s
+/// ([`ParamEstimatorSettings::use_max_nis_ratio`]).
+pub const NIS_WINDOW_S: f64 = 0.2;
 
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
@@ -79,6 +84,24 @@ pub struct ParamEstimatorSettings {
     /// The controller's model is rebuilt from the estimate at most this often, s, in [0.001, 40].
     /// Default 0.05.
     pub model_update_period_s: f64,
+    /// The estimate is handed to the controller only once it is determined: every base
+    /// parameter's posterior standard deviation at most this fraction of its nominal value
+    /// (docs/estimation.md, "When the estimate is used"). Default 0.02.
+    pub use_max_rel_std: f64,
+    /// ... and only once it differs from the nominal robot significantly: the nominal parameters
+    /// outside the estimate's confidence region of this many standard normal deviations (a
+    /// chi-square test with 2n degrees of freedom, one-sided level of a normal variable at this
+    /// value; 0 turns the test off). Default 3.
+    pub use_min_sigma: f64,
+    /// ... and by at least this fraction of a nominal value in one base parameter (smaller
+    /// differences are left to the feedback). Default 0.03.
+    pub use_min_rel_change: f64,
+    /// ... and, with the joint filter, only while its measurements are consistent with its noise
+    /// model: the mean normalised innovation squared over the last [`NIS_WINDOW_S`] at most this
+    /// multiple of its expected value 2n (an unmodelled force, torque noise, a geometry the base
+    /// parameters cannot express or a sensor noise larger than `meas_q_std`, `meas_qd_std` raise
+    /// it). Default 1.1.
+    pub use_max_nis_ratio: f64,
     /// Windows integrated at once, started `window_s / windows_in_flight` apart (1: back to back),
     /// in 1..=[`MAX_WINDOWS_IN_FLIGHT`]; each row's residual variance is counted this many times
     /// (overlapping windows share their sensor noise). Default 1.
@@ -99,6 +122,10 @@ impl Default for ParamEstimatorSettings {
             outlier_sigma: 5.0,
             model_update_period_s: 0.05,
             windows_in_flight: 1,
+            use_max_rel_std: 0.02,
+            use_min_sigma: 3.0,
+            use_min_rel_change: 0.03,
+            use_max_nis_ratio: 1.1,
         }
     }
 }
@@ -121,6 +148,16 @@ impl ParamEstimatorSettings {
         pos("meas_q_std", self.meas_q_std)?;
         pos("meas_qd_std", self.meas_qd_std)?;
         pos("process_qd_std", self.process_qd_std)?;
+        pos("use_max_rel_std", self.use_max_rel_std)?;
+        pos("use_max_nis_ratio", self.use_max_nis_ratio)?;
+        for (field, v) in [
+            ("use_min_sigma", self.use_min_sigma),
+            ("use_min_rel_change", self.use_min_rel_change),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::invalid(src, field, v, "must be finite and >= 0"));
+            }
+        }
         if !(1..=MAX_WINDOWS_IN_FLIGHT).contains(&self.windows_in_flight) {
             return Err(Error::invalid(
                 src,
@@ -188,6 +225,10 @@ pub struct EstimateReport {
     pub rejected: usize,
     /// The estimate after every used window (at most [`MAX_HISTORY`]).
     pub history: Vec<EstimateSample>,
+    /// When the controller was first given the estimate, s (`None`: never; the estimate was not
+    /// determined or not significantly different from the nominal robot).
+    #[serde(default)]
+    pub used_from_s: Option<f64>,
 }
 
 /// One integration window: its start and its matrix and right-hand side so far.
@@ -227,6 +268,13 @@ pub struct ParamEstimator {
     /// The joint filter (`method = "ekf"`), and when its estimate was last recorded.
     ekf: Option<Box<JointEkf>>,
     last_record: f64,
+    /// Scratch of [`Self::nominal_chi2`]: the parameters' covariance and the difference.
+    cov: Vec<f64>,
+    dev: Vec<f64>,
+    /// The joint filter's running mean of the normalised innovation squared (NaN: none yet) and
+    /// the time of its last sample.
+    nis_mean: f64,
+    nis_t: f64,
 }
 
 impl ParamEstimator {
@@ -288,6 +336,10 @@ impl ParamEstimator {
             windows: 0,
             rejected: 0,
             history: Vec::with_capacity(MAX_HISTORY),
+            cov: vec![0.0; np * np],
+            dev: vec![0.0; np],
+            nis_mean: f64::NAN,
+            nis_t: 0.0,
         })
     }
 
@@ -308,6 +360,79 @@ impl ParamEstimator {
         }
         let np = self.theta.len();
         self.p[i * np + i].max(0.0).sqrt()
+    }
+
+    /// The largest posterior standard deviation of a base parameter relative to its nominal value.
+    pub fn max_rel_std(&self) -> f64 {
+        (0..self.theta.len())
+            .map(|i| self.std(i) / self.theta_nom[i].abs().max(1e-12))
+            .fold(0.0, f64::max)
+    }
+
+    /// The largest difference of a base parameter from its nominal value, relative to it.
+    pub fn max_rel_change(&self) -> f64 {
+        self.theta
+            .iter()
+            .zip(&self.theta_nom)
+            .map(|(a, b)| ((a - b) / b.abs().max(1e-12)).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// The squared Mahalanobis distance of the nominal parameters from the estimate under its
+    /// covariance, `(theta - theta_nom)^T P^-1 (theta - theta_nom)` (chi-square with 2n degrees of
+    /// freedom when the nominal robot is the truth); infinite when the covariance is not positive
+    /// definite. Does not allocate.
+    pub fn nominal_chi2(&mut self) -> f64 {
+        let np = self.theta.len();
+        match &self.ekf {
+            Some(ekf) => ekf.param_cov_into(&mut self.cov),
+            None => self.cov.copy_from_slice(&self.p),
+        }
+        for i in 0..np {
+            self.dev[i] = self.theta[i] - self.theta_nom[i];
+        }
+        if cholesky(&mut self.cov, np, Scaling::Reciprocal).is_err() {
+            return f64::INFINITY;
+        }
+        let mut sol = [0.0; 2 * crate::model::MAX_LINKS];
+        sol[..np].copy_from_slice(&self.dev);
+        cholesky_solve_vec(&self.cov, np, &mut sol[..np], Scaling::Divide);
+        dot(&sol[..np], &self.dev)
+    }
+
+    /// The joint filter's running mean of the normalised innovation squared over the last
+    /// [`NIS_WINDOW_S`], divided by its expected value 2n (about 1 when the filter's noise model
+    /// fits the measurements); NaN before the first update or with `method = "windows"`.
+    pub fn nis_ratio(&self) -> f64 {
+        self.nis_mean / self.theta.len() as f64
+    }
+
+    /// Whether the estimate is ready to be used (docs/estimation.md, "When the estimate is used"):
+    /// determined (every relative standard deviation at most `use_max_rel_std`), consistent (with
+    /// the joint filter: [`Self::nis_ratio`] at most `use_max_nis_ratio`) and, unless
+    /// `in_use` (it was handed over already), significantly different from the nominal robot
+    /// (the chi-square test at `use_min_sigma` and a change of at least `use_min_rel_change`).
+    pub fn ready_to_use(&mut self, in_use: bool) -> bool {
+        let s = self.settings;
+        if self.max_rel_std() > s.use_max_rel_std {
+            return false;
+        }
+        let nis = self.nis_ratio();
+        // NaN (no update yet) fails too
+        if self.ekf.is_some() && (nis.is_nan() || nis > s.use_max_nis_ratio) {
+            return false;
+        }
+        if in_use {
+            return true;
+        }
+        self.max_rel_change() >= s.use_min_rel_change
+            && (s.use_min_sigma == 0.0
+                || self.nominal_chi2() >= chi2_quantile(self.theta.len(), s.use_min_sigma))
+    }
+
+    /// The joint filter (`method = "ekf"`), for its diagnostics.
+    pub fn joint_filter(&self) -> Option<&JointEkf> {
+        self.ekf.as_deref()
     }
 
     /// Windows used so far.
@@ -334,6 +459,7 @@ impl ParamEstimator {
         self.rejected = 0;
         self.history.clear();
         self.last_record = f64::NEG_INFINITY;
+        self.nis_mean = f64::NAN;
         if let Some(ekf) = &mut self.ekf {
             let std: Vec<f64> = (0..np).map(|i| self.p[i * np + i].sqrt()).collect();
             ekf.reset(&self.theta_nom, &std);
@@ -414,6 +540,16 @@ impl ParamEstimator {
             }
             EkfStep::Updated => {
                 self.theta.copy_from_slice(ekf.theta());
+                let nis = ekf.last_nis();
+                if nis.is_finite() {
+                    self.nis_mean = if self.nis_mean.is_finite() {
+                        let a = ((t - self.nis_t) / NIS_WINDOW_S).clamp(0.0, 1.0);
+                        self.nis_mean + a * (nis - self.nis_mean)
+                    } else {
+                        nis
+                    };
+                    self.nis_t = t;
+                }
                 self.windows += 1;
                 let period = self.settings.model_update_period_s;
                 if t - self.last_record >= period - 1e-9 && self.history.len() < MAX_HISTORY {
@@ -508,6 +644,7 @@ impl ParamEstimator {
             windows: self.windows,
             rejected: self.rejected,
             history: self.history.clone(),
+            used_from_s: None,
         }
     }
 }
@@ -519,6 +656,15 @@ impl Window {
         self.tau_int.fill(0.0);
         self.t0 = Some(t);
     }
+}
+
+/// The chi-square quantile with `k` degrees of freedom at the one-sided normal level `z` (the
+/// Wilson-Hilferty approximation: `k (1 - 2/(9k) + z sqrt(2/(9k)))^3`, within 1 % for k >= 4 at
+/// the levels used here).
+pub fn chi2_quantile(k: usize, z: f64) -> f64 {
+    let k = k as f64;
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).max(0.0).powi(3)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
