@@ -205,9 +205,9 @@ pub(crate) fn plan_around_obstacles(
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
 /// beside the seeds (the seeds after it cannot win before it ends). On the placement scan's fixed
-/// set a smooth step that converges does so within 60 iterations and one that does not runs to the
-/// limit, holding a worker for seconds that the seeds need (docs/planner-measurements.md).
-pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 150;
+/// set (30 ms knots) a smooth step that converges does so within 60 iterations, but at 10 ms knots
+/// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
+pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
 /// Where a candidate of the race came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
