@@ -25,9 +25,9 @@
 //! A probe that finds a plan of the task makes it the call's plan, without a diagnosis: a detour
 //! within the limits that the chain did not solve at the real limits is solved there warm from it,
 //! and the swing-time probe's plan is the plan when the planner may choose the swing time
-//! (`swing_time = "auto"`, [`super::widened::swing_time_chosen`]), as in the chain's step 6. Such a
-//! plan is converged by the same checks as any plan, lists every solve of the chain and of the probe
-//! in its `solves` (and their totals), and keeps the chain's guess report.
+//! (`swing_time = "auto"`, the rule of the chain's step 6). Such a plan is converged by the same
+//! checks as any plan, lists every solve of the chain and of the probe in its `solves` (and their
+//! totals), and keeps the chain's guess report.
 //!
 //! Each probe is a local search from the guesses named, not a proof: a probe that does not converge
 //! says that none was found, not that none exists. The probe's solves are counted in the
@@ -112,7 +112,7 @@ impl Cost {
 
 /// What the probes gave: the diagnosis of the failure, or a plan of the task they found.
 enum Probe {
-    Diagnosis(Option<Diagnosis>),
+    Diagnosis(Box<Option<Diagnosis>>),
     Plan(Box<Plan>),
 }
 
@@ -140,7 +140,7 @@ pub(crate) fn diagnose_failure(
         return Ok(p);
     }
     p.diagnosis = match probe(robot, task, settings, nlp, &p, started, probed)? {
-        Probe::Diagnosis(d) => d,
+        Probe::Diagnosis(d) => *d,
         Probe::Plan(q) => return Ok(*q),
     };
     // the chain's searches: every one exhausted without a path
@@ -210,7 +210,7 @@ fn probe(
     };
     if let Some((o, l)) = unreachable(robot, task, settings)? {
         (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
-        return Ok(Probe::Diagnosis(Some(d)));
+        return Ok(Probe::Diagnosis(Box::new(Some(d))));
     }
     let named = match &p.blockage {
         Some(b) => Some((b.obstacle, b.link)),
@@ -250,7 +250,7 @@ fn probe(
         None => None,
     });
     let Some((obstacle, link)) = named else {
-        return Ok(Probe::Diagnosis(None));
+        return Ok(Probe::Diagnosis(Box::new(None)));
     };
     (d.obstacle, d.link) = (obstacle, link);
     if let Some(tp) = &tp {
@@ -288,7 +288,7 @@ fn probe(
     d.torque_probe = tp;
     d.out_of_time = limit.remaining(t0).is_none();
     (d.solves, d.iterations, d.solve_time_s) = (cost.solves, cost.iterations, cost.time_s);
-    Ok(Probe::Diagnosis(Some(d)))
+    Ok(Probe::Diagnosis(Box::new(Some(d))))
 }
 
 /// The guess of the torque probe before the failed attempt: the configuration-space seed of the
@@ -629,9 +629,10 @@ mod tests {
             &Probed::default(),
         )
         .unwrap();
-        let Probe::Diagnosis(Some(d)) = d else {
+        let Probe::Diagnosis(d) = d else {
             panic!("a diagnosis");
         };
+        let d = d.expect("a diagnosis");
         assert_eq!(d.obstacle, 0);
         assert!(d.link < robot.n);
         assert_eq!(d.verdict, Verdict::NoDetourFound);
