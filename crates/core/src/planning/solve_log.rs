@@ -28,6 +28,16 @@ pub(crate) struct SolveLog {
 }
 
 impl SolveLog {
+    /// A log that goes on after `p`, a plan that [`SolveLog::finish`] made the result of a call (or
+    /// one solve's plan): its attempts, callback timings and solves come first.
+    pub fn resume(p: &Plan) -> Self {
+        Self {
+            attempts: p.solves.clone(),
+            callbacks: p.callback_timings,
+            solves: p.solves.iter().map(|a| a.solve + 1).max().unwrap_or(0),
+        }
+    }
+
     /// Record the solve that produced `p` as the next one, for `role`: its attempts are tagged in `p`
     /// too, so that [`SolveLog::finish`] knows them when `p` is returned.
     ///

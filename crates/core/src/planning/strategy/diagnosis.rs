@@ -22,6 +22,13 @@
 //! feasible under `swing_time = "auto"`, is then the chain's plan. What those solves found is
 //! handed here and read, not solved again.
 //!
+//! A probe that finds a plan of the task makes it the call's plan, without a diagnosis: a detour
+//! within the limits that the chain did not solve at the real limits is solved there warm from it,
+//! and the swing-time probe's plan is the plan when the planner may choose the swing time
+//! (`swing_time = "auto"`, the rule of the chain's step 6). Such a plan is converged by the same
+//! checks as any plan, lists every solve of the chain and of the probe in its `solves` (and their
+//! totals), and keeps the chain's guess report.
+//!
 //! Each probe is a local search from the guesses named, not a proof: a probe that does not converge
 //! says that none was found, not that none exists. The probe's solves are counted in the
 //! [`Diagnosis`] (`solves`, `iterations`, `solve_time_s`), not in the plan's `solves`. The call's
@@ -34,15 +41,21 @@
 use super::cspace::{cspace_routes, time_path};
 use super::obstacles::{diagnose, obstacle_on_bar};
 use super::torque_continuation::with_torque_scale;
-use super::widened::{peak_torques, torque_limits, Probed};
+use super::widened::{
+    at_real_limits, free_swing_time, peak_torques, swing_time_chosen, torque_limits, within_limits,
+    Probed,
+};
 pub use super::widened::{PROBE_MAX_ITER, PROBE_SWING_TIME_FACTOR, PROBE_TORQUE_SCALE};
 use crate::error::Result;
 use crate::model::{ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::NlpSettings;
-use crate::planning::outcome::Plan;
-use crate::planning::report::{Diagnosis, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict};
+use crate::planning::outcome::{Plan, SolveRole};
+use crate::planning::report::{
+    Diagnosis, GuessReport, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict,
+};
 use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
+use crate::planning::solve_log::SolveLog;
 use crate::planning::task::{SwingTask, ValidTask};
 use crate::trajectory::Trajectory;
 use std::time::Instant;
@@ -52,20 +65,55 @@ pub const PROBE_WALL_S: f64 = 30.0;
 /// Share of the call's `max_wall_time_s` kept for the probe: the obstacle strategies get the rest.
 pub const PROBE_SHARE: f64 = 0.25;
 
-/// The probe's solves and their cost.
-#[derive(Default)]
+/// The probe's solves and their cost, and the log of the call's solves: the chain's, then the
+/// probe's (for a plan the probe finds).
 struct Cost {
     solves: usize,
     iterations: usize,
     time_s: f64,
+    log: SolveLog,
 }
 
 impl Cost {
-    fn add(&mut self, p: &Plan) {
+    /// No probe solve yet, after the chain's plan `chain`.
+    fn after(chain: &Plan) -> Self {
+        Self {
+            solves: 0,
+            iterations: 0,
+            time_s: 0.0,
+            log: SolveLog::resume(chain),
+        }
+    }
+
+    /// Count the probe solve that produced `p`, recorded for `role`.
+    fn add(&mut self, p: &mut Plan, role: SolveRole) {
+        self.solves += 1;
+        self.iterations += p.iterations;
+        self.time_s += p.solve_time_s;
+        self.log.record(p, role);
+    }
+
+    /// Count the probe solve that produced `p`, recorded in the log already.
+    fn count(&mut self, p: &Plan) {
         self.solves += 1;
         self.iterations += p.iterations;
         self.time_s += p.solve_time_s;
     }
+
+    /// `p`, a converged plan of a probe solve, as the call's plan: every solve of the chain and the
+    /// probe in its `solves` and totals, the chain's guess report `guess`, no diagnosis.
+    fn adopt(self, mut p: Plan, guess: Option<GuessReport>) -> Plan {
+        self.log.finish(&mut p);
+        p.guess = guess;
+        (p.blockage, p.diagnosis) = (None, None);
+        p
+    }
+}
+
+/// What the probes gave: the diagnosis of the failure, or a plan of the task they found.
+enum Probe {
+    Diagnosis(Box<Option<Diagnosis>>),
+    Plan(Box<Plan>),
 }
 
 /// The settings of the obstacle strategies of a call with `nlp`: its time limit less the share
@@ -91,7 +139,10 @@ pub(crate) fn diagnose_failure(
     if p.converged() || nlp.is_cancelled() || task.obstacles.is_empty() {
         return Ok(p);
     }
-    p.diagnosis = probe(robot, task, settings, nlp, &p, started, probed)?;
+    p.diagnosis = match probe(robot, task, settings, nlp, &p, started, probed)? {
+        Probe::Diagnosis(d) => *d,
+        Probe::Plan(q) => return Ok(*q),
+    };
     // the chain's searches: every one exhausted without a path
     let routes = p.guess.as_ref().map_or(&[][..], |g| &g.cspace_routes[..]);
     let exhausted = !routes.is_empty() && routes.iter().all(|r| r.exhausted && !r.found);
@@ -133,8 +184,8 @@ fn unreachable(
     Ok(None)
 }
 
-/// The diagnosis of the failed plan `p` (see the module docs); `None` when no clearance row names
-/// an obstacle.
+/// The diagnosis of the failed plan `p` (see the module docs), `None` when no clearance row names
+/// an obstacle; or the plan a probe found (see the module docs).
 fn probe(
     robot: &Robot,
     task: &ValidTask,
@@ -143,7 +194,7 @@ fn probe(
     p: &Plan,
     started: Instant,
     probed: &Probed,
-) -> Result<Option<Diagnosis>> {
+) -> Result<Probe> {
     let mut d = Diagnosis {
         obstacle: 0,
         link: 0,
@@ -159,7 +210,7 @@ fn probe(
     };
     if let Some((o, l)) = unreachable(robot, task, settings)? {
         (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
-        return Ok(Some(d));
+        return Ok(Probe::Diagnosis(Box::new(Some(d))));
     }
     let named = match &p.blockage {
         Some(b) => Some((b.obstacle, b.link)),
@@ -177,17 +228,29 @@ fn probe(
         ),
     };
     let within = || limit.remaining(t0).map(|n| n.capped(PROBE_MAX_ITER));
-    let mut cost = Cost::default();
+    let mut cost = Cost::after(p);
     // a probe solve the library refuses (it is no failure of the task) leaves that probe out
     let (tp, detour) =
         torque_probe(robot, task, settings, p, &within, &mut cost, probed).unwrap_or((None, None));
+    // a detour within the limits that the chain did not solve at the real limits: solved there
+    if let (Some(w), Some(run)) = (&detour, within()) {
+        if !probed.real_limits_tried && within_limits(robot, w) {
+            let q = at_real_limits(robot, task, settings, &run, w, &mut cost.log);
+            if let Ok(q) = q {
+                cost.count(&q);
+                if q.converged() {
+                    return Ok(Probe::Plan(Box::new(cost.adopt(q, p.guess.clone()))));
+                }
+            }
+        }
+    }
     // the detour found names the obstacle it goes around when the failed attempt named none
     let named = named.or(match &detour {
         Some(w) => diagnose(robot, task, settings, &w.points, None)?.map(|b| (b.obstacle, b.link)),
         None => None,
     });
     let Some((obstacle, link)) = named else {
-        return Ok(None);
+        return Ok(Probe::Diagnosis(Box::new(None)));
     };
     (d.obstacle, d.link) = (obstacle, link);
     if let Some(tp) = &tp {
@@ -207,9 +270,16 @@ fn probe(
                 converged: q.converged(),
                 swing_time_s: q.converged().then_some(q.swing_time_s),
             }),
-            None => swing_time_probe(robot, task, settings, w, &within, &mut cost)
-                .ok()
-                .flatten(),
+            None => match swing_time_probe(robot, task, settings, w, &within, &mut cost) {
+                // a swing time the planner may choose: the probe's plan is the plan
+                Ok(Some((sp, Some(q))))
+                    if sp.converged && swing_time_chosen(settings, sp.range_s[0]) =>
+                {
+                    return Ok(Probe::Plan(Box::new(cost.adopt(q, p.guess.clone()))));
+                }
+                Ok(Some((sp, _))) => Some(sp),
+                _ => None,
+            },
         };
         if d.swing_time_probe.as_ref().is_some_and(|s| s.converged) {
             d.verdict = Verdict::NeedsSwingTime;
@@ -218,7 +288,7 @@ fn probe(
     d.torque_probe = tp;
     d.out_of_time = limit.remaining(t0).is_none();
     (d.solves, d.iterations, d.solve_time_s) = (cost.solves, cost.iterations, cost.time_s);
-    Ok(Some(d))
+    Ok(Probe::Diagnosis(Box::new(Some(d))))
 }
 
 /// The guess of the torque probe before the failed attempt: the configuration-space seed of the
@@ -235,8 +305,8 @@ fn seeds(
         return Ok(vec![]);
     };
     let no_obstacles = task.without_obstacles();
-    let free = plan_single(robot, &no_obstacles, settings, &run, None)?;
-    cost.add(&free);
+    let mut free = plan_single(robot, &no_obstacles, settings, &run, None)?;
+    cost.add(&mut free, SolveRole::ObstacleFree);
     if !free.converged() {
         return Ok(vec![]);
     }
@@ -304,8 +374,13 @@ fn torque_probe(
                 let Some(run) = within() else {
                     break;
                 };
-                let w = plan_single(&wide, task, settings, &run, Some(&g))?;
-                cost.add(&w);
+                let mut w = plan_single(&wide, task, settings, &run, Some(&g))?;
+                cost.add(
+                    &mut w,
+                    SolveRole::TorqueScale {
+                        scale: PROBE_TORQUE_SCALE,
+                    },
+                );
                 w
             }
             (None, Some(w)) => w.clone(),
@@ -332,8 +407,8 @@ fn torque_probe(
     Ok((tried.then_some(rep), None))
 }
 
-/// The swing-time probe from the widened detour `w` (see the module docs); `None` when the
-/// transcription has no free swing time or no time is left.
+/// The swing-time probe from the widened detour `w` (see the module docs), with its plan when it
+/// converged; `None` when the transcription has no free swing time or no time is left.
 fn swing_time_probe(
     robot: &Robot,
     task: &ValidTask,
@@ -341,23 +416,23 @@ fn swing_time_probe(
     w: &Plan,
     within: &dyn Fn() -> Option<NlpSettings>,
     cost: &mut Cost,
-) -> Result<Option<SwingTimeProbe>> {
+) -> Result<Option<(SwingTimeProbe, Option<Plan>)>> {
     if settings.transcription != Transcription::MultipleShooting {
         return Ok(None);
     }
     let Some(run) = within() else {
         return Ok(None);
     };
-    let t = w.swing_time_s;
-    let range_s = [t, PROBE_SWING_TIME_FACTOR * t];
-    let free_t = settings.with_free_swing_time(t, range_s)?;
-    let p = plan_single(robot, task, &free_t, &run, Some(&w.points))?;
-    cost.add(&p);
-    Ok(Some(SwingTimeProbe {
+    let Some((p, range_s)) = free_swing_time(robot, task, settings, &run, w, &mut cost.log)? else {
+        return Ok(None);
+    };
+    cost.count(&p);
+    let rep = SwingTimeProbe {
         range_s,
         converged: p.converged(),
         swing_time_s: p.converged().then_some(p.swing_time_s),
-    }))
+    };
+    Ok(Some((rep, p.converged().then_some(p))))
 }
 
 #[cfg(test)]
@@ -410,6 +485,133 @@ mod tests {
         assert!(p.diagnosis.is_none());
     }
 
+    /// The role of attempt `a`'s solve.
+    fn role(a: &crate::planning::outcome::SolveAttempt) -> SolveRole {
+        a.within.unwrap_or(a.role)
+    }
+
+    #[test]
+    fn a_detour_within_the_limits_that_the_probe_finds_is_the_plan() {
+        let (robot, task, s, mut p) = failed();
+        let guess = GuessReport {
+            strategy: crate::planning::report::GuessStrategy::SmoothStep,
+            smooth_step_clear: false,
+            solves: 1,
+            iterations: p.iterations,
+            solve_time_s: p.solve_time_s,
+            scales: vec![],
+            seeds: vec![],
+            cspace: None,
+            cspace_routes: vec![],
+            out_of_time: false,
+        };
+        p.guess = Some(guess.clone());
+        let chain = p.solves.clone();
+        let q = diagnose_failure(
+            &robot,
+            &task,
+            &s,
+            &NlpSettings::default(),
+            p,
+            Instant::now(),
+            &Probed::default(),
+        )
+        .unwrap();
+        assert!(q.converged(), "{:?} {:?}", q.status, q.diagnosis);
+        assert!(q.diagnosis.is_none() && q.blockage.is_none());
+        assert_eq!(q.guess, Some(guess));
+        assert!(crate::planning::solve_log::audit(&q).is_empty());
+        // the chain's solve first, then the probe's: the obstacle-free swing, the widened detour and
+        // the task at the real limits from it, which is the plan
+        assert_eq!(q.solves[0].status, chain[0].status);
+        assert!(!q.solves[0].adopted);
+        let roles: Vec<SolveRole> = q.solves.iter().map(role).collect();
+        for r in [
+            SolveRole::ObstacleFree,
+            SolveRole::TorqueScale {
+                scale: PROBE_TORQUE_SCALE,
+            },
+            SolveRole::TorqueScale { scale: 1.0 },
+        ] {
+            assert!(roles.contains(&r), "{roles:?}");
+        }
+        let adopted = q.solves.iter().find(|a| a.adopted).unwrap();
+        assert_eq!(role(adopted), SolveRole::TorqueScale { scale: 1.0 });
+        assert!(q.solves.iter().any(|a| a.solve > chain[0].solve));
+    }
+
+    #[test]
+    fn a_detour_the_chain_solved_at_the_real_limits_is_not_solved_again() {
+        let (robot, task, s, p) = failed();
+        let nlp = NlpSettings::default();
+        let diagnosed = |p: Plan, probed: &Probed| {
+            diagnose_failure(&robot, &task, &s, &nlp, p, Instant::now(), probed).unwrap()
+        };
+        // a detour within the limits: a plan at the real limits
+        let w = diagnosed(p.clone(), &Probed::default());
+        assert!(w.converged() && within_limits(&robot, &w));
+        let probed = Probed {
+            seed: Some(p.points.clone()),
+            widened: Some(w),
+            swing_time: None,
+            real_limits_tried: true,
+        };
+        let q = diagnosed(p, &probed);
+        assert!(!q.converged());
+        let d = q.diagnosis.expect("a diagnosis");
+        assert_eq!(d.verdict, Verdict::DetourWithinLimits);
+        assert_eq!(d.solves, 0, "{d:?}");
+        assert_eq!(q.solves.len(), 1);
+    }
+
+    /// With every actuator limit at 0.35 of the paper's, the detour at the real limits needs a longer
+    /// swing than the automatic one.
+    #[test]
+    fn the_swing_time_probes_plan_is_the_plan_only_when_the_swing_time_may_be_chosen() {
+        use crate::planning::settings::SwingTime;
+        let (robot, task, _, _) = failed();
+        let weak = with_torque_scale(&robot, 0.35).unwrap();
+        let plan = |swing_time: SwingTime| {
+            let ps = PlannerSettings {
+                swing_time,
+                ..PlannerSettings::default()
+            };
+            let s = ValidSettings::new(ps, robot.n, "test").unwrap();
+            let cut = NlpSettings {
+                max_iter: 3,
+                ..Default::default()
+            };
+            let p = plan_single(&weak, &task, &s, &cut, None).unwrap();
+            let t = p.swing_time_s;
+            let nlp = NlpSettings::default();
+            let q = diagnose_failure(
+                &weak,
+                &task,
+                &s,
+                &nlp,
+                p,
+                Instant::now(),
+                &Probed::default(),
+            );
+            (q.unwrap(), t)
+        };
+        let (q, t) = plan(PlannerSettings::default().swing_time);
+        assert!(q.converged(), "{:?} {:?}", q.status, q.diagnosis);
+        assert!(
+            q.diagnosis.is_none() && q.swing_time_s > t,
+            "{} {t}",
+            q.swing_time_s
+        );
+        assert!(crate::planning::solve_log::audit(&q).is_empty());
+        let adopted = q.solves.iter().find(|a| a.adopted).unwrap();
+        assert!(matches!(role(adopted), SolveRole::LongerSwing { .. }));
+        // a swing time the user fixed: the diagnosis says what it would need
+        let (q, _) = plan(SwingTime::Seconds(2.0));
+        assert!(!q.converged() && q.swing_time_s == 2.0);
+        let d = q.diagnosis.expect("a diagnosis");
+        assert_eq!(d.verdict, Verdict::NeedsSwingTime);
+    }
+
     #[test]
     fn a_spent_time_limit_names_the_obstacle_and_runs_no_probe() {
         let (robot, task, s, p) = failed();
@@ -426,8 +628,11 @@ mod tests {
             Instant::now(),
             &Probed::default(),
         )
-        .unwrap()
-        .expect("a diagnosis");
+        .unwrap();
+        let Probe::Diagnosis(d) = d else {
+            panic!("a diagnosis");
+        };
+        let d = d.expect("a diagnosis");
         assert_eq!(d.obstacle, 0);
         assert!(d.link < robot.n);
         assert_eq!(d.verdict, Verdict::NoDetourFound);
