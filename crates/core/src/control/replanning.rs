@@ -850,6 +850,10 @@ impl<C: Controller> Controller for Replanning<C> {
                     if p.lqr.is_some() {
                         self.lqr = p.lqr;
                     }
+                    self.average.clear();
+                    if valid {
+                        self.average.push(t, x);
+                    }
                     if let Some(e) = self.events.last_mut() {
                         e.t_switch_s = Some(t);
                     }
@@ -896,6 +900,7 @@ impl<C: Controller> Controller for Replanning<C> {
         self.lqr = lqr;
         self.reference = reference;
         self.pending = None;
+        self.average.clear();
         Ok(())
     }
 
