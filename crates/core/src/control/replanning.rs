@@ -123,7 +123,8 @@ pub struct ReplanSettings {
     pub confirm_checks: usize,
     /// Compare an adopted re-plan with continuing once more at its switch, from the state
     /// measured then, and drop it unless it still beats continuing by more than `adopt_margin_m`
-    /// (docs/replanning.md "Comparing again at the switch"; only with `compare_before_adopting`).
+    /// (docs/replanning.md "Comparing again at the switch"; only with `compare_before_adopting`,
+    /// refused without it).
     /// The re-plan starts from the state measured at the trigger, sensor noise included, so the
     /// comparison from that same state favours it; the state measured at the switch carries
     /// other noise. Default false.
@@ -247,6 +248,16 @@ impl ReplanSettings {
                     "must be in [1, {MAX_AVERAGE_STEPS}] (brachia::control::replanning::\
                      MAX_AVERAGE_STEPS)"
                 ),
+            ));
+        }
+        // the comparison at the switch repeats the adoption test: without it there is none to repeat
+        if self.compare_at_switch && !self.compare_before_adopting {
+            return Err(Error::invalid(
+                src,
+                "compare_at_switch",
+                self.compare_at_switch,
+                "needs compare_before_adopting = true (the comparison at the switch repeats the \
+                 adoption test; with compare_before_adopting = false there is none)",
             ));
         }
         if self.confirm_checks == 0 {
