@@ -164,6 +164,7 @@ pub mod math;
 pub mod model;
 pub mod planning;
 pub mod serde_exact;
+pub mod serde_nonfinite;
 pub mod sim;
 pub mod toml_path;
 pub mod trajectory;

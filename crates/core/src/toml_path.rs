@@ -35,14 +35,17 @@ pub fn key_path(text: &str, pos: usize) -> Option<String> {
     best.map(|(_, p)| p)
 }
 
-/// Keep `path` when `span` holds `pos` and is narrower than the best so far.
+/// Keep `path` when `span` holds `pos` and is narrower than the best so far (the document's root,
+/// the empty path, names no field).
 fn consider(
     span: Option<Range<usize>>,
     path: &str,
     pos: usize,
     best: &mut Option<(usize, String)>,
 ) {
-    let Some(s) = span else { return };
+    let Some(s) = span.filter(|_| !path.is_empty()) else {
+        return;
+    };
     let holds = s.start <= pos && pos < s.end.max(s.start + 1);
     if holds && best.as_ref().is_none_or(|(w, _)| s.len() <= *w) {
         *best = Some((s.len(), path.to_string()));
@@ -168,7 +171,10 @@ mod tests {
         let e = err("[tracking.replan]\nthreshold_m = 0.1\nthreshold = 2\n");
         assert!(e.contains("field `tracking.replan.threshold`"), "{e}");
         let e = err("[tracking.replan]\n");
-        assert!(e.contains("tracking.replan"), "{e}");
+        assert!(
+            e.starts_with("s.toml: field `tracking.replan`: ") && e.contains("threshold_m"),
+            "{e}"
+        );
         // a syntax error has no field: the parser's message alone
         let e = err("name = \n");
         assert!(e.starts_with("s.toml: TOML parse error"), "{e}");

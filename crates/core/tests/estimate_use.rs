@@ -6,31 +6,14 @@
 //!
 //! Units: rad, rad/s, s; base parameters in kg m^2 (ZZR) and kg m (MXR).
 
+mod common;
+
 use brachia::control::param_estimator::chi2_quantile;
 use brachia::control::{Adaptive, Mpc, MpcSettings, ParamEstimatorSettings};
 use brachia::model::{Robot, RobotParams};
-use brachia::planning::{
-    Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
-};
 use brachia::sim::{run_closed_loop, ModelPlant, NoiseSettings, Noisy, RunSettings};
 use brachia::trajectory::Trajectory;
 use std::sync::Arc;
-
-fn swing() -> Arc<Trajectory> {
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
-    let mut p = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
-    let plan = p.plan().unwrap();
-    assert!(plan.converged(), "{:?}", plan.status);
-    Arc::new(plan.trajectory)
-}
 
 /// The paper's robot with every mass and inertia times `f`.
 fn coherent(f: f64) -> Robot {
@@ -96,7 +79,7 @@ fn the_chi_square_quantile_matches_the_table() {
 
 #[test]
 fn the_estimate_is_used_only_when_it_is_determined_consistent_and_different() {
-    let reference = swing();
+    let reference = common::paper_swing();
     let t_end = reference.duration();
     let es = ParamEstimatorSettings::default();
 

@@ -347,7 +347,9 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
     assert_eq!(solve_log::audit(&p), Vec::<String>::new());
     let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
     assert!(
-        adopted.role == SolveRole::DetourSeed { index: at } || adopted.role == SolveRole::Resumed,
+        adopted.role == SolveRole::DetourSeed { index: at }
+            || adopted.role == SolveRole::FromSeed
+            || adopted.role == SolveRole::Resumed,
         "{:?}",
         adopted.role
     );

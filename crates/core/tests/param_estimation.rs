@@ -17,9 +17,6 @@ use brachia::control::{
 };
 use brachia::fdcheck::{assert_jacobian, compare, fd_jacobian};
 use brachia::model::{Robot, Scratch};
-use brachia::planning::{
-    Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
-};
 use brachia::sim::{run_closed_loop, ModelPlant, NoiseSettings, Noisy, RunSettings};
 use brachia::trajectory::Trajectory;
 use rand::{Rng, SeedableRng};
@@ -175,23 +172,6 @@ fn the_joint_filter_model_has_exact_jacobians() {
     }
 }
 
-/// The paper's swing planned on the 30 ms mesh.
-fn swing() -> Arc<Trajectory> {
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
-    let mut p = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
-    let plan = p.plan().unwrap();
-    assert!(plan.converged(), "{:?}", plan.status);
-    Arc::new(plan.trajectory)
-}
-
 /// The adaptive MPC tracking `reference` on the model plant of `plant` (sensor noise
 /// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, seeded `seed`, scaled by `BRACHIA_EST_NOISE`) for
 /// `duration_s` with estimator settings `es`: the controller after the run and the plant's true base
@@ -344,7 +324,7 @@ fn held_out_plants() -> Vec<(String, Robot, u64)> {
 /// within those by the end of the swing (docs/estimation.md has the measured table).
 #[test]
 fn the_estimator_recovers_a_mismatched_plant_before_mid_swing() {
-    let reference = swing();
+    let reference = common::paper_swing();
     for (name, plant, seed) in tuned_plants() {
         let e = errors_at(
             &reference,
@@ -370,7 +350,7 @@ fn the_estimator_recovers_a_mismatched_plant_before_mid_swing() {
 /// every base parameter within 5 % on the per-link draws and 2.5 % on the coherent plants.
 #[test]
 fn the_windowed_estimator_recovers_a_mismatched_plant_over_the_swing() {
-    let reference = swing();
+    let reference = common::paper_swing();
     // every estimate handed to the MPC (its standard deviations stay above the default
     // `use_max_rel_std` of the joint filter's hand-over test)
     let es = ParamEstimatorSettings {
@@ -403,7 +383,7 @@ fn the_windowed_estimator_recovers_a_mismatched_plant_over_the_swing() {
 #[test]
 #[ignore = "a table of measurements; see the doc comment for the command"]
 fn estimate_table() {
-    let reference = swing();
+    let reference = common::paper_swing();
     for method in [EstimateMethod::Ekf, EstimateMethod::Windows] {
         // the windowed method with its better prior (docs/estimation.md)
         let mut es = ParamEstimatorSettings {
@@ -455,7 +435,7 @@ fn estimate_table() {
 /// outside 1..=32 is refused.
 #[test]
 fn overlapping_windows_update_the_estimate_more_often() {
-    let reference = swing();
+    let reference = common::paper_swing();
     let closed = |k: usize| {
         let es = ParamEstimatorSettings {
             method: EstimateMethod::Windows,
@@ -493,7 +473,7 @@ fn overlapping_windows_update_the_estimate_more_often() {
 #[test]
 #[ignore = "a scan of estimator settings; see the doc comment for the command"]
 fn mid_swing_scan() {
-    let reference = swing();
+    let reference = common::paper_swing();
     let spec = std::env::var("BRACHIA_EST").unwrap_or_else(|_| "0.3,1,0.02".into());
     let at: f64 = std::env::var("BRACHIA_EST_AT")
         .ok()

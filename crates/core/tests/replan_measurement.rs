@@ -209,3 +209,24 @@ fn the_new_settings_are_checked() {
         assert!(bad.validate("test").is_err(), "{bad:?}");
     }
 }
+
+/// The comparison at the switch repeats the adoption test: asked for without it, it is refused
+/// with both fields named.
+#[test]
+fn a_comparison_at_the_switch_without_the_adoption_test_is_refused() {
+    let bad = ReplanSettings {
+        compare_at_switch: true,
+        compare_before_adopting: false,
+        ..Default::default()
+    };
+    let e = bad.validate("test.toml").unwrap_err().to_string();
+    assert!(
+        e.contains("compare_at_switch") && e.contains("compare_before_adopting = true"),
+        "{e}"
+    );
+    let good = ReplanSettings {
+        compare_at_switch: true,
+        ..Default::default()
+    };
+    good.validate("test.toml").unwrap();
+}

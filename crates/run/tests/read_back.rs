@@ -96,6 +96,34 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
         &run.report.to_json(),
         "track report",
     );
+    // a re-plan whose predictions diverged: the report holds nulls and still reads back
+    let mut diverged = run.report.clone();
+    diverged.replans = vec![brachia::control::ReplanEvent {
+        t_trigger_s: 1.0,
+        predicted_miss_m: f64::INFINITY,
+        status: brachia::planning::SolveStatus::MaxIterations,
+        iterations: 3000,
+        solve_time_s: 0.1,
+        wall_time_s: 0.1,
+        latency_s: 0.02,
+        t_switch_s: None,
+        plan_ee_error_m: f64::INFINITY,
+        adopted: false,
+        end_box_dropped: false,
+        predicted_continue_m: Some(f64::NAN),
+        predicted_replan_m: Some(0.01),
+        planned_on_estimate: false,
+        predicted_at_switch_m: Some([f64::INFINITY, 0.01]),
+    }];
+    diverged.replan_count = 1;
+    let text = serde_json::to_string(&diverged.to_json()).unwrap();
+    let read: brachia_run::TrackReport = serde_json::from_str(&text).unwrap();
+    let e = &read.replans[0];
+    assert_eq!(e.predicted_at_switch_m, Some([f64::INFINITY, 0.01]));
+    assert_eq!(e.plan_ee_error_m, f64::INFINITY);
+    assert_eq!(e.predicted_miss_m, f64::INFINITY);
+    assert_eq!(e.predicted_continue_m, Some(f64::INFINITY));
+    assert_eq!(e.predicted_replan_m, Some(0.01));
     let (l, m) = (&back.log, &run.log);
     assert_eq!(
         (l.n, &l.controller, &l.plant),

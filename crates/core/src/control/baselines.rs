@@ -4,7 +4,7 @@
 //! Conventions: state `x = [q (n), qd (n)]` (rad, rad/s; q1 absolute, the rest relative), torques of
 //! joints 2..n in N m, clamped to the robot's limits.
 
-use super::tracking::Tracking;
+use super::tracking::{TrackerSettings, Tracking};
 use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::Robot;
@@ -80,6 +80,13 @@ pub struct PdSettings {
     pub kd: Vec<f64>,
     /// Add the planned torque as a feed-forward term. Default true.
     pub feedforward: bool,
+}
+
+impl TrackerSettings for PdSettings {
+    fn checked(&self, n: usize) -> Result<Self> {
+        self.validate(n)?;
+        Ok(self.resolved(n))
+    }
 }
 
 impl Default for PdSettings {

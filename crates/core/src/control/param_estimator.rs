@@ -380,8 +380,9 @@ impl ParamEstimator {
 
     /// The squared Mahalanobis distance of the nominal parameters from the estimate under its
     /// covariance, `(theta - theta_nom)^T P^-1 (theta - theta_nom)` (chi-square with 2n degrees of
-    /// freedom when the nominal robot is the truth); infinite when the covariance is not positive
-    /// definite. Does not allocate.
+    /// freedom when the nominal robot is the truth); NaN when the covariance is not positive
+    /// definite (no distance can be read from it: every comparison with a quantile fails, so the
+    /// estimate is not taken as different from the nominal robot). Does not allocate.
     pub fn nominal_chi2(&mut self) -> f64 {
         let np = self.theta.len();
         match &self.ekf {
@@ -392,7 +393,7 @@ impl ParamEstimator {
             self.dev[i] = self.theta[i] - self.theta_nom[i];
         }
         if cholesky(&mut self.cov, np, Scaling::Reciprocal).is_err() {
-            return f64::INFINITY;
+            return f64::NAN;
         }
         let mut sol = [0.0; 2 * crate::model::MAX_LINKS];
         sol[..np].copy_from_slice(&self.dev);
@@ -669,4 +670,35 @@ pub fn chi2_quantile(k: usize, z: f64) -> f64 {
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{EstimateMethod, ParamEstimator, ParamEstimatorSettings};
+    use crate::model::Robot;
+
+    /// An estimate far from the nominal robot whose covariance is singular (all zeros: every
+    /// standard deviation 0, so it counts as determined) gives no chi-square distance and is not
+    /// handed over; with a positive definite covariance of the same size it is.
+    #[test]
+    fn a_singular_covariance_does_not_pass_the_test_against_the_nominal_robot() {
+        let settings = ParamEstimatorSettings {
+            method: EstimateMethod::Windows,
+            ..Default::default()
+        };
+        let mut est = ParamEstimator::new(Robot::paper(), settings).unwrap();
+        let np = est.theta.len();
+        for i in 0..np {
+            est.theta[i] = 1.5 * est.theta_nom[i];
+        }
+        est.p.fill(0.0);
+        assert!(est.nominal_chi2().is_nan());
+        assert!(!est.ready_to_use(false));
+        // the same estimate with a tiny, positive definite covariance is far from nominal
+        for i in 0..np {
+            est.p[i * np + i] = (1e-6 * est.theta_nom[i]).powi(2);
+        }
+        assert!(est.nominal_chi2() > 1e6, "{}", est.nominal_chi2());
+        assert!(est.ready_to_use(false));
+    }
 }

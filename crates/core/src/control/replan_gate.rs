@@ -187,6 +187,13 @@ impl StateAverage {
         self.len = (self.len + 1).min(self.cap);
     }
 
+    /// Drop every sample kept: called when the tracked plan changes, since a sample from before a
+    /// new plan's start would be compared with the plan's first state.
+    pub(crate) fn clear(&mut self) {
+        self.next = 0;
+        self.len = 0;
+    }
+
     /// The averaged state at `t` relative to `plan`, written into `out` (nx values); the samples
     /// kept, at least one (`x` itself when none is kept).
     pub(crate) fn state(&mut self, plan: &Trajectory, t: f64, x: &[f64], out: &mut [f64]) -> usize {
@@ -248,5 +255,52 @@ mod tests {
         avg.state(&plan, 0.306, &[0.0, 0.0], &mut out);
         let expect = (3.0 * -0.2 + 0.4) / 4.0;
         assert!((out[1] - (1.0 + expect)).abs() < 1e-12, "{out:?}");
+    }
+
+    /// The ramp started at `t0`: q = t - t0, qd = 1 from `t0` on.
+    fn ramp_from(t0: f64) -> Trajectory {
+        let mut tr = Trajectory::new(1);
+        for k in 0..=100 {
+            let t = t0 + k as f64 * 0.01;
+            tr.push(t, &[t - t0], &[1.0], &[]);
+        }
+        tr
+    }
+
+    #[test]
+    fn samples_from_before_a_new_plan_are_dropped_when_the_plan_changes() {
+        // on the old plan exactly for 0.2 s, then a new plan from 0.2 s and one sample on it
+        let old = ramp_from(0.0);
+        let new = ramp_from(0.2);
+        let mut avg = StateAverage::new(2, 200);
+        for k in 0..200 {
+            let t = k as f64 * 0.001;
+            avg.push(t, &[t, 1.0]);
+        }
+        let t = 0.2;
+        let mut out = [0.0; 2];
+        // relative to the old plan the samples average to it
+        avg.state(&old, 0.199, &[0.199, 1.0], &mut out);
+        assert!(
+            (out[0] - 0.199).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,
+            "{out:?}"
+        );
+        let on_new = [0.0, 1.0];
+        // kept, the old samples are compared with the new plan's first state: biased
+        let mut biased = avg.clone();
+        biased.push(t, &on_new);
+        biased.state(&new, t, &on_new, &mut out);
+        assert!(out[0] > 0.05, "{out:?}");
+        // cleared, the average is the state on the new plan
+        avg.clear();
+        assert_eq!(avg.state(&new, t, &on_new, &mut out), 1);
+        assert_eq!(out, on_new);
+        avg.push(t, &on_new);
+        avg.push(t + 0.001, &[0.001, 1.0]);
+        assert_eq!(avg.state(&new, t + 0.001, &[0.001, 1.0], &mut out), 2);
+        assert!(
+            (out[0] - 0.001).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,
+            "{out:?}"
+        );
     }
 }

@@ -123,7 +123,8 @@ pub struct ReplanSettings {
     pub confirm_checks: usize,
     /// Compare an adopted re-plan with continuing once more at its switch, from the state
     /// measured then, and drop it unless it still beats continuing by more than `adopt_margin_m`
-    /// (docs/replanning.md "Comparing again at the switch"; only with `compare_before_adopting`).
+    /// (docs/replanning.md "Comparing again at the switch"; only with `compare_before_adopting`,
+    /// refused without it).
     /// The re-plan starts from the state measured at the trigger, sensor noise included, so the
     /// comparison from that same state favours it; the state measured at the switch carries
     /// other noise. Default false.
@@ -249,6 +250,16 @@ impl ReplanSettings {
                 ),
             ));
         }
+        // the comparison at the switch repeats the adoption test: without it there is none to repeat
+        if self.compare_at_switch && !self.compare_before_adopting {
+            return Err(Error::invalid(
+                src,
+                "compare_at_switch",
+                self.compare_at_switch,
+                "needs compare_before_adopting = true (the comparison at the switch repeats the \
+                 adoption test; with compare_before_adopting = false there is none)",
+            ));
+        }
         if self.confirm_checks == 0 {
             return Err(Error::invalid(
                 src,
@@ -322,7 +333,9 @@ impl ReplanSettings {
 pub struct ReplanEvent {
     /// Time of the trigger (the re-plan starts from the state measured then), s.
     pub t_trigger_s: f64,
-    /// The predicted capture miss that triggered it, m.
+    /// The predicted capture miss that triggered it, m (infinite: the prediction diverged;
+    /// `null` in JSON).
+    #[serde(deserialize_with = "crate::serde_nonfinite::number")]
     pub predicted_miss_m: f64,
     /// How the solve ended.
     pub status: SolveStatus,
@@ -337,7 +350,9 @@ pub struct ReplanEvent {
     /// When the tracking controller switched to the new plan, s; `None` when it did not (not
     /// adopted, or the run ended first).
     pub t_switch_s: Option<f64>,
-    /// The re-planned swing's final end-effector distance from the bar, m.
+    /// The re-planned swing's final end-effector distance from the bar, m (infinite: the re-plan
+    /// failed; `null` in JSON).
+    #[serde(deserialize_with = "crate::serde_nonfinite::number")]
     pub plan_ee_error_m: f64,
     /// Whether the plan was adopted (converged, within 1 mm of the bar, and, when compared,
     /// predicted to end closer to the bar than continuing by more than `adopt_margin_m`).
@@ -350,12 +365,20 @@ pub struct ReplanEvent {
     pub end_box_dropped: bool,
     /// Predicted capture error of continuing the current plan from the trigger state on the
     /// current model, m; absent when no comparison was made (`compare_before_adopting` off, or the
-    /// re-plan failed).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// re-plan failed); infinite when the prediction diverged (`null` in JSON).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::serde_nonfinite::opt_number"
+    )]
     pub predicted_continue_m: Option<f64>,
     /// Predicted capture error of the re-planned swing from the same state on the same model, m;
-    /// absent as `predicted_continue_m`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// absent as `predicted_continue_m`, infinite (`null` in JSON) as it.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::serde_nonfinite::opt_number"
+    )]
     pub predicted_replan_m: Option<f64>,
     /// True when the re-plan ran on a planner built for the controller's estimated model
     /// ([`super::Adaptive`]; planned cold from the first plan, then re-planned); absent (false)
@@ -365,8 +388,12 @@ pub struct ReplanEvent {
     /// With `compare_at_switch`: the predicted capture errors of continuing and of switching,
     /// from the state measured at the switch, m (`[continue, re-plan]`); absent otherwise. The
     /// re-plan was dropped there (`adopted = false`) unless the second beats the first by more
-    /// than `adopt_margin_m`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// than `adopt_margin_m`. An entry is infinite (`null` in JSON) when its prediction diverged.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::serde_nonfinite::opt_pair"
+    )]
     pub predicted_at_switch_m: Option<[f64; 2]>,
 }
 
@@ -850,6 +877,10 @@ impl<C: Controller> Controller for Replanning<C> {
                     if p.lqr.is_some() {
                         self.lqr = p.lqr;
                     }
+                    self.average.clear();
+                    if valid {
+                        self.average.push(t, x);
+                    }
                     if let Some(e) = self.events.last_mut() {
                         e.t_switch_s = Some(t);
                     }
@@ -896,6 +927,7 @@ impl<C: Controller> Controller for Replanning<C> {
         self.lqr = lqr;
         self.reference = reference;
         self.pending = None;
+        self.average.clear();
         Ok(())
     }
 

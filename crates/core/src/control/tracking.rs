@@ -14,20 +14,6 @@ pub(crate) trait TrackerSettings: Sized {
     fn checked(&self, n: usize) -> Result<Self>;
 }
 
-impl TrackerSettings for super::PdSettings {
-    fn checked(&self, n: usize) -> Result<Self> {
-        self.validate(n)?;
-        Ok(self.resolved(n))
-    }
-}
-
-impl TrackerSettings for super::TvlqrSettings {
-    fn checked(&self, n: usize) -> Result<Self> {
-        self.validate(n)?;
-        Ok(self.resolved(n))
-    }
-}
-
 /// The robot, the plan and the resolved settings of a tracker, with a state buffer of the plan
 /// (2n values) for the control law. Built once; the control law reads it without allocating.
 #[derive(Debug, Clone)]

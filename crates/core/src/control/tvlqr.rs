@@ -15,7 +15,7 @@
 //! `u = clamp(u^d(t) - K(t) (x - x^d(t)))` with K linearly interpolated between grid points and held
 //! past the ends.
 
-use super::tracking::Tracking;
+use super::tracking::{TrackerSettings, Tracking};
 use super::{ControlInfo, Controller};
 use crate::error::{Error, Result};
 use crate::model::{LinearModel, Linearizer, Robot, MAX_LINKS};
@@ -54,6 +54,13 @@ pub struct TvlqrSettings {
     pub r_diag: Vec<f64>,
     /// Terminal weight as a time: `S_N = terminal_s Qt_N`, s (>= 0). Default 0.1.
     pub terminal_s: f64,
+}
+
+impl TrackerSettings for TvlqrSettings {
+    fn checked(&self, n: usize) -> Result<Self> {
+        self.validate(n)?;
+        Ok(self.resolved(n))
+    }
 }
 
 impl Default for TvlqrSettings {

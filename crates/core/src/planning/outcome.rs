@@ -257,6 +257,10 @@ pub enum SolveRole {
         /// Knot spacing of the coarse mesh, s.
         knot_dt_s: f64,
     },
+    /// The task again from a seed of the obstacle chain on the task's own mesh, after the solve
+    /// warm from that seed's coarse plan ended without a clear plan
+    /// ([`crate::planning::strategy::candidate`]; the seed is the one of the solves before it).
+    FromSeed,
     /// The task from the configuration-space seed with the swing time free from the automatic
     /// swing time up to `t_max_s` ([`crate::planning::strategy::candidate`]).
     LongerSwing {
@@ -278,6 +282,7 @@ impl std::fmt::Display for SolveRole {
             SolveRole::FreeTimeStart { t0_s } => write!(f, "from T = {t0_s:.4} s"),
             SolveRole::SubstepClearance => write!(f, "clearance rows at the sub-steps"),
             SolveRole::CoarseMesh { knot_dt_s } => write!(f, "coarse mesh {knot_dt_s:.3} s"),
+            SolveRole::FromSeed => write!(f, "again from the seed"),
             SolveRole::LongerSwing { t_max_s } => write!(f, "swing time free up to {t_max_s:.4} s"),
             SolveRole::SwingTimeAnchor { t_s } => write!(f, "cold at T = {t_s:.4} s"),
             SolveRole::SwingTimeStep { t_s } => write!(f, "continued to T = {t_s:.4} s"),

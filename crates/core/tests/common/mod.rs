@@ -97,3 +97,24 @@ pub fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
     }
     m
 }
+
+/// The paper's swing (`Robot::paper()`, `SwingTask::paper()`) planned by multiple shooting on the
+/// 30 ms mesh with the OCP backend; asserts that it converged.
+pub fn paper_swing() -> std::sync::Arc<Trajectory> {
+    use brachia::planning::{
+        Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
+    };
+    let s = PlannerSettings {
+        transcription: Transcription::MultipleShooting,
+        knot_dt: 0.03,
+        ..Default::default()
+    };
+    let nlp = NlpSettings {
+        backend: Backend::Ocp,
+        ..Default::default()
+    };
+    let mut p = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
+    let plan = p.plan().unwrap();
+    assert!(plan.converged(), "{:?}", plan.status);
+    std::sync::Arc::new(plan.trajectory)
+}

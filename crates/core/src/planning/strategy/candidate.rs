@@ -5,8 +5,11 @@
 //! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
 //! can lead the fine solve into a class it cannot leave: measured on the placement scan,
 //! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
-//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). A fine solve
-//! that ran out of iterations, not of ideas, resumes once from where it stopped.
+//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). The solve from
+//! the seed is [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's
+//! role. The last fine solve (the one from the seed when there was one, since a fine solve that
+//! stopped at its iteration cap is solved again from the seed first) resumes once from where it
+//! stopped when it ran out of iterations ([`SolveRole::Resumed`]).
 //!
 //! Units: s.
 
@@ -85,16 +88,18 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let mut p = plan_single(robot, task, settings, &fine, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
+    let mut last_role = role;
     if from_coarse && retry_from_seed(&p) {
         if let Some(again) = run.remaining(started) {
             let first =
                 std::mem::replace(&mut p, plan_single(robot, task, settings, &again, Some(g))?);
             out.push((role, first));
+            last_role = SolveRole::FromSeed;
         }
     }
     let resume = p.status == SolveStatus::MaxIterations;
     let points = p.points.clone();
-    out.push((role, p));
+    out.push((last_role, p));
     if let Some(more) = run.remaining(started).filter(|_| resume) {
         let p = plan_single(robot, task, settings, &more, Some(&points))?;
         out.push((SolveRole::Resumed, p));
