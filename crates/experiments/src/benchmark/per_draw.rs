@@ -92,42 +92,41 @@ pub fn per_draw_md(rows: &[BenchRow], families: &[&str]) -> String {
     );
     let mut total: BTreeMap<&str, PerDraw> = BTreeMap::new();
     for (c, f, p) in &t {
-        let _ = writeln!(
-            s,
-            "| {c} | {f} | {} | {} | {} | {} | {} | {} of {} | {} |",
-            p.draws,
-            p.base_caught,
-            p.caught,
-            p.worse,
-            p.better,
-            p.rescued,
-            p.draws - p.base_caught,
-            p.lost
-        );
-        let a = total.entry(c.as_str()).or_default();
-        a.draws += p.draws;
-        a.base_caught += p.base_caught;
-        a.caught += p.caught;
-        a.worse += p.worse;
-        a.better += p.better;
-        a.rescued += p.rescued;
-        a.lost += p.lost;
+        write_row(&mut s, c, f, p);
+        *total.entry(c.as_str()).or_default() += *p;
     }
     for (c, p) in &total {
-        let _ = writeln!(
-            s,
-            "| {c} | all | {} | {} | {} | {} | {} | {} of {} | {} |",
-            p.draws,
-            p.base_caught,
-            p.caught,
-            p.worse,
-            p.better,
-            p.rescued,
-            p.draws - p.base_caught,
-            p.lost
-        );
+        write_row(&mut s, c, "all", p);
     }
     s
+}
+
+/// One row of the per-draw table: controller `c`, family `f`.
+fn write_row(s: &mut String, c: &str, f: &str, p: &PerDraw) {
+    let _ = writeln!(
+        s,
+        "| {c} | {f} | {} | {} | {} | {} | {} | {} of {} | {} |",
+        p.draws,
+        p.base_caught,
+        p.caught,
+        p.worse,
+        p.better,
+        p.rescued,
+        p.draws - p.base_caught,
+        p.lost
+    );
+}
+
+impl std::ops::AddAssign for PerDraw {
+    fn add_assign(&mut self, o: PerDraw) {
+        self.draws += o.draws;
+        self.base_caught += o.base_caught;
+        self.caught += o.caught;
+        self.worse += o.worse;
+        self.better += o.better;
+        self.rescued += o.rescued;
+        self.lost += o.lost;
+    }
 }
 
 #[cfg(test)]
