@@ -405,7 +405,11 @@ impl ParamEstimator {
     /// [`NIS_WINDOW_S`], divided by its expected value 2n (about 1 when the filter's noise model
     /// fits the measurements); NaN before the first update or with `method = "windows"`.
     pub fn nis_ratio(&self) -> f64 {
-        self.nis_mean / self.theta.len() as f64
+        // the measurement's dimension: the joint filter measures the state [q, qd]
+        match &self.ekf {
+            Some(ekf) => self.nis_mean / ekf.state().len() as f64,
+            None => f64::NAN,
+        }
     }
 
     /// Whether the estimate is ready to be used (docs/estimation.md, "When the estimate is used"):
