@@ -22,17 +22,11 @@ pub fn opt_number<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Err
 /// `f64::INFINITY` (with `#[serde(default, deserialize_with =
 /// "brachia::serde_nonfinite::opt_pair")]`): absent is `None`.
 pub fn opt_pair<'de, D: Deserializer<'de>>(d: D) -> Result<Option<[f64; 2]>, D::Error> {
-    let v: Vec<Option<f64>> = Vec::deserialize(d)?;
-    match v[..] {
-        [a, b] => Ok(Some([
-            a.unwrap_or(f64::INFINITY),
-            b.unwrap_or(f64::INFINITY),
-        ])),
-        _ => Err(serde::de::Error::custom(format!(
-            "expected exactly 2 numbers [x, y], got {} ({v:?})",
-            v.len()
-        ))),
-    }
+    let [a, b] = crate::serde_exact::exactly_two(Vec::<Option<f64>>::deserialize(d)?)?;
+    Ok(Some([
+        a.unwrap_or(f64::INFINITY),
+        b.unwrap_or(f64::INFINITY),
+    ]))
 }
 
 #[cfg(test)]
