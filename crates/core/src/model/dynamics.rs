@@ -54,13 +54,12 @@ impl Robot {
         self.fill_mass_n(ws, q, self.n);
     }
 
-    /// [`Self::fill_mass`] with the link count `n` (= `self.n`) as an argument, so that callers that
-    /// pass a constant get a body with constant sizes (unrolled, no bounds checks; same arithmetic).
+    /// The sines and cosines of the absolute angles `th = S q` into `ws.s`, `ws.co` (the first part of
+    /// [`Self::fill_mass_n`]; what the gravity forces need).
     #[inline(always)]
-    fn fill_mass_n<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], n: usize) {
+    fn fill_trig_n<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], n: usize) {
         debug_assert_eq!(ws.n, n, "scratch built for another robot");
         let (q, sn, co) = (&q[..n], &mut ws.s[..n], &mut ws.co[..n]);
-        let (d, mabs, m) = (&self.d[..n * n], &mut ws.mabs[..n * n], &mut ws.m[..n * n]);
         let mut th = T::zero();
         for i in 0..n {
             th += q[i];
@@ -68,6 +67,15 @@ impl Robot {
             sn[i] = sv;
             co[i] = cv;
         }
+    }
+
+    /// [`Self::fill_mass`] with the link count `n` (= `self.n`) as an argument, so that callers that
+    /// pass a constant get a body with constant sizes (unrolled, no bounds checks; same arithmetic).
+    #[inline(always)]
+    fn fill_mass_n<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], n: usize) {
+        self.fill_trig_n(ws, q, n);
+        let (sn, co) = (&ws.s[..n], &ws.co[..n]);
+        let (d, mabs, m) = (&self.d[..n * n], &mut ws.mabs[..n * n], &mut ws.m[..n * n]);
         if self.off_axis {
             self.fill_mass_abs_off_axis(sn, co, mabs, n);
         } else {
@@ -220,10 +228,13 @@ impl Robot {
         out[..self.n].copy_from_slice(&ws.h);
     }
 
-    /// Gravity forces G(q) = dV/dq (n).
+    /// Gravity forces G(q) = dV/dq (n). Computes the sines and cosines of the angles, not the mass
+    /// matrix.
     pub fn gravity_into<T: Scalar>(&self, ws: &mut Scratch<T>, q: &[T], out: &mut [T]) {
-        self.fill_mass(ws, q);
-        self.fill_bias(ws, q, false, true);
+        with_link_count!(self.n, |n| {
+            self.fill_trig_n(ws, q, n);
+            self.fill_bias_n(ws, q, false, true, n);
+        });
         out[..self.n].copy_from_slice(&ws.h);
     }
 

@@ -19,9 +19,12 @@ const FREEFALL_DT: f64 = 1e-3;
 
 /// Time for the robot, released at rest from `q0` with every joint locked (one rigid compound pendulum
 /// about the grip), until its EE first reaches the x coordinate `x_mid`. Errors when it never does within
-/// 20 s.
+/// 20 s. The answers for the last few inputs are remembered for the process (the same number
+/// again, without the integration).
 pub fn freefall_time(robot: &Robot, q0: &[f64], x_mid: f64) -> Result<f64> {
-    freefall_time_with_step(robot, q0, x_mid, FREEFALL_DT)
+    super::freefall_cache::remembered(robot, q0, x_mid, || {
+        freefall_time_with_step(robot, q0, x_mid, FREEFALL_DT)
+    })
 }
 
 /// [`freefall_time`] with RK4 steps of `dt` (s, > 0).
@@ -476,6 +479,49 @@ mod tests {
             let mut qf = q0.to_vec();
             qf[0] = th;
             assert!((robot.ee_position(&qf)[0] - x_mid).abs() < 1e-9);
+        }
+    }
+
+    /// A remembered free-fall time is the integration's number bit for bit, for each of several
+    /// robots, poses and crossings asked in turn and again (more than the memo keeps), and a
+    /// crossing never reached is the same error each time.
+    #[test]
+    fn remembered_freefall_times_are_the_integrations() {
+        let paper = Robot::paper();
+        let mut params = paper.params().clone();
+        params.gravity *= 1.5;
+        params.links[3].mass *= 2.0;
+        let heavy = Robot::from_params(params, "test").unwrap();
+        let cases: Vec<(&Robot, [f64; 4], f64)> = (0..12)
+            .map(|i| {
+                let robot = if i % 2 == 0 { &paper } else { &heavy };
+                let q0 = [-2.35 + 0.01 * i as f64, 0.0, -1.55, 0.0];
+                (robot, q0, 0.05 * (i % 3) as f64)
+            })
+            .collect();
+        let q0 = [-2.35, 0.0, -1.55, 0.0];
+        assert_ne!(
+            freefall_time(&paper, &q0, 0.0).unwrap(),
+            freefall_time(&heavy, &q0, 0.0).unwrap()
+        );
+        for _ in 0..2 {
+            for (robot, q0, x_mid) in &cases {
+                let fresh = freefall_time_with_step(robot, q0, *x_mid, FREEFALL_DT).unwrap();
+                let asked = freefall_time(robot, q0, *x_mid).unwrap();
+                assert_eq!(asked.to_bits(), fresh.to_bits(), "{q0:?} {x_mid}");
+                assert_eq!(
+                    freefall_time(robot, q0, *x_mid).unwrap().to_bits(),
+                    fresh.to_bits()
+                );
+            }
+        }
+        // released to the left of x = 5 m it never gets there
+        for _ in 0..2 {
+            let e = freefall_time(&paper, &[-2.35, 0.0, -1.55, 0.0], 5.0).unwrap_err();
+            assert!(
+                matches!(&e, Error::InfeasibleTask(m) if m.contains("never reaches")),
+                "{e}"
+            );
         }
     }
 }

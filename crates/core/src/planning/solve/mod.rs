@@ -4,8 +4,10 @@
 //!   the clearance rows, the solve with its barrier retry).
 //! - [`single`]: one plan from one guess; the collocation path.
 //! - [`shooting`]: the multiple-shooting path (the stage-structured solver or an NLP backend).
+//! - `freefall_cache`: the remembered answers of [`freefall_time`].
 
 pub(crate) mod common;
+mod freefall_cache;
 pub(crate) mod shooting;
 pub(crate) mod single;
 

@@ -92,6 +92,73 @@ pub(super) fn col(c: usize, nx: usize, free: bool) -> usize {
     }
 }
 
+/// The arguments of [`StageWork::forward_n`], run through [`pulp::Arch::dispatch`]: the body is
+/// compiled for the widest vector instructions the CPU has. The same numbers on every CPU: its
+/// loops are element-wise (no reordered sums) and Rust never fuses a multiply and an add.
+struct Forward<'a, D> {
+    w: &'a mut StageWork<D>,
+    ctx: &'a Ctx,
+    x: &'a [f64],
+    u: &'a [f64],
+    jac: bool,
+    h: f64,
+}
+
+impl<D: PointDynamics> pulp::WithSimd for Forward<'_, D> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let Forward {
+            w,
+            ctx,
+            x,
+            u,
+            jac,
+            h,
+        } = self;
+        // the paper's 4 links with constant sizes (unrolled loops), any other count through the
+        // same body: the same arithmetic either way
+        with_link_count!(ctx.n, |n| w.forward_n(ctx, x, u, jac, n, h));
+    }
+}
+
+/// The arguments of [`StageWork::hessian_internal`], run through [`pulp::Arch::dispatch`] as
+/// [`Forward`] (the same numbers on every CPU).
+struct Reverse<'a, D> {
+    w: &'a mut StageWork<D>,
+    ctx: &'a Ctx,
+    k: usize,
+    x: &'a [f64],
+    u: &'a [f64],
+    sigma: f64,
+    lam: &'a [f64],
+    mu: &'a [f64],
+    h: f64,
+    hess: &'a mut [f64],
+}
+
+impl<D: PointDynamics> pulp::WithSimd for Reverse<'_, D> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) -> f64 {
+        let Reverse {
+            w,
+            ctx,
+            k,
+            x,
+            u,
+            sigma,
+            lam,
+            mu,
+            h,
+            hess,
+        } = self;
+        w.hessian_internal_body(ctx, k, x, u, sigma, lam, mu, h, hess)
+    }
+}
+
 /// Per-stage scratch, allocated once.
 pub(super) struct StageWork<D> {
     /// One per RK4 evaluation of the stage, so that the Hessian reuses each evaluation's
@@ -204,9 +271,14 @@ impl<D: PointDynamics> StageWork<D> {
     /// evaluation and leave `d Phi / d z` in `self.xsens` (and, with a free swing time, the
     /// derivatives w.r.t. h in `self.ty`, `self.tk` and `self.tphi`).
     pub(super) fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, h: f64) {
-        // the paper's 4 links with constant sizes (unrolled loops), any other count through the
-        // same body: the same arithmetic either way
-        with_link_count!(ctx.n, |n| self.forward_n(ctx, x, u, jac, n, h));
+        pulp::Arch::new().dispatch(Forward {
+            w: self,
+            ctx,
+            x,
+            u,
+            jac,
+            h,
+        });
         if jac && ctx.free.is_some() {
             self.tangent(ctx, h);
         }
@@ -678,6 +750,35 @@ impl<D: PointDynamics> StageWork<D> {
     /// constants, whose adjoint weights are the stage derivatives' `w_i`; docs/planner.md, "Free swing time").
     #[allow(clippy::too_many_arguments)]
     pub(super) fn hessian_internal(
+        &mut self,
+        ctx: &Ctx,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        sigma: f64,
+        lam: &[f64],
+        mu: &[f64],
+        h: f64,
+        hess: &mut [f64],
+    ) -> f64 {
+        pulp::Arch::new().dispatch(Reverse {
+            w: self,
+            ctx,
+            k,
+            x,
+            u,
+            sigma,
+            lam,
+            mu,
+            h,
+            hess,
+        })
+    }
+
+    /// [`Self::hessian_internal`]'s body (run through [`Reverse`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn hessian_internal_body(
         &mut self,
         ctx: &Ctx,
         k: usize,
