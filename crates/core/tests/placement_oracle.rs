@@ -2,9 +2,9 @@
 //! at all: every placement the default planner does not plan clear within the scan's time limit is
 //! searched hard, with a large budget of its own, from many more seeds than the planner's race
 //! (every detour seed, C-space routes to more goal poses and more routes per goal), at longer swing
-//! times (a fixed `f T` for several factors `f` up to 2, and a swing time free in `[T, 2 T]`; the
-//! task's swing time is `"auto"`), with more iterations and with the continuation on the torque
-//! limits. Each solve is coarse to fine (90 ms knots, then the task's 30 ms knots warm from it). The
+//! times (a swing time free in `[T, 2 T]` started at `2 T`, and a fixed `f T` for several factors
+//! `f` up to 2; the task's swing time is `"auto"`; a C-space route is timed over the swing time it
+//! starts at), with more iterations and with the continuation on the torque limits. Each solve is coarse to fine (90 ms knots, then the task's 30 ms knots warm from it). The
 //! first plan that converges with its 1 ms trajectory clear of every obstacle by the margin (less
 //! the tolerance) ends the search of a placement and is recorded with what it came from (the seed's
 //! class, goal and route, the swing time, the iterations). A placement the search does not plan
@@ -21,7 +21,7 @@
 mod common;
 
 use brachia::model::{Circle, Robot};
-use brachia::planning::strategy::cspace::{cspace_routes, time_path};
+use brachia::planning::strategy::cspace::{cspace_routes, time_path, CspaceReport};
 use brachia::planning::strategy::detour::detour_seeds;
 use brachia::planning::strategy::goal::{
     clear_final_pose_until, clear_final_poses, with_final_pose,
@@ -47,10 +47,28 @@ const FINE_ITER: usize = 3000;
 /// Swing-time factors tried at a fixed swing time, after the task's own (1).
 const FACTORS: [f64; 3] = [2.0, 1.5, 1.25];
 
-/// One seed of the oracle: where it came from and its guess (on the unobstructed swing's time axis).
+/// One seed of the oracle: where it came from and its guess (on the unobstructed swing's time axis);
+/// a C-space seed also keeps its route and time axis, to be timed over a longer swing.
 struct Seed {
     label: String,
     guess: Trajectory,
+    route: Option<(Vec<Vec<f64>>, Trajectory, CspaceReport)>,
+}
+
+impl Seed {
+    /// The guess for a swing of `factor` times the unobstructed one: a C-space route timed over the
+    /// longer swing (its torques those of the slower motion), a detour seed as it is.
+    fn timed(&self, robot: &Robot, factor: f64) -> Trajectory {
+        let Some((path, axis, rep)) = self.route.as_ref().filter(|_| factor != 1.0) else {
+            return self.guess.clone();
+        };
+        let mut axis = axis.clone();
+        let t0 = axis.t[0];
+        for t in axis.t.iter_mut() {
+            *t = t0 + factor * (*t - t0);
+        }
+        time_path(robot, path, &axis, &mut rep.clone())
+    }
 }
 
 /// Every seed: the detour seeds, then the C-space routes ranked by their torque ratio.
@@ -69,6 +87,7 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
         .map(|(r, g)| Seed {
             label: format!("detour {:?}", r.kind),
             guess: g,
+            route: None,
         })
         .collect();
     let q_end = base.q(base.len() - 1).to_vec();
@@ -101,6 +120,7 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
                             rep.route, rep.peak_torque_ratio
                         ),
                         guess: g,
+                        route: Some((path, axis.clone(), rep.clone())),
                     },
                 ));
             }
@@ -196,14 +216,19 @@ fn attempt(
     let warm = coarse
         .as_ref()
         .filter(|(p, _, _)| p.status.is_converged())
-        .map(|(p, _, _)| p.points.clone());
+        .map(|(p, _, _)| (p.points.clone(), p.swing_time_s));
+    // a free swing time's fine solve warm from the coarse plan starts at the coarse plan's
     let mut froms = vec![];
-    if let Some(w) = &warm {
-        froms.push((w.clone(), "fine from coarse"));
+    if let Some((w, tw)) = &warm {
+        let from_coarse = match range {
+            Some(_) => settings_for(*tw, range, fine_s.knot_dt),
+            None => fine_s.clone(),
+        };
+        froms.push((w.clone(), from_coarse, "fine from coarse"));
     }
-    froms.push((g.clone(), "fine from seed"));
-    for (from, tag) in &froms {
-        if let Some((p, true, d)) = solve(robot, &fine_s, FINE_ITER, from, tag) {
+    froms.push((g.clone(), fine_s.clone(), "fine from seed"));
+    for (from, st, tag) in &froms {
+        if let Some((p, true, d)) = solve(robot, st, FINE_ITER, from, tag) {
             done = Some((p.swing_time_s, d));
             break;
         }
@@ -251,11 +276,12 @@ fn search(robot: &Robot, free: &Plan, pl: &Placement, budget_s: f64) -> Option<S
     );
     // every seed at the task's swing time, then the C-space seeds (other homotopy classes: the
     // detour seeds' class needs the same torque at any swing time) with a swing time free in
-    // [T, 2 T], then at fixed longer ones
+    // [T, 2 T] started at 2 T, then at fixed longer ones; each route timed over the swing time it
+    // starts at
     let mut times: Vec<(String, f64, Option<[f64; 2]>)> = vec![(format!("T {t:.3}"), t, None)];
     times.push((
-        format!("free [{t:.3}, {:.3}]", 2.0 * t),
-        t,
+        format!("free [{t:.3}, {:.3}] from {:.3}", 2.0 * t, 2.0 * t),
+        2.0 * t,
         Some([t, 2.0 * t]),
     ));
     for f in FACTORS {
@@ -285,7 +311,8 @@ fn search(robot: &Robot, free: &Plan, pl: &Placement, budget_s: f64) -> Option<S
             eprintln!("  seed {}: budget spent", pl.seed);
             return None;
         }
-        let a = attempt(robot, &task, *ts, *range, &sd.guess, &left, !longer_only);
+        let g = sd.timed(robot, ts / t);
+        let a = attempt(robot, &task, *ts, *range, &g, &left, !longer_only);
         eprintln!("    {} | {what} | {}", sd.label, a.line);
         if let Some((it, ts, d)) = a.clear {
             return Some(format!(

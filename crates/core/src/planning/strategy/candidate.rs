@@ -28,8 +28,10 @@ use std::time::Instant;
 pub const COARSE_KNOT_DT_S: f64 = 0.09;
 /// Iteration limit of the coarse solve.
 pub const COARSE_MAX_ITER: usize = 200;
-/// Longest swing the longer-swing candidate may take, as a factor on the automatic swing time.
-pub const LONGER_SWING_FACTOR: f64 = 1.5;
+/// Longest swing the longer-swing candidates may take, as a factor on the automatic swing time; their
+/// seeds are timed over that longest swing (measured on the placement scan:
+/// docs/planner-measurements.md).
+pub const LONGER_SWING_FACTOR: f64 = 2.0;
 
 /// The coarse mesh's settings for `settings`: multiple shooting with knots [`COARSE_KNOT_DT_S`]
 /// apart and no sub-step refinement (the fine solve keeps the clearance between knots); `None` when
@@ -128,9 +130,11 @@ pub(crate) fn longer_swing_settings(
 
 /// Plan `task` from the seed `g` with the swing time free between the automatic swing time `t_s`
 /// and [`LONGER_SWING_FACTOR`] times it (an obstacle a path must go round may need a slower swing
-/// than the torque limits allow at `t_s`), coarse to fine as [`solve_seed_coarse_to_fine`]; the fine
-/// solve starts at the coarse plan's swing time. Nothing when the settings do not allow it
-/// ([`longer_swing_settings`]).
+/// than the torque limits allow at `t_s`), coarse to fine as [`solve_seed_coarse_to_fine`]. `g` is
+/// a route timed over the longest swing ([`LONGER_SWING_FACTOR`] `t_s`, where its torques are
+/// lowest) and the coarse solve starts there; the fine solve starts at the coarse plan's swing time,
+/// warm from it, and, when that ends without a clear plan, once more from `g` at the longest swing.
+/// Nothing when the settings do not allow it ([`longer_swing_settings`]).
 pub(crate) fn solve_seed_longer_swing(
     robot: &Robot,
     task: &ValidTask,
@@ -140,23 +144,20 @@ pub(crate) fn solve_seed_longer_swing(
     t_s: f64,
 ) -> Result<Plans> {
     let started = Instant::now();
+    let t_long = LONGER_SWING_FACTOR * t_s;
     // a range the mesh or the swing-time limit cannot hold: not a candidate here
-    if !matches!(longer_swing_settings(settings, t_s, t_s), Some(Ok(_))) {
+    let Some(Ok(from_seed)) = longer_swing_settings(settings, t_s, t_long) else {
         return Ok(vec![]);
-    }
-    let role = SolveRole::LongerSwing {
-        t_max_s: LONGER_SWING_FACTOR * t_s,
     };
+    let role = SolveRole::LongerSwing { t_max_s: t_long };
     let mut out: Plans = vec![];
-    let mut t0 = t_s;
     // a coarse mesh the longer swing does not fit is skipped
     let coarse =
-        coarse_settings(settings).and_then(|cs| longer_swing_settings(&cs, t_s, t_s)?.ok());
+        coarse_settings(settings).and_then(|cs| longer_swing_settings(&cs, t_s, t_long)?.ok());
     if let Some(cs) = coarse {
         let capped = run.clone().capped(COARSE_MAX_ITER);
         if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
             let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
-            t0 = p.swing_time_s;
             out.push((
                 SolveRole::CoarseMesh {
                     knot_dt_s: COARSE_KNOT_DT_S,
@@ -171,11 +172,27 @@ pub(crate) fn solve_seed_longer_swing(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let Some(Ok(fine_settings)) = longer_swing_settings(settings, t_s, t0) else {
+    let Some((_, coarse_plan)) = out.last() else {
+        let p = plan_single(robot, task, &from_seed, &fine, Some(g))?;
+        out.push((role, p));
         return Ok(out);
     };
-    let guess = out.last().map_or(g, |(_, p)| &p.points);
-    let p = plan_single(robot, task, &fine_settings, &fine, Some(guess))?;
-    out.push((role, p));
+    let Some(Ok(warm)) = longer_swing_settings(settings, t_s, coarse_plan.swing_time_s) else {
+        return Ok(out);
+    };
+    let warm_points = coarse_plan.points.clone();
+    let mut p = plan_single(robot, task, &warm, &fine, Some(&warm_points))?;
+    let mut last_role = role;
+    if retry_from_seed(&p) {
+        if let Some(again) = run.remaining(started) {
+            let first = std::mem::replace(
+                &mut p,
+                plan_single(robot, task, &from_seed, &again, Some(g))?,
+            );
+            out.push((role, first));
+            last_role = SolveRole::FromSeed;
+        }
+    }
+    out.push((last_role, p));
     Ok(out)
 }

@@ -112,7 +112,7 @@ pub struct CspaceReport {
 
 impl CspaceReport {
     /// The report of a search not (yet) run on a grid of `step`.
-    fn not_searched(step: f64) -> Self {
+    pub(crate) fn not_searched(step: f64) -> Self {
         CspaceReport {
             grid_step_rad: step,
             grid_cells: 0,

@@ -33,6 +33,44 @@ use crate::trajectory::Trajectory;
 /// its report.
 pub type HomotopySeeds = (Vec<CspaceReport>, Vec<(usize, Trajectory)>);
 
+/// One ranked configuration-space seed: the index of its search's report, the route's waypoints,
+/// the time axis it is timed over (the obstacle-free swing's knots ending at its goal pose) and the
+/// seed itself, the route timed over that axis ([`time_path`]).
+#[derive(Debug, Clone)]
+pub struct RankedSeed {
+    /// Index of the route's search in [`RankedRoutes::reports`].
+    pub report: usize,
+    /// The route's waypoints, rad (start and goal pose included).
+    pub path: Vec<Vec<f64>>,
+    /// The time axis the route is timed over, s.
+    pub axis: Trajectory,
+    /// The route timed over `axis`.
+    pub guess: Trajectory,
+}
+
+impl RankedSeed {
+    /// The route timed over its axis stretched by `factor` (a swing `factor` times as long, its
+    /// inverse-dynamics torques those of the slower motion).
+    pub fn retimed(&self, robot: &Robot, factor: f64) -> Trajectory {
+        let mut axis = self.axis.clone();
+        let t0 = axis.t.first().copied().unwrap_or(0.0);
+        for t in axis.t.iter_mut() {
+            *t = t0 + factor * (*t - t0);
+        }
+        let mut rep = CspaceReport::not_searched(GRID_STEP_RAD);
+        time_path(robot, &self.path, &axis, &mut rep)
+    }
+}
+
+/// Every search's report (in the order run) and the seeds found, best first.
+#[derive(Debug, Clone, Default)]
+pub struct RankedRoutes {
+    /// Every search's report, in the order run.
+    pub reports: Vec<CspaceReport>,
+    /// The seeds found, lowest torque ratio first.
+    pub seeds: Vec<RankedSeed>,
+}
+
 /// Most goal poses searched to (the seeds' final pose included).
 pub const MAX_GOALS: usize = 3;
 /// Most routes searched per goal.
@@ -51,9 +89,24 @@ pub fn homotopy_seeds(
     target: [f64; 2],
     stop: &dyn Fn() -> bool,
 ) -> Result<HomotopySeeds> {
+    let r = homotopy_routes(robot, obstacles, settings, free, target, stop)?;
+    let seeds = r.seeds.into_iter().map(|s| (s.report, s.guess)).collect();
+    Ok((r.reports, seeds))
+}
+
+/// [`homotopy_seeds`] with each seed's route and time axis, so that it can be timed over another
+/// swing time ([`RankedSeed::retimed`]).
+pub fn homotopy_routes(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    target: [f64; 2],
+    stop: &dyn Fn() -> bool,
+) -> Result<RankedRoutes> {
     let len = free.len();
     if len < 2 || obstacles.is_empty() {
-        return Ok((vec![], vec![]));
+        return Ok(RankedRoutes::default());
     }
     let (q_start, q_end) = (free.q(0), free.q(len - 1));
     let mut goals = vec![q_end.to_vec()];
@@ -69,7 +122,7 @@ pub fn homotopy_seeds(
         }
     }
     let mut reports = vec![];
-    let mut seeds: Vec<(usize, Trajectory)> = vec![];
+    let mut seeds: Vec<RankedSeed> = vec![];
     for (gi, goal) in goals.iter().enumerate() {
         if gi > 0 && stop() {
             break;
@@ -86,17 +139,22 @@ pub fn homotopy_seeds(
         )? {
             rep.goal = gi;
             if let Some(path) = path {
-                let g = time_path(robot, &path, &axis, &mut rep);
-                seeds.push((reports.len(), g));
+                let guess = time_path(robot, &path, &axis, &mut rep);
+                seeds.push(RankedSeed {
+                    report: reports.len(),
+                    path,
+                    axis: axis.clone(),
+                    guess,
+                });
             }
             reports.push(rep);
         }
     }
     // lowest torque ratio first; ties keep the search order
     seeds.sort_by(|a, b| {
-        reports[a.0]
+        reports[a.report]
             .peak_torque_ratio
-            .total_cmp(&reports[b.0].peak_torque_ratio)
+            .total_cmp(&reports[b.report].peak_torque_ratio)
     });
-    Ok((reports, seeds))
+    Ok(RankedRoutes { reports, seeds })
 }

@@ -15,8 +15,9 @@
 //!    seeds of [`super::detour`] (the obstacle-free plan deformed around the obstacles by barrier
 //!    tracking), the best-ranked configuration-space seed of [`super::homotopy`] (a collision-free
 //!    joint path of another homotopy class) and the same with a longer swing, the backward detour
-//!    seeds, then the other configuration-space seeds in their rank; solved two at a time, each
-//!    seed coarse to fine ([`super::candidate`]); the first plan in order that converges wins;
+//!    seeds, then the other configuration-space seeds in their rank, each followed by the same with
+//!    a longer swing; solved two at a time, each seed coarse to fine ([`super::candidate`]); the
+//!    first plan in order that converges wins;
 //! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
 //!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
@@ -45,11 +46,11 @@ use crate::planning::solve::common::target_pose;
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
-    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing,
+    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, LONGER_SWING_FACTOR,
 };
 use crate::planning::strategy::cspace::CspaceReport;
 use crate::planning::strategy::homotopy::{
-    homotopy_seeds, HomotopySeeds, MAX_GOALS, ROUTES_PER_GOAL,
+    homotopy_routes, RankedRoutes, MAX_GOALS, ROUTES_PER_GOAL,
 };
 use crate::planning::strategy::torque_continuation::with_torque_scale;
 use crate::planning::strategy::widened::{widened_detour, Probed};
@@ -216,7 +217,9 @@ enum Kind {
     Detour(usize),
     /// The C-space seed of this rank ([`super::homotopy`]).
     Cspace(usize),
-    CspaceLonger,
+    /// The C-space seed of this rank timed over a longer swing, the swing time free
+    /// ([`super::candidate::solve_seed_longer_swing`]).
+    CspaceLonger(usize),
 }
 
 /// The smooth step's plan of the task with what is left of the call begun at `started` (at least
@@ -331,7 +334,7 @@ fn strategies(
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     // the homotopy search, run once by the first candidate that needs it (the others wait for it),
     // within that candidate's time limit and cancel token
-    let cspace: OnceLock<HomotopySeeds> = OnceLock::new();
+    let cspace: OnceLock<RankedRoutes> = OnceLock::new();
     let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
     let mut kinds = vec![];
     let mut cands: Vec<race::Candidate<'_>> = vec![];
@@ -346,11 +349,11 @@ fn strategies(
         }));
     }
     let seed_free = &seed_free;
-    let search = |run: &NlpSettings| -> &HomotopySeeds {
+    let search = |run: &NlpSettings| -> &RankedRoutes {
         cspace.get_or_init(|| {
             let t0 = std::time::Instant::now();
             let stop = || run.remaining(t0).is_none();
-            homotopy_seeds(
+            homotopy_routes(
                 robot,
                 &task.obstacles,
                 settings,
@@ -364,16 +367,15 @@ fn strategies(
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
     // the order: the forward detour seeds (they start at the start pose, and win most), the
     // best-ranked C-space seed (and with a longer swing), the backward detour seeds, the other
-    // C-space seeds in their rank
+    // C-space seeds in their rank, each followed by the same with a longer swing
     let (forward, backward): (Vec<usize>, Vec<usize>) =
         (0..seeds.len()).partition(|&i| !seeds[i].0.kind.backward());
     let mut order: Vec<Kind> = forward.into_iter().map(Kind::Detour).collect();
-    order.push(Kind::Cspace(0));
-    if longer {
-        order.push(Kind::CspaceLonger);
-    }
+    let with_longer =
+        |j: usize| std::iter::once(Kind::Cspace(j)).chain(longer.then_some(Kind::CspaceLonger(j)));
+    order.extend(with_longer(0));
     order.extend(backward.into_iter().map(Kind::Detour));
-    order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).map(Kind::Cspace));
+    order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).flat_map(with_longer));
     for kind in order {
         kinds.push(kind);
         match kind {
@@ -388,27 +390,33 @@ fn strategies(
                 // the search's own time counts against the limit
                 let t0 = std::time::Instant::now();
                 let h = search(run);
-                let (Some((_, g)), Some(run)) = (h.1.get(j), run.remaining(t0)) else {
+                let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
                     return Ok(vec![]);
                 };
+                let g = &sd.guess;
                 solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
             })),
-            Kind::CspaceLonger => cands.push(Box::new(move |run: &NlpSettings| {
+            Kind::CspaceLonger(j) => cands.push(Box::new(move |run: &NlpSettings| {
                 let t0 = std::time::Instant::now();
                 let h = search(run);
-                let (Some((_, g)), Some(run)) = (h.1.first(), run.remaining(t0)) else {
+                let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
                     return Ok(vec![]);
                 };
-                solve_seed_longer_swing(robot, task, settings, &run, g, t_auto)
+                // the route timed over the longest swing, where its torques are lowest
+                let g = sd.retimed(robot, LONGER_SWING_FACTOR);
+                solve_seed_longer_swing(robot, task, settings, &run, &g, t_auto)
             })),
             Kind::SmoothStep => {}
         }
     }
     let outcome = race::race(&cands, nlp, started)?;
     drop(cands);
-    let (mut routes, ranked) = cspace.into_inner().unwrap_or_default();
+    let RankedRoutes {
+        reports: mut routes,
+        seeds: ranked,
+    } = cspace.into_inner().unwrap_or_default();
     // the report of the seed of rank j
-    let of_rank = |j: usize| ranked.get(j).map(|(i, _)| *i);
+    let of_rank = |j: usize| ranked.get(j).map(|sd| sd.report);
     let top = of_rank(0);
     // the solves in the report: the smooth step's first, then the obstacle-free plan, then the
     // candidates in their order
@@ -453,8 +461,8 @@ fn strategies(
                     cspace_failed = concluded == Some(false);
                 }
             }
-            Kind::CspaceLonger => {
-                if let (Some(i), Some(true)) = (of_rank(0), concluded) {
+            Kind::CspaceLonger(j) => {
+                if let (Some(i), Some(true)) = (of_rank(j), concluded) {
                     routes[i].converged = Some(true);
                 }
             }
@@ -464,7 +472,7 @@ fn strategies(
             log.record(&mut p, role);
             if outcome.winner == Some(c) && k + 1 == n {
                 rep.strategy = match kind {
-                    Kind::Cspace(_) | Kind::CspaceLonger => GuessStrategy::Cspace,
+                    Kind::Cspace(_) | Kind::CspaceLonger(_) => GuessStrategy::Cspace,
                     _ => GuessStrategy::Detour,
                 };
                 won_plan = Some(p);
@@ -482,7 +490,7 @@ fn strategies(
             SMOOTH_STEP_RACE_MAX_ITER,
         )?,
     };
-    let cguess = ranked.into_iter().next().map(|(_, g)| g);
+    let cguess = ranked.into_iter().next().map(|sd| sd.guess);
     if let Some(p) = won_plan {
         put_cspace(&mut rep, routes, top);
         let p = finish(robot, task, settings, p, rep, log, ff);
