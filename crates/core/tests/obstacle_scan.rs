@@ -579,15 +579,16 @@ fn the_obstacle_strategies_share_the_time_limit() {
     assert!(full.converged());
     let g = full.guess.as_ref().unwrap();
     assert!(!g.out_of_time, "{g:?}");
-    // a limit of what the chain's first solve (the smooth step) took, about a seventh of the chain:
-    // the strategies stop early and say why
+    // a limit of 0.4 of what the chain's first solve (the smooth step) took, a small part of the
+    // chain: the strategies stop early and say why. With the whole first solve's time, a quieter
+    // machine during the limited call leaves time for later strategies, which may then plan.
     let first: f64 = full
         .solves
         .iter()
         .filter(|a| a.solve == 0)
         .map(|a| a.time_s)
         .sum();
-    let limit = first;
+    let limit = 0.4 * first;
     let short = NlpSettings {
         max_wall_time_s: Some(limit),
         ..nlp.clone()
