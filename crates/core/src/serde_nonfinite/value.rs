@@ -53,10 +53,8 @@ impl<'de> Deserializer<'de> for Lenient {
     }
 
     fn deserialize_f32<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Self::Error> {
-        match self.0 {
-            Value::Null => visitor.visit_f32(f32::INFINITY),
-            other => other.deserialize_f32(visitor),
-        }
+        // serde_json reads a number as f64 for either width; so does a null here
+        self.deserialize_f64(visitor)
     }
 
     fn deserialize_option<V: Visitor<'de>>(self, visitor: V) -> Result<V::Value, Self::Error> {
