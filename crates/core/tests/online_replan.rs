@@ -6,78 +6,21 @@
 //! On the undisturbed swing no re-plan happens. The latency is configured (reproducible runs).
 //! Units: s, m, rad, rad/s, N m.
 
-use brachia::control::{MissPrediction, Mpc, MpcSettings, ReplanSettings, Replanning};
-use brachia::integrate::Rk4;
+use brachia::control::{MissPrediction, ReplanSettings, Replanning};
 use brachia::model::Robot;
 use brachia::planning::{
     Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
 };
-use brachia::sim::{ClosedLoop, Controller, Disturbances, Plant, RunSettings};
+use brachia::sim::{Controller, Disturbances};
 use brachia::trajectory::Trajectory;
+use replan_model::{final_miss, planned, tracker, unplanned, Offset};
 use std::sync::Arc;
 
-/// The model (RK4, one step per period) with an impulsive velocity change `dqd` at `t_hit`.
-struct Kicked {
-    robot: Arc<Robot>,
-    rk4: Rk4,
-    x: Vec<f64>,
-    steps: usize,
-    dt: f64,
-    hit_step: usize,
-    dqd: Vec<f64>,
-}
-
-impl Plant for Kicked {
-    fn n_links(&self) -> usize {
-        self.robot.n()
-    }
-    fn time(&self) -> f64 {
-        self.steps as f64 * self.dt
-    }
-    fn state(&self, x: &mut [f64]) {
-        x.copy_from_slice(&self.x);
-    }
-    fn step(&mut self, tau: &[f64], dt: f64) {
-        let n = self.robot.n();
-        let u: Vec<f64> = (0..n - 1)
-            .map(|j| tau[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]))
-            .collect();
-        self.rk4.step(&self.robot, &mut self.x, &u, dt);
-        self.steps += 1;
-        if self.steps == self.hit_step {
-            for i in 0..n {
-                self.x[n + i] += self.dqd[i];
-            }
-        }
-    }
-    fn energy(&self) -> f64 {
-        let n = self.robot.n();
-        self.robot.energy(&self.x[..n], &self.x[n..])
-    }
-    fn name(&self) -> &'static str {
-        "kicked-model"
-    }
-}
-
-/// The planner of the tracking swing on the 30 ms re-planning mesh, not planned yet.
-fn unplanned(robot: &Arc<Robot>) -> SwingPlanner {
-    let task = SwingTask::paper();
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
-    SwingPlanner::new(Arc::clone(robot), task, &s, &nlp).unwrap()
-}
+#[path = "common/replan_model.rs"]
+mod replan_model;
 
 fn planner(robot: &Arc<Robot>) -> (SwingPlanner, Arc<Trajectory>) {
-    let mut p = unplanned(robot);
-    let plan = p.plan().unwrap();
-    assert!(plan.converged(), "{:?}", plan.status);
+    let (p, plan) = planned(robot);
     assert!(plan.replay_ee_error_m < 1e-3, "{}", plan.replay_ee_error_m);
     (p, Arc::new(plan.trajectory))
 }
@@ -90,51 +33,7 @@ fn run<C: Controller>(
     t_hit: f64,
     dqd: &[f64],
 ) -> f64 {
-    run_on(robot, robot, reference, c, t_hit, dqd)
-}
-
-/// As [`run`], with the plant simulating `plant_robot` (a model mismatch).
-fn run_on<C: Controller>(
-    robot: &Arc<Robot>,
-    plant_robot: &Arc<Robot>,
-    reference: &Arc<Trajectory>,
-    c: &mut C,
-    t_hit: f64,
-    dqd: &[f64],
-) -> f64 {
-    let n = robot.n();
-    let x0 = [reference.q(0), reference.qd(0)].concat();
-    let dt = 0.001;
-    let plant = Kicked {
-        robot: Arc::clone(plant_robot),
-        rk4: Rk4::new(plant_robot),
-        x: x0,
-        steps: 0,
-        dt,
-        hit_step: (t_hit / dt).round() as usize,
-        dqd: dqd.to_vec(),
-    };
-    let rs = RunSettings {
-        duration_s: reference.duration(),
-        control_dt: dt,
-        cancel: None,
-    };
-    let mut cl = ClosedLoop::new(plant, c, Arc::clone(robot), Arc::clone(reference), &rs).unwrap();
-    cl.run();
-    let mut x = vec![0.0; 2 * n];
-    cl.plant().state(&mut x);
-    let ee = plant_robot.ee_position(&x[..n]);
-    (ee[0] - 0.8).hypot(ee[1])
-}
-
-/// The default MPC tracking `reference`.
-fn tracker(robot: &Arc<Robot>, reference: &Arc<Trajectory>) -> Mpc {
-    Mpc::new(
-        Arc::clone(robot),
-        Arc::clone(reference),
-        MpcSettings::default(),
-    )
-    .unwrap()
+    final_miss(robot, robot, reference, c, Offset::kick_at(t_hit), dqd)
 }
 
 fn settings() -> ReplanSettings {
@@ -227,7 +126,8 @@ fn the_feedback_prediction_ignores_a_drift_the_mpc_corrects() {
     let heavy = Arc::new(Robot::from_params(d.plant_params(robot.params()), "test").unwrap());
     let (p, reference) = planner(&robot);
     let mut mpc = tracker(&robot, &reference);
-    let plain = run_on(&robot, &heavy, &reference, &mut mpc, 10.0, &[0.0; 4]);
+    let calm = Offset::kick_at(10.0);
+    let plain = final_miss(&robot, &heavy, &reference, &mut mpc, calm, &[0.0; 4]);
     let (p2, _) = planner(&robot);
     let by = |p: SwingPlanner, prediction: MissPrediction| {
         let s = ReplanSettings {
@@ -236,7 +136,7 @@ fn the_feedback_prediction_ignores_a_drift_the_mpc_corrects() {
         };
         let mut rp =
             Replanning::new(tracker(&robot, &reference), p, Arc::clone(&reference), s).unwrap();
-        let err = run_on(&robot, &heavy, &reference, &mut rp, 10.0, &[0.0; 4]);
+        let err = final_miss(&robot, &heavy, &reference, &mut rp, calm, &[0.0; 4]);
         (err, rp.events().to_vec())
     };
     let (fb, fb_ev) = by(p, MissPrediction::Feedback);

@@ -6,113 +6,29 @@
 //! is never disturbed, so the plain MPC ends on the bar and a re-plan can only follow the glitch.
 //! Units: s, m, rad, rad/s, N m.
 
-use brachia::control::{Mpc, MpcSettings, ReplanEvent, ReplanSettings, Replanning};
-use brachia::integrate::Rk4;
+use brachia::control::{ReplanEvent, ReplanSettings, Replanning};
 use brachia::model::Robot;
-use brachia::planning::Transcription;
-use brachia::planning::{Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask};
-use brachia::sim::{ClosedLoop, Controller, Plant, RunSettings};
+use brachia::sim::Controller;
 use brachia::trajectory::Trajectory;
+use replan_model::{final_miss, planned, tracker, Offset};
 use std::sync::Arc;
 
-/// The model (RK4, one step per period) whose measured joint velocities are off by `dqd` during
-/// `[t0, t0 + 10 ms)`.
-struct Glitched {
-    robot: Arc<Robot>,
-    rk4: Rk4,
-    x: Vec<f64>,
-    steps: usize,
-    dt: f64,
-    glitch: (usize, usize),
-    dqd: Vec<f64>,
-}
-
-impl Plant for Glitched {
-    fn n_links(&self) -> usize {
-        self.robot.n()
-    }
-    fn time(&self) -> f64 {
-        self.steps as f64 * self.dt
-    }
-    fn state(&self, x: &mut [f64]) {
-        x.copy_from_slice(&self.x);
-        if (self.glitch.0..self.glitch.1).contains(&self.steps) {
-            let n = self.robot.n();
-            for i in 0..n {
-                x[n + i] += self.dqd[i];
-            }
-        }
-    }
-    fn step(&mut self, tau: &[f64], dt: f64) {
-        let n = self.robot.n();
-        let u: Vec<f64> = (0..n - 1)
-            .map(|j| tau[j].clamp(self.robot.tau_min[j], self.robot.tau_max[j]))
-            .collect();
-        self.rk4.step(&self.robot, &mut self.x, &u, dt);
-        self.steps += 1;
-    }
-    fn energy(&self) -> f64 {
-        let n = self.robot.n();
-        self.robot.energy(&self.x[..n], &self.x[n..])
-    }
-    fn name(&self) -> &'static str {
-        "glitched-model"
-    }
-}
+#[path = "common/replan_model.rs"]
+mod replan_model;
 
 /// The glitch: +-0.6 rad/s on joints 2-4 for 10 ms from 1.3 s (the size of the kick that makes the
 /// plain MPC miss in `online_replan.rs`, here only in the measurement).
 const GLITCH: (f64, [f64; 4]) = (1.3, [0.0, 0.6, -0.6, 0.6]);
 
-fn planner(robot: &Arc<Robot>) -> (SwingPlanner, Arc<Trajectory>) {
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
-    let mut p = SwingPlanner::new(Arc::clone(robot), SwingTask::paper(), &s, &nlp).unwrap();
-    let plan = p.plan().unwrap();
-    assert!(plan.converged(), "{:?}", plan.status);
+fn planner(robot: &Arc<Robot>) -> (brachia::planning::SwingPlanner, Arc<Trajectory>) {
+    let (p, plan) = planned(robot);
     (p, Arc::new(plan.trajectory))
-}
-
-fn tracker(robot: &Arc<Robot>, reference: &Arc<Trajectory>) -> Mpc {
-    Mpc::new(
-        Arc::clone(robot),
-        Arc::clone(reference),
-        MpcSettings::default(),
-    )
-    .unwrap()
 }
 
 /// Run `c` on the glitched model; the true hand's final distance from the bar, m.
 fn run<C: Controller>(robot: &Arc<Robot>, reference: &Arc<Trajectory>, c: &mut C) -> f64 {
-    let n = robot.n();
-    let dt = 0.001;
-    let k0 = (GLITCH.0 / dt).round() as usize;
-    let plant = Glitched {
-        robot: Arc::clone(robot),
-        rk4: Rk4::new(robot),
-        x: [reference.q(0), reference.qd(0)].concat(),
-        steps: 0,
-        dt,
-        glitch: (k0, k0 + 10),
-        dqd: GLITCH.1.to_vec(),
-    };
-    let rs = RunSettings {
-        duration_s: reference.duration(),
-        control_dt: dt,
-        cancel: None,
-    };
-    let mut cl = ClosedLoop::new(plant, c, Arc::clone(robot), Arc::clone(reference), &rs).unwrap();
-    cl.run();
-    let x = &cl.plant().x;
-    let ee = robot.ee_position(&x[..n]);
-    (ee[0] - 0.8).hypot(ee[1])
+    let glitch = Offset::glitch_at(GLITCH.0, 10);
+    final_miss(robot, robot, reference, c, glitch, &GLITCH.1)
 }
 
 /// Re-planning with `f` applied to the test's settings: the final distance and the re-plans.

@@ -153,3 +153,67 @@ fn the_benchmark_is_deterministic_for_any_number_of_jobs() {
         assert!(out.join(f).is_file(), "{f}");
     }
 }
+
+/// A scorecard whose statistics are not finite (NaN or infinite) is written with `null`s, which
+/// read back as infinite: the folder's page is drawn and shows them as `inf`.
+#[test]
+fn a_scorecard_with_numbers_that_are_not_finite_reads_back() {
+    use brachia_experiments::benchmark::{BenchRow, ControllerScore, Score};
+    use brachia_experiments::Benchmark;
+    let row = BenchRow {
+        controller: "mpc".into(),
+        disturbance: "monte_carlo".into(),
+        level: 0.0,
+        seed: 1,
+        success: false,
+        capture_t_s: None,
+        final_error_m: 0.05,
+        energy_j: 1.0,
+        peak_torque_nm: 2.0,
+        smoothness_nm: 0.1,
+        ball_kg: 0.0,
+        ball_t_s: None,
+        contact_s: None,
+        replans: 1,
+        replans_adopted: 0,
+        replan_latency_s: 0.02,
+        replan_iterations: 10,
+        contact_last_s: None,
+        contact_impulse_n_s: 0.0,
+        replan_t_s: vec![1.0],
+        replan_miss_m: vec![f64::INFINITY],
+    };
+    let score = |x: f64| Score {
+        runs: 1,
+        success_pct: 0.0,
+        energy_j: x,
+        peak_torque_nm: 2.0,
+        smoothness_nm: x,
+        final_error_m: x,
+        replans_per_run: 1.0,
+    };
+    let bench = Benchmark {
+        scenario: "not-finite".into(),
+        levels: 2,
+        monte_carlo_runs: 1,
+        success_radius_m: 0.02,
+        sweeps: vec![],
+        rows: vec![row],
+        scores: vec![ControllerScore {
+            controller: "mpc".into(),
+            per_disturbance: vec![("monte_carlo".into(), score(f64::INFINITY))],
+            overall: score(f64::NAN),
+            robustness_score: f64::NAN,
+        }],
+        wall_time_s: 1.0,
+    };
+    let text = bench.scorecard_json().to_string();
+    assert!(text.contains("\"final_error_m\":null"), "{text}");
+    let dir = tempfile::tempdir().unwrap();
+    bench.folder().write(dir.path()).unwrap();
+    let page = brachia_experiments::view::view_html(dir.path()).unwrap();
+    assert!(
+        page.contains("<td>inf</td>"),
+        "the page shows the infinite score"
+    );
+}

@@ -4,7 +4,8 @@
 //! Every file is read with a size cap ([`brachia::limits`]); a missing file, a header that is not the
 //! writer's, a value that does not parse, a non-finite number or times that do not increase is an
 //! [`Error::InvalidValue`] naming the file, the field (line and column), the value and the rule. Nothing
-//! here plans or simulates.
+//! here plans or simulates. In a JSON report, a `null` where a number belongs is how the writer put a
+//! number that was not finite: it reads as infinite ([`read_json`]).
 //!
 //! Every JSON file must carry `schema_version` 1 (a track report or a scorecard: 1 or 2) and every CSV
 //! file its schema line (`# brachia KIND schema 1`, [`crate::schema`]); a file read from a folder must
@@ -116,7 +117,9 @@ pub fn inside_dir(dir: &Path, name: &str) -> Result<Option<PathBuf>, Error> {
 
 /// Read and parse a JSON file of kind `kind` (at most [`limits::MAX_JSON_BYTES`]).
 /// The file must carry a schema version this brachia reads for the kind
-/// ([`crate::schema::json_version`]).
+/// ([`crate::schema::json_version`]). A `null` where `T` holds a number is read as infinite: it is
+/// how serde_json writes a number that was not finite (a diverged prediction, a failed solve;
+/// [`brachia::serde_nonfinite::from_value`], docs/formats.md "Values that are not finite").
 pub fn read_json<T: DeserializeOwned>(path: &Path, kind: JsonKind) -> Result<T, Error> {
     let text = limits::read_text_capped(path, limits::MAX_JSON_BYTES, "JSON file")?;
     let parse = |e: serde_json::Error| Error::Parse {
@@ -125,7 +128,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path, kind: JsonKind) -> Result<T, 
     };
     let value: serde_json::Value = serde_json::from_str(&text).map_err(parse)?;
     crate::schema::json_version(&value, &path.display().to_string(), kind)?;
-    serde_json::from_value(value).map_err(parse)
+    brachia::serde_nonfinite::from_value(value).map_err(parse)
 }
 
 /// An error of a CSV parser given the text after the schema line ([`read_csv_text`]): its `line N`

@@ -78,16 +78,18 @@ pub struct TrackReport {
     #[serde(default)]
     pub capture_t_s: Option<f64>,
     /// The plant's hand's distance to the target bar at the capture, or (a miss) at the end of the
-    /// swing, m (`ee_final_error_m` is the distance to the reference at the last row).
-    #[serde(default)]
+    /// swing, m (`ee_final_error_m` is the distance to the reference at the last row); infinite
+    /// (`null` in JSON) when the run logged no row. Absent (`None`) in a report of schema 1.
+    #[serde(default, deserialize_with = "brachia::serde_nonfinite::opt_number")]
     pub bar_error_m: Option<f64>,
     /// The online estimate of the base inertial parameters (`[tracking] estimate_params`,
     /// docs/estimation.md): names, nominal values, the final estimate and its standard deviations,
     /// windows used and rejected, and the estimate after every window. Absent without it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub estimate: Option<EstimateReport>,
-    /// The closed loop's metrics.
-    #[serde(flatten)]
+    /// The closed loop's metrics (a number that was not finite is `null` in JSON and reads back as
+    /// infinite, as every number of the report).
+    #[serde(flatten, deserialize_with = "brachia::serde_nonfinite::lenient")]
     pub summary: RunSummary,
 }
 

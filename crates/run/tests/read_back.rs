@@ -3,11 +3,82 @@
 //! the data must equal what was written (to the CSVs' 9 decimals, times to 6); damaged files are refused
 //! with the file, the field and the value named.
 
+use brachia::control::{EstimateReport, EstimateSample};
 use brachia_run::{
-    run_plan, track_plan, ControllerKind, PlanFolder, PlantKind, Scenario, TrackFolder,
+    run_plan, track_plan, ControllerKind, PlanFolder, PlanReport, PlantKind, RunFolder, Scenario,
+    TrackFolder, TrackReport,
 };
 use serde_json::Value;
 use std::path::Path;
+
+/// `folder` with its file `name` replaced by `json`, written as the run writes it.
+fn with_json(folder: &RunFolder, name: &str, json: &Value) -> RunFolder {
+    let mut out = RunFolder::default();
+    for n in folder.names().filter(|n| *n != name) {
+        out.add(n, folder.get(n).unwrap().to_vec());
+    }
+    out.add_json(name, json);
+    out
+}
+
+/// `rep` with the numbers a failed solve leaves not finite (a NaN iterate: objective, energies,
+/// violations, final hand and its errors), `x` in each.
+fn plan_not_finite(rep: &PlanReport, x: f64) -> PlanReport {
+    let mut r = rep.clone();
+    r.objective = x;
+    r.energy_j = x;
+    r.positive_work_j = x;
+    r.max_violation = x;
+    r.violations.dynamics = x;
+    r.violations.ee_position = x;
+    r.violations.ee_velocity = x;
+    r.ee_final = [x, x];
+    r.ee_final_error_m = x;
+    r.replay_ee_error_m = x;
+    r
+}
+
+/// `rep` with every number of a track run that can end up not finite (`x`): a diverged estimate
+/// (its values, deviations and history), a failed plan's numbers, the closed loop's metrics and the
+/// distance to the bar.
+fn track_not_finite(rep: &TrackReport, x: f64) -> TrackReport {
+    let mut r = rep.clone();
+    r.plan = plan_not_finite(&r.plan, x);
+    r.bar_error_m = Some(x);
+    r.summary.ee_final_error_m = x;
+    r.summary.joint_rms_error_rad = x;
+    r.summary.qp_iterations_mean = x;
+    r.summary.control_step_us_max = x;
+    r.estimate = Some(EstimateReport {
+        names: vec!["ZZR_1".into(), "MXR_1".into()],
+        nominal: vec![0.2, 0.5],
+        theta: vec![x, 0.5],
+        std: vec![0.01, x],
+        windows: 4,
+        rejected: 1,
+        history: vec![
+            EstimateSample {
+                t_s: 0.1,
+                theta: vec![0.21, 0.5],
+                std: vec![0.02, 0.01],
+            },
+            EstimateSample {
+                t_s: 0.2,
+                theta: vec![x, x],
+                std: vec![x, 0.01],
+            },
+        ],
+        used_from_s: Some(0.15),
+    });
+    r
+}
+
+/// The track report as `brachia track` writes it (schema 2).
+fn track_json(rep: &TrackReport) -> Value {
+    let mut json = rep.to_json();
+    json["schema_version"] = 2.into();
+    json
+}
 
 /// The robustness scenario (a ball on the path) on a coarse grid: a plan in about a second.
 fn scenario() -> brachia_run::scenario::LoadedScenario {
@@ -75,6 +146,18 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     close(&a.qd, &b.qd, 1e-9, "qd");
     close(&a.tau, &b.tau, 1e-9, "tau");
 
+    // a plan whose numbers are not finite is written with nulls; they read back infinite, the rest
+    // as written, and the folder's page is drawn
+    let bad = plan_not_finite(&plan.report, f64::NAN);
+    let bdir = dir.path().join("plan-not-finite");
+    with_json(&plan.folder, "report.json", &bad.to_json())
+        .write(&bdir)
+        .unwrap();
+    let back = PlanFolder::read(&bdir).unwrap();
+    assert_eq!(back.report, plan_not_finite(&back.report, f64::INFINITY));
+    same_json(&back.report.to_json(), &bad.to_json(), "plan report");
+    brachia_run::view::view_html(&bdir).unwrap();
+
     // track it with the MPC on the rapier plant: the ball is hit, so contacts and ball tracks are written
     let rep = plan.report.clone();
     let reference = plan.plan.trajectory.clone();
@@ -124,6 +207,26 @@ fn plan_and_track_folders_read_back_equal_and_damage_is_named() {
     assert_eq!(e.predicted_miss_m, f64::INFINITY);
     assert_eq!(e.predicted_continue_m, Some(f64::INFINITY));
     assert_eq!(e.predicted_replan_m, Some(0.01));
+    // every number of the report that was not finite (NaN or infinite) is written `null` and read
+    // back infinite; the folder reads back and its page is drawn
+    for x in [f64::NAN, f64::INFINITY] {
+        let bad = track_not_finite(&diverged, x);
+        let bdir = dir.path().join("track-not-finite");
+        with_json(&run.folder, "report.json", &track_json(&bad))
+            .write(&bdir)
+            .unwrap();
+        let read = TrackFolder::read(&bdir).unwrap().report;
+        assert_eq!(read.bar_error_m, Some(f64::INFINITY));
+        assert_eq!(read.summary.control_step_us_max, f64::INFINITY);
+        let est = read.estimate.as_ref().unwrap();
+        assert_eq!((est.theta[0], est.std[1]), (f64::INFINITY, f64::INFINITY));
+        assert_eq!(est.history[1].theta, [f64::INFINITY; 2]);
+        assert_eq!(read.plan, plan_not_finite(&read.plan, f64::INFINITY));
+        assert_eq!(read.replans[0].predicted_miss_m, f64::INFINITY);
+        assert_eq!(read.summary, track_not_finite(&read, f64::INFINITY).summary);
+        same_json(&read.to_json(), &bad.to_json(), "track report");
+        brachia_run::view::view_html(&bdir).unwrap();
+    }
     let (l, m) = (&back.log, &run.log);
     assert_eq!(
         (l.n, &l.controller, &l.plant),

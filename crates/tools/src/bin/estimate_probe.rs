@@ -101,6 +101,15 @@ struct Case {
     ball: bool,
 }
 
+/// A case without a ball.
+fn case(name: &'static str, dist: Disturbances) -> Case {
+    Case {
+        name,
+        dist,
+        ball: false,
+    }
+}
+
 fn cases() -> Vec<Case> {
     let noise = |d: Disturbances| Disturbances {
         noise_q_std: 0.0015,
@@ -109,110 +118,67 @@ fn cases() -> Vec<Case> {
         ..d
     };
     let d = Disturbances::default;
+    let geometry = || Disturbances {
+        length_scale: vec![1.02, 0.98, 1.01, 0.99],
+        com_scale: vec![1.05, 0.95, 1.08, 0.93],
+        inertia_scale: vec![1.1, 0.9, 1.15, 0.85],
+        ..d()
+    };
+    // a coherent factor on every link's mass and inertia
+    let mass = |f: f64| Disturbances {
+        mass_scale: vec![f; 4],
+        inertia_scale: vec![f; 4],
+        ..d()
+    };
     vec![
-        Case {
-            name: "none",
-            dist: d(),
-            ball: false,
-        },
-        Case {
-            name: "noise",
-            dist: noise(d()),
-            ball: false,
-        },
-        Case {
-            name: "meas_delay_3ms",
-            dist: Disturbances {
+        case("none", d()),
+        case("noise", noise(d())),
+        case(
+            "meas_delay_3ms",
+            Disturbances {
                 measurement_delay_s: 3e-3,
                 ..d()
             },
-            ball: false,
-        },
-        Case {
-            name: "act_delay_3ms",
-            dist: Disturbances {
+        ),
+        case(
+            "act_delay_3ms",
+            Disturbances {
                 actuation_delay_s: 3e-3,
                 ..d()
             },
-            ball: false,
-        },
-        Case {
-            name: "torque_noise",
-            dist: Disturbances {
+        ),
+        case(
+            "torque_noise",
+            Disturbances {
                 torque_noise_std: 0.1,
                 seed: 5,
                 ..d()
             },
-            ball: false,
-        },
-        Case {
-            name: "torque_noise_n",
-            dist: noise(Disturbances {
+        ),
+        case(
+            "torque_noise_n",
+            noise(Disturbances {
                 torque_noise_std: 0.1,
                 ..d()
             }),
-            ball: false,
-        },
-        Case {
-            name: "meas_delay_n",
-            dist: noise(Disturbances {
+        ),
+        case(
+            "meas_delay_n",
+            noise(Disturbances {
                 measurement_delay_s: 3e-3,
                 ..d()
             }),
-            ball: false,
-        },
+        ),
         Case {
             name: "ball",
             dist: d(),
             ball: true,
         },
-        Case {
-            name: "geometry",
-            dist: Disturbances {
-                length_scale: vec![1.02, 0.98, 1.01, 0.99],
-                com_scale: vec![1.05, 0.95, 1.08, 0.93],
-                inertia_scale: vec![1.1, 0.9, 1.15, 0.85],
-                ..d()
-            },
-            ball: false,
-        },
-        Case {
-            name: "geometry_n",
-            dist: noise(Disturbances {
-                length_scale: vec![1.02, 0.98, 1.01, 0.99],
-                com_scale: vec![1.05, 0.95, 1.08, 0.93],
-                inertia_scale: vec![1.1, 0.9, 1.15, 0.85],
-                ..d()
-            }),
-            ball: false,
-        },
-        Case {
-            name: "mass_1.15",
-            dist: Disturbances {
-                mass_scale: vec![1.15; 4],
-                inertia_scale: vec![1.15; 4],
-                ..d()
-            },
-            ball: false,
-        },
-        Case {
-            name: "mass_1.15_noise",
-            dist: noise(Disturbances {
-                mass_scale: vec![1.15; 4],
-                inertia_scale: vec![1.15; 4],
-                ..d()
-            }),
-            ball: false,
-        },
-        Case {
-            name: "mass_0.85_noise",
-            dist: noise(Disturbances {
-                mass_scale: vec![0.85; 4],
-                inertia_scale: vec![0.85; 4],
-                ..d()
-            }),
-            ball: false,
-        },
+        case("geometry", geometry()),
+        case("geometry_n", noise(geometry())),
+        case("mass_1.15", mass(1.15)),
+        case("mass_1.15_noise", noise(mass(1.15))),
+        case("mass_0.85_noise", noise(mass(0.85))),
     ]
 }
 
@@ -382,29 +348,26 @@ fn main() {
                     a.used_from()
                 );
             }
+            let at: String = p.at.iter().map(|e| format!(" {:6.1}", 100.0 * e)).collect();
+            let below: Vec<String> = p
+                .below
+                .iter()
+                .map(|(t, e)| format!("{t:.3} s ({:.1} %)", 100.0 * e))
+                .collect();
             format!(
-                "{:<16} {:<6} {:6.1} {:6.1} {:6.1} {:6.1}   nis {:8.2}  rej {:4}   {:7.2} {:7.2} {:7.2} {:7.2}",
+                "{:<16} {:<6}{at}   nis {:8.2}  rej {:4}   {:7.2} {:7.2} {:7.2} {:7.2}\n    std <= \
+                 5/3/2 % from {}, NIS ratio at the end {:.3}{events}",
                 case.name,
                 if *rapier { "rapier" } else { "model" },
-                100.0 * p.at[0],
-                100.0 * p.at[1],
-                100.0 * p.at[2],
-                100.0 * p.at[3],
                 p.nis_sum / p.nis_n.max(1) as f64,
                 p.est.report().rejected,
                 e_passive,
                 e_est,
                 e_rp,
-                e_est_rp
-            ) + &format!(
-                "\n    std <= 5/3/2 % from {:.3} s ({:.1} %), {:.3} s ({:.1} %), {:.3} s ({:.1} %)",
-                p.below[0].0,
-                100.0 * p.below[0].1,
-                p.below[1].0,
-                100.0 * p.below[1].1,
-                p.below[2].0,
-                100.0 * p.below[2].1
-            ) + &format!(", NIS ratio at the end {:.3}", p.est.nis_ratio()) + &events
+                e_est_rp,
+                below.join(", "),
+                p.est.nis_ratio()
+            )
         })
         .collect();
     for l in lines {
