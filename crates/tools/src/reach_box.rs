@@ -94,11 +94,6 @@ impl Axis {
         }
         Some((a.max(0.0) as usize, b.min((self.n - 1) as f64) as usize))
     }
-
-    fn index(&self, x: f64) -> Option<usize> {
-        let i = ((x - self.lo) / self.w).floor();
-        (i >= 0.0 && i < self.n as f64).then_some(i as usize)
-    }
 }
 
 /// What one step from `q2` cell `i` into cell `j` needs, the same for every box.
@@ -119,6 +114,9 @@ struct Pair {
     /// The `z` a state ending in `Q2e` with `q1` in range can have.
     zlim: Iv,
 }
+
+/// The largest `|H|` of a start, kg m^2/s (the grid's momentum range is the same for every start).
+pub const START_H_MAX: f64 = 1.0;
 
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
@@ -188,6 +186,16 @@ impl ReachBox {
         s: &ReachSettings,
         start: [f64; 3],
     ) -> Result<Self, ReachError> {
+        let [a, b, c] = start.map(|v| Iv::point(v).pad(1e-12));
+        Self::from_box(model, s, [a, b, c])
+    }
+
+    /// The bound at time 0: every state in the box `start = [q1, H, q2]`.
+    pub fn from_box(
+        model: &ReducedTwoLink,
+        s: &ReachSettings,
+        start: [Iv; 3],
+    ) -> Result<Self, ReachError> {
         if [s.dt, s.dz, s.dh, s.u_max, s.q2_max]
             .iter()
             .any(|v| v.is_nan() || *v <= 0.0)
@@ -201,7 +209,7 @@ impl ReachBox {
                 "q2_max must be below 3.1 rad, n_q2 at least 2, target_split at least 1",
             ));
         }
-        if s.q1_range[0] >= s.q1_range[1] || start[2].abs() > s.q2_max {
+        if s.q1_range[0] >= s.q1_range[1] {
             return Err(ReachError::Setting(
                 "q1_range must be increasing, the start's q2 in range",
             ));
@@ -214,7 +222,13 @@ impl ReachBox {
         };
         let phi_all = m.phi(Iv::new(-s.q2_max, s.q2_max));
         let zr = Iv::new(s.q1_range[0], s.q1_range[1]) + phi_all;
-        let hmax = start[1].abs() + m.gmax() * s.t_max + 2.0 * s.dh;
+        // the same grid for every start (bounds from different starts are compared cell by cell)
+        if start[1].lo.abs().max(start[1].hi.abs()) > START_H_MAX {
+            return Err(ReachError::Setting(
+                "the start's |H| must be at most 1 kg m^2/s",
+            ));
+        }
+        let hmax = START_H_MAX + m.gmax() * s.t_max + 2.0 * s.dh;
         let z = Axis {
             lo: zr.lo - s.dz,
             w: s.dz,
@@ -261,34 +275,42 @@ impl ReachBox {
                 });
             }
         }
-        let mut slices = vec![vec![]; q2.n];
-        let z0 = Iv::point(start[0]) + Iv::point(m.phi_at(start[2])).pad(1e-12);
-        let h0 = Iv::point(start[1]).pad(1e-12);
-        let i2 = q2
-            .index(start[2])
-            .unwrap_or(if start[2] > 0.0 { q2.n - 1 } else { 0 });
-        let (iz, ih) = (
-            z.index(start[0] + m.phi_at(start[2]))
-                .ok_or(ReachError::Setting("start q1 out of range"))?,
-            h.index(start[1])
-                .ok_or(ReachError::Setting("start H out of range"))?,
-        );
-        // the start box may cross a cell edge: every cell it meets gets its part
-        let mut put = |iz: usize, ih: usize| {
-            let bz = z0.meet(z.cell(iz));
-            let bh = h0.meet(h.cell(ih));
-            if !bz.is_empty() && !bh.is_empty() {
-                slices[i2].push(((iz * h.n + ih) as u32, [bz.lo, bz.hi, bh.lo, bh.hi]));
+        let mut slices: Vec<Vec<(u32, CellBox)>> = vec![vec![]; q2.n];
+        // every (q2 cell, z cell, H cell) the start box meets gets its part
+        let q2_all = Iv::new(-s.q2_max, s.q2_max);
+        let (sq1, sh, sq2) = (start[0], start[1], start[2].meet(q2_all));
+        if sq1.is_empty() || sh.is_empty() || sq2.is_empty() {
+            return Err(ReachError::Setting(
+                "the start is empty or its q2 out of range",
+            ));
+        }
+        let span2 = q2
+            .span(sq2)
+            .ok_or(ReachError::Setting("start q2 out of range"))?;
+        for (i2, slice) in slices
+            .iter_mut()
+            .enumerate()
+            .take(span2.1 + 1)
+            .skip(span2.0)
+        {
+            let c2 = sq2.meet(q2.cell(i2));
+            if c2.is_empty() {
+                continue;
             }
-        };
-        for dz in 0..3 {
-            for dh in 0..3 {
-                if iz + dz >= 1 && ih + dh >= 1 && iz + dz <= z.n && ih + dh <= h.n {
-                    put(iz + dz - 1, ih + dh - 1);
+            let z0 = sq1 + m.phi(c2);
+            let (Some((z_a, z_b)), Some((h_a, h_b))) = (z.span(z0), h.span(sh)) else {
+                return Err(ReachError::Setting("the start is outside the grid"));
+            };
+            for iz in z_a..=z_b {
+                for ih in h_a..=h_b {
+                    let (bz, bh) = (z0.meet(z.cell(iz)), sh.meet(h.cell(ih)));
+                    if !bz.is_empty() && !bh.is_empty() {
+                        slice.push(((iz * h.n + ih) as u32, [bz.lo, bz.hi, bh.lo, bh.hi]));
+                    }
                 }
             }
+            slice.sort_by_key(|c| c.0);
         }
-        slices[i2].sort_by_key(|c| c.0);
         Ok(Self {
             s: s.clone(),
             m,
@@ -298,7 +320,7 @@ impl ReachBox {
             pairs,
             slices,
             k: 0,
-            h_start: start[1].abs(),
+            h_start: start[1].lo.abs().max(start[1].hi.abs()),
         })
     }
 
@@ -492,6 +514,26 @@ impl ReachBox {
         )
     }
 
+    /// Cells over the momentum range.
+    pub fn h_cells(&self) -> u32 {
+        self.h.n as u32
+    }
+
+    /// The occupied cells, per `q2` cell (for [`Self::meets_reversed`]).
+    pub fn snapshot(&self) -> Vec<Vec<(u32, [f64; 4])>> {
+        self.slices.clone()
+    }
+
+    /// How many boxes of this bound meet a box of `other` (a snapshot of a bound with the same settings,
+    /// hence the same grid)
+    /// with its momentum reversed. The relaxed system is reversible (`t -> -t`, `H -> -H`,
+    /// `u -> -u`), so a motion of duration `t1 + t2` from this bound's start to a state of `other`'s
+    /// start with `H` reversed passes, at `t1`, through such a pair (this bound at `t1`, `other` at
+    /// `t2`): with none, no such motion exists.
+    pub fn meets_reversed(&self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
+        meets_reversed(&self.slices, other, self.h.n as u32)
+    }
+
     /// Up to `n` boxes (as `[q2, z, H]` intervals) whose bound on `max(d, lambda |H|)` is at most
     /// `eps`: where the target check fails.
     pub fn witnesses(&self, eps: f64, n: usize) -> Vec<[Iv; 3]> {
@@ -525,4 +567,25 @@ impl ReachBox {
         }
         best
     }
+}
+
+/// [`ReachBox::meets_reversed`] on two snapshots of a grid with `nh` momentum cells.
+pub fn meets_reversed(a: &[Vec<(u32, [f64; 4])>], b: &[Vec<(u32, [f64; 4])>], nh: u32) -> usize {
+    a.par_iter()
+        .zip(b.par_iter())
+        .map(|(a, b)| {
+            let mut n = 0;
+            for (idx, x) in a {
+                let iz = idx / nh;
+                let lo = b.partition_point(|c| c.0 < iz * nh);
+                let hi = b.partition_point(|c| c.0 < (iz + 1) * nh);
+                for (_, y) in &b[lo..hi] {
+                    if x[0] <= y[1] && y[0] <= x[1] && x[2] <= -y[2] && -y[3] <= x[3] {
+                        n += 1;
+                    }
+                }
+            }
+            n
+        })
+        .sum()
 }

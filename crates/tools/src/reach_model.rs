@@ -212,6 +212,35 @@ impl ReachModel {
         Some(acc.scale(1.0 / pieces as f64).pad(0.0))
     }
 
+    /// Boxes `[q1, q2]` (one per arm pose, elbow forward and back) that hold every pose with the hand
+    /// within `eps` of `bar` (`eps` below the bar's distance from the grip and the reach of the arm).
+    pub fn poses_near(&self, bar: [f64; 2], eps: f64) -> Vec<[Iv; 2]> {
+        let [l1, l2] = self.len;
+        let r = bar[0].hypot(bar[1]);
+        let (r_lo, r_hi) = ((r - eps) * (1.0 - 1e-12), (r + eps) * (1.0 + 1e-12));
+        // |hand|^2 = l1^2 + l2^2 + 2 l1 l2 cos q2
+        let c = |rr: f64| ((rr * rr - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)).clamp(-1.0, 1.0);
+        let (a_lo, a_hi) = (
+            c(r_hi).acos() * (1.0 - 1e-12) - 1e-12,
+            c(r_lo).acos() * (1.0 + 1e-12) + 1e-12,
+        );
+        // the hand's direction is within asin(eps / r) of the bar's; q1 = direction - beta(q2) with
+        // beta = atan2(l2 sin q2, l1 + l2 cos q2), |dbeta/dq2| <= l2 (l1 + l2) / |hand|^2
+        let dir = bar[1].atan2(bar[0]);
+        let spread = (eps / r).asin() * (1.0 + 1e-12) + 1e-12;
+        let slope = l2 * (l1 + l2) / (r_lo * r_lo);
+        [Iv::new(a_lo, a_hi), Iv::new(-a_hi, -a_lo)]
+            .into_iter()
+            .map(|q2| {
+                let m = 0.5 * (q2.lo + q2.hi);
+                let beta = (l2 * m.sin()).atan2(l1 + l2 * m.cos());
+                let half = 0.5 * q2.width() * slope + 1e-12;
+                let q1 = Iv::new(dir - spread - beta - half, dir + spread - beta + half).pad(1e-12);
+                [q1, q2]
+            })
+            .collect()
+    }
+
     /// The hand's position over the poses with grip angle in `q1` and `q1 + q2` in `q12`, m.
     pub fn hand(&self, q1: Iv, q12: Iv) -> [Iv; 2] {
         let [l1, l2] = self.len;

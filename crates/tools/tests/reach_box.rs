@@ -3,7 +3,7 @@
 //! dynamic programme's own motions and random elbow-rate sequences integrated with RK4).
 use brachia::model::{ik_from_seed, RobotParams};
 use brachia::Robot;
-use brachia_tools::reach_box::{ReachBox, ReachSettings};
+use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_model::ReachModel;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
@@ -197,4 +197,92 @@ fn the_bound_holds_dp_motions_and_random_rk4_motions() {
     }
     assert!(rb.distance([-0.3, 0.0, 0.0]) > 0.1);
     assert!(rb.distance([q0[0], 2.0, q0[1]]) > 1.0);
+}
+
+#[test]
+fn every_pose_with_the_hand_near_the_bar_is_in_a_target_box() {
+    let (_, model) = hook();
+    let m = ReachModel::new(&model, 15.0).unwrap();
+    let eps = 0.001;
+    let boxes = m.poses_near([0.34, 0.0], eps);
+    assert_eq!(boxes.len(), 2);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut hits = 0;
+    for k in 0..200000 {
+        // poses about each box, out to 0.02 rad beyond it
+        let b = boxes[k % 2];
+        let q1 = rng.gen_range(b[0].lo - 0.02..b[0].hi + 0.02);
+        let q2 = rng.gen_range(b[1].lo - 0.02..b[1].hi + 0.02);
+        let p = model.hand(q1, q2);
+        if (p[0] - 0.34).hypot(p[1]) <= eps {
+            hits += 1;
+            assert!(
+                boxes.iter().any(|b| b[0].contains(q1) && b[1].contains(q2)),
+                "{q1} {q2}"
+            );
+        }
+    }
+    // near the edge of the disc too: poses on a circle of radius eps about the bar
+    for k in 0..720 {
+        let a = 2.0 * PI * k as f64 / 720.0;
+        let target = [0.34 + eps * 0.999_999 * a.cos(), eps * 0.999_999 * a.sin()];
+        for seed in [[-1.0, 1.9], [1.0, -1.9]] {
+            let q = brachia::model::ik_from_seed(model.robot(), &seed, target).unwrap();
+            assert!(
+                boxes
+                    .iter()
+                    .any(|b| b[0].contains(q[0]) && b[1].contains(q[1])),
+                "{q:?}"
+            );
+        }
+    }
+    assert!(hits > 1000, "{hits}");
+    // the boxes are small: a few mrad
+    assert!(boxes
+        .iter()
+        .all(|b| b[0].width() < 0.03 && b[1].width() < 0.03));
+}
+
+#[test]
+fn forward_and_reversed_bounds_meet_on_a_motion() {
+    let (robot, model) = hook();
+    let q0 = ik_from_seed(&robot, &[-2.2, -1.9], [-0.34, 0.0]).unwrap();
+    let start = [q0[0], 0.0, q0[1]];
+    let s = settings(0.01);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..3 {
+        // a random motion of 0.2 s; the reversed bound starts at its end with H reversed
+        let mut x = start;
+        for j in 0..200 {
+            let u: f64 = if j % 9 == 0 {
+                rng.gen_range(-15.0..15.0)
+            } else {
+                5.0
+            };
+            let q2n = (x[2] + u * 0.001).clamp(-2.9, 2.9);
+            x = model.step(x, (q2n - x[2]) / 0.001, 0.001, 1);
+        }
+        let mut a = ReachBox::new(&model, &s, start).unwrap();
+        let end = [
+            Iv::point(x[0]).pad(1e-9),
+            Iv::point(-x[1]).pad(1e-9),
+            Iv::point(x[2]).pad(1e-9),
+        ];
+        let mut b = ReachBox::from_box(&model, &s, end).unwrap();
+        for _ in 0..10 {
+            a.step();
+            b.step();
+        }
+        assert!(a.meets_reversed(&b.snapshot()) > 0);
+        assert!(meets_reversed(&a.snapshot(), &b.snapshot(), a.h_cells()) > 0);
+    }
+    // and a state out of reach in 0.2 s (link 1 near horizontal, the arm straight) is not met
+    let mut a = ReachBox::new(&model, &s, start).unwrap();
+    let far = [-0.3, 0.0, 0.0].map(|v| Iv::point(v).pad(1e-9));
+    let mut b = ReachBox::from_box(&model, &s, far).unwrap();
+    for _ in 0..10 {
+        a.step();
+        b.step();
+    }
+    assert_eq!(a.meets_reversed(&b.snapshot()), 0);
 }

@@ -11,7 +11,7 @@
 //!
 //! ```text
 //! cargo run --release -p brachia-tools --bin hook_reach                  # the default grid
-//! cargo run --release -p brachia-tools --bin hook_reach -- 0.005x116x0.01x0.004x8
+//! cargo run --release -p brachia-tools --bin hook_reach -- 0.005x77x0.02x0.01x8
 //!     # DT (s) x q2 cells x z cell (rad) x H cell (kg m^2/s) x target split
 //! cargo run --release -p brachia-tools --bin hook_reach -- hang          # from a straight hang
 //! cargo run --release -p brachia-tools --bin hook_reach -- t=1.0,1.05    # only these swing times
@@ -19,7 +19,8 @@
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::{ik_from_seed, RobotParams};
 use brachia::Robot;
-use brachia_tools::reach_box::{ReachBox, ReachSettings};
+use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
+use brachia_tools::reach_interval::Iv;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::lambda;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -27,6 +28,9 @@ use std::time::Instant;
 
 /// The target set: the hand within this distance of the bar and `lambda |H|` below it, m.
 const EPS: f64 = 0.001;
+
+/// Splits of a swing time tried by `mid`: the half, and up to this many steps either side.
+const SPLITS: usize = 3;
 
 fn load() -> String {
     std::fs::read_to_string("/proc/loadavg")
@@ -36,11 +40,13 @@ fn load() -> String {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut grid, mut hang) = ("0.005x116x0.01x0.004x8".to_string(), false);
+    let (mut grid, mut hang, mut mid) = ("0.01x58x0.02x0.01x4".to_string(), false, false);
     let mut times: Vec<f64> = (0..=10).map(|k| 0.80 + 0.05 * k as f64).collect();
     for a in std::env::args().skip(1) {
         if a == "hang" {
             hang = true;
+        } else if a == "mid" {
+            mid = true;
         } else if let Some(t) = a.strip_prefix("t=") {
             times = t.split(',').map(str::parse).collect::<Result<_, _>>()?;
         } else {
@@ -75,6 +81,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         lambda: lambda(&model, bar, 2.9, 0.1),
         target_split: p[4].parse()?,
     };
+    if mid {
+        return meet_in_the_middle(&model, &s, start, &times);
+    }
     let mut rb = ReachBox::new(&model, &s, start)?;
     println!(
         "start [q1, H, q2] = [{:.4}, {}, {:.4}]; grid: dt {} s, {} q2 cells, dz {} rad, dH {} kg m^2/s, target split {}; lambda {:.4} m per kg m^2/s; target: hand within {EPS} m of the bar and lambda |H| <= {EPS} m",
@@ -121,6 +130,111 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "peak cells {peak}; {:.1} s; load after: {}",
+        t0.elapsed().as_secs_f64(),
+        load()
+    );
+    Ok(())
+}
+
+type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
+
+/// Step `rb` to the largest of `ks`, keeping a snapshot at each.
+fn snapshots(rb: &mut ReachBox, ks: &[usize]) -> Vec<(usize, Snapshot)> {
+    let mut out = vec![];
+    let last = ks.iter().copied().max().unwrap_or(0);
+    loop {
+        if ks.contains(&rb.steps()) {
+            out.push((rb.steps(), rb.snapshot()));
+        }
+        if rb.steps() >= last {
+            return out;
+        }
+        rb.step();
+    }
+}
+
+/// The bound forward from the start to half the swing time, and forward from every state of the
+/// target set (reversed in time, `H` reversed) over the other half: a swing time at which no box of
+/// the first meets a box of the second is out of reach.
+fn meet_in_the_middle(
+    model: &ReducedTwoLink,
+    s: &ReachSettings,
+    start: [f64; 3],
+    times: &[f64],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let ks: Vec<usize> = times.iter().map(|t| (t / s.dt).round() as usize).collect();
+    // every split of the swing time within SPLITS steps of its half is a proof on its own
+    let splits = |k: usize| (k / 2).saturating_sub(SPLITS)..=(k / 2 + SPLITS).min(k);
+    let k1: Vec<usize> = ks.iter().flat_map(|&k| splits(k)).collect();
+    let k2: Vec<usize> = ks
+        .iter()
+        .flat_map(|&k| splits(k).map(move |a| k - a))
+        .collect();
+    let t0 = Instant::now();
+    println!("load before: {}", load());
+    let mut fwd = ReachBox::new(model, s, start)?;
+    let nh = fwd.h_cells();
+    let fs = snapshots(&mut fwd, &k1);
+    println!(
+        "forward bound to {:.3} s: {} cells, {:.1} s",
+        fwd.time(),
+        fwd.cells(),
+        t0.elapsed().as_secs_f64()
+    );
+    let hm = EPS / s.lambda;
+    let mut back: Vec<(usize, Snapshot)> = vec![];
+    for [q1, q2] in fwd.model().poses_near(s.bar, EPS) {
+        let mut rb = ReachBox::from_box(model, s, [q1, Iv::new(-hm, hm), q2])?;
+        for (k, snap) in snapshots(&mut rb, &k2) {
+            match back.iter_mut().find(|(kk, _)| *kk == k) {
+                Some((_, b)) => {
+                    for (x, y) in b.iter_mut().zip(snap) {
+                        x.extend(y);
+                        x.sort_by_key(|c| c.0);
+                    }
+                }
+                None => back.push((k, snap)),
+            }
+        }
+        println!(
+            "reversed bound from the target pose q1 {:?}, q2 {:?} to {:.3} s: {} cells, {:.1} s",
+            q1,
+            q2,
+            rb.time(),
+            rb.cells(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    println!("| T s | split s + s | boxes that meet (fewest over the splits) | proven |");
+    println!("|---|---|---|---|");
+    for (t, &k) in times.iter().zip(&ks) {
+        let mut best = (usize::MAX, 0);
+        for a in splits(k) {
+            let fa = &fs
+                .iter()
+                .find(|(kk, _)| *kk == a)
+                .ok_or("no forward snapshot")?
+                .1;
+            let bb = &back
+                .iter()
+                .find(|(kk, _)| *kk == k - a)
+                .ok_or("no reversed snapshot")?
+                .1;
+            let n = meets_reversed(fa, bb, nh);
+            if n < best.0 {
+                best = (n, a);
+            }
+        }
+        println!(
+            "| {t:.3} | {:.3} + {:.3} | {} | {} |",
+            best.1 as f64 * s.dt,
+            (k - best.1) as f64 * s.dt,
+            best.0,
+            if best.0 == 0 { "yes" } else { "no" }
+        );
+    }
+    println!(
+        "{:.1} s; load after: {}",
         t0.elapsed().as_secs_f64(),
         load()
     );
