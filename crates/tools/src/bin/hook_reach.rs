@@ -10,7 +10,8 @@
 //! cells and the time taken.
 //!
 //! ```text
-//! cargo run --release -p brachia-tools --bin hook_reach                  # the default grid
+//! cargo run --release -p brachia-tools --bin hook_reach                  # forward, the default grid
+//! cargo run --release -p brachia-tools --bin hook_reach -- mid           # meet in the middle
 //! cargo run --release -p brachia-tools --bin hook_reach -- 0.005x77x0.02x0.01x8
 //!     # DT (s) x q2 cells x z cell (rad) x H cell (kg m^2/s) x target split
 //! cargo run --release -p brachia-tools --bin hook_reach -- hang          # from a straight hang
@@ -40,7 +41,7 @@ fn load() -> String {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut grid, mut hang, mut mid) = ("0.01x58x0.02x0.01x4".to_string(), false, false);
+    let (mut grid, mut hang, mut mid) = ("0.01x58x0.01x0.005x8".to_string(), false, false);
     let mut times: Vec<f64> = (0..=10).map(|k| 0.80 + 0.05 * k as f64).collect();
     for a in std::env::args().skip(1) {
         if a == "hang" {
