@@ -123,6 +123,12 @@ impl ReducedTwoLink {
         Ok(())
     }
 
+    /// The coefficients of the forms: `M11` (`a0, a1, a2`), `M12` (`b0, b1, b2`) and `dV/dq1`
+    /// (`g0 .. g3`), as in the field docs.
+    pub fn coefficients(&self) -> ([f64; 3], [f64; 3], [f64; 4]) {
+        (self.m11, self.m12, self.dv)
+    }
+
     /// The full robot this model reduces.
     pub fn robot(&self) -> &Robot {
         &self.robot

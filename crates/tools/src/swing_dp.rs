@@ -215,7 +215,7 @@ pub struct ValueHistory {
 
 /// The distance weight `lambda` (m per kg m^2/s): `drift_s` times the hand's speed per unit momentum
 /// with the elbow still, at the pose nearest the bar's direction (`|hand| = |bar|`).
-fn lambda(model: &ReducedTwoLink, bar: [f64; 2], q2_max: f64, drift_s: f64) -> f64 {
+pub fn lambda(model: &ReducedTwoLink, bar: [f64; 2], q2_max: f64, drift_s: f64) -> f64 {
     // the elbow angle that puts the hand at the bar's distance from the grip
     let r = bar[0].hypot(bar[1]);
     let mut best = (f64::INFINITY, 0.0);
