@@ -18,7 +18,7 @@
 //! 3. `Hdot ∈ G = -dV/dq1` over that enclosure, `H` over the step in `Hp = H + [0, dt] G`, and at the
 //!    end `H(dt) ∈ H + dt G`, `z(dt) ∈ Z + dt (Hp / M11(Q2p) + [-s, s])` (the mean-value theorem for
 //!    the integral of the rate);
-//! 4. the end box is cut to `|H| <= gmax t` and to `z - phi(Q2e)` meeting `q1_range`, and every
+//! 4. the end box is cut to `|H| <= |H0| + gmax t` (`H0` the start's) and to `z - phi(Q2e)` meeting `q1_range`, and every
 //!    cell it meets gets the part of it inside the cell, merged into the cell's box (the smallest box
 //!    holding both).
 //!
@@ -75,14 +75,20 @@ struct Axis {
     lo: f64,
     w: f64,
     n: usize,
+    /// Where the last cell ends at least (the axis's end, whatever `lo + n w` rounds to).
+    end: f64,
 }
 
 impl Axis {
     fn cell(&self, i: usize) -> Iv {
-        Iv::new(
-            self.lo + i as f64 * self.w,
-            self.lo + (i + 1) as f64 * self.w,
-        )
+        // the last cell ends at the axis's end exactly (a rounded `lo + n w` could fall short of it)
+        let hi = self.lo + (i + 1) as f64 * self.w;
+        let hi = if i + 1 == self.n {
+            hi.max(self.end)
+        } else {
+            hi
+        };
+        Iv::new(self.lo + i as f64 * self.w, hi)
     }
 
     /// The cells `x` may meet (one more each way than its bounds round to).
@@ -154,6 +160,8 @@ pub enum ReachError {
     Setting(&'static str),
     /// The grid would have more cells than an index holds.
     TooLarge,
+    /// A step past `t_max`, beyond which the momentum grid may not hold every reachable state.
+    BeyondTMax,
 }
 
 impl std::fmt::Display for ReachError {
@@ -162,6 +170,7 @@ impl std::fmt::Display for ReachError {
             Self::Model(e) => write!(f, "{e}"),
             Self::Setting(w) => write!(f, "reach settings: {w}"),
             Self::TooLarge => write!(f, "the reach grid has more than 2^32 cells in a q2 slice"),
+            Self::BeyondTMax => write!(f, "a step past t_max, which sizes the momentum grid"),
         }
     }
 }
@@ -219,6 +228,7 @@ impl ReachBox {
             lo: -s.q2_max,
             w: 2.0 * s.q2_max / s.n_q2 as f64,
             n: s.n_q2,
+            end: s.q2_max,
         };
         let phi_all = m.phi(Iv::new(-s.q2_max, s.q2_max));
         let zr = Iv::new(s.q1_range[0], s.q1_range[1]) + phi_all;
@@ -233,11 +243,13 @@ impl ReachBox {
             lo: zr.lo - s.dz,
             w: s.dz,
             n: (zr.width() / s.dz).ceil() as usize + 2,
+            end: f64::NEG_INFINITY,
         };
         let h = Axis {
             lo: -hmax,
             w: s.dh,
             n: (2.0 * hmax / s.dh).ceil() as usize,
+            end: f64::NEG_INFINITY,
         };
         if (z.n as u64) * (h.n as u64) >= u32::MAX as u64 {
             return Err(ReachError::TooLarge);
@@ -364,10 +376,14 @@ impl ReachBox {
         &self.m
     }
 
-    /// Advance the bound by one step of `dt`.
-    pub fn step(&mut self) {
+    /// Advance the bound by one step of `dt`. Refused past `t_max`: the momentum grid is sized for
+    /// it, and a state beyond the grid would be lost.
+    pub fn step(&mut self) -> Result<(), ReachError> {
         let (dt, slack) = (self.s.dt, self.m.z_slack());
         let t_end = (self.k + 1) as f64 * dt;
+        if t_end > self.s.t_max * (1.0 + 1e-12) {
+            return Err(ReachError::BeyondTMax);
+        }
         let hb = self.h_start + self.m.gmax() * t_end;
         let hcap = Iv::new(-hb, hb).pad(1e-12);
         let (z, h, nh) = (self.z, self.h, self.h.n);
@@ -395,7 +411,7 @@ impl ReachBox {
                             let (dv1, e) = m.dv_partials(q1p, q12p);
                             let d = dv1 * (hp0 * p.m11inv).pad(slack) + (e - dv1 * p.slope) * uu;
                             let dv0 = m.dv(zb - p.phi0, zb + p.psi0);
-                            let he = (hb - dv0.scale(dt) - d.scale(0.5 * dt * dt)).meet(hcap);
+                            let he = (hb - dv0.scale(dt) - d.scale(dt).scale(0.5 * dt)).meet(hcap);
                             // z(dt) = Z + int H / M11: H within hp, the mean of 1 / M11 bounded
                             let ze =
                                 (zb + (hp * p.m11inv_mean).scale(dt).pad(slack * dt)).meet(p.zlim);
@@ -448,6 +464,7 @@ impl ReachBox {
             .collect();
         self.slices = new;
         self.k += 1;
+        Ok(())
     }
 
     /// The lower bound on `max(d, lambda |H|)` over one box with `q2` in `q2s`.

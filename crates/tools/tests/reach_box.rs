@@ -186,14 +186,14 @@ fn the_bound_holds_dp_motions_and_random_rk4_motions() {
             }
         }
         if k < steps {
-            rb.step();
+            rb.step().unwrap();
         }
     }
     assert!(checked > 2000, "{checked}");
     // the bound is not everything: a state far from the start's is out of it at 0.2 s
     let mut rb = ReachBox::new(&model, &settings(dt), start).unwrap();
     for _ in 0..20 {
-        rb.step();
+        rb.step().unwrap();
     }
     assert!(rb.distance([-0.3, 0.0, 0.0]) > 0.1);
     assert!(rb.distance([q0[0], 2.0, q0[1]]) > 1.0);
@@ -270,8 +270,8 @@ fn forward_and_reversed_bounds_meet_on_a_motion() {
         ];
         let mut b = ReachBox::from_box(&model, &s, end).unwrap();
         for _ in 0..10 {
-            a.step();
-            b.step();
+            a.step().unwrap();
+            b.step().unwrap();
         }
         assert!(a.meets_reversed(&b.snapshot()) > 0);
         assert!(meets_reversed(&a.snapshot(), &b.snapshot(), a.h_cells()) > 0);
@@ -281,8 +281,8 @@ fn forward_and_reversed_bounds_meet_on_a_motion() {
     let far = [-0.3, 0.0, 0.0].map(|v| Iv::point(v).pad(1e-9));
     let mut b = ReachBox::from_box(&model, &s, far).unwrap();
     for _ in 0..10 {
-        a.step();
-        b.step();
+        a.step().unwrap();
+        b.step().unwrap();
     }
     assert_eq!(a.meets_reversed(&b.snapshot()), 0);
 }

@@ -171,14 +171,15 @@ pub fn traverse_folder_view(dir: &Path) -> Result<Value, Error> {
 /// The page of a traverse just run from the ladder scenario `ll` (what `brachia traverse` adds to
 /// its run folder).
 pub fn traverse_run_page(ll: &LoadedLadder, tr: &Traverse) -> Result<String, Error> {
-    let report: TraverseReportView = serde_json::from_value(tr.report(ll)).map_err(|e| {
-        Error::invalid(
-            "report.json",
-            "(the report)",
-            e.to_string(),
-            "a traverse report",
-        )
-    })?;
+    let report: TraverseReportView =
+        brachia::serde_nonfinite::from_value(tr.report(ll)).map_err(|e| {
+            Error::invalid(
+                "report.json",
+                "(the report)",
+                e.to_string(),
+                "a traverse report",
+            )
+        })?;
     let csv = tr.to_csv();
     Ok(render(&traverse_view(TraverseParts {
         file: "traverse.csv",

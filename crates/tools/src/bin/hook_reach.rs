@@ -20,7 +20,7 @@
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::{ik_from_seed, RobotParams};
 use brachia::Robot;
-use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
+use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::lambda;
@@ -98,7 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for &t in &times {
         let k = (t / s.dt).round() as usize;
         while rb.steps() < k {
-            rb.step();
+            rb.step()?;
             peak = peak.max(rb.cells());
             if rb.steps() % 10 == 0 {
                 eprintln!(
@@ -140,7 +140,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
 
 /// Step `rb` to the largest of `ks`, keeping a snapshot at each.
-fn snapshots(rb: &mut ReachBox, ks: &[usize]) -> Vec<(usize, Snapshot)> {
+fn snapshots(rb: &mut ReachBox, ks: &[usize]) -> Result<Vec<(usize, Snapshot)>, ReachError> {
     let mut out = vec![];
     let last = ks.iter().copied().max().unwrap_or(0);
     loop {
@@ -148,9 +148,9 @@ fn snapshots(rb: &mut ReachBox, ks: &[usize]) -> Vec<(usize, Snapshot)> {
             out.push((rb.steps(), rb.snapshot()));
         }
         if rb.steps() >= last {
-            return out;
+            return Ok(out);
         }
-        rb.step();
+        rb.step()?;
     }
 }
 
@@ -175,7 +175,7 @@ fn meet_in_the_middle(
     println!("load before: {}", load());
     let mut fwd = ReachBox::new(model, s, start)?;
     let nh = fwd.h_cells();
-    let fs = snapshots(&mut fwd, &k1);
+    let fs = snapshots(&mut fwd, &k1)?;
     println!(
         "forward bound to {:.3} s: {} cells, {:.1} s",
         fwd.time(),
@@ -186,7 +186,7 @@ fn meet_in_the_middle(
     let mut back: Vec<(usize, Snapshot)> = vec![];
     for [q1, q2] in fwd.model().poses_near(s.bar, EPS) {
         let mut rb = ReachBox::from_box(model, s, [q1, Iv::new(-hm, hm), q2])?;
-        for (k, snap) in snapshots(&mut rb, &k2) {
+        for (k, snap) in snapshots(&mut rb, &k2)? {
             match back.iter_mut().find(|(kk, _)| *kk == k) {
                 Some((_, b)) => {
                     for (x, y) in b.iter_mut().zip(snap) {
@@ -208,7 +208,7 @@ fn meet_in_the_middle(
     }
     println!("| T s | split s + s | boxes that meet (fewest over the splits) | proven |");
     println!("|---|---|---|---|");
-    for (t, &k) in times.iter().zip(&ks) {
+    for &k in &ks {
         let mut best = (usize::MAX, 0);
         for a in splits(k) {
             let fa = &fs
@@ -227,7 +227,8 @@ fn meet_in_the_middle(
             }
         }
         println!(
-            "| {t:.3} | {:.3} + {:.3} | {} | {} |",
+            "| {:.3} | {:.3} + {:.3} | {} | {} |",
+            k as f64 * s.dt,
             best.1 as f64 * s.dt,
             (k - best.1) as f64 * s.dt,
             best.0,

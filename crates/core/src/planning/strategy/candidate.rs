@@ -178,6 +178,9 @@ pub(crate) fn solve_seed_longer_swing(
         return Ok(out);
     };
     let Some(Ok(warm)) = longer_swing_settings(settings, t_s, coarse_plan.swing_time_s) else {
+        // no settings warm at the coarse plan's swing time: the seed at the longer swing time
+        let p = plan_single(robot, task, &from_seed, &fine, Some(g))?;
+        out.push((role, p));
         return Ok(out);
     };
     let warm_points = coarse_plan.points.clone();

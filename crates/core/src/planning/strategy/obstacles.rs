@@ -365,17 +365,7 @@ fn strategies(
         })
     };
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
-    // the order: the forward detour seeds (they start at the start pose, and win most), the
-    // best-ranked C-space seed (and with a longer swing), the backward detour seeds, the other
-    // C-space seeds in their rank, each followed by the same with a longer swing
-    let (forward, backward): (Vec<usize>, Vec<usize>) =
-        (0..seeds.len()).partition(|&i| !seeds[i].0.kind.backward());
-    let mut order: Vec<Kind> = forward.into_iter().map(Kind::Detour).collect();
-    let with_longer =
-        |j: usize| std::iter::once(Kind::Cspace(j)).chain(longer.then_some(Kind::CspaceLonger(j)));
-    order.extend(with_longer(0));
-    order.extend(backward.into_iter().map(Kind::Detour));
-    order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).flat_map(with_longer));
+    let order = race_order(seeds.len(), |i| seeds[i].0.kind.backward(), longer);
     for kind in order {
         kinds.push(kind);
         match kind {
@@ -505,6 +495,21 @@ fn strategies(
         free_points,
     };
     after_race(robot, task, settings, nlp, started, fallback, rep, log, ff)
+}
+
+/// The race's candidates after the smooth step, in their order: the forward detour seeds (they start
+/// at the start pose, and win most), the best-ranked C-space seed (and with a longer swing), the
+/// backward detour seeds (`backward(i)` of the `n_seeds`), the other C-space seeds in their rank,
+/// each followed by the same with a longer swing when `longer`.
+fn race_order(n_seeds: usize, backward: impl Fn(usize) -> bool, longer: bool) -> Vec<Kind> {
+    let (back, forward): (Vec<usize>, Vec<usize>) = (0..n_seeds).partition(|&i| backward(i));
+    let mut order: Vec<Kind> = forward.into_iter().map(Kind::Detour).collect();
+    let with_longer =
+        |j: usize| std::iter::once(Kind::Cspace(j)).chain(longer.then_some(Kind::CspaceLonger(j)));
+    order.extend(with_longer(0));
+    order.extend(back.into_iter().map(Kind::Detour));
+    order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).flat_map(with_longer));
+    order
 }
 
 /// What the race leaves to the fallbacks after it: the best-ranked C-space seed (`cguess`, its
