@@ -72,6 +72,17 @@ impl Trajectory {
         self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
     }
 
+    /// A copy with its sample times stretched by `factor` from the first (`t0 + factor (t - t0)`); the
+    /// samples' values are kept as they are (a time axis to retime a path over).
+    pub fn times_stretched(&self, factor: f64) -> Trajectory {
+        let mut out = self.clone();
+        let t0 = self.t.first().copied().unwrap_or(0.0);
+        for t in out.t.iter_mut() {
+            *t = t0 + factor * (*t - t0);
+        }
+        out
+    }
+
     /// Cubic Hermite interpolation at time `t` (clamped to the ends): q with slopes qd, qd with slopes
     /// `qdd` (knot accelerations, row-major `len x n`), tau linearly. Writes `q`, `qd` (n) and `tau` (n-1).
     /// At a sample time it returns that sample exactly.

@@ -24,45 +24,21 @@
 
 mod common;
 
-use brachia::model::{Circle, Robot};
+use brachia::model::Robot;
 use brachia::planning::strategy::cspace::{cspace_routes, time_path, CspaceReport};
-use brachia::planning::strategy::goal::{
-    clear_final_pose_until, clear_final_poses, with_final_pose,
-};
+use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
 use brachia::planning::{
-    plan_with_guess, NlpSettings, Plan, PlannerSettings, SolveStatus, SwingTask, SwingTime,
+    plan_with_guess, NlpSettings, Plan, PlannerSettings, SolveStatus, SwingTask,
 };
 use brachia::trajectory::Trajectory;
-use common::placement::{free_swing, keeps_margin, min_clearance, nlp, swing_placement};
+use common::placement::{
+    free_swing, goal_poses, keeps_margin, min_clearance, nlp, settings_for, swing_placement,
+};
 use std::time::Instant;
 
 /// Iteration limits of the coarse and the fine solve.
 const COARSE_ITER: usize = 200;
 const FINE_ITER: usize = 1000;
-
-/// The settings of one solve: the swing time (`t_s`, or free in `range` from `t_s`), the knots.
-fn settings_for(t_s: f64, range: Option<[f64; 2]>, knot_dt: f64) -> PlannerSettings {
-    let mut s = PlannerSettings {
-        swing_time: SwingTime::Seconds(t_s),
-        free_swing_time: range,
-        knot_dt,
-        ..PlannerSettings::default()
-    };
-    if knot_dt > 0.05 {
-        s.shooting.substep_clearance = false;
-    }
-    s
-}
-
-/// `axis` with its times stretched by `f` from its first.
-fn stretched(axis: &Trajectory, f: f64) -> Trajectory {
-    let mut a = axis.clone();
-    let t0 = a.t[0];
-    for t in a.t.iter_mut() {
-        *t = t0 + f * (*t - t0);
-    }
-    a
-}
 
 fn env_list<T: std::str::FromStr>(name: &str) -> Option<Vec<T>> {
     std::env::var(name)
@@ -75,29 +51,6 @@ fn env_usize(name: &str, default: usize) -> usize {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
-}
-
-/// The goal poses of the oracle: the seeds' final pose, then up to `k - 1` other clear poses.
-fn goals(
-    robot: &Robot,
-    s: &PlannerSettings,
-    base: &Trajectory,
-    obstacles: &[Circle],
-    k: usize,
-) -> Vec<Vec<f64>> {
-    let never = || false;
-    let q_end = base.q(base.len() - 1).to_vec();
-    let target = SwingTask::paper().target;
-    let mut out = vec![q_end.clone()];
-    for q in clear_final_poses(robot, obstacles, s, &q_end, target, k, &never).unwrap() {
-        let same = out
-            .iter()
-            .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.1));
-        if !same && out.len() < k {
-            out.push(q);
-        }
-    }
-    out
 }
 
 /// One variant's swing times: the factor the route is timed over and the solves start at, and the
@@ -213,7 +166,7 @@ fn configuration_space_routes_planned_as_longer_swings() {
                 Some(q) => with_final_pose(pts, &q),
                 None => pts.clone(),
             };
-        let goals = goals(&robot, &s, &base, &pl.obstacles, k_goals);
+        let goals = goal_poses(&robot, &s, &base, &pl.obstacles, task.target, k_goals);
         eprintln!(
             "seed {seed}: {}, T {t:.3} s, {} goal poses",
             pl.what,
@@ -228,7 +181,7 @@ fn configuration_space_routes_planned_as_longer_swings() {
                 let Some(path) = path else { continue };
                 let timed = |f: f64| -> (Trajectory, f64) {
                     let mut r: CspaceReport = rep.clone();
-                    let g = time_path(&robot, &path, &stretched(&axis, f), &mut r);
+                    let g = time_path(&robot, &path, &axis.times_stretched(f), &mut r);
                     (g, r.peak_torque_ratio)
                 };
                 let ratios: Vec<String> = [1.0, 1.25, 1.5, 2.0]

@@ -23,15 +23,12 @@ mod common;
 use brachia::model::{Circle, Robot};
 use brachia::planning::strategy::cspace::{cspace_routes, time_path, CspaceReport};
 use brachia::planning::strategy::detour::detour_seeds;
-use brachia::planning::strategy::goal::{
-    clear_final_pose_until, clear_final_poses, with_final_pose,
-};
-use brachia::planning::{
-    plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask, SwingTime,
-};
+use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+use brachia::planning::{plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask};
 use brachia::trajectory::Trajectory;
 use common::placement::{
-    free_swing, keeps_margin, min_clearance, nlp, plan_placement, swing_placement, Placement,
+    free_swing, goal_poses, keeps_margin, min_clearance, nlp, plan_placement, settings_for,
+    swing_placement, Placement,
 };
 use std::time::Instant;
 
@@ -62,12 +59,7 @@ impl Seed {
         let Some((path, axis, rep)) = self.route.as_ref().filter(|_| factor != 1.0) else {
             return self.guess.clone();
         };
-        let mut axis = axis.clone();
-        let t0 = axis.t[0];
-        for t in axis.t.iter_mut() {
-            *t = t0 + factor * (*t - t0);
-        }
-        time_path(robot, path, &axis, &mut rep.clone())
+        time_path(robot, path, &axis.times_stretched(factor), &mut rep.clone())
     }
 }
 
@@ -90,16 +82,7 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
             route: None,
         })
         .collect();
-    let q_end = base.q(base.len() - 1).to_vec();
-    let mut goals = vec![q_end.clone()];
-    for q in clear_final_poses(robot, obstacles, s, &q_end, target, ORACLE_GOALS, &never).unwrap() {
-        let same = goals
-            .iter()
-            .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.1));
-        if !same && goals.len() < ORACLE_GOALS {
-            goals.push(q);
-        }
-    }
+    let goals = goal_poses(robot, s, &base, obstacles, target, ORACLE_GOALS);
     let mut cs = vec![];
     let (mut searched, mut exhausted, mut unclear) = (0, 0, 0);
     for (gi, goal) in goals.iter().enumerate() {
@@ -135,20 +118,6 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
     cs.sort_by(|a, b| a.0.total_cmp(&b.0));
     out.extend(cs.into_iter().map(|(_, s)| s));
     out
-}
-
-/// The settings of one oracle solve: the swing time (`t_s`, or free in `range`), the knots.
-fn settings_for(t_s: f64, range: Option<[f64; 2]>, knot_dt: f64) -> PlannerSettings {
-    let mut s = PlannerSettings {
-        swing_time: SwingTime::Seconds(t_s),
-        free_swing_time: range,
-        knot_dt,
-        ..PlannerSettings::default()
-    };
-    if knot_dt > 0.05 {
-        s.shooting.substep_clearance = false;
-    }
-    s
 }
 
 /// `robot` with every torque limit scaled by `k`.

@@ -34,8 +34,13 @@ pub(super) fn remembered(
     x_mid: f64,
     compute: impl FnOnce() -> Result<f64>,
 ) -> Result<f64> {
-    let (qb, xb) = (bits(q0), x_mid.to_bits());
-    let found = |e: &Entry| e.x_mid == xb && e.q0 == qb && e.robot == *robot;
+    let xb = x_mid.to_bits();
+    let found = |e: &Entry| {
+        e.x_mid == xb
+            && e.q0.len() == q0.len()
+            && e.q0.iter().zip(q0).all(|(b, x)| *b == x.to_bits())
+            && e.robot == *robot
+    };
     if let Ok(memo) = MEMO.lock() {
         if let Some(e) = memo.iter().find(|e| found(e)) {
             return e.answer.clone().map_err(Error::InfeasibleTask);
@@ -54,7 +59,7 @@ pub(super) fn remembered(
             }
             memo.push(Entry {
                 robot: robot.clone(),
-                q0: qb,
+                q0: bits(q0),
                 x_mid: xb,
                 answer,
             });

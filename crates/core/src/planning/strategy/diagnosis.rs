@@ -87,9 +87,7 @@ impl Cost {
 
     /// Count the probe solve that produced `p`, recorded for `role`.
     fn add(&mut self, p: &mut Plan, role: SolveRole) {
-        self.solves += 1;
-        self.iterations += p.iterations;
-        self.time_s += p.solve_time_s;
+        self.count(p);
         self.log.record(p, role);
     }
 

@@ -52,11 +52,7 @@ impl RankedSeed {
     /// The route timed over its axis stretched by `factor` (a swing `factor` times as long, its
     /// inverse-dynamics torques those of the slower motion).
     pub fn retimed(&self, robot: &Robot, factor: f64) -> Trajectory {
-        let mut axis = self.axis.clone();
-        let t0 = axis.t.first().copied().unwrap_or(0.0);
-        for t in axis.t.iter_mut() {
-            *t = t0 + factor * (*t - t0);
-        }
+        let axis = self.axis.times_stretched(factor);
         let mut rep = CspaceReport::not_searched(GRID_STEP_RAD);
         time_path(robot, &self.path, &axis, &mut rep)
     }
