@@ -20,8 +20,11 @@ use brachia_ocp::{
     EvalLevel, Multipliers, OcpProblem, OcpSettings, OcpSolver, Primal, StageEval, TerminalEval,
 };
 use criterion::{criterion_group, criterion_main, Criterion};
+use shared::{median, plan_primal};
 use std::sync::Arc;
 use std::time::Instant;
+
+mod shared;
 
 /// The two scenarios: (name, task).
 fn cases() -> [(&'static str, SwingTask); 2] {
@@ -42,11 +45,6 @@ fn nlp() -> NlpSettings {
         backend: Backend::Ocp,
         ..Default::default()
     }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// The plan's problem (sub-step clearance rows on, as in the refined solve of an obstacle plan)
@@ -84,13 +82,7 @@ fn at_solution(robot: &Robot, task: &SwingTask, p: &Plan) -> AtSolution {
     .with_self_collision(s.self_collision);
     let mut ocp = SwingOcp::new(robot.clone(), spec, Some(DistanceClearanceFn::new(cf))).unwrap();
     let dims = ocp.dims().clone();
-    let mut z = Primal::zeros(&dims);
-    for k in 0..=k_last {
-        z.x[k] = [p.points.q(k), p.points.qd(k)].concat();
-        if k < k_last {
-            z.u[k] = p.points.tau(k).to_vec();
-        }
-    }
+    let z = plan_primal(&dims, p);
     let mut m = Multipliers::zeros(&dims);
     m.lam.iter_mut().flatten().for_each(|v| *v = 0.3);
     m.mu.iter_mut().flatten().for_each(|v| *v = 0.01);
@@ -147,7 +139,7 @@ fn report(robot: &Robot) {
         eprintln!(
             "plan/{name}: median {:.1} ms, {} iterations in {} solves, objective {:.17e}, \
              split {:?}, callbacks {cb:?}",
-            median(times) * 1e3,
+            median(&times) * 1e3,
             p.iterations,
             p.solves.len(),
             p.objective,
@@ -173,7 +165,7 @@ fn report(robot: &Robot) {
             assert!(solver.bench_newton_step(1e-3));
             tn.push(t.elapsed().as_secs_f64());
         }
-        let (v, f, h, s) = (median(tv), median(tf), median(th), median(tn));
+        let (v, f, h, s) = (median(&tv), median(&tf), median(&th), median(&tn));
         eprintln!(
             "iteration/{name} ({} stages): evaluations {:.3} ms (values {:.3}, first order {:.3}, \
              Hessians {:.3}), Newton step {:.3} ms",

@@ -7,11 +7,14 @@
 use brachia::ad::{Diff, LocalFn};
 use brachia::model::{DynamicsDerivatives, DynamicsFn, Robot, Scratch};
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use shared::median;
 use std::time::Instant;
+
+mod shared;
 
 /// Median time per call of `f`, ns, over 201 batches of 200 calls.
 fn median_ns(mut f: impl FnMut()) -> f64 {
-    let mut t: Vec<f64> = (0..201)
+    let t: Vec<f64> = (0..201)
         .map(|_| {
             let s = Instant::now();
             for _ in 0..200 {
@@ -20,8 +23,7 @@ fn median_ns(mut f: impl FnMut()) -> f64 {
             s.elapsed().as_secs_f64() * 1e9 / 200.0
         })
         .collect();
-    t.sort_by(f64::total_cmp);
-    t[100]
+    median(&t)
 }
 
 fn bench(c: &mut Criterion) {

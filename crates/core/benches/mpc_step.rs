@@ -7,6 +7,7 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
+mod shared;
 #[path = "step_timing/mod.rs"]
 mod step_timing;
 

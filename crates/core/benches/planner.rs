@@ -17,9 +17,12 @@ use brachia::planning::{
     SwingOcp, SwingOcpSpec, SwingTask, Transcription,
 };
 use brachia::Robot;
-use brachia_ocp::{EvalLevel, Multipliers, OcpProblem, Primal, StageEval, TerminalEval};
+use brachia_ocp::{EvalLevel, Multipliers, OcpProblem, StageEval, TerminalEval};
 use criterion::{criterion_group, criterion_main, Criterion};
+use shared::{median, plan_primal};
 use std::time::Instant;
+
+mod shared;
 
 fn task() -> SwingTask {
     SwingTask::paper()
@@ -62,11 +65,6 @@ fn settings(tr: Transcription, b: Backend) -> (PlannerSettings, NlpSettings) {
     )
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 /// Seconds per stage of one first-order evaluation and one Hessian evaluation of the whole horizon
 /// (serial, or half of the stages on the problem's helper thread), at the plan's solution.
 fn per_stage<D: PointDynamics>(robot: &Robot, p: &Plan, parallel: bool) -> (f64, f64) {
@@ -85,13 +83,7 @@ fn per_stage<D: PointDynamics>(robot: &Robot, p: &Plan, parallel: bool) -> (f64,
     };
     let mut ocp: SwingOcp<D> = SwingOcp::with_dynamics(robot.clone(), spec, None).unwrap();
     let dims = ocp.dims().clone();
-    let mut z = Primal::zeros(&dims);
-    for k in 0..=k_last {
-        z.x[k] = [p.points.q(k), p.points.qd(k)].concat();
-        if k < k_last {
-            z.u[k] = p.points.tau(k).to_vec();
-        }
-    }
+    let z = plan_primal(&dims, p);
     let mut m = Multipliers::zeros(&dims);
     m.lam.iter_mut().flatten().for_each(|v| *v = 0.3);
     let mut st: Vec<StageEval> = (0..=k_last)
@@ -109,7 +101,7 @@ fn per_stage<D: PointDynamics>(robot: &Robot, p: &Plan, parallel: bool) -> (f64,
         ht.push(t.elapsed().as_secs_f64());
     }
     let ns = (k_last + 1) as f64;
-    (median(jt) / ns, median(ht) / ns)
+    (median(&jt) / ns, median(&ht) / ns)
 }
 
 /// The manual pass (see the module docs).
@@ -135,12 +127,12 @@ fn report(robot: &Robot) {
             "{name}: open-loop replay misses the bar by {} m",
             p.replay_ee_error_m
         );
-        let m = median(times);
+        let m = median(&times);
         eprintln!(
             "plan/tracking {name}: median {:.1} ms (median solve {:.1} ms), {} iterations, \
              objective {:.6}, replay EE error {:.3e} m, last split {:?}",
             m * 1e3,
-            median(solves) * 1e3,
+            median(&solves) * 1e3,
             p.iterations,
             p.objective,
             p.replay_ee_error_m,
@@ -185,7 +177,7 @@ fn report(robot: &Robot) {
             assert!(q.converged());
         }
     }
-    let (par, serial) = (median(tp), median(ts));
+    let (par, serial) = (median(&tp), median(&ts));
     eprintln!(
         "plan/tracking multiple-shooting/ocp, interleaved: helper thread {:.1} ms, serial stages \
          {:.1} ms, parallel / serial {:.2}",
@@ -206,7 +198,7 @@ fn report(robot: &Robot) {
             last = Some(p);
         }
         let p = last.unwrap();
-        let m = median(times);
+        let m = median(&times);
         eprintln!(
             "plan/tracking multiple-shooting/ocp knot_dt {:.0} ms substeps {substeps}: median {:.1} ms \
              ({} intervals, {} iterations, converged {}), objective {:.6} ({:+.2e} relative to 10 ms), \

@@ -23,7 +23,10 @@ use brachia::planning::{
 use brachia::Robot;
 use brachia_ocp::{OcpSettings, Primal, WarmDuals};
 use criterion::{criterion_group, criterion_main, Criterion};
+use shared::quantile;
 use std::time::{Duration, Instant};
+
+mod shared;
 
 /// The benchmark's re-planning mesh ([`REPLAN_KNOT_DT`] unless `BRACHIA_REPLAN_KNOT_DT` says otherwise).
 fn settings() -> (PlannerSettings, NlpSettings) {
@@ -33,13 +36,6 @@ fn settings() -> (PlannerSettings, NlpSettings) {
             .and_then(|v| v.parse().ok())
             .unwrap_or(REPLAN_KNOT_DT),
     )
-}
-
-fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    let i = ((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1;
-    v[i]
 }
 
 /// An [`OcpNlp`] that offers given multipliers for a warm start.

@@ -150,6 +150,14 @@ macro_rules! with_link_count {
     }};
 }
 
+/// The widest vector instructions this CPU has, detected once per process: the [`pulp::Arch`] the
+/// crate's dispatched kernels (analytic derivatives, the shooting stages) run through. Bodies
+/// dispatched on it are element-wise with no fused multiply-adds, so every CPU gets the same numbers.
+pub(crate) fn simd_arch() -> pulp::Arch {
+    static ARCH: std::sync::LazyLock<pulp::Arch> = std::sync::LazyLock::new(pulp::Arch::new);
+    *ARCH
+}
+
 pub mod ad;
 pub mod control;
 pub mod error;

@@ -9,25 +9,20 @@
 mod common;
 
 use brachia::control::param_estimator::chi2_quantile;
-use brachia::control::{Adaptive, Mpc, MpcSettings, ParamEstimatorSettings};
-use brachia::model::{Robot, RobotParams};
-use brachia::sim::{run_closed_loop, ModelPlant, NoiseSettings, Noisy, RunSettings};
+use brachia::control::{Adaptive, Mpc, ParamEstimatorSettings};
+use brachia::model::Robot;
 use brachia::trajectory::Trajectory;
+use common::estimate::{adaptive_run, scaled};
 use std::sync::Arc;
 
 /// The paper's robot with every mass and inertia times `f`.
 fn coherent(f: f64) -> Robot {
-    let mut p: RobotParams = Robot::paper().params().clone();
-    for l in &mut p.links {
-        l.mass *= f;
-        l.inertia *= f;
-    }
-    Robot::from_params(p, "coherent").unwrap()
+    scaled(&[f; 4], &[f; 4])
 }
 
 /// The adaptive MPC (estimate settings `es`) tracking the swing on the model plant of `plant`
-/// with sensor noise `noise_scale` x (0.0015 rad, 0.015 rad/s),
-/// for `fraction` of the swing.
+/// with sensor noise `noise_scale` x (0.0015 rad, 0.015 rad/s, seed 7), for `fraction` of the
+/// swing.
 fn run(
     reference: &Arc<Trajectory>,
     plant: &Robot,
@@ -35,29 +30,14 @@ fn run(
     noise_scale: f64,
     fraction: f64,
 ) -> Adaptive<Mpc> {
-    let nominal = Arc::new(Robot::paper());
-    let mpc = Mpc::new(
-        Arc::clone(&nominal),
-        Arc::clone(reference),
-        MpcSettings::default(),
+    adaptive_run(
+        reference,
+        plant,
+        es,
+        noise_scale,
+        7,
+        fraction * reference.duration(),
     )
-    .unwrap();
-    let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
-    let x0 = [reference.q(0), reference.qd(0)].concat();
-    let mut mp = ModelPlant::new(plant.clone(), &x0);
-    let noise = NoiseSettings {
-        q_std: 0.0015 * noise_scale,
-        qd_std: 0.015 * noise_scale,
-        seed: 7,
-    };
-    let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();
-    let rs = RunSettings {
-        duration_s: fraction * reference.duration(),
-        control_dt: 1e-3,
-        cancel: None,
-    };
-    run_closed_loop(&mut p, &mut c, reference, &nominal, &rs).unwrap();
-    c
 }
 
 #[test]
@@ -96,7 +76,7 @@ fn the_estimate_is_used_only_when_it_is_determined_consistent_and_different() {
         "{}",
         est.nis_ratio()
     );
-    assert!(!est.ready_to_use(false));
+    assert!(!est.ready_to_use());
     assert_eq!(c.used_from(), None);
     assert_eq!(c.model_updates(), 0);
 
@@ -120,7 +100,10 @@ fn the_estimate_is_used_only_when_it_is_determined_consistent_and_different() {
         "{}",
         est.max_rel_std()
     );
-    assert!(!est.ready_to_use(false) && !est.ready_to_use(true));
+    assert!(!est.ready_to_use());
+    // not even once handed over (no test against the nominal robot then)
+    est.mark_used(0.0);
+    assert!(!est.ready_to_use());
     assert_eq!(c.used_from(), None);
 
     // the sensor noise four times the filter's: the measurements do not fit, nothing is used

@@ -12,26 +12,14 @@ use brachia::control::base_params::{
     base_params, lagrangian_regressor, momentum_regressor, regressor, robot_from_base,
 };
 use brachia::control::joint_ekf::{JointEkf, JointEkfNoise};
-use brachia::control::{
-    Adaptive, EstimateMethod, Mpc, MpcSettings, ParamEstimator, ParamEstimatorSettings,
-};
+use brachia::control::{Adaptive, EstimateMethod, Mpc, ParamEstimator, ParamEstimatorSettings};
 use brachia::fdcheck::{assert_jacobian, compare, fd_jacobian};
 use brachia::model::{Robot, Scratch};
-use brachia::sim::{run_closed_loop, ModelPlant, NoiseSettings, Noisy, RunSettings};
 use brachia::trajectory::Trajectory;
+use common::estimate::{self, scaled};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
-
-/// The paper's robot with per-link mass and inertia factors.
-fn scaled(mass: &[f64], inertia: &[f64]) -> Robot {
-    let mut p = Robot::paper().params().clone();
-    for (j, l) in p.links.iter_mut().enumerate() {
-        l.mass *= mass[j];
-        l.inertia *= inertia[j];
-    }
-    Robot::from_params(p, "scaled").unwrap()
-}
 
 fn random_state(rng: &mut ChaCha8Rng, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut v = |s: f64| (0..n).map(|_| rng.gen_range(-s..s)).collect::<Vec<f64>>();
@@ -174,8 +162,8 @@ fn the_joint_filter_model_has_exact_jacobians() {
 
 /// The adaptive MPC tracking `reference` on the model plant of `plant` (sensor noise
 /// sigma_q = 0.0015 rad, sigma_qd = 0.015 rad/s, seeded `seed`, scaled by `BRACHIA_EST_NOISE`) for
-/// `duration_s` with estimator settings `es`: the controller after the run and the plant's true base
-/// parameters.
+/// `duration_s` with estimator settings `es` ([`estimate::adaptive_run`]): the controller after the
+/// run and the plant's true base parameters.
 fn adaptive_run(
     reference: &Arc<Trajectory>,
     plant: &Robot,
@@ -183,33 +171,12 @@ fn adaptive_run(
     es: ParamEstimatorSettings,
     duration_s: f64,
 ) -> (Adaptive<Mpc>, Vec<f64>) {
-    let nominal = Arc::new(Robot::paper());
-    let mpc = Mpc::new(
-        Arc::clone(&nominal),
-        Arc::clone(reference),
-        MpcSettings::default(),
-    )
-    .unwrap();
-    let mut c = Adaptive::new(mpc, Arc::clone(&nominal), es).unwrap();
-    let x0 = [reference.q(0), reference.qd(0)].concat();
-    let mut mp = ModelPlant::new(plant.clone(), &x0);
     // the table and the scan may scale the sensor noise (`BRACHIA_EST_NOISE`); the tests use 1
     let scale: f64 = std::env::var("BRACHIA_EST_NOISE")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1.0);
-    let noise = NoiseSettings {
-        q_std: 0.0015 * scale,
-        qd_std: 0.015 * scale,
-        seed,
-    };
-    let mut p = Noisy::new(Box::new(&mut mp), noise).unwrap();
-    let rs = RunSettings {
-        duration_s,
-        control_dt: 1e-3,
-        cancel: None,
-    };
-    run_closed_loop(&mut p, &mut c, reference, &nominal, &rs).unwrap();
+    let c = estimate::adaptive_run(reference, plant, es, scale, seed, duration_s);
     let mut truth = vec![0.0; 2 * plant.n()];
     base_params(plant, &mut truth);
     (c, truth)
@@ -266,20 +233,27 @@ fn errors_at(
         .collect()
 }
 
+/// `count` plants with each link's mass and inertia factors drawn from U(0.85, 1.15) by `rng`:
+/// `per-link{i}` with noise seed `seed0 + i`.
+fn per_link_plants(rng: &mut ChaCha8Rng, count: u64, seed0: u64) -> Vec<(String, Robot, u64)> {
+    (0..count)
+        .map(|draw| {
+            let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
+            let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
+            (
+                format!("per-link{draw}"),
+                scaled(&mass, &inertia),
+                seed0 + draw,
+            )
+        })
+        .collect()
+}
+
 /// The plants the estimator was tuned on: four per-link draws of mass and inertia factors from
 /// U(0.85, 1.15) (noise seeds 100..103), then the coherent 0.85 and 1.15 plants (noise seed 7).
 fn tuned_plants() -> Vec<(String, Robot, u64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let mut v = Vec::new();
-    for draw in 0..4 {
-        let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-        let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-        v.push((
-            format!("per-link{draw}"),
-            scaled(&mass, &inertia),
-            100 + draw,
-        ));
-    }
+    let mut v = per_link_plants(&mut rng, 4, 100);
     for f in [0.85, 1.15] {
         v.push((format!("coherent{f}"), scaled(&[f; 4], &[f; 4]), 7));
     }
@@ -291,16 +265,7 @@ fn tuned_plants() -> Vec<(String, Robot, u64)> {
 /// from U(0.85, 1.15) (seeds 7102, 7103).
 fn held_out_plants() -> Vec<(String, Robot, u64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(31337);
-    let mut v = Vec::new();
-    for draw in 0..6 {
-        let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-        let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-        v.push((
-            format!("per-link{draw}"),
-            scaled(&mass, &inertia),
-            7000 + draw,
-        ));
-    }
+    let mut v = per_link_plants(&mut rng, 6, 7000);
     for (i, f) in [0.85, 1.15].into_iter().enumerate() {
         v.push((
             format!("coherent{f}"),
@@ -492,18 +457,9 @@ fn mid_swing_scan() {
             prior_rel_std: 1.0,
             ..Default::default()
         };
-        let mut rng = ChaCha8Rng::seed_from_u64(2024);
         let mut line = String::new();
-        for draw in 0..4 {
-            let mass: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-            let inertia: Vec<f64> = (0..4).map(|_| rng.gen_range(0.85..1.15)).collect();
-            let plant = scaled(&mass, &inertia);
-            let e = estimate_with(&reference, &plant, 100 + draw, at, es);
-            line += &worst(&format!("per-link{draw}"), &e);
-        }
-        for f in [0.85, 1.15] {
-            let e = estimate_with(&reference, &scaled(&[f; 4], &[f; 4]), 7, at, es);
-            line += &worst(&format!("coherent{f}"), &e);
+        for (name, plant, seed) in tuned_plants() {
+            line += &worst(&name, &estimate_with(&reference, &plant, seed, at, es));
         }
         eprintln!("{item}:{line}");
     }

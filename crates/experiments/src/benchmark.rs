@@ -28,10 +28,12 @@ use crate::progress::{CancelToken, Progress, ProgressFn};
 use crate::run_folder::{install, stage_for, RunFolder};
 use crate::scenario::{LoadedScenario, PlantKind};
 use crate::ExpError;
-use brachia::sim::{run_closed_loop, Disturbances, ModelPlant, RunSettings};
+use brachia::sim::{
+    run_closed_loop, ClosedLoopLog, Controller, Disturbances, ModelPlant, RunSettings,
+};
 use brachia::trajectory::Trajectory;
 use brachia::{Error, Robot};
-use brachia_rapier::{Circle, Obstacle, RapierPlant};
+use brachia_rapier::{Circle, ContactEvent, Obstacle, RapierPlant};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -342,6 +344,56 @@ pub fn with_scenario(base: &Disturbances, draw: &Disturbances) -> Disturbances {
     d
 }
 
+/// The closed loop of `ctrl` along `reference` (its first state moved by `dist`'s start offset, for
+/// its duration, at the scenario's control period) on the plant `probot` of kind `plant` wrapped in
+/// `dist`'s disturbances: the model plant with the scenario's sub-steps, or the rapier plant with
+/// the scenario's settings, the task's obstacles, the scenario's plant obstacles and `extra`. The
+/// log and the rapier plant's contacts (none on the model plant).
+pub fn simulate(
+    ls: &LoadedScenario,
+    reference: &Arc<Trajectory>,
+    probot: &Robot,
+    plant: PlantKind,
+    dist: &Disturbances,
+    extra: &[Obstacle],
+    ctrl: &mut dyn Controller,
+) -> Result<(ClosedLoopLog, Vec<ContactEvent>), Error> {
+    let sc = &ls.scenario;
+    let dt = sc.tracking.control_dt;
+    let x0 = dist.start_state(&[reference.q(0), reference.qd(0)].concat());
+    let settings = RunSettings {
+        duration_s: reference.duration(),
+        control_dt: dt,
+        cancel: sc.solver.cancel.clone(),
+    };
+    Ok(match plant {
+        PlantKind::Model => {
+            let mut p = ModelPlant::new(probot.clone(), &x0);
+            p.substeps = sc.plant.substeps;
+            let mut w = dist.wrap(Box::new(&mut p), dt)?;
+            let log = run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?;
+            (log, Vec::new())
+        }
+        PlantKind::Rapier => {
+            let mut p = RapierPlant::new(probot, &x0, &sc.plant.rapier())?;
+            for c in &sc.task.obstacles {
+                p.add_obstacle(&Obstacle::Circle(Circle {
+                    center: c.center,
+                    radius: c.radius,
+                }))?;
+            }
+            for o in sc.plant.obstacles.iter().chain(extra) {
+                p.add_obstacle(o)?;
+            }
+            let log = {
+                let mut w = dist.wrap(Box::new(&mut p), dt)?;
+                run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?
+            };
+            (log, p.contacts().to_vec())
+        }
+    })
+}
+
 /// Run one job: plant, wrappers, controller, closed loop, scores.
 fn run_job(
     ls: &LoadedScenario,
@@ -350,43 +402,16 @@ fn run_job(
     job: &Job,
 ) -> Result<BenchRow, Error> {
     let sc = &ls.scenario;
-    let dt = sc.tracking.control_dt;
-    let x0 = job
-        .dist
-        .start_state(&[reference.q(0), reference.qd(0)].concat());
-    let settings = RunSettings {
-        duration_s: reference.duration(),
-        control_dt: dt,
-        cancel: sc.solver.cancel.clone(),
-    };
     let mut built = entry.build(ls, reference)?;
-    let ctrl = built.controller();
-    let (log, contacts) = match job.plant {
-        PlantKind::Model => {
-            let mut p = ModelPlant::new(job.probot.clone(), &x0);
-            p.substeps = sc.plant.substeps;
-            let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
-            let log = run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?;
-            (log, Vec::new())
-        }
-        PlantKind::Rapier => {
-            let mut p = RapierPlant::new(&job.probot, &x0, &sc.plant.rapier())?;
-            for c in &sc.task.obstacles {
-                p.add_obstacle(&Obstacle::Circle(Circle {
-                    center: c.center,
-                    radius: c.radius,
-                }))?;
-            }
-            for o in sc.plant.obstacles.iter().chain(&job.balls) {
-                p.add_obstacle(o)?;
-            }
-            let log = {
-                let mut w = job.dist.wrap(Box::new(&mut p), dt)?;
-                run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &settings)?
-            };
-            (log, p.contacts().to_vec())
-        }
-    };
+    let (log, contacts) = simulate(
+        ls,
+        reference,
+        &job.probot,
+        job.plant,
+        &job.dist,
+        &job.balls,
+        built.controller(),
+    )?;
     let replans = built.replans();
     let n = ls.robot.n();
     let caught = crate::success::capture(&job.probot, &log, reference.duration(), sc.task.target);

@@ -1,7 +1,7 @@
 //! The reachable-set bound of the reduced two-link swing: its interval enclosures hold the model's
 //! values at random points, `phi` integrates `M12/M11`, and the bound holds every motion tried (the
 //! dynamic programme's own motions and random elbow-rate sequences integrated with RK4).
-use brachia::model::{ik_from_seed, RobotParams};
+use brachia::model::ik_from_seed;
 use brachia::Robot;
 use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
 use brachia_tools::reach_interval::Iv;
@@ -13,10 +13,7 @@ use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
 fn hook() -> (Robot, ReducedTwoLink) {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    let robot =
-        Robot::from_params(RobotParams::from_toml_file(&p).unwrap(), "two-link-hook").unwrap();
+    let robot = brachia_tools::hook_robot().unwrap();
     let model = ReducedTwoLink::new(&robot).unwrap();
     (robot, model)
 }

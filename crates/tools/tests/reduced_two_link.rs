@@ -1,14 +1,12 @@
 //! The reduced two-link model (elbow angle as input, momentum about the grip as state) against the full
 //! model: with the elbow driven along a smooth path by the torque the full model needs for it, the full
 //! model's grip angle and momentum follow the reduced model's.
-use brachia::model::{ik_from_seed, RobotParams, Scratch};
+use brachia::model::{ik_from_seed, Scratch};
 use brachia::Robot;
 use brachia_tools::reduced_two_link::{ReducedModelError, ReducedTwoLink};
 
 fn hook() -> Robot {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    Robot::from_params(RobotParams::from_toml_file(&p).unwrap(), "two-link-hook").unwrap()
+    brachia_tools::hook_robot().unwrap()
 }
 
 /// The elbow's path: angle, rate and acceleration at `t` s.

@@ -2,18 +2,14 @@
 //! elbow as a kinematic input, rear hand on the previous bar 0.34 m behind, link 1 below the bar. It
 //! reaches the bar 0.34 m ahead in 0.74 s (the real robot plans there) and misses it by more than 10 cm
 //! at 1.0 s; the motion it returns keeps every bound and is the reduced model's own.
-use brachia::model::{ik_from_seed, RobotParams};
-use brachia::Robot;
+use brachia::model::ik_from_seed;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::{DpSettings, ValueHistory};
 use std::f64::consts::PI;
 
 #[test]
 fn coarse_grid_reaches_the_bar_at_0_74_s_and_not_at_1_0_s() {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    let robot =
-        Robot::from_params(RobotParams::from_toml_file(&p).unwrap(), "two-link-hook").unwrap();
+    let robot = brachia_tools::hook_robot().unwrap();
     let model = ReducedTwoLink::new(&robot).unwrap();
     let q0 = ik_from_seed(&robot, &[-2.2, -1.9], [-0.34, 0.0]).unwrap();
     let start = [q0[0], 0.0, q0[1]];

@@ -3,6 +3,7 @@
 //! three passes of the run) followed by criterion's mean over the same sequence.
 
 use crate::common::*;
+use crate::shared::quantile;
 use brachia::control::{Mpc, MpcSettings};
 use brachia::sim::{Controller, ModelPlant, Plant};
 use brachia::trajectory::Trajectory;
@@ -59,13 +60,11 @@ pub fn time_controllers(
                 us.push(s.elapsed().as_secs_f64() * 1e6);
             }
         }
-        us.sort_by(f64::total_cmp);
-        let p = |q: f64| us[((q * (us.len() - 1) as f64).round()) as usize];
         eprintln!(
             "{name}: single calls median {:.1} us, p99 {:.1} us, max {:.1} us",
-            p(0.5),
-            p(0.99),
-            us[us.len() - 1]
+            quantile(&us, 0.5),
+            quantile(&us, 0.99),
+            quantile(&us, 1.0)
         );
         let mut k = 0;
         ctrl.restart();

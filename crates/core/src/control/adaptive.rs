@@ -26,8 +26,6 @@ pub struct Adaptive<C> {
     have_tau: bool,
     last_update: f64,
     model_updates: usize,
-    /// When the wrapped controller was first given the estimate.
-    used_from: Option<f64>,
 }
 
 impl<C: Controller> Adaptive<C> {
@@ -45,7 +43,6 @@ impl<C: Controller> Adaptive<C> {
             have_tau: false,
             last_update: f64::NEG_INFINITY,
             model_updates: 0,
-            used_from: None,
         })
     }
 
@@ -70,7 +67,6 @@ impl<C: Controller> Adaptive<C> {
         self.estimator.reset();
         self.have_tau = false;
         self.last_update = f64::NEG_INFINITY;
-        self.used_from = None;
     }
 
     /// How many times the wrapped controller's model was updated.
@@ -80,15 +76,12 @@ impl<C: Controller> Adaptive<C> {
 
     /// When the wrapped controller was first given the estimate, s (`None`: not yet).
     pub fn used_from(&self) -> Option<f64> {
-        self.used_from
+        self.estimator.used_from()
     }
 
     /// The estimate, its uncertainty and its history.
     pub fn report(&self) -> EstimateReport {
-        EstimateReport {
-            used_from_s: self.used_from,
-            ..self.estimator.report()
-        }
+        self.estimator.report()
     }
 }
 
@@ -108,13 +101,13 @@ impl<C: Controller> Controller for Adaptive<C> {
         };
         if updated
             && t - self.last_update >= self.settings.model_update_period_s - 1e-9
-            && self.estimator.ready_to_use(self.used_from.is_some())
+            && self.estimator.ready_to_use()
         {
             if let Ok(r) = self.estimator.robot() {
                 if self.inner.set_model(Arc::new(r)).is_ok() {
                     self.last_update = t;
                     self.model_updates += 1;
-                    self.used_from.get_or_insert(t);
+                    self.estimator.mark_used(t);
                 }
             }
         }

@@ -28,6 +28,10 @@ use brachia_linalg::{cholesky, cholesky_solve_vec, Scaling};
 /// loose prior far.
 pub const PARAM_BOX: f64 = 2.0;
 
+/// Time constant of the filter's running mean of the normalised innovation squared, s
+/// ([`JointEkf::nis_mean`]).
+pub const NIS_WINDOW_S: f64 = 0.2;
+
 /// Noise model of [`JointEkf`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointEkfNoise {
@@ -70,6 +74,10 @@ pub struct JointEkf {
     t_prev: Option<f64>,
     /// Normalised innovation squared of the last measurement update (NaN when none or rejected).
     nis: f64,
+    /// Running mean of `nis` over the last [`NIS_WINDOW_S`] (NaN: no update yet) and the time of
+    /// its last sample.
+    nis_mean: f64,
+    nis_t: f64,
     /// The box the parameters are kept in: [prior / PARAM_BOX, prior * PARAM_BOX].
     lo: Vec<f64>,
     hi: Vec<f64>,
@@ -137,6 +145,8 @@ impl JointEkf {
             p_good: vec![0.0; nz * nz],
             t_prev: None,
             nis: f64::NAN,
+            nis_mean: f64::NAN,
+            nis_t: 0.0,
             lo: vec![0.0; 2 * n],
             hi: vec![0.0; 2 * n],
             zin: vec![0.0; 3 * n - 1],
@@ -159,7 +169,8 @@ impl JointEkf {
         Ok(ekf)
     }
 
-    /// Start over from the prior `theta0`, `theta_std`; the next measurement starts the state.
+    /// Start over from the prior `theta0`, `theta_std` (no innovation recorded); the next
+    /// measurement starts the state.
     pub fn reset(&mut self, theta0: &[f64], theta_std: &[f64]) {
         let n = self.model.n;
         let nz = 4 * n;
@@ -174,6 +185,7 @@ impl JointEkf {
             self.p[(2 * n + i) * nz + 2 * n + i] = s * s;
         }
         self.t_prev = None;
+        self.nis_mean = f64::NAN;
     }
 
     /// The parameter estimate `[ZZR_1..ZZR_n, MXR_1..MXR_n]`.
@@ -208,6 +220,13 @@ impl JointEkf {
     /// or was rejected.
     pub fn last_nis(&self) -> f64 {
         self.nis
+    }
+
+    /// The running mean of [`Self::last_nis`] over the last [`NIS_WINDOW_S`] of updates (each
+    /// update moves it toward its value by the fraction of the window elapsed since the last one);
+    /// NaN before the first update.
+    pub fn nis_mean(&self) -> f64 {
+        self.nis_mean
     }
 
     /// Forget the state (the next measurement starts it again); the parameters keep their estimate
@@ -473,6 +492,15 @@ impl JointEkf {
             return EkfStep::Rejected;
         }
         if updated {
+            if self.nis.is_finite() {
+                self.nis_mean = if self.nis_mean.is_finite() {
+                    let a = ((t - self.nis_t) / NIS_WINDOW_S).clamp(0.0, 1.0);
+                    self.nis_mean + a * (self.nis - self.nis_mean)
+                } else {
+                    self.nis
+                };
+                self.nis_t = t;
+            }
             EkfStep::Updated
         } else {
             // the parameters and their covariance as before the step; the state at the measurement
@@ -506,5 +534,78 @@ impl JointEkf {
         self.z.copy_from_slice(z);
         self.dynamics(false, tau);
         qdd[..n].copy_from_slice(&self.qdd);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{EkfStep, JointEkf, JointEkfNoise, NIS_WINDOW_S};
+    use crate::control::base_params::base_params;
+    use crate::integrate::Rk4;
+    use crate::model::Robot;
+
+    /// The running mean of the normalised innovation squared: NaN until the first update, that
+    /// update's value, then each update moves it toward its own value by the fraction of
+    /// `NIS_WINDOW_S` elapsed since the last one; a measurement that starts the state or is rejected
+    /// leaves it, and a reset forgets it.
+    #[test]
+    fn the_nis_mean_follows_the_updates_over_its_window() {
+        let robot = Robot::paper();
+        let n = robot.n;
+        let mut theta = vec![0.0; 2 * n];
+        base_params(&robot, &mut theta);
+        let std: Vec<f64> = theta.iter().map(|v| 0.1 * v.abs()).collect();
+        let noise = JointEkfNoise {
+            meas_q_std: 0.0015,
+            meas_qd_std: 0.015,
+            process_qd_std: 0.05,
+            outlier_sigma: 5.0,
+        };
+        let mut ekf = JointEkf::new(&robot, &theta, &std, noise).unwrap();
+        assert!(ekf.nis_mean().is_nan());
+        // the robot swinging freely from the paper's start pose, measured every 2 ms with a
+        // deterministic wobble of about the modelled noise, and one measurement 1 rad off
+        let mut rk4 = Rk4::new(&robot);
+        let mut x = vec![-2.35, 0.0, -1.55, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let (tau, h) = ([0.0; 3], 2e-3);
+        let (mut expect, mut t_last, mut updates, mut others) = (f64::NAN, 0.0, 0, 0);
+        for k in 0..150 {
+            let t = h * k as f64;
+            let mut meas = x.clone();
+            for (i, m) in meas.iter_mut().enumerate() {
+                let s = if i < n { 0.0015 } else { 0.015 };
+                *m += s * (1.7 * k as f64 + i as f64).sin();
+            }
+            if k == 100 {
+                meas[0] += 1.0;
+            }
+            let before = ekf.nis_mean();
+            match ekf.observe(t, &meas, &tau) {
+                EkfStep::Updated => {
+                    let nis = ekf.last_nis();
+                    expect = if expect.is_finite() {
+                        let a = ((t - t_last) / NIS_WINDOW_S).clamp(0.0, 1.0);
+                        expect + a * (nis - expect)
+                    } else {
+                        nis
+                    };
+                    t_last = t;
+                    updates += 1;
+                    assert_eq!(ekf.nis_mean().to_bits(), expect.to_bits(), "step {k}");
+                }
+                _ => {
+                    others += 1;
+                    assert_eq!(ekf.nis_mean().to_bits(), before.to_bits(), "step {k}");
+                }
+            }
+            rk4.step(&robot, &mut x, &tau, h);
+        }
+        // the first measurement starts the state, the one 1 rad off is rejected
+        assert!(
+            updates > 100 && others >= 2,
+            "{updates} updates, {others} others"
+        );
+        ekf.reset(&theta, &std);
+        assert!(ekf.nis_mean().is_nan());
     }
 }

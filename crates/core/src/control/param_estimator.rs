@@ -38,7 +38,7 @@ const MIN_PERIOD_S: f64 = 1e-3;
 
 /// Time constant of the joint filter's running mean of the normalised innovation squared, s
 /// ([`ParamEstimatorSettings::use_max_nis_ratio`]).
-pub const NIS_WINDOW_S: f64 = 0.2;
+pub use super::joint_ekf::NIS_WINDOW_S;
 
 /// Most history samples one estimator keeps (allocated once; later updates are not recorded).
 pub const MAX_HISTORY: usize = 1000;
@@ -271,10 +271,8 @@ pub struct ParamEstimator {
     /// Scratch of [`Self::nominal_chi2`]: the parameters' covariance and the difference.
     cov: Vec<f64>,
     dev: Vec<f64>,
-    /// The joint filter's running mean of the normalised innovation squared (NaN: none yet) and
-    /// the time of its last sample.
-    nis_mean: f64,
-    nis_t: f64,
+    /// When a controller was first given the estimate ([`Self::mark_used`]).
+    used_from: Option<f64>,
 }
 
 impl ParamEstimator {
@@ -338,8 +336,7 @@ impl ParamEstimator {
             history: Vec::with_capacity(MAX_HISTORY),
             cov: vec![0.0; np * np],
             dev: vec![0.0; np],
-            nis_mean: f64::NAN,
-            nis_t: 0.0,
+            used_from: None,
         })
     }
 
@@ -407,17 +404,17 @@ impl ParamEstimator {
     pub fn nis_ratio(&self) -> f64 {
         // the measurement's dimension: the joint filter measures the state [q, qd]
         match &self.ekf {
-            Some(ekf) => self.nis_mean / ekf.state().len() as f64,
+            Some(ekf) => ekf.nis_mean() / ekf.state().len() as f64,
             None => f64::NAN,
         }
     }
 
     /// Whether the estimate is ready to be used (docs/estimation.md, "When the estimate is used"):
     /// determined (every relative standard deviation at most `use_max_rel_std`), consistent (with
-    /// the joint filter: [`Self::nis_ratio`] at most `use_max_nis_ratio`) and, unless
-    /// `in_use` (it was handed over already), significantly different from the nominal robot
+    /// the joint filter: [`Self::nis_ratio`] at most `use_max_nis_ratio`) and, unless it was
+    /// handed over already ([`Self::mark_used`]), significantly different from the nominal robot
     /// (the chi-square test at `use_min_sigma` and a change of at least `use_min_rel_change`).
-    pub fn ready_to_use(&mut self, in_use: bool) -> bool {
+    pub fn ready_to_use(&mut self) -> bool {
         let s = self.settings;
         if self.max_rel_std() > s.use_max_rel_std {
             return false;
@@ -427,12 +424,24 @@ impl ParamEstimator {
         if self.ekf.is_some() && (nis.is_nan() || nis > s.use_max_nis_ratio) {
             return false;
         }
-        if in_use {
+        if self.used_from.is_some() {
             return true;
         }
         self.max_rel_change() >= s.use_min_rel_change
             && (s.use_min_sigma == 0.0
                 || self.nominal_chi2() >= chi2_quantile(self.theta.len(), s.use_min_sigma))
+    }
+
+    /// Record that a controller was given the estimate at `t`, s (the first time is kept): from
+    /// then on [`Self::ready_to_use`] no longer asks the estimate to differ from the nominal robot.
+    pub fn mark_used(&mut self, t: f64) {
+        self.used_from.get_or_insert(t);
+    }
+
+    /// When a controller was first given the estimate, s (`None`: not yet, or not since
+    /// [`Self::reset`]).
+    pub fn used_from(&self) -> Option<f64> {
+        self.used_from
     }
 
     /// The joint filter (`method = "ekf"`), for its diagnostics.
@@ -464,7 +473,7 @@ impl ParamEstimator {
         self.rejected = 0;
         self.history.clear();
         self.last_record = f64::NEG_INFINITY;
-        self.nis_mean = f64::NAN;
+        self.used_from = None;
         if let Some(ekf) = &mut self.ekf {
             let std: Vec<f64> = (0..np).map(|i| self.p[i * np + i].sqrt()).collect();
             ekf.reset(&self.theta_nom, &std);
@@ -545,16 +554,6 @@ impl ParamEstimator {
             }
             EkfStep::Updated => {
                 self.theta.copy_from_slice(ekf.theta());
-                let nis = ekf.last_nis();
-                if nis.is_finite() {
-                    self.nis_mean = if self.nis_mean.is_finite() {
-                        let a = ((t - self.nis_t) / NIS_WINDOW_S).clamp(0.0, 1.0);
-                        self.nis_mean + a * (nis - self.nis_mean)
-                    } else {
-                        nis
-                    };
-                    self.nis_t = t;
-                }
                 self.windows += 1;
                 let period = self.settings.model_update_period_s;
                 if t - self.last_record >= period - 1e-9 && self.history.len() < MAX_HISTORY {
@@ -649,7 +648,7 @@ impl ParamEstimator {
             windows: self.windows,
             rejected: self.rejected,
             history: self.history.clone(),
-            used_from_s: None,
+            used_from_s: self.used_from,
         }
     }
 }
@@ -697,12 +696,12 @@ mod tests {
         }
         est.p.fill(0.0);
         assert!(est.nominal_chi2().is_nan());
-        assert!(!est.ready_to_use(false));
+        assert!(!est.ready_to_use());
         // the same estimate with a tiny, positive definite covariance is far from nominal
         for i in 0..np {
             est.p[i * np + i] = (1e-6 * est.theta_nom[i]).powi(2);
         }
         assert!(est.nominal_chi2() > 1e6, "{}", est.nominal_chi2());
-        assert!(est.ready_to_use(false));
+        assert!(est.ready_to_use());
     }
 }

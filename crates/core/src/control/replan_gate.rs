@@ -151,16 +151,15 @@ impl CapturePredictor {
 
 /// The measured state averaged over the last control steps, relative to the tracked plan: the
 /// mean of `x_k - x^d(t_k)` over the samples kept, added to `x^d(t)` (sensor noise averages out, a
-/// hit's deviation stays; the plan's own motion does not lag). Keeps at most `cap` samples
-/// (allocated once).
+/// hit's deviation stays; the plan's own motion does not lag). Keeps at most `cap` samples, each
+/// as its deviation from the plan it was measured against (allocated once).
 #[derive(Debug, Clone)]
 pub(crate) struct StateAverage {
     cap: usize,
-    t: Vec<f64>,
-    x: Vec<f64>,
+    /// The deviations `x_k - x^d(t_k)`, `cap` rows of nx.
+    dev: Vec<f64>,
     next: usize,
     len: usize,
-    xr: Vec<f64>,
     mean: Vec<f64>,
 }
 
@@ -169,45 +168,47 @@ impl StateAverage {
         let cap = cap.max(1);
         StateAverage {
             cap,
-            t: vec![0.0; cap],
-            x: vec![0.0; cap * nx],
+            dev: vec![0.0; cap * nx],
             next: 0,
             len: 0,
-            xr: vec![0.0; nx],
             mean: vec![0.0; nx],
         }
     }
 
-    /// Keep the state `x` measured at `t` (the oldest sample is dropped when full).
-    pub(crate) fn push(&mut self, t: f64, x: &[f64]) {
-        let nx = self.xr.len();
-        self.t[self.next] = t;
-        self.x[self.next * nx..(self.next + 1) * nx].copy_from_slice(x);
+    /// Keep the state `x` measured at `t`, as its deviation from `plan` there (the oldest sample
+    /// is dropped when full). Every sample until the next [`Self::clear`] is measured against the
+    /// same plan.
+    pub(crate) fn push(&mut self, plan: &Trajectory, t: f64, x: &[f64]) {
+        let nx = self.mean.len();
+        let dev = &mut self.dev[self.next * nx..(self.next + 1) * nx];
+        plan.state_at(t, dev);
+        for (d, &xi) in dev.iter_mut().zip(x) {
+            *d = xi - *d;
+        }
         self.next = (self.next + 1) % self.cap;
         self.len = (self.len + 1).min(self.cap);
     }
 
-    /// Drop every sample kept: called when the tracked plan changes, since a sample from before a
-    /// new plan's start would be compared with the plan's first state.
+    /// Drop every sample kept: called when the tracked plan changes, since a deviation from the old
+    /// plan does not hold for the new one (which starts from the measured state).
     pub(crate) fn clear(&mut self) {
         self.next = 0;
         self.len = 0;
     }
 
-    /// The averaged state at `t` relative to `plan`, written into `out` (nx values); the samples
-    /// kept, at least one (`x` itself when none is kept).
+    /// The averaged state at `t` relative to `plan` (the plan the samples were kept against),
+    /// written into `out` (nx values); the samples kept, at least one (`x` itself when none is
+    /// kept).
     pub(crate) fn state(&mut self, plan: &Trajectory, t: f64, x: &[f64], out: &mut [f64]) -> usize {
         if self.len <= 1 {
             out.copy_from_slice(x);
             return 1;
         }
-        let nx = self.xr.len();
+        let nx = self.mean.len();
         self.mean.fill(0.0);
-        for k in 0..self.len {
-            plan.state_at(self.t[k], &mut self.xr);
-            let xk = &self.x[k * nx..(k + 1) * nx];
-            for i in 0..nx {
-                self.mean[i] += xk[i] - self.xr[i];
+        for dk in self.dev.chunks_exact(nx).take(self.len) {
+            for (m, &d) in self.mean.iter_mut().zip(dk) {
+                *m += d;
             }
         }
         plan.state_at(t, out);
@@ -244,14 +245,14 @@ mod tests {
         // on the plan + (0.1, -0.2): the average is the plan at t + the offset, whatever t
         for k in 0..6 {
             let t = 0.3 + k as f64 * 0.001;
-            avg.push(t, &[t + 0.1, 1.0 - 0.2]);
+            avg.push(&plan, t, &[t + 0.1, 1.0 - 0.2]);
         }
         let t = 0.305;
         assert_eq!(avg.state(&plan, t, &[0.0, 0.0], &mut out), 4);
         assert!((out[0] - (t + 0.1)).abs() < 1e-12, "{out:?}");
         assert!((out[1] - 0.8).abs() < 1e-12, "{out:?}");
         // one sample off by 0.4 rad/s moves the average by a quarter of it
-        avg.push(0.306, &[0.406, 1.0 + 0.4]);
+        avg.push(&plan, 0.306, &[0.406, 1.0 + 0.4]);
         avg.state(&plan, 0.306, &[0.0, 0.0], &mut out);
         let expect = (3.0 * -0.2 + 0.4) / 4.0;
         assert!((out[1] - (1.0 + expect)).abs() < 1e-12, "{out:?}");
@@ -269,34 +270,36 @@ mod tests {
 
     #[test]
     fn samples_from_before_a_new_plan_are_dropped_when_the_plan_changes() {
-        // on the old plan exactly for 0.2 s, then a new plan from 0.2 s and one sample on it
+        // 0.05 rad ahead of the old plan for 0.2 s (a hit's deviation), then a new plan from the
+        // state measured at 0.2 s and one sample on it
         let old = ramp_from(0.0);
         let new = ramp_from(0.2);
         let mut avg = StateAverage::new(2, 200);
         for k in 0..200 {
             let t = k as f64 * 0.001;
-            avg.push(t, &[t, 1.0]);
+            avg.push(&old, t, &[t + 0.05, 1.0]);
         }
         let t = 0.2;
         let mut out = [0.0; 2];
-        // relative to the old plan the samples average to it
-        avg.state(&old, 0.199, &[0.199, 1.0], &mut out);
+        // relative to the old plan the samples average to it plus the deviation
+        avg.state(&old, 0.199, &[0.249, 1.0], &mut out);
         assert!(
-            (out[0] - 0.199).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,
+            (out[0] - 0.249).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,
             "{out:?}"
         );
         let on_new = [0.0, 1.0];
-        // kept, the old samples are compared with the new plan's first state: biased
+        // kept, the old samples' deviation is added to the new plan, which starts at the measured
+        // state already: biased
         let mut biased = avg.clone();
-        biased.push(t, &on_new);
+        biased.push(&new, t, &on_new);
         biased.state(&new, t, &on_new, &mut out);
-        assert!(out[0] > 0.05, "{out:?}");
+        assert!(out[0] > 0.04, "{out:?}");
         // cleared, the average is the state on the new plan
         avg.clear();
         assert_eq!(avg.state(&new, t, &on_new, &mut out), 1);
         assert_eq!(out, on_new);
-        avg.push(t, &on_new);
-        avg.push(t + 0.001, &[0.001, 1.0]);
+        avg.push(&new, t, &on_new);
+        avg.push(&new, t + 0.001, &[0.001, 1.0]);
         assert_eq!(avg.state(&new, t + 0.001, &[0.001, 1.0], &mut out), 2);
         assert!(
             (out[0] - 0.001).abs() < 1e-12 && (out[1] - 1.0).abs() < 1e-12,

@@ -397,6 +397,12 @@ pub struct ReplanEvent {
     pub predicted_at_switch_m: Option<[f64; 2]>,
 }
 
+/// Whether a re-plan predicted to end `replan` m from the bar beats continuing the current plan
+/// (predicted `cont` m) by more than `margin` m; never when either prediction is NaN.
+fn beats_continuing(cont: f64, replan: f64, margin: f64) -> bool {
+    !(cont.is_nan() || replan.is_nan() || replan + margin >= cont)
+}
+
 /// A re-planned swing waiting for its ready time.
 struct Pending {
     ready: f64,
@@ -737,14 +743,12 @@ impl<C: Controller> Replanning<C> {
         if !(s.compare_at_switch && s.compare_before_adopting && valid) {
             return true;
         }
-        let margin = s.adopt_margin_m;
         let model = Arc::clone(&self.model);
-        let plan = Arc::clone(&p.plan);
         let mut xs = std::mem::take(&mut self.xs);
         self.average.state(&self.reference, t, x, &mut xs);
-        let (c, d) = self.predict_pair(&model, t, &xs, &plan, p.lqr.as_mut(), t);
+        let (c, d) = self.predict_pair(&model, t, &xs, &p.plan, p.lqr.as_mut(), t);
         self.xs = xs;
-        let better = !(d.is_nan() || c.is_nan() || d + margin >= c);
+        let better = beats_continuing(c, d, self.settings.adopt_margin_m);
         if let Some(e) = self.events.last_mut() {
             e.predicted_at_switch_m = Some([c, d]);
             e.adopted = better;
@@ -825,7 +829,7 @@ impl<C: Controller> Replanning<C> {
             let model = Arc::clone(&self.model);
             let (c, d) = self.predict_pair(&model, t, x, tr, lqr.as_mut(), ready);
             compared = (Some(c), Some(d));
-            if d.is_nan() || c.is_nan() || d + self.settings.adopt_margin_m >= c {
+            if !beats_continuing(c, d, self.settings.adopt_margin_m) {
                 traj = None;
                 lqr = None;
             }
@@ -865,7 +869,7 @@ impl<C: Controller> Controller for Replanning<C> {
     fn control(&mut self, t: f64, x: &[f64], tau: &mut [f64]) -> ControlInfo {
         let valid = x.len() == self.robot.nx() && x.iter().all(|v| v.is_finite());
         if valid {
-            self.average.push(t, x);
+            self.average.push(&self.reference, t, x);
         }
         if let Some(p) = &self.pending {
             if t >= p.ready - 1e-9 {
@@ -879,7 +883,7 @@ impl<C: Controller> Controller for Replanning<C> {
                     }
                     self.average.clear();
                     if valid {
-                        self.average.push(t, x);
+                        self.average.push(&self.reference, t, x);
                     }
                     if let Some(e) = self.events.last_mut() {
                         e.t_switch_s = Some(t);

@@ -212,7 +212,7 @@ impl DynamicsDerivatives {
 
     /// Trigonometry, M and its factor, h, qdd and al at `z`.
     fn prepare(&mut self, robot: &Robot, z: &[f64]) {
-        pulp::Arch::new().dispatch(Kernel {
+        crate::simd_arch().dispatch(Kernel {
             d: self,
             robot,
             job: Job::Prepare(z),
@@ -325,7 +325,7 @@ impl DynamicsDerivatives {
 
     /// `jz = d qdd / dz` (after `prepare`).
     fn fill_jacobian(&mut self, robot: &Robot) {
-        pulp::Arch::new().dispatch(Kernel {
+        crate::simd_arch().dispatch(Kernel {
             d: self,
             robot,
             job: Job::Jacobian,
@@ -381,7 +381,7 @@ impl DynamicsDerivatives {
 
     /// Weighted Hessian into `hess` (after `fill_jacobian`).
     fn fill_hessian(&mut self, robot: &Robot, w: &[f64], hess: &mut [f64]) {
-        pulp::Arch::new().dispatch(Kernel {
+        crate::simd_arch().dispatch(Kernel {
             d: self,
             robot,
             job: Job::Hessian(w, hess),

@@ -1,4 +1,6 @@
-//! The reference re-planning workload of the fast-planner bars (docs/benchmarks.md, "Re-planning"):
+//! The reference workloads of the measurements.
+//!
+//! The re-planning workload (docs/benchmarks.md, "Re-planning"):
 //! the paper's tracking swing ([`SwingTask::paper`](super::SwingTask::paper), params/paper.toml, T
 //! automatic) planned by multiple shooting on the Riccati backend with one RK4 step per interval, then
 //! re-planned from its planned state at [`REPLAN_T_NOW`] disturbed by uniform `+-`[`REPLAN_DQ_RAD`] on
@@ -8,9 +10,15 @@
 //! One place for the workload, so that the criterion bench (`benches/replan.rs`), the instruction-count
 //! example (`crates/tools/src/bin/replan_profile.rs`) and the tests re-plan the same draws and their figures compare.
 //!
+//! The obstacle placements of the placement scan ([`swing_placement`]): obstacles drawn on the
+//! unobstructed swing's path, which the scan's tests and the instruction-count tool
+//! (`crates/tools/src/bin/plan_check.rs`) plan alike.
+//!
 //! Units: s, rad, rad/s; `x = [q, qd]`, `q[0]` absolute from +x, the rest relative.
 
+use crate::model::{Circle, ClearanceFn, Robot};
 use crate::planning::nlp::{Backend, NlpSettings};
+use crate::planning::outcome::Plan;
 use crate::planning::settings::{Bounds, PlannerSettings, ShootingSettings, Transcription};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -70,6 +78,59 @@ pub fn disturbed_starts(x: &[f64], bounds: &Bounds, count: usize, seed: u64) -> 
         })
         .filter(|y| bounds.strictly_contains(y))
         .collect()
+}
+
+/// Obstacles drawn on a swing's path ([`swing_placement`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SwingPlacement {
+    /// The obstacles.
+    pub obstacles: Vec<Circle>,
+    /// How each was drawn (`r 0.080 at the tip of link 2 at 1.23 s`, joined by ` + `).
+    pub what: String,
+}
+
+/// The placement scan's draw for `seed` on `robot`'s unobstructed swing `free` (its 1 ms
+/// trajectory): two obstacles for every fifth seed, one for the others, each at the midpoint or the
+/// tip of a random link at a random time in 0.7-1.7 s, radius 0.05-0.15 m. `None` when an obstacle
+/// overlaps the start pose `q0` (the task would be refused, not planned). The same arguments give
+/// the same draw.
+pub fn swing_placement(
+    robot: &Robot,
+    free: &Plan,
+    q0: &[f64],
+    seed: u64,
+) -> Option<SwingPlacement> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let count = if seed.is_multiple_of(5) { 2 } else { 1 };
+    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
+    let (mut obstacles, mut what) = (vec![], vec![]);
+    for _ in 0..count {
+        let t: f64 = rng.gen_range(0.7..1.7);
+        let link = rng.gen_range(0..robot.n());
+        let tip = rng.gen_bool(0.5);
+        let radius: f64 = rng.gen_range(0.05..0.15);
+        let (j, _) = free.trajectory.locate(t.min(free.swing_time_s));
+        robot.link_segments(free.trajectory.q(j), &mut segs);
+        let (a, b) = segs[link];
+        let center = if tip {
+            b
+        } else {
+            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
+        };
+        obstacles.push(Circle { center, radius });
+        what.push(format!(
+            "r {radius:.3} at the {} of link {} at {t:.2} s",
+            if tip { "tip" } else { "midpoint" },
+            link + 1
+        ));
+    }
+    let cf = ClearanceFn::new(robot.clone(), obstacles.as_slice(), 0.0)
+        .ok()?
+        .with_self_collision(false);
+    (cf.min_clearance(q0) >= 0.0).then(|| SwingPlacement {
+        obstacles,
+        what: what.join(" + "),
+    })
 }
 
 #[cfg(test)]

@@ -5,11 +5,9 @@
 
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::{
-    plan, Backend, NlpSettings, Plan, PlannerSettings, SwingTask, CLEARANCE_TOLERANCE_M,
+    plan, workload, Backend, NlpSettings, Plan, PlannerSettings, SwingTask, CLEARANCE_TOLERANCE_M,
 };
 use brachia::trajectory::Trajectory;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
 /// One placement: its obstacles and how they were drawn.
@@ -90,42 +88,15 @@ pub fn free_swing(robot: &Robot, task: &SwingTask, name: &str, time_limit_s: f64
     p
 }
 
-/// The placement of `seed` on the paper robot's unobstructed swing (`placement_scan.rs`): two obstacles for every fifth seed, one for the others, each at
-/// the midpoint or the tip of a random link of `free` (the unobstructed swing's 1 ms trajectory) at
-/// a random time in 0.7-1.7 s, radius 0.05-0.15 m; `None` when an obstacle overlaps the start pose
-/// (the task is then refused, not planned).
+/// The placement of `seed` on the paper robot's unobstructed swing `free` (`placement_scan.rs`;
+/// the draw of [`workload::swing_placement`]); `None` when an obstacle overlaps the start pose (the
+/// task is then refused, not planned).
 pub fn swing_placement(robot: &Robot, free: &Plan, seed: u64) -> Option<Placement> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let count = if seed.is_multiple_of(5) { 2 } else { 1 };
-    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
-    let (mut obstacles, mut what) = (vec![], vec![]);
-    for _ in 0..count {
-        let t: f64 = rng.gen_range(0.7..1.7);
-        let link = rng.gen_range(0..robot.n());
-        let tip = rng.gen_bool(0.5);
-        let radius: f64 = rng.gen_range(0.05..0.15);
-        let (j, _) = free.trajectory.locate(t.min(free.swing_time_s));
-        robot.link_segments(free.trajectory.q(j), &mut segs);
-        let (a, b) = segs[link];
-        let center = if tip {
-            b
-        } else {
-            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-        };
-        obstacles.push(Circle { center, radius });
-        what.push(format!(
-            "r {radius:.3} at the {} of link {} at {t:.2} s",
-            if tip { "tip" } else { "midpoint" },
-            link + 1
-        ));
-    }
-    let cf = ClearanceFn::new(robot.clone(), obstacles.as_slice(), 0.0)
-        .unwrap()
-        .with_self_collision(false);
-    (cf.min_clearance(&SwingTask::paper().q0) >= 0.0).then(|| Placement {
+    let drawn = workload::swing_placement(robot, free, &SwingTask::paper().q0, seed)?;
+    Some(Placement {
         seed,
-        what: what.join(" + "),
-        obstacles,
+        what: drawn.what,
+        obstacles: drawn.obstacles,
     })
 }
 

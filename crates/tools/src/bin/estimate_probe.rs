@@ -21,16 +21,14 @@
 
 use brachia::control::base_params::base_params;
 use brachia::control::{Adaptive, ParamEstimator, ParamEstimatorSettings, Replanning};
-use brachia::sim::{
-    run_closed_loop, ControlInfo, Controller, Disturbances, ModelPlant, RunSettings,
-};
+use brachia::sim::{ControlInfo, Controller, Disturbances};
 use brachia::trajectory::Trajectory;
 use brachia::Robot;
-use brachia_experiments::benchmark::replan_settings;
-use brachia_experiments::scenario::LoadedScenario;
+use brachia_experiments::benchmark::{replan_settings, simulate};
+use brachia_experiments::scenario::{LoadedScenario, PlantKind};
 use brachia_experiments::success::capture;
 use brachia_experiments::{run_plan, Scenario};
-use brachia_rapier::{Ball, Obstacle, RapierPlant};
+use brachia_rapier::{Ball, Obstacle};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
@@ -198,8 +196,9 @@ fn settings() -> ParamEstimatorSettings {
     }
 }
 
-/// Run `ctrl` on `plant` ("model" or "rapier") under `case`: the hand's distance to the bar at the
-/// capture, mm, or 1000 + the miss at T, mm.
+/// Run `ctrl` on `plant` (the model or the rapier plant, as the benchmark's runs:
+/// [`simulate`]) under `case`: the hand's distance to the bar at the capture, mm, or 1000 + the
+/// miss at T, mm.
 fn run(
     ls: &LoadedScenario,
     reference: &Arc<Trajectory>,
@@ -209,33 +208,24 @@ fn run(
     ctrl: &mut dyn Controller,
 ) -> f64 {
     let sc = &ls.scenario;
-    let x0 = [reference.q(0), reference.qd(0)].concat();
-    let rs = RunSettings {
-        duration_s: reference.duration(),
-        control_dt: sc.tracking.control_dt,
-        cancel: Default::default(),
-    };
-    let log = if rapier {
-        let mut p = RapierPlant::new(probot, &x0, &sc.plant.rapier()).unwrap();
-        if case.ball {
-            let (b, _) = Ball::on_path(
-                reference,
-                &ls.robot,
-                0.5 * reference.duration(),
-                0.3,
-                0.05,
-                0.3,
-            );
-            p.add_obstacle(&Obstacle::Ball(b)).unwrap();
-        }
-        let mut w = case.dist.wrap(Box::new(&mut p), rs.control_dt).unwrap();
-        run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &rs).unwrap()
+    let mut balls = vec![];
+    if case.ball && rapier {
+        let (b, _) = Ball::on_path(
+            reference,
+            &ls.robot,
+            0.5 * reference.duration(),
+            0.3,
+            0.05,
+            0.3,
+        );
+        balls.push(Obstacle::Ball(b));
+    }
+    let plant = if rapier {
+        PlantKind::Rapier
     } else {
-        let mut p = ModelPlant::new(probot.clone(), &x0);
-        p.substeps = sc.plant.substeps;
-        let mut w = case.dist.wrap(Box::new(&mut p), rs.control_dt).unwrap();
-        run_closed_loop(w.as_mut(), ctrl, reference, &ls.robot, &rs).unwrap()
+        PlantKind::Model
     };
+    let (log, _) = simulate(ls, reference, probot, plant, &case.dist, &balls, ctrl).unwrap();
     let c = capture(probot, &log, reference.duration(), sc.task.target);
     if c.reaches_bar {
         1e3 * c.bar_error_m

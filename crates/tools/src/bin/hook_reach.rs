@@ -18,8 +18,7 @@
 //! cargo run --release -p brachia-tools --bin hook_reach -- t=1.0,1.05    # only these swing times
 //! ```
 //! Units: m, s, rad, kg m^2/s.
-use brachia::model::{ik_from_seed, RobotParams};
-use brachia::Robot;
+use brachia::model::ik_from_seed;
 use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reduced_two_link::ReducedTwoLink;
@@ -58,9 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if p.len() != 5 {
         return Err(format!("a grid is DTxN2xDZxDHxSPLIT, not {grid}").into());
     }
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    let robot = Robot::from_params(RobotParams::from_toml_file(&path)?, "two-link-hook")?;
+    let robot = brachia_tools::hook_robot()?;
     let model = ReducedTwoLink::new(&robot)?;
     let start = if hang {
         [-FRAC_PI_2, 0.0, 0.0]

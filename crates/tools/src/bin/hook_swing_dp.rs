@@ -19,7 +19,7 @@
 //!     # (with `free`, the planner's q1 bound widened to +-4 pi)
 //! ```
 //! Units: m, s, rad, kg m^2/s.
-use brachia::model::{ik_from_seed, RobotParams};
+use brachia::model::ik_from_seed;
 use brachia::planning::{
     plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask, SwingTime,
 };
@@ -166,9 +166,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if res.is_empty() {
         res = vec!["1".into(), "2".into(), "3".into()];
     }
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    let robot = Robot::from_params(RobotParams::from_toml_file(&path)?, "two-link-hook")?;
+    let robot = brachia_tools::hook_robot()?;
     let model = ReducedTwoLink::new(&robot)?;
     let rear = ik_from_seed(&robot, &[-2.2, -1.9], [-0.34, 0.0]).ok_or("no rear-hand pose")?;
     let starts = [[rear[0], 0.0, rear[1]], [-FRAC_PI_2, 0.0, 0.0]];

@@ -6,11 +6,10 @@
 //! seed on the paper's swing, `crates/core/tests/placement_scan.rs`, 30 s wall-time limit).
 //! Units: m, s.
 
-use brachia::model::{Circle, ClearanceFn, Robot};
+use brachia::model::Robot;
+use brachia::planning::workload::swing_placement;
 use brachia::planning::{plan, Backend, NlpSettings, Plan, PlannerSettings, SwingTask};
 use brachia_experiments::{Scenario, Uses};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 use std::time::Instant;
 
@@ -35,34 +34,6 @@ fn fingerprint(p: &Plan) -> u64 {
     h
 }
 
-/// The obstacles the placement scan draws for `seed` on the unobstructed swing `free` (`None`:
-/// an obstacle overlaps the start pose).
-fn placement(robot: &Robot, free: &Plan, seed: u64) -> Option<Vec<Circle>> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let count = if seed.is_multiple_of(5) { 2 } else { 1 };
-    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
-    let mut obstacles = vec![];
-    for _ in 0..count {
-        let t: f64 = rng.gen_range(0.7..1.7);
-        let link = rng.gen_range(0..robot.n());
-        let tip = rng.gen_bool(0.5);
-        let radius: f64 = rng.gen_range(0.05..0.15);
-        let (j, _) = free.trajectory.locate(t.min(free.swing_time_s));
-        robot.link_segments(free.trajectory.q(j), &mut segs);
-        let (a, b) = segs[link];
-        let center = if tip {
-            b
-        } else {
-            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-        };
-        obstacles.push(Circle { center, radius });
-    }
-    let cf = ClearanceFn::new(robot.clone(), obstacles.as_slice(), 0.0)
-        .ok()?
-        .with_self_collision(false);
-    (cf.min_clearance(&SwingTask::paper().q0) >= 0.0).then_some(obstacles)
-}
-
 type Case = (Robot, SwingTask, PlannerSettings, NlpSettings);
 
 fn case(arg: &str) -> Result<Case, String> {
@@ -76,11 +47,12 @@ fn case(arg: &str) -> Result<Case, String> {
         };
         let s = PlannerSettings::default();
         let free = plan(&robot, &SwingTask::paper(), &s, &nlp).map_err(|e| e.to_string())?;
-        let obstacles = placement(&robot, &free, seed)
+        let paper = SwingTask::paper();
+        let drawn = swing_placement(&robot, &free, &paper.q0, seed)
             .ok_or_else(|| format!("{arg}: overlaps the start pose"))?;
         let task = SwingTask {
-            obstacles,
-            ..SwingTask::paper()
+            obstacles: drawn.obstacles,
+            ..paper
         };
         return Ok((robot, task, s, nlp));
     }

@@ -49,7 +49,7 @@ pub(super) fn add_sandwich_upper(
                 .enumerate()
                 .all(|(c, &v)| c == r || c == half + r || v == 0.0)
         });
-    pulp::Arch::new().dispatch(Sandwich {
+    crate::simd_arch().dispatch(Sandwich {
         nx,
         nz,
         sens,

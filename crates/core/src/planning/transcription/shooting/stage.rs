@@ -271,7 +271,7 @@ impl<D: PointDynamics> StageWork<D> {
     /// evaluation and leave `d Phi / d z` in `self.xsens` (and, with a free swing time, the
     /// derivatives w.r.t. h in `self.ty`, `self.tk` and `self.tphi`).
     pub(super) fn forward(&mut self, ctx: &Ctx, x: &[f64], u: &[f64], jac: bool, h: f64) {
-        pulp::Arch::new().dispatch(Forward {
+        crate::simd_arch().dispatch(Forward {
             w: self,
             ctx,
             x,
@@ -761,7 +761,7 @@ impl<D: PointDynamics> StageWork<D> {
         h: f64,
         hess: &mut [f64],
     ) -> f64 {
-        pulp::Arch::new().dispatch(Reverse {
+        crate::simd_arch().dispatch(Reverse {
             w: self,
             ctx,
             k,
