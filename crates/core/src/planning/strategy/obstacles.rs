@@ -42,7 +42,7 @@ use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::{PlannerSettings, ValidSettings};
-use crate::planning::solve::common::target_pose;
+use crate::planning::solve::common::{covering_obstacles, target_pose};
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
@@ -314,23 +314,18 @@ fn strategies(
     // that grasps the bar)
     let last = free_points.q(free_points.len() - 1).to_vec();
     let spent = || nlp.remaining(started).is_none();
-    let seed_free = match goal::clear_final_pose_until(
-        robot,
-        &task.obstacles,
-        settings,
-        &last,
-        task.target,
-        &spent,
-    )? {
-        Some(q) => goal::with_final_pose(&free_points, &q),
-        None => free_points.clone(),
-    };
-    let seeds = crate::planning::strategy::detour::detour_seeds(
-        robot,
-        &task.obstacles,
-        settings,
-        &seed_free,
-    )?;
+    // the seeds go round the obstacles that matter: one of two identical circles, none inside
+    // another (a detour's barrier would count a duplicated obstacle twice)
+    let obstacles = covering_obstacles(&task.obstacles);
+    let obstacles = obstacles.as_slice();
+    let seed_free =
+        match goal::clear_final_pose_until(robot, obstacles, settings, &last, task.target, &spent)?
+        {
+            Some(q) => goal::with_final_pose(&free_points, &q),
+            None => free_points.clone(),
+        };
+    let seeds =
+        crate::planning::strategy::detour::detour_seeds(robot, obstacles, settings, &seed_free)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     // the homotopy search, run once by the first candidate that needs it (the others wait for it),
     // within that candidate's time limit and cancel token
@@ -353,15 +348,8 @@ fn strategies(
         cspace.get_or_init(|| {
             let t0 = std::time::Instant::now();
             let stop = || run.remaining(t0).is_none();
-            homotopy_routes(
-                robot,
-                &task.obstacles,
-                settings,
-                seed_free,
-                task.target,
-                &stop,
-            )
-            .unwrap_or_default()
+            homotopy_routes(robot, obstacles, settings, seed_free, task.target, &stop)
+                .unwrap_or_default()
         })
     };
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
