@@ -162,6 +162,50 @@ fn a_duplicated_or_contained_obstacle_plans_as_the_obstacle_alone() {
     assert_eq!(b.trajectory.len(), a.trajectory.len());
 }
 
+/// The further routes (the race's last candidates) are told apart from the race's own by their goal
+/// pose and route index: a wider search finds the race's routes again, the same paths under the
+/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3).
+#[test]
+fn a_wider_route_search_finds_the_race_routes_again_and_more() {
+    use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+    use brachia::planning::strategy::homotopy::{
+        homotopy_routes, homotopy_routes_up_to, MAX_GOALS, ROUTES_PER_GOAL,
+    };
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 38).expect("a placement");
+    let target = SwingTask::paper().target;
+    let pts = &free.points;
+    let last = pts.q(pts.len() - 1).to_vec();
+    let never = || false;
+    let base =
+        match clear_final_pose_until(&robot, &pl.obstacles, &s, &last, target, &never).unwrap() {
+            Some(q) => with_final_pose(pts, &q),
+            None => pts.clone(),
+        };
+    let race = homotopy_routes(&robot, &pl.obstacles, &s, &base, target, &never).unwrap();
+    let limits = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
+    let wide =
+        homotopy_routes_up_to(&robot, &pl.obstacles, &s, &base, target, limits, &never).unwrap();
+    assert!(!race.seeds.is_empty());
+    let key = |r: &brachia::planning::strategy::homotopy::RankedRoutes, i: usize| {
+        let sd = &r.seeds[i];
+        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
+    };
+    for i in 0..race.seeds.len() {
+        let (goal, route) = key(&race, i);
+        let again = (0..wide.seeds.len())
+            .find(|&j| key(&wide, j) == (goal.clone(), route))
+            .expect("the race's route in the wider search");
+        assert_eq!(race.seeds[i].path, wide.seeds[again].path);
+    }
+    assert!(wide.seeds.len() > race.seeds.len());
+    // a goal pose past the race's
+    let goal_of = |r: &brachia::planning::strategy::homotopy::RankedRoutes| {
+        r.seeds.iter().map(|sd| r.reports[sd.report].goal).max()
+    };
+    assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
+}
+
 /// Fixed seed 5 (two obstacles, on link 4 at 0.90 s and link 3 at 0.99 s): the forward-fold detour
 /// seed's coarse solve stops at its iteration cap, and the fine solve plans clear from the seed
 /// itself (warm from the stalled coarse plan it ended locally infeasible).

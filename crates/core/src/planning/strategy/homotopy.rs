@@ -81,12 +81,26 @@ pub fn homotopy_routes(
     target: [f64; 2],
     stop: &dyn Fn() -> bool,
 ) -> Result<RankedRoutes> {
+    let limits = (MAX_GOALS, ROUTES_PER_GOAL);
+    homotopy_routes_up_to(robot, obstacles, settings, free, target, limits, stop)
+}
+
+/// [`homotopy_routes`] to up to `goals` goal poses, up to `routes` routes each (`(goals, routes)`).
+pub fn homotopy_routes_up_to(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    target: [f64; 2],
+    (goals, routes): (usize, usize),
+    stop: &dyn Fn() -> bool,
+) -> Result<RankedRoutes> {
     let len = free.len();
     if len < 2 || obstacles.is_empty() {
         return Ok(RankedRoutes::default());
     }
     let (q_start, q_end) = (free.q(0), free.q(len - 1));
-    let goals = distinct_goal_poses(robot, obstacles, settings, q_end, target, MAX_GOALS, stop)?;
+    let goals = distinct_goal_poses(robot, obstacles, settings, q_end, target, goals, stop)?;
     let mut reports = vec![];
     let mut seeds: Vec<RankedSeed> = vec![];
     for (gi, goal) in goals.iter().enumerate() {
@@ -94,15 +108,9 @@ pub fn homotopy_routes(
             break;
         }
         let axis = with_final_pose(free, goal);
-        for (mut rep, path) in cspace_routes(
-            robot,
-            obstacles,
-            settings,
-            q_start,
-            goal,
-            ROUTES_PER_GOAL,
-            stop,
-        )? {
+        for (mut rep, path) in
+            cspace_routes(robot, obstacles, settings, q_start, goal, routes, stop)?
+        {
             rep.goal = gi;
             if let Some(path) = path {
                 let guess = time_path(robot, &path, &axis, &mut rep);
