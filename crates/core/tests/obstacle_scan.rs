@@ -622,14 +622,20 @@ fn the_obstacle_strategies_share_the_time_limit() {
 #[test]
 fn the_homotopy_seeds_are_distinct_clear_routes_to_poses_at_the_bar_ranked_by_torque() {
     use brachia::planning::strategy::cspace::SAME_ROUTE_RAD;
-    use brachia::planning::strategy::homotopy::{homotopy_seeds, MAX_GOALS, ROUTES_PER_GOAL};
+    use brachia::planning::strategy::homotopy::{homotopy_routes, MAX_GOALS, ROUTES_PER_GOAL};
     let robot = Robot::paper();
     let (s, nlp) = settings();
     let (base, places) = swing_and_placements(&robot, &s, &nlp);
     // #4 of the scan: link 2 swept at 0.74 s
     let obstacles = [places[3].obstacle];
-    let (reports, seeds) =
-        homotopy_seeds(&robot, &obstacles, &s, &base.points, [0.8, 0.0], &|| false).unwrap();
+    let ranked =
+        homotopy_routes(&robot, &obstacles, &s, &base.points, [0.8, 0.0], &|| false).unwrap();
+    let reports = ranked.reports;
+    let seeds: Vec<(usize, _)> = ranked
+        .seeds
+        .into_iter()
+        .map(|r| (r.report, r.guess))
+        .collect();
     assert!(seeds.len() >= 2, "{reports:?}");
     assert!(reports.len() <= MAX_GOALS * ROUTES_PER_GOAL, "{reports:?}");
     let cf = ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)

@@ -26,13 +26,15 @@ mod common;
 
 use brachia::model::Robot;
 use brachia::planning::strategy::cspace::{cspace_routes, time_path, CspaceReport};
-use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+use brachia::planning::strategy::goal::{
+    clear_final_pose_until, distinct_goal_poses, with_final_pose,
+};
 use brachia::planning::{
     plan_with_guess, NlpSettings, Plan, PlannerSettings, SolveStatus, SwingTask,
 };
 use brachia::trajectory::Trajectory;
 use common::placement::{
-    free_swing, goal_poses, keeps_margin, min_clearance, nlp, settings_for, swing_placement,
+    free_swing, keeps_margin, min_clearance, nlp, settings_for, swing_placement,
 };
 use std::time::Instant;
 
@@ -166,7 +168,17 @@ fn configuration_space_routes_planned_as_longer_swings() {
                 Some(q) => with_final_pose(pts, &q),
                 None => pts.clone(),
             };
-        let goals = goal_poses(&robot, &s, &base, &pl.obstacles, task.target, k_goals);
+        let q_end = base.q(base.len() - 1);
+        let goals = distinct_goal_poses(
+            &robot,
+            &pl.obstacles,
+            &s,
+            q_end,
+            task.target,
+            k_goals,
+            &never,
+        )
+        .unwrap();
         eprintln!(
             "seed {seed}: {}, T {t:.3} s, {} goal poses",
             pl.what,

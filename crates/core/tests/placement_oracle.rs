@@ -23,12 +23,14 @@ mod common;
 use brachia::model::{Circle, Robot};
 use brachia::planning::strategy::cspace::{cspace_routes, time_path, CspaceReport};
 use brachia::planning::strategy::detour::detour_seeds;
-use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+use brachia::planning::strategy::goal::{
+    clear_final_pose_until, distinct_goal_poses, with_final_pose,
+};
 use brachia::planning::{plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask};
 use brachia::trajectory::Trajectory;
 use common::placement::{
-    free_swing, goal_poses, keeps_margin, min_clearance, nlp, plan_placement, settings_for,
-    swing_placement, Placement,
+    free_swing, keeps_margin, min_clearance, nlp, plan_placement, settings_for, swing_placement,
+    Placement,
 };
 use std::time::Instant;
 
@@ -82,7 +84,9 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, obstacles: &[Circle]) 
             route: None,
         })
         .collect();
-    let goals = goal_poses(robot, s, &base, obstacles, target, ORACLE_GOALS);
+    let q_end = base.q(base.len() - 1);
+    let goals =
+        distinct_goal_poses(robot, obstacles, s, q_end, target, ORACLE_GOALS, &never).unwrap();
     let mut cs = vec![];
     let (mut searched, mut exhausted, mut unclear) = (0, 0, 0);
     for (gi, goal) in goals.iter().enumerate() {

@@ -9,7 +9,8 @@
 //! `cargo test --release -p brachia --test placement_scan -- --ignored --nocapture`, printing one
 //! row per placement (with every solve: its role, status, iterations and time) and the totals;
 //! `BRACHIA_SCAN_SET=fixed` or `BRACHIA_SCAN_SET=held-out` runs one of the two sets,
-//! `BRACHIA_SCAN_SEEDS=2,5` the seeds listed. Units: m, s.
+//! `BRACHIA_SCAN_SEEDS=2,5` the seeds listed, `BRACHIA_SCAN_LIMIT_S=90` another wall-time limit per
+//! placement (30 s by default; a loaded machine needs more for the same work). Units: m, s.
 
 mod common;
 
@@ -38,7 +39,12 @@ struct Outcome {
 }
 
 fn run(robot: &Robot, s: &PlannerSettings, pl: &Placement) -> Outcome {
-    let m = plan_placement(robot, &SwingTask::paper(), s, pl, TIME_LIMIT_S);
+    run_within(robot, s, pl, TIME_LIMIT_S)
+}
+
+/// [`run`] with a wall-time limit of `limit_s`.
+fn run_within(robot: &Robot, s: &PlannerSettings, pl: &Placement, limit_s: f64) -> Outcome {
+    let m = plan_placement(robot, &SwingTask::paper(), s, pl, limit_s);
     let p = m.plan.unwrap();
     Outcome {
         converged: p.converged(),
@@ -116,6 +122,90 @@ fn a_fast_subset_of_the_scan_never_reports_a_plan_through_an_obstacle() {
     }
 }
 
+/// An obstacle given twice, or with a smaller one inside it, plans as the obstacle alone (fixed seed
+/// 13, a detour plan): the clearance rows and the seeds go round the circles that cover the others,
+/// while the plan still measures its clearance against every obstacle as given.
+#[test]
+fn a_duplicated_or_contained_obstacle_plans_as_the_obstacle_alone() {
+    let (robot, s, free) = setup();
+    let single = placement(&robot, &free, 13).expect("a placement");
+    let o = single.obstacles[0];
+    let inner = brachia::model::Circle {
+        center: [o.center[0] + 0.3 * o.radius, o.center[1]],
+        radius: 0.5 * o.radius,
+    };
+    let crowded = Placement {
+        obstacles: vec![inner, o, o],
+        ..single.clone()
+    };
+    let a = plan_placement(&robot, &SwingTask::paper(), &s, &single, TIME_LIMIT_S);
+    let b = plan_placement(&robot, &SwingTask::paper(), &s, &crowded, TIME_LIMIT_S);
+    let (a, b) = (a.plan.unwrap(), b.plan.unwrap());
+    assert!(a.converged(), "{:?}", a.failure_message());
+    assert!(b.converged(), "{:?}", b.failure_message());
+    let strategy = |p: &Plan| p.guess.as_ref().map(|g| g.strategy);
+    assert_eq!(strategy(&a), strategy(&b));
+    assert_eq!(a.iterations, b.iterations);
+    assert!(
+        (a.objective - b.objective).abs() <= 1e-9 * a.objective.abs().max(1.0),
+        "{} vs {}",
+        a.objective,
+        b.objective
+    );
+    // the plan's clearance is against the obstacles as given: the inner circle's surface is
+    // farther than the outer one's
+    let (ca, cb) = (
+        a.min_obstacle_clearance_m.unwrap(),
+        b.min_obstacle_clearance_m.unwrap(),
+    );
+    assert!((ca - cb).abs() < 1e-12, "{ca} vs {cb}");
+    assert_eq!(b.trajectory.len(), a.trajectory.len());
+}
+
+/// The further routes (the race's last candidates) are told apart from the race's own by their goal
+/// pose and route index: a wider search finds the race's routes again, the same paths under the
+/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3).
+#[test]
+fn a_wider_route_search_finds_the_race_routes_again_and_more() {
+    use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+    use brachia::planning::strategy::homotopy::{
+        homotopy_routes, homotopy_routes_up_to, MAX_GOALS, ROUTES_PER_GOAL,
+    };
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 38).expect("a placement");
+    let target = SwingTask::paper().target;
+    let pts = &free.points;
+    let last = pts.q(pts.len() - 1).to_vec();
+    let never = || false;
+    let base =
+        match clear_final_pose_until(&robot, &pl.obstacles, &s, &last, target, &never).unwrap() {
+            Some(q) => with_final_pose(pts, &q),
+            None => pts.clone(),
+        };
+    let race = homotopy_routes(&robot, &pl.obstacles, &s, &base, target, &never).unwrap();
+    let limits = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
+    let wide =
+        homotopy_routes_up_to(&robot, &pl.obstacles, &s, &base, target, limits, &never).unwrap();
+    assert!(!race.seeds.is_empty());
+    let key = |r: &brachia::planning::strategy::homotopy::RankedRoutes, i: usize| {
+        let sd = &r.seeds[i];
+        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
+    };
+    for i in 0..race.seeds.len() {
+        let (goal, route) = key(&race, i);
+        let again = (0..wide.seeds.len())
+            .find(|&j| key(&wide, j) == (goal.clone(), route))
+            .expect("the race's route in the wider search");
+        assert_eq!(race.seeds[i].path, wide.seeds[again].path);
+    }
+    assert!(wide.seeds.len() > race.seeds.len());
+    // a goal pose past the race's
+    let goal_of = |r: &brachia::planning::strategy::homotopy::RankedRoutes| {
+        r.seeds.iter().map(|sd| r.reports[sd.report].goal).max()
+    };
+    assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
+}
+
 /// Fixed seed 5 (two obstacles, on link 4 at 0.90 s and link 3 at 0.99 s): the forward-fold detour
 /// seed's coarse solve stops at its iteration cap, and the fine solve plans clear from the seed
 /// itself (warm from the stalled coarse plan it ended locally infeasible).
@@ -167,6 +257,10 @@ fn the_whole_placement_scan() {
     let seeds_only: Option<Vec<u64>> = std::env::var("BRACHIA_SCAN_SEEDS")
         .ok()
         .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect());
+    let limit_s: f64 = std::env::var("BRACHIA_SCAN_LIMIT_S")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(TIME_LIMIT_S);
     for (name, seeds) in [("fixed", 1..=40u64), ("held-out", 1001..=1020u64)] {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
@@ -184,7 +278,7 @@ fn the_whole_placement_scan() {
                 eprintln!("| {seed} | overlaps the start pose: refused | | | | |");
                 continue;
             };
-            let o = run(&robot, &s, &pl);
+            let o = run_within(&robot, &s, &pl, limit_s);
             let ok_clear = keeps_margin(&s, o.min_clearance_m);
             match (o.converged, ok_clear) {
                 (true, true) => clear += 1,
@@ -213,9 +307,13 @@ fn the_whole_placement_scan() {
             .unwrap_or(f64::NAN);
         eprintln!(
             "{name}: {} placements, {clear} converged and clear, {false_success} false successes, \
-             {failed} failed; median time {median:.2} s, p90 {p90:.2} s, max {:.2} s",
+             {failed} failed; median time {median:.2} s, p90 {p90:.2} s, max {:.2} s (limit {limit_s} \
+             s); load {}",
             times.len(),
-            times.last().copied().unwrap_or(f64::NAN)
+            times.last().copied().unwrap_or(f64::NAN),
+            std::fs::read_to_string("/proc/loadavg")
+                .unwrap_or_default()
+                .trim()
         );
         assert_eq!(false_success, 0);
     }

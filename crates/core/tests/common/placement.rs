@@ -114,31 +114,3 @@ pub fn settings_for(t_s: f64, range: Option<[f64; 2]>, knot_dt: f64) -> PlannerS
     }
     s
 }
-
-/// The goal poses of the placement searches: `base`'s final pose, then up to `k - 1` other poses at
-/// the bar at `target` that clear `obstacles` (each at least 0.1 rad from those before in a joint).
-pub fn goal_poses(
-    robot: &Robot,
-    s: &PlannerSettings,
-    base: &Trajectory,
-    obstacles: &[Circle],
-    target: [f64; 2],
-    k: usize,
-) -> Vec<Vec<f64>> {
-    let never = || false;
-    let q_end = base.q(base.len() - 1).to_vec();
-    let mut out = vec![q_end.clone()];
-    let others = brachia::planning::strategy::goal::clear_final_poses(
-        robot, obstacles, s, &q_end, target, k, &never,
-    )
-    .unwrap();
-    for q in others {
-        let same = out
-            .iter()
-            .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.1));
-        if !same && out.len() < k {
-            out.push(q);
-        }
-    }
-    out
-}

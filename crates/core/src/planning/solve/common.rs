@@ -429,10 +429,10 @@ pub(crate) fn clearance_rows(
     task: &SwingTask,
     settings: &PlannerSettings,
 ) -> Result<Option<ClearanceFn>> {
-    let obstacles: &[Circle] = if settings.avoid_obstacles {
-        &task.obstacles
+    let obstacles = if settings.avoid_obstacles {
+        covering_obstacles(&task.obstacles)
     } else {
-        &[]
+        vec![]
     };
     if obstacles.is_empty() && !settings.self_collision {
         return Ok(None);
@@ -443,9 +443,53 @@ pub(crate) fn clearance_rows(
     ))
 }
 
+/// Slack of [`covering_obstacles`]' containment test, m.
+const CONTAINED_TOL_M: f64 = 1e-12;
+
+/// `obstacles` without those inside another (`|c_i - c_j| + r_i <= r_j`, within
+/// [`CONTAINED_TOL_M`]), in their order; of identical circles the first is kept. A link that clears
+/// a circle clears every circle inside it, so the rows of a contained obstacle add nothing to the
+/// feasible set; a duplicated one would only repeat rows (a rank-deficient Jacobian where they are
+/// active).
+pub(crate) fn covering_obstacles(obstacles: &[Circle]) -> Vec<Circle> {
+    let inside = |a: &Circle, b: &Circle| {
+        (a.center[0] - b.center[0]).hypot(a.center[1] - b.center[1]) + a.radius
+            <= b.radius + CONTAINED_TOL_M
+    };
+    obstacles
+        .iter()
+        .enumerate()
+        .filter(|&(i, a)| {
+            !obstacles
+                .iter()
+                .enumerate()
+                .any(|(j, b)| j != i && inside(a, b) && (j < i || !inside(b, a)))
+        })
+        .map(|(_, a)| *a)
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A duplicated circle is kept once, a circle inside another dropped, overlapping ones kept.
+    #[test]
+    fn covering_obstacles_drop_duplicates_and_contained_circles() {
+        let c = |x: f64, y: f64, r: f64| Circle {
+            center: [x, y],
+            radius: r,
+        };
+        let (a, inner, over) = (c(0.3, -0.5, 0.1), c(0.33, -0.48, 0.05), c(0.42, -0.5, 0.05));
+        assert_eq!(covering_obstacles(&[a, a]), vec![a]);
+        assert_eq!(covering_obstacles(&[inner, a, a, over]), vec![a, over]);
+        // touching from inside counts as inside; poking out by 1e-9 m does not
+        let touching = c(0.35, -0.5, 0.05);
+        let out = c(0.35 + 1e-9, -0.5, 0.05);
+        assert_eq!(covering_obstacles(&[touching, a]), vec![a]);
+        assert_eq!(covering_obstacles(&[out, a]), vec![out, a]);
+        assert!(covering_obstacles(&[]).is_empty());
+    }
 
     /// The bracketed crossing at 1 ms steps agrees with a ten times finer integration, for the
     /// paper's start pose and three crossings.

@@ -16,7 +16,7 @@
 use crate::error::Result;
 use crate::model::Robot;
 use crate::planning::nlp::{NlpSettings, SolveStatus};
-use crate::planning::outcome::SolveRole;
+use crate::planning::outcome::{Plan, SolveRole};
 use crate::planning::settings::{SwingTime, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
 use crate::planning::strategy::race::Plans;
@@ -49,8 +49,61 @@ pub(crate) fn coarse_settings(settings: &ValidSettings) -> Option<ValidSettings>
 
 /// Whether a fine solve warm from the coarse plan that ended with `status` is worth solving again
 /// from the seed: it stopped for itself (not cancelled, time left), not at a converged clear plan.
-fn retry_from_seed(p: &crate::planning::outcome::Plan) -> bool {
+fn retry_from_seed(p: &Plan) -> bool {
     !p.converged() && !matches!(p.status, SolveStatus::Cancelled | SolveStatus::MaxWallTime)
+}
+
+/// The coarse solve of a seed: `task` on the coarse mesh `cs` from `g`, at most [`COARSE_MAX_ITER`]
+/// iterations, pushed to `out`. Whether the fine solve goes on: the coarse plan converged or was
+/// still making progress at the cap, or the coarse mesh refused the swing (too short for it: solved
+/// on the task's mesh only, nothing pushed).
+fn coarse_solve(
+    robot: &Robot,
+    task: &ValidTask,
+    cs: &ValidSettings,
+    run: &NlpSettings,
+    g: &Trajectory,
+    out: &mut Plans,
+) -> bool {
+    let capped = run.clone().capped(COARSE_MAX_ITER);
+    let Ok(p) = plan_single(robot, task, cs, &capped, Some(g)) else {
+        return true;
+    };
+    let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
+    out.push((
+        SolveRole::CoarseMesh {
+            knot_dt_s: COARSE_KNOT_DT_S,
+        },
+        p,
+    ));
+    ok
+}
+
+/// The fine solve `p` (of the seed's `role`) warm from a coarse plan, and, when it ended without a
+/// clear plan ([`retry_from_seed`]) and time is left of `run` counted from `started`, the task
+/// solved once more from the seed `g` with `from_seed` (pushing the warm solve to `out` first).
+/// The last of these solves with its role ([`SolveRole::FromSeed`] when solved again).
+#[allow(clippy::too_many_arguments)]
+fn or_from_seed(
+    robot: &Robot,
+    task: &ValidTask,
+    from_seed: &ValidSettings,
+    run: &NlpSettings,
+    started: Instant,
+    g: &Trajectory,
+    role: SolveRole,
+    p: Plan,
+    out: &mut Plans,
+) -> Result<(SolveRole, Plan)> {
+    if !retry_from_seed(&p) {
+        return Ok((role, p));
+    }
+    let Some(again) = run.remaining(started) else {
+        return Ok((role, p));
+    };
+    let last = plan_single(robot, task, from_seed, &again, Some(g))?;
+    out.push((role, p));
+    Ok((SolveRole::FromSeed, last))
 }
 
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
@@ -66,20 +119,8 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let started = Instant::now();
     let mut out: Plans = vec![];
     if let Some(cs) = coarse_settings(settings) {
-        let capped = run.clone().capped(COARSE_MAX_ITER);
-        // a swing too short for the coarse mesh is refused there: solved on the task's mesh only
-        if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
-            // converged, or still making progress at the cap: the fine solve goes on from there
-            let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
-            out.push((
-                SolveRole::CoarseMesh {
-                    knot_dt_s: COARSE_KNOT_DT_S,
-                },
-                p,
-            ));
-            if !ok {
-                return Ok(out);
-            }
+        if !coarse_solve(robot, task, &cs, run, g, &mut out) {
+            return Ok(out);
         }
     }
     let Some(fine) = run.remaining(started) else {
@@ -87,18 +128,14 @@ pub(crate) fn solve_seed_coarse_to_fine(
     };
     let from_coarse = !out.is_empty();
     let guess = out.last().map_or(g, |(_, p)| &p.points);
-    let mut p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    let p = plan_single(robot, task, settings, &fine, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
-    let mut last_role = role;
-    if from_coarse && retry_from_seed(&p) {
-        if let Some(again) = run.remaining(started) {
-            let first =
-                std::mem::replace(&mut p, plan_single(robot, task, settings, &again, Some(g))?);
-            out.push((role, first));
-            last_role = SolveRole::FromSeed;
-        }
-    }
+    let (last_role, p) = if from_coarse {
+        or_from_seed(robot, task, settings, run, started, g, role, p, &mut out)?
+    } else {
+        (role, p)
+    };
     let resume = p.status == SolveStatus::MaxIterations;
     let points = p.points.clone();
     out.push((last_role, p));
@@ -155,18 +192,8 @@ pub(crate) fn solve_seed_longer_swing(
     let coarse =
         coarse_settings(settings).and_then(|cs| longer_swing_settings(&cs, t_s, t_long)?.ok());
     if let Some(cs) = coarse {
-        let capped = run.clone().capped(COARSE_MAX_ITER);
-        if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
-            let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
-            out.push((
-                SolveRole::CoarseMesh {
-                    knot_dt_s: COARSE_KNOT_DT_S,
-                },
-                p,
-            ));
-            if !ok {
-                return Ok(out);
-            }
+        if !coarse_solve(robot, task, &cs, run, g, &mut out) {
+            return Ok(out);
         }
     }
     let Some(fine) = run.remaining(started) else {
@@ -184,18 +211,8 @@ pub(crate) fn solve_seed_longer_swing(
         return Ok(out);
     };
     let warm_points = coarse_plan.points.clone();
-    let mut p = plan_single(robot, task, &warm, &fine, Some(&warm_points))?;
-    let mut last_role = role;
-    if retry_from_seed(&p) {
-        if let Some(again) = run.remaining(started) {
-            let first = std::mem::replace(
-                &mut p,
-                plan_single(robot, task, &from_seed, &again, Some(g))?,
-            );
-            out.push((role, first));
-            last_role = SolveRole::FromSeed;
-        }
-    }
-    out.push((last_role, p));
+    let p = plan_single(robot, task, &warm, &fine, Some(&warm_points))?;
+    let last = or_from_seed(robot, task, &from_seed, run, started, g, role, p, &mut out)?;
+    out.push(last);
     Ok(out)
 }

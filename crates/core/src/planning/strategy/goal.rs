@@ -15,6 +15,7 @@
 use crate::error::Result;
 use crate::model::{ik_from_seed, wrap_angle, Circle, ClearanceFn, Robot};
 use crate::planning::settings::PlannerSettings;
+use crate::planning::strategy::cspace::GRID_STEP_RAD;
 use crate::planning::strategy::detour::EXTRA_CLEARANCE;
 use crate::trajectory::Trajectory;
 
@@ -113,6 +114,35 @@ pub fn clear_final_poses(
     }
     best.sort_by(|a, b| a.1.total_cmp(&b.1));
     Ok(best.into_iter().take(k).map(|(_, _, q)| q).collect())
+}
+
+/// The goal poses of the configuration-space searches: `q_end` (the seeds' final pose) first, then
+/// up to `k - 1` other poses of [`clear_final_poses`] that grasp the bar at `target` and clear
+/// `obstacles`, each apart from every pose before it by at least [`GRID_STEP_RAD`] in some joint
+/// (the searches' grid step: closer poses end in the same grid cell). `stop` as in
+/// [`clear_final_poses`]; once it says stop, the poses found so far.
+pub fn distinct_goal_poses(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    q_end: &[f64],
+    target: [f64; 2],
+    k: usize,
+    stop: &dyn Fn() -> bool,
+) -> Result<Vec<Vec<f64>>> {
+    let mut goals = vec![q_end.to_vec()];
+    if k <= 1 || stop() {
+        return Ok(goals);
+    }
+    for q in clear_final_poses(robot, obstacles, settings, q_end, target, k, stop)? {
+        let same = goals
+            .iter()
+            .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < GRID_STEP_RAD));
+        if !same && goals.len() < k {
+            goals.push(q);
+        }
+    }
+    Ok(goals)
 }
 
 /// `free` with its last knot's pose replaced by `q` (velocities and torques kept).

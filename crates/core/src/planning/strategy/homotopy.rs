@@ -8,8 +8,8 @@
 //! here are:
 //! 1. **Goals.** The pose the obstacle-free swing's knots end at (the seeds' final pose), then up
 //!    to [`MAX_GOALS`] - 1 other poses that grasp the bar and clear the obstacles, one per family of
-//!    signs of the relative joints (elbow up or down at each joint; [`super::goal::clear_final_poses`]),
-//!    nearest first.
+//!    signs of the relative joints (elbow up or down at each joint;
+//!    [`super::goal::distinct_goal_poses`]), nearest first.
 //! 2. **Routes.** For each goal, up to [`ROUTES_PER_GOAL`] grid routes from the start pose
 //!    ([`super::cspace::cspace_routes`]): each next route goes round a tube about the routes before it,
 //!    so it passes the obstacles another way; routes that stay within
@@ -23,15 +23,11 @@
 //! seeds found so far are returned. Units: rad, s.
 
 use super::cspace::{cspace_routes, time_path, CspaceReport, GRID_STEP_RAD};
-use super::goal::{clear_final_poses, with_final_pose};
+use super::goal::{distinct_goal_poses, with_final_pose};
 use crate::error::Result;
 use crate::model::{Circle, Robot};
 use crate::planning::settings::PlannerSettings;
 use crate::trajectory::Trajectory;
-
-/// Every search's report (in the order run) and the seeds found, best first, each with the index of
-/// its report.
-pub type HomotopySeeds = (Vec<CspaceReport>, Vec<(usize, Trajectory)>);
 
 /// One ranked configuration-space seed: the index of its search's report, the route's waypoints,
 /// the time axis it is timed over (the obstacle-free swing's knots ending at its goal pose) and the
@@ -74,24 +70,9 @@ pub const ROUTES_PER_GOAL: usize = 2;
 
 /// The ranked configuration-space seeds of the obstacle-free swing's knots `free` (its last knot the
 /// seeds' final pose, which clears the obstacles; the bar at `target`) against `obstacles` (see the
-/// module docs): every
-/// search's report (in the order run) and the seeds found, best first, each with the index of its
-/// report.
-pub fn homotopy_seeds(
-    robot: &Robot,
-    obstacles: &[Circle],
-    settings: &PlannerSettings,
-    free: &Trajectory,
-    target: [f64; 2],
-    stop: &dyn Fn() -> bool,
-) -> Result<HomotopySeeds> {
-    let r = homotopy_routes(robot, obstacles, settings, free, target, stop)?;
-    let seeds = r.seeds.into_iter().map(|s| (s.report, s.guess)).collect();
-    Ok((r.reports, seeds))
-}
-
-/// [`homotopy_seeds`] with each seed's route and time axis, so that it can be timed over another
-/// swing time ([`RankedSeed::retimed`]).
+/// module docs): every search's report (in the order run) and the seeds found, best first, each
+/// with its route and time axis, so that it can be timed over another swing time
+/// ([`RankedSeed::retimed`]).
 pub fn homotopy_routes(
     robot: &Robot,
     obstacles: &[Circle],
@@ -100,23 +81,26 @@ pub fn homotopy_routes(
     target: [f64; 2],
     stop: &dyn Fn() -> bool,
 ) -> Result<RankedRoutes> {
+    let limits = (MAX_GOALS, ROUTES_PER_GOAL);
+    homotopy_routes_up_to(robot, obstacles, settings, free, target, limits, stop)
+}
+
+/// [`homotopy_routes`] to up to `goals` goal poses, up to `routes` routes each (`(goals, routes)`).
+pub fn homotopy_routes_up_to(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    target: [f64; 2],
+    (goals, routes): (usize, usize),
+    stop: &dyn Fn() -> bool,
+) -> Result<RankedRoutes> {
     let len = free.len();
     if len < 2 || obstacles.is_empty() {
         return Ok(RankedRoutes::default());
     }
     let (q_start, q_end) = (free.q(0), free.q(len - 1));
-    let mut goals = vec![q_end.to_vec()];
-    if MAX_GOALS > 1 && !stop() {
-        let others = clear_final_poses(robot, obstacles, settings, q_end, target, MAX_GOALS, stop)?;
-        for q in others {
-            let same = goals
-                .iter()
-                .any(|g| g.iter().zip(&q).all(|(a, b)| (a - b).abs() < GRID_STEP_RAD));
-            if !same && goals.len() < MAX_GOALS {
-                goals.push(q);
-            }
-        }
-    }
+    let goals = distinct_goal_poses(robot, obstacles, settings, q_end, target, goals, stop)?;
     let mut reports = vec![];
     let mut seeds: Vec<RankedSeed> = vec![];
     for (gi, goal) in goals.iter().enumerate() {
@@ -124,15 +108,9 @@ pub fn homotopy_routes(
             break;
         }
         let axis = with_final_pose(free, goal);
-        for (mut rep, path) in cspace_routes(
-            robot,
-            obstacles,
-            settings,
-            q_start,
-            goal,
-            ROUTES_PER_GOAL,
-            stop,
-        )? {
+        for (mut rep, path) in
+            cspace_routes(robot, obstacles, settings, q_start, goal, routes, stop)?
+        {
             rep.goal = gi;
             if let Some(path) = path {
                 let guess = time_path(robot, &path, &axis, &mut rep);

@@ -11,6 +11,7 @@ pub mod candidate;
 pub mod cspace;
 pub mod detour;
 pub mod diagnosis;
+pub(crate) mod further;
 pub mod goal;
 pub mod homotopy;
 pub mod obstacles;

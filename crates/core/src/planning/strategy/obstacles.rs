@@ -42,13 +42,16 @@ use crate::planning::outcome::SolveRole;
 use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::{PlannerSettings, ValidSettings};
-use crate::planning::solve::common::target_pose;
+use crate::planning::solve::common::{covering_obstacles, target_pose};
 use crate::planning::solve::plan_single;
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
     longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, LONGER_SWING_FACTOR,
 };
 use crate::planning::strategy::cspace::CspaceReport;
+use crate::planning::strategy::further::{
+    self, FurtherSearch, Tried, FURTHER_GOALS, FURTHER_ROUTES,
+};
 use crate::planning::strategy::homotopy::{
     homotopy_routes, RankedRoutes, MAX_GOALS, ROUTES_PER_GOAL,
 };
@@ -220,6 +223,8 @@ enum Kind {
     /// The C-space seed of this rank timed over a longer swing, the swing time free
     /// ([`super::candidate::solve_seed_longer_swing`]).
     CspaceLonger(usize),
+    /// The further route of this rank as a longer swing ([`super::further`]).
+    Further(usize),
 }
 
 /// The smooth step's plan of the task with what is left of the call begun at `started` (at least
@@ -314,27 +319,23 @@ fn strategies(
     // that grasps the bar)
     let last = free_points.q(free_points.len() - 1).to_vec();
     let spent = || nlp.remaining(started).is_none();
-    let seed_free = match goal::clear_final_pose_until(
-        robot,
-        &task.obstacles,
-        settings,
-        &last,
-        task.target,
-        &spent,
-    )? {
-        Some(q) => goal::with_final_pose(&free_points, &q),
-        None => free_points.clone(),
-    };
-    let seeds = crate::planning::strategy::detour::detour_seeds(
-        robot,
-        &task.obstacles,
-        settings,
-        &seed_free,
-    )?;
+    // the seeds go round the obstacles that matter: one of two identical circles, none inside
+    // another (a detour's barrier would count a duplicated obstacle twice)
+    let obstacles = covering_obstacles(&task.obstacles);
+    let obstacles = obstacles.as_slice();
+    let seed_free =
+        match goal::clear_final_pose_until(robot, obstacles, settings, &last, task.target, &spent)?
+        {
+            Some(q) => goal::with_final_pose(&free_points, &q),
+            None => free_points.clone(),
+        };
+    let seeds =
+        crate::planning::strategy::detour::detour_seeds(robot, obstacles, settings, &seed_free)?;
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     // the homotopy search, run once by the first candidate that needs it (the others wait for it),
     // within that candidate's time limit and cancel token
     let cspace: OnceLock<RankedRoutes> = OnceLock::new();
+    let further = FurtherSearch::new(robot, obstacles, settings, &seed_free, task.target);
     let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
     let mut kinds = vec![];
     let mut cands: Vec<race::Candidate<'_>> = vec![];
@@ -353,19 +354,23 @@ fn strategies(
         cspace.get_or_init(|| {
             let t0 = std::time::Instant::now();
             let stop = || run.remaining(t0).is_none();
-            homotopy_routes(
-                robot,
-                &task.obstacles,
-                settings,
-                seed_free,
-                task.target,
-                &stop,
-            )
-            .unwrap_or_default()
+            homotopy_routes(robot, obstacles, settings, seed_free, task.target, &stop)
+                .unwrap_or_default()
         })
     };
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
     let order = race_order(seeds.len(), |i| seeds[i].0.kind.backward(), longer);
+    let further = &further;
+    // the routes the race's own search had (searched first when no candidate needed them yet)
+    let done = move |run: &NlpSettings| {
+        let h = search(run);
+        move || -> Vec<Tried> {
+            h.seeds
+                .iter()
+                .filter_map(|sd| further::tried(sd, &h.reports))
+                .collect()
+        }
+    };
     for kind in order {
         kinds.push(kind);
         match kind {
@@ -395,6 +400,9 @@ fn strategies(
                 // the route timed over the longest swing, where its torques are lowest
                 let g = sd.retimed(robot, LONGER_SWING_FACTOR);
                 solve_seed_longer_swing(robot, task, settings, &run, &g, t_auto)
+            })),
+            Kind::Further(j) => cands.push(Box::new(move |run: &NlpSettings| {
+                further.solve(j, task, run, t_auto, &done(run))
             })),
             Kind::SmoothStep => {}
         }
@@ -456,13 +464,16 @@ fn strategies(
                     routes[i].converged = Some(true);
                 }
             }
+            Kind::Further(_) => {}
         }
         let n = v.len();
         for (k, (role, mut p)) in v.into_iter().enumerate() {
             log.record(&mut p, role);
             if outcome.winner == Some(c) && k + 1 == n {
                 rep.strategy = match kind {
-                    Kind::Cspace(_) | Kind::CspaceLonger(_) => GuessStrategy::Cspace,
+                    Kind::Cspace(_) | Kind::CspaceLonger(_) | Kind::Further(_) => {
+                        GuessStrategy::Cspace
+                    }
                     _ => GuessStrategy::Detour,
                 };
                 won_plan = Some(p);
@@ -480,6 +491,11 @@ fn strategies(
             SMOOTH_STEP_RACE_MAX_ITER,
         )?,
     };
+    let won_further = outcome.winner.and_then(|c| match kinds[c] {
+        Kind::Further(j) => Some(j),
+        _ => None,
+    });
+    routes.extend(further.reports(won_further));
     let cguess = ranked.into_iter().next().map(|sd| sd.guess);
     if let Some(p) = won_plan {
         put_cspace(&mut rep, routes, top);
@@ -500,7 +516,8 @@ fn strategies(
 /// The race's candidates after the smooth step, in their order: the forward detour seeds (they start
 /// at the start pose, and win most), the best-ranked C-space seed (and with a longer swing), the
 /// backward detour seeds (`backward(i)` of the `n_seeds`), the other C-space seeds in their rank,
-/// each followed by the same with a longer swing when `longer`.
+/// each followed by the same with a longer swing when `longer`; then, when `longer`, the further
+/// routes as longer swings ([`super::further`]).
 fn race_order(n_seeds: usize, backward: impl Fn(usize) -> bool, longer: bool) -> Vec<Kind> {
     let (back, forward): (Vec<usize>, Vec<usize>) = (0..n_seeds).partition(|&i| backward(i));
     let mut order: Vec<Kind> = forward.into_iter().map(Kind::Detour).collect();
@@ -509,6 +526,9 @@ fn race_order(n_seeds: usize, backward: impl Fn(usize) -> bool, longer: bool) ->
     order.extend(with_longer(0));
     order.extend(back.into_iter().map(Kind::Detour));
     order.extend((1..MAX_GOALS * ROUTES_PER_GOAL).flat_map(with_longer));
+    if longer {
+        order.extend((0..FURTHER_GOALS * FURTHER_ROUTES).map(Kind::Further));
+    }
     order
 }
 

@@ -1,0 +1,156 @@
+//! Further configuration-space routes as longer swings, the race's last candidates: when every
+//! earlier candidate has started and none has won, the routes the race did not have (to up to
+//! [`FURTHER_GOALS`] goal poses at the bar, up to [`FURTHER_ROUTES`] routes each,
+//! [`super::homotopy::homotopy_routes_up_to`]), each solved as a longer swing
+//! ([`super::candidate::solve_seed_longer_swing`]: the route timed over [`LONGER_SWING_FACTOR`] times
+//! the automatic swing time, the swing time free up to there), lowest inverse-dynamics torque ratio
+//! over that longest swing first.
+//!
+//! A placement whose route goes round the obstacle to a goal pose past the race's
+//! [`super::homotopy::MAX_GOALS`], or by a route past its [`super::homotopy::ROUTES_PER_GOAL`], can
+//! plan here. The race's winner is the first candidate in order that converges, so a placement an
+//! earlier candidate plans gets the same plan (measured on the placement scan:
+//! docs/planner-measurements.md). Units: s.
+
+use crate::error::Result;
+use crate::model::{Circle, Robot};
+use crate::planning::nlp::NlpSettings;
+use crate::planning::settings::ValidSettings;
+use crate::planning::strategy::candidate::{solve_seed_longer_swing, LONGER_SWING_FACTOR};
+use crate::planning::strategy::cspace::{time_path, CspaceReport};
+use crate::planning::strategy::homotopy::{homotopy_routes_up_to, RankedRoutes, RankedSeed};
+use crate::planning::strategy::race::Plans;
+use crate::planning::task::ValidTask;
+use crate::trajectory::Trajectory;
+use std::sync::OnceLock;
+use std::time::Instant;
+
+/// Most goal poses of the further search (the seeds' final pose included).
+pub const FURTHER_GOALS: usize = 8;
+/// Most routes per goal pose of the further search.
+pub const FURTHER_ROUTES: usize = 4;
+
+/// A route the race already had: its goal pose (the route's last waypoint) and its index among the
+/// routes to that pose.
+pub(crate) type Tried = (Vec<f64>, usize);
+
+/// The goal pose and route index of a ranked seed.
+pub(crate) fn tried(sd: &RankedSeed, reports: &[CspaceReport]) -> Option<Tried> {
+    let goal = sd.path.last()?.clone();
+    Some((goal, reports.get(sd.report)?.route))
+}
+
+/// The further search, run once by the first candidate that needs it (the others wait for it),
+/// within that candidate's time limit and cancel token: the routes the race did not have, lowest
+/// inverse-dynamics torque ratio over the longest swing first.
+pub(crate) struct FurtherSearch<'a> {
+    robot: &'a Robot,
+    obstacles: &'a [Circle],
+    settings: &'a ValidSettings,
+    /// The obstacle-free swing's knots ending at the seeds' final pose.
+    free: &'a Trajectory,
+    target: [f64; 2],
+    found: OnceLock<RankedRoutes>,
+}
+
+impl<'a> FurtherSearch<'a> {
+    /// A search against `obstacles` (those that cover the others) from the knots `free` to the bar
+    /// at `target`; nothing is searched before [`FurtherSearch::routes`].
+    pub(crate) fn new(
+        robot: &'a Robot,
+        obstacles: &'a [Circle],
+        settings: &'a ValidSettings,
+        free: &'a Trajectory,
+        target: [f64; 2],
+    ) -> Self {
+        FurtherSearch {
+            robot,
+            obstacles,
+            settings,
+            free,
+            target,
+            found: OnceLock::new(),
+        }
+    }
+
+    /// The further routes (searched on the first call, within `run`), without those in `done`.
+    pub(crate) fn routes(&self, run: &NlpSettings, done: &dyn Fn() -> Vec<Tried>) -> &RankedRoutes {
+        self.found.get_or_init(|| {
+            let t0 = Instant::now();
+            let stop = || run.remaining(t0).is_none();
+            let limits = (FURTHER_GOALS, FURTHER_ROUTES);
+            let (robot, target) = (self.robot, self.target);
+            let mut r = homotopy_routes_up_to(
+                robot,
+                self.obstacles,
+                self.settings,
+                self.free,
+                target,
+                limits,
+                &stop,
+            )
+            .unwrap_or_default();
+            let done = done();
+            let reports = &r.reports;
+            r.seeds.retain(|sd| {
+                tried(sd, reports).is_some_and(|t| !done.iter().any(|d| same_route(d, &t)))
+            });
+            // lowest torque ratio over the longest swing first: that is where they start
+            let ratio = |sd: &RankedSeed| {
+                let mut rep = reports[sd.report].clone();
+                let axis = sd.axis.times_stretched(LONGER_SWING_FACTOR);
+                time_path(robot, &sd.path, &axis, &mut rep);
+                rep.peak_torque_ratio
+            };
+            let mut keyed: Vec<(f64, RankedSeed)> =
+                r.seeds.drain(..).map(|sd| (ratio(&sd), sd)).collect();
+            keyed.sort_by(|a, b| a.0.total_cmp(&b.0));
+            r.seeds = keyed.into_iter().map(|(_, sd)| sd).collect();
+            r
+        })
+    }
+
+    /// Candidate `j` of the further routes: its route solved as a longer swing (nothing when there is
+    /// no such route or no time is left).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn solve(
+        &self,
+        j: usize,
+        task: &ValidTask,
+        run: &NlpSettings,
+        t_auto: f64,
+        done: &dyn Fn() -> Vec<Tried>,
+    ) -> Result<Plans> {
+        let t0 = Instant::now();
+        let h = self.routes(run, done);
+        let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
+            return Ok(vec![]);
+        };
+        let g = sd.retimed(self.robot, LONGER_SWING_FACTOR);
+        solve_seed_longer_swing(self.robot, task, self.settings, &run, &g, t_auto)
+    }
+
+    /// The reports of the further routes (their `goal` counts the further search's goal poses),
+    /// the route of rank `won` marked converged; none when the search did not run.
+    pub(crate) fn reports(&self, won: Option<usize>) -> Vec<CspaceReport> {
+        let Some(RankedRoutes { reports, seeds }) = self.found.get() else {
+            return vec![];
+        };
+        seeds
+            .iter()
+            .enumerate()
+            .map(|(j, sd)| {
+                let mut r = reports[sd.report].clone();
+                if won == Some(j) {
+                    r.converged = Some(true);
+                }
+                r
+            })
+            .collect()
+    }
+}
+
+/// Whether two routes are the same route: the same index to the same goal pose.
+fn same_route(a: &Tried, b: &Tried) -> bool {
+    a.1 == b.1 && a.0.len() == b.0.len() && a.0.iter().zip(&b.0).all(|(x, y)| (x - y).abs() < 1e-9)
+}
