@@ -2,6 +2,7 @@
 //! simulating the model plant under small smooth torques.
 #![allow(dead_code)]
 
+pub mod oracle;
 pub mod placement;
 
 use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};

@@ -5,7 +5,9 @@
 //! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
 //! can lead the fine solve into a class it cannot leave: measured on the placement scan,
 //! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
-//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). The solve from
+//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"), and after a
+//! numerical failure of the coarse mesh (a numerical or an evaluation error) the fine solve starts
+//! from the seed. The solve from
 //! the seed is [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's
 //! role. The last fine solve (the one from the seed when there was one, since a fine solve that
 //! stopped at its iteration cap is solved again from the seed first) resumes once from where it
@@ -69,15 +71,21 @@ pub(crate) fn solve_seed_coarse_to_fine(
         let capped = run.clone().capped(COARSE_MAX_ITER);
         // a swing too short for the coarse mesh is refused there: solved on the task's mesh only
         if let Ok(p) = plan_single(robot, task, &cs, &capped, Some(g)) {
-            // converged, or still making progress at the cap: the fine solve goes on from there
+            // converged, or still making progress at the cap: the fine solve goes on from there;
+            // a numerical failure of the coarse mesh says nothing of the seed: the fine solve
+            // starts from the seed
             let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
+            let numerical = matches!(
+                p.status,
+                SolveStatus::NumericalError | SolveStatus::EvaluationError(_)
+            );
             out.push((
                 SolveRole::CoarseMesh {
                     knot_dt_s: COARSE_KNOT_DT_S,
                 },
                 p,
             ));
-            if !ok {
+            if !ok && !numerical {
                 return Ok(out);
             }
         }
@@ -85,8 +93,11 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let from_coarse = !out.is_empty();
-    let guess = out.last().map_or(g, |(_, p)| &p.points);
+    let warm = out
+        .last()
+        .filter(|(_, p)| p.status.is_converged() || p.status == SolveStatus::MaxIterations);
+    let from_coarse = warm.is_some();
+    let guess = warm.map_or(g, |(_, p)| &p.points);
     let mut p = plan_single(robot, task, settings, &fine, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
