@@ -44,7 +44,7 @@ pub struct GraspBlocked {
     /// Its surface distance from the bar, m (negative: the bar is inside it).
     pub bar_distance_m: f64,
     /// An upper bound on the last link's clearance to the obstacles at any admissible angle, m (below
-    /// the margin); `-inf` when no angle is admissible.
+    /// the margin).
     pub best_clearance_m: f64,
 }
 
@@ -65,7 +65,8 @@ fn dist_to_arc(p: [f64; 2], r: f64, lo: f64, hi: f64) -> f64 {
 
 /// Whether the obstacles block every pose of `robot` that grasps `target` (see the module docs):
 /// `q1` is the range of link 1's absolute angle (`bounds.q1`), `margin` the clearance required (m).
-/// `None` when some admissible angle of the last link was not proven blocked.
+/// `None` when some admissible angle of the last link was not proven blocked, or when no angle is
+/// admissible (then no obstacle is to blame).
 pub fn grasp_blocked(
     robot: &Robot,
     target: [f64; 2],
@@ -130,17 +131,11 @@ pub fn grasp_blocked(
         stack.push((phi + h / 2.0, h / 2.0));
     }
     let blocking: Vec<usize> = (0..obstacles.len()).filter(|&k| used[k]).collect();
-    // no admissible angle at all: the target is out of reach, which the task check refuses first;
-    // name the obstacle nearest the bar
+    // no admissible angle at all (the links cannot reach the bar with link 1 inside `q1`): no
+    // obstacle is to blame
     let nearest = blocking
         .iter()
         .copied()
-        .chain(
-            (blocking.is_empty())
-                .then_some(0..obstacles.len())
-                .into_iter()
-                .flatten(),
-        )
         .min_by(|&a, &b| bar_distance(a).total_cmp(&bar_distance(b)))?;
     Some(GraspBlocked {
         obstacles: blocking,

@@ -370,14 +370,10 @@ fn check_grasp(
     } else {
         format!(" (together with {})", others.join(", "))
     };
-    let best = if b.best_clearance_m.is_finite() {
-        format!(
-            "; the best such angle keeps at most {:.4} m",
-            b.best_clearance_m
-        )
-    } else {
-        String::new()
-    };
+    let best = format!(
+        "; the best such angle keeps at most {:.4} m",
+        b.best_clearance_m
+    );
     Err(Error::invalid(
         src,
         format!("{prefix}obstacles[{}]", b.nearest),
