@@ -188,44 +188,38 @@ fn a_swing_short_of_torque_says_how_much_it_needs() {
 }
 
 #[test]
-fn an_obstacle_on_the_bar_is_diagnosed_in_the_message_and_the_report() {
+fn an_obstacle_that_blocks_the_grasp_is_refused_with_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     // the obstacle's surface 0.01 m below the bar: the last link (radius 0.02 m, margin 0.01 m) ends
-    // there, so no swing can (a coarse, short solve: it fails whatever the solver does)
+    // there, so no pose grasping the bar clears it; refused before any solve
     let text = format!(
         "params = {:?}\n[task]\nq0 = [-2.35, 0.0, -1.55, 0.0]\ntarget = [0.8, 0.0]\n\
-         obstacles = [{{ center = [0.8, -0.09], radius = 0.08 }}]\n[planner]\nknot_dt = 0.05\n\
+         obstacles = [{{ center = [-0.6, 0.3], radius = 0.05 }}, \
+         {{ center = [0.8, -0.09], radius = 0.08 }}]\n[planner]\nknot_dt = 0.05\n\
          transcription = \"multiple-shooting\"\n[solver]\nbackend = \"ocp\"\nmax_iter = 40\n",
         root().join("params/paper.toml")
     );
     let (o, out) = plan_in(dir.path(), "bar.toml", &text);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("did not converge") && err.contains("infeasible"),
-        "{err}"
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for want in [
+        "bar.toml",
+        "task.obstacles[1]",
+        "0.0100 m from the target bar",
+        "no pose that grasps the bar clears it",
+        "planner.obstacle_margin = 0.01",
+    ] {
+        assert!(err.contains(want), "{want}: {err}");
+    }
+    assert!(!out.exists());
+    // the same obstacle 0.05 m lower leaves the last link room: it is planned (exit 0 or 1)
+    let (o, _) = plan_in(
+        dir.path(),
+        "lower.toml",
+        &text.replace("[0.8, -0.09]", "[0.8, -0.14]"),
     );
-    assert!(err.contains("obstacle 0 vs link 4: closest"), "{err}");
-    let r = report(&out);
-    assert_eq!(r["converged"], false);
-    let b = &r["blockage"];
-    assert_eq!(b["infeasible"], true, "{b}");
-    assert_eq!(b["bar_overlaps"], true, "{b}");
-    let c = b["clearances"].as_array().unwrap();
-    assert_eq!(c.len(), 4, "{b}");
-    assert_eq!((&c[3]["obstacle"], &c[3]["link"]), (&0.into(), &3.into()));
-    assert_eq!(c[3]["violated"], true, "{b}");
-    // the diagnosis: the obstacle holds the bar, so the last link cannot reach it
-    assert!(
-        err.contains("obstacle 0 blocks link 4 where it must pass")
-            && err.contains("no torque or swing time clears it")
-            && err.contains("diagnosis in report.json"),
-        "{err}"
-    );
-    let d = &r["diagnosis"];
-    assert_eq!(d["verdict"], "unreachable", "{d}");
-    assert_eq!((&d["obstacle"], &d["link"]), (&0.into(), &3.into()), "{d}");
-    assert!(d["torque_probe"].is_null(), "{d}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(matches!(o.status.code(), Some(0 | 1)), "{err}");
 }
 
 #[test]

@@ -15,10 +15,10 @@ fn aside() -> Circle {
 }
 
 /// An obstacle whose surface is 0.01 m below the target bar holds the grasp: the last link, which ends
-/// at the bar, cannot reach it past the obstacle, whatever the torque or the swing time. The
-/// diagnosis names that obstacle (the second of two) and the last link, and probes nothing.
+/// at the bar, cannot reach it past the obstacle, whatever the torque or the swing time. The task
+/// check refuses it before any solve, naming that obstacle (the second of two).
 #[test]
-fn an_obstacle_holding_the_target_bar_is_unreachable_for_the_last_link() {
+fn an_obstacle_holding_the_target_bar_is_refused_before_any_solve() {
     let robot = Robot::paper();
     let task = SwingTask {
         obstacles: vec![
@@ -30,19 +30,59 @@ fn an_obstacle_holding_the_target_bar_is_unreachable_for_the_last_link() {
         ],
         ..SwingTask::paper()
     };
+    let e = plan(
+        &robot,
+        &task,
+        &PlannerSettings::default(),
+        &NlpSettings::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("obstacles[1]") && e.contains("no pose that grasps the bar clears it"),
+        "{e}"
+    );
+}
+
+/// An obstacle 0.005 m from link 1 of the start pose (inside the 0.01 m margin, not overlapping it):
+/// no motion clears it. The diagnosis names that obstacle (the second of two) and link 1, and probes
+/// nothing.
+#[test]
+fn an_obstacle_within_the_margin_of_the_start_pose_is_unreachable() {
+    let robot = Robot::paper();
+    let q0 = &SwingTask::paper().q0;
+    let mut segs = vec![([0.0; 2], [0.0; 2]); robot.n()];
+    robot.link_segments(q0, &mut segs);
+    let (a, b) = segs[0];
+    // off link 1's midpoint, square to the link, on its lower side
+    let (len, radius) = (robot.lengths()[0], 0.05);
+    let normal = [(b[1] - a[1]) / len, -(b[0] - a[0]) / len];
+    let off = robot.radii()[0] + 0.005 + radius;
+    let at_start = Circle {
+        center: [
+            0.5 * (a[0] + b[0]) + off * normal[0],
+            0.5 * (a[1] + b[1]) + off * normal[1],
+        ],
+        radius,
+    };
+    let task = SwingTask {
+        obstacles: vec![aside(), at_start],
+        ..SwingTask::paper()
+    };
     let nlp = NlpSettings {
         max_iter: 40,
+        max_wall_time_s: Some(5.0),
         ..Default::default()
     };
     let p = plan(&robot, &task, &PlannerSettings::default(), &nlp).unwrap();
     assert!(!p.converged());
     let d = p.diagnosis.as_ref().expect("a diagnosis");
     assert_eq!(d.verdict, Verdict::Unreachable, "{d:?}");
-    assert_eq!((d.obstacle, d.link), (1, robot.n() - 1), "{d:?}");
+    assert_eq!((d.obstacle, d.link), (1, 0), "{d:?}");
     assert!(d.torque_probe.is_none() && d.swing_time_probe.is_none() && d.solves == 0);
     let msg = p.failure_message().unwrap();
     assert!(
-        msg.contains("obstacle 1 blocks link 4 where it must pass")
+        msg.contains("obstacle 1 blocks link 1 where it must pass")
             && msg.contains("no torque or swing time clears it"),
         "{msg}"
     );

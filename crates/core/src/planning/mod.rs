@@ -1,6 +1,7 @@
 //! Offline swing planning (paper Section III), in layers; each uses only the ones above it in this
 //! list:
-//! - plain types: the task ([`task`]), the settings ([`settings`]), the plan and its solves
+//! - plain types: the task ([`task`]) and the proof that its obstacles leave a pose grasping the
+//!   target bar ([`grasp`], which the task check uses), the settings ([`settings`]), the plan and its solves
 //!   ([`outcome`]), the strategies' reports ([`report`]); the solver seam's problem trait, settings and
 //!   status ([`nlp`]);
 //! - checks and rules on a trajectory: the torque between points, the resampling and the replay
@@ -19,6 +20,7 @@
 //! `u = tau` of joints 2..n; gravity along -y).
 
 pub mod clearance_check;
+pub mod grasp;
 pub mod multi_swing;
 pub mod nlp;
 pub mod outcome;

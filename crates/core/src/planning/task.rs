@@ -337,8 +337,61 @@ pub fn validate_task(
                 ));
             }
         }
+        check_grasp(robot, task, settings, src, prefix)?;
     }
     Ok(qd0)
+}
+
+/// Refuse a task whose obstacles block every pose that grasps the target bar
+/// ([`super::grasp::grasp_blocked`]): no swing can end there with the margin kept.
+fn check_grasp(
+    robot: &Robot,
+    task: &SwingTask,
+    settings: &PlannerSettings,
+    src: &str,
+    prefix: &str,
+) -> Result<()> {
+    let margin = settings.obstacle_margin;
+    let q1 = settings.bounds.q1;
+    let Some(b) = super::grasp::grasp_blocked(robot, task.target, &task.obstacles, margin, q1)
+    else {
+        return Ok(());
+    };
+    let n = robot.n();
+    let o = &task.obstacles[b.nearest];
+    let others: Vec<String> = b
+        .obstacles
+        .iter()
+        .filter(|&&k| k != b.nearest)
+        .map(|k| format!("{prefix}obstacles[{k}]"))
+        .collect();
+    let together = if others.is_empty() {
+        String::new()
+    } else {
+        format!(" (together with {})", others.join(", "))
+    };
+    let best = format!(
+        "; the best such angle keeps at most {:.4} m",
+        b.best_clearance_m
+    );
+    Err(Error::invalid(
+        src,
+        format!("{prefix}obstacles[{}]", b.nearest),
+        format!("center {:?}, radius {}", o.center, o.radius),
+        format!(
+            "its surface is {:.4} m from the target bar {:?}, and no pose that grasps the bar \
+             clears it{together}: the last link (link {n}, capsule radius {} m) ends at the bar, and \
+             at every angle of it whose far joint the links before it can reach with link 1 inside \
+             planner.bounds.q1 = [{}, {}] rad, it comes closer to the obstacle than \
+             planner.obstacle_margin = {} m{best}; move the obstacle or the bar",
+            b.bar_distance_m,
+            task.target,
+            robot.radii()[n - 1],
+            q1[0],
+            q1[1],
+            margin,
+        ),
+    ))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod estimate;
+pub mod oracle;
 pub mod placement;
 
 use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};

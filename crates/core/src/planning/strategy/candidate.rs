@@ -5,7 +5,9 @@
 //! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
 //! can lead the fine solve into a class it cannot leave: measured on the placement scan,
 //! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
-//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"). The solve from
+//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"), and after a
+//! numerical failure of the coarse mesh (a numerical or an evaluation error) the fine solve starts
+//! from the seed. The solve from
 //! the seed is [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's
 //! role. The last fine solve (the one from the seed when there was one, since a fine solve that
 //! stopped at its iteration cap is solved again from the seed first) resumes once from where it
@@ -53,9 +55,16 @@ fn retry_from_seed(p: &Plan) -> bool {
     !p.converged() && !matches!(p.status, SolveStatus::Cancelled | SolveStatus::MaxWallTime)
 }
 
+/// Whether the fine solve starts warm from a coarse plan that ended with `status`: it converged or
+/// was still making progress at the cap.
+fn coarse_goes_on_warm(status: &SolveStatus) -> bool {
+    status.is_converged() || *status == SolveStatus::MaxIterations
+}
+
 /// The coarse solve of a seed: `task` on the coarse mesh `cs` from `g`, at most [`COARSE_MAX_ITER`]
 /// iterations, pushed to `out`. Whether the fine solve goes on: the coarse plan converged or was
-/// still making progress at the cap, or the coarse mesh refused the swing (too short for it: solved
+/// still making progress at the cap, it failed numerically (the fine solve then starts from the
+/// seed), or the coarse mesh refused the swing (too short for it: solved
 /// on the task's mesh only, nothing pushed).
 fn coarse_solve(
     robot: &Robot,
@@ -69,7 +78,13 @@ fn coarse_solve(
     let Ok(p) = plan_single(robot, task, cs, &capped, Some(g)) else {
         return true;
     };
-    let ok = p.status.is_converged() || p.status == SolveStatus::MaxIterations;
+    // a numerical failure of the coarse mesh says nothing of the seed: the fine solve starts
+    // from the seed
+    let ok = coarse_goes_on_warm(&p.status)
+        || matches!(
+            p.status,
+            SolveStatus::NumericalError | SolveStatus::EvaluationError(_)
+        );
     out.push((
         SolveRole::CoarseMesh {
             knot_dt_s: COARSE_KNOT_DT_S,
@@ -126,8 +141,11 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let from_coarse = !out.is_empty();
-    let guess = out.last().map_or(g, |(_, p)| &p.points);
+    // warm from a coarse plan that converged or stopped at its cap; after a numerical failure of
+    // the coarse mesh, from the seed
+    let warm = out.last().filter(|(_, p)| coarse_goes_on_warm(&p.status));
+    let from_coarse = warm.is_some();
+    let guess = warm.map_or(g, |(_, p)| &p.points);
     let p = plan_single(robot, task, settings, &fine, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans

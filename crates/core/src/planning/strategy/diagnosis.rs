@@ -4,9 +4,9 @@
 //! After the obstacle chain fails, the planner ([`crate::planning::plan`]) names the obstacle that
 //! blocks the swing and the link it blocks, and probes, within what is left of the call's time
 //! limit, how far the task is from planning:
-//! 1. an obstacle within the last link's radius plus the margin of the target bar, or within the
-//!    margin of the start pose, blocks every motion: no torque or swing time helps, nothing is probed
-//!    ([`Verdict::Unreachable`]);
+//! 1. an obstacle within the margin of the start pose (or obstacles that leave no pose grasping the
+//!    target bar clear, which the task check refuses) blocks every motion: no torque or swing time
+//!    helps, nothing is probed ([`Verdict::Unreachable`]);
 //! 2. the torque probe plans the task with every actuator limit widened by [`PROBE_TORQUE_SCALE`],
 //!    from the obstacle chain's best-ranked configuration-space seed (a path of another homotopy
 //!    class, [`super::homotopy`]; the configuration-space seed of the obstacle-free swing when the
@@ -39,7 +39,7 @@
 //! Units: m, s, N m.
 
 use super::cspace::{cspace_routes, time_path};
-use super::obstacles::{diagnose, obstacle_on_bar};
+use super::obstacles::diagnose;
 use super::torque_continuation::with_torque_scale;
 use super::widened::{
     at_real_limits, free_swing_time, peak_torques, swing_time_chosen, torque_limits, within_limits,
@@ -48,6 +48,7 @@ use super::widened::{
 pub use super::widened::{PROBE_MAX_ITER, PROBE_SWING_TIME_FACTOR, PROBE_TORQUE_SCALE};
 use crate::error::Result;
 use crate::model::{ClearanceFn, ClearancePair, Robot};
+use crate::planning::grasp::grasp_blocked;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::{Plan, SolveRole};
 use crate::planning::report::{
@@ -150,16 +151,19 @@ pub(crate) fn diagnose_failure(
     Ok(p)
 }
 
-/// The obstacle and link that block `task` when no motion can clear them: an obstacle at the bar
-/// (the last link), or one within the margin of the start pose (its closest link there).
+/// The obstacle and link that block `task` when no motion can clear them: obstacles that block every
+/// pose grasping the bar ([`crate::planning::grasp::grasp_blocked`]: the one nearest the bar and
+/// the last link; the task check refuses such a task, so this holds only for a task checked with
+/// other bounds or margin), or one within the margin of the start pose (its closest link there).
 fn unreachable(
     robot: &Robot,
     task: &SwingTask,
     settings: &PlannerSettings,
 ) -> Result<Option<(usize, usize)>> {
     let margin = settings.obstacle_margin;
-    if let Some(o) = obstacle_on_bar(robot, task, margin) {
-        return Ok(Some((o, robot.n - 1)));
+    let q1 = settings.bounds.q1;
+    if let Some(b) = grasp_blocked(robot, task.target, &task.obstacles, margin, q1) {
+        return Ok(Some((b.nearest, robot.n - 1)));
     }
     for (i, o) in task.obstacles.iter().enumerate() {
         let one = [*o];
