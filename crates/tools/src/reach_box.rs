@@ -124,6 +124,9 @@ struct Pair {
 /// The largest `|H|` of a start, kg m^2/s (the grid's momentum range is the same for every start).
 pub const START_H_MAX: f64 = 1.0;
 
+/// The occupied cells of a bound, per `q2` cell: `(iz * n_h + ih, [z_lo, z_hi, h_lo, h_hi])`, sorted.
+pub type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
+
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
 
@@ -537,7 +540,7 @@ impl ReachBox {
     }
 
     /// The occupied cells, per `q2` cell (for [`Self::meets_reversed`]).
-    pub fn snapshot(&self) -> Vec<Vec<(u32, [f64; 4])>> {
+    pub fn snapshot(&self) -> Snapshot {
         self.slices.clone()
     }
 
@@ -566,9 +569,101 @@ impl ReachBox {
         out
     }
 
+    /// Keep of each box only the smallest box holding its intersections with the boxes of `other` (a
+    /// snapshot of a bound with the same settings) with their momentum reversed, and drop the boxes
+    /// that meet none. A motion from this bound's start that reaches a state of `other`'s start (its
+    /// momentum reversed) in `other`'s time passes now through a state in both, so every such motion
+    /// stays in the pruned bound. Returns the boxes left.
+    pub fn prune_reversed(&mut self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
+        let (nh, h) = (self.h.n as u32, self.h);
+        self.slices
+            .par_iter_mut()
+            .zip(other.par_iter())
+            .for_each(|(a, b)| {
+                a.retain_mut(|(idx, x)| {
+                    let iz = *idx / nh;
+                    // the boxes of `b` that can meet: same z cell, H cells about the reversed range
+                    let Some((h0, h1)) = h.span(Iv::new(-x[3], -x[2])) else {
+                        return false;
+                    };
+                    let lo = b.partition_point(|c| c.0 < iz * nh + h0 as u32);
+                    let hi = b.partition_point(|c| c.0 <= iz * nh + h1 as u32);
+                    let mut keep = EMPTY;
+                    for (_, y) in &b[lo..hi.max(lo)] {
+                        let m = [
+                            x[0].max(y[0]),
+                            x[1].min(y[1]),
+                            x[2].max(-y[3]),
+                            x[3].min(-y[2]),
+                        ];
+                        if m[0] <= m[1] && m[2] <= m[3] {
+                            keep = [
+                                keep[0].min(m[0]),
+                                keep[1].max(m[1]),
+                                keep[2].min(m[2]),
+                                keep[3].max(m[3]),
+                            ];
+                        }
+                    }
+                    *x = keep;
+                    keep[0] <= keep[1]
+                });
+            });
+        self.cells()
+    }
+
+    /// Merge the boxes of `other` (a bound with the same settings, at the same step) into this one:
+    /// the union of the two bounds, e.g. from the two poses of a target.
+    pub fn absorb(&mut self, other: ReachBox) -> Result<(), ReachError> {
+        let same = |a: &Axis, b: &Axis| a.lo == b.lo && a.w == b.w && a.n == b.n;
+        if other.k != self.k
+            || !same(&self.q2, &other.q2)
+            || !same(&self.z, &other.z)
+            || !same(&self.h, &other.h)
+        {
+            return Err(ReachError::Setting(
+                "bounds merged must share their grid and their step",
+            ));
+        }
+        self.h_start = self.h_start.max(other.h_start);
+        for (a, b) in self.slices.iter_mut().zip(other.slices) {
+            let mut out = Vec::with_capacity(a.len() + b.len());
+            let (mut i, mut j) = (0, 0);
+            while i < a.len() || j < b.len() {
+                if j == b.len() || (i < a.len() && a[i].0 < b[j].0) {
+                    out.push(a[i]);
+                    i += 1;
+                } else if i == a.len() || b[j].0 < a[i].0 {
+                    out.push(b[j]);
+                    j += 1;
+                } else {
+                    let (x, y) = (a[i].1, b[j].1);
+                    out.push((
+                        a[i].0,
+                        [
+                            x[0].min(y[0]),
+                            x[1].max(y[1]),
+                            x[2].min(y[2]),
+                            x[3].max(y[3]),
+                        ],
+                    ));
+                    i += 1;
+                    j += 1;
+                }
+            }
+            *a = out;
+        }
+        Ok(())
+    }
+
     /// The distance (in the larger of `|dz|` and `|dH|`) from the state `[q1, H, q2]` to the nearest
     /// box of its `q2` cell (or either cell, on their common edge); 0 when a box holds it.
     pub fn distance(&self, x: [f64; 3]) -> f64 {
+        self.distance_in(&self.slices, x)
+    }
+
+    /// [`Self::distance`] to the boxes of `snap`, a snapshot of a bound with the same settings.
+    pub fn distance_in(&self, snap: &[Vec<(u32, [f64; 4])>], x: [f64; 3]) -> f64 {
         let zx = x[0] + self.m.phi_at(x[2]);
         let mut best = f64::INFINITY;
         for i in 0..self.q2.n {
@@ -576,7 +671,7 @@ impl ReachBox {
             if x[2] < c.lo - 1e-12 || x[2] > c.hi + 1e-12 {
                 continue;
             }
-            for (_, b) in &self.slices[i] {
+            for (_, b) in &snap[i] {
                 let dz = (b[0] - zx).max(zx - b[1]).max(0.0);
                 let dh = (b[2] - x[1]).max(x[1] - b[3]).max(0.0);
                 best = best.min(dz.max(dh));

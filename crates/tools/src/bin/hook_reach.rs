@@ -22,6 +22,8 @@ use brachia::model::{ik_from_seed, RobotParams};
 use brachia::Robot;
 use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings};
 use brachia_tools::reach_interval::Iv;
+use brachia_tools::reach_model::ReachModel;
+use brachia_tools::reach_sweep::{sweep, Direction, SweepSettings};
 use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::lambda;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -42,12 +44,17 @@ fn load() -> String {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut grid, mut hang, mut mid) = ("0.01x58x0.01x0.005x8".to_string(), false, false);
+    let (mut sweeps, mut passes) = (false, 6);
     let mut times: Vec<f64> = (0..=10).map(|k| 0.80 + 0.05 * k as f64).collect();
     for a in std::env::args().skip(1) {
         if a == "hang" {
             hang = true;
         } else if a == "mid" {
             mid = true;
+        } else if a == "sweep" {
+            sweeps = true;
+        } else if let Some(n) = a.strip_prefix("passes=") {
+            passes = n.parse()?;
         } else if let Some(t) = a.strip_prefix("t=") {
             times = t.split(',').map(str::parse).collect::<Result<_, _>>()?;
         } else {
@@ -84,6 +91,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     if mid {
         return meet_in_the_middle(&model, &s, start, &times);
+    }
+    if sweeps {
+        return sweep_each(&model, &s, start, &times, passes);
     }
     let mut rb = ReachBox::new(&model, &s, start)?;
     println!(
@@ -240,5 +250,59 @@ fn meet_in_the_middle(
         t0.elapsed().as_secs_f64(),
         load()
     );
+    Ok(())
+}
+
+/// Forward-backward sweeps (`brachia_tools::reach_sweep`) at each swing time on its own.
+fn sweep_each(
+    model: &ReducedTwoLink,
+    s: &ReachSettings,
+    start: [f64; 3],
+    times: &[f64],
+    passes: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let hm = EPS / s.lambda;
+    let target: Vec<[Iv; 3]> = ReachModel::new(model, s.u_max)?
+        .poses_near(s.bar, EPS)
+        .into_iter()
+        .map(|[q1, q2]| [q1, Iv::new(-hm, hm), q2])
+        .collect();
+    let start = [start.map(|v| Iv::point(v).pad(1e-12))];
+    println!(
+        "grid: dt {} s, {} q2 cells, dz {} rad, dH {} kg m^2/s; at most {passes} sweeps",
+        s.dt, s.n_q2, s.dz, s.dh
+    );
+    println!("| T s | proven | boxes left per sweep (fewest at a step: F forward, R reversed) | peak boxes | elapsed s | load |");
+    println!("|---|---|---|---|---|---|");
+    for &t in times {
+        let t0 = Instant::now();
+        let sw = SweepSettings {
+            steps: (t / s.dt).round() as usize,
+            passes,
+            stall: 0.98,
+        };
+        let out = sweep(model, s, &start, &target, &sw)?;
+        let per: Vec<String> = out
+            .passes
+            .iter()
+            .map(|p| {
+                let d = if p.direction == Direction::Forward {
+                    "F"
+                } else {
+                    "R"
+                };
+                format!("{d} {}@{}", p.least, p.least_at)
+            })
+            .collect();
+        println!(
+            "| {:.3} | {} | {} | {} | {:.1} | {} |",
+            sw.steps as f64 * s.dt,
+            if out.proven { "yes" } else { "no" },
+            per.join(", "),
+            out.passes.iter().map(|p| p.peak).max().unwrap_or(0),
+            t0.elapsed().as_secs_f64(),
+            load()
+        );
+    }
     Ok(())
 }
