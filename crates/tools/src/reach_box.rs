@@ -69,6 +69,14 @@ pub struct TargetBound {
     pub hand: f64,
 }
 
+/// The cells of a bound's grid in `z`, `H` and `q2` ([`ReachBox::grid`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Grid {
+    z: Axis,
+    h: Axis,
+    q2: Axis,
+}
+
 /// One axis of the grid: cell `i` is `[lo + i w, lo + (i + 1) w]`.
 #[derive(Debug, Clone, Copy)]
 struct Axis {
@@ -129,6 +137,13 @@ pub type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
 
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
+
+thread_local! {
+    /// [`ReachBox::step`]'s accumulator: a box per cell of the grid (all EMPTY between uses) and
+    /// the cells touched.
+    static STEP_BUF: std::cell::RefCell<(Vec<CellBox>, Vec<u32>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
 
 const EMPTY: CellBox = [
     f64::INFINITY,
@@ -396,9 +411,15 @@ impl ReachBox {
         let new: Vec<Vec<(u32, CellBox)>> = self
             .pairs
             .par_iter()
-            .map_init(
-                || (vec![EMPTY; z.n * h.n], Vec::<u32>::new()),
-                |(buf, touched), pj| {
+            .map(|pj| {
+                // a dense accumulator per thread, kept between steps (every entry used is reset
+                // to EMPTY before it is handed back), so a small bound steps in time to its boxes
+                STEP_BUF.with(|cell| {
+                    let mut guard = cell.borrow_mut();
+                    let (buf, touched) = &mut *guard;
+                    if buf.len() < z.n * h.n {
+                        buf.resize(z.n * h.n, EMPTY);
+                    }
                     for p in pj {
                         for &(_, b) in &slices[p.i] {
                             let (zb, hb) = (Iv::new(b[0], b[1]), Iv::new(b[2], b[3]));
@@ -462,8 +483,8 @@ impl ReachBox {
                         .collect();
                     touched.clear();
                     out
-                },
-            )
+                })
+            })
             .collect();
         self.slices = new;
         self.k += 1;
@@ -575,40 +596,85 @@ impl ReachBox {
     /// momentum reversed) in `other`'s time passes now through a state in both, so every such motion
     /// stays in the pruned bound. Returns the boxes left.
     pub fn prune_reversed(&mut self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
-        let (nh, h) = (self.h.n as u32, self.h);
-        self.slices
-            .par_iter_mut()
-            .zip(other.par_iter())
-            .for_each(|(a, b)| {
-                a.retain_mut(|(idx, x)| {
-                    let iz = *idx / nh;
-                    // the boxes of `b` that can meet: same z cell, H cells about the reversed range
-                    let Some((h0, h1)) = h.span(Iv::new(-x[3], -x[2])) else {
-                        return false;
-                    };
-                    let lo = b.partition_point(|c| c.0 < iz * nh + h0 as u32);
-                    let hi = b.partition_point(|c| c.0 <= iz * nh + h1 as u32);
-                    let mut keep = EMPTY;
-                    for (_, y) in &b[lo..hi.max(lo)] {
-                        let m = [
-                            x[0].max(y[0]),
-                            x[1].min(y[1]),
-                            x[2].max(-y[3]),
-                            x[3].min(-y[2]),
-                        ];
-                        if m[0] <= m[1] && m[2] <= m[3] {
-                            keep = [
-                                keep[0].min(m[0]),
-                                keep[1].max(m[1]),
-                                keep[2].min(m[2]),
-                                keep[3].max(m[3]),
-                            ];
+        let g = self.grid();
+        self.prune_by(other, &g, true)
+    }
+
+    /// The cells of this bound's grid (for [`Self::prune_by`] across grids).
+    pub fn grid(&self) -> Grid {
+        Grid {
+            z: self.z,
+            h: self.h,
+            q2: self.q2,
+        }
+    }
+
+    /// [`Self::prune_reversed`] by a snapshot `other` on the grid `grid` (the same range of `q2`;
+    /// cells of any width), its momentum reversed when `reversed`, else as it is (a bound of the same
+    /// direction at the same time, e.g. on a coarser grid). A box of a `q2` cell is cut to the hull
+    /// of its intersections with the boxes of every cell of `other` that meets its cell. Returns the
+    /// boxes left; all of them when the `q2` ranges differ.
+    pub fn prune_by(
+        &mut self,
+        other: &[Vec<(u32, [f64; 4])>],
+        grid: &Grid,
+        reversed: bool,
+    ) -> usize {
+        if grid.q2.lo != self.q2.lo || grid.q2.end != self.q2.end || other.len() != grid.q2.n {
+            return self.cells();
+        }
+        let (oz, oh, oq) = (grid.z, grid.h, grid.q2);
+        let onh = oh.n as u32;
+        let q2 = self.q2;
+        self.slices.par_iter_mut().enumerate().for_each(|(i, a)| {
+            // the cells of `other` that meet cell i (closed cells: both at a shared edge)
+            let ci = q2.cell(i);
+            let Some((c0, c1)) = oq.span(ci) else {
+                a.clear();
+                return;
+            };
+            let near: Vec<&Vec<(u32, CellBox)>> = (c0..=c1)
+                .filter(|&c| !oq.cell(c).meet(ci).is_empty())
+                .map(|c| &other[c])
+                .collect();
+            a.retain_mut(|(_, x)| {
+                // `x`'s momentum as `other` holds it
+                let hx = if reversed {
+                    Iv::new(-x[3], -x[2])
+                } else {
+                    Iv::new(x[2], x[3])
+                };
+                let (Some((z0, z1)), Some((h0, h1))) = (oz.span(Iv::new(x[0], x[1])), oh.span(hx))
+                else {
+                    return false;
+                };
+                let mut keep = EMPTY;
+                for b in &near {
+                    for iz in z0 as u32..=z1 as u32 {
+                        let lo = b.partition_point(|c| c.0 < iz * onh + h0 as u32);
+                        let hi = b.partition_point(|c| c.0 <= iz * onh + h1 as u32);
+                        for (_, y) in &b[lo..hi.max(lo)] {
+                            let (ya, yb) = if reversed {
+                                (-y[3], -y[2])
+                            } else {
+                                (y[2], y[3])
+                            };
+                            let m = [x[0].max(y[0]), x[1].min(y[1]), x[2].max(ya), x[3].min(yb)];
+                            if m[0] <= m[1] && m[2] <= m[3] {
+                                keep = [
+                                    keep[0].min(m[0]),
+                                    keep[1].max(m[1]),
+                                    keep[2].min(m[2]),
+                                    keep[3].max(m[3]),
+                                ];
+                            }
                         }
                     }
-                    *x = keep;
-                    keep[0] <= keep[1]
-                });
+                }
+                *x = keep;
+                keep[0] <= keep[1]
             });
+        });
         self.cells()
     }
 

@@ -14,10 +14,15 @@
 //! 4. forward again, pruned by that reversed sweep; and so on, alternating.
 //!
 //! By induction every motion from the start to the target stays in every kept bound; a sweep in
-//! which some step holds no box proves that no such motion exists. Sweeps stop at the proof, after
+//! which some step holds no box proves that no such motion exists.
+//!
+//! Refinement: the sweeps of a coarse grid (a [`SweepOutcome`] passed as `prior`) prune every step
+//! of the sweeps of a finer one (the same `dt`, narrower `q2`, `z` and `H` cells), from the
+//! first step of the first sweep on, so the finer grid holds only the cells about the coarse one's
+//! boxes: the grid is refined where the motions to the target could be, not everywhere. Sweeps stop at the proof, after
 //! `passes`, or when a sweep leaves more than `stall` times the boxes of the previous one in the same
 //! direction.
-use crate::reach_box::{ReachBox, ReachError, ReachSettings, Snapshot};
+use crate::reach_box::{Grid, ReachBox, ReachError, ReachSettings, Snapshot};
 use crate::reach_interval::Iv;
 use crate::reduced_two_link::ReducedTwoLink;
 
@@ -42,6 +47,8 @@ pub struct PassStats {
     pub total: usize,
     /// The most boxes at any step.
     pub peak: usize,
+    /// The boxes at the middle step (`K / 2` of the sweep's own time; 0 when it ended before).
+    pub mid: usize,
 }
 
 /// The sweeps' result.
@@ -56,6 +63,16 @@ pub struct SweepOutcome {
     pub forward: Vec<Snapshot>,
     /// The last reversed sweep's bound at every step it reached.
     pub reversed: Vec<Snapshot>,
+    /// The grid of the bounds.
+    pub grid: Grid,
+}
+
+/// A store of bounds that prunes a sweep: the bound at every step, its grid, whether it runs in
+/// the other direction (momentum reversed, indexed from the end) or the same.
+struct Constraint<'a> {
+    store: &'a [Snapshot],
+    grid: Grid,
+    other_direction: bool,
 }
 
 /// The sweeps' settings.
@@ -89,16 +106,15 @@ fn bound_from(
     out.ok_or(ReachError::Setting("a start or target set holds no box"))
 }
 
-/// One sweep of `k_end` steps from `boxes`, pruned at step `k` by `other[k_all - k]` where it exists;
-/// every step kept.
+/// One sweep of `k_end` steps from `boxes`, pruned at step `k` by each constraint's bound at `k`
+/// (same direction) or at `k_all - k` (the other direction) where it has one; every step kept.
 fn run_pass(
     model: &ReducedTwoLink,
     s: &ReachSettings,
     boxes: &[[Iv; 3]],
     direction: Direction,
-    k_all: usize,
-    k_end: usize,
-    other: &[Snapshot],
+    (k_all, k_end): (usize, usize),
+    cons: &[Constraint],
 ) -> Result<(PassStats, Vec<Snapshot>), ReachError> {
     let mut rb = bound_from(model, s, boxes, direction == Direction::Reversed)?;
     let mut kept = Vec::with_capacity(k_end + 1);
@@ -108,15 +124,26 @@ fn run_pass(
         least_at: 0,
         total: 0,
         peak: 0,
+        mid: 0,
     };
     loop {
         let k = rb.steps();
-        let n = match k_all.checked_sub(k).and_then(|j| other.get(j)) {
-            Some(o) => rb.prune_reversed(o),
-            None => rb.cells(),
-        };
+        let mut n = rb.cells();
+        for c in cons {
+            let at = if c.other_direction {
+                k_all.checked_sub(k)
+            } else {
+                Some(k)
+            };
+            if let Some(o) = at.and_then(|j| c.store.get(j)) {
+                n = rb.prune_by(o, &c.grid, c.other_direction);
+            }
+        }
         st.total += n;
         st.peak = st.peak.max(n);
+        if k == k_all / 2 {
+            st.mid = n;
+        }
         if n < st.least {
             st.least = n;
             st.least_at = k;
@@ -130,24 +157,57 @@ fn run_pass(
 }
 
 /// Sweep forward from `start` and reversed from `target` (both unions of `[q1, H, q2]` boxes, `H` as
-/// the motion has it) over `sw.steps` steps of `s.dt`.
+/// the motion has it) over `sw.steps` steps of `s.dt`, each step pruned by `prior` (the sweeps of the
+/// same start and target over the same steps, on a grid with the same `dt` and `q2` range) too.
 pub fn sweep(
     model: &ReducedTwoLink,
     s: &ReachSettings,
     start: &[[Iv; 3]],
     target: &[[Iv; 3]],
     sw: &SweepSettings,
+    prior: Option<&SweepOutcome>,
 ) -> Result<SweepOutcome, ReachError> {
     let k = sw.steps;
-    let mut out = SweepOutcome {
-        proven: false,
-        passes: vec![],
-        forward: vec![],
-        reversed: vec![],
+    let prior_cons = |direction: Direction| -> Vec<Constraint> {
+        let Some(p) = prior else { return vec![] };
+        let (same, other) = match direction {
+            Direction::Forward => (&p.forward, &p.reversed),
+            Direction::Reversed => (&p.reversed, &p.forward),
+        };
+        vec![
+            Constraint {
+                store: same,
+                grid: p.grid,
+                other_direction: false,
+            },
+            Constraint {
+                store: other,
+                grid: p.grid,
+                other_direction: true,
+            },
+        ]
     };
-    let (st, rev) = run_pass(model, s, target, Direction::Reversed, k, k - k / 2, &[])?;
-    out.passes.push(st);
-    out.reversed = rev;
+    // without a prior, the reversed bound to the middle; with one, pruned by it throughout
+    let k_first = if prior.is_some() { k } else { k - k / 2 };
+    let grid = bound_from(model, s, target, true)?.grid();
+    let (st, rev) = run_pass(
+        model,
+        s,
+        target,
+        Direction::Reversed,
+        (k, k_first),
+        &prior_cons(Direction::Reversed),
+    )?;
+    let mut out = SweepOutcome {
+        proven: st.least == 0,
+        passes: vec![st],
+        forward: vec![],
+        reversed: rev,
+        grid,
+    };
+    if out.proven {
+        return Ok(out);
+    }
     let mut last = [usize::MAX; 2];
     for pass in 0..sw.passes {
         let direction = if pass % 2 == 0 {
@@ -155,11 +215,18 @@ pub fn sweep(
         } else {
             Direction::Reversed
         };
-        let (boxes, other) = match direction {
+        let (boxes, store) = match direction {
             Direction::Forward => (start, &out.reversed),
             Direction::Reversed => (target, &out.forward),
         };
-        let (st, kept) = run_pass(model, s, boxes, direction, k, k, other)?;
+        let mut cons = prior_cons(direction);
+        cons.push(Constraint {
+            store,
+            grid,
+            other_direction: true,
+        });
+        let (st, kept) = run_pass(model, s, boxes, direction, (k, k), &cons)?;
+        drop(cons);
         out.passes.push(st);
         match direction {
             Direction::Forward => out.forward = kept,

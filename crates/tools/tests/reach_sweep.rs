@@ -104,7 +104,7 @@ fn sweeps_hold_every_motion_to_the_target_and_prune() {
         passes: 4,
         stall: 1.0,
     };
-    let out = sweep(&model, &s, &start, &target, &sw).unwrap();
+    let out = sweep(&model, &s, &start, &target, &sw, None).unwrap();
     assert!(!out.proven);
     assert_eq!(out.passes.len(), 5);
     assert_eq!(out.passes[1].direction, Direction::Forward);
@@ -134,6 +134,45 @@ fn sweeps_hold_every_motion_to_the_target_and_prune() {
     // and later sweeps keep no more than earlier ones in the same direction
     assert!(out.passes[3].total <= out.passes[1].total);
     assert!(out.passes[4].total <= out.passes[2].total);
+    // refined: cells of half the width in q2, z and H, pruned by the coarse sweeps from the first
+    // step on, hold
+    // every motion too, with fewer boxes than the coarse grid's unrefined start would give
+    let fine = ReachSettings {
+        n_q2: 116,
+        dz: 0.01,
+        dh: 0.005,
+        ..s.clone()
+    };
+    let sw2 = SweepSettings { passes: 2, ..sw };
+    let ref_out = sweep(&model, &fine, &start, &target, &sw2, Some(&out)).unwrap();
+    assert!(!ref_out.proven);
+    let probe = ReachBox::new(&model, &fine, x0).unwrap();
+    for m in &hits {
+        for (j, x) in m.iter().enumerate() {
+            let d = probe.distance_in(&ref_out.forward[j], *x);
+            assert!(d <= 1e-9, "refined forward step {j}: {x:?} is {d:.3e} out");
+            let r = [x[0], -x[1], x[2]];
+            let d = probe.distance_in(&ref_out.reversed[k - j], r);
+            assert!(
+                d <= 1e-9,
+                "refined reversed step {}: {r:?} is {d:.3e} out",
+                k - j
+            );
+        }
+    }
+    // the refined boxes are narrower: their volumes (z x H x the q2 cell) summed over every step fall
+    // below the coarse ones'
+    let volume = |store: &[Vec<Vec<(u32, [f64; 4])>>]| -> f64 {
+        let w = 5.8 / store[0].len() as f64;
+        store
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|(_, b)| (b[1] - b[0]) * (b[3] - b[2]) * w)
+            .sum()
+    };
+    let (vf, vc) = (volume(&ref_out.forward), volume(&out.forward));
+    assert!(vf < 0.8 * vc, "refined {vf:.3e}, coarse {vc:.3e}");
 }
 
 #[test]
@@ -148,7 +187,7 @@ fn sweeps_prove_a_target_out_of_reach() {
         passes: 4,
         stall: 1.0,
     };
-    let out = sweep(&model, &settings(), &start, &far, &sw).unwrap();
+    let out = sweep(&model, &settings(), &start, &far, &sw, None).unwrap();
     assert!(out.proven);
     assert_eq!(out.passes.last().unwrap().least, 0);
     // a set is in reach of itself in no time
@@ -157,6 +196,6 @@ fn sweeps_prove_a_target_out_of_reach() {
         passes: 2,
         stall: 1.0,
     };
-    let out = sweep(&model, &settings(), &far, &far, &sw0).unwrap();
+    let out = sweep(&model, &settings(), &far, &far, &sw0, None).unwrap();
     assert!(!out.proven);
 }
