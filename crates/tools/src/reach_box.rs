@@ -138,6 +138,9 @@ pub type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
 
+/// The most cells of a grid whose step accumulates in a dense array per thread (32 bytes a cell).
+const DENSE_CELLS: usize = 1 << 23;
+
 thread_local! {
     /// [`ReachBox::step`]'s accumulator: a box per cell of the grid (all EMPTY between uses) and
     /// the cells touched.
@@ -167,6 +170,8 @@ pub struct ReachBox {
     k: usize,
     /// `|H|` at the start (`|H(t)| <= |H(0)| + gmax t`).
     h_start: f64,
+    /// The most cells of a grid stepped with a dense accumulator ([`DENSE_CELLS`]).
+    dense_cells: usize,
 }
 
 /// Why the bound cannot be set up.
@@ -351,6 +356,7 @@ impl ReachBox {
             slices,
             k: 0,
             h_start: start[1].lo.abs().max(start[1].hi.abs()),
+            dense_cells: DENSE_CELLS,
         })
     }
 
@@ -394,6 +400,12 @@ impl ReachBox {
         &self.m
     }
 
+    /// Step with a dense accumulator only on grids of at most `n` cells (else a sorted list; the
+    /// same boxes either way).
+    pub fn set_dense_cells(&mut self, n: usize) {
+        self.dense_cells = n;
+    }
+
     /// Advance the bound by one step of `dt`. Refused past `t_max`: the momentum grid is sized for
     /// it, and a state beyond the grid would be lost.
     pub fn step(&mut self) -> Result<(), ReachError> {
@@ -407,6 +419,7 @@ impl ReachBox {
         let (z, h, nh) = (self.z, self.h, self.h.n);
         let m = &self.m;
         let slices = &self.slices;
+        let dense_cells = self.dense_cells;
         let uu = Iv::new(-self.s.u_max, self.s.u_max);
         let new: Vec<Vec<(u32, CellBox)>> = self
             .pairs
@@ -414,12 +427,15 @@ impl ReachBox {
             .map(|pj| {
                 // a dense accumulator per thread, kept between steps (every entry used is reset
                 // to EMPTY before it is handed back), so a small bound steps in time to its boxes
+                // (on a grid of more than DENSE_CELLS cells, a list sorted and merged instead)
                 STEP_BUF.with(|cell| {
                     let mut guard = cell.borrow_mut();
                     let (buf, touched) = &mut *guard;
-                    if buf.len() < z.n * h.n {
+                    let dense = z.n * h.n <= dense_cells;
+                    if dense && buf.len() < z.n * h.n {
                         buf.resize(z.n * h.n, EMPTY);
                     }
+                    let mut pending: Vec<(u32, CellBox)> = vec![];
                     for p in pj {
                         for &(_, b) in &slices[p.i] {
                             let (zb, hb) = (Iv::new(b[0], b[1]), Iv::new(b[2], b[3]));
@@ -456,6 +472,10 @@ impl ReachBox {
                                         continue;
                                     }
                                     let idx = iz * nh + ih;
+                                    if !dense {
+                                        pending.push((idx as u32, [cz.lo, cz.hi, ch.lo, ch.hi]));
+                                        continue;
+                                    }
                                     let c = &mut buf[idx];
                                     if c[0] > c[1] {
                                         touched.push(idx as u32);
@@ -471,6 +491,24 @@ impl ReachBox {
                                 }
                             }
                         }
+                    }
+                    if !dense {
+                        pending.sort_unstable_by_key(|c| c.0);
+                        let mut out: Vec<(u32, CellBox)> = Vec::with_capacity(pending.len());
+                        for (i, b) in pending {
+                            match out.last_mut() {
+                                Some((j, c)) if *j == i => {
+                                    *c = [
+                                        c[0].min(b[0]),
+                                        c[1].max(b[1]),
+                                        c[2].min(b[2]),
+                                        c[3].max(b[3]),
+                                    ];
+                                }
+                                _ => out.push((i, b)),
+                            }
+                        }
+                        return out;
                     }
                     touched.sort_unstable();
                     let out: Vec<(u32, CellBox)> = touched

@@ -3,7 +3,7 @@
 //! reach is proven so.
 use brachia::model::{ik_from_seed, RobotParams};
 use brachia::Robot;
-use brachia_tools::reach_box::{ReachBox, ReachSettings};
+use brachia_tools::reach_box::{ReachBox, ReachSettings, Snapshot};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_sweep::{sweep, Direction, SweepSettings};
 use brachia_tools::reduced_two_link::ReducedTwoLink;
@@ -162,7 +162,7 @@ fn sweeps_hold_every_motion_to_the_target_and_prune() {
     }
     // the refined boxes are narrower: their volumes (z x H x the q2 cell) summed over every step fall
     // below the coarse ones'
-    let volume = |store: &[Vec<Vec<(u32, [f64; 4])>>]| -> f64 {
+    let volume = |store: &[Snapshot]| -> f64 {
         let w = 5.8 / store[0].len() as f64;
         store
             .iter()
@@ -198,4 +198,20 @@ fn sweeps_prove_a_target_out_of_reach() {
     };
     let out = sweep(&model, &settings(), &far, &far, &sw0, None).unwrap();
     assert!(!out.proven);
+}
+
+#[test]
+fn sparse_and_dense_steps_give_the_same_boxes() {
+    let (robot, model) = hook();
+    let q0 = ik_from_seed(&robot, &[-2.2, -1.9], [-0.34, 0.0]).unwrap();
+    let x0 = [q0[0], 0.0, q0[1]];
+    let mut dense = ReachBox::new(&model, &settings(), x0).unwrap();
+    let mut sparse = ReachBox::new(&model, &settings(), x0).unwrap();
+    sparse.set_dense_cells(0);
+    for _ in 0..15 {
+        dense.step().unwrap();
+        sparse.step().unwrap();
+    }
+    assert!(dense.cells() > 1000);
+    assert_eq!(dense.snapshot(), sparse.snapshot());
 }
