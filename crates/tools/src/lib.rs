@@ -3,6 +3,7 @@
 pub mod reach_box;
 pub mod reach_interval;
 pub mod reach_model;
+pub mod reach_sweep;
 pub mod reduced_two_link;
 pub mod swing_dp;
 

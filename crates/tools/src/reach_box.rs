@@ -69,6 +69,14 @@ pub struct TargetBound {
     pub hand: f64,
 }
 
+/// The cells of a bound's grid in `z`, `H` and `q2` ([`ReachBox::grid`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Grid {
+    z: Axis,
+    h: Axis,
+    q2: Axis,
+}
+
 /// One axis of the grid: cell `i` is `[lo + i w, lo + (i + 1) w]`.
 #[derive(Debug, Clone, Copy)]
 struct Axis {
@@ -124,8 +132,21 @@ struct Pair {
 /// The largest `|H|` of a start, kg m^2/s (the grid's momentum range is the same for every start).
 pub const START_H_MAX: f64 = 1.0;
 
+/// The occupied cells of a bound, per `q2` cell: `(iz * n_h + ih, [z_lo, z_hi, h_lo, h_hi])`, sorted.
+pub type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
+
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
+
+/// The most cells of a grid whose step accumulates in a dense array per thread (32 bytes a cell).
+const DENSE_CELLS: usize = 1 << 23;
+
+thread_local! {
+    /// [`ReachBox::step`]'s accumulator: a box per cell of the grid (all EMPTY between uses) and
+    /// the cells touched.
+    static STEP_BUF: std::cell::RefCell<(Vec<CellBox>, Vec<u32>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
 
 const EMPTY: CellBox = [
     f64::INFINITY,
@@ -149,6 +170,8 @@ pub struct ReachBox {
     k: usize,
     /// `|H|` at the start (`|H(t)| <= |H(0)| + gmax t`).
     h_start: f64,
+    /// The most cells of a grid stepped with a dense accumulator ([`DENSE_CELLS`]).
+    dense_cells: usize,
 }
 
 /// Why the bound cannot be set up.
@@ -333,6 +356,7 @@ impl ReachBox {
             slices,
             k: 0,
             h_start: start[1].lo.abs().max(start[1].hi.abs()),
+            dense_cells: DENSE_CELLS,
         })
     }
 
@@ -376,6 +400,12 @@ impl ReachBox {
         &self.m
     }
 
+    /// Step with a dense accumulator only on grids of at most `n` cells (else a sorted list; the
+    /// same boxes either way).
+    pub fn set_dense_cells(&mut self, n: usize) {
+        self.dense_cells = n;
+    }
+
     /// Advance the bound by one step of `dt`. Refused past `t_max`: the momentum grid is sized for
     /// it, and a state beyond the grid would be lost.
     pub fn step(&mut self) -> Result<(), ReachError> {
@@ -389,13 +419,23 @@ impl ReachBox {
         let (z, h, nh) = (self.z, self.h, self.h.n);
         let m = &self.m;
         let slices = &self.slices;
+        let dense_cells = self.dense_cells;
         let uu = Iv::new(-self.s.u_max, self.s.u_max);
         let new: Vec<Vec<(u32, CellBox)>> = self
             .pairs
             .par_iter()
-            .map_init(
-                || (vec![EMPTY; z.n * h.n], Vec::<u32>::new()),
-                |(buf, touched), pj| {
+            .map(|pj| {
+                // a dense accumulator per thread, kept between steps (every entry used is reset
+                // to EMPTY before it is handed back), so a small bound steps in time to its boxes
+                // (on a grid of more than DENSE_CELLS cells, a list sorted and merged instead)
+                STEP_BUF.with(|cell| {
+                    let mut guard = cell.borrow_mut();
+                    let (buf, touched) = &mut *guard;
+                    let dense = z.n * h.n <= dense_cells;
+                    if dense && buf.len() < z.n * h.n {
+                        buf.resize(z.n * h.n, EMPTY);
+                    }
+                    let mut pending: Vec<(u32, CellBox)> = vec![];
                     for p in pj {
                         for &(_, b) in &slices[p.i] {
                             let (zb, hb) = (Iv::new(b[0], b[1]), Iv::new(b[2], b[3]));
@@ -432,6 +472,10 @@ impl ReachBox {
                                         continue;
                                     }
                                     let idx = iz * nh + ih;
+                                    if !dense {
+                                        pending.push((idx as u32, [cz.lo, cz.hi, ch.lo, ch.hi]));
+                                        continue;
+                                    }
                                     let c = &mut buf[idx];
                                     if c[0] > c[1] {
                                         touched.push(idx as u32);
@@ -448,6 +492,24 @@ impl ReachBox {
                             }
                         }
                     }
+                    if !dense {
+                        pending.sort_unstable_by_key(|c| c.0);
+                        let mut out: Vec<(u32, CellBox)> = Vec::with_capacity(pending.len());
+                        for (i, b) in pending {
+                            match out.last_mut() {
+                                Some((j, c)) if *j == i => {
+                                    *c = [
+                                        c[0].min(b[0]),
+                                        c[1].max(b[1]),
+                                        c[2].min(b[2]),
+                                        c[3].max(b[3]),
+                                    ];
+                                }
+                                _ => out.push((i, b)),
+                            }
+                        }
+                        return out;
+                    }
                     touched.sort_unstable();
                     let out: Vec<(u32, CellBox)> = touched
                         .iter()
@@ -459,8 +521,8 @@ impl ReachBox {
                         .collect();
                     touched.clear();
                     out
-                },
-            )
+                })
+            })
             .collect();
         self.slices = new;
         self.k += 1;
@@ -537,7 +599,7 @@ impl ReachBox {
     }
 
     /// The occupied cells, per `q2` cell (for [`Self::meets_reversed`]).
-    pub fn snapshot(&self) -> Vec<Vec<(u32, [f64; 4])>> {
+    pub fn snapshot(&self) -> Snapshot {
         self.slices.clone()
     }
 
@@ -566,9 +628,146 @@ impl ReachBox {
         out
     }
 
+    /// Keep of each box only the smallest box holding its intersections with the boxes of `other` (a
+    /// snapshot of a bound with the same settings) with their momentum reversed, and drop the boxes
+    /// that meet none. A motion from this bound's start that reaches a state of `other`'s start (its
+    /// momentum reversed) in `other`'s time passes now through a state in both, so every such motion
+    /// stays in the pruned bound. Returns the boxes left.
+    pub fn prune_reversed(&mut self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
+        let g = self.grid();
+        self.prune_by(other, &g, true)
+    }
+
+    /// The cells of this bound's grid (for [`Self::prune_by`] across grids).
+    pub fn grid(&self) -> Grid {
+        Grid {
+            z: self.z,
+            h: self.h,
+            q2: self.q2,
+        }
+    }
+
+    /// [`Self::prune_reversed`] by a snapshot `other` on the grid `grid` (the same range of `q2`;
+    /// cells of any width), its momentum reversed when `reversed`, else as it is (a bound of the same
+    /// direction at the same time, e.g. on a coarser grid). A box of a `q2` cell is cut to the hull
+    /// of its intersections with the boxes of every cell of `other` that meets its cell. Returns the
+    /// boxes left; all of them when the `q2` ranges differ.
+    pub fn prune_by(
+        &mut self,
+        other: &[Vec<(u32, [f64; 4])>],
+        grid: &Grid,
+        reversed: bool,
+    ) -> usize {
+        if grid.q2.lo != self.q2.lo || grid.q2.end != self.q2.end || other.len() != grid.q2.n {
+            return self.cells();
+        }
+        let (oz, oh, oq) = (grid.z, grid.h, grid.q2);
+        let onh = oh.n as u32;
+        let q2 = self.q2;
+        self.slices.par_iter_mut().enumerate().for_each(|(i, a)| {
+            // the cells of `other` that meet cell i (closed cells: both at a shared edge)
+            let ci = q2.cell(i);
+            let Some((c0, c1)) = oq.span(ci) else {
+                a.clear();
+                return;
+            };
+            let near: Vec<&Vec<(u32, CellBox)>> = (c0..=c1)
+                .filter(|&c| !oq.cell(c).meet(ci).is_empty())
+                .map(|c| &other[c])
+                .collect();
+            a.retain_mut(|(_, x)| {
+                // `x`'s momentum as `other` holds it
+                let hx = if reversed {
+                    Iv::new(-x[3], -x[2])
+                } else {
+                    Iv::new(x[2], x[3])
+                };
+                let (Some((z0, z1)), Some((h0, h1))) = (oz.span(Iv::new(x[0], x[1])), oh.span(hx))
+                else {
+                    return false;
+                };
+                let mut keep = EMPTY;
+                for b in &near {
+                    for iz in z0 as u32..=z1 as u32 {
+                        let lo = b.partition_point(|c| c.0 < iz * onh + h0 as u32);
+                        let hi = b.partition_point(|c| c.0 <= iz * onh + h1 as u32);
+                        for (_, y) in &b[lo..hi.max(lo)] {
+                            let (ya, yb) = if reversed {
+                                (-y[3], -y[2])
+                            } else {
+                                (y[2], y[3])
+                            };
+                            let m = [x[0].max(y[0]), x[1].min(y[1]), x[2].max(ya), x[3].min(yb)];
+                            if m[0] <= m[1] && m[2] <= m[3] {
+                                keep = [
+                                    keep[0].min(m[0]),
+                                    keep[1].max(m[1]),
+                                    keep[2].min(m[2]),
+                                    keep[3].max(m[3]),
+                                ];
+                            }
+                        }
+                    }
+                }
+                *x = keep;
+                keep[0] <= keep[1]
+            });
+        });
+        self.cells()
+    }
+
+    /// Merge the boxes of `other` (a bound with the same settings, at the same step) into this one:
+    /// the union of the two bounds, e.g. from the two poses of a target.
+    pub fn absorb(&mut self, other: ReachBox) -> Result<(), ReachError> {
+        let same = |a: &Axis, b: &Axis| a.lo == b.lo && a.w == b.w && a.n == b.n;
+        if other.k != self.k
+            || !same(&self.q2, &other.q2)
+            || !same(&self.z, &other.z)
+            || !same(&self.h, &other.h)
+        {
+            return Err(ReachError::Setting(
+                "bounds merged must share their grid and their step",
+            ));
+        }
+        self.h_start = self.h_start.max(other.h_start);
+        for (a, b) in self.slices.iter_mut().zip(other.slices) {
+            let mut out = Vec::with_capacity(a.len() + b.len());
+            let (mut i, mut j) = (0, 0);
+            while i < a.len() || j < b.len() {
+                if j == b.len() || (i < a.len() && a[i].0 < b[j].0) {
+                    out.push(a[i]);
+                    i += 1;
+                } else if i == a.len() || b[j].0 < a[i].0 {
+                    out.push(b[j]);
+                    j += 1;
+                } else {
+                    let (x, y) = (a[i].1, b[j].1);
+                    out.push((
+                        a[i].0,
+                        [
+                            x[0].min(y[0]),
+                            x[1].max(y[1]),
+                            x[2].min(y[2]),
+                            x[3].max(y[3]),
+                        ],
+                    ));
+                    i += 1;
+                    j += 1;
+                }
+            }
+            *a = out;
+        }
+        Ok(())
+    }
+
     /// The distance (in the larger of `|dz|` and `|dH|`) from the state `[q1, H, q2]` to the nearest
     /// box of its `q2` cell (or either cell, on their common edge); 0 when a box holds it.
     pub fn distance(&self, x: [f64; 3]) -> f64 {
+        self.distance_in(&self.slices, x)
+    }
+
+    /// [`Self::distance`] to the boxes of `snap`, a snapshot of a bound with the same settings.
+    pub fn distance_in(&self, snap: &[Vec<(u32, [f64; 4])>], x: [f64; 3]) -> f64 {
         let zx = x[0] + self.m.phi_at(x[2]);
         let mut best = f64::INFINITY;
         for i in 0..self.q2.n {
@@ -576,7 +775,7 @@ impl ReachBox {
             if x[2] < c.lo - 1e-12 || x[2] > c.hi + 1e-12 {
                 continue;
             }
-            for (_, b) in &self.slices[i] {
+            for (_, b) in &snap[i] {
                 let dz = (b[0] - zx).max(zx - b[1]).max(0.0);
                 let dh = (b[2] - x[1]).max(x[1] - b[3]).max(0.0);
                 best = best.min(dz.max(dh));

@@ -16,11 +16,15 @@
 //!     # DT (s) x q2 cells x z cell (rad) x H cell (kg m^2/s) x target split
 //! cargo run --release -p brachia-tools --bin hook_reach -- hang          # from a straight hang
 //! cargo run --release -p brachia-tools --bin hook_reach -- t=1.0,1.05    # only these swing times
+//! cargo run --release -p brachia-tools --bin hook_reach -- sweep t=0.9 refine=116x0.005x0.0025
+//!     # forward-backward sweeps, then on finer q2 x z x H cells pruned by them (passes=N a grid)
 //! ```
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::ik_from_seed;
 use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings};
 use brachia_tools::reach_interval::Iv;
+use brachia_tools::reach_model::ReachModel;
+use brachia_tools::reach_sweep::{sweep, Direction, SweepSettings};
 use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::lambda;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -41,12 +45,30 @@ fn load() -> String {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut grid, mut hang, mut mid) = ("0.01x58x0.01x0.005x8".to_string(), false, false);
+    let (mut sweeps, mut passes, mut refine) = (false, 6, vec![]);
     let mut times: Vec<f64> = (0..=10).map(|k| 0.80 + 0.05 * k as f64).collect();
     for a in std::env::args().skip(1) {
         if a == "hang" {
             hang = true;
         } else if a == "mid" {
             mid = true;
+        } else if a == "sweep" {
+            sweeps = true;
+        } else if let Some(r) = a.strip_prefix("refine=") {
+            // finer grids, each pruned by the sweeps of the one before: N2xDZxDH,...
+            for g in r.split(',') {
+                let v: Vec<&str> = g.split('x').collect();
+                if v.len() != 3 {
+                    return Err(format!("refine=N2xDZxDH,..., not {g}").into());
+                }
+                refine.push((
+                    v[0].parse::<usize>()?,
+                    v[1].parse::<f64>()?,
+                    v[2].parse::<f64>()?,
+                ));
+            }
+        } else if let Some(n) = a.strip_prefix("passes=") {
+            passes = n.parse()?;
         } else if let Some(t) = a.strip_prefix("t=") {
             times = t.split(',').map(str::parse).collect::<Result<_, _>>()?;
         } else {
@@ -81,6 +103,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     if mid {
         return meet_in_the_middle(&model, &s, start, &times);
+    }
+    if sweeps {
+        return sweep_each(&model, &s, start, &times, passes, &refine);
     }
     let mut rb = ReachBox::new(&model, &s, start)?;
     println!(
@@ -237,5 +262,81 @@ fn meet_in_the_middle(
         t0.elapsed().as_secs_f64(),
         load()
     );
+    Ok(())
+}
+
+/// Forward-backward sweeps (`brachia_tools::reach_sweep`) at each swing time on its own, then on each
+/// finer grid of `refine` (`z` and `H` cells) pruned by the grid before, until one proves it.
+fn sweep_each(
+    model: &ReducedTwoLink,
+    s: &ReachSettings,
+    start: [f64; 3],
+    times: &[f64],
+    passes: usize,
+    refine: &[(usize, f64, f64)],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let hm = EPS / s.lambda;
+    let target: Vec<[Iv; 3]> = ReachModel::new(model, s.u_max)?
+        .poses_near(s.bar, EPS)
+        .into_iter()
+        .map(|[q1, q2]| [q1, Iv::new(-hm, hm), q2])
+        .collect();
+    let start = [start.map(|v| Iv::point(v).pad(1e-12))];
+    println!(
+        "dt {} s, {} q2 cells; at most {passes} sweeps a grid; load before: {}",
+        s.dt,
+        s.n_q2,
+        load()
+    );
+    println!("| T s | q2 cells x dz rad x dH kg m^2/s | proven | boxes at T/2 per sweep (R reversed, F forward; 0@k: none at step k) | peak boxes | elapsed s | load |");
+    println!("|---|---|---|---|---|---|---|");
+    for &t in times {
+        let t0 = Instant::now();
+        let sw = SweepSettings {
+            steps: (t / s.dt).round() as usize,
+            passes,
+            stall: 0.98,
+        };
+        let mut prior = None;
+        let grids = std::iter::once((s.n_q2, s.dz, s.dh)).chain(refine.iter().copied());
+        for (n_q2, dz, dh) in grids {
+            let sg = ReachSettings {
+                n_q2,
+                dz,
+                dh,
+                ..s.clone()
+            };
+            let out = sweep(model, &sg, &start, &target, &sw, prior.as_ref())?;
+            let per: Vec<String> = out
+                .passes
+                .iter()
+                .map(|p| {
+                    let d = if p.direction == Direction::Forward {
+                        "F"
+                    } else {
+                        "R"
+                    };
+                    if p.least == 0 {
+                        format!("{d} 0@{}", p.least_at)
+                    } else {
+                        format!("{d} {}", p.mid)
+                    }
+                })
+                .collect();
+            println!(
+                "| {:.3} | {n_q2} x {dz} x {dh} | {} | {} | {} | {:.1} | {} |",
+                sw.steps as f64 * s.dt,
+                if out.proven { "yes" } else { "no" },
+                per.join(", "),
+                out.passes.iter().map(|p| p.peak).max().unwrap_or(0),
+                t0.elapsed().as_secs_f64(),
+                load()
+            );
+            if out.proven {
+                break;
+            }
+            prior = Some(out);
+        }
+    }
     Ok(())
 }
