@@ -86,11 +86,13 @@ fn a_cold_plan_that_fails_within_the_limits_is_rescued_by_widening_them() {
         p.solves[first.attempts].role,
         SolveRole::TorqueScale { scale: 2.0 }
     );
+    // against the plan's own cold attempts (a separate run's time differs with the machine's load)
     let t_split: f64 = p.time_split.total_s();
-    assert!(
-        t_split > first.time_split.total_s(),
-        "the continuation's time is in the split"
-    );
+    let cold: f64 = p.solves[..first.attempts]
+        .iter()
+        .map(|a| a.time_split.total_s())
+        .sum();
+    assert!(t_split > cold, "the continuation's time is in the split");
     assert!(p.replay_ee_error_m < 1e-3, "replay {}", p.replay_ee_error_m);
 }
 

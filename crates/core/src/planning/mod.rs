@@ -1,6 +1,6 @@
 //! Offline swing planning (paper Section III), in layers; each uses only the ones above it in this
 //! list:
-//! - plain types: the task ([`task`]) and the proof that its obstacles leave a pose grasping the
+//! - plain types: the task ([`task`]) and the proof that its obstacles leave no pose grasping the
 //!   target bar ([`grasp`], which the task check uses), the settings ([`settings`]), the plan and its solves
 //!   ([`outcome`]), the strategies' reports ([`report`]); the solver seam's problem trait, settings and
 //!   status ([`nlp`]);

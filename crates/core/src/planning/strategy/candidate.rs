@@ -217,7 +217,8 @@ pub(crate) fn solve_seed_longer_swing(
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
     };
-    let Some((_, coarse_plan)) = out.last() else {
+    // no coarse plan to go on from (none solved, or it failed numerically): from the seed
+    let Some((_, coarse_plan)) = out.last().filter(|(_, p)| coarse_goes_on_warm(&p.status)) else {
         let p = plan_single(robot, task, &from_seed, &fine, Some(g))?;
         out.push((role, p));
         return Ok(out);

@@ -131,8 +131,9 @@ impl<'a> FurtherSearch<'a> {
     }
 
     /// The reports of the further routes (their `goal` counts the further search's goal poses),
-    /// the route of rank `won` marked converged; none when the search did not run.
-    pub(crate) fn reports(&self, won: Option<usize>) -> Vec<CspaceReport> {
+    /// each route of a rank in `concluded` marked with how its candidate concluded (converged clear,
+    /// failed, or `None` when interrupted); none when the search did not run.
+    pub(crate) fn reports(&self, concluded: &[(usize, Option<bool>)]) -> Vec<CspaceReport> {
         let Some(RankedRoutes { reports, seeds }) = self.found.get() else {
             return vec![];
         };
@@ -141,8 +142,8 @@ impl<'a> FurtherSearch<'a> {
             .enumerate()
             .map(|(j, sd)| {
                 let mut r = reports[sd.report].clone();
-                if won == Some(j) {
-                    r.converged = Some(true);
+                if let Some(&(_, c)) = concluded.iter().find(|(k, _)| *k == j) {
+                    r.converged = c;
                 }
                 r
             })

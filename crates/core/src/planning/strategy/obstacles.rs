@@ -252,6 +252,19 @@ fn interrupted(plans: &race::Plans) -> bool {
         .is_some_and(|(_, p)| p.status == SolveStatus::Cancelled)
 }
 
+/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations.
+fn smooth_step_candidate<'a>(
+    robot: &'a Robot,
+    task: &'a ValidTask,
+    settings: &'a ValidSettings,
+) -> race::Candidate<'a> {
+    Box::new(move |run: &NlpSettings| {
+        let capped = run.clone().capped(SMOOTH_STEP_RACE_MAX_ITER);
+        let p = plan_single(robot, task, settings, &capped, None)?;
+        Ok(vec![(SolveRole::Task, p)])
+    })
+}
+
 /// The strategies of [`plan_around_obstacles`], for a call that began at `started`, as an ordered
 /// chain (the module docs): the smooth step alone where it clears the obstacles; the obstacle-free
 /// swing; the race of the smooth step (where it does not clear them), the detour seeds and the
@@ -341,13 +354,7 @@ fn strategies(
     let mut cands: Vec<race::Candidate<'_>> = vec![];
     if smooth.is_none() {
         kinds.push(Kind::SmoothStep);
-        cands.push(Box::new(move |run: &NlpSettings| {
-            let capped = run.clone().capped(SMOOTH_STEP_RACE_MAX_ITER);
-            Ok(vec![(
-                SolveRole::Task,
-                plan_single(robot, task, settings, &capped, None)?,
-            )])
-        }));
+        cands.push(smooth_step_candidate(robot, task, settings));
     }
     let seed_free = &seed_free;
     let search = |run: &NlpSettings| -> &RankedRoutes {
@@ -357,6 +364,12 @@ fn strategies(
             homotopy_routes(robot, obstacles, settings, seed_free, task.target, &stop)
                 .unwrap_or_default()
         })
+    };
+    // the route of rank j and the time left of `run` once the search has run (its time counts)
+    let route = move |run: &NlpSettings, j: usize| {
+        let t0 = std::time::Instant::now();
+        let h = search(run);
+        Some((h.seeds.get(j)?, run.remaining(t0)?))
     };
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
     let order = race_order(seeds.len(), |i| seeds[i].0.kind.backward(), longer);
@@ -382,19 +395,14 @@ fn strategies(
                 }));
             }
             Kind::Cspace(j) => cands.push(Box::new(move |run: &NlpSettings| {
-                // the search's own time counts against the limit
-                let t0 = std::time::Instant::now();
-                let h = search(run);
-                let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
+                let Some((sd, run)) = route(run, j) else {
                     return Ok(vec![]);
                 };
                 let g = &sd.guess;
                 solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
             })),
             Kind::CspaceLonger(j) => cands.push(Box::new(move |run: &NlpSettings| {
-                let t0 = std::time::Instant::now();
-                let h = search(run);
-                let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
+                let Some((sd, run)) = route(run, j) else {
                     return Ok(vec![]);
                 };
                 // the route timed over the longest swing, where its torques are lowest
@@ -443,6 +451,7 @@ fn strategies(
     if let Some(f) = free.as_mut() {
         log.record(f, SolveRole::ObstacleFree);
     }
+    let mut further_concluded = vec![];
     for (c, kind) in kinds.iter().enumerate() {
         let Some(v) = plans[c].take() else {
             continue;
@@ -464,7 +473,7 @@ fn strategies(
                     routes[i].converged = Some(true);
                 }
             }
-            Kind::Further(_) => {}
+            Kind::Further(j) => further_concluded.push((j, concluded)),
         }
         let n = v.len();
         for (k, (role, mut p)) in v.into_iter().enumerate() {
@@ -491,11 +500,7 @@ fn strategies(
             SMOOTH_STEP_RACE_MAX_ITER,
         )?,
     };
-    let won_further = outcome.winner.and_then(|c| match kinds[c] {
-        Kind::Further(j) => Some(j),
-        _ => None,
-    });
-    routes.extend(further.reports(won_further));
+    routes.extend(further.reports(&further_concluded));
     let cguess = ranked.into_iter().next().map(|sd| sd.guess);
     if let Some(p) = won_plan {
         put_cspace(&mut rep, routes, top);
