@@ -41,8 +41,8 @@ pub const GRID_STEP_RAD: f64 = 0.1;
 /// Most grid cells (one byte each, 8 MiB).
 pub const MAX_CELLS: usize = 1 << 23;
 /// Coarsest grid step searched, rad: a grid that needs a coarser step to fit [`MAX_CELLS`] (more
-/// than about six links) is not searched.
-pub const MAX_GRID_STEP_RAD: f64 = 0.4;
+/// than six links; the six-link robot of params/ needs 0.41 rad) is not searched.
+pub const MAX_GRID_STEP_RAD: f64 = 0.45;
 /// Most cells the search reaches (checks and pushes on its open list) before it gives up.
 pub const MAX_DISCOVERED: usize = 3_000_000;
 /// Weight of the heuristic in the A* priority `g + w h` (> 1: fewer cells, longer grid paths that
