@@ -19,10 +19,15 @@
 mod common;
 
 use brachia::model::{ik_from_seed, Circle};
+use brachia::planning::plan_with_guess;
+use brachia::planning::strategy::detour::detour_seeds;
+use brachia::planning::strategy::goal::{clear_final_pose, with_final_pose};
 use brachia::planning::{GuessStrategy, Plan, PlannerSettings, SwingTask, Verdict};
 use brachia::Robot;
 use common::oracle::search;
-use common::placement::{free_swing, keeps_margin, min_clearance, plan_placement, Placement};
+use common::placement::{
+    free_swing, keeps_margin, min_clearance, nlp, plan_placement, settings_for, Placement,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -465,4 +470,22 @@ fn the_whole_heldout_placement_scan() {
         eprintln!("{l}");
     }
     assert_eq!(false_successes, 0);
+}
+
+/// Six-link seed 31004 (a 0.097 m circle on link 4's path at 0.75 T): its detour plan converges with
+/// the rows at the RK4 sub-steps but passes inside the margin between them, and its C-space routes
+/// need the six-link robot's grid searched; with the re-solve on twice the sub-steps and that
+/// search, the planner plans it clear.
+#[test]
+fn a_six_link_placement_that_passed_between_its_rows_plans_clear() {
+    let rs = robots();
+    let r = rs
+        .iter()
+        .find(|r| r.name == "six-link")
+        .expect("the six-link robot");
+    let free = free_plan(r);
+    let s = PlannerSettings::default();
+    let pl = placement(&r.robot, &r.task, &free, SEED_BASE + 4);
+    let o = run(&r.robot, &r.task, &s, &pl);
+    assert_eq!(o.kind, Kind::Clear, "{o:?}");
 }
