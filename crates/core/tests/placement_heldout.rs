@@ -19,15 +19,10 @@
 mod common;
 
 use brachia::model::{ik_from_seed, Circle};
-use brachia::planning::plan_with_guess;
-use brachia::planning::strategy::detour::detour_seeds;
-use brachia::planning::strategy::goal::{clear_final_pose, with_final_pose};
 use brachia::planning::{GuessStrategy, Plan, PlannerSettings, SwingTask, Verdict};
 use brachia::Robot;
 use common::oracle::search;
-use common::placement::{
-    free_swing, keeps_margin, min_clearance, nlp, plan_placement, settings_for, Placement,
-};
+use common::placement::{free_swing, keeps_margin, min_clearance, plan_placement, Placement};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -236,7 +236,7 @@ fn plan_shooting_once(
 
 /// Factor the RK4 sub-steps (and so the clearance rows between the knots) are multiplied by in the
 /// last re-solve of a plan whose sub-step rows still leave its trajectory inside the margin between
-/// them ([`plan_shooting_once`]).
+/// them (the multiple-shooting plan of one start).
 pub const DENSER_SUBSTEP_FACTOR: usize = 2;
 
 /// One multiple-shooting solve from one start, with the clearance rows at the knots, and also at
