@@ -466,3 +466,21 @@ fn the_whole_heldout_placement_scan() {
     }
     assert_eq!(false_successes, 0);
 }
+
+/// Six-link seed 31004 (a 0.097 m circle on link 4's path at 0.75 T): its detour plan converges with
+/// the rows at the RK4 sub-steps but passes inside the margin between them, and its C-space routes
+/// need the six-link robot's grid searched; with the re-solve on twice the sub-steps and that
+/// search, the planner plans it clear.
+#[test]
+fn a_six_link_placement_that_passed_between_its_rows_plans_clear() {
+    let rs = robots();
+    let r = rs
+        .iter()
+        .find(|r| r.name == "six-link")
+        .expect("the six-link robot");
+    let free = free_plan(r);
+    let s = PlannerSettings::default();
+    let pl = placement(&r.robot, &r.task, &free, SEED_BASE + 4);
+    let o = run(&r.robot, &r.task, &s, &pl);
+    assert_eq!(o.kind, Kind::Clear, "{o:?}");
+}

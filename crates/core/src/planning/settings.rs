@@ -707,6 +707,14 @@ impl ValidSettings {
         v
     }
 
+    /// These settings with `substeps` RK4 steps per shooting interval
+    /// ([`ShootingSettings::substeps`], clamped to 1..=[`MAX_SHOOTING_SUBSTEPS`]).
+    pub fn with_substeps(&self, substeps: usize) -> Self {
+        let mut v = self.clone();
+        v.settings.shooting.substeps = substeps.clamp(1, MAX_SHOOTING_SUBSTEPS);
+        v
+    }
+
     /// These settings without the rest condition at the last knot ([`Bounds::qd_end_max`] none).
     pub fn without_end_rest(&self) -> Self {
         let mut v = self.clone();

@@ -182,7 +182,11 @@ fn swing_time_starts(
 /// trajectory breaks the clearance between them ([`Plan::clearance_violation`]) and
 /// `settings.shooting.substep_clearance` is on, the task is solved again, warm from that plan, with
 /// the rows also at the RK4 sub-step states of every interval (a solve of its own,
-/// [`SolveRole::SubstepClearance`]); that plan is returned, with both solves in its report.
+/// [`SolveRole::SubstepClearance`]). When that plan converges and still breaks the clearance between
+/// its rows, it is solved once more, warm from it, with [`DENSER_SUBSTEP_FACTOR`] times the RK4
+/// sub-steps (and so rows that many times denser), if time is left; that plan is returned when it
+/// converges with the trajectory clear, otherwise the plan of the sub-step rows (whose status says
+/// where it breaks the clearance). Every solve is in the report.
 fn plan_shooting_once(
     robot: &Arc<Robot>,
     task: &ValidTask,
@@ -207,10 +211,33 @@ fn plan_shooting_once(
     let mut log = SolveLog::default();
     log.record(&mut p, SolveRole::Task);
     log.record(&mut q, SolveRole::SubstepClearance);
-    log.finish(&mut q);
-    q.freefall_time_s = p.freefall_time_s;
-    Ok(q)
+    let denser = q.status.is_converged() && q.clearance_violation.is_some();
+    let dense_settings = settings.with_substeps(settings.shooting.substeps * DENSER_SUBSTEP_FACTOR);
+    let mut out = match nlp.remaining(started).filter(|_| denser) {
+        Some(left) => {
+            let warm = NlpSettings {
+                mu_init: Some(left.mu_init.unwrap_or(super::common::WARM_START_MU_INIT)),
+                ..left
+            };
+            let mut d = solve_shooting(robot, task, &dense_settings, &warm, Some(&q.points), true)?;
+            log.record(&mut d, SolveRole::SubstepClearance);
+            if d.converged() {
+                d
+            } else {
+                q
+            }
+        }
+        None => q,
+    };
+    log.finish(&mut out);
+    out.freefall_time_s = p.freefall_time_s;
+    Ok(out)
 }
+
+/// Factor the RK4 sub-steps (and so the clearance rows between the knots) are multiplied by in the
+/// last re-solve of a plan whose sub-step rows still leave its trajectory inside the margin between
+/// them (the multiple-shooting plan of one start).
+pub const DENSER_SUBSTEP_FACTOR: usize = 2;
 
 /// One multiple-shooting solve from one start, with the clearance rows at the knots, and also at
 /// the interior RK4 sub-step states when `substep_rows`.

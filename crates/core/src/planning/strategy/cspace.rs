@@ -41,8 +41,8 @@ pub const GRID_STEP_RAD: f64 = 0.1;
 /// Most grid cells (one byte each, 8 MiB).
 pub const MAX_CELLS: usize = 1 << 23;
 /// Coarsest grid step searched, rad: a grid that needs a coarser step to fit [`MAX_CELLS`] (more
-/// than about six links) is not searched.
-pub const MAX_GRID_STEP_RAD: f64 = 0.4;
+/// than six links; the six-link robot of params/ needs 0.41 rad) is not searched.
+pub const MAX_GRID_STEP_RAD: f64 = 0.45;
 /// Most cells the search reaches (checks and pushes on its open list) before it gives up.
 pub const MAX_DISCOVERED: usize = 3_000_000;
 /// Weight of the heuristic in the A* priority `g + w h` (> 1: fewer cells, longer grid paths that
@@ -292,17 +292,18 @@ pub fn cspace_routes(
     (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
     let (step, grid) = Grid::new(&lo, &hi);
     let mut rep = CspaceReport::not_searched(step);
-    let Some(grid) = grid else {
-        return Ok(vec![(rep, None)]);
-    };
-    rep.grid_cells = grid.cells;
-    rep.grid_step_rad = grid.nominal_step;
     let check = Checker {
         cf: ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)?
             .with_self_collision(settings.self_collision),
         margin: settings.obstacle_margin,
     };
+    // (reported also for a grid too coarse to search: `grid_cells` 0 says why nothing was searched)
     rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
+    let Some(grid) = grid else {
+        return Ok(vec![(rep, None)]);
+    };
+    rep.grid_cells = grid.cells;
+    rep.grid_step_rad = grid.nominal_step;
     if !rep.endpoints_clear {
         return Ok(vec![(rep, None)]);
     }

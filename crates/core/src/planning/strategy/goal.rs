@@ -153,3 +153,57 @@ pub fn with_final_pose(free: &Trajectory, q: &[f64]) -> Trajectory {
     out.q[last * n..(last + 1) * n].copy_from_slice(q);
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planning::strategy::cspace::cspace_routes;
+
+    fn robot(file: &str) -> Robot {
+        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../params")
+            .join(file);
+        Robot::from_toml_file(&p).unwrap()
+    }
+
+    /// On the three- and six-link robots of params/, an obstacle on a middle link of a pose at the
+    /// bar: the clear goal pose found instead is accepted and searched by the configuration-space
+    /// search (its end poses clear, its grid fine enough to search).
+    #[test]
+    fn a_goal_pose_the_goal_search_returns_is_searched_by_the_cspace_search() {
+        let s = PlannerSettings::default();
+        let cases = [
+            ("three-link.toml", vec![-2.2, 0.0, -1.0], [0.8, 0.0]),
+            (
+                "six-link.toml",
+                vec![-2.35, 0.0, -0.5, 0.0, -0.5, 0.0],
+                [0.7, 0.0],
+            ),
+        ];
+        for (file, q0, target) in cases {
+            let r = robot(file);
+            let n = r.n;
+            let mut seed = vec![0.4; n];
+            seed[0] = -1.2;
+            let q_final = ik_from_seed(&r, &seed, target).expect("the bar is in reach");
+            let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+            r.link_segments(&q_final, &mut segs);
+            let (a, b) = segs[n / 2];
+            let obstacles = [Circle {
+                center: [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0],
+                radius: 0.04,
+            }];
+            let goal = clear_final_pose(&r, &obstacles, &s, &q_final, target)
+                .unwrap()
+                .unwrap_or_else(|| panic!("{file}: no clear goal pose"));
+            let cf = ClearanceFn::new(r.clone(), &obstacles[..], 0.0).unwrap();
+            assert!(cf.min_clearance(&goal) >= s.obstacle_margin + EXTRA_CLEARANCE);
+            let routes = cspace_routes(&r, &obstacles, &s, &q0, &goal, 1, &|| false).unwrap();
+            let rep = &routes[0].0;
+            assert!(
+                rep.grid_cells > 0 && rep.endpoints_clear && rep.cells_discovered > 0,
+                "{file}: {rep:?}"
+            );
+        }
+    }
+}
