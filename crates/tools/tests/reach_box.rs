@@ -2,21 +2,16 @@
 //! values at random points, `phi` integrates `M12/M11`, and the bound holds every motion tried (the
 //! dynamic programme's own motions and random elbow-rate sequences integrated with RK4).
 use brachia::model::ik_from_seed;
-use brachia::Robot;
 use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_model::ReachModel;
-use brachia_tools::reduced_two_link::ReducedTwoLink;
 use brachia_tools::swing_dp::{DpSettings, ValueHistory};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-fn hook() -> (Robot, ReducedTwoLink) {
-    let robot = brachia_tools::hook_robot().unwrap();
-    let model = ReducedTwoLink::new(&robot).unwrap();
-    (robot, model)
-}
+mod common;
+use common::{hook, reach_settings};
 
 /// A random interval within `[lo, hi]` of width at most `w`, and a random point in it.
 fn sample(rng: &mut ChaCha8Rng, lo: f64, hi: f64, w: f64) -> (Iv, f64) {
@@ -96,19 +91,7 @@ fn phi_integrates_m12_over_m11() {
 }
 
 fn settings(dt: f64) -> ReachSettings {
-    ReachSettings {
-        dt,
-        n_q2: 58,
-        dz: 0.02,
-        dh: 0.01,
-        q2_max: 2.9,
-        u_max: 15.0,
-        q1_range: [-PI, 0.0],
-        t_max: 1.3,
-        bar: [0.34, 0.0],
-        lambda: 0.549,
-        target_split: 4,
-    }
+    reach_settings(dt)
 }
 
 #[test]

@@ -1,8 +1,7 @@
 //! Forward-backward sweeps of the reachable-set bound: every motion from the start to the target
 //! stays in every step of the sweeps (random RK4 motions), pruning removes boxes, and a target out of
 //! reach is proven so.
-use brachia::model::{ik_from_seed, RobotParams};
-use brachia::Robot;
+use brachia::model::ik_from_seed;
 use brachia_tools::reach_box::{ReachBox, ReachSettings, Snapshot};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_sweep::{sweep, Direction, SweepSettings};
@@ -11,29 +10,11 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-fn hook() -> (Robot, ReducedTwoLink) {
-    let p =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/two-link-hook.toml");
-    let robot =
-        Robot::from_params(RobotParams::from_toml_file(&p).unwrap(), "two-link-hook").unwrap();
-    let model = ReducedTwoLink::new(&robot).unwrap();
-    (robot, model)
-}
+mod common;
+use common::{hook, reach_settings};
 
 fn settings() -> ReachSettings {
-    ReachSettings {
-        dt: 0.01,
-        n_q2: 58,
-        dz: 0.02,
-        dh: 0.01,
-        q2_max: 2.9,
-        u_max: 15.0,
-        q1_range: [-PI, 0.0],
-        t_max: 1.3,
-        bar: [0.34, 0.0],
-        lambda: 0.549,
-        target_split: 4,
-    }
+    reach_settings(0.01)
 }
 
 /// A motion of `ms` ms from `x`: the rate `rate(j)` over each ms, RK4, the elbow stopped at its bound;

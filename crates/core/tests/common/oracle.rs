@@ -11,6 +11,7 @@ use brachia::planning::strategy::detour::detour_seeds;
 use brachia::planning::strategy::goal::{
     clear_final_pose_until, distinct_goal_poses, with_final_pose,
 };
+use brachia::planning::strategy::torque_continuation::with_torque_scale;
 use brachia::planning::{plan_with_guess, NlpSettings, Plan, PlannerSettings, SwingTask};
 use brachia::trajectory::Trajectory;
 use std::time::Instant;
@@ -104,20 +105,6 @@ fn seeds(robot: &Robot, s: &PlannerSettings, free: &Plan, task: &SwingTask) -> V
     out
 }
 
-/// `robot` with every torque limit scaled by `k`.
-fn torque_scaled(robot: &Robot, k: f64) -> Robot {
-    let mut prm = robot.params().clone();
-    for v in prm
-        .actuators
-        .tau_min
-        .iter_mut()
-        .chain(prm.actuators.tau_max.iter_mut())
-    {
-        *v *= k;
-    }
-    Robot::from_params(prm, "oracle").unwrap()
-}
-
 /// `s` with `BRACHIA_ORACLE_SUBSTEPS` RK4 steps per shooting interval when that is set (the
 /// clearance rows at the sub-steps then closer together), else as it is.
 fn with_substeps(mut s: PlannerSettings) -> PlannerSettings {
@@ -200,7 +187,7 @@ fn attempt(
     }
     if done.is_none() && continuation {
         for k in [2.0, 8.0] {
-            let wide = torque_scaled(robot, k);
+            let wide = with_torque_scale(robot, k).unwrap();
             let Some((w, _, _)) = solve(&wide, &fine_s, FINE_ITER, g, &format!("tau x{k}")) else {
                 break;
             };

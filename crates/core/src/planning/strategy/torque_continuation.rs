@@ -46,7 +46,7 @@ pub const STEP_MAX_ITER: usize = 80;
 
 /// `robot` with every actuated joint's torque limits scaled by `k` (> 0; the limits bracket 0, so
 /// `k > 1` widens them).
-pub(crate) fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
+pub fn with_torque_scale(robot: &Robot, k: f64) -> Result<Robot> {
     let mut prm = robot.params().clone();
     for v in prm
         .actuators
