@@ -13,11 +13,10 @@ use brachia::planning::{
 };
 use brachia::sim::{Controller, Disturbances};
 use brachia::trajectory::Trajectory;
-use replan_model::{final_miss, planned, tracker, unplanned, Offset};
+use common::replan_model::{final_miss, planned, tracker, unplanned, Offset};
 use std::sync::Arc;
 
-#[path = "common/replan_model.rs"]
-mod replan_model;
+mod common;
 
 fn planner(robot: &Arc<Robot>) -> (SwingPlanner, Arc<Trajectory>) {
     let (p, plan) = planned(robot);

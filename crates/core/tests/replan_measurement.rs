@@ -10,11 +10,10 @@ use brachia::control::{ReplanEvent, ReplanSettings, Replanning};
 use brachia::model::Robot;
 use brachia::sim::Controller;
 use brachia::trajectory::Trajectory;
-use replan_model::{final_miss, planned, tracker, Offset};
+use common::replan_model::{final_miss, planned, tracker, Offset};
 use std::sync::Arc;
 
-#[path = "common/replan_model.rs"]
-mod replan_model;
+mod common;
 
 /// The glitch: +-0.6 rad/s on joints 2-4 for 10 ms from 1.3 s (the size of the kick that makes the
 /// plain MPC miss in `online_replan.rs`, here only in the measurement).

@@ -5,6 +5,7 @@
 pub mod estimate;
 pub mod oracle;
 pub mod placement;
+pub mod replan_model;
 
 use brachia::model::{ActuatorParams, LinkParams, Robot, RobotParams};
 use brachia::sim::{ModelPlant, Plant};
@@ -103,20 +104,6 @@ pub fn random_multipliers(rng: &mut ChaCha8Rng, dims: &OcpDims) -> Multipliers {
 /// The paper's swing (`Robot::paper()`, `SwingTask::paper()`) planned by multiple shooting on the
 /// 30 ms mesh with the OCP backend; asserts that it converged.
 pub fn paper_swing() -> std::sync::Arc<Trajectory> {
-    use brachia::planning::{
-        Backend, NlpSettings, PlannerSettings, SwingPlanner, SwingTask, Transcription,
-    };
-    let s = PlannerSettings {
-        transcription: Transcription::MultipleShooting,
-        knot_dt: 0.03,
-        ..Default::default()
-    };
-    let nlp = NlpSettings {
-        backend: Backend::Ocp,
-        ..Default::default()
-    };
-    let mut p = SwingPlanner::new(Robot::paper(), SwingTask::paper(), &s, &nlp).unwrap();
-    let plan = p.plan().unwrap();
-    assert!(plan.converged(), "{:?}", plan.status);
+    let (_, plan) = replan_model::planned(&std::sync::Arc::new(Robot::paper()));
     std::sync::Arc::new(plan.trajectory)
 }
