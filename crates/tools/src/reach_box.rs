@@ -155,6 +155,16 @@ const EMPTY: CellBox = [
     f64::NEG_INFINITY,
 ];
 
+/// The smallest box holding the boxes `a` and `b` ([`EMPTY`] holds nothing).
+fn hull(a: &CellBox, b: &CellBox) -> CellBox {
+    [
+        a[0].min(b[0]),
+        a[1].max(b[1]),
+        a[2].min(b[2]),
+        a[3].max(b[3]),
+    ]
+}
+
 /// The reachable-set bound, stepped forward in time.
 #[derive(Debug)]
 pub struct ReachBox {
@@ -377,22 +387,10 @@ impl ReachBox {
 
     /// The extent of the bound: the least and largest `z` and `H` over every box.
     pub fn extent(&self) -> [f64; 4] {
-        self.slices.iter().flatten().fold(
-            [
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-            ],
-            |a, (_, b)| {
-                [
-                    a[0].min(b[0]),
-                    a[1].max(b[1]),
-                    a[2].min(b[2]),
-                    a[3].max(b[3]),
-                ]
-            },
-        )
+        self.slices
+            .iter()
+            .flatten()
+            .fold(EMPTY, |a, (_, b)| hull(&a, b))
     }
 
     /// The model's enclosures.
@@ -481,12 +479,7 @@ impl ReachBox {
                                         touched.push(idx as u32);
                                         *c = [cz.lo, cz.hi, ch.lo, ch.hi];
                                     } else {
-                                        *c = [
-                                            c[0].min(cz.lo),
-                                            c[1].max(cz.hi),
-                                            c[2].min(ch.lo),
-                                            c[3].max(ch.hi),
-                                        ];
+                                        *c = hull(c, &[cz.lo, cz.hi, ch.lo, ch.hi]);
                                     }
                                 }
                             }
@@ -498,12 +491,7 @@ impl ReachBox {
                         for (i, b) in pending {
                             match out.last_mut() {
                                 Some((j, c)) if *j == i => {
-                                    *c = [
-                                        c[0].min(b[0]),
-                                        c[1].max(b[1]),
-                                        c[2].min(b[2]),
-                                        c[3].max(b[3]),
-                                    ];
+                                    *c = hull(c, &b);
                                 }
                                 _ => out.push((i, b)),
                             }
@@ -699,12 +687,7 @@ impl ReachBox {
                             };
                             let m = [x[0].max(y[0]), x[1].min(y[1]), x[2].max(ya), x[3].min(yb)];
                             if m[0] <= m[1] && m[2] <= m[3] {
-                                keep = [
-                                    keep[0].min(m[0]),
-                                    keep[1].max(m[1]),
-                                    keep[2].min(m[2]),
-                                    keep[3].max(m[3]),
-                                ];
+                                keep = hull(&keep, &m);
                             }
                         }
                     }
@@ -742,15 +725,7 @@ impl ReachBox {
                     j += 1;
                 } else {
                     let (x, y) = (a[i].1, b[j].1);
-                    out.push((
-                        a[i].0,
-                        [
-                            x[0].min(y[0]),
-                            x[1].max(y[1]),
-                            x[2].min(y[2]),
-                            x[3].max(y[3]),
-                        ],
-                    ));
+                    out.push((a[i].0, hull(&x, &y)));
                     i += 1;
                     j += 1;
                 }

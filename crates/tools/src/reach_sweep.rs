@@ -226,7 +226,6 @@ pub fn sweep(
             other_direction: true,
         });
         let (st, kept) = run_pass(model, s, boxes, direction, (k, k), &cons)?;
-        drop(cons);
         out.passes.push(st);
         match direction {
             Direction::Forward => out.forward = kept,

@@ -21,7 +21,7 @@
 //! ```
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::ik_from_seed;
-use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings};
+use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachError, ReachSettings, Snapshot};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_model::ReachModel;
 use brachia_tools::reach_sweep::{sweep, Direction, SweepSettings};
@@ -158,8 +158,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     Ok(())
 }
-
-type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
 
 /// Step `rb` to the largest of `ks`, keeping a snapshot at each.
 fn snapshots(rb: &mut ReachBox, ks: &[usize]) -> Result<Vec<(usize, Snapshot)>, ReachError> {

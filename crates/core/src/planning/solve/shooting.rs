@@ -176,6 +176,15 @@ fn swing_time_starts(
     Ok(v)
 }
 
+/// `left` as the settings of a solve warm from a plan: the barrier parameter starts at
+/// [`super::common::WARM_START_MU_INIT`] unless `left` sets it.
+fn warm(left: NlpSettings) -> NlpSettings {
+    NlpSettings {
+        mu_init: Some(left.mu_init.unwrap_or(super::common::WARM_START_MU_INIT)),
+        ..left
+    }
+}
+
 /// One multiple-shooting plan from one start (see [`plan_shooting`]).
 ///
 /// The problem has clearance rows at the knots. When its solve converged but the resampled
@@ -203,23 +212,15 @@ fn plan_shooting_once(
     let Some(left) = nlp.remaining(started).filter(|_| refine) else {
         return Ok(p);
     };
-    let warm = NlpSettings {
-        mu_init: Some(left.mu_init.unwrap_or(super::common::WARM_START_MU_INIT)),
-        ..left
-    };
-    let mut q = solve_shooting(robot, task, settings, &warm, Some(&p.points), true)?;
+    let mut q = solve_shooting(robot, task, settings, &warm(left), Some(&p.points), true)?;
     let mut log = SolveLog::default();
     log.record(&mut p, SolveRole::Task);
     log.record(&mut q, SolveRole::SubstepClearance);
     let denser = q.status.is_converged() && q.clearance_violation.is_some();
-    let dense_settings = settings.with_substeps(settings.shooting.substeps * DENSER_SUBSTEP_FACTOR);
     let mut out = match nlp.remaining(started).filter(|_| denser) {
         Some(left) => {
-            let warm = NlpSettings {
-                mu_init: Some(left.mu_init.unwrap_or(super::common::WARM_START_MU_INIT)),
-                ..left
-            };
-            let mut d = solve_shooting(robot, task, &dense_settings, &warm, Some(&q.points), true)?;
+            let dense = settings.with_substeps(settings.shooting.substeps * DENSER_SUBSTEP_FACTOR);
+            let mut d = solve_shooting(robot, task, &dense, &warm(left), Some(&q.points), true)?;
             log.record(&mut d, SolveRole::SubstepClearance);
             if d.converged() {
                 d
