@@ -73,7 +73,8 @@ impl<'a> FurtherSearch<'a> {
         }
     }
 
-    /// The further routes (searched on the first call, within `run`), without those in `done`.
+    /// The further routes (searched on the first call, within `run`), without those in `done`, each
+    /// seed's guess its route timed over the longest swing, lowest torque ratio there first.
     pub(crate) fn routes(&self, run: &NlpSettings, done: &dyn Fn() -> Vec<Tried>) -> &RankedRoutes {
         self.found.get_or_init(|| {
             let t0 = Instant::now();
@@ -95,15 +96,15 @@ impl<'a> FurtherSearch<'a> {
             r.seeds.retain(|sd| {
                 tried(sd, reports).is_some_and(|t| !done.iter().any(|d| same_route(d, &t)))
             });
-            // lowest torque ratio over the longest swing first: that is where they start
-            let ratio = |sd: &RankedSeed| {
+            // each route's guess timed over the longest swing, where it starts; lowest torque ratio
+            // there first
+            let retimed = |mut sd: RankedSeed| {
                 let mut rep = reports[sd.report].clone();
                 let axis = sd.axis.times_stretched(LONGER_SWING_FACTOR);
-                time_path(robot, &sd.path, &axis, &mut rep);
-                rep.peak_torque_ratio
+                sd.guess = time_path(robot, &sd.path, &axis, &mut rep);
+                (rep.peak_torque_ratio, sd)
             };
-            let mut keyed: Vec<(f64, RankedSeed)> =
-                r.seeds.drain(..).map(|sd| (ratio(&sd), sd)).collect();
+            let mut keyed: Vec<(f64, RankedSeed)> = r.seeds.drain(..).map(retimed).collect();
             keyed.sort_by(|a, b| a.0.total_cmp(&b.0));
             r.seeds = keyed.into_iter().map(|(_, sd)| sd).collect();
             r
@@ -126,8 +127,8 @@ impl<'a> FurtherSearch<'a> {
         let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
             return Ok(vec![]);
         };
-        let g = sd.retimed(self.robot, LONGER_SWING_FACTOR);
-        solve_seed_longer_swing(self.robot, task, self.settings, &run, &g, t_auto)
+        // the guess is the route timed over the longest swing ([`Self::routes`])
+        solve_seed_longer_swing(self.robot, task, self.settings, &run, &sd.guess, t_auto)
     }
 
     /// The reports of the further routes (their `goal` counts the further search's goal poses),
