@@ -27,6 +27,8 @@ use crate::trajectory::{hermite_basis, Trajectory};
 use brachia_ocp::{
     EvalLevel, OcpProblem, OcpSettings, OcpSolver, OcpStats, OcpStatus, Primal, StageBounds,
 };
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Largest RK4 step of the independent open-loop replay, s.
@@ -191,7 +193,8 @@ fn warm(left: NlpSettings) -> NlpSettings {
 /// trajectory breaks the clearance between them ([`Plan::clearance_violation`]) and
 /// `settings.shooting.substep_clearance` is on, the task is solved again, warm from that plan, with
 /// the rows also at the RK4 sub-step states of every interval (a solve of its own,
-/// [`SolveRole::SubstepClearance`]). When that plan converges and still breaks the clearance between
+/// [`SolveRole::SubstepClearance`]; a candidate of the obstacle race yields to a later one from
+/// there, [`yield_to_later`]). When that plan converges and still breaks the clearance between
 /// its rows, it is solved once more, warm from it, with [`DENSER_SUBSTEP_FACTOR`] times the RK4
 /// sub-steps (and so rows that many times denser), if time is left; that plan is returned when it
 /// converges with the trajectory clear, otherwise the plan of the sub-step rows (whose status says
@@ -212,27 +215,105 @@ fn plan_shooting_once(
     let Some(left) = nlp.remaining(started).filter(|_| refine) else {
         return Ok(p);
     };
-    let mut q = solve_shooting(robot, task, settings, &warm(left), Some(&p.points), true)?;
+    // past its first converged solve: a later candidate of a race that has converged may win now
+    yield_to_later();
+    let q = solve_shooting(robot, task, settings, &warm(left), Some(&p.points), true)?;
     let mut log = SolveLog::default();
     log.record(&mut p, SolveRole::Task);
-    log.record(&mut q, SolveRole::SubstepClearance);
-    let denser = q.status.is_converged() && q.clearance_violation.is_some();
-    let mut out = match nlp.remaining(started).filter(|_| denser) {
-        Some(left) => {
-            let dense = settings.with_substeps(settings.shooting.substeps * DENSER_SUBSTEP_FACTOR);
-            let mut d = solve_shooting(robot, task, &dense, &warm(left), Some(&q.points), true)?;
-            log.record(&mut d, SolveRole::SubstepClearance);
-            if d.converged() {
-                d
-            } else {
-                q
-            }
-        }
-        None => q,
-    };
+    let mut out = with_denser_rows(robot, task, settings, nlp, started, q, &mut log)?;
     log.finish(&mut out);
     out.freefall_time_s = p.freefall_time_s;
     Ok(out)
+}
+
+/// The plan of a solve with the rows at the sub-steps, `q` (recorded in `log` as
+/// [`SolveRole::SubstepClearance`]), or, when `q` converged but its trajectory still breaks the
+/// clearance between its rows and time is left of `nlp` counted from `started`, the plan solved
+/// warm from it with [`DENSER_SUBSTEP_FACTOR`] times the sub-steps when that converges clear
+/// (recorded too). The plan returned is not finished ([`SolveLog::finish`]).
+#[allow(clippy::too_many_arguments)]
+fn with_denser_rows(
+    robot: &Arc<Robot>,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    mut q: Plan,
+    log: &mut SolveLog,
+) -> Result<Plan> {
+    log.record(&mut q, SolveRole::SubstepClearance);
+    let denser = q.status.is_converged() && q.clearance_violation.is_some();
+    let Some(left) = nlp.remaining(started).filter(|_| denser) else {
+        return Ok(q);
+    };
+    let dense = settings.with_substeps(settings.shooting.substeps * DENSER_SUBSTEP_FACTOR);
+    let mut d = solve_shooting(robot, task, &dense, &warm(left), Some(&q.points), true)?;
+    log.record(&mut d, SolveRole::SubstepClearance);
+    Ok(if d.converged() { d } else { q })
+}
+
+/// Whether `p` stopped at its iteration limit in the solve with the clearance rows at the
+/// sub-steps (its knots' solve had converged through the clearance between them).
+pub(crate) fn stopped_in_substep_rows(p: &Plan) -> bool {
+    p.status == SolveStatus::MaxIterations
+        && p.solves
+            .last()
+            .is_some_and(|a| a.role == SolveRole::SubstepClearance)
+}
+
+/// The solve with the clearance rows at the sub-steps resumed from `guess` (the points of a plan
+/// that [`stopped_in_substep_rows`], at its swing time): `task` solved warm from there with those
+/// rows from the start, then with denser rows as in [`plan_shooting_once`] when its trajectory
+/// still breaks the clearance; within `nlp`. Errors: a guess of the wrong shape.
+pub(crate) fn resume_substep_rows(
+    robot: &Robot,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    guess: &Trajectory,
+) -> Result<Plan> {
+    check_guess(robot, guess)?;
+    let started = std::time::Instant::now();
+    let robot = Arc::new(robot.clone());
+    let q = solve_shooting(
+        &robot,
+        task,
+        settings,
+        &warm(nlp.clone()),
+        Some(guess),
+        true,
+    )?;
+    let mut log = SolveLog::default();
+    let mut out = with_denser_rows(&robot, task, settings, nlp, started, q, &mut log)?;
+    log.finish(&mut out);
+    Ok(out)
+}
+
+thread_local! {
+    /// The flag of the race candidate running on this thread ([`with_yield_flag`]); none outside
+    /// a race.
+    static YIELD_FLAG: RefCell<Option<Arc<AtomicBool>>> = const { RefCell::new(None) };
+}
+
+/// Run `f` on this thread as a candidate of a race whose flag is `flag`: [`yield_to_later`]
+/// raises it from within `f` (the solves of the candidate), and the race reads it.
+pub(crate) fn with_yield_flag<R>(flag: &Arc<AtomicBool>, f: impl FnOnce() -> R) -> R {
+    let before = YIELD_FLAG.with(|c| c.replace(Some(Arc::clone(flag))));
+    let r = f();
+    YIELD_FLAG.with(|c| *c.borrow_mut() = before);
+    r
+}
+
+/// Mark the race candidate running on this thread as past its first chance (its first converged
+/// solve broke the clearance between its rows, or its solve at the task's mesh ended without a
+/// clear plan): from here a later candidate that has converged wins over it
+/// ([`crate::planning::strategy::race`]). Nothing outside a race.
+pub(crate) fn yield_to_later() {
+    YIELD_FLAG.with(|c| {
+        if let Some(f) = c.borrow().as_ref() {
+            f.store(true, Ordering::SeqCst);
+        }
+    });
 }
 
 /// Factor the RK4 sub-steps (and so the clearance rows between the knots) are multiplied by in the

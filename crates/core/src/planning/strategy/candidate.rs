@@ -11,7 +11,9 @@
 //! the seed is [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's
 //! role. The last fine solve (the one from the seed when there was one, since a fine solve that
 //! stopped at its iteration cap is solved again from the seed first) resumes once from where it
-//! stopped when it ran out of iterations ([`SolveRole::Resumed`]).
+//! stopped when it ran out of iterations ([`SolveRole::Resumed`]). The solve again from the seed and
+//! the resume are second chances: in the race a later candidate that has converged wins over them
+//! ([`super::race`]).
 //!
 //! Units: s.
 
@@ -21,6 +23,7 @@ use crate::planning::nlp::{NlpSettings, SolveStatus};
 use crate::planning::outcome::{Plan, SolveRole};
 use crate::planning::settings::{SwingTime, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
+use crate::planning::solve::shooting::yield_to_later;
 use crate::planning::strategy::race::Plans;
 use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
@@ -116,6 +119,8 @@ fn or_from_seed(
     let Some(again) = run.remaining(started) else {
         return Ok((role, p));
     };
+    // a second chance: a later candidate of the race that has converged wins over it
+    yield_to_later();
     let last = plan_single(robot, task, from_seed, &again, Some(g))?;
     out.push((role, p));
     Ok((SolveRole::FromSeed, last))
@@ -158,6 +163,7 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let points = p.points.clone();
     out.push((last_role, p));
     if let Some(more) = run.remaining(started).filter(|_| resume) {
+        yield_to_later();
         let p = plan_single(robot, task, settings, &more, Some(&points))?;
         out.push((SolveRole::Resumed, p));
     }

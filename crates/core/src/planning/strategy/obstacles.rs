@@ -17,7 +17,9 @@
 //!    joint path of another homotopy class) and the same with a longer swing, the backward detour
 //!    seeds, then the other configuration-space seeds in their rank, each followed by the same with
 //!    a longer swing; solved two at a time, each seed coarse to fine ([`super::candidate`]); the
-//!    first plan in order that converges wins;
+//!    first plan in order that converges wins, except over a candidate past its first chance (its
+//!    sub-step re-solve, its solve again from the seed, its resume), which a later converged
+//!    candidate beats ([`super::race`]);
 //! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
 //!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
@@ -44,6 +46,9 @@ use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::{covering_obstacles, target_pose};
 use crate::planning::solve::plan_single;
+use crate::planning::solve::shooting::{
+    resume_substep_rows, stopped_in_substep_rows, yield_to_later,
+};
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
     longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, LONGER_SWING_FACTOR,
@@ -213,6 +218,14 @@ pub(crate) fn plan_around_obstacles(
 /// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
+/// Iterations of the smooth step's solve in the race before it yields to a later candidate that
+/// has converged (the rest of its [`SMOOTH_STEP_RACE_MAX_ITER`] resume from where it stopped). On
+/// the placement scan's fixed set a smooth step that converges does so within 60 iterations but
+/// one that fails takes 290-500; at 10 ms knots the smooth step of
+/// `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the optimum
+/// the detour seeds miss (docs/planner-measurements.md).
+pub const SMOOTH_STEP_FIRST_CHANCE_ITER: usize = 200;
+
 /// Where a candidate of the race came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
@@ -252,16 +265,33 @@ fn interrupted(plans: &race::Plans) -> bool {
         .is_some_and(|(_, p)| p.status == SolveStatus::Cancelled)
 }
 
-/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations.
+/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations:
+/// solved first for [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
+/// candidate yields to a later one that has converged ([`race`]) and the solve resumes from where
+/// it stopped for the rest of its iterations ([`SolveRole::Resumed`]: the knots' solve from its
+/// point, or the solve with the clearance rows at the sub-steps when that is where it stopped).
 fn smooth_step_candidate<'a>(
     robot: &'a Robot,
     task: &'a ValidTask,
     settings: &'a ValidSettings,
 ) -> race::Candidate<'a> {
     Box::new(move |run: &NlpSettings| {
-        let capped = run.clone().capped(SMOOTH_STEP_RACE_MAX_ITER);
-        let p = plan_single(robot, task, settings, &capped, None)?;
-        Ok(vec![(SolveRole::Task, p)])
+        let started = std::time::Instant::now();
+        let total = run.max_iter.min(SMOOTH_STEP_RACE_MAX_ITER);
+        let first = run.clone().capped(SMOOTH_STEP_FIRST_CHANCE_ITER);
+        let p = plan_single(robot, task, settings, &first, None)?;
+        let stopped = p.status == SolveStatus::MaxIterations && first.max_iter < total;
+        let Some(more) = run.remaining(started).filter(|_| stopped) else {
+            return Ok(vec![(SolveRole::Task, p)]);
+        };
+        yield_to_later();
+        let more = more.capped(total - first.max_iter);
+        let q = if stopped_in_substep_rows(&p) {
+            resume_substep_rows(robot, task, settings, &more, &p.points)?
+        } else {
+            plan_single(robot, task, settings, &more, Some(&p.points))?
+        };
+        Ok(vec![(SolveRole::Task, p), (SolveRole::Resumed, q)])
     })
 }
 
@@ -430,18 +460,21 @@ fn strategies(
     let mut cspace_failed = false;
     let mut plans = outcome.plans;
     if kinds[0] == Kind::SmoothStep {
-        let mut p = match plans[0].take().and_then(|v| v.into_iter().last()) {
-            Some((_, p)) => p,
-            None => smooth_step_now(
-                robot,
-                task,
-                settings,
-                nlp,
-                started,
-                SMOOTH_STEP_RACE_MAX_ITER,
-            )?,
+        // its solves in order (the first capped, then resumed), the last one its plan
+        let mut last = None;
+        for (role, mut p) in plans[0].take().unwrap_or_default() {
+            log.record(&mut p, role);
+            last = Some(p);
+        }
+        let p = match last {
+            Some(p) => p,
+            None => {
+                let cap = SMOOTH_STEP_RACE_MAX_ITER;
+                let mut p = smooth_step_now(robot, task, settings, nlp, started, cap)?;
+                log.record(&mut p, SolveRole::Task);
+                p
+            }
         };
-        log.record(&mut p, SolveRole::Task);
         if outcome.winner == Some(0) {
             rep.strategy = GuessStrategy::SmoothStep;
             won_plan = Some(p.clone());

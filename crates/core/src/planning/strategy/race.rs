@@ -1,7 +1,6 @@
 //! Candidate guesses solved side by side: the first candidate in order whose plan converges (and
-//! keeps the clearance on its resampled trajectory) wins, whichever finishes first, and the
-//! candidates after it are cancelled; the result is the one solving them one after the other gives
-//! (short of the time limit).
+//! keeps the clearance on its resampled trajectory) wins, unless a candidate before it is past its
+//! first chance (below) when it converges; the candidates after the winner are cancelled.
 //!
 //! Each candidate is a closure that plans the task from one guess and returns its plans in the order
 //! they were solved (the candidate's own solves: a coarse solve, the solve at the task's mesh, a
@@ -10,17 +9,30 @@
 //! token of its own, set when a candidate before it wins or when the caller's token is set (the
 //! calling thread watches it every [`WATCH_PERIOD`]), so a cancelled call ends within one iteration
 //! of every solve running.
+//!
+//! **Past the first chance.** A candidate whose first converged solve broke the clearance between
+//! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
+//! ended without a clear plan (it is solving again from its seed, or resuming), marks itself
+//! ([`crate::planning::solve::shooting::yield_to_later`]). A later candidate that has converged
+//! wins as soon as every candidate before it has ended or is so marked, and those still running
+//! are cancelled: the race does not wait for a second chance when a plan is already there. Where
+//! no later candidate converges first, the earlier one runs to its end as before, so every
+//! placement the candidates plan one after the other still plans; which of two plans a placement
+//! gets can then depend on which converges first.
+//!
 //! With one worker (one core, or called from a thread pool's worker whose cores are taken) the
-//! candidates run one after the other on the calling thread, with the caller's own token.
+//! candidates run one after the other on the calling thread, with the caller's own token, and the
+//! first in order that converges wins.
 //!
 //! Units: s.
 
 use crate::error::Result;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::{Plan, SolveRole};
+use crate::planning::solve::shooting::with_yield_flag;
 use brachia_ocp::CancelToken;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// Candidates solved at a time (the machine's cores, at most this many).
@@ -45,7 +57,8 @@ pub(crate) fn won(plans: &Plans) -> bool {
 pub(crate) struct RaceOutcome {
     /// Per candidate, in the candidates' order, the plans it solved (`None`: not started).
     pub plans: Vec<Option<Plans>>,
-    /// The first candidate, in order, whose last plan converged.
+    /// The first candidate, in order, whose last plan converged (the candidates before it ended
+    /// without a plan, or were cancelled past their first chance).
     pub winner: Option<usize>,
 }
 
@@ -87,27 +100,45 @@ pub(crate) fn race(
         return Ok(out);
     }
     // one token per candidate: a converged candidate cancels only the candidates after it, so the
-    // winner is the first candidate in order that converges, whatever the threads' timing
+    // winner is the first candidate in order that converges, short of those past their first chance
     let tokens: Vec<CancelToken> = (0..n).map(|_| CancelToken::new()).collect();
     let cancel_from = |first: usize| tokens.iter().skip(first).for_each(CancelToken::cancel);
+    // per candidate: past its first chance (raised by its solves), and ended (or never to start)
+    let yielding: Vec<Arc<AtomicBool>> = (0..n).map(|_| Arc::new(AtomicBool::new(false))).collect();
+    let ended: Vec<AtomicBool> = (0..n).map(|_| AtomicBool::new(false)).collect();
     let next = AtomicUsize::new(0);
     let best = AtomicUsize::new(n);
     let running = AtomicUsize::new(workers(n));
     let results: Mutex<Vec<(usize, Result<Plans>)>> = Mutex::new(vec![]);
+    // the first converged candidate wins once every candidate before it has ended or yields: the
+    // ones still running are cancelled
+    let decide = || {
+        let b = best.load(Ordering::SeqCst);
+        let earlier_done =
+            |i: usize| ended[i].load(Ordering::SeqCst) || yielding[i].load(Ordering::SeqCst);
+        if b < n && (0..b).all(earlier_done) {
+            cancel_from(0);
+        }
+    };
     let worker = || {
         loop {
             let i = next.fetch_add(1, Ordering::SeqCst);
-            if i >= n || i > best.load(Ordering::SeqCst) || tokens[i].is_cancelled() {
+            if i >= n {
                 break;
             }
-            let Some(run) = nlp.remaining(started) else {
+            let run = nlp.remaining(started);
+            let (true, Some(run)) = (
+                i <= best.load(Ordering::SeqCst) && !tokens[i].is_cancelled(),
+                run,
+            ) else {
+                ended[i].store(true, Ordering::SeqCst);
                 break;
             };
             let run = NlpSettings {
                 cancel: Some(tokens[i].clone()),
                 ..run
             };
-            let r = candidates[i](&run);
+            let r = with_yield_flag(&yielding[i], || candidates[i](&run));
             match &r {
                 Ok(plans) if won(plans) => {
                     best.fetch_min(i, Ordering::SeqCst);
@@ -121,6 +152,8 @@ pub(crate) fn race(
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .push((i, r));
+            ended[i].store(true, Ordering::SeqCst);
+            decide();
         }
         running.fetch_sub(1, Ordering::SeqCst);
     };
@@ -132,6 +165,7 @@ pub(crate) fn race(
             if nlp.is_cancelled() {
                 cancel_from(0);
             }
+            decide();
             std::thread::sleep(WATCH_PERIOD);
         }
     });
@@ -143,4 +177,77 @@ pub(crate) fn race(
     let b = best.into_inner();
     out.winner = (b < n).then_some(b);
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Robot;
+    use crate::planning::nlp::SolveStatus;
+    use crate::planning::settings::PlannerSettings;
+    use crate::planning::solve::shooting::yield_to_later;
+    use crate::planning::task::SwingTask;
+
+    /// A converged plan (the paper's unobstructed swing) and the same plan marked cancelled.
+    fn plans() -> (Plan, Plan) {
+        let s = PlannerSettings::default();
+        let nlp = NlpSettings::default();
+        let p = crate::planning::plan(&Robot::paper(), &SwingTask::paper(), &s, &nlp).unwrap();
+        assert!(p.converged(), "{:?}", p.failure_message());
+        let mut c = p.clone();
+        c.status = SolveStatus::Cancelled;
+        (p, c)
+    }
+
+    /// Waits until `run`'s token is set (at most 20 s), then returns `out` (or `cancelled` when
+    /// the token was set).
+    fn wait_for_cancel(run: &NlpSettings, out: &Plan, cancelled: &Plan) -> Plans {
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_secs(20) {
+            if run.is_cancelled() {
+                return vec![(SolveRole::Task, cancelled.clone())];
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        vec![(SolveRole::Task, out.clone())]
+    }
+
+    #[test]
+    fn a_later_converged_candidate_wins_over_one_past_its_first_chance() {
+        if workers(2) < 2 {
+            return;
+        }
+        let (ok, cancelled) = plans();
+        // candidate 0 yields and would go on for 20 s; candidate 1 converges at once
+        let first: Candidate<'_> = Box::new(|run: &NlpSettings| {
+            yield_to_later();
+            Ok(wait_for_cancel(run, &ok, &cancelled))
+        });
+        let second: Candidate<'_> =
+            Box::new(|_: &NlpSettings| Ok(vec![(SolveRole::Task, ok.clone())]));
+        let t0 = Instant::now();
+        let out = race(&[first, second], &NlpSettings::default(), Instant::now()).unwrap();
+        assert_eq!(out.winner, Some(1));
+        let p0 = out.plans[0].as_ref().unwrap();
+        assert_eq!(p0.last().unwrap().1.status, SolveStatus::Cancelled);
+        assert!(t0.elapsed() < Duration::from_secs(10), "{:?}", t0.elapsed());
+    }
+
+    #[test]
+    fn a_candidate_in_its_first_chance_keeps_its_place_in_the_order() {
+        if workers(2) < 2 {
+            return;
+        }
+        let (ok, _) = plans();
+        // candidate 0 converges after candidate 1 without yielding: it wins
+        let first: Candidate<'_> = Box::new(|_: &NlpSettings| {
+            std::thread::sleep(Duration::from_millis(200));
+            Ok(vec![(SolveRole::Task, ok.clone())])
+        });
+        let second: Candidate<'_> =
+            Box::new(|_: &NlpSettings| Ok(vec![(SolveRole::Task, ok.clone())]));
+        let out = race(&[first, second], &NlpSettings::default(), Instant::now()).unwrap();
+        assert_eq!(out.winner, Some(0));
+        assert!(won(out.plans[1].as_ref().unwrap()));
+    }
 }
