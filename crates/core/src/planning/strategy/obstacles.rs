@@ -213,7 +213,8 @@ pub(crate) fn plan_around_obstacles(
 }
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
-/// beside the seeds (the seeds after it cannot win before it ends). On the placement scan's fixed
+/// beside the seeds (the seeds after it cannot win before it ends or has run
+/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations). On the placement scan's fixed
 /// set (30 ms knots) a smooth step that converges does so within 60 iterations, but at 10 ms knots
 /// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
@@ -255,6 +256,32 @@ fn smooth_step_now(
         ..nlp.clone()
     });
     plan_single(robot, task, settings, &run.capped(cap), None)
+}
+
+/// The smooth step's plan from the solves of its race candidate, `ran` (each recorded in `log` in
+/// order: the first capped, then resumed; the last is the plan), or, when it never started, solved
+/// now ([`smooth_step_now`]) and recorded.
+fn smooth_step_of(
+    ran: Option<race::Plans>,
+    robot: &Robot,
+    task: &ValidTask,
+    settings: &ValidSettings,
+    nlp: &NlpSettings,
+    started: std::time::Instant,
+    log: &mut SolveLog,
+) -> Result<Plan> {
+    let mut last = None;
+    for (role, mut p) in ran.unwrap_or_default() {
+        log.record(&mut p, role);
+        last = Some(p);
+    }
+    if let Some(p) = last {
+        return Ok(p);
+    }
+    let cap = SMOOTH_STEP_RACE_MAX_ITER;
+    let mut p = smooth_step_now(robot, task, settings, nlp, started, cap)?;
+    log.record(&mut p, SolveRole::Task);
+    Ok(p)
 }
 
 /// Whether a candidate's plans ended because the race was decided elsewhere (its last solve was
@@ -460,21 +487,8 @@ fn strategies(
     let mut cspace_failed = false;
     let mut plans = outcome.plans;
     if kinds[0] == Kind::SmoothStep {
-        // its solves in order (the first capped, then resumed), the last one its plan
-        let mut last = None;
-        for (role, mut p) in plans[0].take().unwrap_or_default() {
-            log.record(&mut p, role);
-            last = Some(p);
-        }
-        let p = match last {
-            Some(p) => p,
-            None => {
-                let cap = SMOOTH_STEP_RACE_MAX_ITER;
-                let mut p = smooth_step_now(robot, task, settings, nlp, started, cap)?;
-                log.record(&mut p, SolveRole::Task);
-                p
-            }
-        };
+        let ran = plans[0].take();
+        let p = smooth_step_of(ran, robot, task, settings, nlp, started, &mut log)?;
         if outcome.winner == Some(0) {
             rep.strategy = GuessStrategy::SmoothStep;
             won_plan = Some(p.clone());
