@@ -13,7 +13,8 @@
 //! **Past the first chance.** A candidate whose first converged solve broke the clearance between
 //! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
 //! ended without a clear plan (it is solving again from its seed, or resuming), marks itself
-//! ([`crate::planning::solve::shooting::yield_to_later`]). A later candidate that has converged
+//! (`yield_to_later` of the shooting solve); so does the smooth step once its solve has run
+//! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has converged
 //! wins as soon as every candidate before it has ended or is so marked, and those still running
 //! are cancelled: the race does not wait for a second chance when a plan is already there. Where
 //! no later candidate converges first, the earlier one runs to its end as before, so every
