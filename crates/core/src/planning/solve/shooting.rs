@@ -252,13 +252,21 @@ fn with_denser_rows(
     Ok(if d.converged() { d } else { q })
 }
 
-/// Whether `p` stopped at its iteration limit in the solve with the clearance rows at the
-/// sub-steps (its knots' solve had converged through the clearance between them).
+/// Whether `p` did not converge because a solve with the clearance rows at the sub-steps stopped
+/// at its iteration limit (its knots' solve had converged through the clearance between them): the
+/// attempt the plan comes from is that solve, ended at the limit, or that solve converged still
+/// inside the margin and the denser rows' solve after it ended at the limit.
 pub(crate) fn stopped_in_substep_rows(p: &Plan) -> bool {
-    p.status == SolveStatus::MaxIterations
-        && p.solves
-            .last()
-            .is_some_and(|a| a.role == SolveRole::SubstepClearance)
+    let Some(i) = p.solves.iter().position(|a| a.adopted) else {
+        return false;
+    };
+    let at_limit = |a: &crate::planning::outcome::SolveAttempt| {
+        a.role == SolveRole::SubstepClearance && a.status == SolveStatus::MaxIterations
+    };
+    let a = &p.solves[i];
+    !p.converged()
+        && a.role == SolveRole::SubstepClearance
+        && (at_limit(a) || p.solves.get(i + 1).is_some_and(at_limit))
 }
 
 /// The solve with the clearance rows at the sub-steps resumed from `guess` (the points of a plan

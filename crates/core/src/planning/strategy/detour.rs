@@ -100,7 +100,8 @@ pub struct SeedReport {
     /// Smallest clearance row of the seed's knots (surface distance minus the planner's
     /// required clearance), m; >= [`EXTRA_CLEARANCE`] minus the barrier's slack.
     pub min_clearance_m: f64,
-    /// Whether the plan from this seed converged (`None`: not tried).
+    /// Whether the plan from this seed converged (`None`: not tried, or stopped when another
+    /// candidate of the race won).
     pub converged: Option<bool>,
 }
 

@@ -213,16 +213,17 @@ pub(crate) fn plan_around_obstacles(
 }
 
 /// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
-/// beside the seeds (the seeds after it cannot win before it ends or has run
-/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations). On the placement scan's fixed
+/// beside the seeds (the seeds after it cannot win before it ends, has run
+/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations, or is solving again with the clearance rows at the
+/// sub-steps). The settings' `max_iter` (default 500) bounds it too. On the placement scan's fixed
 /// set (30 ms knots) a smooth step that converges does so within 60 iterations, but at 10 ms knots
 /// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
 /// Iterations of the smooth step's solve in the race before it yields to a later candidate that
 /// has converged (the rest of its [`SMOOTH_STEP_RACE_MAX_ITER`] resume from where it stopped). On
-/// the placement scan's fixed set a smooth step that converges does so within 60 iterations but
-/// one that fails takes 290-500; at 10 ms knots the smooth step of
+/// the placement scan's fixed set a smooth step that converges does so within 60 iterations, and
+/// most that fail take 290-500; at 10 ms knots the smooth step of
 /// `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the optimum
 /// the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_FIRST_CHANCE_ITER: usize = 200;
@@ -296,7 +297,8 @@ fn interrupted(plans: &race::Plans) -> bool {
 /// solved first for [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
 /// candidate yields to a later one that has converged ([`race`]) and the solve resumes from where
 /// it stopped for the rest of its iterations ([`SolveRole::Resumed`]: the knots' solve from its
-/// point, or the solve with the clearance rows at the sub-steps when that is where it stopped).
+/// point, or the solve with the clearance rows at the sub-steps, and the denser rows' after it,
+/// when one of those is where it stopped; the cap holds for each solve of the first chance).
 fn smooth_step_candidate<'a>(
     robot: &'a Robot,
     task: &'a ValidTask,
@@ -307,13 +309,16 @@ fn smooth_step_candidate<'a>(
         let total = run.max_iter.min(SMOOTH_STEP_RACE_MAX_ITER);
         let first = run.clone().capped(SMOOTH_STEP_FIRST_CHANCE_ITER);
         let p = plan_single(robot, task, settings, &first, None)?;
-        let stopped = p.status == SolveStatus::MaxIterations && first.max_iter < total;
+        // stopped at the first chance's limit: in the knots' solve, or in a solve with the rows at
+        // the sub-steps (which the cap limits too)
+        let substep = stopped_in_substep_rows(&p);
+        let stopped = (substep || p.status == SolveStatus::MaxIterations) && first.max_iter < total;
         let Some(more) = run.remaining(started).filter(|_| stopped) else {
             return Ok(vec![(SolveRole::Task, p)]);
         };
         yield_to_later();
         let more = more.capped(total - first.max_iter);
-        let q = if stopped_in_substep_rows(&p) {
+        let q = if substep {
             resume_substep_rows(robot, task, settings, &more, &p.points)?
         } else {
             plan_single(robot, task, settings, &more, Some(&p.points))?

@@ -17,9 +17,8 @@
 //! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has converged
 //! wins as soon as every candidate before it has ended or is so marked, and those still running
 //! are cancelled: the race does not wait for a second chance when a plan is already there. Where
-//! no later candidate converges first, the earlier one runs to its end as before, so every
-//! placement the candidates plan one after the other still plans; which of two plans a placement
-//! gets can then depend on which converges first.
+//! no later candidate converges first, the earlier one runs to its end as before; which of two
+//! plans a placement gets can then depend on which converges first.
 //!
 //! With one worker (one core, or called from a thread pool's worker whose cores are taken) the
 //! candidates run one after the other on the calling thread, with the caller's own token, and the
