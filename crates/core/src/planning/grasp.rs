@@ -566,6 +566,32 @@ mod tests {
         assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
     }
 
+    /// Three-link robot, bar at 0.8 m: a circle near the bar leaves the last link room only where
+    /// links 1 and 2 pass through a second circle nearer the grip, so no admissible pose keeps the
+    /// margin (a dense sample of them confirms it) although the last link alone has clear angles;
+    /// the proof refuses it and names link 2 or 3 of the best poses. Without the second circle, a
+    /// clear admissible pose is found.
+    #[test]
+    fn a_circle_on_the_links_before_the_last_completes_the_proof() {
+        let robot = params("three-link.toml");
+        let b = Bounds::default();
+        let target = [0.8, 0.0];
+        let near = circle([0.69909, -0.18199], 0.12817);
+        let inner = circle([0.24771, -0.11846], 0.11539);
+        let p = grasp_blocked(&robot, target, &[near, inner], 0.01, &b).expect("blocked");
+        assert_eq!(p.obstacles, vec![0, 1], "{p:?}");
+        assert!(p.link >= 1 && p.best_clearance_m < 0.01, "{p:?}");
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let (best, count) = sampled_best(&robot, target, &[near, inner], &b, 4000, &mut rng);
+        assert!(count > 1000 && best < 0.01, "{best} over {count}");
+        let accept = |q: &[f64]| obstacle_clearance(&robot, &[near], q) >= 0.01;
+        let found = search_grasp_poses(&robot, target, &[near], 0.01, &b, &accept, &|| false);
+        let GraspPoses::Clear(q) = found else {
+            panic!("{found:?}");
+        };
+        assert!(within_joint_limits(&q, &b) && obstacle_clearance(&robot, &[near], &q) >= 0.01);
+    }
+
     /// On the three-link robot (links 0.4 m, bar at 0.8 m) the last link's admissible angles put its
     /// far joint left of the bar, from below it to above it. Two 0.1 m circles 0.08 m from the bar,
     /// one up-left and one down-left, each leave 0.06 m of clearance at some angle; together they

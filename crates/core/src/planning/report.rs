@@ -448,8 +448,9 @@ impl fmt::Display for SwingTimeSearch {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
-    /// The obstacle touches the target bar's grasp (within the last link's radius plus the margin)
-    /// or the start pose (within the margin): no motion clears it, whatever the torque or swing time.
+    /// The obstacles block every pose that grasps the target bar within the joint limits (by the
+    /// margin; [`crate::planning::grasp::grasp_blocked`]) or the obstacle is within the margin of the
+    /// start pose: no motion clears it, whatever the torque or swing time.
     Unreachable,
     /// A detour was found with the limits widened, and not within the real limits at a longer swing
     /// time: it needs more torque (the [`TorqueProbe`]'s ratios).

@@ -371,29 +371,33 @@ fn check_grasp(
     } else {
         format!(" (together with {})", others.join(", "))
     };
-    let best = format!(
-        "; the best such pose keeps at most {:.4} m",
-        b.best_clearance_m
-    );
+    let at_bar = if b.link == n - 1 {
+        format!(
+            "the last link (link {n}, capsule radius {} m) ends at the bar, and ",
+            robot.radii()[n - 1]
+        )
+    } else {
+        String::new()
+    };
     Err(Error::invalid(
         src,
         format!("{prefix}obstacles[{}]", b.nearest),
         format!("center {:?}, radius {}", o.center, o.radius),
         format!(
             "its surface is {:.4} m from the target bar {:?}, and no pose that grasps the bar \
-             clears it{together}: the last link (link {n}, capsule radius {} m) ends at the bar, and \
-             every pose that grasps the bar with link 1 inside planner.bounds.q1 = [{}, {}] rad and \
-             every relative joint within planner.bounds.q_rel_max = {} rad brings a link (link {} \
-             in the best of them) closer to the obstacles than planner.obstacle_margin = {} m{best}; \
-             move the obstacle or the bar",
+             clears it{together}: {at_bar}every pose that grasps the bar with link 1 inside \
+             planner.bounds.q1 = [{}, {}] rad and every relative joint within \
+             planner.bounds.q_rel_max = {} rad brings a link closer to the obstacles than \
+             planner.obstacle_margin = {} m (link {} in the best of them, which keeps at most \
+             {:.5} m); move the obstacles or the bar",
             b.bar_distance_m,
             task.target,
-            robot.radii()[n - 1],
             q1[0],
             q1[1],
             bounds.q_rel_max,
-            b.link + 1,
             margin,
+            b.link + 1,
+            b.best_clearance_m,
         ),
     ))
 }

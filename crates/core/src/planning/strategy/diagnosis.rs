@@ -15,7 +15,10 @@
 //!    detour found needs ([`TorqueProbe`]);
 //! 3. from that detour, the swing-time probe plans the task at the real limits with a free swing time
 //!    in `[T, PROBE_SWING_TIME_FACTOR T]` (multiple shooting only): the swing time the detour needs
-//!    within the limits ([`SwingTimeProbe`]).
+//!    within the limits ([`SwingTimeProbe`]);
+//! 4. when no probe converged but the chain's plan or a probe solve converged on its knots and only
+//!    its 1 ms trajectory passes inside the margin between them, the closest of them is the verdict
+//!    ([`Verdict::ShortBetweenKnots`], [`BetweenKnots`]): a near miss, not a want of torque.
 //!
 //! The chain plans the first probe's seed widened itself, and from it the task at the real limits or
 //! with a free swing time (its step 6): a detour within the limits, or one a longer swing makes
