@@ -13,18 +13,20 @@
 //!
 //! The proof is a branch and bound over boxes of the angles `th_2 .. th_n` (each angle an interval of
 //! half-width `h_i` around `c_i`), not a sample. The joints are placed back from the bar: joint `i`
-//! (the proximal end of link `i`) at `J_i = target - sum_{k >= i} L_k u(c_k)`, which any pose of the box
-//! puts within `D_i = sum_{k >= i} L_k 2 sin(h_k / 2)` of it. A box is settled when
+//! (the proximal end of link `i`) at `J_i = target - sum_{k >= i} L_k u(c_k)` (`J_{n+1}` the bar,
+//! `J_1` the grip), which any pose of the box puts within `D_i = sum_{k >= i} L_k 2 sin(h_k / 2)` of
+//! it (`D_1 = D_2` for link 1). A box is settled when
 //! - some relative angle between two of its angles lies outside `q_rel_max` for every pose of it;
 //! - or joint 2 is farther than `D_2` from every point that link 1 can put it at (the arc of radius
 //!   `L_1` over the angles of `bounds.q1` within `q_rel_max` of `th_2`'s interval): no pose of the box
 //!   grasps the bar within the limits;
-//! - or some link `i` comes closer than `margin - D_i` to some obstacle at the centre (a point's
-//!   distance to a segment whose end points move by at most `d` changes by at most `d`): every pose
-//!   of it is blocked;
-//! - or a pose grasping the bar near its centre (inverse kinematics from the centre, at most
-//!   [`MAX_WITNESS_TRIES`] times) is admissible and passes the caller's check: the search ends with
-//!   that pose.
+//! - or some link `i` comes closer than `margin - max(D_i, D_{i+1})` to some obstacle at the centre
+//!   (a point's distance to a segment whose end points move by at most `d` changes by at most `d`):
+//!   every pose of it is blocked;
+//! - or, when the centre keeps the clearance, a pose grasping the bar built from it is admissible
+//!   and passes the caller's check (links 3..n at the centre's angles with links 1 and 2 closing the
+//!   chain, both elbows; then inverse kinematics from the centre, at most [`MAX_WITNESS_TRIES`]
+//!   times in all): the search ends with that pose.
 //!
 //! Otherwise the box is split in half along one angle: the angle of the links from the blocking link
 //! to the bar with the largest `L_i h_i` when the centre is blocked, else of all. A box whose angles
