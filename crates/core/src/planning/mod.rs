@@ -50,8 +50,8 @@ pub use nlp::{AdapterTimings, OcpNlp, PassStats, TimeSplit};
 pub use outcome::{Plan, SolveAttempt, SolveRole, Violations};
 pub use planner::{plan, plan_validated, plan_with_guess};
 pub use report::{
-    Blockage, ContinuationStop, Diagnosis, GuessReport, GuessStrategy, LinkClearance, ProbeSolve,
-    SwingTimeProbe, TorqueContinuation, TorqueProbe, Verdict,
+    BetweenKnots, Blockage, ContinuationStop, Diagnosis, GuessReport, GuessStrategy, LinkClearance,
+    ProbeSolve, SwingTimeProbe, TorqueContinuation, TorqueProbe, Verdict,
 };
 pub use settings::{
     Bounds, ObstacleGuess, PlannerSettings, ShootingSettings, SwingTime, Transcription,

@@ -6,6 +6,7 @@
 //!
 //! Units: m, s, N m.
 
+use super::clearance_check::ClearanceViolation;
 use super::nlp::SolveStatus;
 use super::strategy::cspace::CspaceReport;
 use super::strategy::detour::SeedReport;
@@ -447,8 +448,9 @@ impl fmt::Display for SwingTimeSearch {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
-    /// The obstacle touches the target bar's grasp (within the last link's radius plus the margin)
-    /// or the start pose (within the margin): no motion clears it, whatever the torque or swing time.
+    /// The obstacles block every pose that grasps the target bar within the joint limits (by the
+    /// margin; [`crate::planning::grasp::grasp_blocked`]) or the obstacle is within the margin of the
+    /// start pose: no motion clears it, whatever the torque or swing time.
     Unreachable,
     /// A detour was found with the limits widened, and not within the real limits at a longer swing
     /// time: it needs more torque (the [`TorqueProbe`]'s ratios).
@@ -461,6 +463,23 @@ pub enum Verdict {
     DetourWithinLimits,
     /// No probe converged (or no time was left for one): no detour was found.
     NoDetourFound,
+    /// No plan kept the clearance, but a detour converged on its knots and passes inside the margin
+    /// only between them, by the [`Diagnosis::between_knots`] shortfall: a detour nearly exists
+    /// (a finer mesh may plan it); nothing is said about more torque.
+    ShortBetweenKnots,
+}
+
+/// A solve that converged on its knots but whose 1 ms trajectory passes inside the margin between
+/// them: the closest of them to keeping the clearance ([`Verdict::ShortBetweenKnots`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BetweenKnots {
+    /// Which solve: `plan` (the obstacle strategies' own plan, at the real limits) or the torque
+    /// probe's guess (`cspace-seed`, `failed-attempt`).
+    pub solve: String,
+    /// Factor on the actuator limits of that solve (1: the real limits).
+    pub torque_scale: f64,
+    /// Where its 1 ms trajectory comes closest inside the margin, and by how much.
+    pub violation: ClearanceViolation,
 }
 
 /// The task planned with every actuator limit widened by `scale`.
@@ -492,6 +511,10 @@ pub struct ProbeSolve {
     pub guess: String,
     /// How the solve ended.
     pub status: SolveStatus,
+    /// When it converged on its knots but its 1 ms trajectory breaks the clearance between them:
+    /// where and by how much.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_knots: Option<ClearanceViolation>,
 }
 
 impl TorqueProbe {
@@ -548,6 +571,11 @@ pub struct Diagnosis {
     /// the start to the bar (at the search's grid and margin; evidence, not proof).
     #[serde(default)]
     pub paths_exhausted: bool,
+    /// The solve (of the strategies or the torque probe) that converged on its knots and came
+    /// closest to keeping the clearance between them, when no plan kept it; `None` when none
+    /// converged on its knots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_knots: Option<BetweenKnots>,
 }
 
 impl fmt::Display for Diagnosis {
@@ -560,6 +588,32 @@ impl fmt::Display for Diagnosis {
                 "obstacle {o} blocks link {l} where it must pass (at the target bar or the start \
                      pose): no torque or swing time clears it"
             )
+            }
+            Verdict::ShortBetweenKnots => {
+                write!(f, "obstacle {o} blocks link {l}")?;
+                if let Some(b) = &self.between_knots {
+                    let v = &b.violation;
+                    let what = if b.solve == "plan" {
+                        "the strategies' best plan, at the real limits".to_string()
+                    } else {
+                        format!(
+                            "the torque probe from its {} guess, limits widened {:.0}x",
+                            b.solve, b.torque_scale
+                        )
+                    };
+                    write!(
+                        f,
+                        "; a detour converged on its knots ({what}) but passes {:.1} mm inside \
+                         the margin between them ({} at t = {:.3} s, {:.4} m from each other \
+                         against {:.4} m): no detour keeps the clearance along the whole motion \
+                         yet, though one nearly does (a smaller knot_dt_s may plan it)",
+                        v.shortfall_m() * 1e3,
+                        v.subject,
+                        v.time_s,
+                        v.clearance_m,
+                        v.required_m
+                    )?;
+                }
             }
             Verdict::NoDetourFound if self.torque_probe.is_none() => write!(
                 f,

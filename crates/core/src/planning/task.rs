@@ -352,8 +352,9 @@ fn check_grasp(
     prefix: &str,
 ) -> Result<()> {
     let margin = settings.obstacle_margin;
-    let q1 = settings.bounds.q1;
-    let Some(b) = super::grasp::grasp_blocked(robot, task.target, &task.obstacles, margin, q1)
+    let bounds = &settings.bounds;
+    let q1 = bounds.q1;
+    let Some(b) = super::grasp::grasp_blocked(robot, task.target, &task.obstacles, margin, bounds)
     else {
         return Ok(());
     };
@@ -370,26 +371,33 @@ fn check_grasp(
     } else {
         format!(" (together with {})", others.join(", "))
     };
-    let best = format!(
-        "; the best such angle keeps at most {:.4} m",
-        b.best_clearance_m
-    );
+    let at_bar = if b.link == n - 1 {
+        format!(
+            "the last link (link {n}, capsule radius {} m) ends at the bar, and ",
+            robot.radii()[n - 1]
+        )
+    } else {
+        String::new()
+    };
     Err(Error::invalid(
         src,
         format!("{prefix}obstacles[{}]", b.nearest),
         format!("center {:?}, radius {}", o.center, o.radius),
         format!(
             "its surface is {:.4} m from the target bar {:?}, and no pose that grasps the bar \
-             clears it{together}: the last link (link {n}, capsule radius {} m) ends at the bar, and \
-             at every angle of it whose far joint the links before it can reach with link 1 inside \
-             planner.bounds.q1 = [{}, {}] rad, it comes closer to the obstacle than \
-             planner.obstacle_margin = {} m{best}; move the obstacle or the bar",
+             clears it{together}: {at_bar}every pose that grasps the bar with link 1 inside \
+             planner.bounds.q1 = [{}, {}] rad and every relative joint within \
+             planner.bounds.q_rel_max = {} rad brings a link closer to the obstacles than \
+             planner.obstacle_margin = {} m (link {} in the best of them, which keeps at most \
+             {:.5} m); move the obstacles or the bar",
             b.bar_distance_m,
             task.target,
-            robot.radii()[n - 1],
             q1[0],
             q1[1],
+            bounds.q_rel_max,
             margin,
+            b.link + 1,
+            b.best_clearance_m,
         ),
     ))
 }

@@ -15,7 +15,10 @@
 //!    detour found needs ([`TorqueProbe`]);
 //! 3. from that detour, the swing-time probe plans the task at the real limits with a free swing time
 //!    in `[T, PROBE_SWING_TIME_FACTOR T]` (multiple shooting only): the swing time the detour needs
-//!    within the limits ([`SwingTimeProbe`]).
+//!    within the limits ([`SwingTimeProbe`]);
+//! 4. when no probe converged but the chain's plan or a probe solve converged on its knots and only
+//!    its 1 ms trajectory passes inside the margin between them, the closest of them is the verdict
+//!    ([`Verdict::ShortBetweenKnots`], [`BetweenKnots`]): a near miss, not a want of torque.
 //!
 //! The chain plans the first probe's seed widened itself, and from it the task at the real limits or
 //! with a free swing time (its step 6): a detour within the limits, or one a longer swing makes
@@ -52,7 +55,7 @@ use crate::planning::grasp::grasp_blocked;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::{Plan, SolveRole};
 use crate::planning::report::{
-    Diagnosis, GuessReport, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict,
+    BetweenKnots, Diagnosis, GuessReport, ProbeSolve, SwingTimeProbe, TorqueProbe, Verdict,
 };
 use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
@@ -161,9 +164,14 @@ fn unreachable(
     settings: &PlannerSettings,
 ) -> Result<Option<(usize, usize)>> {
     let margin = settings.obstacle_margin;
-    let q1 = settings.bounds.q1;
-    if let Some(b) = grasp_blocked(robot, task.target, &task.obstacles, margin, q1) {
-        return Ok(Some((b.nearest, robot.n - 1)));
+    if let Some(b) = grasp_blocked(
+        robot,
+        task.target,
+        &task.obstacles,
+        margin,
+        &settings.bounds,
+    ) {
+        return Ok(Some((b.nearest, b.link)));
     }
     for (i, o) in task.obstacles.iter().enumerate() {
         let one = [*o];
@@ -209,6 +217,7 @@ fn probe(
         iterations: 0,
         solve_time_s: 0.0,
         paths_exhausted: false,
+        between_knots: None,
     };
     if let Some((o, l)) = unreachable(robot, task, settings)? {
         (d.obstacle, d.link, d.verdict) = (o, l, Verdict::Unreachable);
@@ -287,10 +296,47 @@ fn probe(
             d.verdict = Verdict::NeedsSwingTime;
         }
     }
+    if d.verdict == Verdict::NoDetourFound {
+        d.between_knots = closest_between_knots(p, tp.as_ref());
+        if d.between_knots.is_some() {
+            d.verdict = Verdict::ShortBetweenKnots;
+        }
+    }
     d.torque_probe = tp;
     d.out_of_time = limit.remaining(t0).is_none();
     (d.solves, d.iterations, d.solve_time_s) = (cost.solves, cost.iterations, cost.time_s);
     Ok(Probe::Diagnosis(Box::new(Some(d))))
+}
+
+/// Of the strategies' plan `p` (at the real limits) and the torque probe's solves `tp`, the one that
+/// converged on its knots with the smallest shortfall of clearance between them (the real limits
+/// first at equal shortfall); `None` when none converged on its knots.
+fn closest_between_knots(p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKnots> {
+    let own = p
+        .status
+        .is_converged()
+        .then_some(p.clearance_violation)
+        .flatten()
+        .map(|v| BetweenKnots {
+            solve: "plan".to_string(),
+            torque_scale: 1.0,
+            violation: v,
+        });
+    let probed = tp.into_iter().flat_map(|t| {
+        t.tried.iter().filter_map(|s| {
+            s.between_knots.map(|v| BetweenKnots {
+                solve: s.guess.clone(),
+                torque_scale: t.scale,
+                violation: v,
+            })
+        })
+    });
+    own.into_iter().chain(probed).min_by(|a, b| {
+        let key = |x: &BetweenKnots| (x.violation.shortfall_m(), x.torque_scale);
+        key(a)
+            .partial_cmp(&key(b))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    })
 }
 
 /// The guess of the torque probe before the failed attempt: the configuration-space seed of the
@@ -392,6 +438,11 @@ fn torque_probe(
         rep.tried.push(ProbeSolve {
             guess: name.clone(),
             status: w.status.clone(),
+            between_knots: w
+                .status
+                .is_converged()
+                .then_some(w.clearance_violation)
+                .flatten(),
         });
         rep.guess = name;
         if w.converged() {
@@ -674,6 +725,7 @@ mod tests {
             iterations: 0,
             solve_time_s: 0.0,
             paths_exhausted: false,
+            between_knots: None,
         };
         assert!(!d.to_string().contains("no collision-free path"), "{d}");
         d.paths_exhausted = true;
@@ -682,6 +734,93 @@ mod tests {
             msg.starts_with("obstacle 0 blocks link 2") && msg.contains("no collision-free path"),
             "{msg}"
         );
+    }
+
+    /// A violation of the 10 mm margin by `short` m, link 3 and obstacle 0 at 1.2 s.
+    fn short_by(short: f64) -> crate::planning::ClearanceViolation {
+        crate::planning::ClearanceViolation {
+            subject: crate::planning::ClearanceSubject::Obstacle {
+                obstacle: 0,
+                link: 2,
+            },
+            time_s: 1.2,
+            clearance_m: 0.01 - short,
+            required_m: 0.01,
+            tolerance_m: 0.001,
+        }
+    }
+
+    /// A failure whose solves converge on their knots but pass inside the margin between them gets
+    /// its own verdict: the closest of them (the strategies' plan at the real limits, or a widened
+    /// probe solve) with its shortfall in mm and where, and no claim about widened torque limits; a
+    /// failure where nothing converged keeps "no detour was found".
+    #[test]
+    fn a_detour_short_only_between_its_knots_is_told_apart_from_no_detour() {
+        let (_, _, _, mut p) = failed();
+        let tp = TorqueProbe {
+            scale: 8.0,
+            converged: false,
+            guess: "failed-attempt".into(),
+            peak_torque_nm: vec![],
+            limit_nm: vec![5.0; 3],
+            ratio: vec![],
+            tried: vec![
+                ProbeSolve {
+                    guess: "cspace-seed".into(),
+                    status: crate::planning::nlp::SolveStatus::Solved,
+                    between_knots: Some(short_by(0.0021)),
+                },
+                ProbeSolve {
+                    guess: "failed-attempt".into(),
+                    status: crate::planning::nlp::SolveStatus::LocallyInfeasible,
+                    between_knots: None,
+                },
+            ],
+        };
+        // the strategies' plan did not converge: the probe's solve is the closest
+        assert!(!p.status.is_converged());
+        let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
+        assert_eq!((b.solve.as_str(), b.torque_scale), ("cspace-seed", 8.0));
+        // a plan at the real limits 1.3 mm short is closer
+        p.status = crate::planning::nlp::SolveStatus::Solved;
+        p.clearance_violation = Some(short_by(0.0013));
+        let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
+        assert_eq!((b.solve.as_str(), b.torque_scale), ("plan", 1.0));
+        let mut d = Diagnosis {
+            obstacle: 0,
+            link: 2,
+            verdict: Verdict::ShortBetweenKnots,
+            swing_time_s: 2.0,
+            torque_probe: Some(tp.clone()),
+            swing_time_probe: None,
+            out_of_time: false,
+            solves: 1,
+            iterations: 10,
+            solve_time_s: 0.1,
+            paths_exhausted: false,
+            between_knots: Some(b),
+        };
+        let msg = d.to_string();
+        for want in [
+            "obstacle 0 blocks link 3",
+            "converged on its knots (the strategies' best plan, at the real limits)",
+            "1.3 mm inside the margin between them",
+            "link 3 and obstacle 0 at t = 1.200 s",
+        ] {
+            assert!(msg.contains(want), "{want}: {msg}");
+        }
+        assert!(!msg.contains("widened 8x either"), "{msg}");
+        // nothing converged on its knots: no detour was found
+        p.status = crate::planning::nlp::SolveStatus::LocallyInfeasible;
+        let mut none = tp;
+        none.tried.truncate(0);
+        assert_eq!(closest_between_knots(&p, Some(&none)), None);
+        d.verdict = Verdict::NoDetourFound;
+        d.between_knots = None;
+        d.torque_probe = Some(none);
+        assert!(d.to_string().contains("no detour was found"), "{d}");
+        let json = serde_json::to_string(&d).unwrap();
+        assert!(!json.contains("between_knots"), "{json}");
     }
 
     #[test]

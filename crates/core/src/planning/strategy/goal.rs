@@ -7,13 +7,17 @@
 //! by the margin plus [`super::detour::EXTRA_CLEARANCE`], by inverse kinematics from the final pose
 //! with its relative joints moved by every combination of [`GOAL_OFFSETS_RAD`] (at most
 //! [`MAX_GOAL_SEEDS`] of them), keeping the clear pose inside the joint bounds closest to the final
-//! pose. [`with_final_pose`] puts it at the end of the obstacle-free swing's knots, where the seeds
+//! pose. When no seed gives one, the branch and bound over every pose grasping the bar within the
+//! joint bounds ([`crate::planning::grasp::search_grasp_poses`]) looks for one; where it proves
+//! that none keeps the margin plus [`EXTRA_CLEARANCE`], it asks less extra in turn
+//! ([`FALLBACK_EXTRA_M`], down to 1 mm). [`with_final_pose`] puts it at the end of the obstacle-free swing's knots, where the seeds
 //! take their final pose from.
 //!
 //! Units: rad, m.
 
 use crate::error::Result;
 use crate::model::{ik_from_seed, wrap_angle, Circle, ClearanceFn, Robot};
+use crate::planning::grasp::{search_grasp_poses, GraspPoses};
 use crate::planning::settings::PlannerSettings;
 use crate::planning::strategy::cspace::GRID_STEP_RAD;
 use crate::planning::strategy::detour::EXTRA_CLEARANCE;
@@ -23,6 +27,9 @@ use crate::trajectory::Trajectory;
 pub const GOAL_OFFSETS_RAD: [f64; 5] = [0.0, -0.6, 0.6, -1.2, 1.2];
 /// Most inverse-kinematics seeds tried.
 pub const MAX_GOAL_SEEDS: usize = 625;
+/// The clearance past the margin the branch and bound asks of a goal pose when no seed gave one,
+/// in turn while it proves that no pose keeps that much, m (the first is [`EXTRA_CLEARANCE`]).
+pub const FALLBACK_EXTRA_M: [f64; 4] = [EXTRA_CLEARANCE, 0.005, 0.0025, 0.001];
 
 /// A pose within the bounds that puts the end effector at `target` and clears `obstacles` (and,
 /// with `settings.self_collision`, the non-adjacent links) by the margin plus
@@ -110,6 +117,23 @@ pub fn clear_final_poses(
             Some(e) if dist < e.1 => (e.1, e.2) = (dist, q),
             Some(_) => {}
             None => best.push((fam, dist, q)),
+        }
+    }
+    // no seed gave a clear pose: the branch and bound over every pose grasping the bar, asking
+    // less extra clearance where it proves none keeps more
+    for extra in FALLBACK_EXTRA_M {
+        if !best.is_empty() || stop() {
+            break;
+        }
+        let need = settings.obstacle_margin + extra;
+        let accept = |q: &[f64]| cf.min_clearance(q) >= need;
+        match search_grasp_poses(robot, target, obstacles, need, b, &accept, stop) {
+            GraspPoses::Clear(q) => {
+                let dist: f64 = q.iter().zip(q_final).map(|(a, s)| (a - s).powi(2)).sum();
+                best.push((family(&q), dist, q));
+            }
+            GraspPoses::Blocked(_) => {}
+            GraspPoses::Unsettled => break,
         }
     }
     best.sort_by(|a, b| a.1.total_cmp(&b.1));
