@@ -287,7 +287,7 @@ fn the_whole_placement_scan() {
         if !chosen {
             continue;
         }
-        let (mut clear, mut false_success, mut failed) = (0, 0, 0);
+        let (mut clear, mut false_success, mut failed, mut refused) = (0, 0, 0, 0);
         let mut times = vec![];
         eprintln!(
             "| {name} seed | placement | outcome | min clearance (m) | time (s) | strategy |"
@@ -300,6 +300,17 @@ fn the_whole_placement_scan() {
                 eprintln!("| {seed} | overlaps the start pose: refused | | | | |");
                 continue;
             };
+            // a task the task check refuses (e.g. no pose grasps the target bar clear of the
+            // obstacles) is counted apart, as the user gets it: an error before any solve
+            let task = SwingTask {
+                obstacles: pl.obstacles.clone(),
+                ..SwingTask::paper()
+            };
+            if let Err(e) = brachia::planning::validate_task(&robot, &task, &s, "task", "") {
+                refused += 1;
+                eprintln!("| {seed} | {} | refused: {e} | | | |", pl.what);
+                continue;
+            }
             let o = run_within(&robot, &s, &pl, limit_s);
             let ok_clear = keeps_margin(&s, o.min_clearance_m);
             match (o.converged, ok_clear) {
@@ -328,8 +339,8 @@ fn the_whole_placement_scan() {
             .copied()
             .unwrap_or(f64::NAN);
         eprintln!(
-            "{name}: {} placements, {clear} converged and clear, {false_success} false successes, \
-             {failed} failed; median time {median:.2} s, p90 {p90:.2} s, max {:.2} s (limit {limit_s} \
+            "{name}: {} placements planned ({refused} more refused), {clear} converged and clear, \
+             {false_success} false successes, {failed} failed; median time {median:.2} s, p90 {p90:.2} s, max {:.2} s (limit {limit_s} \
              s); load {}",
             times.len(),
             times.last().copied().unwrap_or(f64::NAN),

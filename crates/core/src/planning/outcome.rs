@@ -174,16 +174,18 @@ impl Plan {
         if self.converged() {
             return None;
         }
-        if let (true, Some(v)) = (self.status.is_converged(), &self.clearance_violation) {
-            return Some(format!(
+        let mut msg = match (
+            self.status.is_converged(),
+            &self.clearance_violation,
+            &self.blockage,
+        ) {
+            (true, Some(v), _) => format!(
                 "the solver converged ({:?}), but the plan breaks the clearance between its \
                  checked points: {v}",
                 self.status
-            ));
-        }
-        let mut msg = match &self.blockage {
-            Some(b) => format!("the planner did not converge ({:?}): {b}", self.status),
-            None => format!("the planner did not converge ({:?})", self.status),
+            ),
+            (_, _, Some(b)) => format!("the planner did not converge ({:?}): {b}", self.status),
+            _ => format!("the planner did not converge ({:?})", self.status),
         };
         if let Some(d) = &self.diagnosis {
             msg += &format!("; {d}");
