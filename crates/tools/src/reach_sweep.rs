@@ -140,7 +140,9 @@ fn run_pass(
             } else {
                 Some(k)
             };
-            let at = at.filter(|j| j % c.ratio == 0).map(|j| j / c.ratio);
+            let at = at
+                .filter(|j| j.is_multiple_of(c.ratio))
+                .map(|j| j / c.ratio);
             if let Some(o) = at.and_then(|j| c.store.get(j)) {
                 n = rb.prune_by(o, &c.grid, c.other_direction);
             }
@@ -176,7 +178,7 @@ pub fn sweep(
 ) -> Result<SweepOutcome, ReachError> {
     let k = sw.steps;
     let ratio = match prior {
-        Some(p) if p.steps == 0 || k % p.steps != 0 => return Err(ReachError::Setting(
+        Some(p) if p.steps == 0 || !k.is_multiple_of(p.steps) => return Err(ReachError::Setting(
             "a prior's steps must divide the sweep's steps (the same time, dt a whole multiple)",
         )),
         Some(p) => k / p.steps,
