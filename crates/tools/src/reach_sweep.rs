@@ -68,6 +68,8 @@ pub struct SweepOutcome {
     pub grid: Grid,
     /// The steps of the motion (`K`).
     pub steps: usize,
+    /// The time step, s.
+    pub dt: f64,
 }
 
 /// A store of bounds that prunes a sweep: the bound at every step, its grid, whether it runs in
@@ -184,6 +186,11 @@ pub fn sweep(
         Some(p) => k / p.steps,
         None => 1,
     };
+    if prior.is_some_and(|p| (p.dt - s.dt * ratio as f64).abs() > 1e-12 * p.dt) {
+        return Err(ReachError::Setting(
+            "a prior's dt must be the sweep's dt times the ratio of their steps (the same time)",
+        ));
+    }
     let prior_cons = |direction: Direction| -> Vec<Constraint> {
         let Some(p) = prior else { return vec![] };
         let (same, other) = match direction {
@@ -223,6 +230,7 @@ pub fn sweep(
         reversed: rev,
         grid,
         steps: k,
+        dt: s.dt,
     };
     if out.proven {
         return Ok(out);

@@ -259,7 +259,12 @@ fn half_steps_pruned_by_a_coarser_grid_hold_every_motion() {
     let free = sweep(&model, &fine, &start, &target, &sw0, None).unwrap();
     let (a, b) = (out.passes[0].mid, free.passes[0].mid);
     assert!(b > 0 && 2 * a < b, "{a} of {b}");
-    // a prior whose steps do not divide the sweep's is refused
+    // a prior whose steps do not divide the sweep's, or of another time, is refused
     let sw3 = SweepSettings { steps: 45, ..sw2 };
     assert!(sweep(&model, &fine, &start, &target, &sw3, Some(&coarse)).is_err());
+    let other_time = ReachSettings {
+        dt: 0.004,
+        ..fine.clone()
+    };
+    assert!(sweep(&model, &other_time, &start, &target, &sw2, Some(&coarse)).is_err());
 }
