@@ -132,8 +132,38 @@ struct Pair {
 /// The largest `|H|` of a start, kg m^2/s (the grid's momentum range is the same for every start).
 pub const START_H_MAX: f64 = 1.0;
 
-/// The occupied cells of a bound, per `q2` cell: `(iz * n_h + ih, [z_lo, z_hi, h_lo, h_hi])`, sorted.
-pub type Snapshot = Vec<Vec<(u32, [f64; 4])>>;
+/// The occupied cells of a bound, per `q2` cell: `(iz * n_h + ih, [z_lo, z_hi, h_lo, h_hi])`, sorted;
+/// each box rounded outward to `f32` ([`widen_to_f32`]), so it holds the bound's `f64` box (half the
+/// memory of the bound's own boxes).
+pub type Snapshot = Vec<Vec<(u32, [f32; 4])>>;
+
+/// The box `[z_lo, z_hi, h_lo, h_hi]` rounded outward to `f32`: the lower ends down, the upper ends
+/// up, so the `f32` box holds the `f64` one (an empty box stays empty).
+pub fn widen_to_f32(b: &[f64; 4]) -> [f32; 4] {
+    let down = |v: f64| {
+        let x = v as f32;
+        if f64::from(x) > v {
+            x.next_down()
+        } else {
+            x
+        }
+    };
+    let up = |v: f64| {
+        let x = v as f32;
+        if f64::from(x) < v {
+            x.next_up()
+        } else {
+            x
+        }
+    };
+    [down(b[0]), up(b[1]), down(b[2]), up(b[3])]
+}
+
+/// A stored box in `f64` (exact).
+#[inline]
+fn widened(b: &[f32; 4]) -> [f64; 4] {
+    b.map(f64::from)
+}
 
 /// A box of a cell: `[z_lo, z_hi, h_lo, h_hi]`.
 type CellBox = [f64; 4];
@@ -586,9 +616,19 @@ impl ReachBox {
         self.h.n as u32
     }
 
-    /// The occupied cells, per `q2` cell (for [`Self::meets_reversed`]).
+    /// The occupied cells, per `q2` cell, rounded outward to `f32` (for [`Self::meets_reversed`]
+    /// and the sweeps' stores).
     pub fn snapshot(&self) -> Snapshot {
-        self.slices.clone()
+        self.slices
+            .iter()
+            .map(|sl| sl.iter().map(|(i, b)| (*i, widen_to_f32(b))).collect())
+            .collect()
+    }
+
+    /// The occupied cells, per `q2` cell, as the bound holds them: `(iz * n_h + ih, [z_lo, z_hi,
+    /// h_lo, h_hi])`, sorted.
+    pub fn boxes(&self) -> &[Vec<(u32, [f64; 4])>] {
+        &self.slices
     }
 
     /// How many boxes of this bound meet a box of `other` (a snapshot of a bound with the same settings,
@@ -597,8 +637,8 @@ impl ReachBox {
     /// `u -> -u`), so a motion of duration `t1 + t2` from this bound's start to a state of `other`'s
     /// start with `H` reversed passes, at `t1`, through such a pair (this bound at `t1`, `other` at
     /// `t2`): with none, no such motion exists.
-    pub fn meets_reversed(&self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
-        meets_reversed(&self.slices, other, self.h.n as u32)
+    pub fn meets_reversed(&self, other: &[Vec<(u32, [f32; 4])>]) -> usize {
+        meets_reversed(&self.snapshot(), other, self.h.n as u32)
     }
 
     /// Up to `n` boxes (as `[q2, z, H]` intervals) whose bound on `max(d, lambda |H|)` is at most
@@ -621,7 +661,7 @@ impl ReachBox {
     /// that meet none. A motion from this bound's start that reaches a state of `other`'s start (its
     /// momentum reversed) in `other`'s time passes now through a state in both, so every such motion
     /// stays in the pruned bound. Returns the boxes left.
-    pub fn prune_reversed(&mut self, other: &[Vec<(u32, [f64; 4])>]) -> usize {
+    pub fn prune_reversed(&mut self, other: &[Vec<(u32, [f32; 4])>]) -> usize {
         let g = self.grid();
         self.prune_by(other, &g, true)
     }
@@ -642,7 +682,7 @@ impl ReachBox {
     /// boxes left; all of them when the `q2` ranges differ.
     pub fn prune_by(
         &mut self,
-        other: &[Vec<(u32, [f64; 4])>],
+        other: &[Vec<(u32, [f32; 4])>],
         grid: &Grid,
         reversed: bool,
     ) -> usize {
@@ -659,7 +699,7 @@ impl ReachBox {
                 a.clear();
                 return;
             };
-            let near: Vec<&Vec<(u32, CellBox)>> = (c0..=c1)
+            let near: Vec<&Vec<(u32, [f32; 4])>> = (c0..=c1)
                 .filter(|&c| !oq.cell(c).meet(ci).is_empty())
                 .map(|c| &other[c])
                 .collect();
@@ -680,6 +720,7 @@ impl ReachBox {
                         let lo = b.partition_point(|c| c.0 < iz * onh + h0 as u32);
                         let hi = b.partition_point(|c| c.0 <= iz * onh + h1 as u32);
                         for (_, y) in &b[lo..hi.max(lo)] {
+                            let y = widened(y);
                             let (ya, yb) = if reversed {
                                 (-y[3], -y[2])
                             } else {
@@ -738,11 +779,21 @@ impl ReachBox {
     /// The distance (in the larger of `|dz|` and `|dH|`) from the state `[q1, H, q2]` to the nearest
     /// box of its `q2` cell (or either cell, on their common edge); 0 when a box holds it.
     pub fn distance(&self, x: [f64; 3]) -> f64 {
-        self.distance_in(&self.slices, x)
+        self.distance_to(&self.slices, |b| *b, x)
     }
 
     /// [`Self::distance`] to the boxes of `snap`, a snapshot of a bound with the same settings.
-    pub fn distance_in(&self, snap: &[Vec<(u32, [f64; 4])>], x: [f64; 3]) -> f64 {
+    pub fn distance_in(&self, snap: &[Vec<(u32, [f32; 4])>], x: [f64; 3]) -> f64 {
+        self.distance_to(snap, widened, x)
+    }
+
+    /// [`Self::distance`] to boxes stored as `T`, read by `get`.
+    fn distance_to<T>(
+        &self,
+        snap: &[Vec<(u32, T)>],
+        get: impl Fn(&T) -> [f64; 4],
+        x: [f64; 3],
+    ) -> f64 {
         let zx = x[0] + self.m.phi_at(x[2]);
         let mut best = f64::INFINITY;
         for i in 0..self.q2.n {
@@ -751,6 +802,7 @@ impl ReachBox {
                 continue;
             }
             for (_, b) in &snap[i] {
+                let b = get(b);
                 let dz = (b[0] - zx).max(zx - b[1]).max(0.0);
                 let dh = (b[2] - x[1]).max(x[1] - b[3]).max(0.0);
                 best = best.min(dz.max(dh));
@@ -761,7 +813,7 @@ impl ReachBox {
 }
 
 /// [`ReachBox::meets_reversed`] on two snapshots of a grid with `nh` momentum cells.
-pub fn meets_reversed(a: &[Vec<(u32, [f64; 4])>], b: &[Vec<(u32, [f64; 4])>], nh: u32) -> usize {
+pub fn meets_reversed(a: &[Vec<(u32, [f32; 4])>], b: &[Vec<(u32, [f32; 4])>], nh: u32) -> usize {
     a.par_iter()
         .zip(b.par_iter())
         .map(|(a, b)| {
@@ -771,6 +823,7 @@ pub fn meets_reversed(a: &[Vec<(u32, [f64; 4])>], b: &[Vec<(u32, [f64; 4])>], nh
                 let lo = b.partition_point(|c| c.0 < iz * nh);
                 let hi = b.partition_point(|c| c.0 < (iz + 1) * nh);
                 for (_, y) in &b[lo..hi] {
+                    let (x, y) = (widened(x), widened(y));
                     if x[0] <= y[1] && y[0] <= x[1] && x[2] <= -y[2] && -y[3] <= x[3] {
                         n += 1;
                     }

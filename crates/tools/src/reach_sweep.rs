@@ -17,7 +17,8 @@
 //! which some step holds no box proves that no such motion exists.
 //!
 //! Refinement: the sweeps of a coarse grid (a [`SweepOutcome`] passed as `prior`) prune every step
-//! of the sweeps of a finer one (the same `dt`, narrower `q2`, `z` and `H` cells), from the
+//! of the sweeps of a finer one (narrower `q2`, `z` and `H` cells; the same `dt` or a whole fraction
+//! of it, each step at a time of the coarse grid pruned), from the
 //! first step of the first sweep on, so the finer grid holds only the cells about the coarse one's
 //! boxes: the grid is refined where the motions to the target could be, not everywhere. Sweeps stop at the proof, after
 //! `passes`, or when a sweep leaves more than `stall` times the boxes of the previous one in the same
@@ -65,6 +66,10 @@ pub struct SweepOutcome {
     pub reversed: Vec<Snapshot>,
     /// The grid of the bounds.
     pub grid: Grid,
+    /// The steps of the motion (`K`).
+    pub steps: usize,
+    /// The time step, s.
+    pub dt: f64,
 }
 
 /// A store of bounds that prunes a sweep: the bound at every step, its grid, whether it runs in
@@ -73,6 +78,8 @@ struct Constraint<'a> {
     store: &'a [Snapshot],
     grid: Grid,
     other_direction: bool,
+    /// Steps of the pruned sweep per step of the store (the store prunes every `ratio`-th step).
+    ratio: usize,
 }
 
 /// The sweeps' settings.
@@ -135,6 +142,9 @@ fn run_pass(
             } else {
                 Some(k)
             };
+            let at = at
+                .filter(|j| j.is_multiple_of(c.ratio))
+                .map(|j| j / c.ratio);
             if let Some(o) = at.and_then(|j| c.store.get(j)) {
                 n = rb.prune_by(o, &c.grid, c.other_direction);
             }
@@ -158,7 +168,8 @@ fn run_pass(
 
 /// Sweep forward from `start` and reversed from `target` (both unions of `[q1, H, q2]` boxes, `H` as
 /// the motion has it) over `sw.steps` steps of `s.dt`, each step pruned by `prior` (the sweeps of the
-/// same start and target over the same steps, on a grid with the same `dt` and `q2` range) too.
+/// same start and target over the same time, on a grid with the same `q2` range and `dt` a whole
+/// multiple of `s.dt`) too.
 pub fn sweep(
     model: &ReducedTwoLink,
     s: &ReachSettings,
@@ -168,6 +179,18 @@ pub fn sweep(
     prior: Option<&SweepOutcome>,
 ) -> Result<SweepOutcome, ReachError> {
     let k = sw.steps;
+    let ratio = match prior {
+        Some(p) if p.steps == 0 || !k.is_multiple_of(p.steps) => return Err(ReachError::Setting(
+            "a prior's steps must divide the sweep's steps (the same time, dt a whole multiple)",
+        )),
+        Some(p) => k / p.steps,
+        None => 1,
+    };
+    if prior.is_some_and(|p| (p.dt - s.dt * ratio as f64).abs() > 1e-12 * p.dt) {
+        return Err(ReachError::Setting(
+            "a prior's dt must be the sweep's dt times the ratio of their steps (the same time)",
+        ));
+    }
     let prior_cons = |direction: Direction| -> Vec<Constraint> {
         let Some(p) = prior else { return vec![] };
         let (same, other) = match direction {
@@ -179,11 +202,13 @@ pub fn sweep(
                 store: same,
                 grid: p.grid,
                 other_direction: false,
+                ratio,
             },
             Constraint {
                 store: other,
                 grid: p.grid,
                 other_direction: true,
+                ratio,
             },
         ]
     };
@@ -204,6 +229,8 @@ pub fn sweep(
         forward: vec![],
         reversed: rev,
         grid,
+        steps: k,
+        dt: s.dt,
     };
     if out.proven {
         return Ok(out);
@@ -215,15 +242,23 @@ pub fn sweep(
         } else {
             Direction::Reversed
         };
+        // the sweep this one replaces prunes nothing now: freed before it runs
         let (boxes, store) = match direction {
-            Direction::Forward => (start, &out.reversed),
-            Direction::Reversed => (target, &out.forward),
+            Direction::Forward => {
+                out.forward = vec![];
+                (start, &out.reversed)
+            }
+            Direction::Reversed => {
+                out.reversed = vec![];
+                (target, &out.forward)
+            }
         };
         let mut cons = prior_cons(direction);
         cons.push(Constraint {
             store,
             grid,
             other_direction: true,
+            ratio: 1,
         });
         let (st, kept) = run_pass(model, s, boxes, direction, (k, k), &cons)?;
         out.passes.push(st);

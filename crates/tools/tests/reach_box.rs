@@ -2,7 +2,7 @@
 //! values at random points, `phi` integrates `M12/M11`, and the bound holds every motion tried (the
 //! dynamic programme's own motions and random elbow-rate sequences integrated with RK4).
 use brachia::model::ik_from_seed;
-use brachia_tools::reach_box::{meets_reversed, ReachBox, ReachSettings};
+use brachia_tools::reach_box::{meets_reversed, widen_to_f32, ReachBox, ReachSettings};
 use brachia_tools::reach_interval::Iv;
 use brachia_tools::reach_model::ReachModel;
 use brachia_tools::swing_dp::{DpSettings, ValueHistory};
@@ -265,4 +265,54 @@ fn forward_and_reversed_bounds_meet_on_a_motion() {
         b.step().unwrap();
     }
     assert_eq!(a.meets_reversed(&b.snapshot()), 0);
+}
+
+#[test]
+fn boxes_stored_in_f32_hold_the_f64_boxes() {
+    // random boxes of every scale and sign: the f32 box holds the f64 one, within one f32 unit
+    let mut rng = ChaCha8Rng::seed_from_u64(32);
+    let mut rounded = 0;
+    for _ in 0..100_000 {
+        let scale = [1e-9, 1e-3, 0.4, 3.0, 12.0][rng.gen_range(0..5)];
+        let mut b = [0.0f64; 4];
+        for k in [0, 2] {
+            let a = rng.gen_range(-scale..scale);
+            let w = rng.gen_range(0.0..scale * 1e-3);
+            b[k] = a;
+            b[k + 1] = a + w;
+        }
+        if rng.gen_bool(0.05) {
+            // ends that are f32 numbers stay as they are
+            b = b.map(|v| f64::from(v as f32));
+        }
+        let w = widen_to_f32(&b);
+        for k in [0, 2] {
+            let (lo, hi) = (f64::from(w[k]), f64::from(w[k + 1]));
+            assert!(lo <= b[k] && b[k + 1] <= hi, "{b:?} -> {w:?}");
+            // the nearest f32 numbers outside: one unit further in would cut the box
+            assert!(f64::from(w[k].next_up()) > b[k], "{b:?} -> {w:?}");
+            assert!(f64::from(w[k + 1].next_down()) < b[k + 1], "{b:?} -> {w:?}");
+            if lo != b[k] {
+                rounded += 1;
+            }
+        }
+    }
+    assert!(rounded > 100_000, "{rounded} ends rounded");
+    // a bound's snapshot holds each of its boxes, cell by cell
+    let (robot, model) = hook();
+    let q0 = ik_from_seed(&robot, &[-2.2, -1.9], [-0.34, 0.0]).unwrap();
+    let mut rb = ReachBox::new(&model, &settings(0.01), [q0[0], 0.0, q0[1]]).unwrap();
+    for _ in 0..20 {
+        rb.step().unwrap();
+    }
+    let snap = rb.snapshot();
+    assert!(rb.cells() > 1000);
+    for (a, b) in rb.boxes().iter().zip(&snap) {
+        assert_eq!(a.len(), b.len());
+        for ((i, x), (j, y)) in a.iter().zip(b) {
+            assert_eq!(i, j);
+            let y = y.map(f64::from);
+            assert!(y[0] <= x[0] && x[1] <= y[1] && y[2] <= x[2] && x[3] <= y[3]);
+        }
+    }
 }

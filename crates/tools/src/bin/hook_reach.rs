@@ -17,7 +17,8 @@
 //! cargo run --release -p brachia-tools --bin hook_reach -- hang          # from a straight hang
 //! cargo run --release -p brachia-tools --bin hook_reach -- t=1.0,1.05    # only these swing times
 //! cargo run --release -p brachia-tools --bin hook_reach -- sweep t=0.9 refine=116x0.005x0.0025
-//!     # forward-backward sweeps, then on finer q2 x z x H cells pruned by them (passes=N a grid)
+//!     # forward-backward sweeps, then on finer q2 x z x H cells pruned by them (passes=N a grid;
+//!     # N2xDZxDHxDT also steps the finer grid by DT, a whole fraction of the coarser one's)
 //! ```
 //! Units: m, s, rad, kg m^2/s.
 use brachia::model::ik_from_seed;
@@ -43,6 +44,16 @@ fn load() -> String {
         .to_string()
 }
 
+/// The process's peak resident memory so far, GB (0 where the system does not say).
+fn peak_gb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .unwrap_or_default()
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(0.0, |kb| kb / 1e6)
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut grid, mut hang, mut mid) = ("0.01x58x0.01x0.005x8".to_string(), false, false);
     let (mut sweeps, mut passes, mut refine) = (false, 6, vec![]);
@@ -55,16 +66,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         } else if a == "sweep" {
             sweeps = true;
         } else if let Some(r) = a.strip_prefix("refine=") {
-            // finer grids, each pruned by the sweeps of the one before: N2xDZxDH,...
+            // finer grids, each pruned by the sweeps of the one before: N2xDZxDH[xDT],...
             for g in r.split(',') {
                 let v: Vec<&str> = g.split('x').collect();
-                if v.len() != 3 {
-                    return Err(format!("refine=N2xDZxDH,..., not {g}").into());
+                if v.len() != 3 && v.len() != 4 {
+                    return Err(format!("refine=N2xDZxDH[xDT],..., not {g}").into());
                 }
                 refine.push((
                     v[0].parse::<usize>()?,
                     v[1].parse::<f64>()?,
                     v[2].parse::<f64>()?,
+                    v.get(3).map(|d| d.parse::<f64>()).transpose()?,
                 ));
             }
         } else if let Some(n) = a.strip_prefix("passes=") {
@@ -271,7 +283,7 @@ fn sweep_each(
     start: [f64; 3],
     times: &[f64],
     passes: usize,
-    refine: &[(usize, f64, f64)],
+    refine: &[(usize, f64, f64, Option<f64>)],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let hm = EPS / s.lambda;
     let target: Vec<[Iv; 3]> = ReachModel::new(model, s.u_max)?
@@ -286,23 +298,24 @@ fn sweep_each(
         s.n_q2,
         load()
     );
-    println!("| T s | q2 cells x dz rad x dH kg m^2/s | proven | boxes at T/2 per sweep (R reversed, F forward; 0@k: none at step k) | peak boxes | elapsed s | load |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| T s | q2 cells x dz rad x dH kg m^2/s (x dt s) | proven | boxes at T/2 per sweep (R reversed, F forward; 0@k: none at step k) | peak boxes | elapsed s | peak memory GB | load |");
+    println!("|---|---|---|---|---|---|---|---|");
     for &t in times {
         let t0 = Instant::now();
-        let sw = SweepSettings {
-            steps: (t / s.dt).round() as usize,
-            passes,
-            stall: 0.98,
-        };
         let mut prior = None;
-        let grids = std::iter::once((s.n_q2, s.dz, s.dh)).chain(refine.iter().copied());
-        for (n_q2, dz, dh) in grids {
+        let grids = std::iter::once((s.n_q2, s.dz, s.dh, None)).chain(refine.iter().copied());
+        for (n_q2, dz, dh, dt) in grids {
             let sg = ReachSettings {
                 n_q2,
                 dz,
                 dh,
+                dt: dt.unwrap_or(s.dt),
                 ..s.clone()
+            };
+            let sw = SweepSettings {
+                steps: (t / sg.dt).round() as usize,
+                passes,
+                stall: 0.98,
             };
             let out = sweep(model, &sg, &start, &target, &sw, prior.as_ref())?;
             let per: Vec<String> = out
@@ -322,12 +335,14 @@ fn sweep_each(
                 })
                 .collect();
             println!(
-                "| {:.3} | {n_q2} x {dz} x {dh} | {} | {} | {} | {:.1} | {} |",
-                sw.steps as f64 * s.dt,
+                "| {:.3} | {n_q2} x {dz} x {dh}{} | {} | {} | {} | {:.1} | {:.2} | {} |",
+                sw.steps as f64 * sg.dt,
+                dt.map_or(String::new(), |d| format!(" x {d}")),
                 if out.proven { "yes" } else { "no" },
                 per.join(", "),
                 out.passes.iter().map(|p| p.peak).max().unwrap_or(0),
                 t0.elapsed().as_secs_f64(),
+                peak_gb(),
                 load()
             );
             if out.proven {
