@@ -218,6 +218,81 @@ fn a_wider_route_search_finds_the_race_routes_again_and_more() {
     assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
 }
 
+/// The further routes continue the race's route searches: a wider search given the race's searches
+/// yields the same routes past the race's, in the same order and with the same reports, as a new
+/// wider search does, and runs none of the race's grid searches again (fixed seed 38).
+#[test]
+fn a_wider_search_continues_the_race_searches_without_running_them_again() {
+    use brachia::planning::strategy::cspace::CspaceReport;
+    use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
+    use brachia::planning::strategy::homotopy::{
+        homotopy_routes, homotopy_routes_continued, homotopy_routes_up_to, GoalSearches,
+        RankedRoutes, RankedSeed, MAX_GOALS, ROUTES_PER_GOAL,
+    };
+    let (robot, s, free) = setup();
+    let pl = placement(&robot, &free, 38).expect("a placement");
+    let target = SwingTask::paper().target;
+    let pts = &free.points;
+    let last = pts.q(pts.len() - 1).to_vec();
+    let never = || false;
+    let base =
+        match clear_final_pose_until(&robot, &pl.obstacles, &s, &last, target, &never).unwrap() {
+            Some(q) => with_final_pose(pts, &q),
+            None => pts.clone(),
+        };
+    let (obs, wider) = (&pl.obstacles, (MAX_GOALS + 5, ROUTES_PER_GOAL + 2));
+    let key = |r: &RankedRoutes, sd: &RankedSeed| {
+        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
+    };
+    // the race's search, and a new wider one
+    let race = homotopy_routes(&robot, obs, &s, &base, target, &never).unwrap();
+    let wide = homotopy_routes_up_to(&robot, obs, &s, &base, target, wider, &never).unwrap();
+    let race_keys: Vec<_> = race.seeds.iter().map(|sd| key(&race, sd)).collect();
+    let past_race = |r: &RankedRoutes| -> Vec<(Vec<Vec<f64>>, CspaceReport)> {
+        r.seeds
+            .iter()
+            .filter(|sd| !race_keys.contains(&key(r, sd)))
+            .map(|sd| (sd.path.clone(), r.reports[sd.report].clone()))
+            .collect()
+    };
+    // the race's search kept, then continued
+    let mut kept = GoalSearches::kept();
+    let race_limits = (MAX_GOALS, ROUTES_PER_GOAL);
+    let again = homotopy_routes_continued(
+        &robot,
+        obs,
+        &s,
+        &base,
+        target,
+        race_limits,
+        &mut kept,
+        &never,
+    )
+    .unwrap();
+    let paths = |r: &RankedRoutes| r.seeds.iter().map(|sd| sd.path.clone()).collect::<Vec<_>>();
+    assert_eq!(paths(&again), paths(&race));
+    let mut kept = kept.not_kept();
+    let cont = homotopy_routes_continued(&robot, obs, &s, &base, target, wider, &mut kept, &never)
+        .unwrap();
+    // only the race's routes are missing from the continued search
+    assert!(cont
+        .seeds
+        .iter()
+        .all(|sd| !race_keys.contains(&key(&cont, sd))));
+    let further = past_race(&cont);
+    assert!(!further.is_empty());
+    assert_eq!(further, past_race(&wide));
+    assert!(race.grid_searches > 0);
+    assert_eq!(
+        cont.grid_searches + race.grid_searches,
+        wide.grid_searches,
+        "{} and {} against {}",
+        race.grid_searches,
+        cont.grid_searches,
+        wide.grid_searches
+    );
+}
+
 /// Fixed seed 5 (two obstacles, on link 4 at 0.90 s and link 3 at 0.99 s): the forward-fold detour
 /// seed's coarse solve stops at its iteration cap, and the fine solve plans clear from the seed
 /// itself (warm from the stalled coarse plan it ended locally infeasible).
