@@ -176,58 +176,16 @@ fn a_duplicated_or_contained_obstacle_plans_as_the_obstacle_alone() {
 
 /// The further routes (the race's last candidates) are told apart from the race's own by their goal
 /// pose and route index: a wider search finds the race's routes again, the same paths under the
-/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3).
+/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3). Given
+/// the race's searches, the wider search continues them: the same routes past the race's, in the
+/// same order and with the same reports, and none of the race's grid searches run again.
 #[test]
-fn a_wider_route_search_finds_the_race_routes_again_and_more() {
-    use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
-    use brachia::planning::strategy::homotopy::{
-        homotopy_routes, homotopy_routes_up_to, MAX_GOALS, ROUTES_PER_GOAL,
-    };
-    let (robot, s, free) = setup();
-    let pl = placement(&robot, &free, 38).expect("a placement");
-    let target = SwingTask::paper().target;
-    let pts = &free.points;
-    let last = pts.q(pts.len() - 1).to_vec();
-    let never = || false;
-    let base =
-        match clear_final_pose_until(&robot, &pl.obstacles, &s, &last, target, &never).unwrap() {
-            Some(q) => with_final_pose(pts, &q),
-            None => pts.clone(),
-        };
-    let race = homotopy_routes(&robot, &pl.obstacles, &s, &base, target, &never).unwrap();
-    let limits = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
-    let wide =
-        homotopy_routes_up_to(&robot, &pl.obstacles, &s, &base, target, limits, &never).unwrap();
-    assert!(!race.seeds.is_empty());
-    let key = |r: &brachia::planning::strategy::homotopy::RankedRoutes, i: usize| {
-        let sd = &r.seeds[i];
-        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
-    };
-    for i in 0..race.seeds.len() {
-        let (goal, route) = key(&race, i);
-        let again = (0..wide.seeds.len())
-            .find(|&j| key(&wide, j) == (goal.clone(), route))
-            .expect("the race's route in the wider search");
-        assert_eq!(race.seeds[i].path, wide.seeds[again].path);
-    }
-    assert!(wide.seeds.len() > race.seeds.len());
-    // a goal pose past the race's
-    let goal_of = |r: &brachia::planning::strategy::homotopy::RankedRoutes| {
-        r.seeds.iter().map(|sd| r.reports[sd.report].goal).max()
-    };
-    assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
-}
-
-/// The further routes continue the race's route searches: a wider search given the race's searches
-/// yields the same routes past the race's, in the same order and with the same reports, as a new
-/// wider search does, and runs none of the race's grid searches again (fixed seed 38).
-#[test]
-fn a_wider_search_continues_the_race_searches_without_running_them_again() {
+fn a_wider_route_search_continues_the_race_searches_and_finds_more() {
     use brachia::planning::strategy::cspace::CspaceReport;
     use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
     use brachia::planning::strategy::homotopy::{
-        homotopy_routes, homotopy_routes_continued, homotopy_routes_up_to, GoalSearches,
-        RankedRoutes, RankedSeed, MAX_GOALS, ROUTES_PER_GOAL,
+        homotopy_routes_continued, homotopy_routes_up_to, GoalSearches, RankedRoutes, RankedSeed,
+        MAX_GOALS, ROUTES_PER_GOAL,
     };
     let (robot, s, free) = setup();
     let pl = placement(&robot, &free, 38).expect("a placement");
@@ -240,25 +198,11 @@ fn a_wider_search_continues_the_race_searches_without_running_them_again() {
             Some(q) => with_final_pose(pts, &q),
             None => pts.clone(),
         };
-    let (obs, wider) = (&pl.obstacles, (MAX_GOALS + 5, ROUTES_PER_GOAL + 2));
-    let key = |r: &RankedRoutes, sd: &RankedSeed| {
-        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
-    };
-    // the race's search, and a new wider one
-    let race = homotopy_routes(&robot, obs, &s, &base, target, &never).unwrap();
-    let wide = homotopy_routes_up_to(&robot, obs, &s, &base, target, wider, &never).unwrap();
-    let race_keys: Vec<_> = race.seeds.iter().map(|sd| key(&race, sd)).collect();
-    let past_race = |r: &RankedRoutes| -> Vec<(Vec<Vec<f64>>, CspaceReport)> {
-        r.seeds
-            .iter()
-            .filter(|sd| !race_keys.contains(&key(r, sd)))
-            .map(|sd| (sd.path.clone(), r.reports[sd.report].clone()))
-            .collect()
-    };
-    // the race's search kept, then continued
+    let obs = &pl.obstacles;
+    // the race's search, its grid searches kept
     let mut kept = GoalSearches::kept();
     let race_limits = (MAX_GOALS, ROUTES_PER_GOAL);
-    let again = homotopy_routes_continued(
+    let race = homotopy_routes_continued(
         &robot,
         obs,
         &s,
@@ -269,19 +213,43 @@ fn a_wider_search_continues_the_race_searches_without_running_them_again() {
         &never,
     )
     .unwrap();
-    let paths = |r: &RankedRoutes| r.seeds.iter().map(|sd| sd.path.clone()).collect::<Vec<_>>();
-    assert_eq!(paths(&again), paths(&race));
+    // a new wider search, and one continuing the race's searches
+    let wider = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
+    let wide = homotopy_routes_up_to(&robot, obs, &s, &base, target, wider, &never).unwrap();
     let mut kept = kept.not_kept();
     let cont = homotopy_routes_continued(&robot, obs, &s, &base, target, wider, &mut kept, &never)
         .unwrap();
-    // only the race's routes are missing from the continued search
+    assert!(!race.seeds.is_empty());
+    let key = |r: &RankedRoutes, sd: &RankedSeed| {
+        (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
+    };
+    for sd in &race.seeds {
+        let again = wide
+            .seeds
+            .iter()
+            .find(|w| key(&wide, w) == key(&race, sd))
+            .expect("the race's route in the wider search");
+        assert_eq!(sd.path, again.path);
+    }
+    assert!(wide.seeds.len() > race.seeds.len());
+    // a goal pose past the race's
+    let goal_of = |r: &RankedRoutes| r.seeds.iter().map(|sd| r.reports[sd.report].goal).max();
+    assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
+    // the continued search: only the race's routes missing, the others as the new search's
+    let race_keys: Vec<_> = race.seeds.iter().map(|sd| key(&race, sd)).collect();
+    let past_race = |r: &RankedRoutes| -> Vec<(Vec<Vec<f64>>, CspaceReport)> {
+        r.seeds
+            .iter()
+            .filter(|sd| !race_keys.contains(&key(r, sd)))
+            .map(|sd| (sd.path.clone(), r.reports[sd.report].clone()))
+            .collect()
+    };
     assert!(cont
         .seeds
         .iter()
         .all(|sd| !race_keys.contains(&key(&cont, sd))));
-    let further = past_race(&cont);
-    assert!(!further.is_empty());
-    assert_eq!(further, past_race(&wide));
+    assert!(!past_race(&cont).is_empty());
+    assert_eq!(past_race(&cont), past_race(&wide));
     assert!(race.grid_searches > 0);
     assert_eq!(
         cont.grid_searches + race.grid_searches,
