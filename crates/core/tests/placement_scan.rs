@@ -176,12 +176,16 @@ fn a_duplicated_or_contained_obstacle_plans_as_the_obstacle_alone() {
 
 /// The further routes (the race's last candidates) are told apart from the race's own by their goal
 /// pose and route index: a wider search finds the race's routes again, the same paths under the
-/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3).
+/// same indices, and more routes past them (fixed seed 38, whose plan comes from goal pose 3). Given
+/// the race's searches, the wider search continues them: the same routes past the race's, in the
+/// same order and with the same reports, and none of the race's grid searches run again.
 #[test]
-fn a_wider_route_search_finds_the_race_routes_again_and_more() {
+fn a_wider_route_search_continues_the_race_searches_and_finds_more() {
+    use brachia::planning::strategy::cspace::CspaceReport;
     use brachia::planning::strategy::goal::{clear_final_pose_until, with_final_pose};
     use brachia::planning::strategy::homotopy::{
-        homotopy_routes, homotopy_routes_up_to, MAX_GOALS, ROUTES_PER_GOAL,
+        homotopy_routes_continued, homotopy_routes_up_to, GoalSearches, RankedRoutes, RankedSeed,
+        MAX_GOALS, ROUTES_PER_GOAL,
     };
     let (robot, s, free) = setup();
     let pl = placement(&robot, &free, 38).expect("a placement");
@@ -194,28 +198,67 @@ fn a_wider_route_search_finds_the_race_routes_again_and_more() {
             Some(q) => with_final_pose(pts, &q),
             None => pts.clone(),
         };
-    let race = homotopy_routes(&robot, &pl.obstacles, &s, &base, target, &never).unwrap();
-    let limits = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
-    let wide =
-        homotopy_routes_up_to(&robot, &pl.obstacles, &s, &base, target, limits, &never).unwrap();
+    let obs = &pl.obstacles;
+    // the race's search, its grid searches kept
+    let mut kept = GoalSearches::kept();
+    let race_limits = (MAX_GOALS, ROUTES_PER_GOAL);
+    let race = homotopy_routes_continued(
+        &robot,
+        obs,
+        &s,
+        &base,
+        target,
+        race_limits,
+        &mut kept,
+        &never,
+    )
+    .unwrap();
+    // a new wider search, and one continuing the race's searches
+    let wider = (MAX_GOALS + 1, ROUTES_PER_GOAL + 1);
+    let wide = homotopy_routes_up_to(&robot, obs, &s, &base, target, wider, &never).unwrap();
+    let mut kept = kept.not_kept();
+    let cont = homotopy_routes_continued(&robot, obs, &s, &base, target, wider, &mut kept, &never)
+        .unwrap();
     assert!(!race.seeds.is_empty());
-    let key = |r: &brachia::planning::strategy::homotopy::RankedRoutes, i: usize| {
-        let sd = &r.seeds[i];
+    let key = |r: &RankedRoutes, sd: &RankedSeed| {
         (sd.path.last().unwrap().clone(), r.reports[sd.report].route)
     };
-    for i in 0..race.seeds.len() {
-        let (goal, route) = key(&race, i);
-        let again = (0..wide.seeds.len())
-            .find(|&j| key(&wide, j) == (goal.clone(), route))
+    for sd in &race.seeds {
+        let again = wide
+            .seeds
+            .iter()
+            .find(|w| key(&wide, w) == key(&race, sd))
             .expect("the race's route in the wider search");
-        assert_eq!(race.seeds[i].path, wide.seeds[again].path);
+        assert_eq!(sd.path, again.path);
     }
     assert!(wide.seeds.len() > race.seeds.len());
     // a goal pose past the race's
-    let goal_of = |r: &brachia::planning::strategy::homotopy::RankedRoutes| {
-        r.seeds.iter().map(|sd| r.reports[sd.report].goal).max()
-    };
+    let goal_of = |r: &RankedRoutes| r.seeds.iter().map(|sd| r.reports[sd.report].goal).max();
     assert!(goal_of(&wide) > goal_of(&race), "{:?}", goal_of(&wide));
+    // the continued search: only the race's routes missing, the others as the new search's
+    let race_keys: Vec<_> = race.seeds.iter().map(|sd| key(&race, sd)).collect();
+    let past_race = |r: &RankedRoutes| -> Vec<(Vec<Vec<f64>>, CspaceReport)> {
+        r.seeds
+            .iter()
+            .filter(|sd| !race_keys.contains(&key(r, sd)))
+            .map(|sd| (sd.path.clone(), r.reports[sd.report].clone()))
+            .collect()
+    };
+    assert!(cont
+        .seeds
+        .iter()
+        .all(|sd| !race_keys.contains(&key(&cont, sd))));
+    assert!(!past_race(&cont).is_empty());
+    assert_eq!(past_race(&cont), past_race(&wide));
+    assert!(race.grid_searches > 0);
+    assert_eq!(
+        cont.grid_searches + race.grid_searches,
+        wide.grid_searches,
+        "{} and {} against {}",
+        race.grid_searches,
+        cont.grid_searches,
+        wide.grid_searches
+    );
 }
 
 /// Fixed seed 5 (two obstacles, on link 4 at 0.90 s and link 3 at 0.99 s): the forward-fold detour

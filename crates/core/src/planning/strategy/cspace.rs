@@ -33,6 +33,7 @@ use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::planning::settings::PlannerSettings;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
+use std::cell::Cell;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -276,6 +277,7 @@ pub fn cspace_path(
 /// stop, the search running ends without a path (its report says `stopped`) and no other starts.
 /// One report per search run that found no route or a distinct one (at least one report); the
 /// waypoints of those that found a distinct route (a route too near an earlier one is dropped).
+/// The same as [`RouteSearch::more`] on a new [`RouteSearch`].
 pub fn cspace_routes(
     robot: &Robot,
     obstacles: &[Circle],
@@ -285,62 +287,153 @@ pub fn cspace_routes(
     k: usize,
     stop: &dyn Fn() -> bool,
 ) -> Result<Vec<Route>> {
-    let n = robot.n;
-    let b = &settings.bounds;
-    let mut lo = vec![-b.q_rel_max; n];
-    let mut hi = vec![b.q_rel_max; n];
-    (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
-    let (step, grid) = Grid::new(&lo, &hi);
-    let mut rep = CspaceReport::not_searched(step);
-    let check = Checker {
-        cf: ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)?
-            .with_self_collision(settings.self_collision),
-        margin: settings.obstacle_margin,
-    };
-    // (reported also for a grid too coarse to search: `grid_cells` 0 says why nothing was searched)
-    rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
-    let Some(grid) = grid else {
-        return Ok(vec![(rep, None)]);
-    };
-    rep.grid_cells = grid.cells;
-    rep.grid_step_rad = grid.nominal_step;
-    if !rep.endpoints_clear {
-        return Ok(vec![(rep, None)]);
-    }
-    let mut search = Search {
-        grid,
-        check,
-        state: vec![],
-        stop,
-    };
-    search.state = vec![UNSEEN; search.grid.cells];
-    let mut out: Vec<Route> = vec![];
-    let mut found: Vec<Vec<Vec<f64>>> = vec![];
-    for route in 0..k.max(1) {
-        if route > 0 && (stop() || out.iter().any(|(r, _)| !r.found)) {
-            break;
-        }
-        let mut r = rep.clone();
-        r.route = route;
-        let cells = search.route(q_start, q_goal, &mut r);
-        let Some(cells) = cells else {
-            out.push((r, None));
-            continue;
+    Ok(RouteSearch::new(robot, obstacles, settings, q_start, q_goal)?.more(k, stop))
+}
+
+/// The route searches of [`cspace_routes`] from one start pose to one goal pose, kept between
+/// calls: a later call for more routes ([`RouteSearch::more`]) continues from the grid the earlier
+/// routes left (their tubes blocked, the cells checked), so the routes it yields are those a single
+/// call for all of them would have yielded past the earlier ones, without searching the earlier
+/// ones again.
+pub struct RouteSearch {
+    /// The report every search starts from (grid, endpoints).
+    rep: CspaceReport,
+    /// The grid and its cells' states; `None` when nothing is searched (a grid too coarse, or an
+    /// end pose that does not clear the obstacles).
+    search: Option<Search>,
+    q_start: Vec<f64>,
+    q_goal: Vec<f64>,
+    /// The distinct routes found so far.
+    found: Vec<Vec<Vec<f64>>>,
+    /// Index of the next route to search.
+    next: usize,
+    /// A search found no route: no later one is searched.
+    failed: bool,
+    /// The cells of the last route found, whose tube is blocked before the next search.
+    tube: Option<Vec<usize>>,
+    /// The stop rule said stop during a call: the grid's state is not that of a search run to
+    /// its end.
+    stopped: bool,
+    /// Grid searches run.
+    searches: usize,
+}
+
+impl RouteSearch {
+    /// The searches from `q_start` to `q_goal` against `obstacles`, none run yet (the grid is
+    /// allocated when the end poses clear the obstacles).
+    pub fn new(
+        robot: &Robot,
+        obstacles: &[Circle],
+        settings: &PlannerSettings,
+        q_start: &[f64],
+        q_goal: &[f64],
+    ) -> Result<Self> {
+        let n = robot.n;
+        let b = &settings.bounds;
+        let mut lo = vec![-b.q_rel_max; n];
+        let mut hi = vec![b.q_rel_max; n];
+        (lo[0], hi[0]) = (b.q1[0], b.q1[1]);
+        let (step, grid) = Grid::new(&lo, &hi);
+        let mut rep = CspaceReport::not_searched(step);
+        let check = Checker {
+            cf: ClearanceFn::new(robot.clone(), obstacles.to_vec(), 0.0)?
+                .with_self_collision(settings.self_collision),
+            margin: settings.obstacle_margin,
         };
-        let path = search.shortcut(q_start, q_goal, &cells, &mut r);
-        if route + 1 < k.max(1) {
-            search.block_tube(&cells);
-        }
-        let distinct = found.iter().all(|f| !same_route(f, &path));
-        if distinct {
-            found.push(path.clone());
-            out.push((r, Some(path)));
-        }
+        // (reported also for a grid too coarse to search: `grid_cells` 0 says why nothing was
+        // searched)
+        rep.endpoints_clear = check.clearance(q_start) >= 0.0 && check.clearance(q_goal) >= 0.0;
+        let search = match grid {
+            Some(grid) => {
+                rep.grid_cells = grid.cells;
+                rep.grid_step_rad = grid.nominal_step;
+                rep.endpoints_clear.then(|| Search {
+                    state: vec![UNSEEN; grid.cells],
+                    grid,
+                    check,
+                })
+            }
+            None => None,
+        };
+        Ok(RouteSearch {
+            rep,
+            search,
+            q_start: q_start.to_vec(),
+            q_goal: q_goal.to_vec(),
+            found: vec![],
+            next: 0,
+            failed: false,
+            tube: None,
+            stopped: false,
+            searches: 0,
+        })
     }
-    if out.is_empty() {
-        out.push((rep, None));
+
+    /// The routes past those of the earlier calls, up to `k` routes in all counted from the first
+    /// call's first ([`cspace_routes`]): one report per search run that found no route or a
+    /// distinct one (the first call at least one), with the waypoints of a distinct route.
+    pub fn more(&mut self, k: usize, stop: &dyn Fn() -> bool) -> Vec<Route> {
+        let said_stop = Cell::new(false);
+        let stop = || {
+            let s = stop();
+            said_stop.set(said_stop.get() || s);
+            s
+        };
+        let mut out: Vec<Route> = vec![];
+        let Some(search) = self.search.as_mut() else {
+            if self.next == 0 {
+                self.next = 1;
+                out.push((self.rep.clone(), None));
+            }
+            return out;
+        };
+        for route in self.next..k.max(1) {
+            if route > 0 {
+                if self.failed {
+                    break;
+                }
+                if let Some(cells) = self.tube.take() {
+                    search.block_tube(&cells, &stop);
+                }
+                if stop() {
+                    break;
+                }
+            }
+            self.next = route + 1;
+            self.searches += 1;
+            let mut r = self.rep.clone();
+            r.route = route;
+            let Some(cells) = search.route(&self.q_start, &self.q_goal, &mut r, &stop) else {
+                self.failed = true;
+                out.push((r, None));
+                continue;
+            };
+            let path = search.shortcut(&self.q_start, &self.q_goal, &cells, &mut r);
+            self.tube = Some(cells);
+            if self.found.iter().all(|f| !same_route(f, &path)) {
+                self.found.push(path.clone());
+                out.push((r, Some(path)));
+            }
+        }
+        self.stopped |= said_stop.get();
+        out
     }
-    Ok(out)
+
+    /// The goal pose searched to, rad.
+    pub fn goal(&self) -> &[f64] {
+        &self.q_goal
+    }
+
+    /// Whether the stop rule said stop during a call (a later call would not continue a search run
+    /// to its end).
+    pub fn stopped(&self) -> bool {
+        self.stopped
+    }
+
+    /// Grid searches run over all calls.
+    pub fn searches(&self) -> usize {
+        self.searches
+    }
 }
 
 /// One search of [`cspace_routes`]: its report and, when it found a distinct route, the route's
@@ -397,14 +490,13 @@ fn along(p: &[Vec<f64>], m: usize) -> Vec<Vec<f64>> {
 }
 
 /// One grid with its cells' states, searched for one route after another.
-struct Search<'a> {
+struct Search {
     grid: Grid,
     check: Checker,
     state: Vec<u8>,
-    stop: &'a dyn Fn() -> bool,
 }
 
-impl Search<'_> {
+impl Search {
     /// The weighted A* of the module docs from `q_start`'s cell to `q_goal`'s: the cells of the
     /// route, start to goal, or `None` (the report says why).
     fn route(
@@ -412,6 +504,7 @@ impl Search<'_> {
         q_start: &[f64],
         q_goal: &[f64],
         rep: &mut CspaceReport,
+        stop: &dyn Fn() -> bool,
     ) -> Option<Vec<usize>> {
         let n = q_start.len();
         let grid = &self.grid;
@@ -466,7 +559,7 @@ impl Search<'_> {
                     if rep.cells_discovered >= MAX_DISCOVERED {
                         break 'search;
                     }
-                    if rep.cells_discovered.is_multiple_of(STOP_CHECK_CELLS) && (self.stop)() {
+                    if rep.cells_discovered.is_multiple_of(STOP_CHECK_CELLS) && stop() {
                         rep.stopped = true;
                         break 'search;
                     }
@@ -567,7 +660,7 @@ impl Search<'_> {
     /// Block the cells within [`ROUTE_TUBE_CELLS`] (L-infinity; less on a grid of many dimensions,
     /// [`MAX_TUBE_BOX_CELLS`]) of the route `cells` for the searches after it, except near its two
     /// ends. Stops when the search is told to.
-    fn block_tube(&mut self, cells: &[usize]) {
+    fn block_tube(&mut self, cells: &[usize], stop: &dyn Fn() -> bool) {
         let (Some(&first), Some(&last)) = (cells.first(), cells.last()) else {
             return;
         };
@@ -594,7 +687,7 @@ impl Search<'_> {
         let side = (2 * r + 1) as usize;
         let count = side.pow(n as u32);
         for &k in cells {
-            if (self.stop)() {
+            if stop() {
                 return;
             }
             grid.coords(k, &mut c);

@@ -18,11 +18,13 @@ use crate::planning::nlp::NlpSettings;
 use crate::planning::settings::ValidSettings;
 use crate::planning::strategy::candidate::{solve_seed_longer_swing, LONGER_SWING_FACTOR};
 use crate::planning::strategy::cspace::{time_path, CspaceReport};
-use crate::planning::strategy::homotopy::{homotopy_routes_up_to, RankedRoutes, RankedSeed};
+use crate::planning::strategy::homotopy::{
+    homotopy_routes_continued, GoalSearches, RankedRoutes, RankedSeed,
+};
 use crate::planning::strategy::race::Plans;
 use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 
 /// Most goal poses of the further search (the seeds' final pose included).
@@ -38,6 +40,36 @@ pub(crate) type Tried = (Vec<f64>, usize);
 pub(crate) fn tried(sd: &RankedSeed, reports: &[CspaceReport]) -> Option<Tried> {
     let goal = sd.path.last()?.clone();
     Some((goal, reports.get(sd.report)?.route))
+}
+
+/// The race's own routes and its route searches, which the further search continues (each goal
+/// pose's search past its routes, [`homotopy_routes_continued`]) instead of running them again.
+#[derive(Default)]
+pub(crate) struct RaceRoutes {
+    /// The race's ranked routes.
+    pub routes: RankedRoutes,
+    /// The race's route searches, taken by the further search.
+    pub searches: Mutex<GoalSearches>,
+}
+
+impl RaceRoutes {
+    /// The routes the race had: the goal pose and route index of each of its seeds.
+    fn tried(&self) -> Vec<Tried> {
+        let r = &self.routes;
+        r.seeds
+            .iter()
+            .filter_map(|sd| tried(sd, &r.reports))
+            .collect()
+    }
+
+    /// The race's route searches, taken out (none when taken before).
+    fn take_searches(&self) -> GoalSearches {
+        let taken = match self.searches.lock() {
+            Ok(mut g) => std::mem::take(&mut *g),
+            Err(p) => std::mem::take(&mut *p.into_inner()),
+        };
+        taken.not_kept()
+    }
 }
 
 /// The further search, run once by the first candidate that needs it (the others wait for it),
@@ -73,25 +105,31 @@ impl<'a> FurtherSearch<'a> {
         }
     }
 
-    /// The further routes (searched on the first call, within `run`), without those in `done`, each
-    /// seed's guess its route timed over the longest swing, lowest torque ratio there first.
-    pub(crate) fn routes(&self, run: &NlpSettings, done: &dyn Fn() -> Vec<Tried>) -> &RankedRoutes {
+    /// The further routes (searched on the first call, within `run`, continuing the race's route
+    /// searches), without the race's own, each seed's guess its route timed over the longest swing,
+    /// lowest torque ratio there first.
+    pub(crate) fn routes(&self, run: &NlpSettings, race: &RaceRoutes) -> &RankedRoutes {
         self.found.get_or_init(|| {
             let t0 = Instant::now();
             let stop = || run.remaining(t0).is_none();
             let limits = (FURTHER_GOALS, FURTHER_ROUTES);
             let (robot, target) = (self.robot, self.target);
-            let mut r = homotopy_routes_up_to(
+            let mut kept = race.take_searches();
+            let mut r = homotopy_routes_continued(
                 robot,
                 self.obstacles,
                 self.settings,
                 self.free,
                 target,
                 limits,
+                &mut kept,
                 &stop,
             )
             .unwrap_or_default();
-            let done = done();
+            drop(kept);
+            // a race search the stop rule ended early was searched again from its start: its
+            // routes the race had are dropped here
+            let done = race.tried();
             let reports = &r.reports;
             r.seeds.retain(|sd| {
                 tried(sd, reports).is_some_and(|t| !done.iter().any(|d| same_route(d, &t)))
@@ -120,10 +158,10 @@ impl<'a> FurtherSearch<'a> {
         task: &ValidTask,
         run: &NlpSettings,
         t_auto: f64,
-        done: &dyn Fn() -> Vec<Tried>,
+        race: &RaceRoutes,
     ) -> Result<Plans> {
         let t0 = Instant::now();
-        let h = self.routes(run, done);
+        let h = self.routes(run, race);
         let (Some(sd), Some(run)) = (h.seeds.get(j), run.remaining(t0)) else {
             return Ok(vec![]);
         };
@@ -135,7 +173,7 @@ impl<'a> FurtherSearch<'a> {
     /// each route of a rank in `concluded` marked with how its candidate concluded (converged clear,
     /// failed, or `None` when interrupted); none when the search did not run.
     pub(crate) fn reports(&self, concluded: &[(usize, Option<bool>)]) -> Vec<CspaceReport> {
-        let Some(RankedRoutes { reports, seeds }) = self.found.get() else {
+        let Some(RankedRoutes { reports, seeds, .. }) = self.found.get() else {
             return vec![];
         };
         seeds

@@ -13,7 +13,8 @@
 //! 2. **Routes.** For each goal, up to [`ROUTES_PER_GOAL`] grid routes from the start pose
 //!    ([`super::cspace::cspace_routes`]): each next route goes round a tube about the routes before it,
 //!    so it passes the obstacles another way; routes that stay within
-//!    [`super::cspace::SAME_ROUTE_RAD`] of an earlier one are dropped.
+//!    [`super::cspace::SAME_ROUTE_RAD`] of an earlier one are dropped. A wider search later
+//!    ([`homotopy_routes_continued`]) continues each goal pose's search where this one ended.
 //! 3. **Rank.** Each route timed over the swing ([`super::cspace::time_path`]) with its
 //!    inverse-dynamics torques; the seeds are solved in the order of their largest torque against
 //!    the limits (`CspaceReport::peak_torque_ratio`, the passive joint's residual included), lowest
@@ -22,7 +23,7 @@
 //! A stop rule (the call's time limit and cancel token) is asked throughout: once it says stop, the
 //! seeds found so far are returned. Units: rad, s.
 
-use super::cspace::{cspace_routes, time_path, CspaceReport, GRID_STEP_RAD};
+use super::cspace::{time_path, CspaceReport, RouteSearch, GRID_STEP_RAD};
 use super::goal::{distinct_goal_poses, with_final_pose};
 use crate::error::Result;
 use crate::model::{Circle, Robot};
@@ -61,6 +62,9 @@ pub struct RankedRoutes {
     pub reports: Vec<CspaceReport>,
     /// The seeds found, lowest torque ratio first.
     pub seeds: Vec<RankedSeed>,
+    /// Grid searches run ([`super::cspace::RouteSearch::searches`]; a continued search counts
+    /// only those of this call).
+    pub grid_searches: usize,
 }
 
 /// Most goal poses searched to (the seeds' final pose included).
@@ -92,7 +96,66 @@ pub fn homotopy_routes_up_to(
     settings: &PlannerSettings,
     free: &Trajectory,
     target: [f64; 2],
+    limits: (usize, usize),
+    stop: &dyn Fn() -> bool,
+) -> Result<RankedRoutes> {
+    let mut none = GoalSearches::default();
+    homotopy_routes_continued(
+        robot, obstacles, settings, free, target, limits, &mut none, stop,
+    )
+}
+
+/// The route searches of a homotopy search, one per goal pose, kept so that a wider search
+/// ([`homotopy_routes_continued`]) continues them instead of searching their routes again.
+#[derive(Default)]
+pub struct GoalSearches {
+    /// Whether the searches of a call are kept in it (otherwise each goal pose's grid is freed once
+    /// its routes are found).
+    keep: bool,
+    searches: Vec<RouteSearch>,
+}
+
+impl GoalSearches {
+    /// An empty set that keeps the searches of the call it is given to.
+    pub fn kept() -> Self {
+        GoalSearches {
+            keep: true,
+            searches: vec![],
+        }
+    }
+
+    /// The same searches, not keeping those of the next call.
+    pub fn not_kept(self) -> Self {
+        GoalSearches {
+            keep: false,
+            ..self
+        }
+    }
+
+    /// The search to `goal` (the same pose to 1e-9 rad) run to its end, taken out of the set.
+    fn take(&mut self, goal: &[f64]) -> Option<RouteSearch> {
+        let i = self.searches.iter().position(|s| {
+            !s.stopped()
+                && s.goal().len() == goal.len()
+                && s.goal().iter().zip(goal).all(|(a, b)| (a - b).abs() < 1e-9)
+        })?;
+        Some(self.searches.swap_remove(i))
+    }
+}
+
+/// [`homotopy_routes_up_to`], continuing the searches in `kept` to the goal poses they searched to
+/// (those the stop rule did not end early): their routes past those already found, the same as a
+/// new search's routes past its first ones, without searching those again. When `kept` keeps, this
+/// call's searches are left in it.
+#[allow(clippy::too_many_arguments)]
+pub fn homotopy_routes_continued(
+    robot: &Robot,
+    obstacles: &[Circle],
+    settings: &PlannerSettings,
+    free: &Trajectory,
+    target: [f64; 2],
     (goals, routes): (usize, usize),
+    kept: &mut GoalSearches,
     stop: &dyn Fn() -> bool,
 ) -> Result<RankedRoutes> {
     let len = free.len();
@@ -103,14 +166,24 @@ pub fn homotopy_routes_up_to(
     let goals = distinct_goal_poses(robot, obstacles, settings, q_end, target, goals, stop)?;
     let mut reports = vec![];
     let mut seeds: Vec<RankedSeed> = vec![];
+    let mut grid_searches = 0;
+    let mut searched = vec![];
     for (gi, goal) in goals.iter().enumerate() {
         if gi > 0 && stop() {
             break;
         }
         let axis = with_final_pose(free, goal);
-        for (mut rep, path) in
-            cspace_routes(robot, obstacles, settings, q_start, goal, routes, stop)?
-        {
+        let mut search = match kept.take(goal) {
+            Some(s) => s,
+            None => RouteSearch::new(robot, obstacles, settings, q_start, goal)?,
+        };
+        let before = search.searches();
+        let found = search.more(routes, stop);
+        grid_searches += search.searches() - before;
+        if kept.keep {
+            searched.push(search);
+        }
+        for (mut rep, path) in found {
             rep.goal = gi;
             if let Some(path) = path {
                 let guess = time_path(robot, &path, &axis, &mut rep);
@@ -124,11 +197,16 @@ pub fn homotopy_routes_up_to(
             reports.push(rep);
         }
     }
+    kept.searches.extend(searched);
     // lowest torque ratio first; ties keep the search order
     seeds.sort_by(|a, b| {
         reports[a.report]
             .peak_torque_ratio
             .total_cmp(&reports[b.report].peak_torque_ratio)
     });
-    Ok(RankedRoutes { reports, seeds })
+    Ok(RankedRoutes {
+        reports,
+        seeds,
+        grid_searches,
+    })
 }

@@ -55,10 +55,10 @@ use crate::planning::strategy::candidate::{
 };
 use crate::planning::strategy::cspace::CspaceReport;
 use crate::planning::strategy::further::{
-    self, FurtherSearch, Tried, FURTHER_GOALS, FURTHER_ROUTES,
+    FurtherSearch, RaceRoutes, FURTHER_GOALS, FURTHER_ROUTES,
 };
 use crate::planning::strategy::homotopy::{
-    homotopy_routes, RankedRoutes, MAX_GOALS, ROUTES_PER_GOAL,
+    homotopy_routes_continued, GoalSearches, RankedRoutes, MAX_GOALS, ROUTES_PER_GOAL,
 };
 use crate::planning::strategy::torque_continuation::with_torque_scale;
 use crate::planning::strategy::widened::{widened_detour, Probed};
@@ -409,7 +409,7 @@ fn strategies(
     rep.seeds = seeds.iter().map(|(r, _)| r.clone()).collect();
     // the homotopy search, run once by the first candidate that needs it (the others wait for it),
     // within that candidate's time limit and cancel token
-    let cspace: OnceLock<RankedRoutes> = OnceLock::new();
+    let cspace: OnceLock<RaceRoutes> = OnceLock::new();
     let further = FurtherSearch::new(robot, obstacles, settings, &seed_free, task.target);
     let t_auto = free.as_ref().map_or(0.0, |f| f.swing_time_s);
     let mut kinds = vec![];
@@ -419,33 +419,36 @@ fn strategies(
         cands.push(smooth_step_candidate(robot, task, settings));
     }
     let seed_free = &seed_free;
-    let search = |run: &NlpSettings| -> &RankedRoutes {
-        cspace.get_or_init(|| {
+    let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
+    // the race's routes, its route searches kept for the further routes (when they run)
+    let race_routes = &cspace;
+    let search = move |run: &NlpSettings| -> &RaceRoutes {
+        race_routes.get_or_init(|| {
             let t0 = std::time::Instant::now();
             let stop = || run.remaining(t0).is_none();
-            homotopy_routes(robot, obstacles, settings, seed_free, task.target, &stop)
-                .unwrap_or_default()
+            let mut kept = if longer {
+                GoalSearches::kept()
+            } else {
+                GoalSearches::default()
+            };
+            let limits = (MAX_GOALS, ROUTES_PER_GOAL);
+            let (target, k) = (task.target, &mut kept);
+            let routes = homotopy_routes_continued(
+                robot, obstacles, settings, seed_free, target, limits, k, &stop,
+            )
+            .unwrap_or_default();
+            let searches = std::sync::Mutex::new(kept);
+            RaceRoutes { routes, searches }
         })
     };
     // the route of rank j and the time left of `run` once the search has run (its time counts)
     let route = move |run: &NlpSettings, j: usize| {
         let t0 = std::time::Instant::now();
-        let h = search(run);
+        let h = &search(run).routes;
         Some((h.seeds.get(j)?, run.remaining(t0)?))
     };
-    let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));
     let order = race_order(seeds.len(), |i| seeds[i].0.kind.backward(), longer);
     let further = &further;
-    // the routes the race's own search had (searched first when no candidate needed them yet)
-    let done = move |run: &NlpSettings| {
-        let h = search(run);
-        move || -> Vec<Tried> {
-            h.seeds
-                .iter()
-                .filter_map(|sd| further::tried(sd, &h.reports))
-                .collect()
-        }
-    };
     for kind in order {
         kinds.push(kind);
         match kind {
@@ -472,7 +475,8 @@ fn strategies(
                 solve_seed_longer_swing(robot, task, settings, &run, &g, t_auto)
             })),
             Kind::Further(j) => cands.push(Box::new(move |run: &NlpSettings| {
-                further.solve(j, task, run, t_auto, &done(run))
+                // the race's routes first (searched now when no candidate needed them yet)
+                further.solve(j, task, run, t_auto, search(run))
             })),
             Kind::SmoothStep => {}
         }
@@ -482,7 +486,8 @@ fn strategies(
     let RankedRoutes {
         reports: mut routes,
         seeds: ranked,
-    } = cspace.into_inner().unwrap_or_default();
+        ..
+    } = cspace.into_inner().unwrap_or_default().routes;
     // the report of the seed of rank j
     let of_rank = |j: usize| ranked.get(j).map(|sd| sd.report);
     let top = of_rank(0);
