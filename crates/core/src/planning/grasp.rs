@@ -52,6 +52,9 @@ pub const MAX_BOXES: usize = 2_000_000;
 pub const MAX_WITNESS_TRIES: usize = 400;
 /// Boxes between two questions to the caller's `stop`.
 pub const STOP_EVERY: usize = 4096;
+/// Most boxes [`grasp_blocked`] (the task check's proof, run before every plan) settles before it
+/// gives up and refuses nothing (it bounds the time of the check).
+pub const PROOF_MAX_BOXES: usize = 200 * STOP_EVERY;
 
 /// A proof that no pose grasping the bar within the joint limits clears the obstacles by the margin.
 #[derive(Debug, Clone, PartialEq)]
@@ -368,7 +371,8 @@ fn witness(
 
 /// Whether the obstacles block every pose of `robot` that grasps `target` within `bounds` by
 /// `margin` (m; see the module docs). `None` when some admissible pose clears them, when the proof
-/// could not settle every pose, or when no pose is admissible (then no obstacle is to blame).
+/// could not settle every pose within [`PROOF_MAX_BOXES`], or when no pose is admissible (then no
+/// obstacle is to blame).
 pub fn grasp_blocked(
     robot: &Robot,
     target: [f64; 2],
@@ -400,7 +404,13 @@ pub fn grasp_blocked(
         });
     }
     let accept = |q: &[f64]| obstacle_clearance(robot, obstacles, q) >= margin;
-    match search_grasp_poses(robot, target, obstacles, margin, bounds, &accept, &|| false) {
+    // `stop` is asked every STOP_EVERY boxes: past the budget, no refusal
+    let asked = std::cell::Cell::new(0usize);
+    let stop = || {
+        asked.set(asked.get() + 1);
+        asked.get() * STOP_EVERY >= PROOF_MAX_BOXES
+    };
+    match search_grasp_poses(robot, target, obstacles, margin, bounds, &accept, &stop) {
         GraspPoses::Blocked(b) => Some(b),
         GraspPoses::Clear(_) | GraspPoses::Unsettled => None,
     }

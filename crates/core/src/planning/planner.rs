@@ -45,7 +45,9 @@ pub fn plan(
 /// limits (`settings.torque_continuation`, [`crate::planning::strategy::torque_continuation`]): up to 3 widened
 /// cold plans and [`crate::planning::strategy::torque_continuation::MAX_STEPS`] warm ones, about 1-2 s on the
 /// parameter study's failing cell; the plan within the limits when one is found, else the failure
-/// with how much torque the swing likely needs. `nlp.max_wall_time_s` bounds the whole call.
+/// with how much torque the swing likely needs. `nlp.max_wall_time_s` bounds the solves and
+/// strategies of the call; the task check before them has a bound of its own (with obstacles near the
+/// target bar, the grasp proof's [`crate::planning::grasp::PROOF_MAX_BOXES`]).
 pub fn plan_with_guess(
     robot: &Robot,
     task: &SwingTask,
@@ -79,8 +81,8 @@ pub fn plan_validated(
             got: settings.links(),
         });
     }
-    // the task was checked by its maker for some robot and settings: checked again for these (a
-    // few comparisons), so a task of another robot or other bounds never reaches the solver
+    // the task was checked by its maker for some robot and settings: checked again for these, so a
+    // task of another robot or other bounds never reaches the solver
     validate_task(robot, task, settings, "planner", "task.")?;
     check_solver_and_guess(robot, settings, nlp, guess)?;
     plan_checked(robot, task, settings, nlp, guess)

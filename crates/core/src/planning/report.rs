@@ -605,8 +605,8 @@ impl fmt::Display for Diagnosis {
                         f,
                         "; a detour converged on its knots ({what}) but passes {:.1} mm inside \
                          the margin between them ({} at t = {:.3} s, {:.4} m from each other \
-                         against {:.4} m): no detour keeps the clearance along the whole motion \
-                         yet, though one nearly does (a smaller knot_dt_s may plan it)",
+                         against {:.4} m): no detour found keeps the clearance along the whole \
+                         motion (a smaller planner.knot_dt may plan it)",
                         v.shortfall_m() * 1e3,
                         v.subject,
                         v.time_s,
