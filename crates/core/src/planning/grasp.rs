@@ -30,7 +30,8 @@
 //!
 //! Otherwise the box is split in half along one angle: the angle of the links from the blocking link
 //! to the bar with the largest `L_i h_i` when the centre is blocked, else of all. A box whose angles
-//! are all below [`MIN_HALF_WIDTH`], or more than [`MAX_BOXES`] boxes, ends the proof with no refusal:
+//! are all below [`MIN_HALF_WIDTH`], or more than [`MAX_BOXES`] boxes ([`PROOF_MAX_BOXES`] in
+//! [`grasp_blocked`]), ends the proof with no refusal:
 //! the check refuses only what it proves. Rounding is covered by [`SLACK_M`]. The proof ignores
 //! self-collision (fewer constraints: it may only refuse less), and holds for a hand at the end of
 //! the last link only (a robot with another `end_effector` is never refused).
@@ -52,8 +53,8 @@ pub const MAX_BOXES: usize = 2_000_000;
 pub const MAX_WITNESS_TRIES: usize = 400;
 /// Boxes between two questions to the caller's `stop`.
 pub const STOP_EVERY: usize = 4096;
-/// Most boxes [`grasp_blocked`] (the task check's proof, run before every plan) settles before it
-/// gives up and refuses nothing (it bounds the time of the check).
+/// Most boxes [`grasp_blocked`] (the task check's proof, run before every plan, and the diagnosis's
+/// guard) settles before it gives up and refuses nothing (it bounds the time of the check).
 pub const PROOF_MAX_BOXES: usize = 200 * STOP_EVERY;
 
 /// A proof that no pose grasping the bar within the joint limits clears the obstacles by the margin.

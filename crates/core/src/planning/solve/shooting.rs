@@ -255,7 +255,7 @@ fn with_denser_rows(
 /// Whether `p` did not converge because a solve with the clearance rows at the sub-steps stopped
 /// at its iteration limit (its knots' solve had converged through the clearance between them): the
 /// attempt the plan comes from is that solve, ended at the limit, or that solve converged still
-/// inside the margin and the denser rows' solve after it ended at the limit.
+/// inside the margin and an attempt of the denser rows' solve after it ended at the limit.
 pub(crate) fn stopped_in_substep_rows(p: &Plan) -> bool {
     let Some(i) = p.solves.iter().position(|a| a.adopted) else {
         return false;
@@ -264,9 +264,14 @@ pub(crate) fn stopped_in_substep_rows(p: &Plan) -> bool {
         a.role == SolveRole::SubstepClearance && a.status == SolveStatus::MaxIterations
     };
     let a = &p.solves[i];
-    !p.converged()
-        && a.role == SolveRole::SubstepClearance
-        && (at_limit(a) || p.solves.get(i + 1).is_some_and(at_limit))
+    let denser_at_limit = || {
+        a.status.is_converged()
+            && p.solves
+                .iter()
+                .filter(|b| b.solve == a.solve + 1)
+                .any(at_limit)
+    };
+    !p.converged() && a.role == SolveRole::SubstepClearance && (at_limit(a) || denser_at_limit())
 }
 
 /// The solve with the clearance rows at the sub-steps resumed from `guess` (the points of a plan

@@ -416,12 +416,22 @@ impl RouteSearch {
             }
         }
         self.stopped |= said_stop.get();
+        // a search that failed gives no more routes, and one the stop rule ended is not continued:
+        // their grids are freed
+        if self.failed || self.stopped {
+            self.search = None;
+        }
         out
     }
 
     /// The goal pose searched to, rad.
     pub fn goal(&self) -> &[f64] {
         &self.q_goal
+    }
+
+    /// The start pose searched from, rad.
+    pub fn start(&self) -> &[f64] {
+        &self.q_start
     }
 
     /// Whether the stop rule said stop during a call (a later call would not continue a search run

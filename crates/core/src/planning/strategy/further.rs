@@ -19,7 +19,7 @@ use crate::planning::settings::ValidSettings;
 use crate::planning::strategy::candidate::{solve_seed_longer_swing, LONGER_SWING_FACTOR};
 use crate::planning::strategy::cspace::{time_path, CspaceReport};
 use crate::planning::strategy::homotopy::{
-    homotopy_routes_continued, GoalSearches, RankedRoutes, RankedSeed,
+    homotopy_routes_continued, same_pose, GoalSearches, RankedRoutes, RankedSeed,
 };
 use crate::planning::strategy::race::Plans;
 use crate::planning::task::ValidTask;
@@ -192,5 +192,5 @@ impl<'a> FurtherSearch<'a> {
 
 /// Whether two routes are the same route: the same index to the same goal pose.
 fn same_route(a: &Tried, b: &Tried) -> bool {
-    a.1 == b.1 && a.0.len() == b.0.len() && a.0.iter().zip(&b.0).all(|(x, y)| (x - y).abs() < 1e-9)
+    a.1 == b.1 && same_pose(&a.0, &b.0)
 }

@@ -132,15 +132,18 @@ impl GoalSearches {
         }
     }
 
-    /// The search to `goal` (the same pose to 1e-9 rad) run to its end, taken out of the set.
-    fn take(&mut self, goal: &[f64]) -> Option<RouteSearch> {
+    /// The search from `start` to `goal` ([`same_pose`]) run to its end, taken out of the set.
+    fn take(&mut self, start: &[f64], goal: &[f64]) -> Option<RouteSearch> {
         let i = self.searches.iter().position(|s| {
-            !s.stopped()
-                && s.goal().len() == goal.len()
-                && s.goal().iter().zip(goal).all(|(a, b)| (a - b).abs() < 1e-9)
+            !s.stopped() && same_pose(s.start(), start) && same_pose(s.goal(), goal)
         })?;
         Some(self.searches.swap_remove(i))
     }
+}
+
+/// Whether two poses are the same pose: the same number of angles, each within 1e-9 rad.
+pub(crate) fn same_pose(a: &[f64], b: &[f64]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9)
 }
 
 /// [`homotopy_routes_up_to`], continuing the searches in `kept` to the goal poses they searched to
@@ -173,7 +176,7 @@ pub fn homotopy_routes_continued(
             break;
         }
         let axis = with_final_pose(free, goal);
-        let mut search = match kept.take(goal) {
+        let mut search = match kept.take(q_start, goal) {
             Some(s) => s,
             None => RouteSearch::new(robot, obstacles, settings, q_start, goal)?,
         };

@@ -297,8 +297,9 @@ fn interrupted(plans: &race::Plans) -> bool {
 /// solved first for [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
 /// candidate yields to a later one that has converged ([`race`]) and the solve resumes from where
 /// it stopped for the rest of its iterations ([`SolveRole::Resumed`]: the knots' solve from its
-/// point, or the solve with the clearance rows at the sub-steps, and the denser rows' after it,
-/// when one of those is where it stopped; the cap holds for each solve of the first chance).
+/// point; or, when a solve with the clearance rows at the sub-steps or the denser rows' solve after
+/// it is where it stopped, the sub-step rows' solve from the point of the plan and the denser rows'
+/// solve after it anew; the cap holds for each solve of the first chance).
 fn smooth_step_candidate<'a>(
     robot: &'a Robot,
     task: &'a ValidTask,
