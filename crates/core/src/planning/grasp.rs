@@ -70,6 +70,9 @@ pub struct GraspBlocked {
     /// The link (0-based) that comes closest to an obstacle in the poses that keep the most
     /// clearance.
     pub link: usize,
+    /// The obstacle (0-based) that `link` comes closest to there (one of `obstacles`; not always
+    /// `nearest`).
+    pub link_obstacle: usize,
     /// An upper bound on the clearance any admissible pose keeps to the obstacles, m (below the
     /// margin).
     pub best_clearance_m: f64,
@@ -192,7 +195,8 @@ pub fn search_grasp_poses(
     let (len, rad) = (robot.lengths(), robot.radii());
     let qr = bounds.q_rel_max;
     let mut used = vec![false; obstacles.len()];
-    let mut best = (f64::NEG_INFINITY, n - 1);
+    // the bound, the link and the obstacle of the box that keeps the most clearance
+    let mut best = (f64::NEG_INFINITY, n - 1, 0);
     let mut tries = 0;
     let mut boxes = 0;
     let mut unsettled = false;
@@ -250,7 +254,7 @@ pub fn search_grasp_poses(
         if bound.0 < need - SLACK_M {
             used[bound.1] = true;
             if bound.0 > best.0 {
-                best = (bound.0, bound.2);
+                best = (bound.0, bound.2, bound.1);
             }
             continue;
         }
@@ -311,6 +315,7 @@ pub fn search_grasp_poses(
         nearest,
         bar_distance_m: bar_distance(nearest),
         link: best.1,
+        link_obstacle: best.2,
         best_clearance_m: best.0,
     })
 }
@@ -401,6 +406,7 @@ pub fn grasp_blocked(
             nearest: k,
             bar_distance_m: bar_distance(k),
             link: n - 1,
+            link_obstacle: k,
             best_clearance_m: bar_distance(k) - r,
         });
     }
@@ -594,6 +600,14 @@ mod tests {
         let p = grasp_blocked(&robot, target, &[near, inner], 0.01, &b).expect("blocked");
         assert_eq!(p.obstacles, vec![0, 1], "{p:?}");
         assert!(p.link >= 1 && p.best_clearance_m < 0.01, "{p:?}");
+        // the circle nearest the bar is not the one the best poses' closest link comes closest to
+        assert_eq!((p.nearest, p.link_obstacle), (0, 1), "{p:?}");
+        let q = grasp_blocked(&robot, target, &[inner, near], 0.01, &b).expect("blocked");
+        assert_eq!(
+            (q.nearest, q.link, q.link_obstacle),
+            (1, p.link, 0),
+            "{q:?}"
+        );
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let (best, count) = sampled_best(&robot, target, &[near, inner], &b, 4000, &mut rng);
         assert!(count > 1000 && best < 0.01, "{best} over {count}");

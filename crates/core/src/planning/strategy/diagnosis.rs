@@ -156,9 +156,10 @@ pub(crate) fn diagnose_failure(
 }
 
 /// The obstacle and link that block `task` when no motion can clear them: obstacles that block every
-/// pose grasping the bar ([`crate::planning::grasp::grasp_blocked`]: the one nearest the bar and
-/// the last link; the task check refuses such a task, so this holds only for a task checked with
-/// other bounds or margin), or one within the margin of the start pose (its closest link there).
+/// pose grasping the bar ([`crate::planning::grasp::grasp_blocked`]: the link that comes closest to
+/// an obstacle in the poses that keep the most clearance, and that obstacle; the task check refuses
+/// such a task, so this holds only for a task checked with other bounds or margin), or one within
+/// the margin of the start pose (its closest link there).
 fn unreachable(
     robot: &Robot,
     task: &SwingTask,
@@ -172,7 +173,7 @@ fn unreachable(
         margin,
         &settings.bounds,
     ) {
-        return Ok(Some((b.nearest, b.link)));
+        return Ok(Some((b.link_obstacle, b.link)));
     }
     for (i, o) in task.obstacles.iter().enumerate() {
         let one = [*o];
@@ -836,5 +837,37 @@ mod tests {
             tried: vec![],
         };
         assert_eq!(tp.worst_joint(), Some((1, 2.4)));
+    }
+
+    /// Three-link robot, bar at 0.8 m: a circle near the bar and a second one nearer the grip
+    /// together block every pose grasping the bar, and in the poses that keep the most clearance
+    /// the link that comes closest comes closest to the second circle, not to the one nearest the
+    /// bar. The diagnosis names that pair, in either order of the circles.
+    #[test]
+    fn an_unreachable_task_names_the_obstacle_its_blocking_link_comes_closest_to() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/three-link.toml");
+        let robot = Robot::from_toml_file(&path).unwrap();
+        let near = Circle {
+            center: [0.69909, -0.18199],
+            radius: 0.12817,
+        };
+        let inner = Circle {
+            center: [0.24771, -0.11846],
+            radius: 0.11539,
+        };
+        let s = PlannerSettings::default();
+        let task = |obstacles: Vec<Circle>| SwingTask {
+            q0: vec![-1.2, 0.4, 0.4],
+            qd0: vec![],
+            target: [0.8, 0.0],
+            obstacles,
+        };
+        let b = grasp_blocked(&robot, [0.8, 0.0], &[near, inner], 0.01, &s.bounds).unwrap();
+        assert_eq!((b.nearest, b.link_obstacle), (0, 1), "{b:?}");
+        let named = unreachable(&robot, &task(vec![near, inner]), &s).unwrap();
+        assert_eq!(named, Some((1, b.link)));
+        let named = unreachable(&robot, &task(vec![inner, near]), &s).unwrap();
+        assert_eq!(named, Some((0, b.link)));
     }
 }
