@@ -213,3 +213,91 @@ pub fn homotopy_routes_continued(
         grid_searches,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::ik_from_seed;
+    use crate::planning::strategy::goal::distinct_goal_poses;
+    use std::cell::Cell;
+
+    /// The three-link robot of params/, a straight-line swing in its angles from a folded start
+    /// pose to a pose grasping the bar at 0.8 m, and a circle on its middle link halfway.
+    fn three_link_swing() -> (Robot, Vec<Circle>, Trajectory, [f64; 2]) {
+        let p =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/three-link.toml");
+        let robot = Robot::from_toml_file(&p).unwrap();
+        let target = [0.8, 0.0];
+        let q0 = [-2.2, 0.0, -1.0];
+        let q1 = ik_from_seed(&robot, &[-1.2, 0.4, 0.4], target).expect("the bar is in reach");
+        let mut free = Trajectory::new(3);
+        let knots = 21;
+        for k in 0..knots {
+            let s = k as f64 / (knots - 1) as f64;
+            let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + s * (b - a)).collect();
+            free.push(s, &q, &[0.0; 3], &[0.0; 2]);
+        }
+        let mut segs = [([0.0; 2], [0.0; 2]); 3];
+        robot.link_segments(free.q(knots / 2), &mut segs);
+        let (a, b) = segs[1];
+        let obstacles = vec![Circle {
+            center: [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0],
+            radius: 0.05,
+        }];
+        (robot, obstacles, free, target)
+    }
+
+    /// A search the stop rule cut short in the first call is kept but not continued: the second
+    /// call, never stopped, finds the same routes with the same reports as a new search, and
+    /// counts the same grid searches.
+    #[test]
+    fn a_route_search_the_stop_rule_cut_short_is_searched_again() {
+        let (robot, obs, free, target) = three_link_swing();
+        let s = PlannerSettings::default();
+        let limits = (MAX_GOALS, ROUTES_PER_GOAL);
+        let never = || false;
+        let fresh = homotopy_routes_up_to(&robot, &obs, &s, &free, target, limits, &never).unwrap();
+        assert!(fresh
+            .reports
+            .iter()
+            .all(|r| r.endpoints_clear && r.grid_cells > 0));
+        assert!(!fresh.seeds.is_empty() && fresh.grid_searches > 0);
+        // the questions the goal search asks, then a stop at the first question after them: in
+        // the first goal pose's route search
+        let asked = Cell::new(0usize);
+        let counting = || {
+            asked.set(asked.get() + 1);
+            false
+        };
+        let last = free.q(free.len() - 1);
+        distinct_goal_poses(&robot, &obs, &s, last, target, MAX_GOALS, &counting).unwrap();
+        let before = asked.get();
+        asked.set(0);
+        let stop = || {
+            asked.set(asked.get() + 1);
+            asked.get() > before
+        };
+        let mut kept = GoalSearches::kept();
+        let cut =
+            homotopy_routes_continued(&robot, &obs, &s, &free, target, limits, &mut kept, &stop)
+                .unwrap();
+        assert!(
+            asked.get() > before,
+            "the stop rule was not asked past the goal search"
+        );
+        assert_eq!(kept.searches.len(), 1);
+        assert!(kept.searches[0].stopped() && kept.searches[0].searches() >= 1);
+        assert!(cut.reports.iter().all(|r| r.goal == 0));
+        assert!(cut.grid_searches < fresh.grid_searches);
+        let mut kept = kept.not_kept();
+        let again =
+            homotopy_routes_continued(&robot, &obs, &s, &free, target, limits, &mut kept, &never)
+                .unwrap();
+        assert_eq!(again.reports, fresh.reports);
+        assert_eq!(again.grid_searches, fresh.grid_searches);
+        assert_eq!(again.seeds.len(), fresh.seeds.len());
+        for (a, f) in again.seeds.iter().zip(&fresh.seeds) {
+            assert_eq!((a.report, &a.path, &a.guess), (f.report, &f.path, &f.guess));
+        }
+    }
+}
