@@ -527,19 +527,25 @@ mod tests {
     }
 
     /// The proof against a dense sample of the admissible poses, on the three-link and the paper's
-    /// robots with one or two obstacles near the bar and the relative joints limited to 2.9 or 1.5
-    /// rad: it never refuses where a sampled pose clears the obstacles, its bound on the best
-    /// clearance is above every sampled one, and a pose it returns is admissible and clear.
-    #[test]
-    fn the_proof_never_refuses_where_a_sampled_pose_is_clear() {
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
+    /// robots with one or two obstacles near the bar at 0.8 m and the relative joints limited to
+    /// 2.9 or 1.5 rad, link 1 below the bar's line: it never refuses where a sampled pose clears the
+    /// obstacles, its bound on the best clearance is above every sampled one, and a pose it returns
+    /// is admissible and clear. The whole scene (bar, obstacles and link 1's range `[-pi, 0]`) is
+    /// turned by `turn` rad about the grip (the proof is geometry alone). Returns the cases refused
+    /// and cleared.
+    fn proof_against_samples(turn: f64, seed: u64) -> [usize; 2] {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let margin = 0.01;
+        let (sin, cos) = turn.sin_cos();
+        let turned = |p: [f64; 2]| [p[0] * cos - p[1] * sin, p[0] * sin + p[1] * cos];
+        let target = turned([0.8, 0.0]);
         let mut seen = [0, 0];
-        for (file, target) in [("three-link.toml", [0.8, 0.0]), ("paper.toml", [0.8, 0.0])] {
+        for file in ["three-link.toml", "paper.toml"] {
             let robot = params(file);
             for case in 0..24 {
                 let bounds = Bounds {
                     q_rel_max: if case % 2 == 0 { 2.9 } else { 1.5 },
+                    q1: [-PI + turn, turn],
                     ..Bounds::default()
                 };
                 let mut obstacles = vec![];
@@ -547,10 +553,7 @@ mod tests {
                     let a = rng.gen_range(-PI..0.6);
                     let rad = rng.gen_range(0.05..0.15);
                     let d = rad + rng.gen_range(0.035..0.15);
-                    obstacles.push(circle(
-                        [target[0] + d * a.cos(), target[1] + d * a.sin()],
-                        rad,
-                    ));
+                    obstacles.push(circle(turned([0.8 + d * a.cos(), d * a.sin()]), rad));
                 }
                 let accept = |q: &[f64]| obstacle_clearance(&robot, &obstacles, q) >= margin;
                 let found = search_grasp_poses(
@@ -570,6 +573,7 @@ mod tests {
                         seen[0] += 1;
                         assert!(best < margin, "{file} {case}: sampled {best}, proof {b:?}");
                         assert!(best <= b.best_clearance_m + 1e-12, "{best} {b:?}");
+                        assert!(b.obstacles.contains(&b.link_obstacle), "{b:?}");
                     }
                     GraspPoses::Clear(q) => {
                         seen[1] += 1;
@@ -582,6 +586,21 @@ mod tests {
                 }
             }
         }
+        seen
+    }
+
+    #[test]
+    fn the_proof_never_refuses_where_a_sampled_pose_is_clear() {
+        let seen = proof_against_samples(0.0, 7);
+        assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
+    }
+
+    /// The same turned by 2.5 + pi rad, so that link 1's range, [2.5, 2.5 + pi] rad, wraps past
+    /// pi = -pi (the bar turned with it, 0.8 m from the grip at 2.5 + pi - 2 pi rad): the arcs of
+    /// link 1 are cut where the range wraps.
+    #[test]
+    fn the_proof_never_refuses_where_a_sampled_pose_is_clear_with_link_one_across_pi() {
+        let seen = proof_against_samples(2.5 + PI, 11);
         assert!(seen[0] > 0 && seen[1] > 0, "{seen:?}");
     }
 
@@ -642,5 +661,30 @@ mod tests {
         assert_eq!(p.obstacles, vec![0, 1]);
         assert!((p.bar_distance_m - 0.08).abs() < 1e-12, "{p:?}");
         assert!(p.best_clearance_m < 0.01, "{p:?}");
+    }
+
+    /// The proof holds for a hand at the end of the last link only: the two-link hook robot with its
+    /// hand moved inside the last link is never refused, even with an obstacle on the bar, which
+    /// refuses the same robot with its hand at the end.
+    #[test]
+    fn a_hand_off_the_end_of_the_last_link_is_never_refused() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../params/two-link-hook.toml");
+        let mut p = crate::model::RobotParams::from_toml_file(&path).unwrap();
+        let at_end = Robot::from_params(p.clone(), "hook").unwrap();
+        assert!(at_end.ee_default);
+        p.end_effector = Some([0.25, 0.05]);
+        let hook = Robot::from_params(p, "hook").unwrap();
+        assert!(!hook.ee_default);
+        let b = Bounds::default();
+        let target = [0.34, 0.0];
+        for o in [circle(target, 0.05), circle([0.34, -0.07], 0.05)] {
+            let refused = grasp_blocked(&at_end, target, &[o], 0.01, &b).expect("blocked");
+            assert_eq!((refused.nearest, refused.link), (0, 1), "{refused:?}");
+            assert_eq!(grasp_blocked(&hook, target, &[o], 0.01, &b), None);
+            let accept = |q: &[f64]| obstacle_clearance(&hook, &[o], q) >= 0.01;
+            let found = search_grasp_poses(&hook, target, &[o], 0.01, &b, &accept, &|| false);
+            assert_eq!(found, GraspPoses::Unsettled);
+        }
     }
 }
