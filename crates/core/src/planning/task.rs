@@ -395,8 +395,8 @@ fn check_grasp(
              clears it{together}: {at_bar}every pose that grasps the bar with link 1 inside \
              planner.bounds.q1 = [{}, {}] rad and every relative joint within \
              planner.bounds.q_rel_max = {} rad brings a link closer to the obstacles than \
-             planner.obstacle_margin = {} m (link {} in the best of them, {best}); move the \
-             obstacles or the bar",
+             planner.obstacle_margin = {} m (link {} near {prefix}obstacles[{}] in the best of \
+             them, {best}); move the obstacles or the bar",
             b.bar_distance_m,
             task.target,
             q1[0],
@@ -404,6 +404,7 @@ fn check_grasp(
             bounds.q_rel_max,
             margin,
             b.link + 1,
+            b.link_obstacle,
         ),
     ))
 }
