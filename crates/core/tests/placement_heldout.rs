@@ -307,6 +307,47 @@ fn a_fast_subset_plans_clear_or_diagnoses() {
     assert!(!kinds.contains(&Kind::Refused), "{kinds:?}");
 }
 
+/// Two circles that together leave the three-link robot no clear grasp of the bar, the one nearest
+/// the bar not the one the best poses' closest link comes closest to: the refusal names the bar's
+/// nearest as the field and the other beside the link, in either order.
+#[test]
+fn a_grasp_refusal_names_the_obstacle_the_closest_link_comes_closest_to() {
+    let rs = robots();
+    let r = &rs[1];
+    assert_eq!(r.name, "three-link");
+    let s = PlannerSettings::default();
+    let near = brachia::model::Circle {
+        center: [0.69909, -0.18199],
+        radius: 0.12817,
+    };
+    let inner = brachia::model::Circle {
+        center: [0.24771, -0.11846],
+        radius: 0.11539,
+    };
+    for (obstacles, field, beside) in [
+        (
+            vec![near, inner],
+            "task.obstacles[0]",
+            "near task.obstacles[1] in the best",
+        ),
+        (
+            vec![inner, near],
+            "task.obstacles[1]",
+            "near task.obstacles[0] in the best",
+        ),
+    ] {
+        let task = SwingTask {
+            obstacles,
+            ..r.task.clone()
+        };
+        let e = brachia::planning::validate_task(&r.robot, &task, &s, "task", "task.")
+            .expect_err("refused");
+        let msg = e.to_string();
+        assert!(msg.contains(&format!("field `{field}`")), "{msg}");
+        assert!(msg.contains(beside), "{beside}: {msg}");
+    }
+}
+
 /// An obstacle near the target bar that leaves the last link no pose grasping the bar clear by the
 /// margin (the paper's robot, seed 31022: a 0.149 m circle 0.028 m below the bar) is refused by the
 /// task check before any solve, naming the obstacle, its distance from the bar and the rule; one a

@@ -596,8 +596,8 @@ mod tests {
     }
 
     /// The same turned by 2.5 + pi rad, so that link 1's range, [2.5, 2.5 + pi] rad, wraps past
-    /// pi = -pi (the bar turned with it, 0.8 m from the grip at 2.5 + pi - 2 pi rad): the arcs of
-    /// link 1 are cut where the range wraps.
+    /// pi = -pi (the bar turned with it, 0.8 m from the grip at 2.5 + pi - 2 pi rad): link 1's
+    /// angles above pi, which the poses built and sampled move up by 2 pi into the range.
     #[test]
     fn the_proof_never_refuses_where_a_sampled_pose_is_clear_with_link_one_across_pi() {
         let seen = proof_against_samples(2.5 + PI, 11);
