@@ -465,6 +465,15 @@ impl Robot {
         Self::from_params(p, &path.display().to_string())
     }
 
+    /// The robot of the repository's `params/{file}` (the crate's unit tests).
+    #[cfg(test)]
+    pub(crate) fn from_repo_params(file: &str) -> Self {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../params")
+            .join(file);
+        Self::from_toml_file(&p).unwrap()
+    }
+
     /// The paper's robot (Table I), from the copy of `params/paper.toml` bundled in the crate
     /// (`crates/core/params/paper.toml`; a test checks both copies are identical).
     pub fn paper() -> Self {

@@ -434,10 +434,7 @@ mod tests {
     }
 
     fn params(file: &str) -> Robot {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../params")
-            .join(file);
-        Robot::from_toml_file(&p).unwrap()
+        Robot::from_repo_params(file)
     }
 
     #[test]

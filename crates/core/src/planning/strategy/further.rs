@@ -8,9 +8,9 @@
 //!
 //! A placement whose route goes round the obstacle to a goal pose past the race's
 //! [`super::homotopy::MAX_GOALS`], or by a route past its [`super::homotopy::ROUTES_PER_GOAL`], can
-//! plan here. The race's winner is the first candidate in order that converges, so a placement an
-//! earlier candidate plans gets the same plan (measured on the placement scan:
-//! docs/planner-measurements.md). Units: s.
+//! plan here. They come last in the race's order, so they run only once every earlier candidate
+//! has started without winning (measured on the placement scan: docs/planner-measurements.md).
+//! Units: s.
 
 use crate::error::Result;
 use crate::model::{Circle, Robot};

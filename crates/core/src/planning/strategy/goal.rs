@@ -184,10 +184,7 @@ mod tests {
     use crate::planning::strategy::cspace::cspace_routes;
 
     fn robot(file: &str) -> Robot {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../params")
-            .join(file);
-        Robot::from_toml_file(&p).unwrap()
+        Robot::from_repo_params(file)
     }
 
     /// On the three- and six-link robots of params/, an obstacle on a middle link of a pose at the
