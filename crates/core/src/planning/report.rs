@@ -61,6 +61,12 @@ pub struct GuessReport {
     /// first solve, none converged, and the limit was spent.
     #[serde(default)]
     pub out_of_time: bool,
+    /// Of the race's solves at the real limits on the task's own mesh, the one that converged on
+    /// its knots and came closest to keeping the clearance between them, when none kept it
+    /// (`solve` names the candidate: `detour-seed-K`, `cspace-seed-K`, `cspace-seed-K-longer-swing`
+    /// or `further-route-K`, each 0-based).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_knots: Option<BetweenKnots>,
 }
 
 /// The closest approach of one link to one obstacle over a plan's attempt.
@@ -473,8 +479,9 @@ pub enum Verdict {
 /// them: the closest of them to keeping the clearance ([`Verdict::ShortBetweenKnots`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BetweenKnots {
-    /// Which solve: `plan` (the obstacle strategies' own plan, at the real limits) or the torque
-    /// probe's guess (`cspace-seed`, `failed-attempt`).
+    /// Which solve: `plan` (the obstacle strategies' own plan, at the real limits), a candidate of
+    /// the race at the real limits ([`GuessReport::between_knots`]) or the torque probe's guess
+    /// (`cspace-seed`, `failed-attempt`; `torque_scale` above 1).
     pub solve: String,
     /// Factor on the actuator limits of that solve (1: the real limits).
     pub torque_scale: f64,
@@ -578,6 +585,10 @@ pub struct Diagnosis {
     pub between_knots: Option<BetweenKnots>,
 }
 
+/// Relative distance below the torque probe's widened limit within which its plan's peak torque is
+/// read as on that limit: the probe's bound, not what the detour needs.
+const ON_WIDENED_LIMIT: f64 = 1e-3;
+
 impl fmt::Display for Diagnosis {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (o, l) = (self.obstacle, self.link + 1);
@@ -595,6 +606,8 @@ impl fmt::Display for Diagnosis {
                     let v = &b.violation;
                     let what = if b.solve == "plan" {
                         "the strategies' best plan, at the real limits".to_string()
+                    } else if b.torque_scale == 1.0 {
+                        format!("the race's {} solve, at the real limits", b.solve)
                     } else {
                         format!(
                             "the torque probe from its {} guess, limits widened {:.0}x",
@@ -662,6 +675,12 @@ impl fmt::Display for Diagnosis {
                     j + 2,
                     tp.limit_nm[j]
                 )?;
+                if r >= tp.scale * (1.0 - ON_WIDENED_LIMIT) {
+                    write!(
+                        f,
+                        " (on the widened limit itself: the bound searched, not a measured need)"
+                    )?;
+                }
             }
         }
         match &self.swing_time_probe {

@@ -310,9 +310,10 @@ fn probe(
     Ok(Probe::Diagnosis(Box::new(Some(d))))
 }
 
-/// Of the strategies' plan `p` (at the real limits) and the torque probe's solves `tp`, the one that
-/// converged on its knots with the smallest shortfall of clearance between them (the real limits
-/// first at equal shortfall); `None` when none converged on its knots.
+/// Of the strategies' plan `p` (at the real limits), the race's closest solve (in `p`'s guess
+/// report) and the torque probe's solves `tp`, the one that converged on its knots with the
+/// smallest shortfall of clearance between them (the real limits first at equal shortfall); `None`
+/// when none converged on its knots.
 fn closest_between_knots(p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKnots> {
     let own = p
         .status
@@ -333,7 +334,8 @@ fn closest_between_knots(p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKn
             })
         })
     });
-    own.into_iter().chain(probed).min_by(|a, b| {
+    let raced = p.guess.as_ref().and_then(|g| g.between_knots.clone());
+    own.into_iter().chain(raced).chain(probed).min_by(|a, b| {
         let key = |x: &BetweenKnots| (x.violation.shortfall_m(), x.torque_scale);
         key(a)
             .partial_cmp(&key(b))
@@ -548,18 +550,7 @@ mod tests {
     #[test]
     fn a_detour_within_the_limits_that_the_probe_finds_is_the_plan() {
         let (robot, task, s, mut p) = failed();
-        let guess = GuessReport {
-            strategy: crate::planning::report::GuessStrategy::SmoothStep,
-            smooth_step_clear: false,
-            solves: 1,
-            iterations: p.iterations,
-            solve_time_s: p.solve_time_s,
-            scales: vec![],
-            seeds: vec![],
-            cspace: None,
-            cspace_routes: vec![],
-            out_of_time: false,
-        };
+        let guess = empty_guess(&p);
         p.guess = Some(guess.clone());
         let chain = p.solves.clone();
         let q = diagnose_failure(
@@ -823,6 +814,119 @@ mod tests {
         assert!(d.to_string().contains("no detour was found"), "{d}");
         let json = serde_json::to_string(&d).unwrap();
         assert!(!json.contains("between_knots"), "{json}");
+    }
+
+    /// A race candidate at the real limits that converged on its knots (recorded in the guess
+    /// report) is weighed with the plan and the probe: the closest of the three is named, as the
+    /// race's solve.
+    #[test]
+    fn a_race_solve_short_only_between_its_knots_is_named() {
+        let (_, _, _, mut p) = failed();
+        let tp = TorqueProbe {
+            scale: 8.0,
+            converged: false,
+            guess: "failed-attempt".into(),
+            peak_torque_nm: vec![],
+            limit_nm: vec![5.0; 3],
+            ratio: vec![],
+            tried: vec![ProbeSolve {
+                guess: "cspace-seed".into(),
+                status: crate::planning::nlp::SolveStatus::Solved,
+                between_knots: Some(short_by(0.0021)),
+            }],
+        };
+        let race = |short: f64| BetweenKnots {
+            solve: "cspace-seed-0-longer-swing".into(),
+            torque_scale: 1.0,
+            violation: short_by(short),
+        };
+        let mut guess = empty_guess(&p);
+        guess.between_knots = Some(race(0.0008));
+        p.guess = Some(guess);
+        let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
+        assert_eq!(b, race(0.0008));
+        let d = Diagnosis {
+            obstacle: 0,
+            link: 2,
+            verdict: Verdict::ShortBetweenKnots,
+            swing_time_s: 2.0,
+            torque_probe: Some(tp.clone()),
+            swing_time_probe: None,
+            out_of_time: false,
+            solves: 1,
+            iterations: 10,
+            solve_time_s: 0.1,
+            paths_exhausted: false,
+            between_knots: Some(b),
+        };
+        let msg = d.to_string();
+        for want in [
+            "(the race's cspace-seed-0-longer-swing solve, at the real limits)",
+            "0.8 mm inside the margin between them",
+        ] {
+            assert!(msg.contains(want), "{want}: {msg}");
+        }
+        // the probe's solve is closer than a race solve 3 mm short
+        p.guess.as_mut().unwrap().between_knots = Some(race(0.003));
+        let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
+        assert_eq!((b.solve.as_str(), b.torque_scale), ("cspace-seed", 8.0));
+    }
+
+    /// The guess report of a chain that made the one solve of `p`.
+    fn empty_guess(p: &Plan) -> GuessReport {
+        GuessReport {
+            strategy: crate::planning::report::GuessStrategy::SmoothStep,
+            smooth_step_clear: false,
+            solves: 1,
+            iterations: p.iterations,
+            solve_time_s: p.solve_time_s,
+            scales: vec![],
+            seeds: vec![],
+            cspace: None,
+            cspace_routes: vec![],
+            out_of_time: false,
+            between_knots: None,
+        }
+    }
+
+    /// A widened probe's plan whose peak torque sits on the widened limit says so: its ratio is the
+    /// bound searched, not a measured need; one below the widened limit does not.
+    #[test]
+    fn a_peak_torque_on_the_widened_limit_is_not_read_as_a_need() {
+        let msg = |ratio: f64| {
+            Diagnosis {
+                obstacle: 0,
+                link: 2,
+                verdict: Verdict::NeedsTorque,
+                swing_time_s: 2.0,
+                torque_probe: Some(TorqueProbe {
+                    scale: 8.0,
+                    converged: true,
+                    guess: "cspace-seed".into(),
+                    peak_torque_nm: vec![0.0, 5.0 * ratio, 0.0],
+                    limit_nm: vec![5.0; 3],
+                    ratio: vec![0.1, ratio, 0.1],
+                    tried: vec![],
+                }),
+                swing_time_probe: None,
+                out_of_time: false,
+                solves: 1,
+                iterations: 10,
+                solve_time_s: 0.1,
+                paths_exhausted: false,
+                between_knots: None,
+            }
+            .to_string()
+        };
+        let on = msg(8.0);
+        assert!(
+            on.contains("needs peak |tau| 40.00 N m at joint 3, 8.00x"),
+            "{on}"
+        );
+        assert!(on.contains("on the widened limit itself"), "{on}");
+        let below = msg(2.4);
+        assert!(below.contains("2.40x its limit 5 N m"), "{below}");
+        assert!(!below.contains("on the widened limit"), "{below}");
     }
 
     #[test]
