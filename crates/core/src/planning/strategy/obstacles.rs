@@ -984,4 +984,46 @@ mod tests {
         closer_between_knots(&mut none, Kind::Further(0), SolveRole::Resumed, &p);
         assert_eq!(none, None);
     }
+
+    /// The position of `k` in `order`.
+    fn at(order: &[Kind], k: Kind) -> usize {
+        order
+            .iter()
+            .position(|&x| x == k)
+            .unwrap_or_else(|| panic!("{k:?} not in {order:?}"))
+    }
+
+    /// The race's order: the forward detour seeds, the best-ranked C-space seed as it is and then
+    /// as a longer swing, the backward detour seeds, the other C-space seeds the same way in their
+    /// rank, the further routes last. Where a seed as it is converges first, its plan at the
+    /// automatic swing time wins over the longer swing's.
+    #[test]
+    fn each_cspace_seed_runs_as_it_is_just_before_it_runs_as_a_longer_swing() {
+        // detour seeds 0 and 2 forward, 1 backward
+        let order = race_order(3, |i| i == 1, true);
+        let head = [
+            Kind::Detour(0),
+            Kind::Detour(2),
+            Kind::Cspace(0),
+            Kind::CspaceLonger(0),
+            Kind::Detour(1),
+        ];
+        assert_eq!(order[..head.len()], head, "{order:?}");
+        for j in 0..MAX_GOALS * ROUTES_PER_GOAL {
+            let plain = at(&order, Kind::Cspace(j));
+            assert_eq!(at(&order, Kind::CspaceLonger(j)), plain + 1, "{order:?}");
+        }
+        let further = FURTHER_GOALS * FURTHER_ROUTES;
+        let tail = &order[order.len() - further..];
+        assert!(
+            tail.iter().all(|k| matches!(k, Kind::Further(_))),
+            "{order:?}"
+        );
+        // without the longer swing: the seeds as they are, no further routes
+        let plain = race_order(3, |i| i == 1, false);
+        assert_eq!(plain.len(), 3 + MAX_GOALS * ROUTES_PER_GOAL, "{plain:?}");
+        assert!(plain
+            .iter()
+            .all(|k| matches!(k, Kind::Detour(_) | Kind::Cspace(_))));
+    }
 }
