@@ -94,6 +94,14 @@ fn a_plan_that_tunnels_between_knots_is_not_converged() {
     assert!(dmin < s.obstacle_margin - CLEARANCE_TOLERANCE_M, "{dmin}");
     assert!(!p.converged());
     let v = p.clearance_violation.expect("a clearance violation");
+    // the attempt the plan comes from records it (kept when a later solve's plan is returned)
+    assert!(
+        p.solves
+            .iter()
+            .any(|a| a.adopted && a.between_knots == Some(v)),
+        "{:?}",
+        p.solves
+    );
     assert_eq!(
         v.subject,
         ClearanceSubject::Obstacle {

@@ -56,6 +56,25 @@ pub struct SolveAttempt {
     /// is then the start's `free-time-start`); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within: Option<SolveRole>,
+    /// When this attempt's plan converged on its knots but its 1 ms trajectory breaks the clearance
+    /// between them: where and by how much (that plan's [`Plan::clearance_violation`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub between_knots: Option<ClearanceViolation>,
+}
+
+/// The adopted attempt of `solves` (a plan's own attempts) with `violation`, the plan's
+/// [`Plan::clearance_violation`], when the plan's `status` converged: the record of a solve that
+/// converged on its knots but not between them, kept when a later solve's plan is returned.
+pub(crate) fn note_between_knots(
+    solves: &mut [SolveAttempt],
+    status: &SolveStatus,
+    violation: Option<&ClearanceViolation>,
+) {
+    if let (true, Some(v)) = (status.is_converged(), violation) {
+        for a in solves.iter_mut().filter(|a| a.adopted) {
+            a.between_knots = Some(*v);
+        }
+    }
 }
 
 impl SolveAttempt {
@@ -71,6 +90,7 @@ impl SolveAttempt {
             role: SolveRole::Task,
             solve: 0,
             within: None,
+            between_knots: None,
         }
     }
 }

@@ -61,12 +61,6 @@ pub struct GuessReport {
     /// first solve, none converged, and the limit was spent.
     #[serde(default)]
     pub out_of_time: bool,
-    /// Of the race's solves at the real limits on the task's own mesh, the one that converged on
-    /// its knots and came closest to keeping the clearance between them, when none kept it
-    /// (`solve` names the candidate: `detour-seed-K`, `cspace-seed-K`, `cspace-seed-K-longer-swing`
-    /// or `further-route-K`, each 0-based).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub between_knots: Option<BetweenKnots>,
 }
 
 /// The closest approach of one link to one obstacle over a plan's attempt.
@@ -479,9 +473,10 @@ pub enum Verdict {
 /// them: the closest of them to keeping the clearance ([`Verdict::ShortBetweenKnots`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BetweenKnots {
-    /// Which solve: `plan` (the obstacle strategies' own plan, at the real limits), a candidate of
-    /// the race at the real limits ([`GuessReport::between_knots`]) or the torque probe's guess
-    /// (`cspace-seed`, `failed-attempt`; `torque_scale` above 1).
+    /// Which solve: `plan` (the obstacle strategies' own plan, at the real limits), another solve
+    /// of the strategies at the real limits on the task's own mesh (its role, e.g. `swing time free
+    /// up to 4.4595 s`; [`crate::planning::SolveAttempt::between_knots`]) or the torque probe's
+    /// guess (`cspace-seed`, `failed-attempt`; `torque_scale` above 1).
     pub solve: String,
     /// Factor on the actuator limits of that solve (1: the real limits).
     pub torque_scale: f64,
@@ -607,7 +602,7 @@ impl fmt::Display for Diagnosis {
                     let what = if b.solve == "plan" {
                         "the strategies' best plan, at the real limits".to_string()
                     } else if b.torque_scale == 1.0 {
-                        format!("the race's {} solve, at the real limits", b.solve)
+                        format!("the strategies' solve \"{}\", at the real limits", b.solve)
                     } else {
                         format!(
                             "the torque probe from its {} guess, limits widened {:.0}x",

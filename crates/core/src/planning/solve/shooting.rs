@@ -14,7 +14,7 @@ use crate::planning::clearance_check::check_clearance;
 use crate::planning::nlp::OcpNlp;
 use crate::planning::nlp::{Backend, NlpSettings, PassStats, SolveStatus, TimeSplit};
 use crate::planning::outcome::SolveRole;
-use crate::planning::outcome::{Plan, SolveAttempt, Violations};
+use crate::planning::outcome::{note_between_knots, Plan, SolveAttempt, Violations};
 use crate::planning::profile::Clamped;
 use crate::planning::settings::{PlannerSettings, Transcription, ValidSettings};
 use crate::planning::solve_log::SolveLog;
@@ -89,6 +89,7 @@ pub(crate) fn ocp_attempt(
         role: SolveRole::Task,
         solve: 0,
         within: None,
+        between_knots: None,
     }
 }
 
@@ -579,6 +580,8 @@ pub(crate) fn finish_plan(
         replay_held_torques(robot, z, layout.h, settings.shooting.substeps, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
+    let mut solves = solves;
+    note_between_knots(&mut solves, &status, clearance_violation.as_ref());
     Ok(Plan {
         status,
         backend,

@@ -9,7 +9,7 @@ use crate::error::Result;
 use crate::model::{DynamicsFn, Robot};
 use crate::planning::clearance_check::check_clearance;
 use crate::planning::nlp::{NlpSettings, SparseNlp, TimeSplit};
-use crate::planning::outcome::{Plan, Violations};
+use crate::planning::outcome::{note_between_knots, Plan, Violations};
 use crate::planning::profile::{replay_ee_error, resample};
 use crate::planning::settings::{Transcription, ValidSettings};
 use crate::planning::task::ValidTask;
@@ -141,6 +141,8 @@ pub(crate) fn plan_single(
         replay_ee_error(robot, &points, &layout, settings.transcription, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
+    let mut solves = solves;
+    note_between_knots(&mut solves, &sol.status, clearance_violation.as_ref());
     Ok(Plan {
         status: sol.status,
         backend: sol.backend,

@@ -298,11 +298,9 @@ fn probe(
             d.verdict = Verdict::NeedsSwingTime;
         }
     }
-    if d.verdict == Verdict::NoDetourFound {
-        d.between_knots = closest_between_knots(p, tp.as_ref());
-        if d.between_knots.is_some() {
-            d.verdict = Verdict::ShortBetweenKnots;
-        }
+    d.between_knots = between_knots_for(d.verdict, p, tp.as_ref());
+    if d.between_knots.is_some() {
+        d.verdict = Verdict::ShortBetweenKnots;
     }
     d.torque_probe = tp;
     d.out_of_time = limit.remaining(t0).is_none();
@@ -310,10 +308,12 @@ fn probe(
     Ok(Probe::Diagnosis(Box::new(Some(d))))
 }
 
-/// Of the strategies' plan `p` (at the real limits), the race's closest solve (in `p`'s guess
-/// report) and the torque probe's solves `tp`, the one that converged on its knots with the
-/// smallest shortfall of clearance between them (the real limits first at equal shortfall); `None`
-/// when none converged on its knots.
+/// Of the strategies' plan `p` (at the real limits), its other solves at the real limits on the
+/// task's own mesh (each attempt's [`crate::planning::SolveAttempt::between_knots`]: a detour or
+/// C-space seed's solve on the knots whose solve with the rows at the sub-steps then stopped, say)
+/// and the torque probe's solves `tp`, the one that converged on its knots with the smallest
+/// shortfall of clearance between them (the real limits first at equal shortfall, `p` itself first
+/// of those); `None` when none converged on its knots.
 fn closest_between_knots(p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKnots> {
     let own = p
         .status
@@ -334,13 +334,50 @@ fn closest_between_knots(p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKn
             })
         })
     });
-    let raced = p.guess.as_ref().and_then(|g| g.between_knots.clone());
-    own.into_iter().chain(raced).chain(probed).min_by(|a, b| {
+    let solves = p
+        .solves
+        .iter()
+        .filter(|a| {
+            a.status.is_converged() && of_the_task(a.role) && a.within.is_none_or(of_the_task)
+        })
+        .filter_map(|a| {
+            a.between_knots.map(|v| BetweenKnots {
+                solve: a.within.unwrap_or(a.role).to_string(),
+                torque_scale: 1.0,
+                violation: v,
+            })
+        });
+    own.into_iter().chain(solves).chain(probed).min_by(|a, b| {
         let key = |x: &BetweenKnots| (x.violation.shortfall_m(), x.torque_scale);
         key(a)
             .partial_cmp(&key(b))
             .unwrap_or(std::cmp::Ordering::Equal)
     })
+}
+
+/// The solve that turns `verdict` into [`Verdict::ShortBetweenKnots`]: where no detour was found,
+/// the closest of every solve that converged on its knots ([`closest_between_knots`]); where the
+/// widened probe's detour needs more torque, the closest at the real limits only (a detour within
+/// the limits nearly exists, which says more than the torque the widened one takes; the probe's
+/// finding stays in the diagnosis); `None` for the other verdicts.
+fn between_knots_for(verdict: Verdict, p: &Plan, tp: Option<&TorqueProbe>) -> Option<BetweenKnots> {
+    match verdict {
+        Verdict::NoDetourFound => closest_between_knots(p, tp),
+        Verdict::NeedsTorque => closest_between_knots(p, None),
+        _ => None,
+    }
+}
+
+/// Whether a solve of `role` solves the task itself on its own mesh at the real limits: not a
+/// coarse mesh, scaled obstacle radii, widened limits or the task without its obstacles.
+fn of_the_task(role: SolveRole) -> bool {
+    match role {
+        SolveRole::CoarseMesh { .. }
+        | SolveRole::ObstacleScale { .. }
+        | SolveRole::ObstacleFree => false,
+        SolveRole::TorqueScale { scale } => scale == 1.0,
+        _ => true,
+    }
 }
 
 /// The guess of the torque probe before the failed attempt: the configuration-space seed of the
@@ -816,11 +853,12 @@ mod tests {
         assert!(!json.contains("between_knots"), "{json}");
     }
 
-    /// A race candidate at the real limits that converged on its knots (recorded in the guess
-    /// report) is weighed with the plan and the probe: the closest of the three is named, as the
-    /// race's solve.
+    /// The strategies' other solves at the real limits on the task's own mesh that converged on
+    /// their knots (each attempt's `between_knots`) are weighed with the plan and the probe: the
+    /// closest is named by its role; a coarse-mesh solve, one with widened limits or scaled radii,
+    /// or one that did not converge is not weighed.
     #[test]
-    fn a_race_solve_short_only_between_its_knots_is_named() {
+    fn a_solve_of_the_strategies_short_only_between_its_knots_is_named() {
         let (_, _, _, mut p) = failed();
         let tp = TorqueProbe {
             scale: 8.0,
@@ -835,16 +873,46 @@ mod tests {
                 between_knots: Some(short_by(0.0021)),
             }],
         };
-        let race = |short: f64| BetweenKnots {
-            solve: "cspace-seed-0-longer-swing".into(),
-            torque_scale: 1.0,
-            violation: short_by(short),
+        let base = p.solves[0].clone();
+        let attempt = |role: SolveRole, within: Option<SolveRole>, short: f64, converged: bool| {
+            let mut a = base.clone();
+            a.role = role;
+            a.within = within;
+            a.between_knots = Some(short_by(short));
+            if converged {
+                a.status = crate::planning::nlp::SolveStatus::Solved;
+            }
+            a
         };
-        let mut guess = empty_guess(&p);
-        guess.between_knots = Some(race(0.0008));
-        p.guess = Some(guess);
+        // closer than the probe, but not weighed: a coarse mesh, widened limits, scaled radii, a
+        // solve that did not converge
+        let longer = SolveRole::LongerSwing { t_max_s: 4.0 };
+        p.solves.extend([
+            attempt(
+                SolveRole::CoarseMesh { knot_dt_s: 0.09 },
+                None,
+                0.0001,
+                true,
+            ),
+            attempt(SolveRole::TorqueScale { scale: 2.0 }, None, 0.0001, true),
+            attempt(SolveRole::ObstacleScale { scale: 0.5 }, None, 0.0001, true),
+            attempt(SolveRole::FromSeed, None, 0.0001, false),
+            attempt(
+                SolveRole::FreeTimeStart { t0_s: 2.0 },
+                Some(SolveRole::TorqueScale { scale: 8.0 }),
+                0.0001,
+                true,
+            ),
+        ]);
         let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
-        assert_eq!(b, race(0.0008));
+        assert_eq!((b.solve.as_str(), b.torque_scale), ("cspace-seed", 8.0));
+        // a start of the longer swing at the real limits 0.8 mm short is the closest, named by the
+        // solve it is a start of
+        let start = SolveRole::FreeTimeStart { t0_s: 4.0 };
+        p.solves.push(attempt(start, Some(longer), 0.0008, true));
+        let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
+        assert_eq!(b.solve, "swing time free up to 4.0000 s");
+        assert_eq!((b.torque_scale, b.violation), (1.0, short_by(0.0008)));
         let d = Diagnosis {
             obstacle: 0,
             link: 2,
@@ -861,15 +929,55 @@ mod tests {
         };
         let msg = d.to_string();
         for want in [
-            "(the race's cspace-seed-0-longer-swing solve, at the real limits)",
+            "(the strategies' solve \"swing time free up to 4.0000 s\", at the real limits)",
             "0.8 mm inside the margin between them",
         ] {
             assert!(msg.contains(want), "{want}: {msg}");
         }
-        // the probe's solve is closer than a race solve 3 mm short
-        p.guess.as_mut().unwrap().between_knots = Some(race(0.003));
+        // the probe's solve is closer than a solve 3 mm short
+        p.solves.last_mut().unwrap().between_knots = Some(short_by(0.003));
         let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
         assert_eq!((b.solve.as_str(), b.torque_scale), ("cspace-seed", 8.0));
+    }
+
+    /// A solve at the real limits short only between its knots turns `needs_torque` into
+    /// `short_between_knots`; a widened probe's solve does that for `no_detour_found` only, and no
+    /// solve changes the other verdicts.
+    #[test]
+    fn a_solve_at_the_real_limits_short_between_its_knots_outweighs_the_torque_need() {
+        let (_, _, _, mut p) = failed();
+        let tp = TorqueProbe {
+            scale: 8.0,
+            converged: true,
+            guess: "cspace-seed".into(),
+            peak_torque_nm: vec![0.0, 20.0, 0.0],
+            limit_nm: vec![5.0; 3],
+            ratio: vec![0.0, 4.0, 0.0],
+            tried: vec![ProbeSolve {
+                guess: "cspace-seed".into(),
+                status: crate::planning::nlp::SolveStatus::Solved,
+                between_knots: Some(short_by(0.0021)),
+            }],
+        };
+        // only the widened probe's solve fell short between its knots
+        assert_eq!(between_knots_for(Verdict::NeedsTorque, &p, Some(&tp)), None);
+        let b = between_knots_for(Verdict::NoDetourFound, &p, Some(&tp)).expect("the probe's");
+        assert_eq!(b.torque_scale, 8.0);
+        // a solve at the real limits did too
+        let mut a = p.solves[0].clone();
+        a.status = crate::planning::nlp::SolveStatus::Solved;
+        a.role = SolveRole::LongerSwing { t_max_s: 4.0 };
+        a.between_knots = Some(short_by(0.004));
+        p.solves.push(a);
+        let b = between_knots_for(Verdict::NeedsTorque, &p, Some(&tp)).expect("at the real limits");
+        assert_eq!((b.torque_scale, b.violation), (1.0, short_by(0.004)));
+        for v in [
+            Verdict::NeedsSwingTime,
+            Verdict::DetourWithinLimits,
+            Verdict::Unreachable,
+        ] {
+            assert_eq!(between_knots_for(v, &p, Some(&tp)), None, "{v:?}");
+        }
     }
 
     /// The guess report of a chain that made the one solve of `p`.
@@ -885,7 +993,6 @@ mod tests {
             cspace: None,
             cspace_routes: vec![],
             out_of_time: false,
-            between_knots: None,
         }
     }
 

@@ -41,7 +41,7 @@ use crate::model::{Circle, ClearanceFn, ClearancePair, Robot};
 use crate::planning::nlp::{NlpSettings, SolveStatus};
 use crate::planning::outcome::Plan;
 use crate::planning::outcome::SolveRole;
-use crate::planning::report::{BetweenKnots, Blockage, GuessReport, GuessStrategy, LinkClearance};
+use crate::planning::report::{Blockage, GuessReport, GuessStrategy, LinkClearance};
 use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::{covering_obstacles, target_pose};
@@ -535,7 +535,6 @@ fn strategies(
         }
         let n = v.len();
         for (k, (role, mut p)) in v.into_iter().enumerate() {
-            closer_between_knots(&mut rep.between_knots, *kind, role, &p);
             log.record(&mut p, role);
             if outcome.winner == Some(c) && k + 1 == n {
                 rep.strategy = match kind {
@@ -594,36 +593,6 @@ fn race_order(n_seeds: usize, backward: impl Fn(usize) -> bool, longer: bool) ->
         order.extend((0..FURTHER_GOALS * FURTHER_ROUTES).map(Kind::Further));
     }
     order
-}
-
-/// `best` replaced by the solve `p` (of role `role`) of the race's candidate `kind` when `p`
-/// converged on the task's own knots but not between them, by less than `best` falls short.
-fn closer_between_knots(best: &mut Option<BetweenKnots>, kind: Kind, role: SolveRole, p: &Plan) {
-    let coarse = matches!(role, SolveRole::CoarseMesh { .. });
-    let Some(v) = p
-        .clearance_violation
-        .filter(|_| p.status.is_converged() && !coarse)
-    else {
-        return;
-    };
-    if best
-        .as_ref()
-        .is_some_and(|b| b.violation.shortfall_m() <= v.shortfall_m())
-    {
-        return;
-    }
-    let solve = match kind {
-        Kind::SmoothStep => "smooth-step".to_string(),
-        Kind::Detour(i) => format!("detour-seed-{i}"),
-        Kind::Cspace(j) => format!("cspace-seed-{j}"),
-        Kind::CspaceLonger(j) => format!("cspace-seed-{j}-longer-swing"),
-        Kind::Further(j) => format!("further-route-{j}"),
-    };
-    *best = Some(BetweenKnots {
-        solve,
-        torque_scale: 1.0,
-        violation: v,
-    });
 }
 
 /// What the race leaves to the fallbacks after it: the best-ranked C-space seed (`cguess`, its
@@ -730,7 +699,6 @@ fn empty_report(smooth_step_clear: bool) -> GuessReport {
         cspace: None,
         cspace_routes: vec![],
         out_of_time: false,
-        between_knots: None,
     }
 }
 
@@ -917,73 +885,6 @@ pub fn path_placements(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planning::{ClearanceSubject, ClearanceViolation};
-
-    /// A violation of the 10 mm margin by `short` m.
-    fn short_by(short: f64) -> ClearanceViolation {
-        ClearanceViolation {
-            subject: ClearanceSubject::Obstacle {
-                obstacle: 0,
-                link: 2,
-            },
-            time_s: 1.2,
-            clearance_m: 0.01 - short,
-            required_m: 0.01,
-            tolerance_m: 0.001,
-        }
-    }
-
-    /// The race keeps, of its candidates' solves, the one converged on the task's own knots that
-    /// falls least short between them: not a coarse-mesh solve, not one that did not converge, not
-    /// one further short than the kept one.
-    #[test]
-    fn the_race_keeps_its_solve_closest_between_the_knots() {
-        let robot = Robot::paper();
-        let s = crate::planning::settings::ValidSettings::new(
-            PlannerSettings::default(),
-            robot.n,
-            "test",
-        )
-        .unwrap();
-        let task = ValidTask::new(&robot, SwingTask::paper(), &s, "task", "").unwrap();
-        let nlp = NlpSettings {
-            max_iter: 3,
-            ..Default::default()
-        };
-        let mut p = plan_single(&robot, &task, &s, &nlp, None).unwrap();
-        let mut best = None;
-        // not converged: not kept
-        p.clearance_violation = Some(short_by(0.002));
-        closer_between_knots(&mut best, Kind::Detour(1), SolveRole::FromSeed, &p);
-        assert_eq!(best, None);
-        // converged on the knots of a coarse mesh: not kept
-        p.status = SolveStatus::Solved;
-        let coarse = SolveRole::CoarseMesh { knot_dt_s: 0.09 };
-        closer_between_knots(&mut best, Kind::Detour(1), coarse, &p);
-        assert_eq!(best, None);
-        // on the task's own mesh: kept, named by its candidate
-        closer_between_knots(&mut best, Kind::Detour(1), SolveRole::FromSeed, &p);
-        let kept = best.clone().expect("kept");
-        assert_eq!(
-            (kept.solve.as_str(), kept.torque_scale),
-            ("detour-seed-1", 1.0)
-        );
-        // further short: the kept one stays; closer: replaces it
-        p.clearance_violation = Some(short_by(0.003));
-        closer_between_knots(&mut best, Kind::Cspace(0), SolveRole::CspaceSeed, &p);
-        assert_eq!(best.as_ref(), Some(&kept));
-        p.clearance_violation = Some(short_by(0.001));
-        let role = SolveRole::LongerSwing { t_max_s: 4.0 };
-        closer_between_knots(&mut best, Kind::CspaceLonger(2), role, &p);
-        let b = best.expect("kept");
-        assert_eq!(b.solve, "cspace-seed-2-longer-swing");
-        assert_eq!(b.violation, short_by(0.001));
-        // a clear plan is no shortfall
-        let mut none = None;
-        p.clearance_violation = None;
-        closer_between_knots(&mut none, Kind::Further(0), SolveRole::Resumed, &p);
-        assert_eq!(none, None);
-    }
 
     /// The position of `k` in `order`.
     fn at(order: &[Kind], k: Kind) -> usize {
