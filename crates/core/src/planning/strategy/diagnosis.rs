@@ -766,6 +766,29 @@ mod tests {
         );
     }
 
+    /// A diagnosis of link 3 and obstacle 0 on a 2 s swing with `verdict`, the torque probe `tp`
+    /// and the solve short between its knots `b`.
+    fn diagnosis_of(
+        verdict: Verdict,
+        tp: Option<TorqueProbe>,
+        b: Option<BetweenKnots>,
+    ) -> Diagnosis {
+        Diagnosis {
+            obstacle: 0,
+            link: 2,
+            verdict,
+            swing_time_s: 2.0,
+            torque_probe: tp,
+            swing_time_probe: None,
+            out_of_time: false,
+            solves: 1,
+            iterations: 10,
+            solve_time_s: 0.1,
+            paths_exhausted: false,
+            between_knots: b,
+        }
+    }
+
     /// A violation of the 10 mm margin by `short` m, link 3 and obstacle 0 at 1.2 s.
     fn short_by(short: f64) -> crate::planning::ClearanceViolation {
         crate::planning::ClearanceViolation {
@@ -780,14 +803,10 @@ mod tests {
         }
     }
 
-    /// A failure whose solves converge on their knots but pass inside the margin between them gets
-    /// its own verdict: the closest of them (the strategies' plan at the real limits, or a widened
-    /// probe solve) with its shortfall in mm and where, and no claim about widened torque limits; a
-    /// failure where nothing converged keeps "no detour was found".
-    #[test]
-    fn a_detour_short_only_between_its_knots_is_told_apart_from_no_detour() {
-        let (_, _, _, mut p) = failed();
-        let tp = TorqueProbe {
+    /// A torque probe at 8x that found no detour: its C-space seed's solve converged on its knots
+    /// 2.1 mm short between them, its failed attempt's ended locally infeasible.
+    fn failed_probe() -> TorqueProbe {
+        TorqueProbe {
             scale: 8.0,
             converged: false,
             guess: "failed-attempt".into(),
@@ -806,7 +825,17 @@ mod tests {
                     between_knots: None,
                 },
             ],
-        };
+        }
+    }
+
+    /// A failure whose solves converge on their knots but pass inside the margin between them gets
+    /// its own verdict: the closest of them (the strategies' plan at the real limits, or a widened
+    /// probe solve) with its shortfall in mm and where, and no claim about widened torque limits; a
+    /// failure where nothing converged keeps "no detour was found".
+    #[test]
+    fn a_detour_short_only_between_its_knots_is_told_apart_from_no_detour() {
+        let (_, _, _, mut p) = failed();
+        let tp = failed_probe();
         // the strategies' plan did not converge: the probe's solve is the closest
         assert!(!p.status.is_converged());
         let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
@@ -816,20 +845,7 @@ mod tests {
         p.clearance_violation = Some(short_by(0.0013));
         let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
         assert_eq!((b.solve.as_str(), b.torque_scale), ("plan", 1.0));
-        let mut d = Diagnosis {
-            obstacle: 0,
-            link: 2,
-            verdict: Verdict::ShortBetweenKnots,
-            swing_time_s: 2.0,
-            torque_probe: Some(tp.clone()),
-            swing_time_probe: None,
-            out_of_time: false,
-            solves: 1,
-            iterations: 10,
-            solve_time_s: 0.1,
-            paths_exhausted: false,
-            between_knots: Some(b),
-        };
+        let mut d = diagnosis_of(Verdict::ShortBetweenKnots, Some(tp.clone()), Some(b));
         let msg = d.to_string();
         for want in [
             "obstacle 0 blocks link 3",
@@ -860,19 +876,8 @@ mod tests {
     #[test]
     fn a_solve_of_the_strategies_short_only_between_its_knots_is_named() {
         let (_, _, _, mut p) = failed();
-        let tp = TorqueProbe {
-            scale: 8.0,
-            converged: false,
-            guess: "failed-attempt".into(),
-            peak_torque_nm: vec![],
-            limit_nm: vec![5.0; 3],
-            ratio: vec![],
-            tried: vec![ProbeSolve {
-                guess: "cspace-seed".into(),
-                status: crate::planning::nlp::SolveStatus::Solved,
-                between_knots: Some(short_by(0.0021)),
-            }],
-        };
+        let mut tp = failed_probe();
+        tp.tried.truncate(1);
         let base = p.solves[0].clone();
         let attempt = |role: SolveRole, within: Option<SolveRole>, short: f64, converged: bool| {
             let mut a = base.clone();
@@ -913,20 +918,7 @@ mod tests {
         let b = closest_between_knots(&p, Some(&tp)).expect("one converged on its knots");
         assert_eq!(b.solve, "swing time free up to 4.0000 s");
         assert_eq!((b.torque_scale, b.violation), (1.0, short_by(0.0008)));
-        let d = Diagnosis {
-            obstacle: 0,
-            link: 2,
-            verdict: Verdict::ShortBetweenKnots,
-            swing_time_s: 2.0,
-            torque_probe: Some(tp.clone()),
-            swing_time_probe: None,
-            out_of_time: false,
-            solves: 1,
-            iterations: 10,
-            solve_time_s: 0.1,
-            paths_exhausted: false,
-            between_knots: Some(b),
-        };
+        let d = diagnosis_of(Verdict::ShortBetweenKnots, Some(tp.clone()), Some(b));
         let msg = d.to_string();
         for want in [
             "(the strategies' solve \"swing time free up to 4.0000 s\", at the real limits)",
@@ -1001,12 +993,9 @@ mod tests {
     #[test]
     fn a_peak_torque_on_the_widened_limit_is_not_read_as_a_need() {
         let msg = |ratio: f64| {
-            Diagnosis {
-                obstacle: 0,
-                link: 2,
-                verdict: Verdict::NeedsTorque,
-                swing_time_s: 2.0,
-                torque_probe: Some(TorqueProbe {
+            diagnosis_of(
+                Verdict::NeedsTorque,
+                Some(TorqueProbe {
                     scale: 8.0,
                     converged: true,
                     guess: "cspace-seed".into(),
@@ -1015,14 +1004,8 @@ mod tests {
                     ratio: vec![0.1, ratio, 0.1],
                     tried: vec![],
                 }),
-                swing_time_probe: None,
-                out_of_time: false,
-                solves: 1,
-                iterations: 10,
-                solve_time_s: 0.1,
-                paths_exhausted: false,
-                between_knots: None,
-            }
+                None,
+            )
             .to_string()
         };
         let on = msg(8.0);
