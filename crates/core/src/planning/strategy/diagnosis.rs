@@ -19,7 +19,8 @@
 //! 4. when no probe converged but the chain's plan or a probe solve converged on its knots and only
 //!    its 1 ms trajectory passes inside the margin between them, the closest of them is the verdict
 //!    ([`Verdict::ShortBetweenKnots`], [`BetweenKnots`]): a miss between the knots (at the real
-//!    limits when the closest is the chain's plan, with the limits widened when it is a probe's).
+//!    limits when the closest is the chain's plan or another of its solves, with the limits widened
+//!    when it is a probe's).
 //!
 //! The chain plans the first probe's seed widened itself, and from it the task at the real limits or
 //! with a free swing time (its step 6): a detour within the limits, or one a longer swing makes

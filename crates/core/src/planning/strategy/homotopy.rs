@@ -224,9 +224,7 @@ mod tests {
     /// The three-link robot of params/, a straight-line swing in its angles from a folded start
     /// pose to a pose grasping the bar at 0.8 m, and a circle on its middle link halfway.
     fn three_link_swing() -> (Robot, Vec<Circle>, Trajectory, [f64; 2]) {
-        let p =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../params/three-link.toml");
-        let robot = Robot::from_toml_file(&p).unwrap();
+        let robot = Robot::from_repo_params("three-link.toml");
         let target = [0.8, 0.0];
         let q0 = [-2.2, 0.0, -1.0];
         let q1 = ik_from_seed(&robot, &[-1.2, 0.4, 0.4], target).expect("the bar is in reach");
