@@ -342,14 +342,12 @@ fn a_detour_seed_plans_around_an_obstacle_the_swing_sweeps() {
         .count();
     assert!(started_after <= failed_before, "{g:?}");
     assert_eq!((p.iterations, p.attempts), (g.iterations, g.solves));
-    // the adopted attempt is the winning seed's (or its resume's), after the smooth step, the
-    // obstacle-free plan and the failed seeds
+    // the adopted attempt is the winning seed's (or its solve again from the seed), after the smooth
+    // step, the obstacle-free plan and the failed seeds
     assert_eq!(solve_log::audit(&p), Vec::<String>::new());
     let adopted = p.solves.iter().find(|a| a.adopted).unwrap();
     assert!(
-        adopted.role == SolveRole::DetourSeed { index: at }
-            || adopted.role == SolveRole::FromSeed
-            || adopted.role == SolveRole::Resumed,
+        adopted.role == SolveRole::DetourSeed { index: at } || adopted.role == SolveRole::FromSeed,
         "{:?}",
         adopted.role
     );

@@ -1,19 +1,17 @@
 //! One seed of the obstacle chain solved coarse to fine: the task on a mesh of knots
 //! [`COARSE_KNOT_DT_S`] apart from the seed, capped at [`COARSE_MAX_ITER`] iterations, then on the
 //! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap),
-//! and, when that fine solve ends without a clear plan, once more from the seed itself (a coarse
-//! plan that passes through an obstacle between its knots 90 ms apart, or one stopped at its cap,
-//! can lead the fine solve into a class it cannot leave: measured on the placement scan,
-//! docs/planner-measurements.md); a seed whose coarse solve failed otherwise (locally infeasible,
-//! restoration failed) is dropped there (docs/planner.md, "Obstacles on the path"), and after a
-//! numerical failure of the coarse mesh (a numerical or an evaluation error) the fine solve starts
-//! from the seed. The solve from
-//! the seed is [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's
-//! role. The last fine solve (the one from the seed when there was one, since a fine solve that
-//! stopped at its iteration cap is solved again from the seed first) resumes once from where it
-//! stopped when it ran out of iterations ([`SolveRole::Resumed`]). The solve again from the seed and
-//! the resume are second chances: in the race a later candidate that has converged wins over them
-//! ([`super::race`]).
+//! and, for a detour seed or a longer swing (`Again::FromSeed`), when that fine solve ends without
+//! a clear plan, once more from the seed itself (a coarse plan that passes through an obstacle
+//! between its knots 90 ms apart, or one stopped at its cap, can lead the fine solve into a class it
+//! cannot leave: measured on the placement scan, docs/planner-measurements.md); a seed whose coarse
+//! solve failed otherwise (locally infeasible, restoration failed) is dropped there
+//! (docs/planner.md, "Obstacles on the path"), and after a numerical failure of the coarse mesh (a
+//! numerical or an evaluation error) the fine solve starts from the seed. The solve from the seed is
+//! [`SolveRole::FromSeed`]; the fine solve warm from the coarse plan keeps the seed's role. The
+//! solve again from the seed is a second chance: in the race a later candidate that has converged
+//! wins over it ([`super::race`]). A fine solve that stops at its iteration limit is not resumed: on
+//! the placement scans no such resume converged (docs/planner-measurements.md).
 //!
 //! Units: s.
 
@@ -37,6 +35,19 @@ pub const COARSE_MAX_ITER: usize = 200;
 /// seeds are timed over that longest swing (measured on the placement scan:
 /// docs/planner-measurements.md).
 pub const LONGER_SWING_FACTOR: f64 = 2.0;
+
+/// Whether a seed's fine solve warm from the coarse plan that ended without a clear plan is solved
+/// once more from the seed itself ([`solve_seed_coarse_to_fine`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Again {
+    /// Solved again from the seed (a detour seed: its coarse plan can pass through an obstacle
+    /// between its knots 90 ms apart and lead the fine solve into a class it cannot leave).
+    FromSeed,
+    /// Not solved again (a configuration-space seed at the automatic swing time: on the placement
+    /// scans its solve again from the seed never converged where the warm one had not;
+    /// docs/planner-measurements.md).
+    No,
+}
 
 /// The coarse mesh's settings for `settings`: multiple shooting with knots [`COARSE_KNOT_DT_S`]
 /// apart and no sub-step refinement (the fine solve keeps the clearance between knots); `None` when
@@ -127,7 +138,9 @@ fn or_from_seed(
 }
 
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
-/// `run` (its time limit counted from now for all the solves). The plans in the order solved.
+/// `run` (its time limit counted from now for all the solves); solved once more from the seed when
+/// the fine solve warm from the coarse plan ended without a clear plan and `again` is
+/// [`Again::FromSeed`]. The plans in the order solved.
 pub(crate) fn solve_seed_coarse_to_fine(
     robot: &Robot,
     task: &ValidTask,
@@ -135,6 +148,7 @@ pub(crate) fn solve_seed_coarse_to_fine(
     run: &NlpSettings,
     g: &Trajectory,
     role: SolveRole,
+    again: Again,
 ) -> Result<Plans> {
     let started = Instant::now();
     let mut out: Plans = vec![];
@@ -154,19 +168,12 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let p = plan_single(robot, task, settings, &fine, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
-    let (last_role, p) = if from_coarse {
+    let last = if from_coarse && again == Again::FromSeed {
         or_from_seed(robot, task, settings, run, started, g, role, p, &mut out)?
     } else {
         (role, p)
     };
-    let resume = p.status == SolveStatus::MaxIterations;
-    let points = p.points.clone();
-    out.push((last_role, p));
-    if let Some(more) = run.remaining(started).filter(|_| resume) {
-        yield_to_later();
-        let p = plan_single(robot, task, settings, &more, Some(&points))?;
-        out.push((SolveRole::Resumed, p));
-    }
+    out.push(last);
     Ok(out)
 }
 
@@ -240,4 +247,44 @@ pub(crate) fn solve_seed_longer_swing(
     let last = or_from_seed(robot, task, &from_seed, run, started, g, role, p, &mut out)?;
     out.push(last);
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planning::settings::PlannerSettings;
+    use crate::planning::task::SwingTask;
+
+    /// The roles of a seed solved coarse to fine with `again`, every solve stopped after 3
+    /// iterations (the coarse solve at its cap goes on warm, the fine solve ends without a plan),
+    /// from the paper's unobstructed plan as the seed.
+    fn roles(again: Again) -> Vec<SolveRole> {
+        let robot = Robot::paper();
+        let s = ValidSettings::new(PlannerSettings::default(), robot.n, "test").unwrap();
+        let task = ValidTask::new(&robot, SwingTask::paper(), &s, "task", "").unwrap();
+        let nlp = NlpSettings::default();
+        let seed = plan_single(&robot, &task, &s, &nlp, None).unwrap();
+        assert!(seed.converged(), "{:?}", seed.failure_message());
+        let short = nlp.capped(3);
+        let role = SolveRole::CspaceSeed;
+        let plans = solve_seed_coarse_to_fine(&robot, &task, &s, &short, &seed.points, role, again)
+            .unwrap();
+        assert!(plans
+            .iter()
+            .all(|(_, p)| p.status == SolveStatus::MaxIterations));
+        plans.into_iter().map(|(r, _)| r).collect()
+    }
+
+    #[test]
+    fn a_seed_that_stops_at_its_limit_is_solved_again_from_the_seed_only_when_asked_and_not_resumed(
+    ) {
+        let coarse = SolveRole::CoarseMesh {
+            knot_dt_s: COARSE_KNOT_DT_S,
+        };
+        assert_eq!(
+            roles(Again::FromSeed),
+            [coarse, SolveRole::CspaceSeed, SolveRole::FromSeed]
+        );
+        assert_eq!(roles(Again::No), [coarse, SolveRole::CspaceSeed]);
+    }
 }

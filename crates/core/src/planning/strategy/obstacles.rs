@@ -18,8 +18,8 @@
 //!    seeds, then the other configuration-space seeds in their rank, each followed by the same with
 //!    a longer swing; solved two at a time, each seed coarse to fine ([`super::candidate`]); the
 //!    first plan in order that converges wins, except over a candidate past its first chance (its
-//!    sub-step re-solve, its solve again from the seed, its resume), which a later converged
-//!    candidate beats ([`super::race`]);
+//!    sub-step re-solve, its solve again from the seed, the smooth step's resume), which a later
+//!    converged candidate beats ([`super::race`]);
 //! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
 //!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
@@ -51,7 +51,8 @@ use crate::planning::solve::shooting::{
 };
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
-    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, LONGER_SWING_FACTOR,
+    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, Again,
+    LONGER_SWING_FACTOR,
 };
 use crate::planning::strategy::cspace::CspaceReport;
 use crate::planning::strategy::further::{
@@ -457,7 +458,7 @@ fn strategies(
                 let g = &seeds[i].1;
                 cands.push(Box::new(move |run: &NlpSettings| {
                     let role = SolveRole::DetourSeed { index: i };
-                    solve_seed_coarse_to_fine(robot, task, settings, run, g, role)
+                    solve_seed_coarse_to_fine(robot, task, settings, run, g, role, Again::FromSeed)
                 }));
             }
             Kind::Cspace(j) => cands.push(Box::new(move |run: &NlpSettings| {
@@ -465,7 +466,8 @@ fn strategies(
                     return Ok(vec![]);
                 };
                 let g = &sd.guess;
-                solve_seed_coarse_to_fine(robot, task, settings, &run, g, SolveRole::CspaceSeed)
+                let role = SolveRole::CspaceSeed;
+                solve_seed_coarse_to_fine(robot, task, settings, &run, g, role, Again::No)
             })),
             Kind::CspaceLonger(j) => cands.push(Box::new(move |run: &NlpSettings| {
                 let Some((sd, run)) = route(run, j) else {

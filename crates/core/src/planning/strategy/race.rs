@@ -4,7 +4,7 @@
 //!
 //! Each candidate is a closure that plans the task from one guess and returns its plans in the order
 //! they were solved (the candidate's own solves: a coarse solve, the solve at the task's mesh, a
-//! resume). Up to [`RACE_WORKERS`] candidates run at a time, taken in their order; a candidate
+//! solve again from the seed). Up to [`RACE_WORKERS`] candidates run at a time, taken in their order; a candidate
 //! starts only while no candidate before it has won and time is left. Each candidate has a cancel
 //! token of its own, set when a candidate before it wins or when the caller's token is set (the
 //! calling thread watches it every [`WATCH_PERIOD`]), so a cancelled call ends within one iteration
@@ -12,7 +12,7 @@
 //!
 //! **Past the first chance.** A candidate whose first converged solve broke the clearance between
 //! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
-//! ended without a clear plan (it is solving again from its seed, or resuming), marks itself
+//! ended without a clear plan (it is solving again from its seed), marks itself
 //! (`yield_to_later` of the shooting solve); so does the smooth step once its solve has run
 //! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has converged
 //! wins as soon as every candidate before it has ended or is so marked, and those still running
