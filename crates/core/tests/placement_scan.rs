@@ -60,8 +60,13 @@ fn run_within(robot: &Robot, s: &PlannerSettings, pl: &Placement, limit_s: f64) 
             .solves
             .iter()
             .map(|a| {
+                let why = a
+                    .numerical_error
+                    .as_ref()
+                    .map(|m| format!(" ({m})"))
+                    .unwrap_or_default();
                 format!(
-                    "{}: {:?} {} it {:.2} s",
+                    "{}: {:?}{why} {} it {:.2} s",
                     a.role, a.status, a.iterations, a.time_s
                 )
             })

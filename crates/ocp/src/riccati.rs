@@ -126,11 +126,14 @@ pub(crate) struct Riccati {
     pub kgain: Vec<f64>,
     /// Cholesky factors of R^_k.
     lr: Vec<f64>,
-    /// Scratch copy of P_0, and its eigendecomposition `P_0 = V diag(d) V^T` (P_0 may be
-    /// indefinite when equality rows make the problem convex; see [`Riccati::factor_schur`]).
+    /// Scratch copy of P_0, and the eigendecomposition `S P_0 S = V diag(d) V^T` of P_0 scaled by
+    /// the positive diagonal `S = diag(p0_s)` (P_0 may be indefinite when equality rows make the
+    /// problem convex; see [`Riccati::factor_schur`]). S is the identity unless P_0 looks singular
+    /// only for the spread of its diagonal (see [`Riccati::factor`]).
     lp0: Vec<f64>,
     p0_v: Vec<f64>,
     p0_d: Vec<f64>,
+    p0_s: Vec<f64>,
     p0_tmp: Vec<f64>,
     /// Value-function gradients p_k of the last solve.
     pv: Vec<f64>,
@@ -200,6 +203,7 @@ impl Riccati {
             lp0: vec![0.0; lay.nx[0] * lay.nx[0]],
             p0_v: vec![0.0; lay.nx[0] * lay.nx[0]],
             p0_d: vec![0.0; lay.nx[0]],
+            p0_s: vec![1.0; lay.nx[0]],
             p0_tmp: vec![0.0; lay.nx[0]],
             pv: vec![0.0; lay.oz[kk + 1]],
             kff: vec![0.0; lay.oz[kk + 1]],
@@ -345,8 +349,44 @@ impl Riccati {
             }
         }
         let n0 = lay.nx[0];
+        self.p0_s[..n0].fill(1.0);
         self.lp0.copy_from_slice(&self.p[..n0 * n0]);
+        let unscaled = count_inertia(&mut self.lp0, n0, &mut self.p0_d, &mut self.p0_v);
+        if unscaled.is_ok() {
+            return unscaled;
+        }
+        // The test above is relative to the largest eigenvalue: a P_0 whose diagonal spans more
+        // than 1e13 (a free initial state that stays the same along the chain, like a free swing
+        // time, sums its barrier term at a bound over every stage, beside the unit entries of the
+        // fixed states) fails it whatever delta_w, which only grows the free entries. The inertia
+        // is that of `S P_0 S` for any positive diagonal S (Sylvester), so the test is repeated
+        // on P_0 with a unit diagonal where its entries are nonzero.
+        for i in 0..n0 {
+            let d = self.p[i * n0 + i].abs();
+            self.p0_s[i] = if d.is_finite() && d > 0.0 {
+                1.0 / d.sqrt()
+            } else {
+                1.0
+            };
+        }
+        for i in 0..n0 {
+            for j in 0..n0 {
+                self.lp0[i * n0 + j] = self.p0_s[i] * self.p[i * n0 + j] * self.p0_s[j];
+            }
+        }
         count_inertia(&mut self.lp0, n0, &mut self.p0_d, &mut self.p0_v)
+    }
+
+    /// Solves `P_0 x = b` in place with the scaled eigendecomposition of [`Riccati::factor`]:
+    /// `x = S (S P_0 S)^-1 S b`.
+    fn p0_solve(&mut self, n0: usize, b: &mut [f64]) {
+        for (x, s) in b[..n0].iter_mut().zip(&self.p0_s) {
+            *x *= s;
+        }
+        eigen_solve(&self.p0_v, &self.p0_d, n0, b, &mut self.p0_tmp);
+        for (x, s) in b[..n0].iter_mut().zip(&self.p0_s) {
+            *x *= s;
+        }
     }
 
     /// Solves the chain QP without the equality rows, for gradient `g` (n_z) and defects `bdef`
@@ -429,7 +469,7 @@ impl Riccati {
             for i in 0..n0 {
                 dx0[i] = -self.pv[i];
             }
-            eigen_solve(&self.p0_v, &self.p0_d, n0, dx0, &mut self.p0_tmp);
+            self.p0_solve(n0, dx0);
         }
         for k in 0..=kk {
             let (nx, nu, nx1) = (lay.nx[k], lay.nu[k], lay.nx1[k]);
@@ -677,13 +717,9 @@ impl Riccati {
             for i in 0..n0 {
                 self.p0_col[i] = -self.mpv[i * m + c];
             }
-            eigen_solve(
-                &self.p0_v,
-                &self.p0_d,
-                n0,
-                &mut self.p0_col,
-                &mut self.p0_tmp,
-            );
+            let mut col = std::mem::take(&mut self.p0_col);
+            self.p0_solve(n0, &mut col);
+            self.p0_col = col;
             for i in 0..n0 {
                 self.resp_dz[i * m + c] = self.p0_col[i];
             }

@@ -129,6 +129,31 @@ fn free_initial_velocity_matches_the_weighted_least_norm_solution() {
 }
 
 #[test]
+fn a_free_initial_state_of_curvature_far_above_the_fixed_states_is_solved() {
+    // x_0 fixed (unit entry in P_0), v_0 free with the weight 1e15 (beside the fixed position,
+    // P_0's diagonal spans more than the 1e13 of the singularity test): the same known answer
+    // as above, no numerical error
+    let (kk, h, w0) = (30, 0.05, 1e15);
+    let mut p = double_integrator(kk, h);
+    p.stages[0].bounds.x_lo[1] = f64::NEG_INFINITY;
+    p.stages[0].bounds.x_hi[1] = f64::INFINITY;
+    p.stages[0].h[3 + 1] = w0;
+    let (solver, stats) = solve(&mut p);
+    assert_eq!(stats.status, OcpStatus::Solved, "{stats:?}");
+    let mut e = double_integrator_rows(kk, h);
+    e[0].insert(0, kk as f64 * h);
+    e[1].insert(0, 1.0);
+    let mut w = vec![w0];
+    w.extend(std::iter::repeat_n(h, kk));
+    let y = weighted_least_norm(&e, &w, &[1.0, 0.0]);
+    let v0 = solver.primal().x[0][1];
+    assert!((v0 - y[0]).abs() < 1e-12, "v0 {v0} vs {}", y[0]);
+    for k in 0..kk {
+        assert!((solver.primal().u[k][0] - y[k + 1]).abs() < 1e-7);
+    }
+}
+
+#[test]
 fn decay_with_a_free_initial_state_and_no_cost_is_fixed_by_the_terminal_row() {
     // x' = -x, exact discretisation x+ = e^-h x, no input, no cost; x_0 free, x_K = e^-T fixed by
     // the terminal row: the solution is x_k = e^-(k h). The Hessian is zero, P_0 singular, but

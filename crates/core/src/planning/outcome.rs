@@ -60,6 +60,11 @@ pub struct SolveAttempt {
     /// between them: where and by how much (that plan's [`Plan::clearance_violation`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub between_knots: Option<ClearanceViolation>,
+    /// When the attempt ended in [`SolveStatus::NumericalError`] on the `ocp` backend: the
+    /// solver's own message, which step failed (e.g. `"the Hessian could not be regularised
+    /// (delta_w > 1e40)"`, `"non-finite Newton step"`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub numerical_error: Option<String>,
 }
 
 /// The adopted attempt of `solves` (a plan's own attempts) with `violation`, the plan's
@@ -91,6 +96,7 @@ impl SolveAttempt {
             solve: 0,
             within: None,
             between_knots: None,
+            numerical_error: None,
         }
     }
 }

@@ -90,6 +90,10 @@ pub(crate) fn ocp_attempt(
         solve: 0,
         within: None,
         between_knots: None,
+        numerical_error: match &stats.status {
+            OcpStatus::NumericalError(m) => Some(m.clone()),
+            _ => None,
+        },
     }
 }
 
@@ -823,6 +827,37 @@ pub(crate) fn replay_held_torques_in(
 mod tests {
     use super::*;
     use crate::planning::plan;
+
+    /// The OCP solver's numerical-error message stays in the attempt's record (and its JSON);
+    /// other outcomes carry none and serialise without the field.
+    #[test]
+    fn an_attempt_keeps_the_numerical_error_message_of_the_solver() {
+        let msg = "the Hessian could not be regularised (delta_w > 1e40)";
+        let mut stats = OcpStats {
+            status: OcpStatus::NumericalError(msg.into()),
+            iterations: 197,
+            objective: 0.0,
+            primal_infeasibility: 0.0,
+            dual_infeasibility: 0.0,
+            final_mu: 1e-4,
+            regularizations: 0,
+            factorizations: 0,
+            centrality_correctors: 0,
+            time: Default::default(),
+        };
+        let st = OcpSettings::default();
+        let a = ocp_attempt(&stats, status_of(&stats.status), &st);
+        assert_eq!(a.status, SolveStatus::NumericalError);
+        assert_eq!(a.numerical_error.as_deref(), Some(msg));
+        let json = serde_json::to_string(&a).unwrap();
+        assert!(json.contains(msg), "{json}");
+        stats.status = OcpStatus::MaxIterations;
+        let a = ocp_attempt(&stats, status_of(&stats.status), &st);
+        assert_eq!(a.numerical_error, None);
+        assert!(!serde_json::to_string(&a)
+            .unwrap()
+            .contains("numerical_error"));
+    }
 
     /// The replay at [`REPLAY_MAX_STEP_S`] / [`REPLAY_REFINEMENT`] measures the same miss as a replay
     /// at 0.1 ms steps (the old reference), on the tracking swing at 10 and 30 ms knots.
