@@ -4,11 +4,11 @@
 //!
 //! Each candidate is a closure that plans the task from one guess and returns its plans in the order
 //! they were solved (the candidate's own solves: a coarse solve, the solve at the task's mesh, a
-//! solve again from the seed). Up to [`RACE_WORKERS`] candidates run at a time, taken in their order; a candidate
-//! starts only while no candidate before it has won and time is left. Each candidate has a cancel
-//! token of its own, set when a candidate before it wins or when the caller's token is set (the
-//! calling thread watches it every [`WATCH_PERIOD`]), so a cancelled call ends within one iteration
-//! of every solve running.
+//! solve again from the seed). Up to [`RACE_WORKERS`] candidates run at a time, taken in their
+//! order; a candidate starts only while no candidate before it has won and time is left. Each
+//! candidate has a cancel token of its own, set when a candidate before it wins or when the
+//! caller's token is set (the calling thread watches it every [`WATCH_PERIOD`]), so a cancelled
+//! call ends within one iteration of every solve running.
 //!
 //! **Past the first chance.** A candidate whose first converged solve broke the clearance between
 //! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
