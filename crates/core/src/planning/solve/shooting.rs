@@ -547,7 +547,7 @@ pub(crate) fn finish_plan(
         status,
         objective,
         backend,
-        solves,
+        mut solves,
     } = sum;
     let mut time_split = TimeSplit::default();
     for a in &solves {
@@ -584,7 +584,6 @@ pub(crate) fn finish_plan(
         replay_held_torques(robot, z, layout.h, settings.shooting.substeps, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
-    let mut solves = solves;
     note_between_knots(&mut solves, &status, clearance_violation.as_ref());
     Ok(Plan {
         status,

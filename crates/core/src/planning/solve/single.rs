@@ -88,7 +88,7 @@ pub(crate) fn plan_single(
         (&q1, &r1),
         path,
     );
-    let (sol, solves) = solve_with_retry(&mut problem, nlp);
+    let (sol, mut solves) = solve_with_retry(&mut problem, nlp);
     let mut time_split = TimeSplit::default();
     for a in &solves {
         time_split.add(&a.time_split);
@@ -141,7 +141,6 @@ pub(crate) fn plan_single(
         replay_ee_error(robot, &points, &layout, settings.transcription, task.target);
     let min_obstacle_clearance_m = min_obstacle_clearance(robot, &task.obstacles, &trajectory)?;
     let clearance_violation = check_clearance(robot, task, settings, &trajectory)?;
-    let mut solves = solves;
     note_between_knots(&mut solves, &sol.status, clearance_violation.as_ref());
     Ok(Plan {
         status: sol.status,
