@@ -15,7 +15,10 @@
 //!    first reached and at most [`MAX_DISCOVERED`] cells are reached (the open list's bound). The
 //!    search ends with a path, with the free cells reachable from the start exhausted (no grid path:
 //!    evidence, not proof, that the task is blocked), or at the limit. Start and goal poses that do not
-//!    clear the obstacles by the margin are not searched from.
+//!    clear the obstacles by the margin are not searched from. The open list keeps one small heap
+//!    per priority (`open_list`), and a cell's verdict is kept for the later searches on the same
+//!    grid, to other goal poses included ([`super::homotopy`]): neither changes which cells are
+//!    reached or in what order, only how fast.
 //! 3. **Shortcut.** The grid path (start pose, cells, goal pose) is shortened greedily: from each kept
 //!    waypoint to the farthest later one that the straight joint-space segment reaches with the
 //!    segment clear by the margin plus [`SEGMENT_EXTRA_CLEARANCE`] (checked every
@@ -28,14 +31,15 @@
 //!
 //! Nothing here prints or runs on a task without obstacles. Units: rad, m, s, N m.
 
+use super::open_list::OpenList;
 use crate::error::Result;
 use crate::model::{Circle, ClearanceFn, Robot, Scratch};
 use crate::planning::settings::PlannerSettings;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
 use std::cell::Cell;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::Arc;
 
 /// Finest grid step, rad (the grid of the 4-link paper robot: 32 x 59^3 = 6.6 M cells).
 pub const GRID_STEP_RAD: f64 = 0.1;
@@ -221,6 +225,31 @@ const TUBE: u8 = 3;
 const START: u8 = 4;
 const FIRST_MOVE: u8 = 5;
 
+/// The collision verdict of every cell of one grid against one set of obstacles and self-collision
+/// rule: not checked yet, free or blocked (by [`CELL_EXTRA_CLEARANCE`]). Route searches on the same
+/// grid to different goal poses share them, so a cell is checked once for all of them; an empty set
+/// is allocated by the first search given it.
+#[derive(Clone, Default)]
+pub(crate) struct CellVerdicts(Option<Arc<[AtomicU8]>>);
+
+const NOT_CHECKED: u8 = 0;
+const CHECKED_FREE: u8 = 1;
+const CHECKED_BLOCKED: u8 = 2;
+
+impl CellVerdicts {
+    /// The verdicts of a grid of `cells` cells: these, or new ones when these are of another size.
+    fn for_grid(&mut self, cells: usize) -> Arc<[AtomicU8]> {
+        match &self.0 {
+            Some(v) if v.len() == cells => v.clone(),
+            _ => {
+                let v: Arc<[AtomicU8]> = (0..cells).map(|_| AtomicU8::new(NOT_CHECKED)).collect();
+                self.0 = Some(v.clone());
+                v
+            }
+        }
+    }
+}
+
 /// Collision checks against the planner's margin plus an extra clearance.
 struct Checker {
     cf: ClearanceFn,
@@ -328,6 +357,20 @@ impl RouteSearch {
         q_start: &[f64],
         q_goal: &[f64],
     ) -> Result<Self> {
+        let mut own = CellVerdicts::default();
+        Self::sharing(robot, obstacles, settings, q_start, q_goal, &mut own)
+    }
+
+    /// [`RouteSearch::new`], its grid's cell verdicts shared through `verdicts` with the other
+    /// searches given them (the same robot, obstacles and settings, so the same grid).
+    pub(crate) fn sharing(
+        robot: &Robot,
+        obstacles: &[Circle],
+        settings: &PlannerSettings,
+        q_start: &[f64],
+        q_goal: &[f64],
+        verdicts: &mut CellVerdicts,
+    ) -> Result<Self> {
         let n = robot.n;
         let b = &settings.bounds;
         let mut lo = vec![-b.q_rel_max; n];
@@ -349,6 +392,7 @@ impl RouteSearch {
                 rep.grid_step_rad = grid.nominal_step;
                 rep.endpoints_clear.then(|| Search {
                     state: vec![UNSEEN; grid.cells],
+                    verdicts: verdicts.for_grid(grid.cells),
                     grid,
                     check,
                 })
@@ -504,6 +548,35 @@ struct Search {
     grid: Grid,
     check: Checker,
     state: Vec<u8>,
+    /// The cells' collision verdicts, shared with the searches to other goal poses on this grid.
+    verdicts: Arc<[AtomicU8]>,
+}
+
+/// Whether cell `k` (coordinates `c`) is blocked: its shared verdict, or its pose (in `q`) checked
+/// against the margin plus [`CELL_EXTRA_CLEARANCE`] and the verdict kept.
+fn cell_blocked(
+    verdicts: &[AtomicU8],
+    check: &Checker,
+    grid: &Grid,
+    k: usize,
+    c: &[usize],
+    q: &mut [f64],
+) -> bool {
+    match verdicts[k].load(Ordering::Relaxed) {
+        CHECKED_FREE => false,
+        CHECKED_BLOCKED => true,
+        _ => {
+            grid.value(c, q);
+            let blocked = check.clearance(q) < CELL_EXTRA_CLEARANCE;
+            let v = if blocked {
+                CHECKED_BLOCKED
+            } else {
+                CHECKED_FREE
+            };
+            verdicts[k].store(v, Ordering::Relaxed);
+            blocked
+        }
+    }
 }
 
 impl Search {
@@ -535,20 +608,15 @@ impl Search {
                 .map(|(a, g)| a.abs_diff(*g) as u32)
                 .sum()
         };
-        let state = &mut self.state;
+        let (state, verdicts, check) = (&mut self.state, &*self.verdicts, &self.check);
         state[start_idx] = START;
         // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
         // poses are checked by the shortcut)
-        let mut open: BinaryHeap<Reverse<(u32, u32, u32)>> = BinaryHeap::new();
-        open.push(Reverse((
-            HEURISTIC_WEIGHT * h(&c),
-            u32::MAX,
-            start_idx as u32,
-        )));
+        let mut open = OpenList::default();
+        open.push(HEURISTIC_WEIGHT * h(&c), 0, start_idx as u32);
         rep.cells_discovered = 1;
         let mut found = start_idx == goal_idx;
-        'search: while let Some(Reverse((_, deep, idx))) = open.pop() {
-            let g = u32::MAX - deep;
+        'search: while let Some((g, idx)) = open.pop() {
             grid.coords(idx as usize, &mut c);
             for d in 0..n {
                 for up in [false, true] {
@@ -580,20 +648,13 @@ impl Search {
                         found = true;
                         break 'search;
                     }
-                    if s == UNSEEN {
-                        grid.value(&nb, &mut q);
-                        if self.check.clearance(&q) < CELL_EXTRA_CLEARANCE {
-                            state[k] = BLOCKED;
-                            continue;
-                        }
+                    if s == UNSEEN && cell_blocked(verdicts, check, grid, k, &nb, &mut q) {
+                        state[k] = BLOCKED;
+                        continue;
                     }
                     state[k] = FIRST_MOVE + dir;
                     let g1 = g + 1;
-                    open.push(Reverse((
-                        g1 + HEURISTIC_WEIGHT * h(&nb),
-                        u32::MAX - g1,
-                        k as u32,
-                    )));
+                    open.push(g1 + HEURISTIC_WEIGHT * h(&nb), g1, k as u32);
                 }
             }
         }

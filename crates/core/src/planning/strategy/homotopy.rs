@@ -23,7 +23,7 @@
 //! A stop rule (the call's time limit and cancel token) is asked throughout: once it says stop, the
 //! seeds found so far are returned. Units: rad, s.
 
-use super::cspace::{time_path, CspaceReport, RouteSearch, GRID_STEP_RAD};
+use super::cspace::{time_path, CellVerdicts, CspaceReport, RouteSearch, GRID_STEP_RAD};
 use super::goal::{distinct_goal_poses, with_final_pose};
 use crate::error::Result;
 use crate::model::{Circle, Robot};
@@ -113,6 +113,8 @@ pub struct GoalSearches {
     /// its routes are found).
     keep: bool,
     searches: Vec<RouteSearch>,
+    /// The cell verdicts of the grid every search of the set shares.
+    verdicts: CellVerdicts,
 }
 
 impl GoalSearches {
@@ -120,7 +122,7 @@ impl GoalSearches {
     pub fn kept() -> Self {
         GoalSearches {
             keep: true,
-            searches: vec![],
+            ..Self::default()
         }
     }
 
@@ -178,7 +180,14 @@ pub fn homotopy_routes_continued(
         let axis = with_final_pose(free, goal);
         let mut search = match kept.take(q_start, goal) {
             Some(s) => s,
-            None => RouteSearch::new(robot, obstacles, settings, q_start, goal)?,
+            None => RouteSearch::sharing(
+                robot,
+                obstacles,
+                settings,
+                q_start,
+                goal,
+                &mut kept.verdicts,
+            )?,
         };
         let before = search.searches();
         let found = search.more(routes, stop);
@@ -297,5 +306,42 @@ mod tests {
         for (a, f) in again.seeds.iter().zip(&fresh.seeds) {
             assert_eq!((a.report, &a.path, &a.guess), (f.report, &f.path, &f.guess));
         }
+    }
+
+    /// The searches to the goal poses share their grid's cell verdicts: each goal pose's routes,
+    /// their waypoints and their search reports (cells reached, moves, clearance) are those of a
+    /// search of its own that checks every cell itself.
+    #[test]
+    fn searches_sharing_cell_verdicts_find_the_routes_of_searches_of_their_own() {
+        use crate::planning::strategy::cspace::cspace_routes;
+        let (robot, obs, free, target) = three_link_swing();
+        let s = PlannerSettings::default();
+        let never = || false;
+        let limits = (MAX_GOALS, ROUTES_PER_GOAL);
+        let shared =
+            homotopy_routes_up_to(&robot, &obs, &s, &free, target, limits, &never).unwrap();
+        let last = free.q(free.len() - 1);
+        let goals = distinct_goal_poses(&robot, &obs, &s, last, target, MAX_GOALS, &never).unwrap();
+        assert!(goals.len() >= 2, "{} goal poses", goals.len());
+        let mut own = vec![];
+        for (gi, goal) in goals.iter().enumerate() {
+            let routes = cspace_routes(&robot, &obs, &s, free.q(0), goal, ROUTES_PER_GOAL, &never);
+            for (mut rep, path) in routes.unwrap() {
+                rep.goal = gi;
+                own.push((rep, path));
+            }
+        }
+        assert_eq!(own.len(), shared.reports.len());
+        let searched = |r: &CspaceReport| {
+            let mut r = r.clone();
+            (r.max_speed_rad_s, r.peak_torque_ratio) = (0.0, 0.0);
+            r
+        };
+        for (i, (rep, path)) in own.iter().enumerate() {
+            assert_eq!(searched(&shared.reports[i]), *rep, "search {i}");
+            let seed = shared.seeds.iter().find(|sd| sd.report == i);
+            assert_eq!(seed.map(|sd| &sd.path), path.as_ref(), "search {i}");
+        }
+        assert!(shared.reports.iter().filter(|r| r.found).count() >= 3);
     }
 }

@@ -15,6 +15,7 @@ pub(crate) mod further;
 pub mod goal;
 pub mod homotopy;
 pub mod obstacles;
+mod open_list;
 pub mod race;
 pub mod swing_time;
 pub mod torque_continuation;
