@@ -6,7 +6,8 @@
 //! an obstacle that class cannot avoid needs a path of another class, which a global search finds:
 //! 1. **Grid.** Every joint's range (q1 in `bounds.q1`, the relative joints in `+-q_rel_max`) is cut
 //!    into equal steps of at least [`GRID_STEP_RAD`], the step grown until the grid has at most
-//!    [`MAX_CELLS`] cells (one byte each: the only allocation that scales with the grid). A grid coarser
+//!    [`MAX_CELLS`] cells (a byte each for a search's cell states and a byte each for the cell verdicts:
+//!    the only allocations that scale with the grid). A grid coarser
 //!    than [`MAX_GRID_STEP_RAD`] (many links) is not searched.
 //! 2. **Search.** Weighted A* ([`HEURISTIC_WEIGHT`]) over unit moves of one joint by one step, from the
 //!    start pose's cell to the goal pose's cell, the heuristic the number of moves left (L1 in cells).
@@ -43,7 +44,8 @@ use std::sync::Arc;
 
 /// Finest grid step, rad (the grid of the 4-link paper robot: 32 x 59^3 = 6.6 M cells).
 pub const GRID_STEP_RAD: f64 = 0.1;
-/// Most grid cells (one byte each, 8 MiB).
+/// Most grid cells (one byte each, 8 MiB, for a search's cell states, and as much again for the
+/// cell verdicts the searches of one task share).
 pub const MAX_CELLS: usize = 1 << 23;
 /// Coarsest grid step searched, rad: a grid that needs a coarser step to fit [`MAX_CELLS`] (more
 /// than six links; the six-link robot of params/ needs 0.41 rad) is not searched.

@@ -113,7 +113,8 @@ pub struct GoalSearches {
     /// its routes are found).
     keep: bool,
     searches: Vec<RouteSearch>,
-    /// The cell verdicts of the grid every search of the set shares.
+    /// The cell verdicts of the grid every search of the set shares (a set serves one task: the
+    /// same robot, obstacles and settings, so the same grid).
     verdicts: CellVerdicts,
 }
 
