@@ -10,7 +10,7 @@
 //! `cargo bench -p brachia --bench route_search`.
 
 use brachia::model::{Circle, Robot};
-use brachia::planning::strategy::cspace::cspace_routes;
+use brachia::planning::strategy::cspace::{cspace_routes, time_path};
 use brachia::planning::strategy::goal::{
     clear_final_pose_until, distinct_goal_poses, with_final_pose,
 };
@@ -31,8 +31,8 @@ struct Case {
     obstacles: Vec<Circle>,
 }
 
-/// A circle of `radius` at the point a fraction `along` of link `link` (0-based) passes at `t_s`
-/// on the paper swing.
+/// The two placements: on the paper swing, a circle at the point a fraction `along` of link `link`
+/// (0-based) passes at `t_s`.
 fn cases(robot: &Robot, s: &PlannerSettings) -> Vec<Case> {
     let task = SwingTask::paper();
     let p = plan(robot, &task, s, &NlpSettings::default()).expect("the paper swing plans");
@@ -88,21 +88,26 @@ fn shared_search(robot: &Robot, s: &PlannerSettings, c: &Case) -> Vec<Vec<Vec<f6
     by_search.into_iter().map(|(_, p)| p).collect()
 }
 
-/// The same searches, each goal pose's on its own.
+/// The same searches, each goal pose's on its own, each route timed over the swing as the race's
+/// are.
 fn own_searches(robot: &Robot, s: &PlannerSettings, c: &Case) -> Vec<Vec<Vec<f64>>> {
     let target = SwingTask::paper().target;
     let never = || false;
     let (start, end) = (c.free.q(0), c.free.q(c.free.len() - 1));
     let goals = distinct_goal_poses(robot, &c.obstacles, s, end, target, MAX_GOALS, &never)
         .expect("goal poses");
-    goals
-        .iter()
-        .flat_map(|g| {
-            cspace_routes(robot, &c.obstacles, s, start, g, ROUTES_PER_GOAL, &never)
-                .expect("searches")
-        })
-        .filter_map(|(_, path)| path)
-        .collect()
+    let mut paths = vec![];
+    for g in &goals {
+        let axis = with_final_pose(&c.free, g);
+        let routes = cspace_routes(robot, &c.obstacles, s, start, g, ROUTES_PER_GOAL, &never);
+        for (mut rep, path) in routes.expect("searches") {
+            if let Some(path) = path {
+                time_path(robot, &path, &axis, &mut rep);
+                paths.push(path);
+            }
+        }
+    }
+    paths
 }
 
 fn bench(cr: &mut Criterion) {

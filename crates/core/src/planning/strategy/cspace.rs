@@ -6,14 +6,15 @@
 //! an obstacle that class cannot avoid needs a path of another class, which a global search finds:
 //! 1. **Grid.** Every joint's range (q1 in `bounds.q1`, the relative joints in `+-q_rel_max`) is cut
 //!    into equal steps of at least [`GRID_STEP_RAD`], the step grown until the grid has at most
-//!    [`MAX_CELLS`] cells (a byte each for a search's cell states and a byte each for the cell verdicts:
-//!    the only allocations that scale with the grid). A grid coarser
+//!    [`MAX_CELLS`] cells (a byte each for a search's cell states, and a byte each for the cell
+//!    verdicts its task's searches share: the only allocations that scale with the grid). A grid coarser
 //!    than [`MAX_GRID_STEP_RAD`] (many links) is not searched.
 //! 2. **Search.** Weighted A* ([`HEURISTIC_WEIGHT`]) over unit moves of one joint by one step, from the
 //!    start pose's cell to the goal pose's cell, the heuristic the number of moves left (L1 in cells).
 //!    A cell is free when every link clears every obstacle and every non-adjacent link (with
-//!    `self_collision`) by the planner's margin plus [`CELL_EXTRA_CLEARANCE`]; cells are checked when
-//!    first reached and at most [`MAX_DISCOVERED`] cells are reached (the open list's bound). The
+//!    `self_collision`) by the planner's margin plus [`CELL_EXTRA_CLEARANCE`]; a cell is checked when
+//!    first reached (unless its verdict is known) and at most [`MAX_DISCOVERED`] cells are reached
+//!    (the open list's bound). The
 //!    search ends with a path, with the free cells reachable from the start exhausted (no grid path:
 //!    evidence, not proof, that the task is blocked), or at the limit. Start and goal poses that do not
 //!    clear the obstacles by the margin are not searched from. The open list keeps one small heap
@@ -50,7 +51,7 @@ pub const MAX_CELLS: usize = 1 << 23;
 /// Coarsest grid step searched, rad: a grid that needs a coarser step to fit [`MAX_CELLS`] (more
 /// than six links; the six-link robot of params/ needs 0.41 rad) is not searched.
 pub const MAX_GRID_STEP_RAD: f64 = 0.45;
-/// Most cells the search reaches (checks and pushes on its open list) before it gives up.
+/// Most cells the search reaches (blocked, or pushed on its open list) before it gives up.
 pub const MAX_DISCOVERED: usize = 3_000_000;
 /// Weight of the heuristic in the A* priority `g + w h` (> 1: fewer cells, longer grid paths that
 /// the shortcut straightens).
@@ -71,7 +72,7 @@ pub struct CspaceReport {
     pub grid_step_rad: f64,
     /// Grid cells (the product of the per-joint counts; 0 when the grid was too coarse to search).
     pub grid_cells: usize,
-    /// Cells the search reached (checked for collision).
+    /// Cells the search reached (each found blocked or pushed on its open list).
     pub cells_discovered: usize,
     /// The start and goal poses clear the obstacles and the non-adjacent links by the planner's
     /// margin (otherwise nothing is searched).
@@ -227,25 +228,39 @@ const TUBE: u8 = 3;
 const START: u8 = 4;
 const FIRST_MOVE: u8 = 5;
 
+/// What a grid's cell verdicts hold for: the robot, the obstacles, the margin and self-collision
+/// rule, and the grid.
+#[derive(PartialEq)]
+struct VerdictKey {
+    robot: Robot,
+    obstacles: Vec<Circle>,
+    margin: f64,
+    self_collision: bool,
+    lo: Vec<f64>,
+    step: Vec<f64>,
+    dims: Vec<usize>,
+}
+
 /// The collision verdict of every cell of one grid against one set of obstacles and self-collision
 /// rule: not checked yet, free or blocked (by [`CELL_EXTRA_CLEARANCE`]). Route searches on the same
-/// grid to different goal poses share them, so a cell is checked once for all of them; an empty set
-/// is allocated by the first search given it.
-#[derive(Clone, Default)]
-pub(crate) struct CellVerdicts(Option<Arc<[AtomicU8]>>);
+/// grid to different goal poses share them, so a cell is checked once for all of them. Empty until
+/// a search is given them; a search of another robot, obstacles, margin or grid replaces them.
+#[derive(Default)]
+pub(crate) struct CellVerdicts(Option<(VerdictKey, Arc<[AtomicU8]>)>);
 
 const NOT_CHECKED: u8 = 0;
 const CHECKED_FREE: u8 = 1;
 const CHECKED_BLOCKED: u8 = 2;
 
 impl CellVerdicts {
-    /// The verdicts of a grid of `cells` cells: these, or new ones when these are of another size.
-    fn for_grid(&mut self, cells: usize) -> Arc<[AtomicU8]> {
+    /// The verdicts for `key`'s grid of `cells` cells: these when they hold for it, otherwise new
+    /// ones in their place.
+    fn for_key(&mut self, key: VerdictKey, cells: usize) -> Arc<[AtomicU8]> {
         match &self.0 {
-            Some(v) if v.len() == cells => v.clone(),
+            Some((k, v)) if *k == key => v.clone(),
             _ => {
                 let v: Arc<[AtomicU8]> = (0..cells).map(|_| AtomicU8::new(NOT_CHECKED)).collect();
-                self.0 = Some(v.clone());
+                self.0 = Some((key, v.clone()));
                 v
             }
         }
@@ -359,19 +374,18 @@ impl RouteSearch {
         q_start: &[f64],
         q_goal: &[f64],
     ) -> Result<Self> {
-        let mut own = CellVerdicts::default();
-        Self::sharing(robot, obstacles, settings, q_start, q_goal, &mut own)
+        Self::sharing(robot, obstacles, settings, q_start, q_goal, None)
     }
 
-    /// [`RouteSearch::new`], its grid's cell verdicts shared through `verdicts` with the other
-    /// searches given them (the same robot, obstacles and settings, so the same grid).
+    /// [`RouteSearch::new`], its grid's cell verdicts shared through `verdicts` (when given) with
+    /// the other searches given them for the same robot, obstacles and settings.
     pub(crate) fn sharing(
         robot: &Robot,
         obstacles: &[Circle],
         settings: &PlannerSettings,
         q_start: &[f64],
         q_goal: &[f64],
-        verdicts: &mut CellVerdicts,
+        verdicts: Option<&mut CellVerdicts>,
     ) -> Result<Self> {
         let n = robot.n;
         let b = &settings.bounds;
@@ -392,11 +406,25 @@ impl RouteSearch {
             Some(grid) => {
                 rep.grid_cells = grid.cells;
                 rep.grid_step_rad = grid.nominal_step;
-                rep.endpoints_clear.then(|| Search {
-                    state: vec![UNSEEN; grid.cells],
-                    verdicts: verdicts.for_grid(grid.cells),
-                    grid,
-                    check,
+                rep.endpoints_clear.then(|| {
+                    let verdicts = verdicts.map(|v| {
+                        let key = VerdictKey {
+                            robot: robot.clone(),
+                            obstacles: obstacles.to_vec(),
+                            margin: settings.obstacle_margin,
+                            self_collision: settings.self_collision,
+                            lo: grid.lo.clone(),
+                            step: grid.step.clone(),
+                            dims: grid.dims.clone(),
+                        };
+                        v.for_key(key, grid.cells)
+                    });
+                    Search {
+                        state: vec![UNSEEN; grid.cells],
+                        verdicts,
+                        grid,
+                        check,
+                    }
                 })
             }
             None => None,
@@ -550,26 +578,33 @@ struct Search {
     grid: Grid,
     check: Checker,
     state: Vec<u8>,
-    /// The cells' collision verdicts, shared with the searches to other goal poses on this grid.
-    verdicts: Arc<[AtomicU8]>,
+    /// The cells' collision verdicts, shared with the searches to other goal poses on this grid
+    /// (`None`: a search on its own, whose cell states keep what it checked).
+    verdicts: Option<Arc<[AtomicU8]>>,
 }
 
 /// Whether cell `k` (coordinates `c`) is blocked: its shared verdict, or its pose (in `q`) checked
 /// against the margin plus [`CELL_EXTRA_CLEARANCE`] and the verdict kept.
 fn cell_blocked(
-    verdicts: &[AtomicU8],
+    verdicts: Option<&[AtomicU8]>,
     check: &Checker,
     grid: &Grid,
     k: usize,
     c: &[usize],
     q: &mut [f64],
 ) -> bool {
+    let mut checked = || {
+        grid.value(c, q);
+        check.clearance(q) < CELL_EXTRA_CLEARANCE
+    };
+    let Some(verdicts) = verdicts else {
+        return checked();
+    };
     match verdicts[k].load(Ordering::Relaxed) {
         CHECKED_FREE => false,
         CHECKED_BLOCKED => true,
         _ => {
-            grid.value(c, q);
-            let blocked = check.clearance(q) < CELL_EXTRA_CLEARANCE;
+            let blocked = checked();
             let v = if blocked {
                 CHECKED_BLOCKED
             } else {
@@ -610,7 +645,7 @@ impl Search {
                 .map(|(a, g)| a.abs_diff(*g) as u32)
                 .sum()
         };
-        let (state, verdicts, check) = (&mut self.state, &*self.verdicts, &self.check);
+        let (state, verdicts, check) = (&mut self.state, self.verdicts.as_deref(), &self.check);
         state[start_idx] = START;
         // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
         // poses are checked by the shortcut)

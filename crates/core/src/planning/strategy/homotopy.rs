@@ -109,12 +109,12 @@ pub fn homotopy_routes_up_to(
 /// ([`homotopy_routes_continued`]) continues them instead of searching their routes again.
 #[derive(Default)]
 pub struct GoalSearches {
-    /// Whether the searches of a call are kept in it (otherwise each goal pose's grid is freed once
-    /// its routes are found).
+    /// Whether the searches of a call are kept in it, with their cell verdicts (otherwise each goal
+    /// pose's grid is freed once its routes are found, and the verdicts when the call ends).
     keep: bool,
     searches: Vec<RouteSearch>,
-    /// The cell verdicts of the grid every search of the set shares (a set serves one task: the
-    /// same robot, obstacles and settings, so the same grid).
+    /// The cell verdicts the set's searches share (replaced when a search of another robot,
+    /// obstacles or settings is given them).
     verdicts: CellVerdicts,
 }
 
@@ -187,7 +187,7 @@ pub fn homotopy_routes_continued(
                 settings,
                 q_start,
                 goal,
-                &mut kept.verdicts,
+                Some(&mut kept.verdicts),
             )?,
         };
         let before = search.searches();
@@ -211,6 +211,10 @@ pub fn homotopy_routes_continued(
         }
     }
     kept.searches.extend(searched);
+    // a set that keeps nothing keeps no verdicts either
+    if !kept.keep {
+        kept.verdicts = CellVerdicts::default();
+    }
     // lowest torque ratio first; ties keep the search order
     seeds.sort_by(|a, b| {
         reports[a.report]
@@ -344,5 +348,30 @@ mod tests {
             assert_eq!(seed.map(|sd| &sd.path), path.as_ref(), "search {i}");
         }
         assert!(shared.reports.iter().filter(|r| r.found).count() >= 3);
+    }
+
+    /// Cell verdicts given to a search against other obstacles are not used: its routes and reports
+    /// are those of a search of its own (a larger circle blocks cells the first search found free).
+    #[test]
+    fn cell_verdicts_of_other_obstacles_are_not_used() {
+        let (robot, obs, free, _) = three_link_swing();
+        let s = PlannerSettings::default();
+        let never = || false;
+        let (start, goal) = (free.q(0), free.q(free.len() - 1));
+        let larger = vec![Circle {
+            radius: 0.09,
+            ..obs[0]
+        }];
+        let mut verdicts = CellVerdicts::default();
+        let routes = |o: &[Circle], v: Option<&mut CellVerdicts>| {
+            let mut r = RouteSearch::sharing(&robot, o, &s, start, goal, v).unwrap();
+            r.more(ROUTES_PER_GOAL, &never)
+        };
+        let first = routes(&obs, Some(&mut verdicts));
+        let after = routes(&larger, Some(&mut verdicts));
+        let own = routes(&larger, None);
+        assert!(first.iter().any(|(_, p)| p.is_some()));
+        assert_ne!(first, own);
+        assert_eq!(after, own);
     }
 }

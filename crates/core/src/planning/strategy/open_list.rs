@@ -5,8 +5,8 @@
 //! The priorities `f = g + w h` of a weighted A* over unit moves are small integers that change by
 //! a few per move, so the queue keeps one heap per priority (a bucket) and a cursor at the lowest
 //! non-empty one. Each bucket's heap holds only the cells of one priority: a small heap that stays
-//! in cache, where one heap of every open cell (millions) misses it at every level. A key is pushed
-//! at most once (each cell enters the open list once), so the order is total.
+//! in cache, where one heap of every open cell (millions) misses it at every level. Each cell enters
+//! the open list once, so no two keys are equal and the order of the pops is the heap's.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
