@@ -7,20 +7,20 @@
 //! 1. **Grid.** Every joint's range (q1 in `bounds.q1`, the relative joints in `+-q_rel_max`) is cut
 //!    into equal steps of at least [`GRID_STEP_RAD`], the step grown until the grid has at most
 //!    [`MAX_CELLS`] cells (a byte each for a search's cell states, and a byte each for the cell
-//!    verdicts its task's searches share: the only allocations that scale with the grid). A grid coarser
-//!    than [`MAX_GRID_STEP_RAD`] (many links) is not searched.
+//!    verdicts its task's searches share: the only allocations that scale with the grid). A grid
+//!    coarser than [`MAX_GRID_STEP_RAD`] (many links) is not searched.
 //! 2. **Search.** Weighted A* ([`HEURISTIC_WEIGHT`]) over unit moves of one joint by one step, from the
 //!    start pose's cell to the goal pose's cell, the heuristic the number of moves left (L1 in cells).
 //!    A cell is free when every link clears every obstacle and every non-adjacent link (with
-//!    `self_collision`) by the planner's margin plus [`CELL_EXTRA_CLEARANCE`]; a cell is checked when
-//!    first reached (unless its verdict is known) and at most [`MAX_DISCOVERED`] cells are reached
-//!    (the open list's bound). The
-//!    search ends with a path, with the free cells reachable from the start exhausted (no grid path:
-//!    evidence, not proof, that the task is blocked), or at the limit. Start and goal poses that do not
-//!    clear the obstacles by the margin are not searched from. The open list keeps one small heap
-//!    per priority (`open_list`), and a cell's verdict is kept for the later searches on the same
-//!    grid, to other goal poses included ([`super::homotopy`]): neither changes which cells are
-//!    reached or in what order, only how fast.
+//!    `self_collision`) by the planner's margin plus [`CELL_EXTRA_CLEARANCE`]; a cell is checked
+//!    when first reached (unless its verdict is known) and at most [`MAX_DISCOVERED`] cells are
+//!    reached (the open list's bound). The search ends with a path, with the free cells reachable
+//!    from the start exhausted (no grid path: evidence, not proof, that the task is blocked), or at
+//!    the limit. Start and goal poses that do not clear the obstacles by the margin are not
+//!    searched from. The open list keeps one small heap per priority (`open_list`), and a cell's
+//!    verdict is kept for the later searches on the same grid, to other goal poses included
+//!    ([`super::homotopy`]): neither changes which cells are reached or in what order, only how
+//!    fast.
 //! 3. **Shortcut.** The grid path (start pose, cells, goal pose) is shortened greedily: from each kept
 //!    waypoint to the farthest later one that the straight joint-space segment reaches with the
 //!    segment clear by the margin plus [`SEGMENT_EXTRA_CLEARANCE`] (checked every
@@ -144,6 +144,7 @@ impl CspaceReport {
 }
 
 /// The grid over the joint ranges.
+#[derive(Clone, PartialEq)]
 struct Grid {
     lo: Vec<f64>,
     step: Vec<f64>,
@@ -236,9 +237,7 @@ struct VerdictKey {
     obstacles: Vec<Circle>,
     margin: f64,
     self_collision: bool,
-    lo: Vec<f64>,
-    step: Vec<f64>,
-    dims: Vec<usize>,
+    grid: Grid,
 }
 
 /// The collision verdict of every cell of one grid against one set of obstacles and self-collision
@@ -413,9 +412,7 @@ impl RouteSearch {
                             obstacles: obstacles.to_vec(),
                             margin: settings.obstacle_margin,
                             self_collision: settings.self_collision,
-                            lo: grid.lo.clone(),
-                            step: grid.step.clone(),
-                            dims: grid.dims.clone(),
+                            grid: grid.clone(),
                         };
                         v.for_key(key, grid.cells)
                     });

@@ -12,13 +12,13 @@
 //!
 //! **Past the first chance.** A candidate whose first converged solve broke the clearance between
 //! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
-//! ended without a clear plan (it is solving again from its seed), marks itself
-//! (`yield_to_later` of the shooting solve); so does the smooth step once its solve has run
-//! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has converged
-//! wins as soon as every candidate before it has ended or is so marked, and those still running
-//! are cancelled: the race does not wait for a second chance when a plan is already there. Where
-//! no later candidate converges first, the earlier one runs to its end as before; which of two
-//! plans a placement gets can then depend on which converges first.
+//! ended without a clear plan (it is solving again from its seed), marks itself (`yield_to_later`
+//! of the shooting solve); so does the smooth step once its solve has run
+//! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has
+//! converged wins as soon as every candidate before it has ended or is so marked, and those still
+//! running are cancelled: the race does not wait for a second chance when a plan is already there.
+//! Where no later candidate converges first, the earlier one runs to its end as before; which of
+//! two plans a placement gets can then depend on which converges first.
 //!
 //! With one worker (one core, or called from a thread pool's worker whose cores are taken) the
 //! candidates run one after the other on the calling thread, with the caller's own token, and the
