@@ -178,6 +178,6 @@ pub mod toml_path;
 pub mod trajectory;
 pub mod urdf;
 
-pub use brachia_ocp::{CancelToken, Cancelled};
+pub use brachia_ocp::{CancelToken, Cancelled, IterationMark};
 pub use error::{Error, Result};
 pub use model::Robot;

@@ -149,12 +149,14 @@
 #![warn(missing_docs)]
 
 mod cancel;
+mod mark;
 pub mod problem;
 mod riccati;
 mod settings;
 mod solver;
 
 pub use cancel::{CancelToken, Cancelled};
+pub use mark::IterationMark;
 pub use problem::{
     EvalError, EvalLevel, Multipliers, OcpDims, OcpProblem, Primal, StageBounds, StageDims,
     StageEval, TerminalEval,

@@ -60,6 +60,11 @@ pub struct OcpSettings {
     /// Default `None`.
     #[serde(skip)]
     pub cancel: Option<crate::CancelToken>,
+    /// A flag raised at the top of the iteration [`crate::IterationMark::after`] (restoration
+    /// iterations included): what a caller watching the solve's progress from another thread reads.
+    /// It changes nothing of the solve. Not part of a settings file (skipped by serde). Default `None`.
+    #[serde(skip)]
+    pub iteration_mark: Option<crate::IterationMark>,
 }
 
 /// Limit on [`OcpSettings::centrality_correctors`].
@@ -84,6 +89,7 @@ impl Default for OcpSettings {
             max_soc: 4,
             centrality_correctors: 0,
             cancel: None,
+            iteration_mark: None,
         }
     }
 }

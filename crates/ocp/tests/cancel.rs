@@ -1,4 +1,5 @@
-//! A cancel token ends a solve at the next iteration with `OcpStatus::Cancelled`.
+//! A cancel token ends a solve at the next iteration with `OcpStatus::Cancelled`; an iteration mark
+//! is raised once its iterations have run and changes nothing of the solve.
 
 mod common;
 
@@ -117,4 +118,56 @@ fn an_unset_token_changes_nothing_and_is_not_a_setting_of_a_file() {
     // tokens compare equal only when they share the flag
     assert_eq!(token, token.clone());
     assert_ne!(token, CancelToken::new());
+}
+
+/// A solve of the pendulum with a mark raised after `after` iterations: its statistics and
+/// whether the flag was raised.
+fn marked(after: usize) -> (OcpStats, bool) {
+    let mut solver = OcpSolver::new(&pendulum().dims).unwrap();
+    let mark = IterationMark {
+        after,
+        flag: std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    };
+    let st = OcpSettings {
+        iteration_mark: Some(mark.clone()),
+        ..OcpSettings::default()
+    };
+    let stats = solver.solve(&mut pendulum(), &st);
+    (stats, mark.is_raised())
+}
+
+#[test]
+fn an_iteration_mark_is_raised_once_its_iterations_have_run_and_changes_nothing_else() {
+    let mut solver = OcpSolver::new(&pendulum().dims).unwrap();
+    let plain = solver.solve(&mut pendulum(), &OcpSettings::default());
+    assert!(plain.status.is_converged(), "{:?}", plain.status);
+    let k = plain.iterations;
+    assert!(k > 3, "{k} iterations");
+    // raised at the top of the iteration `after`: reached by a solve of k iterations for any
+    // `after <= k` (the top of iteration k is where the converged solve stops)
+    for (after, raised) in [
+        (0, true),
+        (2, true),
+        (k, true),
+        (k + 1, false),
+        (10 * k, false),
+    ] {
+        let (stats, r) = marked(after);
+        assert_eq!(r, raised, "after {after} of {k} iterations");
+        assert_eq!(stats.status, plain.status);
+        assert_eq!(stats.iterations, plain.iterations);
+        assert_eq!(stats.objective, plain.objective);
+    }
+    // not a setting of a file
+    let st = OcpSettings {
+        iteration_mark: Some(IterationMark {
+            after: 3,
+            flag: std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)),
+        }),
+        ..OcpSettings::default()
+    };
+    let json = serde_json::to_string(&st).unwrap();
+    assert!(!json.contains("iteration_mark"), "{json}");
+    let back: OcpSettings = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.iteration_mark, None);
 }

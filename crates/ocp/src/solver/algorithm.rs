@@ -38,6 +38,9 @@ impl OcpSolver {
             let res = self.residuals();
             current = (!self.resto.active()).then_some(res);
             stats.iterations = iter;
+            if let Some(m) = &st.iteration_mark {
+                m.reached(iter);
+            }
             if let Some(status) = self.stop_test(&res, st, &mut acceptable_count, iter, t0) {
                 break status;
             }

@@ -251,6 +251,7 @@ impl TNLP for Proxy {
     }
 
     fn intermediate_callback(&mut self, s: IterStats, _d: &IpoptData, _q: &IpoptCq) -> bool {
+        self.stop.at_iteration(usize::try_from(s.iter).unwrap_or(0));
         let kind = Kind::Iteration {
             iter: usize::try_from(s.iter).unwrap_or(0),
             restoration: s.mode == AlgorithmMode::RestorationPhaseMode,

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::CancelToken;
+use crate::{CancelToken, IterationMark};
 
 /// Magnitude the backends read as an infinite bound (both treat `|b| >= 1e19` as infinite).
 pub(crate) const BACKEND_INF: f64 = 2e19;
@@ -125,6 +125,13 @@ pub struct NlpSettings {
     /// settings file (skipped by serde). Default `None`.
     #[serde(skip)]
     pub cancel: Option<CancelToken>,
+    /// A flag every backend raises at the top of the solve's iteration
+    /// [`IterationMark::after`] (0-based, restoration iterations included): for a caller that acts
+    /// on a solve's progress from another thread (the obstacle race: a candidate's first chance).
+    /// It changes nothing of the solve. Not part of a settings file (skipped by serde). Default
+    /// `None`.
+    #[serde(skip)]
+    pub iteration_mark: Option<IterationMark>,
 }
 
 impl Default for NlpSettings {
@@ -142,6 +149,7 @@ impl Default for NlpSettings {
             mu_init: None,
             warm_start: false,
             cancel: None,
+            iteration_mark: None,
         }
     }
 }

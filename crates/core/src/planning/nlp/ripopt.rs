@@ -43,7 +43,7 @@ thread_local! {
 #[allow(clippy::too_many_arguments)]
 extern "C" fn keep_going(
     _alg_mod: c_int,
-    _iter: c_int,
+    iter: c_int,
     _obj_value: c_double,
     _inf_pr: c_double,
     _inf_du: c_double,
@@ -55,7 +55,13 @@ extern "C" fn keep_going(
     _ls_trials: c_int,
     _user_data: *mut c_void,
 ) -> c_int {
-    let stop = STOP.with(|s| s.borrow().as_ref().is_some_and(Stop::now));
+    let iter = usize::try_from(iter).unwrap_or(0);
+    let stop = STOP.with(|s| {
+        s.borrow().as_ref().is_some_and(|s| {
+            s.at_iteration(iter);
+            s.now()
+        })
+    });
     c_int::from(!stop)
 }
 

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::problem::{NlpSettings, SolveStatus};
-use crate::CancelToken;
+use crate::{CancelToken, IterationMark};
 
 /// The stop rule of one solve; cheap to clone (clones share what they observed), `Send`.
 #[derive(Debug, Clone)]
@@ -18,6 +18,8 @@ pub(crate) struct Stop {
     deadline: Option<Instant>,
     /// Set when [`Stop::now`] said stop because the deadline passed.
     timed_out: Arc<AtomicBool>,
+    /// The caller's mark of the solve's progress ([`NlpSettings::iteration_mark`]).
+    mark: Option<IterationMark>,
 }
 
 impl Stop {
@@ -31,12 +33,21 @@ impl Stop {
             cancel: settings.cancel.clone(),
             deadline,
             timed_out: Arc::new(AtomicBool::new(false)),
+            mark: settings.iteration_mark.clone(),
         }
     }
 
     /// True once the token is set.
     pub fn cancelled(&self) -> bool {
         self.cancel.as_ref().is_some_and(|c| c.is_cancelled())
+    }
+
+    /// The backend is at the top of its iteration `iter` (0-based): raises the caller's mark once
+    /// it is reached.
+    pub fn at_iteration(&self, iter: usize) {
+        if let Some(m) = &self.mark {
+            m.reached(iter);
+        }
     }
 
     /// Should the backend stop at this iteration? (Records a stop by the deadline.)

@@ -110,6 +110,7 @@ pub(crate) fn ocp_settings(nlp: &NlpSettings) -> OcpSettings {
         mu_init: nlp.mu_init.unwrap_or(d.mu_init),
         max_wall_time_s: nlp.max_wall_time_s,
         cancel: nlp.cancel.clone(),
+        iteration_mark: nlp.iteration_mark.clone(),
         ..d
     }
 }
@@ -332,6 +333,18 @@ pub(crate) fn yield_to_later() {
             f.store(true, Ordering::SeqCst);
         }
     });
+}
+
+/// The mark that makes the race candidate running on this thread yield to a later one that has
+/// converged once a solve has run `after` iterations ([`yield_to_later`] from within the solve,
+/// which goes on unchanged); `None` outside a race.
+pub(crate) fn yield_mark(after: usize) -> Option<crate::IterationMark> {
+    YIELD_FLAG.with(|c| {
+        c.borrow().as_ref().map(|f| crate::IterationMark {
+            after,
+            flag: Arc::clone(f),
+        })
+    })
 }
 
 /// Factor the RK4 sub-steps (and so the clearance rows between the knots) are multiplied by in the

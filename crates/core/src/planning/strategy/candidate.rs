@@ -22,7 +22,7 @@ use crate::planning::outcome::{Plan, SolveRole};
 use crate::planning::settings::{SwingTime, Transcription, ValidSettings};
 use crate::planning::solve::plan_single;
 use crate::planning::solve::shooting::yield_to_later;
-use crate::planning::strategy::race::Plans;
+use crate::planning::strategy::race::{with_first_chance, Plans};
 use crate::planning::task::ValidTask;
 use crate::trajectory::Trajectory;
 use std::time::Instant;
@@ -165,7 +165,8 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let warm = out.last().filter(|(_, p)| coarse_goes_on_warm(&p.status));
     let from_coarse = warm.is_some();
     let guess = warm.map_or(g, |(_, p)| &p.points);
-    let p = plan_single(robot, task, settings, &fine, Some(guess))?;
+    let first = with_first_chance(&fine, settings.knot_dt, guess.duration());
+    let p = plan_single(robot, task, settings, &first, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
     let last = if from_coarse && again == Again::FromSeed {
@@ -231,19 +232,21 @@ pub(crate) fn solve_seed_longer_swing(
         return Ok(out);
     };
     // no coarse plan to go on from (none solved, or it failed numerically): from the seed
+    let first = with_first_chance(&fine, settings.knot_dt, t_long);
     let Some((_, coarse_plan)) = out.last().filter(|(_, p)| coarse_goes_on_warm(&p.status)) else {
-        let p = plan_single(robot, task, &from_seed, &fine, Some(g))?;
+        let p = plan_single(robot, task, &from_seed, &first, Some(g))?;
         out.push((role, p));
         return Ok(out);
     };
     let Some(Ok(warm)) = longer_swing_settings(settings, t_s, coarse_plan.swing_time_s) else {
         // no settings warm at the coarse plan's swing time: the seed at the longer swing time
-        let p = plan_single(robot, task, &from_seed, &fine, Some(g))?;
+        let p = plan_single(robot, task, &from_seed, &first, Some(g))?;
         out.push((role, p));
         return Ok(out);
     };
     let warm_points = coarse_plan.points.clone();
-    let p = plan_single(robot, task, &warm, &fine, Some(&warm_points))?;
+    let first = with_first_chance(&fine, settings.knot_dt, coarse_plan.swing_time_s);
+    let p = plan_single(robot, task, &warm, &first, Some(&warm_points))?;
     let last = or_from_seed(robot, task, &from_seed, run, started, g, role, p, &mut out)?;
     out.push(last);
     Ok(out)

@@ -221,8 +221,9 @@ pub(crate) fn plan_around_obstacles(
 /// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
-/// Iterations of the smooth step's solve in the race before it yields to a later candidate that
-/// has converged (the rest of its [`SMOOTH_STEP_RACE_MAX_ITER`] resume from where it stopped). On
+/// Iterations of the smooth step's first solve in the race (the rest of its
+/// [`SMOOTH_STEP_RACE_MAX_ITER`] resume from where it stopped); it yields to a later candidate that
+/// has converged from here at the latest ([`race::FIRST_CHANCE_ITER_PER_INTERVAL`]). On
 /// the placement scan's fixed set a smooth step that converges does so within 60 iterations, and
 /// most that fail take 290-500; at 10 ms knots the smooth step of
 /// `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the optimum
@@ -294,8 +295,11 @@ fn interrupted(plans: &race::Plans) -> bool {
         .is_some_and(|(_, p)| p.status == SolveStatus::Cancelled)
 }
 
-/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations:
-/// solved first for [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
+/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations
+/// (a swing of `t_s`, the automatic swing time; 0 when unknown): it yields to a later candidate
+/// that has converged once its solve has run [`race::FIRST_CHANCE_ITER_PER_INTERVAL`] iterations
+/// per knot interval ([`race::with_first_chance`]); it is solved first for
+/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
 /// candidate yields to a later one that has converged ([`race`]) and the solve resumes from where
 /// it stopped for the rest of its iterations ([`SolveRole::Resumed`]: the knots' solve from its
 /// point; or, when a solve with the clearance rows at the sub-steps or the denser rows' solve after
@@ -305,11 +309,13 @@ fn smooth_step_candidate<'a>(
     robot: &'a Robot,
     task: &'a ValidTask,
     settings: &'a ValidSettings,
+    t_s: f64,
 ) -> race::Candidate<'a> {
     Box::new(move |run: &NlpSettings| {
         let started = std::time::Instant::now();
         let total = run.max_iter.min(SMOOTH_STEP_RACE_MAX_ITER);
-        let first = run.clone().capped(SMOOTH_STEP_FIRST_CHANCE_ITER);
+        let capped = run.clone().capped(SMOOTH_STEP_FIRST_CHANCE_ITER);
+        let first = race::with_first_chance(&capped, settings.knot_dt, t_s);
         let p = plan_single(robot, task, settings, &first, None)?;
         // stopped at the first chance's limit: in the knots' solve, or in a solve with the rows at
         // the sub-steps (which the cap limits too)
@@ -418,7 +424,7 @@ fn strategies(
     let mut cands: Vec<race::Candidate<'_>> = vec![];
     if smooth.is_none() {
         kinds.push(Kind::SmoothStep);
-        cands.push(smooth_step_candidate(robot, task, settings));
+        cands.push(smooth_step_candidate(robot, task, settings, t_auto));
     }
     let seed_free = &seed_free;
     let longer = matches!(longer_swing_settings(settings, t_auto, t_auto), Some(Ok(_)));

@@ -13,8 +13,11 @@
 //! **Past the first chance.** A candidate whose first converged solve broke the clearance between
 //! its rows (it is solving again with the rows at the sub-steps), or whose solve at the task's mesh
 //! ended without a clear plan (it is solving again from its seed), marks itself (`yield_to_later`
-//! of the shooting solve); so does the smooth step once its solve has run
-//! [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations. A later candidate that has
+//! of the shooting solve); so does a candidate whose solve at the task's mesh has run
+//! [`FIRST_CHANCE_ITER_PER_INTERVAL`] iterations per knot interval without converging (the backend
+//! raises the flag at that iteration, [`crate::IterationMark`], and the solve goes on unchanged), and
+//! the smooth step once its solve has run [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`]
+//! iterations (where it stops and resumes). A later candidate that has
 //! converged wins as soon as every candidate before it has ended or is so marked, and those still
 //! running are cancelled: the race does not wait for a second chance when a plan is already there.
 //! Where no later candidate converges first, the earlier one runs to its end as before; which of
@@ -29,11 +32,16 @@
 use crate::error::Result;
 use crate::planning::nlp::NlpSettings;
 use crate::planning::outcome::{Plan, SolveRole};
-use crate::planning::solve::shooting::with_yield_flag;
+use crate::planning::solve::shooting::{with_yield_flag, yield_mark};
 use brachia_ocp::CancelToken;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+
+/// Iterations per knot interval of a candidate's solve at the task's mesh (its first chance) after
+/// which the candidate yields to a later one that has converged; the solve itself goes on
+/// unchanged (measured on the placement scans: docs/planner-measurements.md).
+pub const FIRST_CHANCE_ITER_PER_INTERVAL: f64 = 1.0;
 
 /// Candidates solved at a time (the machine's cores, at most this many).
 pub const RACE_WORKERS: usize = 2;
@@ -60,6 +68,22 @@ pub(crate) struct RaceOutcome {
     /// The first candidate, in order, whose last plan converged (the candidates before it ended
     /// without a plan, or were cancelled past their first chance).
     pub winner: Option<usize>,
+}
+
+/// `run` with the first chance of a solve of a swing of `t_s` on knots `knot_dt` apart, s: once
+/// the solve has run [`FIRST_CHANCE_ITER_PER_INTERVAL`] iterations per knot interval, the candidate
+/// running it yields to a later one that has converged. `run` itself outside a race or without a
+/// swing time (`t_s` not positive).
+pub(crate) fn with_first_chance(run: &NlpSettings, knot_dt: f64, t_s: f64) -> NlpSettings {
+    if !(t_s > 0.0 && knot_dt > 0.0) {
+        return run.clone();
+    }
+    let intervals = (t_s / knot_dt).ceil();
+    let after = (FIRST_CHANCE_ITER_PER_INTERVAL * intervals).clamp(1.0, 1e6) as usize;
+    NlpSettings {
+        iteration_mark: yield_mark(after),
+        ..run.clone()
+    }
 }
 
 /// How many workers a race of `candidates` gets: [`RACE_WORKERS`], the available cores, the
@@ -210,6 +234,41 @@ mod tests {
             std::thread::sleep(Duration::from_millis(2));
         }
         vec![(SolveRole::Task, out.clone())]
+    }
+
+    #[test]
+    fn a_solve_past_its_first_chance_marks_its_candidate_and_nothing_outside_a_race() {
+        let none = with_first_chance(&NlpSettings::default(), 0.03, 2.0);
+        assert!(none.iteration_mark.is_none());
+        let flag = Arc::new(AtomicBool::new(false));
+        let run = with_yield_flag(&flag, || {
+            with_first_chance(&NlpSettings::default(), 0.03, 2.0)
+        });
+        // one iteration per knot interval: 2 s on 30 ms knots is 67 intervals
+        assert_eq!(run.iteration_mark.as_ref().map(|m| m.after), Some(67));
+        assert!(with_yield_flag(&flag, || {
+            with_first_chance(&NlpSettings::default(), 0.03, 0.0)
+                .iteration_mark
+                .is_none()
+        }));
+        // the paper's swing, planned in a candidate whose first chance is 2 or 10^4 iterations
+        let robot = Robot::paper();
+        let task = SwingTask::paper();
+        let s = PlannerSettings::default();
+        for (t_s, raised) in [(0.06, true), (300.0, false)] {
+            let flag = Arc::new(AtomicBool::new(false));
+            let p = with_yield_flag(&flag, || {
+                let run = with_first_chance(&NlpSettings::default(), 0.03, t_s);
+                crate::planning::plan(&robot, &task, &s, &run).unwrap()
+            });
+            assert!(p.converged(), "{:?}", p.failure_message());
+            assert!(p.solves.iter().map(|a| a.iterations).sum::<usize>() > 2);
+            assert_eq!(
+                flag.load(Ordering::SeqCst),
+                raised,
+                "first chance over {t_s} s"
+            );
+        }
     }
 
     #[test]
