@@ -251,9 +251,10 @@ impl TNLP for Proxy {
     }
 
     fn intermediate_callback(&mut self, s: IterStats, _d: &IpoptData, _q: &IpoptCq) -> bool {
-        self.stop.at_iteration(usize::try_from(s.iter).unwrap_or(0));
+        let iter = usize::try_from(s.iter).unwrap_or(0);
+        self.stop.at_iteration(iter);
         let kind = Kind::Iteration {
-            iter: usize::try_from(s.iter).unwrap_or(0),
+            iter,
             restoration: s.mode == AlgorithmMode::RestorationPhaseMode,
             row: [
                 u64::try_from(s.iter).unwrap_or(0),

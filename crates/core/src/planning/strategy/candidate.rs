@@ -245,8 +245,8 @@ pub(crate) fn solve_seed_longer_swing(
         return Ok(out);
     };
     let warm_points = coarse_plan.points.clone();
-    let first = with_first_chance(&fine, settings.knot_dt, coarse_plan.swing_time_s);
-    let p = plan_single(robot, task, &warm, &first, Some(&warm_points))?;
+    let first_warm = with_first_chance(&fine, settings.knot_dt, coarse_plan.swing_time_s);
+    let p = plan_single(robot, task, &warm, &first_warm, Some(&warm_points))?;
     let last = or_from_seed(robot, task, &from_seed, run, started, g, role, p, &mut out)?;
     out.push(last);
     Ok(out)
