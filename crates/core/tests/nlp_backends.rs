@@ -539,16 +539,11 @@ fn malformed_problems_and_settings_are_statuses() {
 #[test]
 fn an_iteration_mark_is_raised_by_every_backend_and_changes_nothing_else() {
     use brachia::IterationMark;
-    use std::sync::atomic::AtomicBool;
-    use std::sync::Arc;
     for backend in BACKENDS {
         let plain = solve(&mut Hs071::default(), &settings(backend));
         assert_converged(&plain);
         for (after, raised) in [(1, true), (10_000, false)] {
-            let mark = IterationMark {
-                after,
-                flag: Arc::new(AtomicBool::new(false)),
-            };
+            let mark = IterationMark::new(after);
             let s = NlpSettings {
                 iteration_mark: Some(mark.clone()),
                 ..settings(backend)

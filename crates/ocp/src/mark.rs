@@ -16,6 +16,14 @@ pub struct IterationMark {
 }
 
 impl IterationMark {
+    /// A mark raised after `after` iterations, on a flag of its own (not raised).
+    pub fn new(after: usize) -> Self {
+        IterationMark {
+            after,
+            flag: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
     /// Raise the flag when `iter` iterations have run and it is at least [`IterationMark::after`].
     pub fn reached(&self, iter: usize) {
         if iter >= self.after {

@@ -124,10 +124,7 @@ fn an_unset_token_changes_nothing_and_is_not_a_setting_of_a_file() {
 /// whether the flag was raised.
 fn marked(after: usize) -> (OcpStats, bool) {
     let mut solver = OcpSolver::new(&pendulum().dims).unwrap();
-    let mark = IterationMark {
-        after,
-        flag: std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)),
-    };
+    let mark = IterationMark::new(after);
     let st = OcpSettings {
         iteration_mark: Some(mark.clone()),
         ..OcpSettings::default()
@@ -160,10 +157,7 @@ fn an_iteration_mark_is_raised_once_its_iterations_have_run_and_changes_nothing_
     }
     // not a setting of a file
     let st = OcpSettings {
-        iteration_mark: Some(IterationMark {
-            after: 3,
-            flag: std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false)),
-        }),
+        iteration_mark: Some(IterationMark::new(3)),
         ..OcpSettings::default()
     };
     let json = serde_json::to_string(&st).unwrap();
