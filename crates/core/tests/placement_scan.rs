@@ -10,8 +10,9 @@
 //! row per placement (with every solve: its role, status, iterations and time) and the totals;
 //! `BRACHIA_SCAN_SET=fixed` or `BRACHIA_SCAN_SET=held-out` runs one of the two sets, and
 //! `BRACHIA_SCAN_SET=fresh` a third set, the seeds 2001..=2020 drawn as the held-out ones, and
-//! `BRACHIA_SCAN_SET=fresh-3000` a fourth, the seeds 3001..=3020, and `BRACHIA_SCAN_SET=fresh-4000`
-//! a fifth, the seeds 4001..=4020 (each kept for checking the planner on placements no constant was
+//! `BRACHIA_SCAN_SET=fresh-3000` a fourth, the seeds 3001..=3020, `BRACHIA_SCAN_SET=fresh-4000`
+//! a fifth, the seeds 4001..=4020, and `BRACHIA_SCAN_SET=fresh-5000` a sixth, the seeds
+//! 5001..=5020 (each kept for checking the planner on placements no constant was
 //! chosen on; not part of the default run),
 //! `BRACHIA_SCAN_SEEDS=2,5` the seeds listed, `BRACHIA_SCAN_LIMIT_S=90` another wall-time limit per
 //! placement (30 s by default; a loaded machine needs more for the same work). Units: m, s.
@@ -313,8 +314,8 @@ fn a_placement_returns_at_its_time_limit_with_a_diagnosis() {
 fn the_whole_placement_scan() {
     let (robot, s, free) = setup();
     // `BRACHIA_SCAN_SET=fixed` or `=held-out` runs one of the two seed sets (both by default);
-    // `=fresh` the third set, `=fresh-3000` a fourth and `=fresh-4000` a fifth, which the default
-    // run leaves out
+    // `=fresh` the third set, `=fresh-3000` a fourth, `=fresh-4000` a fifth and `=fresh-5000` a
+    // sixth, which the default run leaves out
     let only = std::env::var("BRACHIA_SCAN_SET").ok();
     // `BRACHIA_SCAN_SEEDS=2,5` plans those seeds of the set(s) only
     let seeds_only: Option<Vec<u64>> = std::env::var("BRACHIA_SCAN_SEEDS")
@@ -330,6 +331,7 @@ fn the_whole_placement_scan() {
         ("fresh", 2001..=2020u64),
         ("fresh-3000", 3001..=3020u64),
         ("fresh-4000", 4001..=4020u64),
+        ("fresh-5000", 5001..=5020u64),
     ];
     for (name, seeds) in sets {
         let chosen = match only.as_deref() {
