@@ -1,9 +1,8 @@
 //! One seed of the obstacle chain solved coarse to fine: the task on a mesh of knots
 //! [`COARSE_KNOT_DT_S`] apart from the seed, capped at [`COARSE_MAX_ITER`] iterations, then on the
-//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap,
-//! but for a configuration-space seed at the automatic swing time, [`Chances::One`]), and, for a
-//! detour seed ([`Chances::Two`]) or a longer swing, when that fine solve ends without a clear
-//! plan, once more from the seed itself (a coarse plan that passes through an obstacle
+//! task's own mesh warm from that plan (also when the coarse solve stopped at its iteration cap),
+//! and, for a detour seed or a longer swing (`Again::FromSeed`), when that fine solve ends without
+//! a clear plan, once more from the seed itself (a coarse plan that passes through an obstacle
 //! between its knots 90 ms apart, or one stopped at its cap, can lead the fine solve into a class it
 //! cannot leave: measured on the placement scan, docs/planner-measurements.md); a seed whose coarse
 //! solve failed otherwise (locally infeasible, restoration failed) is dropped there
@@ -37,19 +36,17 @@ pub const COARSE_MAX_ITER: usize = 200;
 /// docs/planner-measurements.md).
 pub const LONGER_SWING_FACTOR: f64 = 2.0;
 
-/// How many chances a seed's fine solve gets ([`solve_seed_coarse_to_fine`]).
+/// Whether a seed's fine solve warm from the coarse plan that ended without a clear plan is solved
+/// once more from the seed itself ([`solve_seed_coarse_to_fine`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Chances {
-    /// A detour seed: the fine solve warm from a coarse plan that converged or stopped at its
-    /// cap, and, when that ends without a clear plan, once more from the seed itself (its coarse
-    /// plan can pass through an obstacle between its knots 90 ms apart and lead the fine solve into
-    /// a class it cannot leave).
-    Two,
-    /// A configuration-space seed at the automatic swing time: the fine solve only warm from a
-    /// coarse plan that converged, and not again from the seed. On the placement scans its fine
-    /// solve never converged after a coarse solve stopped at its cap, nor again from the seed
-    /// where the warm one had not (docs/planner-measurements.md).
-    One,
+pub(crate) enum Again {
+    /// Solved again from the seed (a detour seed: its coarse plan can pass through an obstacle
+    /// between its knots 90 ms apart and lead the fine solve into a class it cannot leave).
+    FromSeed,
+    /// Not solved again (a configuration-space seed at the automatic swing time: on the placement
+    /// scans its solve again from the seed never converged where the warm one had not;
+    /// docs/planner-measurements.md).
+    No,
 }
 
 /// The coarse mesh's settings for `settings`: multiple shooting with knots [`COARSE_KNOT_DT_S`]
@@ -141,11 +138,9 @@ fn or_from_seed(
 }
 
 /// Plan `task` from the seed `g` (the solve's `role`) coarse to fine (see the module docs) within
-/// `run` (its time limit counted from now for all the solves), with the seed's `chances`: with
-/// [`Chances::Two`] the fine solve goes on from a coarse plan stopped at its cap too, and is solved
-/// once more from the seed when the fine solve warm from the coarse plan ended without a clear plan;
-/// with [`Chances::One`] a coarse solve stopped at its cap ends the seed. The plans in the order
-/// solved.
+/// `run` (its time limit counted from now for all the solves); solved once more from the seed when
+/// the fine solve warm from the coarse plan ended without a clear plan and `again` is
+/// [`Again::FromSeed`]. The plans in the order solved.
 pub(crate) fn solve_seed_coarse_to_fine(
     robot: &Robot,
     task: &ValidTask,
@@ -153,7 +148,7 @@ pub(crate) fn solve_seed_coarse_to_fine(
     run: &NlpSettings,
     g: &Trajectory,
     role: SolveRole,
-    chances: Chances,
+    again: Again,
 ) -> Result<Plans> {
     let started = Instant::now();
     let mut out: Plans = vec![];
@@ -161,10 +156,6 @@ pub(crate) fn solve_seed_coarse_to_fine(
         if !coarse_solve(robot, task, &cs, run, g, &mut out) {
             return Ok(out);
         }
-    }
-    let capped = |(_, p): &(SolveRole, Plan)| p.status == SolveStatus::MaxIterations;
-    if chances == Chances::One && out.last().is_some_and(capped) {
-        return Ok(out);
     }
     let Some(fine) = run.remaining(started) else {
         return Ok(out);
@@ -178,7 +169,7 @@ pub(crate) fn solve_seed_coarse_to_fine(
     let p = plan_single(robot, task, settings, &first, Some(guess))?;
     // warm from a coarse plan that passes through an obstacle between its knots, or that stopped at
     // its cap, the fine solve can end locally infeasible where the seed itself plans
-    let last = if from_coarse && chances == Chances::Two {
+    let last = if from_coarse && again == Again::FromSeed {
         or_from_seed(robot, task, settings, run, started, g, role, p, &mut out)?
     } else {
         (role, p)
@@ -267,47 +258,36 @@ mod tests {
     use crate::planning::settings::PlannerSettings;
     use crate::planning::task::SwingTask;
 
-    /// The roles and statuses of a seed solved coarse to fine with `chances`, every solve stopped
-    /// after `cap` iterations, from the paper's unobstructed plan as the seed.
-    fn roles(chances: Chances, cap: usize) -> Vec<(SolveRole, SolveStatus)> {
+    /// The roles of a seed solved coarse to fine with `again`, every solve stopped after 3
+    /// iterations (the coarse solve at its cap goes on warm, the fine solve ends without a plan),
+    /// from the paper's unobstructed plan as the seed.
+    fn roles(again: Again) -> Vec<SolveRole> {
         let robot = Robot::paper();
         let s = ValidSettings::new(PlannerSettings::default(), robot.n, "test").unwrap();
         let task = ValidTask::new(&robot, SwingTask::paper(), &s, "task", "").unwrap();
         let nlp = NlpSettings::default();
         let seed = plan_single(&robot, &task, &s, &nlp, None).unwrap();
         assert!(seed.converged(), "{:?}", seed.failure_message());
-        let short = nlp.capped(cap);
+        let short = nlp.capped(3);
         let role = SolveRole::CspaceSeed;
-        let plans =
-            solve_seed_coarse_to_fine(&robot, &task, &s, &short, &seed.points, role, chances)
-                .unwrap();
-        plans.into_iter().map(|(r, p)| (r, p.status)).collect()
+        let plans = solve_seed_coarse_to_fine(&robot, &task, &s, &short, &seed.points, role, again)
+            .unwrap();
+        assert!(plans
+            .iter()
+            .all(|(_, p)| p.status == SolveStatus::MaxIterations));
+        plans.into_iter().map(|(r, _)| r).collect()
     }
 
     #[test]
-    fn a_detour_seed_stopped_at_its_limit_is_solved_again_from_the_seed_and_a_cspace_seed_ends_there(
+    fn a_seed_that_stops_at_its_limit_is_solved_again_from_the_seed_only_when_asked_and_not_resumed(
     ) {
         let coarse = SolveRole::CoarseMesh {
             knot_dt_s: COARSE_KNOT_DT_S,
         };
-        let capped = SolveStatus::MaxIterations;
-        // every solve stopped after 3 iterations: the coarse solve at its cap goes on warm for a
-        // detour seed, and the fine solve, ending without a plan, is solved again from the seed
         assert_eq!(
-            roles(Chances::Two, 3),
-            [
-                (coarse, capped.clone()),
-                (SolveRole::CspaceSeed, capped.clone()),
-                (SolveRole::FromSeed, capped.clone())
-            ]
+            roles(Again::FromSeed),
+            [coarse, SolveRole::CspaceSeed, SolveRole::FromSeed]
         );
-        // a configuration-space seed ends with its coarse solve at the cap
-        assert_eq!(roles(Chances::One, 3), [(coarse, capped)]);
-        // and goes on from a coarse plan that converged, once
-        let solved = roles(Chances::One, 500);
-        assert_eq!(solved.len(), 2, "{solved:?}");
-        assert_eq!(solved[0].0, coarse);
-        assert!(solved.iter().all(|(_, st)| st.is_converged()), "{solved:?}");
-        assert_eq!(solved[1].0, SolveRole::CspaceSeed);
+        assert_eq!(roles(Again::No), [coarse, SolveRole::CspaceSeed]);
     }
 }

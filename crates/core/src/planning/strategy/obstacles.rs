@@ -51,7 +51,7 @@ use crate::planning::solve::shooting::{
 };
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
-    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, Chances,
+    longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, Again,
     LONGER_SWING_FACTOR,
 };
 use crate::planning::strategy::cspace::CspaceReport;
@@ -464,7 +464,7 @@ fn strategies(
                 let g = &seeds[i].1;
                 cands.push(Box::new(move |run: &NlpSettings| {
                     let role = SolveRole::DetourSeed { index: i };
-                    solve_seed_coarse_to_fine(robot, task, settings, run, g, role, Chances::Two)
+                    solve_seed_coarse_to_fine(robot, task, settings, run, g, role, Again::FromSeed)
                 }));
             }
             Kind::Cspace(j) => cands.push(Box::new(move |run: &NlpSettings| {
@@ -473,7 +473,7 @@ fn strategies(
                 };
                 let g = &sd.guess;
                 let role = SolveRole::CspaceSeed;
-                solve_seed_coarse_to_fine(robot, task, settings, &run, g, role, Chances::One)
+                solve_seed_coarse_to_fine(robot, task, settings, &run, g, role, Again::No)
             })),
             Kind::CspaceLonger(j) => cands.push(Box::new(move |run: &NlpSettings| {
                 let Some((sd, run)) = route(run, j) else {
