@@ -258,56 +258,6 @@ fn with_denser_rows(
     Ok(if d.converged() { d } else { q })
 }
 
-/// Whether `p` did not converge because a solve with the clearance rows at the sub-steps stopped
-/// at its iteration limit (its knots' solve had converged through the clearance between them): the
-/// attempt the plan comes from is that solve, ended at the limit, or that solve converged still
-/// inside the margin and an attempt of the denser rows' solve after it ended at the limit.
-pub(crate) fn stopped_in_substep_rows(p: &Plan) -> bool {
-    let Some(i) = p.solves.iter().position(|a| a.adopted) else {
-        return false;
-    };
-    let at_limit = |a: &crate::planning::outcome::SolveAttempt| {
-        a.role == SolveRole::SubstepClearance && a.status == SolveStatus::MaxIterations
-    };
-    let a = &p.solves[i];
-    let denser_at_limit = || {
-        a.status.is_converged()
-            && p.solves
-                .iter()
-                .filter(|b| b.solve == a.solve + 1)
-                .any(at_limit)
-    };
-    !p.converged() && a.role == SolveRole::SubstepClearance && (at_limit(a) || denser_at_limit())
-}
-
-/// The solve with the clearance rows at the sub-steps resumed from `guess` (the points of a plan
-/// that [`stopped_in_substep_rows`], at its swing time): `task` solved warm from there with those
-/// rows from the start, then with denser rows as in [`plan_shooting_once`] when its trajectory
-/// still breaks the clearance; within `nlp`. Errors: a guess of the wrong shape.
-pub(crate) fn resume_substep_rows(
-    robot: &Robot,
-    task: &ValidTask,
-    settings: &ValidSettings,
-    nlp: &NlpSettings,
-    guess: &Trajectory,
-) -> Result<Plan> {
-    check_guess(robot, guess)?;
-    let started = std::time::Instant::now();
-    let robot = Arc::new(robot.clone());
-    let q = solve_shooting(
-        &robot,
-        task,
-        settings,
-        &warm(nlp.clone()),
-        Some(guess),
-        true,
-    )?;
-    let mut log = SolveLog::default();
-    let mut out = with_denser_rows(&robot, task, settings, nlp, started, q, &mut log)?;
-    log.finish(&mut out);
-    Ok(out)
-}
-
 thread_local! {
     /// The flag of the race candidate running on this thread ([`with_yield_flag`]); none outside
     /// a race.

@@ -255,20 +255,13 @@ pub(crate) fn solve_seed_longer_swing(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::planning::settings::PlannerSettings;
-    use crate::planning::task::SwingTask;
 
     /// The roles of a seed solved coarse to fine with `again`, every solve stopped after 3
     /// iterations (the coarse solve at its cap goes on warm, the fine solve ends without a plan),
     /// from the paper's unobstructed plan as the seed.
     fn roles(again: Again) -> Vec<SolveRole> {
-        let robot = Robot::paper();
-        let s = ValidSettings::new(PlannerSettings::default(), robot.n, "test").unwrap();
-        let task = ValidTask::new(&robot, SwingTask::paper(), &s, "task", "").unwrap();
-        let nlp = NlpSettings::default();
-        let seed = plan_single(&robot, &task, &s, &nlp, None).unwrap();
-        assert!(seed.converged(), "{:?}", seed.failure_message());
-        let short = nlp.capped(3);
+        let (robot, s, task, seed) = crate::planning::strategy::test_swing::paper_swing();
+        let short = NlpSettings::default().capped(3);
         let role = SolveRole::CspaceSeed;
         let plans = solve_seed_coarse_to_fine(&robot, &task, &s, &short, &seed.points, role, again)
             .unwrap();

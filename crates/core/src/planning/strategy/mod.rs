@@ -18,5 +18,7 @@ pub mod obstacles;
 mod open_list;
 pub mod race;
 pub mod swing_time;
+#[cfg(test)]
+mod test_swing;
 pub mod torque_continuation;
 pub(crate) mod widened;

@@ -11,15 +11,16 @@
 //! 3. a final pose for the seeds that clears the obstacles, when the obstacle-free swing's does not
 //!    ([`super::goal`]);
 //! 4. the race ([`super::race`]), in this order: the smooth step (where its guess cuts through an
-//!    obstacle, capped at [`SMOOTH_STEP_RACE_MAX_ITER`]), the forward detour
+//!    obstacle, one solve stopped at its first chance or [`SMOOTH_STEP_MIN_ITER`], whichever is
+//!    more), the forward detour
 //!    seeds of [`super::detour`] (the obstacle-free plan deformed around the obstacles by barrier
 //!    tracking), the best-ranked configuration-space seed of [`super::homotopy`] (a collision-free
 //!    joint path of another homotopy class) and the same with a longer swing, the backward detour
 //!    seeds, then the other configuration-space seeds in their rank, each followed by the same with
 //!    a longer swing; solved two at a time, each seed coarse to fine ([`super::candidate`]); the
 //!    first plan in order that converges wins, except over a candidate past its first chance (its
-//!    sub-step re-solve, its solve again from the seed, the smooth step's resume), which a later
-//!    converged candidate beats ([`super::race`]);
+//!    sub-step re-solve, its solve again from the seed, its solve at the task's mesh past one
+//!    iteration per knot interval), which a later converged candidate beats ([`super::race`]);
 //! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
 //!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
@@ -46,9 +47,6 @@ use crate::planning::settings::ObstacleGuess;
 use crate::planning::settings::{PlannerSettings, ValidSettings};
 use crate::planning::solve::common::{covering_obstacles, target_pose};
 use crate::planning::solve::plan_single;
-use crate::planning::solve::shooting::{
-    resume_substep_rows, stopped_in_substep_rows, yield_to_later,
-};
 use crate::planning::solve_log::SolveLog;
 use crate::planning::strategy::candidate::{
     longer_swing_settings, solve_seed_coarse_to_fine, solve_seed_longer_swing, Again,
@@ -213,22 +211,18 @@ pub(crate) fn plan_around_obstacles(
     Ok((p, probed))
 }
 
-/// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and it runs
-/// beside the seeds (the seeds after it cannot win before it ends, has run
-/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] iterations, or is solving again with the clearance rows at the
-/// sub-steps). The settings' `max_iter` (default 500) bounds it too. On the placement scan's fixed
-/// set (30 ms knots) a smooth step that converges does so within 60 iterations, but at 10 ms knots
-/// one takes more than 150 to the optimum the detour seeds miss (docs/planner-measurements.md).
+/// Iteration limit of the smooth step's solve when its guess cuts through an obstacle and the race
+/// did not run it (or ran it without a swing time). The settings' `max_iter` (default 500) bounds
+/// it too.
 pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
-/// Iterations of the smooth step's first solve in the race (the rest of its
-/// [`SMOOTH_STEP_RACE_MAX_ITER`] resume from where it stopped); it yields to a later candidate that
-/// has converged from here at the latest ([`race::FIRST_CHANCE_ITER_PER_INTERVAL`]). On
-/// the placement scan's fixed set a smooth step that converges does so within 60 iterations, and
-/// most that fail take 290-500; at 10 ms knots the smooth step of
-/// `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the optimum
-/// the detour seeds miss (docs/planner-measurements.md).
-pub const SMOOTH_STEP_FIRST_CHANCE_ITER: usize = 200;
+/// Fewest iterations of the smooth step's solve in the race: it stops at the larger of this and its
+/// first chance ([`race::FIRST_CHANCE_ITER_PER_INTERVAL`] per knot interval: 75 for the paper's
+/// swing on 30 ms knots, 223 on 10 ms knots). On the placement scans a smooth step in the race that converged did so within 59
+/// iterations on 30 ms knots, and none that ran 200 converged after them; at 10 ms knots the smooth
+/// step of `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the
+/// optimum the detour seeds miss (docs/planner-measurements.md).
+pub const SMOOTH_STEP_MIN_ITER: usize = 100;
 
 /// Where a candidate of the race came from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -262,7 +256,7 @@ fn smooth_step_now(
 }
 
 /// The smooth step's plan from the solves of its race candidate, `ran` (each recorded in `log` in
-/// order: the first capped, then resumed; the last is the plan), or, when it never started, solved
+/// order; the last is the plan), or, when it never started, solved
 /// now ([`smooth_step_now`]) and recorded.
 fn smooth_step_of(
     ran: Option<race::Plans>,
@@ -295,16 +289,17 @@ fn interrupted(plans: &race::Plans) -> bool {
         .is_some_and(|(_, p)| p.status == SolveStatus::Cancelled)
 }
 
-/// The smooth step as a candidate of the race, capped at [`SMOOTH_STEP_RACE_MAX_ITER`] iterations
-/// (a swing of `t_s`, the automatic swing time; 0 when unknown): it yields to a later candidate
-/// that has converged once its solve has run [`race::FIRST_CHANCE_ITER_PER_INTERVAL`] iterations
-/// per knot interval ([`race::with_first_chance`]); it is solved first for
-/// [`SMOOTH_STEP_FIRST_CHANCE_ITER`] of them; when that solve stops there, the
-/// candidate yields to a later one that has converged ([`race`]) and the solve resumes from where
-/// it stopped for the rest of its iterations ([`SolveRole::Resumed`]: the knots' solve from its
-/// point; or, when a solve with the clearance rows at the sub-steps or the denser rows' solve after
-/// it is where it stopped, the sub-step rows' solve from the point of the plan and the denser rows'
-/// solve after it anew; the cap holds for each solve of the first chance).
+/// The iteration limit of the smooth step's solve in the race, for a swing of `t_s` on knots
+/// `knot_dt` apart, s: the larger of [`SMOOTH_STEP_MIN_ITER`] and its first chance
+/// ([`race::first_chance_iter`]), or [`SMOOTH_STEP_RACE_MAX_ITER`] without a swing time.
+fn smooth_step_cap(knot_dt: f64, t_s: f64) -> usize {
+    race::first_chance_iter(knot_dt, t_s)
+        .map_or(SMOOTH_STEP_RACE_MAX_ITER, |n| n.max(SMOOTH_STEP_MIN_ITER))
+}
+
+/// The smooth step as a candidate of the race (a swing of `t_s`, the automatic swing time; 0 when
+/// unknown): one solve, stopped at [`smooth_step_cap`] iterations, at most the settings'
+/// `max_iter`.
 fn smooth_step_candidate<'a>(
     robot: &'a Robot,
     task: &'a ValidTask,
@@ -312,26 +307,10 @@ fn smooth_step_candidate<'a>(
     t_s: f64,
 ) -> race::Candidate<'a> {
     Box::new(move |run: &NlpSettings| {
-        let started = std::time::Instant::now();
-        let total = run.max_iter.min(SMOOTH_STEP_RACE_MAX_ITER);
-        let capped = run.clone().capped(SMOOTH_STEP_FIRST_CHANCE_ITER);
-        let first = race::with_first_chance(&capped, settings.knot_dt, t_s);
+        let cap = smooth_step_cap(settings.knot_dt, t_s);
+        let first = race::with_first_chance(run, settings.knot_dt, t_s).capped(cap);
         let p = plan_single(robot, task, settings, &first, None)?;
-        // stopped at the first chance's limit: in the knots' solve, or in a solve with the rows at
-        // the sub-steps (which the cap limits too)
-        let substep = stopped_in_substep_rows(&p);
-        let stopped = (substep || p.status == SolveStatus::MaxIterations) && first.max_iter < total;
-        let Some(more) = run.remaining(started).filter(|_| stopped) else {
-            return Ok(vec![(SolveRole::Task, p)]);
-        };
-        yield_to_later();
-        let more = more.capped(total - first.max_iter);
-        let q = if substep {
-            resume_substep_rows(robot, task, settings, &more, &p.points)?
-        } else {
-            plan_single(robot, task, settings, &more, Some(&p.points))?
-        };
-        Ok(vec![(SolveRole::Task, p), (SolveRole::Resumed, q)])
+        Ok(vec![(SolveRole::Task, p)])
     })
 }
 
@@ -934,5 +913,47 @@ mod tests {
         assert!(plain
             .iter()
             .all(|k| matches!(k, Kind::Detour(_) | Kind::Cspace(_))));
+    }
+
+    /// The smooth step in the race is one solve, stopped at the larger of
+    /// [`SMOOTH_STEP_MIN_ITER`] and its first chance; on the paper's swing with an obstacle of
+    /// radius 0.086 m at the tip of link 2 at 1.13 s of the unobstructed swing, which its guess
+    /// cuts through, that solve stops there without converging.
+    #[test]
+    fn the_smooth_step_in_the_race_is_one_solve_stopped_at_its_cap() {
+        assert_eq!(smooth_step_cap(0.03, 2.23), SMOOTH_STEP_MIN_ITER);
+        assert_eq!(smooth_step_cap(0.01, 2.23), 223);
+        assert_eq!(smooth_step_cap(0.03, 0.0), SMOOTH_STEP_RACE_MAX_ITER);
+        let (robot, s, _, free) = crate::planning::strategy::test_swing::paper_swing();
+        let nlp = NlpSettings::default();
+        let mut x = vec![0.0; 2 * robot.n];
+        free.points.state_at(1.13, &mut x);
+        let mut joints = vec![[0.0; 2]; robot.n + 1];
+        robot.joint_positions(&x[..robot.n], &mut joints);
+        let obstacle = Circle {
+            center: joints[2],
+            radius: 0.086,
+        };
+        let blocked = SwingTask {
+            obstacles: vec![obstacle],
+            ..SwingTask::paper()
+        };
+        let task = ValidTask::new(&robot, blocked, &s, "task", "").unwrap();
+        assert!(!smooth_step_is_clear(&robot, &task, &s).unwrap());
+        let t_s = free.swing_time_s;
+        let cap = smooth_step_cap(s.knot_dt, t_s);
+        let plans = smooth_step_candidate(&robot, &task, &s, t_s)(&nlp).unwrap();
+        assert_eq!(plans.len(), 1, "{plans:?}");
+        let p = &plans[0].1;
+        assert!(!p.converged(), "{:?}", p.solves);
+        assert!(
+            p.solves.iter().all(|a| a.iterations <= cap),
+            "{:?}",
+            p.solves
+        );
+        let at_cap = |a: &crate::planning::outcome::SolveAttempt| {
+            a.iterations == cap && a.status == SolveStatus::MaxIterations
+        };
+        assert!(p.solves.iter().any(at_cap), "{:?}", p.solves);
     }
 }

@@ -15,9 +15,8 @@
 //! ended without a clear plan (it is solving again from its seed), marks itself (`yield_to_later`
 //! of the shooting solve); so does a candidate whose solve at the task's mesh has run
 //! [`FIRST_CHANCE_ITER_PER_INTERVAL`] iterations per knot interval without converging (the backend
-//! raises the flag at that iteration, [`crate::IterationMark`], and the solve goes on unchanged), and
-//! the smooth step once its solve has run [`super::obstacles::SMOOTH_STEP_FIRST_CHANCE_ITER`]
-//! iterations (where it stops and resumes). A later candidate that has
+//! raises the flag at that iteration, [`crate::IterationMark`], and the solve goes on unchanged).
+//! A later candidate that has
 //! converged wins as soon as every candidate before it has ended or is so marked, and those still
 //! running are cancelled: the race does not wait for a second chance when a plan is already there.
 //! Where no later candidate converges first, the earlier one runs to its end as before; which of
@@ -70,16 +69,25 @@ pub(crate) struct RaceOutcome {
     pub winner: Option<usize>,
 }
 
-/// `run` with the first chance of a solve of a swing of `t_s` on knots `knot_dt` apart, s: once
-/// the solve has run [`FIRST_CHANCE_ITER_PER_INTERVAL`] iterations per knot interval, the candidate
-/// running it yields to a later one that has converged. `run` itself outside a race or without a
-/// swing time (`t_s` not positive).
-pub(crate) fn with_first_chance(run: &NlpSettings, knot_dt: f64, t_s: f64) -> NlpSettings {
+/// The iterations of the first chance of a solve of a swing of `t_s` on knots `knot_dt` apart, s:
+/// [`FIRST_CHANCE_ITER_PER_INTERVAL`] per knot interval; `None` without a swing time (`t_s` not
+/// positive).
+pub(crate) fn first_chance_iter(knot_dt: f64, t_s: f64) -> Option<usize> {
     if !(t_s > 0.0 && knot_dt > 0.0) {
-        return run.clone();
+        return None;
     }
     let intervals = (t_s / knot_dt).ceil();
-    let after = (FIRST_CHANCE_ITER_PER_INTERVAL * intervals).clamp(1.0, 1e6) as usize;
+    Some((FIRST_CHANCE_ITER_PER_INTERVAL * intervals).clamp(1.0, 1e6) as usize)
+}
+
+/// `run` with the first chance of a solve of a swing of `t_s` on knots `knot_dt` apart, s: once
+/// the solve has run its [`first_chance_iter`] iterations, the candidate running it yields to a
+/// later one that has converged. `run` itself outside a race or without a swing time (`t_s` not
+/// positive).
+pub(crate) fn with_first_chance(run: &NlpSettings, knot_dt: f64, t_s: f64) -> NlpSettings {
+    let Some(after) = first_chance_iter(knot_dt, t_s) else {
+        return run.clone();
+    };
     NlpSettings {
         iteration_mark: yield_mark(after),
         ..run.clone()
