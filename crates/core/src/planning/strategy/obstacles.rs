@@ -12,15 +12,15 @@
 //!    ([`super::goal`]);
 //! 4. the race ([`super::race`]), in this order: the smooth step (where its guess cuts through an
 //!    obstacle, one solve stopped at its first chance or [`SMOOTH_STEP_MIN_ITER`], whichever is
-//!    more), the forward detour
-//!    seeds of [`super::detour`] (the obstacle-free plan deformed around the obstacles by barrier
-//!    tracking), the best-ranked configuration-space seed of [`super::homotopy`] (a collision-free
-//!    joint path of another homotopy class) and the same with a longer swing, the backward detour
-//!    seeds, then the other configuration-space seeds in their rank, each followed by the same with
-//!    a longer swing; solved two at a time, each seed coarse to fine ([`super::candidate`]); the
-//!    first plan in order that converges wins, except over a candidate past its first chance (its
-//!    sub-step re-solve, its solve again from the seed, its solve at the task's mesh past one
-//!    iteration per knot interval), which a later converged candidate beats ([`super::race`]);
+//!    more), the forward detour seeds of [`super::detour`] (the obstacle-free plan deformed around
+//!    the obstacles by barrier tracking), the best-ranked configuration-space seed of
+//!    [`super::homotopy`] (a collision-free joint path of another homotopy class) and the same with
+//!    a longer swing, the backward detour seeds, then the other configuration-space seeds in their
+//!    rank, each followed by the same with a longer swing; solved two at a time, each seed coarse to
+//!    fine ([`super::candidate`]); the first plan in order that converges wins, except over a
+//!    candidate past its first chance (its sub-step re-solve, its solve again from the seed, its
+//!    solve at the task's mesh past one iteration per knot interval), which a later converged
+//!    candidate beats ([`super::race`]);
 //! 5. when the best C-space seed's solve failed: that seed planned with the torque limits scaled
 //!    by [`TORQUE_RELAX`] and then at the real limits from that plan (continuation on the actuator
 //!    limits: the seed, timed over the swing, may need more torque than the limits allow);
@@ -218,10 +218,11 @@ pub const SMOOTH_STEP_RACE_MAX_ITER: usize = 600;
 
 /// Fewest iterations of the smooth step's solve in the race: it stops at the larger of this and its
 /// first chance ([`race::FIRST_CHANCE_ITER_PER_INTERVAL`] per knot interval: 75 for the paper's
-/// swing on 30 ms knots, 223 on 10 ms knots). On the placement scans a smooth step in the race that converged did so within 59
-/// iterations on 30 ms knots, and none that ran 200 converged after them; at 10 ms knots the smooth
-/// step of `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the
-/// optimum the detour seeds miss (docs/planner-measurements.md).
+/// swing on 30 ms knots, 223 on 10 ms knots). On the placement scans a smooth step in the race that
+/// converged did so within 59 iterations on 30 ms knots, and none that ran 200 converged after
+/// them; at 10 ms knots the smooth step of
+/// `planner_shooting.rs::obstacle_is_avoided_by_multiple_shooting` converges in 177, to the optimum
+/// the detour seeds miss (docs/planner-measurements.md).
 pub const SMOOTH_STEP_MIN_ITER: usize = 100;
 
 /// Where a candidate of the race came from.
@@ -256,8 +257,8 @@ fn smooth_step_now(
 }
 
 /// The smooth step's plan from the solves of its race candidate, `ran` (each recorded in `log` in
-/// order; the last is the plan), or, when it never started, solved
-/// now ([`smooth_step_now`]) and recorded.
+/// order; the last is the plan), or, when it never started, solved now ([`smooth_step_now`]) and
+/// recorded.
 fn smooth_step_of(
     ran: Option<race::Plans>,
     robot: &Robot,
