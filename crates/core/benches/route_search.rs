@@ -6,11 +6,14 @@
 //! to the goal poses share their grid's cell verdicts, so a cell is checked once for all of them),
 //! and each goal pose's search on its own (`cspace_routes` per goal pose: every search checks its
 //! cells itself), the baseline. A manual pass prints the medians of both and their ratio, and
-//! that both found the same routes.
+//! that both found the same routes. A first manual pass times the search's cell check against the
+//! exact clearance of the cell's pose on the same random grid cells.
 //! `cargo bench -p brachia --bench route_search`.
 
-use brachia::model::{Circle, Robot};
-use brachia::planning::strategy::cspace::{cspace_routes, time_path};
+use brachia::model::{Circle, ClearanceFn, Robot};
+use brachia::planning::strategy::cspace::{
+    cspace_routes, time_path, CELL_EXTRA_CLEARANCE, GRID_STEP_RAD,
+};
 use brachia::planning::strategy::goal::{
     clear_final_pose_until, distinct_goal_poses, with_final_pose,
 };
@@ -110,10 +113,112 @@ fn own_searches(robot: &Robot, s: &PlannerSettings, c: &Case) -> Vec<Vec<Vec<f64
     paths
 }
 
+/// Random cells of a grid of `GRID_STEP_RAD` in every joint's range (q1 in the bounds, the others
+/// within `q_rel_max`): each cell's joint indices and angles, and the grid's `[cos, sin]` per joint
+/// and index.
+struct GridPoses {
+    poses: Vec<Vec<f64>>,
+    cells: Vec<Vec<usize>>,
+    table: Vec<Vec<[f64; 2]>>,
+}
+
+fn grid_poses(robot: &Robot, s: &PlannerSettings, count: usize) -> GridPoses {
+    let b = &s.bounds;
+    let n = robot.n();
+    let lo: Vec<f64> = (0..n)
+        .map(|d| if d == 0 { b.q1[0] } else { -b.q_rel_max })
+        .collect();
+    let hi: Vec<f64> = (0..n)
+        .map(|d| if d == 0 { b.q1[1] } else { b.q_rel_max })
+        .collect();
+    let dims: Vec<usize> = (0..n)
+        .map(|d| ((hi[d] - lo[d]) / GRID_STEP_RAD).ceil() as usize + 1)
+        .collect();
+    let value = |d: usize, i: usize| lo[d] + i as f64 * (hi[d] - lo[d]) / (dims[d] - 1) as f64;
+    let table = (0..n)
+        .map(|d| {
+            (0..dims[d])
+                .map(|i| {
+                    let (sn, c) = value(d, i).sin_cos();
+                    [c, sn]
+                })
+                .collect()
+        })
+        .collect();
+    // a fixed linear congruential sequence: the same cells in every run
+    let mut x: u64 = 12345;
+    let mut next = |m: usize| {
+        x = x
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (x >> 33) as usize % m
+    };
+    let cells: Vec<Vec<usize>> = (0..count)
+        .map(|_| (0..n).map(|d| next(dims[d])).collect())
+        .collect();
+    let poses = cells
+        .iter()
+        .map(|c| c.iter().enumerate().map(|(d, &i)| value(d, i)).collect())
+        .collect();
+    GridPoses {
+        poses,
+        cells,
+        table,
+    }
+}
+
+/// The cell check of the search (tabulated rotations, squared distances, ended at the first pair
+/// too close) against the exact clearance of each cell's pose, the baseline, on the same cells of
+/// the first case: the medians of 5 passes over 200,000 cells and their ratio, and that both
+/// blocked the same cells.
+fn cell_check_pass(robot: &Robot, s: &PlannerSettings, c: &Case) {
+    let cf = ClearanceFn::new(robot.clone(), c.obstacles.as_slice(), 0.0)
+        .expect("a valid obstacle")
+        .with_self_collision(s.self_collision);
+    let need = s.obstacle_margin + CELL_EXTRA_CLEARANCE;
+    let GridPoses {
+        poses,
+        cells,
+        table,
+    } = grid_poses(robot, s, 200_000);
+    let n = robot.n();
+    let (mut fast_t, mut exact_t) = (vec![], vec![]);
+    let (mut fast_blocked, mut exact_blocked) = (0, 0);
+    let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+    let mut rot = vec![[1.0, 0.0]; n];
+    for _ in 0..5 {
+        let t = Instant::now();
+        fast_blocked = cells
+            .iter()
+            .filter(|cell| {
+                for (d, &i) in cell.iter().enumerate() {
+                    rot[d] = table[d][i];
+                }
+                robot.link_segments_rotated(&rot, &mut segs);
+                !cf.keeps(&segs, need)
+            })
+            .count();
+        fast_t.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        exact_blocked = poses.iter().filter(|q| cf.min_clearance(q) < need).count();
+        exact_t.push(t.elapsed().as_secs_f64());
+    }
+    let (mf, me) = (median(&fast_t), median(&exact_t));
+    println!(
+        "  cell check, {}: {:.3} us a cell against the exact clearance's {:.3} us (median of 5 passes over {} cells), ratio {:.2}; blocked {fast_blocked} / {exact_blocked}",
+        c.name,
+        mf / cells.len() as f64 * 1e6,
+        me / cells.len() as f64 * 1e6,
+        cells.len(),
+        mf / me
+    );
+}
+
 fn bench(cr: &mut Criterion) {
     let robot = Robot::paper();
     let s = PlannerSettings::default();
     let cases = cases(&robot, &s);
+    cell_check_pass(&robot, &s, &cases[0]);
     println!("route search, {MAX_GOALS} goal poses x {ROUTES_PER_GOAL} routes, paper robot");
     for c in &cases {
         let (mut shared_t, mut own_t) = (vec![], vec![]);

@@ -379,6 +379,27 @@ impl ClearanceFn {
         best
     }
 
+    /// Whether every pair of the exact check ([`Self::min_clearance_pair`]) keeps a surface distance
+    /// of at least `need` (m, >= 0) with the links at `segs` ([`Robot::link_segments`], n
+    /// segments): [`Self::min_clearance`] `>= need` up to rounding, compared in squared distances
+    /// and ended at the first pair closer than that.
+    pub fn keeps(&self, segs: &[(P2<f64>, P2<f64>)], need: f64) -> bool {
+        let pair_keeps = |p: ClearancePair| {
+            let r = self.radii(p) + need;
+            self.dist2(segs, p) >= r * r
+        };
+        for link in (0..self.robot.n).filter(|&i| self.links.contains(i)) {
+            for obstacle in 0..self.obstacles.len() {
+                if !pair_keeps(ClearancePair::LinkObstacle { link, obstacle }) {
+                    return false;
+                }
+            }
+        }
+        let mut keeps = true;
+        self.for_each_link_pair(|p| keeps = keeps && pair_keeps(p));
+        keeps
+    }
+
     /// The smallest true surface distance `d - r_a - r_b` (m) of the exact check
     /// ([`Self::min_clearance_pair`]) at `q`, `+inf` when nothing is checked. Negative: some capsules
     /// overlap (by at most the sum of their radii).
@@ -528,6 +549,53 @@ pub(crate) mod tests {
             }
         }
         best
+    }
+
+    /// The early-ended check in squared distances ([`ClearanceFn::keeps`]) on segments composed by
+    /// rotation ([`Robot::link_segments_rotated`]) says what the exact check says, at random poses
+    /// of two robots against random circles, self-collision on and off, away from the boundary.
+    #[test]
+    fn the_early_ended_check_agrees_with_the_exact_clearance() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (mut kept, mut broken) = (0, 0);
+        for robot in [paper_robot(), odd_robot()] {
+            let n = robot.n;
+            for case in 0..400 {
+                let obstacles: Vec<Circle> = (0..rng.gen_range(1..4))
+                    .map(|_| Circle {
+                        center: [rng.gen_range(-1.0..1.0), rng.gen_range(-1.2..0.3)],
+                        radius: rng.gen_range(0.02..0.2),
+                    })
+                    .collect();
+                let cf = ClearanceFn::new(robot.clone(), obstacles, 0.0)
+                    .unwrap()
+                    .with_self_collision(case % 2 == 0);
+                let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
+                let mut segs = vec![([0.0; 2], [0.0; 2]); n];
+                let mut turned = segs.clone();
+                robot.link_segments(&q, &mut segs);
+                let rot: Vec<[f64; 2]> = q.iter().map(|a| [a.cos(), a.sin()]).collect();
+                robot.link_segments_rotated(&rot, &mut turned);
+                for (s, t) in segs.iter().zip(&turned) {
+                    for (u, v) in [s.0, s.1].iter().zip([t.0, t.1]) {
+                        assert!((u[0] - v[0]).abs() < 1e-12 && (u[1] - v[1]).abs() < 1e-12);
+                    }
+                }
+                let exact = cf.min_clearance(&q);
+                for need in [0.0, 0.01, 0.03] {
+                    if (exact - need).abs() < 1e-9 {
+                        continue;
+                    }
+                    assert_eq!(cf.keeps(&turned, need), exact >= need, "{q:?} {need}");
+                    if exact >= need {
+                        kept += 1;
+                    } else {
+                        broken += 1;
+                    }
+                }
+            }
+        }
+        assert!(kept > 200 && broken > 200, "{kept} kept, {broken} broken");
     }
 
     #[test]

@@ -170,6 +170,22 @@ impl Robot {
         }
     }
 
+    /// [`Self::link_segments`] from each joint's `[cos q_i, sin q_i]` (`rot`, n entries), the links'
+    /// directions composed by rotation instead of a sine and cosine per link: equal to it up to
+    /// rounding, for callers that evaluate many poses on a grid of joint angles, whose cosines and
+    /// sines are tabulated once.
+    pub fn link_segments_rotated(&self, rot: &[[f64; 2]], out: &mut [(P2<f64>, P2<f64>)]) {
+        let (mut co, mut s) = (1.0, 0.0);
+        let mut p = [0.0, 0.0];
+        for i in 0..self.n {
+            let [ci, si] = rot[i];
+            (co, s) = (co * ci - s * si, s * ci + co * si);
+            let e = [p[0] + co * self.len[i], p[1] + s * self.len[i]];
+            out[i] = (p, e);
+            p = e;
+        }
+    }
+
     /// Potential energy `V(q) = sum_i m_i g y_ci`, J (zero at the height of the grip).
     pub fn potential_energy<T: Scalar>(&self, q: &[T]) -> T {
         let mut th = T::zero();

@@ -17,10 +17,12 @@
 //!    reached (the open list's bound). The search ends with a path, with the free cells reachable
 //!    from the start exhausted (no grid path: evidence, not proof, that the task is blocked), or at
 //!    the limit. Start and goal poses that do not clear the obstacles by the margin are not
-//!    searched from. The open list keeps one small heap per priority (`open_list`), and a cell's
+//!    searched from. The open list keeps one small heap per priority (`open_list`), a cell's
 //!    verdict is kept for the later searches on the same grid, to other goal poses included
-//!    ([`super::homotopy`]): neither changes which cells are reached or in what order, only how
-//!    fast.
+//!    ([`super::homotopy`]), and a cell is checked from the cosines and sines of the grid's joint
+//!    values, tabulated once, in squared distances, ending at the first pair too close: none of
+//!    these changes which cells are reached or in what order (up to rounding at the boundary of a
+//!    cell's check), only how fast.
 //! 3. **Shortcut.** The grid path (start pose, cells, goal pose) is shortened greedily: from each kept
 //!    waypoint to the farthest later one that the straight joint-space segment reaches with the
 //!    segment clear by the margin plus [`SEGMENT_EXTRA_CLEARANCE`] (checked every
@@ -35,7 +37,7 @@
 
 use super::open_list::OpenList;
 use crate::error::Result;
-use crate::model::{Circle, ClearanceFn, Robot, Scratch};
+use crate::model::{Circle, ClearanceFn, Robot, Scratch, MAX_LINKS, P2};
 use crate::planning::settings::PlannerSettings;
 use crate::trajectory::Trajectory;
 use serde::{Deserialize, Serialize};
@@ -200,6 +202,15 @@ impl Grid {
         }
     }
 
+    /// Per joint, how far apart in index two cells one step apart along it are.
+    fn strides(&self) -> Vec<usize> {
+        let mut s = vec![1; self.dims.len()];
+        for d in (0..self.dims.len().saturating_sub(1)).rev() {
+            s[d] = s[d + 1] * self.dims[d + 1];
+        }
+        s
+    }
+
     fn index(&self, c: &[usize]) -> usize {
         c.iter().zip(&self.dims).fold(0, |a, (ci, d)| a * d + ci)
     }
@@ -214,6 +225,35 @@ impl Grid {
     fn value(&self, c: &[usize], q: &mut [f64]) {
         for d in 0..c.len() {
             q[d] = self.lo[d] + c[d] as f64 * self.step[d];
+        }
+    }
+
+    /// Per joint, `[cos, sin]` of each of its grid values ([`Self::value`]).
+    fn rotations(&self) -> Vec<Vec<[f64; 2]>> {
+        (0..self.dims.len())
+            .map(|d| {
+                (0..self.dims[d])
+                    .map(|i| {
+                        let (s, c) = (self.lo[d] + i as f64 * self.step[d]).sin_cos();
+                        [c, s]
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// The scratch of a cell's check: its joints' `[cos, sin]` and its links' segments.
+struct CellScratch {
+    rot: Vec<[f64; 2]>,
+    segs: [(P2<f64>, P2<f64>); MAX_LINKS],
+}
+
+impl CellScratch {
+    fn new(n: usize) -> Self {
+        CellScratch {
+            rot: vec![[1.0, 0.0]; n],
+            segs: [([0.0; 2], [0.0; 2]); MAX_LINKS],
         }
     }
 }
@@ -276,6 +316,23 @@ impl Checker {
     /// Clearance of pose `q` beyond the planner's margin, m.
     fn clearance(&self, q: &[f64]) -> f64 {
         self.cf.min_clearance(q) - self.margin
+    }
+
+    /// Whether the cell `c` of a grid whose joint values have the `[cos, sin]` of `rotations`
+    /// ([`Grid::rotations`]) is blocked: its pose's [`Self::clearance`] below
+    /// [`CELL_EXTRA_CLEARANCE`] (up to rounding; no sine or cosine evaluated, squared distances
+    /// compared, ended at the first pair too close).
+    fn cell_blocked(&self, rotations: &[Vec<[f64; 2]>], c: &[usize], w: &mut CellScratch) -> bool {
+        for (d, &i) in c.iter().enumerate() {
+            w.rot[d] = rotations[d][i];
+        }
+        let n = c.len();
+        self.cf
+            .robot
+            .link_segments_rotated(&w.rot, &mut w.segs[..n]);
+        !self
+            .cf
+            .keeps(&w.segs[..n], self.margin + CELL_EXTRA_CLEARANCE)
     }
 
     /// Smallest clearance beyond the margin over the check points of the segment `a -> b`.
@@ -419,6 +476,7 @@ impl RouteSearch {
                     Search {
                         state: vec![UNSEEN; grid.cells],
                         verdicts,
+                        rotations: grid.rotations(),
                         grid,
                         check,
                     }
@@ -573,6 +631,8 @@ fn along(p: &[Vec<f64>], m: usize) -> Vec<Vec<f64>> {
 /// One grid with its cells' states, searched for one route after another.
 struct Search {
     grid: Grid,
+    /// Per joint, `[cos, sin]` of its grid values ([`Grid::rotations`]).
+    rotations: Vec<Vec<[f64; 2]>>,
     check: Checker,
     state: Vec<u8>,
     /// The cells' collision verdicts, shared with the searches to other goal poses on this grid
@@ -580,20 +640,17 @@ struct Search {
     verdicts: Option<Arc<[AtomicU8]>>,
 }
 
-/// Whether cell `k` (coordinates `c`) is blocked: its shared verdict, or its pose (in `q`) checked
-/// against the margin plus [`CELL_EXTRA_CLEARANCE`] and the verdict kept.
+/// Whether cell `k` (coordinates `c`) is blocked: its shared verdict, or its pose checked against
+/// the margin plus [`CELL_EXTRA_CLEARANCE`] ([`Checker::cell_blocked`]) and the verdict kept.
 fn cell_blocked(
     verdicts: Option<&[AtomicU8]>,
     check: &Checker,
-    grid: &Grid,
+    rotations: &[Vec<[f64; 2]>],
     k: usize,
     c: &[usize],
-    q: &mut [f64],
+    w: &mut CellScratch,
 ) -> bool {
-    let mut checked = || {
-        grid.value(c, q);
-        check.clearance(q) < CELL_EXTRA_CLEARANCE
-    };
+    let mut checked = || check.cell_blocked(rotations, c, w);
     let Some(verdicts) = verdicts else {
         return checked();
     };
@@ -632,7 +689,7 @@ impl Search {
             }
         }
         let (mut c, mut nb, mut goal) = (vec![0; n], vec![0; n], vec![0; n]);
-        let mut q = vec![0.0; n];
+        let mut w = CellScratch::new(n);
         grid.nearest(q_goal, &mut goal);
         grid.nearest(q_start, &mut c);
         let (start_idx, goal_idx) = (grid.index(&c), grid.index(&goal));
@@ -643,6 +700,7 @@ impl Search {
                 .sum()
         };
         let (state, verdicts, check) = (&mut self.state, self.verdicts.as_deref(), &self.check);
+        let rotations = &self.rotations;
         state[start_idx] = START;
         // (priority, deeper first, cell): the start and goal cells are taken as they are (the exact
         // poses are checked by the shortcut)
@@ -650,20 +708,28 @@ impl Search {
         open.push(HEURISTIC_WEIGHT * h(&c), 0, start_idx as u32);
         rep.cells_discovered = 1;
         let mut found = start_idx == goal_idx;
+        let strides = grid.strides();
         'search: while let Some((g, idx)) = open.pop() {
             grid.coords(idx as usize, &mut c);
+            nb.copy_from_slice(&c);
+            let h_c = h(&c);
             for d in 0..n {
                 for up in [false, true] {
                     if (up && c[d] + 1 >= grid.dims[d]) || (!up && c[d] == 0) {
                         continue;
                     }
-                    nb.copy_from_slice(&c);
+                    // the neighbour one step along joint d: its coordinates (put back below), its
+                    // index and its heuristic, one move nearer the goal or one farther
+                    let (k, h_nb);
                     if up {
-                        nb[d] += 1;
+                        nb[d] = c[d] + 1;
+                        k = idx as usize + strides[d];
+                        h_nb = if c[d] < goal[d] { h_c - 1 } else { h_c + 1 };
                     } else {
-                        nb[d] -= 1;
+                        nb[d] = c[d] - 1;
+                        k = idx as usize - strides[d];
+                        h_nb = if c[d] > goal[d] { h_c - 1 } else { h_c + 1 };
                     }
-                    let k = grid.index(&nb);
                     let s = state[k];
                     if s != UNSEEN && s != FREE {
                         continue;
@@ -682,14 +748,15 @@ impl Search {
                         found = true;
                         break 'search;
                     }
-                    if s == UNSEEN && cell_blocked(verdicts, check, grid, k, &nb, &mut q) {
+                    if s == UNSEEN && cell_blocked(verdicts, check, rotations, k, &nb, &mut w) {
                         state[k] = BLOCKED;
                         continue;
                     }
                     state[k] = FIRST_MOVE + dir;
                     let g1 = g + 1;
-                    open.push(g1 + HEURISTIC_WEIGHT * h(&nb), g1, k as u32);
+                    open.push(g1 + HEURISTIC_WEIGHT * h_nb, g1, k as u32);
                 }
+                nb[d] = c[d];
             }
         }
         if !found {
@@ -906,4 +973,64 @@ pub fn time_path(
     rep.max_speed_rad_s = 1.5 * total / dur * max_dir;
     rep.peak_torque_ratio = ratio;
     g
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A cell's check from the grid's tabulated rotations says what the exact clearance of the
+    /// cell's pose says, on random cells of the paper robot's grid about an obstacle on its swing,
+    /// away from the boundary.
+    #[test]
+    fn a_cell_check_agrees_with_the_exact_clearance_of_the_cell_pose() {
+        let robot = Robot::paper();
+        let obstacles = [Circle {
+            center: [0.3, -0.55],
+            radius: 0.12,
+        }];
+        let settings = PlannerSettings::default();
+        let (start, goal) = ([-2.35, 0.0, -1.55, 0.0], [-1.0, 0.5, 0.5, 0.3]);
+        let rs = RouteSearch::new(&robot, &obstacles, &settings, &start, &goal).unwrap();
+        let search = rs
+            .search
+            .as_ref()
+            .expect("the paper robot's grid is searched");
+        let (grid, check) = (&search.grid, &search.check);
+        let n = robot.n;
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let (mut c, mut q, mut w) = (vec![0; n], vec![0.0; n], CellScratch::new(n));
+        let (mut blocked, mut free) = (0, 0);
+        for _ in 0..20_000 {
+            for d in 0..n {
+                c[d] = rng.gen_range(0..grid.dims[d]);
+            }
+            grid.value(&c, &mut q);
+            let exact = check.clearance(&q);
+            if (exact - CELL_EXTRA_CLEARANCE).abs() < 1e-9 {
+                continue;
+            }
+            let is_blocked = check.cell_blocked(&search.rotations, &c, &mut w);
+            assert_eq!(is_blocked, exact < CELL_EXTRA_CLEARANCE, "{c:?}: {exact}");
+            if is_blocked {
+                blocked += 1;
+            } else {
+                free += 1;
+            }
+        }
+        assert!(
+            blocked > 1000 && free > 1000,
+            "{blocked} blocked, {free} free"
+        );
+        // one step along a joint is one stride apart in index
+        let strides = grid.strides();
+        for d in 0..n {
+            c.iter_mut().for_each(|x| *x = 1);
+            let k = grid.index(&c);
+            c[d] += 1;
+            assert_eq!(grid.index(&c), k + strides[d]);
+        }
+    }
 }
