@@ -9,7 +9,8 @@
 //! overlaps the start pose or holds the target bar is refused by the task check and counted apart.
 //! Every placement is planned with the default planner under a wall-time limit; the test records
 //! its outcome, the smallest clearance to an obstacle over the 1 ms trajectory, the time and the
-//! strategy that won, and the diagnosis of a placement that did not plan.
+//! strategy that won, and the diagnosis of a placement that did not plan; the totals count the
+//! failures by what blocks them (`common::placement::failure_class`).
 //!
 //! The fast tests check the drawing and plan a few placements; the whole scan (the table of
 //! docs/planner.md, "Held-out placement scan") runs with
@@ -23,7 +24,9 @@ use brachia::model::{ik_from_seed, Circle};
 use brachia::planning::{GuessStrategy, Plan, PlannerSettings, SwingTask, Verdict};
 use brachia::Robot;
 use common::oracle::search;
-use common::placement::{free_swing, keeps_margin, min_clearance, plan_placement, Placement};
+use common::placement::{
+    class_counts, failure_class, free_swing, keeps_margin, min_clearance, plan_placement, Placement,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -187,6 +190,8 @@ struct Outcome {
     message: Option<String>,
     /// The diagnosis's verdict and the obstacle and link it names.
     diagnosis: Option<(Verdict, usize, usize)>,
+    /// Of a plan that did not converge: what blocks it ([`failure_class`]).
+    class: Option<&'static str>,
 }
 
 fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> Outcome {
@@ -201,6 +206,7 @@ fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> 
                 strategy: None,
                 message: Some(e.to_string()),
                 diagnosis: None,
+                class: None,
             }
         }
     };
@@ -219,6 +225,7 @@ fn run(robot: &Robot, task: &SwingTask, s: &PlannerSettings, pl: &Placement) -> 
             .diagnosis
             .as_ref()
             .map(|d| (d.verdict, d.obstacle, d.link)),
+        class: (!p.converged()).then(|| failure_class(&p)),
     }
 }
 
@@ -490,14 +497,16 @@ fn the_whole_heldout_placement_scan() {
             .filter(|(_, o)| o.kind != Kind::Refused)
             .map(|(_, o)| o.time_s)
             .collect();
+        let classes: Vec<&'static str> = rows.iter().filter_map(|(_, o)| o.class).collect();
         let line = format!(
-            "| {} | {} | {} | {} | {} ({} diagnosed) | {} | {:.2} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {} | {} ({} diagnosed: {}) | {} | {:.2} | {:.2} | {:.2} |",
             r.name,
             rows.len(),
             n(Kind::Refused),
             n(Kind::Clear),
             n(Kind::Failed),
             diagnosed,
+            class_counts(&classes),
             n(Kind::FalseSuccess),
             quantile(&times, 0.5),
             quantile(&times, 0.9),
@@ -513,7 +522,7 @@ fn the_whole_heldout_placement_scan() {
         }
     }
     eprintln!(
-        "| robot | placements | refused | planned clear | failed | false successes | median (s) | p90 (s) | max (s) |"
+        "| robot | placements | refused | planned clear | failed (diagnosed: by what blocks it) | false successes | median (s) | p90 (s) | max (s) |"
     );
     eprintln!("|---|---|---|---|---|---|---|---|---|");
     for l in &summary {

@@ -7,7 +7,10 @@
 //! The test runs a fast subset; the whole scan (the seeds 1..=40 the strategies are tuned on and
 //! the held-out seeds 1001..=1020, both in the table of docs/planner-measurements.md) runs with
 //! `cargo test --release -p brachia --test placement_scan -- --ignored --nocapture`, printing one
-//! row per placement (with every solve: its role, status, iterations and time) and the totals;
+//! row per placement (with every solve: its role, status, iterations and time) and the totals,
+//! the failures counted by what blocks them (`common::placement::failure_class`: no grid path to
+//! any goal pose, or the diagnosis's verdict); every failure must carry a diagnosis naming one of
+//! its obstacles and a link;
 //! `BRACHIA_SCAN_SET=fixed` or `BRACHIA_SCAN_SET=held-out` runs one of the two sets, and
 //! `BRACHIA_SCAN_SET=fresh` a third set, the seeds 2001..=2020 drawn as the held-out ones, and
 //! `BRACHIA_SCAN_SET=fresh-3000` a fourth, the seeds 3001..=3020, `BRACHIA_SCAN_SET=fresh-4000`
@@ -22,8 +25,8 @@ mod common;
 use brachia::model::Robot;
 use brachia::planning::{plan, GuessStrategy, Plan, PlannerSettings, SwingTask};
 use common::placement::{
-    free_swing, keeps_margin, min_clearance, nlp, plan_placement, swing_placement as placement,
-    Placement,
+    class_counts, failure_class, free_swing, keeps_margin, min_clearance, nlp, plan_placement,
+    swing_placement as placement, Placement,
 };
 use std::time::Instant;
 
@@ -39,6 +42,10 @@ struct Outcome {
     time_s: f64,
     strategy: Option<GuessStrategy>,
     message: Option<String>,
+    /// Of a plan that did not converge: what blocks it ([`failure_class`]), and the obstacle and
+    /// link its diagnosis names.
+    class: Option<&'static str>,
+    named: Option<(usize, usize)>,
     /// Every solve of the call: what it was for, its status, iterations and time.
     solves: String,
 }
@@ -57,6 +64,8 @@ fn run_within(robot: &Robot, s: &PlannerSettings, pl: &Placement, limit_s: f64) 
         time_s: m.time_s,
         strategy: p.guess.as_ref().map(|g| g.strategy),
         message: p.failure_message(),
+        class: (!p.converged()).then(|| failure_class(&p)),
+        named: p.diagnosis.as_ref().map(|d| (d.obstacle, d.link)),
         solves: p
             .solves
             .iter()
@@ -82,7 +91,8 @@ fn setup() -> (Robot, PlannerSettings, Plan) {
     (robot, PlannerSettings::default(), free)
 }
 
-/// A converged plan keeps the clearance on its 1 ms trajectory; a failed one says why.
+/// A converged plan keeps the clearance on its 1 ms trajectory; a failed one says why, with a
+/// diagnosis naming one of the placement's obstacles and a link of the paper's robot.
 fn check(s: &PlannerSettings, pl: &Placement, o: &Outcome) {
     if o.converged {
         assert!(
@@ -94,6 +104,10 @@ fn check(s: &PlannerSettings, pl: &Placement, o: &Outcome) {
         );
     } else {
         assert!(o.message.is_some(), "seed {}: no message", pl.seed);
+        let (obstacle, link) = o
+            .named
+            .unwrap_or_else(|| panic!("seed {}: no diagnosis: {o:?}", pl.seed));
+        assert!(obstacle < pl.obstacles.len() && link < 4, "{o:?}");
     }
 }
 
@@ -343,6 +357,8 @@ fn the_whole_placement_scan() {
         }
         let (mut clear, mut false_success, mut failed, mut refused) = (0, 0, 0, 0);
         let mut times = vec![];
+        let mut classes = vec![];
+        let mut outcomes = vec![];
         eprintln!(
             "| {name} seed | placement | outcome | min clearance (m) | time (s) | strategy |"
         );
@@ -382,9 +398,11 @@ fn the_whole_placement_scan() {
                 o.strategy
             );
             if let Some(m) = &o.message {
-                eprintln!("|   | {m} | | | | |");
+                eprintln!("|   | [{}] {m} | | | | |", o.class.unwrap_or("converged"));
             }
             eprintln!("|   | solves: {} | | | | |", o.solves);
+            classes.extend(o.class);
+            outcomes.push((pl, o));
         }
         times.sort_by(f64::total_cmp);
         let median = times.get(times.len() / 2).copied().unwrap_or(f64::NAN);
@@ -394,14 +412,18 @@ fn the_whole_placement_scan() {
             .unwrap_or(f64::NAN);
         eprintln!(
             "{name}: {} placements planned ({refused} more refused), {clear} converged and clear, \
-             {false_success} false successes, {failed} failed; median time {median:.2} s, p90 {p90:.2} s, max {:.2} s (limit {limit_s} \
+             {false_success} false successes, {failed} failed ({}); median time {median:.2} s, p90 {p90:.2} s, max {:.2} s (limit {limit_s} \
              s); load {}",
             times.len(),
+            class_counts(&classes),
             times.last().copied().unwrap_or(f64::NAN),
             std::fs::read_to_string("/proc/loadavg")
                 .unwrap_or_default()
                 .trim()
         );
         assert_eq!(false_success, 0);
+        for (pl, o) in &outcomes {
+            check(&s, pl, o);
+        }
     }
 }

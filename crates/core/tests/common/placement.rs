@@ -5,7 +5,8 @@
 
 use brachia::model::{Circle, ClearanceFn, Robot};
 use brachia::planning::{
-    plan, workload, Backend, NlpSettings, Plan, PlannerSettings, SwingTask, CLEARANCE_TOLERANCE_M,
+    plan, workload, Backend, NlpSettings, Plan, PlannerSettings, SwingTask, Verdict,
+    CLEARANCE_TOLERANCE_M,
 };
 use brachia::trajectory::Trajectory;
 use std::time::Instant;
@@ -113,4 +114,46 @@ pub fn settings_for(t_s: f64, range: Option<[f64; 2]>, knot_dt: f64) -> PlannerS
         s.shooting.substep_clearance = false;
     }
     s
+}
+
+/// What a plan that did not converge says blocks it, as one class: `no grid path` when every
+/// configuration-space search to every goal pose tried ran out of free cells (the strongest
+/// evidence the placement is infeasible), otherwise its diagnosis's verdict; `no diagnosis` when
+/// it has none.
+pub fn failure_class(p: &Plan) -> &'static str {
+    let Some(d) = p.diagnosis.as_ref() else {
+        return "no diagnosis";
+    };
+    if d.paths_exhausted {
+        return "no grid path";
+    }
+    match d.verdict {
+        Verdict::Unreachable => "unreachable",
+        Verdict::NeedsTorque => "needs torque",
+        Verdict::NeedsSwingTime => "needs swing time",
+        Verdict::DetourWithinLimits => "detour within limits",
+        Verdict::NoDetourFound => "no detour found",
+        Verdict::ShortBetweenKnots => "short between knots",
+    }
+}
+
+/// The failures of a scan counted by [`failure_class`], most first ("3 no grid path, 1 needs
+/// torque"; "none" without failures).
+pub fn class_counts(classes: &[&'static str]) -> String {
+    let mut counts: Vec<(&'static str, usize)> = vec![];
+    for c in classes {
+        match counts.iter_mut().find(|(k, _)| k == c) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((c, 1)),
+        }
+    }
+    counts.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(b.0)));
+    if counts.is_empty() {
+        return "none".into();
+    }
+    counts
+        .iter()
+        .map(|(k, n)| format!("{n} {k}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
