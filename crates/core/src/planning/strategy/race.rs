@@ -16,9 +16,9 @@
 //! of the shooting solve); so does a candidate whose solve at the task's mesh has run
 //! [`FIRST_CHANCE_ITER_PER_INTERVAL`] iterations per knot interval without converging (the backend
 //! raises the flag at that iteration, [`crate::IterationMark`], and the solve goes on unchanged).
-//! A later candidate that has
-//! converged wins as soon as every candidate before it has ended or is so marked, and those still
-//! running are cancelled: the race does not wait for a second chance when a plan is already there.
+//! A later candidate that has converged wins as soon as every candidate before it has ended or is
+//! so marked, and those still running are cancelled: the race does not wait for a second chance
+//! when a plan is already there.
 //! Where no later candidate converges first, the earlier one runs to its end as before; which of
 //! two plans a placement gets can then depend on which converges first.
 //!
